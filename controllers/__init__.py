@@ -1,0 +1,1 @@
+"""Controller laws (runtime side), their artifacts and their FMU definitions."""

@@ -1,0 +1,511 @@
+/*
+ * satfmu: generic FMI 2.0 co-simulation wrapper for models generated from a symbolic
+ * definition (fmus/model.py). The model-specific part (sizes, variable table and the
+ * functions model_derivatives, model_outputs, model_post_step) is generated into
+ * model.c, which this file includes. Written for this project.
+ *
+ * Integration: classical RK4 over each communication step, inputs held constant
+ * (zero-order hold), n = max(n_substeps, ceil(h / h_max)) substeps, post_step map
+ * (projection / switching) after every substep.
+ *
+ * Robustness: every call checks the instance pointer, the call order against the
+ * FMI 2.0 co-simulation state machine, value references, types, finiteness and
+ * declared ranges; a violation returns fmi2Error with a message naming the
+ * variable and never changes the stored values. A step whose state becomes
+ * non-finite puts the instance in the error state (fmi2SetFMUstate or fmi2Reset
+ * recover it).
+ */
+#include <float.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "fmi2Functions.h"
+
+typedef struct {
+    const char *name;
+    int kind;   /* 0 parameter, 1 input, 2 output */
+    int type;   /* 0 Real, 1 Integer, 2 Boolean */
+    int index;  /* position in p[], u[] or y[] */
+    double start, min, max;
+} VariableInfo;
+
+enum { KIND_PARAMETER = 0, KIND_INPUT = 1, KIND_OUTPUT = 2 };
+enum { TYPE_REAL = 0, TYPE_INTEGER = 1, TYPE_BOOLEAN = 2 };
+
+#include "model.c"
+
+#define DIM(n) ((n) > 0 ? (n) : 1)
+#define MAX_SUBSTEPS 10000000.0
+#define STATE_MAGIC 0x5a7f3d01u
+
+typedef enum {
+    ST_INSTANTIATED = 1 << 0,
+    ST_INITIALIZATION = 1 << 1,
+    ST_STEP_COMPLETE = 1 << 2,
+    ST_TERMINATED = 1 << 3,
+    ST_ERROR = 1 << 4
+} ModelState;
+
+static const char *state_name(int s) {
+    switch (s) {
+    case ST_INSTANTIATED: return "Instantiated";
+    case ST_INITIALIZATION: return "InitializationMode";
+    case ST_STEP_COMPLETE: return "StepComplete";
+    case ST_TERMINATED: return "Terminated";
+    default: return "Error";
+    }
+}
+
+/* Everything that an FMU state snapshot must restore. Plain data: serializable by memcpy. */
+typedef struct {
+    unsigned magic;
+    int state;
+    double time;
+    double x[DIM(NX)];
+    double u[DIM(NU)];
+    double p[DIM(NP)];
+    double y[DIM(NY)];
+    int outputs_valid;
+} Data;
+
+typedef struct {
+    Data d;
+    char *instance_name;
+    fmi2CallbackLogger logger;
+    fmi2ComponentEnvironment env;
+    int log_on;
+} Instance;
+
+static void log_msg(Instance *inst, fmi2Status status, const char *category, const char *fmt, ...) {
+    char buf[1024];
+    va_list ap;
+    if (!inst || !inst->logger) return;
+    if (status == fmi2OK && !inst->log_on) return;
+    va_start(ap, fmt);
+    vsnprintf(buf, sizeof buf, fmt, ap);
+    va_end(ap);
+    inst->logger(inst->env, inst->instance_name, status, category, "%s", buf);
+}
+
+#define ERROR(inst, ...) (log_msg((inst), fmi2Error, "logStatusError", __VA_ARGS__), fmi2Error)
+
+static int allowed(Instance *inst, const char *fn, int mask) {
+    if (inst->d.state & mask) return 1;
+    log_msg(inst, fmi2Error, "logStatusError", "%s must not be called in state %s", fn,
+            state_name(inst->d.state));
+    return 0;
+}
+
+#define CHECK(c, fn, mask)                                   \
+    Instance *inst = (Instance *)(c);                        \
+    if (!inst) return fmi2Error;                             \
+    if (!allowed(inst, fn, (mask))) return fmi2Error
+
+static void set_defaults(Data *d) {
+    int i;
+    memset(d, 0, sizeof *d);
+    d->magic = STATE_MAGIC;
+    d->state = ST_INSTANTIATED;
+    for (i = 0; i < NV; i++) {
+        const VariableInfo *v = &VARIABLES[i];
+        if (v->kind == KIND_PARAMETER) d->p[v->index] = v->start;
+        else if (v->kind == KIND_INPUT) d->u[v->index] = v->start;
+    }
+}
+
+static void initial_state(Data *d) {
+    int i;
+    for (i = 0; i < NX; i++) d->x[i] = d->p[STATE_INITIAL[i]];
+}
+
+static void update_outputs(Data *d) {
+    if (d->outputs_valid) return;
+    if (d->state & (ST_INSTANTIATED | ST_INITIALIZATION)) initial_state(d);
+    if (NY > 0) model_outputs(d->time, d->x, d->u, d->p, d->y);
+    d->outputs_valid = 1;
+}
+
+static int all_finite(const double *v, int n) {
+    int i;
+    for (i = 0; i < n; i++) if (!isfinite(v[i])) return 0;
+    return 1;
+}
+
+/* ------------------------------------------------------------------ integration */
+static void rk4(Data *d, double h) {
+    double k1[DIM(NX)], k2[DIM(NX)], k3[DIM(NX)], k4[DIM(NX)], xt[DIM(NX)];
+    int i;
+    double t = d->time;
+    model_derivatives(t, d->x, d->u, d->p, k1);
+    for (i = 0; i < NX; i++) xt[i] = d->x[i] + 0.5 * h * k1[i];
+    model_derivatives(t + 0.5 * h, xt, d->u, d->p, k2);
+    for (i = 0; i < NX; i++) xt[i] = d->x[i] + 0.5 * h * k2[i];
+    model_derivatives(t + 0.5 * h, xt, d->u, d->p, k3);
+    for (i = 0; i < NX; i++) xt[i] = d->x[i] + h * k3[i];
+    model_derivatives(t + h, xt, d->u, d->p, k4);
+    for (i = 0; i < NX; i++) xt[i] = d->x[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
+    model_post_step(t + h, xt, d->p, d->x);
+}
+
+/* ------------------------------------------------------------------ variable access */
+static const VariableInfo *lookup(Instance *inst, fmi2ValueReference vr, int type, const char *fn) {
+    if (vr >= (fmi2ValueReference)NV) {
+        log_msg(inst, fmi2Error, "logStatusError", "%s: unknown value reference %u", fn, (unsigned)vr);
+        return NULL;
+    }
+    if (VARIABLES[vr].type != type) {
+        log_msg(inst, fmi2Error, "logStatusError", "%s: variable '%s' (value reference %u) has another type",
+                fn, VARIABLES[vr].name, (unsigned)vr);
+        return NULL;
+    }
+    return &VARIABLES[vr];
+}
+
+static double *slot(Data *d, const VariableInfo *v) {
+    if (v->kind == KIND_PARAMETER) return &d->p[v->index];
+    if (v->kind == KIND_INPUT) return &d->u[v->index];
+    return &d->y[v->index];
+}
+
+static fmi2Status get_values(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, int type,
+                             const char *fn, fmi2Real *r, fmi2Integer *n, fmi2Boolean *b) {
+    size_t i;
+    CHECK(c, fn, ST_INITIALIZATION | ST_STEP_COMPLETE | ST_TERMINATED | ST_ERROR);
+    if (nvr > 0 && (!vr || (!r && !n && !b))) return ERROR(inst, "%s: NULL array argument", fn);
+    for (i = 0; i < nvr; i++)
+        if (!lookup(inst, vr[i], type, fn)) return fmi2Error;
+    update_outputs(&inst->d);
+    for (i = 0; i < nvr; i++) {
+        double v = *slot(&inst->d, &VARIABLES[vr[i]]);
+        if (r) r[i] = v;
+        else if (n) n[i] = (fmi2Integer)v;
+        else b[i] = v != 0.0 ? fmi2True : fmi2False;
+    }
+    return fmi2OK;
+}
+
+static fmi2Status check_value(Instance *inst, const VariableInfo *v, double value, const char *fn) {
+    if (v->kind == KIND_OUTPUT)
+        return ERROR(inst, "%s: variable '%s' is an output and cannot be set", fn, v->name);
+    if (v->kind == KIND_PARAMETER && !(inst->d.state & (ST_INSTANTIATED | ST_INITIALIZATION)))
+        return ERROR(inst, "%s: parameter '%s' has variability fixed and cannot be set in state %s", fn,
+                     v->name, state_name(inst->d.state));
+    if (!(inst->d.state & (ST_INSTANTIATED | ST_INITIALIZATION | ST_STEP_COMPLETE)))
+        return ERROR(inst, "%s: '%s' cannot be set in state %s", fn, v->name, state_name(inst->d.state));
+    if (!isfinite(value))
+        return ERROR(inst, "%s: variable '%s' set to non-finite value %g", fn, v->name, value);
+    if (value < v->min || value > v->max)
+        return ERROR(inst, "%s: variable '%s' = %g is outside its range [%g, %g]", fn, v->name, value,
+                     v->min, v->max);
+    return fmi2OK;
+}
+
+static fmi2Status set_values(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, int type,
+                             const char *fn, const fmi2Real *r, const fmi2Integer *n, const fmi2Boolean *b) {
+    size_t i;
+    CHECK(c, fn, ST_INSTANTIATED | ST_INITIALIZATION | ST_STEP_COMPLETE | ST_TERMINATED | ST_ERROR);
+    if (nvr > 0 && (!vr || (!r && !n && !b))) return ERROR(inst, "%s: NULL array argument", fn);
+    /* validate all first: a rejected call leaves every value unchanged */
+    for (i = 0; i < nvr; i++) {
+        const VariableInfo *v = lookup(inst, vr[i], type, fn);
+        double value = r ? r[i] : (n ? (double)n[i] : (b[i] ? 1.0 : 0.0));
+        if (!v || check_value(inst, v, value, fn) != fmi2OK) return fmi2Error;
+    }
+    for (i = 0; i < nvr; i++)
+        *slot(&inst->d, &VARIABLES[vr[i]]) = r ? r[i] : (n ? (double)n[i] : (b[i] ? 1.0 : 0.0));
+    inst->d.outputs_valid = 0;
+    return fmi2OK;
+}
+
+/* ------------------------------------------------------------------ FMI API */
+const char *fmi2GetTypesPlatform(void) { return fmi2TypesPlatform; }
+const char *fmi2GetVersion(void) { return fmi2Version; }
+
+fmi2Status fmi2SetDebugLogging(fmi2Component c, fmi2Boolean loggingOn, size_t nCategories,
+                               const fmi2String categories[]) {
+    static const char *known[] = {"logStatusWarning", "logStatusDiscard", "logStatusError",
+                                  "logStatusFatal", "logAll"};
+    size_t i, k;
+    CHECK(c, "fmi2SetDebugLogging", ~0);
+    for (i = 0; i < nCategories; i++) {
+        int found = 0;
+        if (!categories || !categories[i]) return ERROR(inst, "fmi2SetDebugLogging: NULL category");
+        for (k = 0; k < sizeof known / sizeof known[0]; k++) found |= strcmp(categories[i], known[k]) == 0;
+        if (!found) return ERROR(inst, "fmi2SetDebugLogging: unknown log category '%s'", categories[i]);
+    }
+    inst->log_on = loggingOn ? 1 : 0;
+    return fmi2OK;
+}
+
+fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2String fmuGUID,
+                              fmi2String fmuResourceLocation, const fmi2CallbackFunctions *functions,
+                              fmi2Boolean visible, fmi2Boolean loggingOn) {
+    Instance tmp, *inst;
+    (void)fmuResourceLocation;
+    (void)visible;
+    memset(&tmp, 0, sizeof tmp);
+    tmp.instance_name = (char *)(instanceName ? instanceName : "?");
+    tmp.logger = functions ? functions->logger : NULL;
+    tmp.env = functions ? functions->componentEnvironment : NULL;
+    if (!instanceName || !*instanceName) {
+        log_msg(&tmp, fmi2Error, "logStatusError", "fmi2Instantiate: missing instance name");
+        return NULL;
+    }
+    if (fmuType != fmi2CoSimulation) {
+        log_msg(&tmp, fmi2Error, "logStatusError", "fmi2Instantiate: this FMU supports co-simulation only");
+        return NULL;
+    }
+    if (!fmuGUID || strcmp(fmuGUID, MODEL_GUID) != 0) {
+        log_msg(&tmp, fmi2Error, "logStatusError", "fmi2Instantiate: GUID '%s' does not match '%s'",
+                fmuGUID ? fmuGUID : "(null)", MODEL_GUID);
+        return NULL;
+    }
+    inst = (Instance *)calloc(1, sizeof *inst);
+    if (!inst) return NULL;
+    inst->instance_name = (char *)malloc(strlen(instanceName) + 1);
+    if (!inst->instance_name) { free(inst); return NULL; }
+    strcpy(inst->instance_name, instanceName);
+    inst->logger = tmp.logger;
+    inst->env = tmp.env;
+    inst->log_on = loggingOn ? 1 : 0;
+    set_defaults(&inst->d);
+    return inst;
+}
+
+void fmi2FreeInstance(fmi2Component c) {
+    Instance *inst = (Instance *)c;
+    if (!inst) return;
+    free(inst->instance_name);
+    free(inst);
+}
+
+fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean toleranceDefined, fmi2Real tolerance,
+                               fmi2Real startTime, fmi2Boolean stopTimeDefined, fmi2Real stopTime) {
+    CHECK(c, "fmi2SetupExperiment", ST_INSTANTIATED);
+    (void)toleranceDefined;
+    (void)tolerance;
+    if (!isfinite(startTime)) return ERROR(inst, "fmi2SetupExperiment: non-finite startTime");
+    if (stopTimeDefined && !(stopTime >= startTime))
+        return ERROR(inst, "fmi2SetupExperiment: stopTime %g before startTime %g", stopTime, startTime);
+    inst->d.time = startTime;
+    return fmi2OK;
+}
+
+fmi2Status fmi2EnterInitializationMode(fmi2Component c) {
+    CHECK(c, "fmi2EnterInitializationMode", ST_INSTANTIATED);
+    inst->d.state = ST_INITIALIZATION;
+    inst->d.outputs_valid = 0;
+    return fmi2OK;
+}
+
+fmi2Status fmi2ExitInitializationMode(fmi2Component c) {
+    CHECK(c, "fmi2ExitInitializationMode", ST_INITIALIZATION);
+    initial_state(&inst->d);
+    inst->d.state = ST_STEP_COMPLETE;
+    inst->d.outputs_valid = 0;
+    return fmi2OK;
+}
+
+fmi2Status fmi2Terminate(fmi2Component c) {
+    CHECK(c, "fmi2Terminate", ST_STEP_COMPLETE | ST_ERROR);
+    inst->d.state = ST_TERMINATED;
+    return fmi2OK;
+}
+
+fmi2Status fmi2Reset(fmi2Component c) {
+    CHECK(c, "fmi2Reset", ~0);
+    set_defaults(&inst->d);
+    return fmi2OK;
+}
+
+fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, fmi2Real value[]) {
+    return get_values(c, vr, nvr, TYPE_REAL, "fmi2GetReal", value, NULL, NULL);
+}
+fmi2Status fmi2GetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, fmi2Integer value[]) {
+    return get_values(c, vr, nvr, TYPE_INTEGER, "fmi2GetInteger", NULL, value, NULL);
+}
+fmi2Status fmi2GetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, fmi2Boolean value[]) {
+    return get_values(c, vr, nvr, TYPE_BOOLEAN, "fmi2GetBoolean", NULL, NULL, value);
+}
+fmi2Status fmi2GetString(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, fmi2String value[]) {
+    CHECK(c, "fmi2GetString", ST_INITIALIZATION | ST_STEP_COMPLETE | ST_TERMINATED | ST_ERROR);
+    (void)vr;
+    (void)value;
+    if (nvr > 0) return ERROR(inst, "fmi2GetString: this FMU has no String variables");
+    return fmi2OK;
+}
+fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, const fmi2Real value[]) {
+    return set_values(c, vr, nvr, TYPE_REAL, "fmi2SetReal", value, NULL, NULL);
+}
+fmi2Status fmi2SetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, const fmi2Integer value[]) {
+    return set_values(c, vr, nvr, TYPE_INTEGER, "fmi2SetInteger", NULL, value, NULL);
+}
+fmi2Status fmi2SetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, const fmi2Boolean value[]) {
+    return set_values(c, vr, nvr, TYPE_BOOLEAN, "fmi2SetBoolean", NULL, NULL, value);
+}
+fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, const fmi2String value[]) {
+    CHECK(c, "fmi2SetString", ST_INSTANTIATED | ST_INITIALIZATION | ST_STEP_COMPLETE);
+    (void)vr;
+    (void)value;
+    if (nvr > 0) return ERROR(inst, "fmi2SetString: this FMU has no String variables");
+    return fmi2OK;
+}
+
+/* ------------------------------------------------------------------ FMU state */
+#define STATE_MASK (ST_INSTANTIATED | ST_INITIALIZATION | ST_STEP_COMPLETE | ST_TERMINATED | ST_ERROR)
+
+fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *FMUstate) {
+    Data *copy;
+    CHECK(c, "fmi2GetFMUstate", STATE_MASK);
+    if (!FMUstate) return ERROR(inst, "fmi2GetFMUstate: NULL state pointer");
+    copy = *FMUstate ? (Data *)*FMUstate : (Data *)malloc(sizeof(Data));
+    if (!copy) return ERROR(inst, "fmi2GetFMUstate: out of memory");
+    *copy = inst->d;
+    *FMUstate = copy;
+    return fmi2OK;
+}
+
+fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate FMUstate) {
+    CHECK(c, "fmi2SetFMUstate", STATE_MASK);
+    if (!FMUstate || ((Data *)FMUstate)->magic != STATE_MAGIC)
+        return ERROR(inst, "fmi2SetFMUstate: not a state of this FMU");
+    inst->d = *(Data *)FMUstate;
+    return fmi2OK;
+}
+
+fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *FMUstate) {
+    CHECK(c, "fmi2FreeFMUstate", STATE_MASK);
+    if (FMUstate && *FMUstate) {
+        free(*FMUstate);
+        *FMUstate = NULL;
+    }
+    return fmi2OK;
+}
+
+fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate FMUstate, size_t *size) {
+    CHECK(c, "fmi2SerializedFMUstateSize", STATE_MASK);
+    if (!FMUstate || !size) return ERROR(inst, "fmi2SerializedFMUstateSize: NULL argument");
+    *size = sizeof(Data);
+    return fmi2OK;
+}
+
+fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate FMUstate, fmi2Byte serializedState[],
+                                 size_t size) {
+    CHECK(c, "fmi2SerializeFMUstate", STATE_MASK);
+    if (!FMUstate || !serializedState) return ERROR(inst, "fmi2SerializeFMUstate: NULL argument");
+    if (size < sizeof(Data)) return ERROR(inst, "fmi2SerializeFMUstate: buffer of %zu bytes is too small", size);
+    memcpy(serializedState, FMUstate, sizeof(Data));
+    return fmi2OK;
+}
+
+fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte serializedState[], size_t size,
+                                   fmi2FMUstate *FMUstate) {
+    Data tmp;
+    CHECK(c, "fmi2DeSerializeFMUstate", STATE_MASK);
+    if (!serializedState || !FMUstate) return ERROR(inst, "fmi2DeSerializeFMUstate: NULL argument");
+    if (size != sizeof(Data)) return ERROR(inst, "fmi2DeSerializeFMUstate: %zu bytes, expected %zu", size, sizeof(Data));
+    memcpy(&tmp, serializedState, sizeof(Data));
+    if (tmp.magic != STATE_MAGIC) return ERROR(inst, "fmi2DeSerializeFMUstate: not a state of this FMU");
+    if (!*FMUstate) *FMUstate = malloc(sizeof(Data));
+    if (!*FMUstate) return ERROR(inst, "fmi2DeSerializeFMUstate: out of memory");
+    memcpy(*FMUstate, &tmp, sizeof(Data));
+    return fmi2OK;
+}
+
+fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReference vUnknown_ref[], size_t nUnknown,
+                                        const fmi2ValueReference vKnown_ref[], size_t nKnown,
+                                        const fmi2Real dvKnown[], fmi2Real dvUnknown[]) {
+    CHECK(c, "fmi2GetDirectionalDerivative", STATE_MASK);
+    (void)vUnknown_ref; (void)nUnknown; (void)vKnown_ref; (void)nKnown; (void)dvKnown; (void)dvUnknown;
+    return ERROR(inst, "fmi2GetDirectionalDerivative: not provided (providesDirectionalDerivative=false)");
+}
+
+/* ------------------------------------------------------------------ co-simulation */
+fmi2Status fmi2SetRealInputDerivatives(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                                       const fmi2Integer order[], const fmi2Real value[]) {
+    CHECK(c, "fmi2SetRealInputDerivatives", STATE_MASK);
+    (void)vr; (void)nvr; (void)order; (void)value;
+    return ERROR(inst, "fmi2SetRealInputDerivatives: inputs are held constant (canInterpolateInputs=false)");
+}
+
+fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
+                                        const fmi2Integer order[], fmi2Real value[]) {
+    CHECK(c, "fmi2GetRealOutputDerivatives", STATE_MASK);
+    (void)vr; (void)nvr; (void)order; (void)value;
+    return ERROR(inst, "fmi2GetRealOutputDerivatives: not provided (maxOutputDerivativeOrder=0)");
+}
+
+fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint, fmi2Real communicationStepSize,
+                      fmi2Boolean noSetFMUStatePriorToCurrentPoint) {
+    double h = communicationStepSize, n_sub, hs, t_end;
+    long k, n;
+    CHECK(c, "fmi2DoStep", ST_STEP_COMPLETE);
+    (void)noSetFMUStatePriorToCurrentPoint;
+    if (!isfinite(h) || !(h > 0.0))
+        return ERROR(inst, "fmi2DoStep: communicationStepSize must be finite and > 0, got %g", h);
+    if (!isfinite(currentCommunicationPoint) ||
+        fabs(currentCommunicationPoint - inst->d.time) > 1e-9 * fmax(1.0, fabs(inst->d.time)))
+        return ERROR(inst, "fmi2DoStep: currentCommunicationPoint %.17g differs from the FMU time %.17g",
+                     currentCommunicationPoint, inst->d.time);
+    t_end = currentCommunicationPoint + h;
+    if (NX > 0) {
+        n_sub = P_N_SUBSTEPS >= 0 ? inst->d.p[P_N_SUBSTEPS] : 1.0;
+        if (P_H_MAX >= 0) n_sub = fmax(n_sub, ceil(h / inst->d.p[P_H_MAX]));
+        if (n_sub > MAX_SUBSTEPS)
+            return ERROR(inst, "fmi2DoStep: step %g s would need %g RK4 substeps (limit %g); raise h_max", h,
+                         n_sub, MAX_SUBSTEPS);
+        n = (long)n_sub;
+        hs = h / (double)n;
+        for (k = 0; k < n; k++) {
+            rk4(&inst->d, hs);
+            inst->d.time = (k + 1 == n) ? t_end : inst->d.time + hs;
+        }
+        if (!all_finite(inst->d.x, NX)) {
+            inst->d.state = ST_ERROR;
+            return ERROR(inst, "fmi2DoStep: the state became non-finite in the step from t = %g s with h = %g s "
+                               "(%ld substeps); reduce the step or h_max, or restore an FMU state",
+                         currentCommunicationPoint, h, n);
+        }
+    } else {
+        inst->d.time = t_end;
+    }
+    inst->d.outputs_valid = 0;
+    return fmi2OK;
+}
+
+fmi2Status fmi2CancelStep(fmi2Component c) {
+    CHECK(c, "fmi2CancelStep", STATE_MASK);
+    return ERROR(inst, "fmi2CancelStep: fmi2DoStep is synchronous, there is nothing to cancel");
+}
+
+static fmi2Status no_status(fmi2Component c, const char *fn) {
+    CHECK(c, fn, STATE_MASK);
+    return ERROR(inst, "%s: fmi2DoStep is synchronous, no asynchronous status exists", fn);
+}
+fmi2Status fmi2GetStatus(fmi2Component c, const fmi2StatusKind s, fmi2Status *value) {
+    (void)s; (void)value;
+    return no_status(c, "fmi2GetStatus");
+}
+fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind s, fmi2Real *value) {
+    Instance *inst = (Instance *)c;
+    if (inst && s == fmi2LastSuccessfulTime && value) {
+        *value = inst->d.time;
+        return fmi2OK;
+    }
+    return no_status(c, "fmi2GetRealStatus");
+}
+fmi2Status fmi2GetIntegerStatus(fmi2Component c, const fmi2StatusKind s, fmi2Integer *value) {
+    (void)s; (void)value;
+    return no_status(c, "fmi2GetIntegerStatus");
+}
+fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind s, fmi2Boolean *value) {
+    (void)s; (void)value;
+    return no_status(c, "fmi2GetBooleanStatus");
+}
+fmi2Status fmi2GetStringStatus(fmi2Component c, const fmi2StatusKind s, fmi2String *value) {
+    (void)s; (void)value;
+    return no_status(c, "fmi2GetStringStatus");
+}

@@ -1,0 +1,161 @@
+"""Turn a :class:`fmus.model.Model` into FMI 2.0 co-simulation FMUs (native C and pythonfmu).
+
+The native FMU carries ``sources/`` (the generic wrapper and the generated model
+file) so other platforms can rebuild it (``fmpy compile``), and a Linux x86-64
+binary compiled here with gcc against the FMI headers that fmpy ships. The
+pythonfmu FMU embeds the generated Python module and :mod:`fmus.pyslave`.
+"""
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import zipfile
+from pathlib import Path
+from xml.etree.ElementTree import SubElement
+
+from fmus import codegen
+from fmus.description import Capabilities, model_description, to_xml_bytes
+from fmus.model import Model
+
+HERE = Path(__file__).resolve().parent
+WRAPPER = HERE / "c" / "fmi2_cosim.c"
+PYSLAVE = HERE / "pyslave.py"
+PYTHON_SUFFIX = "_py"
+_ZIP_DATE = (2020, 1, 1, 0, 0, 0)
+
+
+class FmuBuildError(RuntimeError):
+    """Compiling or packaging an FMU failed."""
+
+
+def fmi_headers() -> Path:
+    """Folder of the FMI 2.0 headers shipped with fmpy."""
+    import fmpy
+
+    path = Path(fmpy.__file__).parent / "c-code"
+    if not (path / "fmi2Functions.h").is_file():
+        raise FmuBuildError(f"FMI 2.0 headers not found in {path}")
+    return path
+
+
+def _zip_dir(src: Path, dest: Path) -> None:
+    """Deterministic zip of a directory tree (sorted entries, fixed timestamps)."""
+    dest.parent.mkdir(parents=True, exist_ok=True)
+    with zipfile.ZipFile(dest, "w", zipfile.ZIP_DEFLATED) as z:
+        for f in sorted(p for p in src.rglob("*") if p.is_file()):
+            info = zipfile.ZipInfo(str(f.relative_to(src)), _ZIP_DATE)
+            info.compress_type = zipfile.ZIP_DEFLATED
+            info.external_attr = 0o644 << 16
+            z.writestr(info, f.read_bytes())
+
+
+def build_native(model: Model, dest_dir: Path, resources: dict[str, bytes] | None = None,
+                 cc: str = "gcc") -> Path:
+    """Generate, compile and package the native FMU ``<dest_dir>/<model.name>.fmu``.
+
+    Parameters
+    ----------
+    model : Model
+    dest_dir : Path
+    resources : dict of str to bytes, optional
+        Extra files for ``resources/`` (e.g. the controller artifact JSON).
+    cc : str
+        C compiler.
+
+    Raises
+    ------
+    FmuBuildError
+        If the compiler is missing or reports an error or a warning.
+    """
+    if shutil.which(cc) is None:
+        raise FmuBuildError(f"C compiler {cc!r} not found (install gcc)")
+    with tempfile.TemporaryDirectory(prefix="satfmu_") as tmp:
+        root = Path(tmp)
+        src = root / "sources"
+        src.mkdir()
+        (src / "model.c").write_text(codegen.c_source(model))
+        shutil.copy(WRAPPER, src / WRAPPER.name)
+        desc = model_description(model, Capabilities(model.name))
+        files = SubElement(desc.find("CoSimulation"), "SourceFiles")  # type: ignore[arg-type]
+        SubElement(files, "File", {"name": WRAPPER.name})
+        (root / "modelDescription.xml").write_bytes(to_xml_bytes(desc))
+        bindir = root / "binaries" / "linux64"
+        bindir.mkdir(parents=True)
+        cmd = [cc, "-std=c99", "-O2", "-fPIC", "-shared", "-fvisibility=hidden", "-Wall", "-Wextra",
+               "-Werror", f"-I{fmi_headers()}", f"-I{src}", "-o", str(bindir / f"{model.name}.so"),
+               str(src / WRAPPER.name), "-lm"]
+        proc = subprocess.run(cmd, capture_output=True, text=True)
+        if proc.returncode != 0:
+            raise FmuBuildError(f"compiling {model.name} failed:\n{proc.stderr}")
+        _write_resources(root, resources)
+        dest = Path(dest_dir) / f"{model.name}.fmu"
+        _zip_dir(root, dest)
+    return dest
+
+
+def _write_resources(root: Path, resources: dict[str, bytes] | None) -> None:
+    if resources:
+        res = root / "resources"
+        res.mkdir(exist_ok=True)
+        for name, data in resources.items():
+            (res / name).write_bytes(data)
+
+
+SLAVE_SCRIPT = '''"""pythonfmu slave of the satfmu model {name!r} (generated; do not edit)."""
+import {generated} as _generated
+from satfmu_pyslave import SatfmuSlave
+
+
+class {cls}(SatfmuSlave):
+    """{description}"""
+
+    generated = _generated
+'''
+
+
+def build_python(model: Model, dest_dir: Path, resources: dict[str, bytes] | None = None) -> Path:
+    """Generate and package the pythonfmu FMU ``<dest_dir>/<model.name>_py.fmu``.
+
+    The FMU needs, in the importing tool's Python, only pythonfmu's runtime (which
+    it embeds) and the standard library.
+    """
+    from pythonfmu.builder import FmuBuilder
+
+    cls = model.name + PYTHON_SUFFIX
+    generated = f"satfmu_gen_{model.name}"
+    with tempfile.TemporaryDirectory(prefix="satfmu_py_") as tmp:
+        root = Path(tmp)
+        proj = root / "project"
+        proj.mkdir()
+        (proj / f"{generated}.py").write_text(codegen.python_source(model))
+        shutil.copy(PYSLAVE, proj / "satfmu_pyslave.py")
+        desc = model_description(model, Capabilities(cls, needs_execution_tool=True))
+        (proj / "satfmu_description.xml").write_bytes(to_xml_bytes(desc))
+        _write_resources(proj, resources)
+        script = root / f"{cls}.py"
+        script.write_text(SLAVE_SCRIPT.format(name=model.name, generated=generated, cls=cls,
+                                              description=model.description))
+        out = root / "out"
+        files = [p for p in proj.iterdir()]
+        sys.path.insert(0, str(proj))
+        try:
+            fmu = FmuBuilder.build_FMU(script, dest=out, project_files=files)
+        finally:
+            sys.path.remove(str(proj))
+            for mod in (cls, generated, "satfmu_pyslave"):
+                sys.modules.pop(mod, None)
+        dest = Path(dest_dir) / f"{cls}.fmu"
+        dest.parent.mkdir(parents=True, exist_ok=True)
+        _repack(Path(fmu), dest)
+    return dest
+
+
+def _repack(src: Path, dest: Path) -> None:
+    """Rewrite pythonfmu's zip deterministically (stable timestamps and order)."""
+    with tempfile.TemporaryDirectory() as tmp:
+        with zipfile.ZipFile(src) as z:
+            z.extractall(tmp)
+        _zip_dir(Path(tmp), dest)

@@ -1,0 +1,333 @@
+"""Symbolic model definition: the single source of truth of every plant and law.
+
+A :class:`Model` holds named variables (states, inputs, parameters, outputs) with
+units, defaults and descriptions, and sympy expressions for the right-hand side,
+the output map and an optional post-step projection (e.g. the MRP shadow set).
+Everything else is generated from it:
+
+- Python source of the same expressions (:mod:`fmus.codegen`), used by the
+  in-process reference simulation and embedded in the pythonfmu FMU;
+- C source of the same expressions, compiled into the native FMU;
+- the state-dependent coefficient (SDC) form ``f = A(x) x + B(x) v``, checked
+  against the right-hand side symbolically and at random points;
+- vectorized numpy functions (``sympy.lambdify``) for synthesis.
+"""
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+from typing import Callable, Literal, Sequence
+
+import numpy as np
+import sympy as sp
+
+VariableType = Literal["Real", "Integer", "Boolean"]
+
+#: SI units the project declares, as FMI 2.0 BaseUnit exponents.
+UNITS: dict[str, dict[str, int]] = {
+    "1": {},
+    "s": {"s": 1},
+    "rad": {"rad": 1},
+    "rad/s": {"rad": 1, "s": -1},
+    "N.m": {"kg": 1, "m": 2, "s": -2},
+    "kg.m2": {"kg": 1, "m": 2},
+}
+
+_NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*(\[[0-9]+\])?$")
+
+
+class ModelDefinitionError(ValueError):
+    """A model definition is inconsistent (names, units, shapes, symbols)."""
+
+
+@dataclass(frozen=True)
+class Variable:
+    """One named scalar of a model.
+
+    Parameters
+    ----------
+    name : str
+        FMI structured name, e.g. ``"omega[1]"``.
+    unit : str
+        Unit, one of :data:`UNITS`.
+    description : str
+        Human-readable description (goes into the FMU).
+    start : float
+        Default value (for parameters and inputs) in ``unit``.
+    type : {"Real", "Integer", "Boolean"}
+        FMI base type. Integer and Boolean values enter expressions as reals
+        (Boolean as 0/1).
+    min, max : float, optional
+        Admissible range; the FMUs reject values outside it with fmi2Error.
+    """
+
+    name: str
+    unit: str = "1"
+    description: str = ""
+    start: float = 0.0
+    type: VariableType = "Real"
+    min: float | None = None
+    max: float | None = None
+
+    @property
+    def symbol(self) -> sp.Symbol:
+        """The sympy symbol standing for this variable in expressions."""
+        return sp.Symbol(self.name, real=True)
+
+    @property
+    def base_name(self) -> str:
+        """Name without the index, ``"omega"`` for ``"omega[1]"``."""
+        return self.name.split("[", 1)[0]
+
+
+@dataclass(frozen=True)
+class State:
+    """A continuous state; its initial value is the parameter ``initial``."""
+
+    variable: Variable
+    initial: Variable
+
+    @property
+    def symbol(self) -> sp.Symbol:
+        return self.variable.symbol
+
+
+@dataclass(frozen=True)
+class Output:
+    """An output variable and the expression that computes it."""
+
+    variable: Variable
+    expression: sp.Expr
+
+
+@dataclass(frozen=True)
+class SDCForm:
+    """State-dependent coefficient form ``f(x, v) = A(x) x + B(x) v``.
+
+    ``inputs`` names the model inputs forming ``v``; ``assumptions`` substitutes
+    parameters (e.g. saturation off) under which the identity holds.
+    """
+
+    A: sp.Matrix
+    B: sp.Matrix
+    inputs: tuple[str, ...]
+    assumptions: dict[str, float] = field(default_factory=dict)
+
+
+#: Parameters every model with states gets, read by the integrators of both FMU backends.
+INTEGRATOR_PARAMETERS = (
+    Variable("n_substeps", "1", "Minimum number of RK4 substeps per communication step",
+             start=4, type="Integer", min=1, max=100000),
+    Variable("h_max", "s", "Largest RK4 substep; more substeps are taken when the "
+             "communication step divided by n_substeps exceeds it", start=0.0125,
+             min=1e-9, max=1e6),
+)
+
+
+@dataclass
+class Model:
+    """A symbolic model: the one definition from which every artifact is generated.
+
+    Parameters
+    ----------
+    name : str
+        Identifier (also the native FMU's modelIdentifier), e.g. ``"mrp_satellite"``.
+    description : str
+        One-line description.
+    states : list of State
+    inputs : list of Variable
+    parameters : list of Variable
+        Physical constants and switches; state initial values and the integrator
+        parameters are appended automatically.
+    outputs : list of Output
+    rhs : sympy.Matrix
+        Time derivative of the states, in terms of state, input and parameter
+        symbols (and ``t``).
+    post_step : sympy.Matrix, optional
+        State map applied after every integration substep (projection, switching).
+    sdc : SDCForm, optional
+    default_stop_time, default_step_size : float
+        DefaultExperiment of the FMU, s.
+    """
+
+    name: str
+    description: str
+    states: list[State]
+    inputs: list[Variable]
+    parameters: list[Variable]
+    outputs: list[Output]
+    rhs: sp.Matrix = field(default_factory=lambda: sp.zeros(0, 1))
+    post_step: sp.Matrix | None = None
+    sdc: SDCForm | None = None
+    default_stop_time: float = 10.0
+    default_step_size: float = 0.05
+
+    t = sp.Symbol("t", real=True)
+
+    def __post_init__(self) -> None:
+        self.parameters = list(self.parameters) + [s.initial for s in self.states]
+        if self.states:
+            self.parameters += list(INTEGRATOR_PARAMETERS)
+        self.rhs = sp.Matrix(self.rhs)
+        self._validate()
+
+    # ------------------------------------------------------------------ checks
+    def _validate(self) -> None:
+        fmu_names = [v.name for v in self.variables]
+        # States are internal; an output may carry a state's name, nothing else may.
+        symbol_names = [v.name for v in self.parameters + self.inputs] + [s.variable.name for s in self.states]
+        for names in (fmu_names, symbol_names):
+            for n in names:
+                if not _NAME.match(n):
+                    raise ModelDefinitionError(f"{self.name}: invalid variable name {n!r}")
+            dup = {n for n in names if names.count(n) > 1}
+            if dup:
+                raise ModelDefinitionError(f"{self.name}: duplicate variable names {sorted(dup)}")
+        for v in self.variables:
+            if v.unit not in UNITS:
+                raise ModelDefinitionError(f"{self.name}: variable {v.name!r} has unknown unit {v.unit!r}")
+        if self.rhs.shape != (len(self.states), 1):
+            raise ModelDefinitionError(
+                f"{self.name}: rhs has shape {self.rhs.shape}, expected ({len(self.states)}, 1)")
+        if self.post_step is not None and sp.Matrix(self.post_step).shape != self.rhs.shape:
+            raise ModelDefinitionError(f"{self.name}: post_step must have one entry per state")
+        allowed = set(self.state_symbols + self.input_symbols + self.parameter_symbols + [self.t])
+        exprs = list(self.rhs) + [o.expression for o in self.outputs]
+        if self.post_step is not None:
+            exprs += list(self.post_step)
+        for e in exprs:
+            extra = sp.sympify(e).free_symbols - allowed
+            if extra:
+                raise ModelDefinitionError(
+                    f"{self.name}: expression uses undeclared symbols {sorted(map(str, extra))}")
+
+    # --------------------------------------------------------------- accessors
+    @property
+    def variables(self) -> list[Variable]:
+        """FMU variables in value-reference order: parameters, inputs, outputs."""
+        return list(self.parameters) + list(self.inputs) + [o.variable for o in self.outputs]
+
+    @property
+    def state_symbols(self) -> list[sp.Symbol]:
+        return [s.symbol for s in self.states]
+
+    @property
+    def input_symbols(self) -> list[sp.Symbol]:
+        return [v.symbol for v in self.inputs]
+
+    @property
+    def parameter_symbols(self) -> list[sp.Symbol]:
+        return [v.symbol for v in self.parameters]
+
+    def parameter_defaults(self) -> np.ndarray:
+        """Default parameter vector (Booleans as 0/1), in parameter order."""
+        return np.array([float(v.start) for v in self.parameters])
+
+    def input_defaults(self) -> np.ndarray:
+        return np.array([float(v.start) for v in self.inputs])
+
+    def parameter_vector(self, overrides: dict[str, float] | None = None) -> np.ndarray:
+        """Parameter vector with named overrides.
+
+        Raises
+        ------
+        KeyError
+            If an override names no parameter of this model.
+        """
+        p = self.parameter_defaults()
+        index = {v.name: i for i, v in enumerate(self.parameters)}
+        for k, val in (overrides or {}).items():
+            if k not in index:
+                raise KeyError(f"model {self.name!r} has no parameter {k!r}")
+            p[index[k]] = float(val)
+        return p
+
+    def initial_state(self, p: np.ndarray) -> np.ndarray:
+        """Initial state read from the parameter vector ``p``."""
+        index = {v.name: i for i, v in enumerate(self.parameters)}
+        return np.array([p[index[s.initial.name]] for s in self.states])
+
+    def output_dependencies(self) -> dict[str, list[str]]:
+        """For each output, the inputs it depends on directly (feedthrough)."""
+        return {o.variable.name: [v.name for v in self.inputs if v.symbol in sp.sympify(o.expression).free_symbols]
+                for o in self.outputs}
+
+    def initial_output_dependencies(self) -> dict[str, list[str]]:
+        """For each output, the inputs and parameters it depends on at initialization."""
+        x0 = {s.symbol: s.initial.symbol for s in self.states}
+        known = self.parameters + self.inputs
+        deps = {}
+        for o in self.outputs:
+            free = sp.sympify(o.expression).subs(x0).free_symbols
+            deps[o.variable.name] = [v.name for v in known if v.symbol in free]
+        return deps
+
+    # --------------------------------------------------------------- numerics
+    def lambdify(self, exprs: sp.Matrix | Sequence[sp.Expr]) -> Callable[..., np.ndarray]:
+        """Vectorized numpy function ``f(t, x, u, p)`` of expressions in this model's symbols."""
+        args = (self.t, self.state_symbols, self.input_symbols, self.parameter_symbols)
+        return sp.lambdify(args, sp.Matrix(exprs), modules="numpy", cse=True)
+
+    def sdc_functions(self) -> tuple[Callable[..., np.ndarray], Callable[..., np.ndarray]]:
+        """Numpy functions ``A(x, p)`` and ``B(x, p)`` of the SDC form."""
+        if self.sdc is None:
+            raise ModelDefinitionError(f"model {self.name!r} declares no SDC form")
+        args = (self.state_symbols, self.parameter_symbols)
+        return (sp.lambdify(args, self.sdc.A, modules="numpy", cse=True),
+                sp.lambdify(args, self.sdc.B, modules="numpy", cse=True))
+
+    def sdc_residual_symbolic(self) -> sp.Matrix:
+        """``A(x) x + B(x) v - f(x, u)`` simplified; zero when the SDC form is exact."""
+        sdc = self._require_sdc()
+        subs = {sp.Symbol(k, real=True): v for k, v in sdc.assumptions.items()}
+        v = sp.Matrix([sp.Symbol(n, real=True) for n in sdc.inputs])
+        x = sp.Matrix(self.state_symbols)
+        return sp.simplify(sdc.A * x + sdc.B * v - self.rhs.subs(subs))
+
+    def sdc_residual_sampled(self, n_points: int = 200, scale: float = 1.0,
+                             seed: int = 0) -> float:
+        """Largest ``|A(x) x + B(x) v - f(x, u)|`` over random points (state, inputs ~ N(0, scale^2))."""
+        sdc = self._require_sdc()
+        rng = np.random.default_rng(seed)
+        p = self.parameter_vector(sdc.assumptions)
+        A, B = self.sdc_functions()
+        f = self.lambdify(self.rhs)
+        in_index = [[v.name for v in self.inputs].index(n) for n in sdc.inputs]
+        worst = 0.0
+        for _ in range(n_points):
+            x = rng.normal(0.0, scale, len(self.states))
+            u = rng.normal(0.0, scale, len(self.inputs))
+            lhs = np.asarray(A(x, p), float) @ x + np.asarray(B(x, p), float) @ u[in_index]
+            worst = max(worst, float(np.max(np.abs(lhs - np.asarray(f(0.0, x, u, p), float).ravel()))))
+        return worst
+
+    def _require_sdc(self) -> SDCForm:
+        if self.sdc is None:
+            raise ModelDefinitionError(f"model {self.name!r} declares no SDC form")
+        return self.sdc
+
+
+def vector(base: str, n: int, unit: str, description: str, start: Sequence[float] | float = 0.0,
+           **kwargs: object) -> list[Variable]:
+    """``n`` variables ``base[1] .. base[n]`` with a common unit and description.
+
+    ``description`` may contain ``{i}`` for the 1-based index.
+    """
+    starts = [start] * n if np.isscalar(start) else list(start)  # type: ignore[list-item]
+    if len(starts) != n:
+        raise ModelDefinitionError(f"{base}: {len(starts)} start values for {n} variables")
+    return [Variable(f"{base}[{i + 1}]", unit, description.format(i=i + 1), float(starts[i]), **kwargs)  # type: ignore[arg-type]
+            for i in range(n)]
+
+
+def states(base: str, n: int, unit: str, description: str,
+           start: Sequence[float] | float = 0.0) -> list[State]:
+    """``n`` states ``base[i]`` whose initial values are parameters ``base_0[i]``."""
+    var = vector(base, n, unit, description)
+    init = vector(f"{base}_0", n, unit, "Initial value of " + description, start)
+    return [State(v, i) for v, i in zip(var, init)]
+
+
+def symbols(variables: Sequence[Variable | State]) -> sp.Matrix:
+    """Column matrix of the symbols of ``variables``."""
+    return sp.Matrix([v.symbol for v in variables])

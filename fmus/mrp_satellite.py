@@ -1,0 +1,106 @@
+"""Plant "MRP satellite": rigid body with modified Rodrigues parameters (seed 000).
+
+Seed: shared/seeds/000_5179ecf13c1ccfb7.txt, eq. (31)-(37); cleaned up in
+shared/MODELS.md, "Seed 000". State x = [omega (rad/s), sigma (MRP, 1)]:
+
+    I omega' = -omega x (I omega) + sat(u) + w_d
+    sigma'   = (1/4) B(sigma) omega,
+    B(s) = (1 - s^T s) I3 + 2 [s x] + 2 s s^T
+
+with principal-axis inertia I = diag(I_x, I_y, I_z) (seed: 15, 16, 12.5 kg m^2),
+an optional actuator saturation |u_i| <= u_max (off by default) and optional MRP
+shadow-set switching sigma <- -sigma / |sigma|^2 when |sigma| > 1, applied after
+every integration substep (off by default: the seed does not switch, its 200 deg
+case starts at |sigma| = 1.19).
+"""
+from __future__ import annotations
+
+import numpy as np
+import sympy as sp
+
+from fmus.model import Model, Output, SDCForm, Variable, states, symbols, vector
+
+INERTIA_SEED_000 = (15.0, 16.0, 12.5)
+"""Principal moments of inertia of seed 000, kg m^2."""
+
+
+def skew(a: sp.Matrix) -> sp.Matrix:
+    """Skew-symmetric matrix [a x] with [a x] b = a x b."""
+    return sp.Matrix([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
+
+
+def mrp_kinematics_matrix(s: sp.Matrix) -> sp.Matrix:
+    """B(s) of sigma' = (1/4) B(s) omega."""
+    return (1 - (s.T * s)[0]) * sp.eye(3) + 2 * skew(s) + 2 * s * s.T
+
+
+def saturate(u: sp.Expr, limit: sp.Expr, enabled: sp.Expr) -> sp.Expr:
+    """``clip(u, -limit, limit)`` when the Boolean parameter ``enabled`` is true."""
+    return sp.Piecewise((sp.Max(-limit, sp.Min(limit, u)), enabled > sp.Rational(1, 2)), (u, True))
+
+
+def build() -> Model:
+    """The symbolic MRP satellite model."""
+    inertia = [Variable(f"I_{a}", "kg.m2", f"Principal moment of inertia about body axis {a}",
+                        start=v, min=1e-9) for a, v in zip("xyz", INERTIA_SEED_000)]
+    sat_on = Variable("saturation_on", "1", "Saturate the command torque at +-u_max", 0, "Boolean")
+    u_max = Variable("u_max", "N.m", "Actuator torque limit per axis (when saturation_on)", 5.0, min=0.0)
+    shadow = Variable("shadow_switching", "1",
+                      "Switch to the MRP shadow set (sigma -> -sigma/|sigma|^2) when |sigma| > 1", 0, "Boolean")
+    xw = states("omega", 3, "rad/s", "body angular rate about body axis {i}")
+    xs = states("sigma", 3, "1", "modified Rodrigues parameter {i} (body w.r.t. reference)")
+    u = vector("u", 3, "N.m", "Commanded control torque about body axis {i}")
+    wd = vector("w_d", 3, "N.m", "Disturbance torque about body axis {i}")
+
+    w, s = symbols(xw), symbols(xs)
+    uc, wdist = symbols(u), symbols(wd)
+    Ix, Iy, Iz = (v.symbol for v in inertia)
+    J = sp.diag(Ix, Iy, Iz)
+    u_applied = sp.Matrix([saturate(ui, u_max.symbol, sat_on.symbol) for ui in uc])
+    omega_dot = J.inv() * (-w.cross(J * w) + u_applied + wdist)
+    sigma_dot = mrp_kinematics_matrix(s) * w / 4
+
+    s2 = (s.T * s)[0]
+    switch = sp.And(shadow.symbol > sp.Rational(1, 2), s2 > 1)
+    # Max(s2, 1) equals s2 wherever the branch is taken; it keeps the hoisted division finite.
+    post = sp.Matrix(list(w) + [sp.Piecewise((-si / sp.Max(s2, 1), switch), (si, True)) for si in s])
+
+    # SDC form of seed 000 eq. (35)-(37): x' = A(x) x + B [u; w_d] with saturation off.
+    x = list(w) + list(s)
+    A = sp.zeros(6, 6)
+    A[0, 1] = (Iy - Iz) / Ix * x[2]
+    A[1, 2] = (Iz - Ix) / Iy * x[0]
+    A[2, 0] = (Ix - Iy) / Iz * x[1]
+    A[3:6, 0:3] = mrp_kinematics_matrix(s) / 4
+    Binv = sp.diag(1 / Ix, 1 / Iy, 1 / Iz)
+    B = sp.Matrix(sp.BlockMatrix([[Binv, Binv], [sp.zeros(3, 3), sp.zeros(3, 3)]]))
+    sdc = SDCForm(A, B, tuple(v.name for v in u + wd), {"saturation_on": 0.0})
+
+    outputs = ([Output(v.variable, v.symbol) for v in xw + xs]
+               + [Output(Variable("phi", "rad", "Principal rotation angle 4 atan(|sigma|) of the "
+                                  "attitude (exceeds pi on the long way round, |sigma| > 1)"),
+                         4 * sp.atan(sp.sqrt(s2)))])
+    return Model(
+        name="mrp_satellite",
+        description="Rigid satellite, MRP attitude, torque inputs (seed 000: nonlinear "
+                    "H-infinity attitude control via SOS)",
+        states=xw + xs, inputs=u + wd, parameters=inertia + [sat_on, u_max, shadow],
+        outputs=outputs, rhs=sp.Matrix(list(omega_dot) + list(sigma_dot)), post_step=post,
+        sdc=sdc, default_stop_time=120.0, default_step_size=0.05)
+
+
+def mrp_from_axis_angle(axis: np.ndarray, angle_rad: float) -> np.ndarray:
+    """MRP ``k tan(Phi/4)`` of a rotation by ``angle_rad`` about ``axis`` (normalized here).
+
+    Raises
+    ------
+    ValueError
+        If the axis has zero length or is not a 3-vector.
+    """
+    k = np.asarray(axis, float)
+    if k.shape != (3,) or not np.all(np.isfinite(k)) or np.linalg.norm(k) == 0:
+        raise ValueError(f"axis must be a finite non-zero 3-vector, got {axis!r}")
+    return k / np.linalg.norm(k) * np.tan(angle_rad / 4)
+
+
+MODEL = build()

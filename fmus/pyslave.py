@@ -1,0 +1,200 @@
+"""Runtime of satfmu's pythonfmu FMUs, and the Python RK4 shared with reference simulations.
+
+This file is copied verbatim into every pythonfmu FMU (as ``resources/satfmu_pyslave.py``)
+next to the generated model module (:func:`fmus.codegen.python_source`), so at run
+time it may import only the standard library and pythonfmu. It implements the same
+behaviour as the generic C wrapper ``fmus/c/fmi2_cosim.c``: RK4 with held inputs,
+``max(n_substeps, ceil(h / h_max))`` substeps, the post-step map, value checks
+(finite, in range, right causality), the co-simulation call order, and FMU state.
+
+pythonfmu 0.7.0 writes parameters without variability and omits the
+ModelStructure's InitialUnknowns; :meth:`SatfmuSlave.to_xml` therefore returns
+satfmu's own model description (the same one the native FMU carries).
+"""
+from __future__ import annotations
+
+import math
+import os
+from types import ModuleType
+from typing import Any, Callable, Sequence
+from xml.etree.ElementTree import Element, parse
+
+from pythonfmu import Boolean, Fmi2Causality, Fmi2Slave, Fmi2Variability, Integer, Real
+from pythonfmu.enums import Fmi2Status
+
+KIND_PARAMETER, KIND_INPUT, KIND_OUTPUT = 0, 1, 2
+DESCRIPTION_FILE = "satfmu_description.xml"
+MAX_SUBSTEPS = 10_000_000
+
+
+def substep_count(h: float, n_substeps: float, h_max: float) -> int:
+    """Number of RK4 substeps for a communication step of ``h`` seconds."""
+    return int(max(n_substeps, math.ceil(h / h_max)))
+
+
+def rk4_step(gen: ModuleType, t: float, x: Sequence[float], u: Sequence[float], p: Sequence[float],
+             h: float, n: int) -> list[float]:
+    """Advance the generated model ``gen`` by ``h`` seconds in ``n`` RK4 substeps, ``u`` held.
+
+    The arithmetic is written in the same order as the C wrapper's, so both
+    backends agree to rounding.
+    """
+    f = gen.derivatives
+    post = gen.post_step
+    hs = h / n
+    x = list(x)
+    nx = len(x)
+    for k in range(n):
+        k1 = f(t, x, u, p)
+        xt = [x[i] + 0.5 * hs * k1[i] for i in range(nx)]
+        k2 = f(t + 0.5 * hs, xt, u, p)
+        xt = [x[i] + 0.5 * hs * k2[i] for i in range(nx)]
+        k3 = f(t + 0.5 * hs, xt, u, p)
+        xt = [x[i] + hs * k3[i] for i in range(nx)]
+        k4 = f(t + hs, xt, u, p)
+        xt = [x[i] + hs / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]) for i in range(nx)]
+        x = post(t + hs, xt, p)
+        t = t + hs
+    return x
+
+
+class FmuCallError(RuntimeError):
+    """An FMI call was rejected (bad value, wrong call order); the message names the variable."""
+
+
+class SatfmuSlave(Fmi2Slave):
+    """pythonfmu slave of a generated satfmu model; subclasses set :attr:`generated`."""
+
+    generated: ModuleType
+
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__(**kwargs)
+        gen = self.generated
+        self.modelName = type(self).__name__
+        self._table = gen.VARIABLES
+        self._np = sum(1 for v in self._table if v["kind"] == KIND_PARAMETER)
+        self._nu = sum(1 for v in self._table if v["kind"] == KIND_INPUT)
+        self._ny = sum(1 for v in self._table if v["kind"] == KIND_OUTPUT)
+        pnames = [v["name"] for v in self._table if v["kind"] == KIND_PARAMETER]
+        self._i_nsub = pnames.index("n_substeps") if "n_substeps" in pnames else -1
+        self._i_hmax = pnames.index("h_max") if "h_max" in pnames else -1
+        self._defaults()
+        for row in self._table:
+            self.register_variable(self._make_variable(row), nested=False)
+
+    # ------------------------------------------------------------ data
+    def _defaults(self) -> None:
+        self.mode = "Instantiated"
+        self.time = 0.0
+        self.p = [float(v["start"]) for v in self._table if v["kind"] == KIND_PARAMETER]
+        self.u = [float(v["start"]) for v in self._table if v["kind"] == KIND_INPUT]
+        self.y = [0.0] * self._ny
+        self.x = [0.0] * self.generated.N_STATES
+        self.outputs_valid = False
+
+    def _make_variable(self, row: dict) -> Any:
+        cls = {"Real": Real, "Integer": Integer, "Boolean": Boolean}[row["type"]]
+        causality = {KIND_PARAMETER: Fmi2Causality.parameter, KIND_INPUT: Fmi2Causality.input,
+                     KIND_OUTPUT: Fmi2Causality.output}[row["kind"]]
+        variability = Fmi2Variability.fixed if row["kind"] == KIND_PARAMETER else Fmi2Variability.continuous
+        cast: Callable[[float], Any] = {"Real": float, "Integer": int, "Boolean": bool}[row["type"]]
+        return cls(row["name"], causality=causality, variability=variability,
+                   getter=lambda r=row, c=cast: c(self._get(r)),
+                   setter=lambda value, r=row: self._set(r, value))
+
+    def _slot(self, row: dict) -> list[float]:
+        return {KIND_PARAMETER: self.p, KIND_INPUT: self.u, KIND_OUTPUT: self.y}[row["kind"]]
+
+    def _get(self, row: dict) -> float:
+        if self.mode == "Instantiated":
+            self._reject(f"get '{row['name']}' must not be called in state Instantiated")
+        if row["kind"] == KIND_OUTPUT and not self.outputs_valid:
+            if self.mode in ("Instantiated", "InitializationMode"):
+                self.x = [self.p[i] for i in self.generated.STATE_INITIAL]
+            self.y = self.generated.outputs(self.time, self.x, self.u, self.p)
+            self.outputs_valid = True
+        return self._slot(row)[row["index"]]
+
+    def _set(self, row: dict, value: Any) -> None:
+        name = row["name"]
+        if row["kind"] == KIND_OUTPUT:
+            self._reject(f"variable '{name}' is an output and cannot be set")
+        if row["kind"] == KIND_PARAMETER and self.mode not in ("Instantiated", "InitializationMode"):
+            self._reject(f"parameter '{name}' has variability fixed and cannot be set in state {self.mode}")
+        if self.mode not in ("Instantiated", "InitializationMode", "StepComplete"):
+            self._reject(f"'{name}' cannot be set in state {self.mode}")
+        v = float(value)
+        if not math.isfinite(v):
+            self._reject(f"variable '{name}' set to non-finite value {v}")
+        lo = -math.inf if row["min"] is None else row["min"]
+        hi = math.inf if row["max"] is None else row["max"]
+        if not lo <= v <= hi:
+            self._reject(f"variable '{name}' = {v:g} is outside its range [{lo:g}, {hi:g}]")
+        self._slot(row)[row["index"]] = v
+        self.outputs_valid = False
+
+    def _reject(self, message: str) -> None:
+        self.log(message, Fmi2Status.error, "logStatusError")
+        raise FmuCallError(message)
+
+    def _require(self, fn: str, *modes: str) -> None:
+        if self.mode not in modes:
+            self._reject(f"{fn} must not be called in state {self.mode}")
+
+    # ------------------------------------------------------------ FMI
+    def setup_experiment(self, start_time: float, stop_time: float | None, tolerance: float | None) -> None:
+        self._require("fmi2SetupExperiment", "Instantiated")
+        self.time = float(start_time)
+
+    def enter_initialization_mode(self) -> None:
+        self._require("fmi2EnterInitializationMode", "Instantiated")
+        self.mode = "InitializationMode"
+        self.outputs_valid = False
+
+    def exit_initialization_mode(self) -> None:
+        self._require("fmi2ExitInitializationMode", "InitializationMode")
+        self.x = [self.p[i] for i in self.generated.STATE_INITIAL]
+        self.mode = "StepComplete"
+        self.outputs_valid = False
+
+    def do_step(self, current_time: float, step_size: float) -> bool:
+        self._require("fmi2DoStep", "StepComplete")
+        h = float(step_size)
+        if not (math.isfinite(h) and h > 0.0):
+            self._reject(f"fmi2DoStep: communicationStepSize must be finite and > 0, got {h:g}")
+        if not math.isfinite(current_time) or abs(current_time - self.time) > 1e-9 * max(1.0, abs(self.time)):
+            self._reject(f"fmi2DoStep: currentCommunicationPoint {current_time!r} differs from the FMU time {self.time!r}")
+        t_end = current_time + h
+        if self.generated.N_STATES:
+            n_sub = self.p[self._i_nsub] if self._i_nsub >= 0 else 1.0
+            h_max = self.p[self._i_hmax] if self._i_hmax >= 0 else math.inf
+            n = substep_count(h, n_sub, h_max)
+            if n > MAX_SUBSTEPS:
+                self._reject(f"fmi2DoStep: step {h:g} s would need {n} RK4 substeps (limit {MAX_SUBSTEPS}); raise h_max")
+            x = rk4_step(self.generated, current_time, self.x, self.u, self.p, h, n)
+            if not all(math.isfinite(v) for v in x):
+                self.mode = "Error"
+                self._reject(f"fmi2DoStep: the state became non-finite in the step from t = {current_time:g} s "
+                             f"with h = {h:g} s ({n} substeps); reduce the step or h_max, or restore an FMU state")
+            self.x = x
+        self.time = t_end
+        self.outputs_valid = False
+        return True
+
+    def terminate(self) -> None:
+        self._require("fmi2Terminate", "StepComplete", "Error")
+        self.mode = "Terminated"
+
+    def _get_fmu_state(self) -> dict[str, Any]:
+        return {"mode": self.mode, "time": self.time, "x": list(self.x), "u": list(self.u),
+                "p": list(self.p), "y": list(self.y), "outputs_valid": self.outputs_valid}
+
+    def _set_fmu_state(self, state: dict[str, Any]) -> None:
+        for key in ("mode", "time", "outputs_valid"):
+            setattr(self, key, state[key])
+        for key in ("x", "u", "p", "y"):
+            setattr(self, key, list(state[key]))
+
+    def to_xml(self, model_options: dict[str, str] | None = None) -> Element:
+        """satfmu's model description of this model (written at build time next to this file)."""
+        return parse(os.path.join(self.resources, DESCRIPTION_FILE)).getroot()

@@ -1,0 +1,1 @@
+"""Co-simulation master, disturbance profiles, scenarios, metrics, plots and the CLI."""

@@ -1,0 +1,1 @@
+"""Design algorithms that produce controller artifacts (SOS, LMI, SDRE, periodic, randomized)."""
