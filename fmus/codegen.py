@@ -168,7 +168,7 @@ def c_source(model: Model) -> str:
            "post_step": "double t, const double *x, const double *p, double *out"}
     for f in functions(model):
         lines.append(f"static void model_{f.name}({sig[f.name]}) {{")
-        unused = "t x p" if f.name == "post_step" else "t x u p"
+        unused = "t x p out" if f.name == "post_step" else "t x u p out"
         lines.append("    " + " ".join(f"(void){a};" for a in unused.split()))
         for sym, e in f.temporaries:
             lines.append(f"    const double {sym} = {pr.doprint(e)};")

@@ -331,3 +331,8 @@ def states(base: str, n: int, unit: str, description: str,
 def symbols(variables: Sequence[Variable | State]) -> sp.Matrix:
     """Column matrix of the symbols of ``variables``."""
     return sp.Matrix([v.symbol for v in variables])
+
+
+def saturate(u: sp.Expr, limit: sp.Expr, enabled: sp.Expr) -> sp.Expr:
+    """``clip(u, -limit, limit)`` when the Boolean parameter ``enabled`` is true (> 1/2)."""
+    return sp.Piecewise((sp.Max(-limit, sp.Min(limit, u)), enabled > sp.Rational(1, 2)), (u, True))

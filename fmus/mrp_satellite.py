@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 import sympy as sp
 
-from fmus.model import Model, Output, SDCForm, Variable, states, symbols, vector
+from fmus.model import Model, Output, SDCForm, Variable, saturate, states, symbols, vector
 
 INERTIA_SEED_000 = (15.0, 16.0, 12.5)
 """Principal moments of inertia of seed 000, kg m^2."""
@@ -32,11 +32,6 @@ def skew(a: sp.Matrix) -> sp.Matrix:
 def mrp_kinematics_matrix(s: sp.Matrix) -> sp.Matrix:
     """B(s) of sigma' = (1/4) B(s) omega."""
     return (1 - (s.T * s)[0]) * sp.eye(3) + 2 * skew(s) + 2 * s * s.T
-
-
-def saturate(u: sp.Expr, limit: sp.Expr, enabled: sp.Expr) -> sp.Expr:
-    """``clip(u, -limit, limit)`` when the Boolean parameter ``enabled`` is true."""
-    return sp.Piecewise((sp.Max(-limit, sp.Min(limit, u)), enabled > sp.Rational(1, 2)), (u, True))
 
 
 def build() -> Model:

@@ -79,15 +79,23 @@ typedef struct {
     int log_on;
 } Instance;
 
+/* The formatted message is passed as the logger's format string with '%' doubled, so hosts
+ * that cannot expand variadic arguments (ctypes-based ones such as fmpy) show it intact. */
 static void log_msg(Instance *inst, fmi2Status status, const char *category, const char *fmt, ...) {
-    char buf[1024];
+    char buf[1024], esc[2048];
+    size_t i, j = 0;
     va_list ap;
     if (!inst || !inst->logger) return;
     if (status == fmi2OK && !inst->log_on) return;
     va_start(ap, fmt);
     vsnprintf(buf, sizeof buf, fmt, ap);
     va_end(ap);
-    inst->logger(inst->env, inst->instance_name, status, category, "%s", buf);
+    for (i = 0; buf[i] && j + 2 < sizeof esc; i++) {
+        if (buf[i] == '%') esc[j++] = '%';
+        esc[j++] = buf[i];
+    }
+    esc[j] = '\0';
+    inst->logger(inst->env, inst->instance_name, status, category, esc);
 }
 
 #define ERROR(inst, ...) (log_msg((inst), fmi2Error, "logStatusError", __VA_ARGS__), fmi2Error)

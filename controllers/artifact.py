@@ -1,0 +1,258 @@
+"""Versioned JSON artifacts of polynomial state-feedback controllers, validated on load.
+
+An artifact is what synthesis writes and what a controller FMU is built from. It
+holds the law, where it came from and what was proved about it. Two forms of the
+law are accepted:
+
+``"polynomial"``
+    ``u_i = sum_k c_ik prod_j x_j^e_ikj``: for each output a list of terms
+    ``{"c": coefficient, "e": [exponent per state]}``.
+``"gain_times_lyapunov"``
+    ``u = K(x) P x`` with ``K`` a matrix of polynomials (same term format, one list
+    per entry) and ``P`` a constant symmetric matrix (seed 000, Theorem 1:
+    ``P = Q^-1``).
+
+Schema (format_version 1)::
+
+    {"format": "satfmu-controller", "format_version": 1, "kind": "polynomial_state_feedback",
+     "name": str, "description": str, "plant": str,
+     "states":  [{"name": str, "unit": str}, ...],
+     "outputs": [{"name": str, "unit": str, "description": str}, ...],
+     "law": {"form": "polynomial", "terms": [[term, ...] per output]}
+          | {"form": "gain_times_lyapunov", "K": [[[term, ...] per state] per output], "P": [[...]]},
+     "lyapunov": {"Q": [[...]]}            (optional),
+     "certificate": {"status": "certified" | "not_verified", "proved": str, "region": str,
+                     "numbers": {str: float}},
+     "provenance": {"source": str, ...}}
+"""
+from __future__ import annotations
+
+import json
+import math
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+FORMAT = "satfmu-controller"
+FORMAT_VERSION = 1
+KIND = "polynomial_state_feedback"
+CERTIFICATE_STATUS = ("certified", "not_verified")
+_NAME = re.compile(r"^[a-z][a-z0-9_]*$")
+
+
+class ArtifactError(ValueError):
+    """An artifact file is missing, not JSON, or violates the schema; the message says where."""
+
+
+@dataclass(frozen=True)
+class Term:
+    """One monomial ``c * prod x_j^e_j``."""
+
+    c: float
+    e: tuple[int, ...]
+
+
+@dataclass
+class ControllerArtifact:
+    """A validated polynomial state-feedback controller artifact."""
+
+    name: str
+    description: str
+    plant: str
+    states: list[dict[str, str]]
+    outputs: list[dict[str, str]]
+    terms: list[list[Term]]
+    """The law expanded to ``u_i = sum of terms`` (both forms end up here)."""
+    law: dict[str, Any]
+    certificate: dict[str, Any]
+    provenance: dict[str, Any]
+    lyapunov: dict[str, Any] = field(default_factory=dict)
+
+    def evaluate(self, x: np.ndarray) -> np.ndarray:
+        """``u(x)`` without saturation; ``x`` of shape (n_states,) or (n, n_states)."""
+        x = np.asarray(x, float)
+        if x.shape[-1] != len(self.states):
+            raise ValueError(f"artifact {self.name!r}: x has {x.shape[-1]} entries, expected {len(self.states)}")
+        out = []
+        for terms in self.terms:
+            val = np.zeros(x.shape[:-1])
+            for t in terms:
+                val = val + t.c * np.prod(x ** np.array(t.e), axis=-1)
+            out.append(val)
+        return np.stack(out, axis=-1)
+
+    def to_json(self) -> dict[str, Any]:
+        """The artifact as JSON-ready data (the law in its original form)."""
+        data = {"format": FORMAT, "format_version": FORMAT_VERSION, "kind": KIND, "name": self.name,
+                "description": self.description, "plant": self.plant, "states": self.states,
+                "outputs": self.outputs, "law": self.law, "certificate": self.certificate,
+                "provenance": self.provenance}
+        if self.lyapunov:
+            data["lyapunov"] = self.lyapunov
+        return data
+
+
+def _fail(where: str, msg: str) -> ArtifactError:
+    return ArtifactError(f"{where}: {msg}")
+
+
+def _get(data: dict, key: str, kind: type | tuple[type, ...], where: str) -> Any:
+    if key not in data:
+        raise _fail(where, f"missing key {key!r}")
+    value = data[key]
+    if not isinstance(value, kind) or isinstance(value, bool) and kind is not bool:
+        raise _fail(where, f"{key!r} must be {getattr(kind, '__name__', kind)}, got {type(value).__name__}")
+    return value
+
+
+def _finite(v: Any, where: str) -> float:
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+        raise _fail(where, f"must be a finite number, got {v!r}")
+    return float(v)
+
+
+def _terms(raw: Any, n_states: int, where: str) -> list[Term]:
+    if not isinstance(raw, list):
+        raise _fail(where, "must be a list of terms")
+    out = []
+    for k, t in enumerate(raw):
+        w = f"{where}[{k}]"
+        if not isinstance(t, dict) or set(t) != {"c", "e"}:
+            raise _fail(w, 'a term is {"c": coefficient, "e": [exponents]}')
+        e = t["e"]
+        if not isinstance(e, list) or len(e) != n_states:
+            raise _fail(w, f"'e' must list {n_states} exponents (one per state)")
+        if any(isinstance(v, bool) or not isinstance(v, int) or v < 0 for v in e):
+            raise _fail(w, f"exponents must be non-negative integers, got {e}")
+        out.append(Term(_finite(t["c"], w + ".c"), tuple(e)))
+    return out
+
+
+def _matrix(raw: Any, shape: tuple[int, int], where: str) -> np.ndarray:
+    try:
+        m = np.array(raw, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise _fail(where, f"not a numeric matrix ({exc})") from None
+    if m.shape != shape:
+        raise _fail(where, f"shape {m.shape}, expected {shape}")
+    if not np.all(np.isfinite(m)):
+        raise _fail(where, "contains non-finite entries")
+    return m
+
+
+def _multiply(a: list[Term], b: list[Term]) -> list[Term]:
+    acc: dict[tuple[int, ...], float] = {}
+    for s in a:
+        for t in b:
+            e = tuple(i + j for i, j in zip(s.e, t.e))
+            acc[e] = acc.get(e, 0.0) + s.c * t.c
+    return [Term(c, e) for e, c in acc.items()]
+
+
+def _expand_kpx(K: list[list[list[Term]]], P: np.ndarray, n: int) -> list[list[Term]]:
+    """Terms of ``u = K(x) P x``, like monomials merged."""
+    linear = [[Term(float(P[j, k]), tuple(int(i == k) for i in range(n))) for k in range(n) if P[j, k] != 0]
+              for j in range(n)]
+    out = []
+    for row in K:
+        acc: dict[tuple[int, ...], float] = {}
+        for j, kij in enumerate(row):
+            for t in _multiply(kij, linear[j]):
+                acc[t.e] = acc.get(t.e, 0.0) + t.c
+        out.append([Term(c, e) for e, c in sorted(acc.items()) if c != 0.0])
+    return out
+
+
+def parse(data: Any, where: str = "artifact") -> ControllerArtifact:
+    """Validate JSON data and return the artifact.
+
+    Raises
+    ------
+    ArtifactError
+        Naming the offending key, e.g. ``"artifact.law.terms[0][2].e: ..."``.
+    """
+    if not isinstance(data, dict):
+        raise _fail(where, "top level must be a JSON object")
+    if data.get("format") != FORMAT:
+        raise _fail(where, f"'format' must be {FORMAT!r}, got {data.get('format')!r}")
+    version = data.get("format_version")
+    if version != FORMAT_VERSION:
+        raise _fail(where, f"format_version {version!r} is not supported (this satfmu reads {FORMAT_VERSION})")
+    if data.get("kind") != KIND:
+        raise _fail(where, f"'kind' must be {KIND!r}, got {data.get('kind')!r}")
+    name = _get(data, "name", str, where)
+    if not _NAME.match(name):
+        raise _fail(where, f"name {name!r} must be lower_snake_case (it becomes the FMU's modelIdentifier)")
+    states = _get(data, "states", list, where)
+    outputs = _get(data, "outputs", list, where)
+    for label, items in (("states", states), ("outputs", outputs)):
+        if not items:
+            raise _fail(f"{where}.{label}", "must not be empty")
+        for i, s in enumerate(items):
+            if not isinstance(s, dict) or not isinstance(s.get("name"), str) or not isinstance(s.get("unit"), str):
+                raise _fail(f"{where}.{label}[{i}]", 'must be {"name": str, "unit": str, ...}')
+    n = len(states)
+    law = _get(data, "law", dict, where)
+    form = law.get("form")
+    if form == "polynomial":
+        raw = _get(law, "terms", list, where + ".law")
+        if len(raw) != len(outputs):
+            raise _fail(where + ".law.terms", f"{len(raw)} polynomials for {len(outputs)} outputs")
+        terms = [_terms(r, n, f"{where}.law.terms[{i}]") for i, r in enumerate(raw)]
+    elif form == "gain_times_lyapunov":
+        K = _get(law, "K", list, where + ".law")
+        if len(K) != len(outputs) or any(not isinstance(r, list) or len(r) != n for r in K):
+            raise _fail(where + ".law.K", f"must be {len(outputs)} x {n} polynomials")
+        Kt = [[_terms(K[i][j], n, f"{where}.law.K[{i}][{j}]") for j in range(n)] for i in range(len(outputs))]
+        P = _matrix(law.get("P"), (n, n), where + ".law.P")
+        if not np.allclose(P, P.T, rtol=1e-12, atol=0):
+            raise _fail(where + ".law.P", "must be symmetric")
+        terms = _expand_kpx(Kt, P, n)
+    else:
+        raise _fail(where + ".law", f"'form' must be 'polynomial' or 'gain_times_lyapunov', got {form!r}")
+    lyap = data.get("lyapunov", {})
+    if lyap:
+        Q = _matrix(lyap.get("Q"), (n, n), where + ".lyapunov.Q")
+        if not np.allclose(Q, Q.T) or np.linalg.eigvalsh(Q).min() <= 0:
+            raise _fail(where + ".lyapunov.Q", "must be symmetric positive definite")
+    cert = _get(data, "certificate", dict, where)
+    if cert.get("status") not in CERTIFICATE_STATUS:
+        raise _fail(where + ".certificate", f"'status' must be one of {CERTIFICATE_STATUS}")
+    for key in ("proved", "region"):
+        _get(cert, key, str, where + ".certificate")
+    for k, v in cert.get("numbers", {}).items():
+        _finite(v, f"{where}.certificate.numbers.{k}")
+    prov = _get(data, "provenance", dict, where)
+    _get(prov, "source", str, where + ".provenance")
+    return ControllerArtifact(name, _get(data, "description", str, where), _get(data, "plant", str, where),
+                              states, outputs, terms, law, cert, prov, lyap)
+
+
+def load(path: str | Path) -> ControllerArtifact:
+    """Read and validate an artifact file.
+
+    Raises
+    ------
+    ArtifactError
+        If the file is missing, is not valid JSON, or violates the schema.
+    """
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except OSError as exc:
+        raise ArtifactError(f"{path}: cannot read artifact ({exc.strerror})") from None
+    try:
+        data = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise ArtifactError(f"{path}: not valid JSON ({exc})") from None
+    return parse(data, where=str(path))
+
+
+def save(artifact: ControllerArtifact, path: str | Path) -> None:
+    """Write an artifact (re-validated first, so an invalid one is never written)."""
+    data = artifact.to_json()
+    parse(json.loads(json.dumps(data)), where=str(path))
+    Path(path).write_text(json.dumps(data, indent=1) + "\n")

@@ -1,0 +1,50 @@
+"""Controller "polynomial state feedback": u = sat(p(x)), p a polynomial map from an artifact.
+
+The law's symbolic model is built from a validated :class:`controllers.artifact.ControllerArtifact`;
+the native and pythonfmu controller FMUs, and the in-process reference, are generated
+from that model. Inputs are the measured states (named as in the artifact, so they
+connect by name to the plant's outputs); outputs are the commands; parameters
+``saturation_on`` and ``u_max`` clip every command to +-u_max inside the FMU.
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import sympy as sp
+
+from controllers.artifact import ControllerArtifact, load
+from fmus.model import Model, Output, Variable, saturate
+
+ARTIFACTS = Path(__file__).resolve().parent / "artifacts"
+
+
+def build(artifact: ControllerArtifact) -> Model:
+    """Symbolic model of the controller described by ``artifact``."""
+    inputs = [Variable(s["name"], s["unit"], f"Measured plant state {s['name']}") for s in artifact.states]
+    sat_on = Variable("saturation_on", "1", "Clip every command to +-u_max", 0, "Boolean")
+    u_max = Variable("u_max", artifact.outputs[0]["unit"], "Command limit per output (when saturation_on)",
+                     5.0, min=0.0)
+    x = [v.symbol for v in inputs]
+    outputs = []
+    for out, terms in zip(artifact.outputs, artifact.terms):
+        poly = sp.Add(*[sp.Float(t.c, 17) * sp.Mul(*[xi ** e for xi, e in zip(x, t.e)]) for t in terms])
+        var = Variable(out["name"], out["unit"], out.get("description", f"Command {out['name']}"))
+        outputs.append(Output(var, saturate(poly, u_max.symbol, sat_on.symbol)))
+    return Model(name=artifact.name, description=artifact.description, states=[], inputs=inputs,
+                 parameters=[sat_on, u_max], outputs=outputs)
+
+
+def shipped_artifacts() -> list[Path]:
+    """The controller artifacts shipped with satfmu (one controller FMU each)."""
+    return sorted(ARTIFACTS.glob("*.json"))
+
+
+def artifact_resource(artifact: ControllerArtifact) -> dict[str, bytes]:
+    """The artifact as a file for the FMU's ``resources/`` (traceability)."""
+    return {"artifact.json": (json.dumps(artifact.to_json(), indent=1) + "\n").encode()}
+
+
+def load_model(path: str | Path) -> Model:
+    """Load, validate and build the controller model of an artifact file."""
+    return build(load(path))

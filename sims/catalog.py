@@ -1,0 +1,60 @@
+"""Every FMU the project builds: the plant models and one controller per shipped artifact."""
+from __future__ import annotations
+
+import subprocess
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+from controllers import artifact as artifacts
+from controllers import polynomial
+from fmus import export, mrp_satellite
+from fmus.model import Model
+
+DEFAULT_FMU_DIR = Path("build/fmus")
+
+
+@dataclass(frozen=True)
+class FmuSource:
+    """A model to export and the resources its FMUs carry."""
+
+    model: Model
+    resources: dict[str, bytes]
+
+
+def sources() -> list[FmuSource]:
+    """Plants first, then the controllers of the shipped artifacts."""
+    out = [FmuSource(mrp_satellite.MODEL, {})]
+    for path in polynomial.shipped_artifacts():
+        art = artifacts.load(path)
+        out.append(FmuSource(polynomial.build(art), polynomial.artifact_resource(art)))
+    return out
+
+
+def build_all(dest: Path = DEFAULT_FMU_DIR, backends: tuple[str, ...] = ("native", "python")) -> list[Path]:
+    """Build every FMU into ``dest``; returns the FMU paths."""
+    built = []
+    for src in sources():
+        if "native" in backends:
+            built.append(export.build_native(src.model, dest, src.resources))
+        if "python" in backends:
+            built.append(export.build_python(src.model, dest, src.resources))
+    return built
+
+
+def validate(fmu: Path) -> list[str]:
+    """Problems reported by ``fmpy validate`` and ``fmutool -check`` (empty list: clean)."""
+    from fmpy.validation import validate_fmu
+
+    problems = [f"fmpy: {p}" for p in validate_fmu(str(fmu))]
+    tool = Path(sys.executable).with_name("fmutool")
+    proc = subprocess.run([str(tool), "-input", str(fmu), "-check"], capture_output=True, text=True)
+    text = proc.stdout + proc.stderr
+    if proc.returncode != 0:
+        problems.append(f"fmutool: exit code {proc.returncode}: {text.strip()[-500:]}")
+    for line in text.splitlines():
+        if ("ERROR" in line or "WARNING" in line) and "Modified FMU is not saved" not in line:
+            problems.append(f"fmutool: {line.strip()}")
+    if "No semantic error" not in text:
+        problems.append("fmutool: semantic check did not report 'No semantic error'")
+    return problems

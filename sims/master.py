@@ -1,0 +1,402 @@
+"""Fixed-step co-simulation master for FMI 2.0 co-simulation FMUs, built on fmpy.
+
+The master loads N FMUs, connects outputs to inputs by name (``"plant.omega[1]"``,
+or a base name such as ``"plant.omega"`` that expands to every index), feeds
+profiles to inputs, and steps all FMUs at one communication step:
+
+1. instantiate, set parameters, ``fmi2SetupExperiment``, enter initialization mode;
+2. apply profile values at t0 and propagate outputs to inputs in feedthrough order
+   (an FMU whose outputs depend directly on its inputs is updated after the FMUs
+   feeding it; a feedthrough cycle is an algebraic loop and is refused);
+3. exit initialization mode, record t0;
+4. for each step: ``fmi2DoStep`` on every FMU, then profiles and propagation at the
+   new time, then record.
+
+Inputs are therefore held constant over each communication step (zero-order hold).
+Value references and ctypes buffers are prepared once; each step makes one
+``fmi2GetReal``/``fmi2SetReal`` call per FMU and direction.
+"""
+from __future__ import annotations
+
+import ctypes
+import math
+import shutil
+from collections import defaultdict
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Sequence
+
+import numpy as np
+from fmpy import extract, read_model_description
+from fmpy.fmi1 import FMICallException
+from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
+                       fmi2CallbackFunctions, fmi2CallbackLoggerTYPE)
+
+from sims.profiles import Profile
+
+_STATUS = {0: "OK", 1: "Warning", 2: "Discard", 3: "Error", 4: "Fatal", 5: "Pending"}
+
+
+class MasterError(RuntimeError):
+    """Base class of co-simulation errors."""
+
+
+class UnknownVariableError(MasterError, KeyError):
+    """A name refers to no FMU or no variable; the message names it and what exists."""
+
+    def __str__(self) -> str:  # KeyError would quote the message
+        return str(self.args[0])
+
+
+class ConnectionError_(MasterError):
+    """A connection or profile target is invalid (types, causality, driven twice, loops)."""
+
+
+class FmuCallError(MasterError):
+    """An FMU returned fmi2Error/fmi2Fatal; the message holds the FMU's own log lines."""
+
+
+@dataclass
+class Component:
+    """One FMU instance in the co-simulation."""
+
+    name: str
+    path: Path
+    model_description: Any
+    unzip_dir: str
+    slave: FMU2Slave
+    variables: dict[str, Any]
+    log: list[str] = field(default_factory=list)
+
+    def variable(self, name: str) -> Any:
+        try:
+            return self.variables[name]
+        except KeyError:
+            bases = sorted({n.split("[")[0] for n in self.variables})
+            raise UnknownVariableError(
+                f"FMU instance {self.name!r} ({self.path.name}) has no variable {name!r}; "
+                f"its variables are {', '.join(bases)}") from None
+
+    def expand(self, name: str) -> list[str]:
+        """``name`` itself, or every ``name[i]`` if ``name`` is a base name."""
+        if name in self.variables:
+            return [name]
+        indexed = [n for n in self.variables if n.startswith(name + "[")]
+        if not indexed:
+            self.variable(name)  # raises with the list of variables
+        return sorted(indexed, key=lambda n: int(n[len(name) + 1:-1]) if n[len(name) + 1:-1].isdigit() else 0)
+
+    def feedthrough(self) -> dict[str, set[str]]:
+        """For each output, the inputs it depends on directly (all inputs if undeclared)."""
+        inputs = {n for n, v in self.variables.items() if v.causality == "input"}
+        out = {}
+        for u in self.model_description.outputs:
+            deps = u.dependencies
+            out[u.variable.name] = inputs if deps is None else {d.name for d in deps if d.name in inputs}
+        return out
+
+
+@dataclass
+class _Transfer:
+    """Values copied from one FMU's outputs to another FMU's inputs each step."""
+
+    src: Component
+    dst: Component
+    src_vr: Any
+    dst_vr: Any
+    buf: Any
+    n: int
+
+
+class CoSimulation:
+    """A set of FMUs, their connections and profiles, run at a fixed communication step.
+
+    Parameters
+    ----------
+    fmus : dict of str to path
+        Instance name -> FMU file.
+
+    Raises
+    ------
+    FileNotFoundError
+        If an FMU file does not exist.
+    """
+
+    def __init__(self, fmus: dict[str, str | Path]) -> None:
+        self.components: dict[str, Component] = {}
+        self.connections: list[tuple[str, str]] = []
+        self.profiles: list[tuple[str, Profile]] = []
+        self._callbacks = self._make_callbacks()
+        for name, path in fmus.items():
+            path = Path(path)
+            if not path.is_file():
+                raise FileNotFoundError(f"FMU for instance {name!r} not found: {path} (run `satfmu build`?)")
+            md = read_model_description(str(path))
+            unzip = extract(str(path))
+            slave = FMU2Slave(guid=md.guid, unzipDirectory=unzip,
+                              modelIdentifier=md.coSimulation.modelIdentifier, instanceName=name)
+            self.components[name] = Component(name, path, md, unzip, slave,
+                                              {v.name: v for v in md.modelVariables})
+
+    # ------------------------------------------------------------------ setup
+    def _make_callbacks(self) -> fmi2CallbackFunctions:
+        from fmpy import calloc, free
+
+        def logger(env: Any, instance: bytes, status: int, category: bytes, message: bytes) -> None:
+            comp = self.components.get(instance.decode(errors="replace") if instance else "")
+            text = f"[{_STATUS.get(status, status)}] {message.decode(errors='replace') if message else ''}"
+            if comp is not None:
+                comp.log.append(text)
+
+        cb = fmi2CallbackFunctions()
+        cb.logger = fmi2CallbackLoggerTYPE(logger)
+        cb.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+        cb.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+        self._logger_ref = logger
+        return cb
+
+    def resolve(self, qualified: str) -> tuple[Component, list[str]]:
+        """Split ``"instance.variable"`` and expand base names.
+
+        Raises
+        ------
+        UnknownVariableError
+        """
+        if "." not in qualified:
+            raise UnknownVariableError(f"{qualified!r} is not of the form 'instance.variable'")
+        inst, var = qualified.split(".", 1)
+        if inst not in self.components:
+            raise UnknownVariableError(
+                f"{qualified!r}: no FMU instance {inst!r} (instances: {', '.join(self.components)})")
+        comp = self.components[inst]
+        return comp, comp.expand(var)
+
+    def connect(self, source: str, target: str) -> None:
+        """Connect outputs to inputs; base names connect index by index."""
+        sc, sv = self.resolve(source)
+        dc, dv = self.resolve(target)
+        if len(sv) != len(dv):
+            raise ConnectionError_(f"{source} has {len(sv)} variables, {target} has {len(dv)}")
+        for s, d in zip(sv, dv):
+            vs, vd = sc.variable(s), dc.variable(d)
+            if vs.causality != "output":
+                raise ConnectionError_(f"{sc.name}.{s} is a {vs.causality}, not an output")
+            if vd.causality != "input":
+                raise ConnectionError_(f"{dc.name}.{d} is a {vd.causality}, not an input")
+            if vs.type != "Real" or vd.type != "Real":
+                raise ConnectionError_(f"{sc.name}.{s} -> {dc.name}.{d}: only Real connections are supported")
+            self.connections.append((f"{sc.name}.{s}", f"{dc.name}.{d}"))
+
+    def add_profile(self, target: str, profile: Profile) -> None:
+        """Feed ``profile`` to the input(s) ``target``."""
+        comp, names = self.resolve(target)
+        for n in names:
+            if comp.variable(n).causality != "input" or comp.variable(n).type != "Real":
+                raise ConnectionError_(f"profile target {comp.name}.{n} is not a Real input")
+            self.profiles.append((f"{comp.name}.{n}", profile))
+
+    def _check_drivers(self) -> None:
+        driven: dict[str, str] = {}
+        for src, dst in self.connections + [(f"profile {p.kind}", t) for t, p in self.profiles]:
+            if dst in driven:
+                raise ConnectionError_(f"input {dst} is driven twice (by {driven[dst]} and by {src})")
+            driven[dst] = src
+
+    def _order(self) -> list[Component]:
+        """Components in feedthrough order (sources of direct-feedthrough inputs first)."""
+        edges: dict[str, set[str]] = defaultdict(set)
+        for src, dst in self.connections:
+            sname, dname = src.split(".", 1)[0], dst.split(".", 1)[0]
+            dcomp = self.components[dname]
+            dvar = dst.split(".", 1)[1]
+            if any(dvar in deps for deps in dcomp.feedthrough().values()):
+                edges[sname].add(dname)
+        order, state = [], {}
+
+        def visit(n: str, path: list[str]) -> None:
+            if state.get(n) == 1:
+                raise ConnectionError_("algebraic loop through direct feedthrough: " + " -> ".join(path + [n]))
+            if state.get(n) == 2:
+                return
+            state[n] = 1
+            for m in sorted(edges[n]):
+                visit(m, path + [n])
+            state[n] = 2
+            order.append(n)
+        for n in self.components:
+            visit(n, [])
+        return [self.components[n] for n in reversed(order)]
+
+    # ------------------------------------------------------------------ calls
+    def _call(self, comp: Component, fn: str, *args: Any) -> Any:
+        try:
+            return getattr(comp.slave, fn)(*args)
+        except FMICallException as exc:
+            tail = "; ".join(comp.log[-5:]) or "no log message"
+            raise FmuCallError(f"{comp.name} ({comp.path.name}): {exc} -- FMU log: {tail}") from None
+
+    def _set_parameters(self, comp: Component, values: dict[str, Any]) -> None:
+        for name, value in values.items():
+            var = comp.variable(name)
+            if var.causality not in ("parameter", "input"):
+                raise ConnectionError_(f"{comp.name}.{name} is a {var.causality}; only parameters and inputs can be set")
+            vr = [var.valueReference]
+            if var.type == "Real":
+                if isinstance(value, bool) or not isinstance(value, (int, float)):
+                    raise ConnectionError_(f"{comp.name}.{name} is Real; got {value!r}")
+                self._call(comp, "setReal", vr, [float(value)])
+            elif var.type == "Integer":
+                if isinstance(value, bool) or not isinstance(value, int):
+                    raise ConnectionError_(f"{comp.name}.{name} is Integer; got {value!r}")
+                self._call(comp, "setInteger", vr, [value])
+            elif var.type == "Boolean":
+                if not isinstance(value, bool):
+                    raise ConnectionError_(f"{comp.name}.{name} is Boolean; got {value!r} (use true/false)")
+                self._call(comp, "setBoolean", vr, [value])
+            else:
+                raise ConnectionError_(f"{comp.name}.{name}: type {var.type} is not supported")
+
+    def _transfers(self, order: list[Component]) -> list[_Transfer]:
+        groups: dict[tuple[str, str], list[tuple[int, int]]] = defaultdict(list)
+        for src, dst in self.connections:
+            sc, sv = src.split(".", 1)
+            dc, dv = dst.split(".", 1)
+            groups[(sc, dc)].append((self.components[sc].variable(sv).valueReference,
+                                     self.components[dc].variable(dv).valueReference))
+        rank = {c.name: i for i, c in enumerate(order)}
+        out = []
+        for (sc, dc), pairs in sorted(groups.items(), key=lambda kv: rank[kv[0][0]]):
+            n = len(pairs)
+            vr_t = ctypes.c_uint * n
+            out.append(_Transfer(self.components[sc], self.components[dc], vr_t(*[p[0] for p in pairs]),
+                                 vr_t(*[p[1] for p in pairs]), (ctypes.c_double * n)(), n))
+        return out
+
+    # ------------------------------------------------------------------ run
+    def run(self, stop_time: float, step_size: float, start_time: float = 0.0,
+            parameters: dict[str, dict[str, Any]] | None = None,
+            record: Sequence[str] = ()) -> np.ndarray:
+        """Run the co-simulation and return the recorded variables.
+
+        Parameters
+        ----------
+        stop_time, step_size, start_time : float
+            s. ``(stop_time - start_time) / step_size`` must be an integer (to 1e-9).
+        parameters : dict
+            Instance name -> {variable name: value} set before initialization.
+        record : sequence of str
+            Qualified names (base names expand) to record at every communication point.
+
+        Returns
+        -------
+        numpy.ndarray
+            Structured array with field ``time`` and one float field per recorded variable.
+
+        Raises
+        ------
+        ValueError, UnknownVariableError, ConnectionError_, FmuCallError
+        """
+        for label, v in (("start_time", start_time), ("stop_time", stop_time), ("step_size", step_size)):
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+                raise ValueError(f"{label} must be a finite number, got {v!r}")
+        if step_size <= 0:
+            raise ValueError(f"step_size must be > 0 s, got {step_size}")
+        if stop_time <= start_time:
+            raise ValueError(f"stop_time {stop_time} must exceed start_time {start_time}")
+        n_float = (stop_time - start_time) / step_size
+        n_steps = int(round(n_float))
+        if abs(n_float - n_steps) > 1e-9 * max(1.0, n_float):
+            raise ValueError(f"(stop_time - start_time) / step_size = {n_float} is not an integer")
+        parameters = parameters or {}
+        for inst in parameters:
+            if inst not in self.components:
+                raise UnknownVariableError(f"parameters given for unknown FMU instance {inst!r}")
+        self._check_drivers()
+        order = self._order()
+        transfers = self._transfers(order)
+        rec_names: list[str] = []
+        for r in record:
+            comp, names = self.resolve(r)
+            rec_names += [f"{comp.name}.{n}" for n in names]
+        rec_groups: dict[str, list[tuple[int, int]]] = defaultdict(list)
+        for col, q in enumerate(rec_names):
+            c, v = q.split(".", 1)
+            var = self.components[c].variable(v)
+            if var.type != "Real":
+                raise ConnectionError_(f"only Real variables can be recorded; {q} is {var.type}")
+            rec_groups[c].append((var.valueReference, col))
+        rec_bufs = {c: ((ctypes.c_uint * len(g))(*[p[0] for p in g]), (ctypes.c_double * len(g))(),
+                        np.array([p[1] for p in g])) for c, g in rec_groups.items()}
+
+        times = start_time + step_size * np.arange(n_steps + 1)
+        prof_groups: dict[str, list[tuple[int, np.ndarray]]] = defaultdict(list)
+        for target, prof in self.profiles:
+            c, v = target.split(".", 1)
+            prof_groups[c].append((self.components[c].variable(v).valueReference, prof.sample(times)))
+        prof_bufs = {c: ((ctypes.c_uint * len(g))(*[p[0] for p in g]), (ctypes.c_double * len(g))(),
+                         np.stack([p[1] for p in g], axis=1)) for c, g in prof_groups.items()}
+
+        data = np.zeros((n_steps + 1, len(rec_names)))
+        instantiated: list[Component] = []
+        try:
+            for comp in self.components.values():
+                comp.slave.instantiate(callbacks=self._callbacks)
+                instantiated.append(comp)
+                self._set_parameters(comp, parameters.get(comp.name, {}))
+                self._call(comp, "setupExperiment", None, start_time, stop_time)
+                self._call(comp, "enterInitializationMode")
+
+            def exchange(k: int) -> None:
+                for c, (vr, buf, values) in prof_bufs.items():
+                    buf[:] = values[k]
+                    self._call(self.components[c], "fmi2SetReal", self.components[c].slave.component,
+                               vr, len(buf), buf)
+                for tr in transfers:
+                    self._call(tr.src, "fmi2GetReal", tr.src.slave.component, tr.src_vr, tr.n, tr.buf)
+                    self._call(tr.dst, "fmi2SetReal", tr.dst.slave.component, tr.dst_vr, tr.n, tr.buf)
+
+            def sample(k: int) -> None:
+                for c, (vr, buf, cols) in rec_bufs.items():
+                    self._call(self.components[c], "fmi2GetReal", self.components[c].slave.component,
+                               vr, len(buf), buf)
+                    data[k, cols] = buf[:]
+
+            exchange(0)
+            for comp in self.components.values():
+                self._call(comp, "exitInitializationMode")
+            sample(0)
+            comps = list(self.components.values())
+            for k in range(n_steps):
+                for comp in comps:
+                    self._call(comp, "doStep", float(times[k]), step_size)
+                exchange(k + 1)
+                sample(k + 1)
+            for comp in comps:
+                self._call(comp, "terminate")
+        finally:
+            for comp in instantiated:  # the library stays loaded so the same set can run again
+                comp.slave.fmi2FreeInstance(comp.slave.component)
+        dtype = [("time", "f8")] + [(n, "f8") for n in rec_names]
+        out = np.zeros(n_steps + 1, dtype=dtype)
+        out["time"] = times
+        for i, n in enumerate(rec_names):
+            out[n] = data[:, i]
+        return out
+
+    def held_signals(self) -> set[str]:
+        """Qualified variables whose value is held over each step (inputs and connected outputs)."""
+        held = {dst for _, dst in self.connections} | {src for src, _ in self.connections}
+        held |= {t for t, _ in self.profiles}
+        return held
+
+    def close(self) -> None:
+        """Unload the FMU libraries and remove the extracted FMU folders."""
+        for comp in self.components.values():
+            comp.slave.freeLibrary()
+            shutil.rmtree(comp.unzip_dir, ignore_errors=True)
+
+    def __enter__(self) -> "CoSimulation":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
