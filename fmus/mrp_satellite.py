@@ -34,16 +34,25 @@ def mrp_kinematics_matrix(s: sp.Matrix) -> sp.Matrix:
     return (1 - (s.T * s)[0]) * sp.eye(3) + 2 * skew(s) + 2 * s * s.T
 
 
-def build() -> Model:
-    """The symbolic MRP satellite model."""
+def build(omega_0: tuple[float, float, float] = (0.0, 0.0, 0.0),
+          sigma_0: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> Model:
+    """The symbolic MRP satellite model.
+
+    Parameters
+    ----------
+    omega_0 : 3 floats
+        Default initial body rate, rad/s (FMU parameters ``omega_0[i]``).
+    sigma_0 : 3 floats
+        Default initial MRP attitude (FMU parameters ``sigma_0[i]``).
+    """
     inertia = [Variable(f"I_{a}", "kg.m2", f"Principal moment of inertia about body axis {a}",
                         start=v, min=1e-9) for a, v in zip("xyz", INERTIA_SEED_000)]
     sat_on = Variable("saturation_on", "1", "Saturate the command torque at +-u_max", 0, "Boolean")
     u_max = Variable("u_max", "N.m", "Actuator torque limit per axis (when saturation_on)", 5.0, min=0.0)
     shadow = Variable("shadow_switching", "1",
                       "Switch to the MRP shadow set (sigma -> -sigma/|sigma|^2) when |sigma| > 1", 0, "Boolean")
-    xw = states("omega", 3, "rad/s", "body angular rate about body axis {i}")
-    xs = states("sigma", 3, "1", "modified Rodrigues parameter {i} (body w.r.t. reference)")
+    xw = states("omega", 3, "rad/s", "body angular rate about body axis {i}", omega_0)
+    xs = states("sigma", 3, "1", "modified Rodrigues parameter {i} (body w.r.t. reference)", sigma_0)
     u = vector("u", 3, "N.m", "Commanded control torque about body axis {i}")
     wd = vector("w_d", 3, "N.m", "Disturbance torque about body axis {i}")
 

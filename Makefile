@@ -1,0 +1,55 @@
+# satfmu: `make demo` and `make test` do all set-up on a fresh Python 3.11 machine.
+PYTHON ?= python3.11
+VENV := .venv
+PY := $(VENV)/bin/python
+SATFMU := $(VENV)/bin/satfmu
+FMU_DIR := build/fmus
+SCENARIOS := mrp_200deg mrp_200deg_sat mrp_320deg_sat mrp_eq44
+
+.PHONY: demo test test-all build validate bench clean system-deps
+
+# Debian's libtbb12 is needed by the ecos co-simulation host (ecospy); installed once, guarded.
+system-deps: $(VENV)/.system-deps
+$(VENV)/.system-deps:
+	@mkdir -p $(VENV)
+	@if ldconfig -p 2>/dev/null | grep -q 'libtbb.so.12'; then :; \
+	elif command -v apt-get >/dev/null 2>&1 && [ "$$(id -u)" = 0 ]; then \
+	  (apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq libtbb12 >/dev/null) \
+	  || { echo "error: apt-get could not install libtbb12 (needed by the ecos FMU host)"; exit 1; }; \
+	else echo "error: libtbb12 is missing; install Debian's libtbb12 (needed by the ecos FMU host)"; exit 1; fi
+	@command -v gcc >/dev/null || { echo "error: gcc is needed to compile the native FMUs"; exit 1; }
+	@touch $@
+
+$(VENV)/.installed: pyproject.toml | system-deps
+	@command -v $(PYTHON) >/dev/null || { echo "error: $(PYTHON) not found (Python 3.11 is required)"; exit 1; }
+	test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install -q --upgrade pip
+	$(PY) -m pip install -q -e '.[test]'
+	@# ecospy's wheel ships its host binary without the executable bit
+	chmod +x $$($(PY) -c "import importlib.util, pathlib; print(pathlib.Path(importlib.util.find_spec('ecospy').origin).parent / 'binaries' / 'ecos')")
+	@touch $@
+
+build: $(VENV)/.installed
+	$(SATFMU) build --dest $(FMU_DIR)
+
+validate: build
+	$(SATFMU) validate --fmu-dir $(FMU_DIR)
+
+demo: build
+	$(SATFMU) validate --fmu-dir $(FMU_DIR)
+	$(SATFMU) run $(SCENARIOS) --fmu-dir $(FMU_DIR) --out results --summary results/summary.json
+	$(SATFMU) run mrp_200deg --backend python --fmu-dir $(FMU_DIR) --out results
+	$(PY) bench/cosim_speed.py
+	@echo "plots, CSV and summaries are in results/"
+
+test: build
+	$(PY) -m pytest -q
+
+test-all: build
+	$(PY) -m pytest -q -m "slow or not slow"
+
+bench: build
+	$(PY) bench/cosim_speed.py
+
+clean:
+	rm -rf build results .pytest_cache

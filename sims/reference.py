@@ -1,0 +1,104 @@
+"""In-process reference simulations of a plant + state-feedback controller loop.
+
+Both run the SAME sampled-data loop as the co-simulation master: the controller
+output is computed from the plant state at each communication point and held over
+the step. They evaluate the same generated code as the FMUs
+(:func:`fmus.codegen.load_python`), so they check the FMU machinery (wrapper,
+master, integrator), not a second copy of the dynamics.
+
+- :func:`closed_loop_solve_ivp`: scipy's adaptive RK45/DOP853 at tight tolerances, the
+  reference an FMU run is compared with;
+- :func:`closed_loop_rk4`: the fixed-step RK4 of the pythonfmu slave, in a plain loop
+  (the in-process baseline of ``bench/cosim_speed.py``).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.integrate import solve_ivp
+
+from fmus import codegen
+from fmus.model import Model
+from fmus.pyslave import rk4_step, substep_count
+
+
+@dataclass
+class LoopResult:
+    """Trajectory at the communication points: time (s), plant states, controller outputs."""
+
+    t: np.ndarray
+    x: np.ndarray
+    u: np.ndarray
+
+
+class _Loop:
+    def __init__(self, plant: Model, controller: Model, plant_params: dict | None,
+                 controller_params: dict | None, command_inputs: list[str]) -> None:
+        self.plant, self.ctrl = codegen.load_python(plant), codegen.load_python(controller)
+        self.pp = plant.parameter_vector(plant_params).tolist()
+        self.cp = controller.parameter_vector(controller_params).tolist()
+        self.x0 = plant.initial_state(np.array(self.pp))
+        names = [v.name for v in plant.inputs]
+        self.u_index = [names.index(n) for n in command_inputs]
+        self.nu = len(names)
+        state_names = [s.variable.name for s in plant.states]
+        self.meas_index = [state_names.index(v.name) for v in controller.inputs]
+
+    def command(self, x: np.ndarray) -> tuple[list[float], np.ndarray]:
+        y = self.ctrl.outputs(0.0, [], [float(x[i]) for i in self.meas_index], self.cp)
+        u = [0.0] * self.nu
+        for i, v in zip(self.u_index, y):
+            u[i] = v
+        return u, np.array(y)
+
+
+def closed_loop_solve_ivp(plant: Model, controller: Model, stop_time: float, step_size: float,
+                          plant_params: dict | None = None, controller_params: dict | None = None,
+                          command_inputs: list[str] | None = None, rtol: float = 1e-10,
+                          atol: float = 1e-12, method: str = "DOP853") -> LoopResult:
+    """Sampled-data closed loop integrated by scipy between communication points.
+
+    ``command_inputs`` names the plant inputs that receive the controller outputs
+    (default: the plant inputs named like the controller outputs). Other plant inputs
+    are 0. The plant's post-step map is applied at communication points only, so use
+    it with models whose post_step is the identity in the run (e.g. no shadow switching).
+    """
+    loop = _Loop(plant, controller, plant_params, controller_params,
+                 command_inputs or [o.variable.name for o in controller.outputs])
+    n = int(round(stop_time / step_size))
+    t = step_size * np.arange(n + 1)
+    xs, us = [loop.x0], []
+    x = loop.x0
+    for k in range(n):
+        u, y = loop.command(x)
+        us.append(y)
+        sol = solve_ivp(lambda tt, xx: loop.plant.derivatives(tt, xx, u, loop.pp), (t[k], t[k + 1]), x,
+                        method=method, rtol=rtol, atol=atol)
+        if not sol.success:
+            raise RuntimeError(f"solve_ivp failed at t = {t[k]} s: {sol.message}")
+        x = np.array(loop.plant.post_step(t[k + 1], sol.y[:, -1], loop.pp))
+        xs.append(x)
+    us.append(loop.command(x)[1])
+    return LoopResult(t, np.array(xs), np.array(us))
+
+
+def closed_loop_rk4(plant: Model, controller: Model, stop_time: float, step_size: float,
+                    plant_params: dict | None = None, controller_params: dict | None = None,
+                    command_inputs: list[str] | None = None) -> LoopResult:
+    """The same loop with the FMUs' fixed-step RK4 (substeps from n_substeps and h_max)."""
+    loop = _Loop(plant, controller, plant_params, controller_params,
+                 command_inputs or [o.variable.name for o in controller.outputs])
+    names = [v.name for v in plant.parameters]
+    n_sub = substep_count(step_size, loop.pp[names.index("n_substeps")], loop.pp[names.index("h_max")])
+    n = int(round(stop_time / step_size))
+    t = step_size * np.arange(n + 1)
+    xs, us = [loop.x0], []
+    x = list(loop.x0)
+    for k in range(n):
+        u, y = loop.command(np.asarray(x))
+        us.append(y)
+        x = rk4_step(loop.plant, t[k], x, u, loop.pp, step_size, n_sub)
+        xs.append(x)
+    us.append(loop.command(np.asarray(x))[1])
+    return LoopResult(t, np.array(xs), np.array(us))
