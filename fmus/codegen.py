@@ -118,9 +118,16 @@ def python_source(model: Model) -> str:
 
 
 def load_python(model: Model) -> ModuleType:
-    """Compile :func:`python_source` into a module object (for in-process simulation)."""
+    """Compile :func:`python_source` into a module object (for in-process simulation).
+
+    The module is cached on the model object: code generation runs once per model.
+    """
+    cached = model.__dict__.get("_python_module")
+    if cached is not None:
+        return cached
     mod = ModuleType(f"satfmu_generated_{model.name}")
     exec(compile(python_source(model), f"<generated {model.name}>", "exec"), mod.__dict__)  # noqa: S102
+    model.__dict__["_python_module"] = mod
     return mod
 
 

@@ -108,6 +108,10 @@ SLAVE_SCRIPT = '''"""pythonfmu slave of the satfmu model {name!r} (generated; do
 import {generated} as _generated
 from satfmu_pyslave import SatfmuSlave
 
+# A reference of this module's namespace to itself: pythonfmu 0.7.0 releases one reference
+# to it per fmi2Instantiate before SatfmuSlave.__init__ gives it back (see satfmu_pyslave).
+_NAMESPACE = globals()
+
 
 class {cls}(SatfmuSlave):
     """{description}"""

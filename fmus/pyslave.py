@@ -58,6 +58,26 @@ def rk4_step(gen: ModuleType, t: float, x: Sequence[float], u: Sequence[float], 
     return x
 
 
+def _compensate_pythonfmu_refcount(module_name: str) -> None:
+    """Balance a reference pythonfmu 0.7.0 releases too often.
+
+    pythonfmu's ``findClass`` (src/pythonfmu/PySlaveInstance.cpp, run by every
+    fmi2Instantiate) calls ``Py_DECREF`` on the borrowed ``PyModule_GetDict`` of the slave
+    script's module. A script whose module dict has few other owners (ours defines no
+    functions) is freed by the second fmi2Instantiate in a process, and the host crashes.
+    The generated script holds one reference to its own namespace (so the first release
+    does not free it), and each instance gives back the reference ``findClass`` took, so
+    the count stays balanced however many instances a process creates. Outside pythonfmu
+    (the builder, tests) the extra reference only keeps that namespace alive.
+    """
+    import ctypes
+    import sys
+
+    module = sys.modules.get(module_name)
+    if module is not None:
+        ctypes.pythonapi.Py_IncRef(ctypes.py_object(module.__dict__))
+
+
 class FmuCallError(RuntimeError):
     """An FMI call was rejected (bad value, wrong call order); the message names the variable."""
 
@@ -69,6 +89,7 @@ class SatfmuSlave(Fmi2Slave):
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__(**kwargs)
+        _compensate_pythonfmu_refcount(type(self).__module__)
         gen = self.generated
         self.modelName = type(self).__name__
         self._table = gen.VARIABLES

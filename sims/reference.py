@@ -45,12 +45,12 @@ class _Loop:
         state_names = [s.variable.name for s in plant.states]
         self.meas_index = [state_names.index(v.name) for v in controller.inputs]
 
-    def command(self, x: np.ndarray) -> tuple[list[float], np.ndarray]:
+    def command(self, x: "np.ndarray | list[float]") -> tuple[list[float], list[float]]:
         y = self.ctrl.outputs(0.0, [], [float(x[i]) for i in self.meas_index], self.cp)
         u = [0.0] * self.nu
         for i, v in zip(self.u_index, y):
             u[i] = v
-        return u, np.array(y)
+        return u, y
 
 
 def closed_loop_solve_ivp(plant: Model, controller: Model, stop_time: float, step_size: float,
@@ -94,11 +94,11 @@ def closed_loop_rk4(plant: Model, controller: Model, stop_time: float, step_size
     n = int(round(stop_time / step_size))
     t = step_size * np.arange(n + 1)
     xs, us = [loop.x0], []
-    x = list(loop.x0)
+    x = loop.x0.tolist()
     for k in range(n):
-        u, y = loop.command(np.asarray(x))
+        u, y = loop.command(x)
         us.append(y)
-        x = rk4_step(loop.plant, t[k], x, u, loop.pp, step_size, n_sub)
+        x = rk4_step(loop.plant, float(t[k]), x, u, loop.pp, step_size, n_sub)
         xs.append(x)
-    us.append(loop.command(np.asarray(x))[1])
+    us.append(loop.command(x)[1])
     return LoopResult(t, np.array(xs), np.array(us))

@@ -1,0 +1,125 @@
+"""The co-simulation master: bad scenarios and wiring fail with specific, named errors."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from sims import scenario
+from sims.master import ConnectionError_, CoSimulation, FmuCallError, UnknownVariableError
+from sims.profiles import make
+
+
+def _write(tmp: Path, body: str) -> Path:
+    p = tmp / "s.toml"
+    p.write_text(body)
+    return p
+
+
+PLANT = '{ model = "mrp_satellite" }'
+CONTROLLER = '{ model = "mrp_hinf_published" }'
+BASE = f"""
+name = "t"
+stop_time = 1.0
+step_size = 0.1
+fmus = {{ plant = {PLANT}, controller = {CONTROLLER} }}
+"""
+
+
+def _run(tmp_path: Path, fmu_dir: Path, extra: str):
+    return scenario.run(_write(tmp_path, BASE + extra), fmu_dir)
+
+
+def test_unknown_variable_in_connection_names_it(tmp_path: Path, fmu_dir: Path) -> None:
+    with pytest.raises(UnknownVariableError, match="has no variable 'omegaa'.*omega"):
+        _run(tmp_path, fmu_dir, '[[connections]]\nfrom = "plant.omegaa"\nto = "controller.omega"\n')
+
+
+def test_unknown_instance_and_parameter_named(tmp_path: Path, fmu_dir: Path) -> None:
+    with pytest.raises(UnknownVariableError, match="no FMU instance 'plnt'"):
+        _run(tmp_path, fmu_dir, 'record = ["plnt.omega"]\n')
+    with pytest.raises(UnknownVariableError, match="no variable 'I_q'"):
+        scenario.run(_write(tmp_path, BASE.replace(PLANT, '{ model = "mrp_satellite", parameters = { I_q = 1.0 } }')),
+                     fmu_dir)
+
+
+def test_wrong_parameter_type_and_bad_value(tmp_path: Path, fmu_dir: Path) -> None:
+    body = BASE.replace(CONTROLLER, '{ model = "mrp_hinf_published", parameters = { saturation_on = 1.5 } }')
+    with pytest.raises(ConnectionError_, match="saturation_on is Boolean"):
+        scenario.run(_write(tmp_path, body), fmu_dir)
+    body = BASE.replace(PLANT, '{ model = "mrp_satellite", parameters = { I_x = -3.0 } }')
+    # the FMU itself rejects the value; its log line (naming I_x) is in the exception
+    with pytest.raises(FmuCallError, match="I_x"):
+        scenario.run(_write(tmp_path, body), fmu_dir)
+
+
+def test_causality_and_double_drive(tmp_path: Path, fmu_dir: Path) -> None:
+    with pytest.raises(ConnectionError_, match="is a input, not an output|not an output"):
+        _run(tmp_path, fmu_dir, '[[connections]]\nfrom = "plant.u"\nto = "controller.omega"\n')
+    twice = ('[[connections]]\nfrom = "controller.u"\nto = "plant.u"\n'
+             '[[profiles]]\nto = "plant.u[1]"\nkind = "constant"\nvalue = 1.0\n')
+    with pytest.raises(ConnectionError_, match=r"plant.u\[1\] is driven twice"):
+        _run(tmp_path, fmu_dir, twice)
+
+
+def test_scenario_file_errors(tmp_path: Path) -> None:
+    with pytest.raises(scenario.ScenarioError, match="no scenario file"):
+        scenario.load("does_not_exist")
+    with pytest.raises(scenario.ScenarioError, match="unknown keys"):
+        scenario.load(_write(tmp_path, BASE + "stoptime = 3\n"))
+    with pytest.raises(scenario.ScenarioError, match="invalid TOML"):
+        scenario.load(_write(tmp_path, "name = \n"))
+    with pytest.raises(scenario.ScenarioError, match="kind must be one of"):
+        scenario.load(_write(tmp_path, BASE + '[[metrics]]\nname = "x"\nkind = "maximum"\nsignals = ["plant.phi"]\n'))
+    with pytest.raises(scenario.ScenarioError, match="needs 'tolerance'"):
+        scenario.load(_write(tmp_path, BASE + '[[metrics]]\nname = "x"\nkind = "settling_time"\nsignals = ["plant.phi"]\n'))
+
+
+def test_missing_fmu_file(tmp_path: Path) -> None:
+    with pytest.raises(FileNotFoundError, match="satfmu build"):
+        scenario.run(_write(tmp_path, BASE), tmp_path / "empty")
+
+
+def test_time_grid_checks(fmu_dir: Path) -> None:
+    with CoSimulation({"plant": fmu_dir / "mrp_satellite.fmu"}) as sim:
+        with pytest.raises(ValueError, match="not an integer"):
+            sim.run(1.0, 0.3)
+        with pytest.raises(ValueError, match="step_size must be > 0"):
+            sim.run(1.0, 0.0)
+        with pytest.raises(ValueError, match="finite"):
+            sim.run(float("nan"), 0.1)
+
+
+def test_algebraic_loop_is_refused(fmu_dir: Path) -> None:
+    # Two direct-feedthrough controllers feeding each other: u depends on omega, omega on u.
+    fmu = fmu_dir / "mrp_hinf_published.fmu"
+    with CoSimulation({"a": fmu, "b": fmu}) as sim:
+        sim.connect("a.u", "b.omega")
+        sim.connect("b.u", "a.omega")
+        with pytest.raises(ConnectionError_, match="algebraic loop"):
+            sim.run(1.0, 0.1)
+
+
+def test_initial_outputs_propagate_before_the_first_step(fmu_dir: Path) -> None:
+    # At t = 0 the recorded command is already the law at the initial state (6.216 N m on u2).
+    with CoSimulation({"plant": fmu_dir / "mrp_satellite.fmu",
+                       "controller": fmu_dir / "mrp_hinf_published.fmu"}) as sim:
+        sim.connect("plant.omega", "controller.omega")
+        sim.connect("plant.sigma", "controller.sigma")
+        sim.connect("controller.u", "plant.u")
+        params = {"plant": {"sigma_0[1]": 0.5992, "sigma_0[2]": -0.7976, "sigma_0[3]": 0.6517}}
+        res = sim.run(0.2, 0.1, parameters=params, record=["controller.u", "plant.sigma"])
+        assert res["controller.u[2]"][0] == pytest.approx(6.2161, abs=1e-4)  # eq. 38 at s(0)
+        # the same master can run again with other parameters (library stays loaded)
+        res2 = sim.run(0.2, 0.1, record=["controller.u"])
+        assert np.all(res2["controller.u[2]"] == 0.0)
+
+
+def test_profile_reaches_the_input(fmu_dir: Path) -> None:
+    # Open loop: a constant 1.5 N m on axis 1 gives omega1(T) = 1.5 T / Ix exactly (RK4 is exact here).
+    with CoSimulation({"plant": fmu_dir / "mrp_satellite.fmu"}) as sim:
+        sim.add_profile("plant.w_d[1]", make({"kind": "constant", "value": 1.5}))
+        res = sim.run(2.0, 0.1, record=["plant.omega[1]", "plant.w_d[1]"])
+    assert res["plant.omega[1]"][-1] == pytest.approx(1.5 * 2.0 / 15.0, rel=1e-13)
+    assert np.all(res["plant.w_d[1]"] == 1.5)

@@ -1,0 +1,94 @@
+"""Disturbance profiles and metrics against values computed by hand."""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from sims import metrics as M
+from sims.profiles import ProfileError, make
+
+T = np.arange(0.0, 10.0001, 0.5)
+
+
+def test_step_and_constant() -> None:
+    v = make({"kind": "step", "time": 5.0, "before": 2.0, "after": 0.0}).sample(T)
+    assert v[T < 5].tolist() == [2.0] * 10 and v[T >= 5].tolist() == [0.0] * 11  # eq. 44 switches AT t = 5
+    assert make({"kind": "constant", "value": -1.5}).sample(T).tolist() == [-1.5] * len(T)
+
+
+def test_table_previous_and_linear() -> None:
+    spec = {"kind": "table", "times": [0.0, 2.0, 4.0], "values": [1.0, 3.0, -1.0]}
+    assert make(spec).sample(np.array([0.0, 1.9, 2.0, 3.0, 9.0])).tolist() == [1, 1, 3, 3, -1]
+    lin = make(dict(spec, interpolation="linear")).sample(np.array([1.0, 3.0, 9.0]))
+    assert lin.tolist() == [2.0, 1.0, -1.0]
+
+
+def test_sinusoid() -> None:
+    v = make({"kind": "sinusoid", "amplitude": 2.0, "frequency_Hz": 0.25, "phase_rad": 0.0, "offset": 1.0}).sample(T)
+    assert v == pytest.approx(1 + 2 * np.sin(2 * np.pi * 0.25 * T), abs=1e-15)
+
+
+def test_random_is_seeded_and_held() -> None:
+    spec = {"kind": "random", "seed": 7, "std": 0.3, "hold": 1.0}
+    a, b = make(spec).sample(T), make(spec).sample(T)
+    assert np.array_equal(a, b)  # same seed -> bit-identical
+    assert a[0] == a[1] and a[2] == a[3]  # held for 1 s = two 0.5 s samples
+    assert not np.array_equal(a, make(dict(spec, seed=8)).sample(T))
+    long = make({"kind": "random", "seed": 1, "std": 0.3}, step_size=0.01).sample(np.arange(0, 100, 0.01))
+    assert np.std(long) == pytest.approx(0.3, rel=0.05)  # 10^4 draws: 5 % covers ~7 sigma of the estimator
+
+
+def test_csv_profile(tmp_path: Path) -> None:
+    (tmp_path / "w.csv").write_text("time,wx\n0,0\n10,5\n")
+    v = make({"kind": "csv", "file": "w.csv", "column": "wx"}, base_dir=tmp_path).sample(np.array([0.0, 4.0]))
+    assert v.tolist() == [0.0, 2.0]
+    with pytest.raises(ProfileError, match="needs columns"):
+        make({"kind": "csv", "file": "w.csv", "column": "wy"}, base_dir=tmp_path)
+    with pytest.raises(ProfileError, match="cannot read"):
+        make({"kind": "csv", "file": "nope.csv", "column": "wx"}, base_dir=tmp_path)
+
+
+@pytest.mark.parametrize("spec,message", [
+    ({"kind": "step", "time": 1.0, "before": 0.0}, "missing field 'after'"),
+    ({"kind": "constant", "value": float("nan")}, "finite number"),
+    ({"kind": "table", "times": [0, 0], "values": [1, 2]}, "strictly increasing"),
+    ({"kind": "table", "times": [0, 1], "values": [1]}, "equal non-zero length"),
+    ({"kind": "random", "std": 1.0}, "seed"),
+    ({"kind": "chirp"}, "unknown kind"),
+])
+def test_bad_profiles(spec: dict, message: str) -> None:
+    with pytest.raises(ProfileError, match=message):
+        make(spec, step_size=0.1)
+
+
+def test_l2_ratio_against_closed_form() -> None:
+    # z = 0.5 w exactly -> ratio 0.5 at every T once ||w|| > 0 (rectangle rule on held w,
+    # trapezoid on z: equal for a constant signal).
+    t = np.linspace(0, 10, 101)
+    w = np.ones((101, 2))
+    r = M.l2_ratio_curve(t, 0.5 * w, w)
+    assert math.isnan(r[0]) and np.allclose(r[1:], 0.5, rtol=1e-14)
+    # z = t (ramp), w = 1: ||z||_T^2 = T^3/3 (trapezoid is exact up to O(dt^2) -> 1e-3 rel)
+    r = M.l2_ratio_curve(t, t[:, None], np.ones((101, 1)))
+    assert r[-1] == pytest.approx(math.sqrt(1000 / 3) / math.sqrt(10), rel=1e-3)
+
+
+def test_settling_peak_rms_saturation() -> None:
+    t = np.linspace(0, 10, 1001)
+    y = np.exp(-t)[:, None]
+    assert M.settling_time(t, y, 0.01) == pytest.approx(math.log(100), abs=0.01)  # grid 0.01 s
+    assert M.settling_time(t, np.ones((1001, 1)), 0.5) == math.inf
+    assert M.peak(np.array([[1.0, -3.0], [2.0, 0.5]])) == 3.0
+    assert M.rms(t, np.full((1001, 1), 2.0)) == pytest.approx(2.0, rel=1e-14)
+    u = np.where(t < 2.0, 5.0, 1.0)[:, None]
+    assert M.time_in_saturation(t, u, 5.0) == pytest.approx(2.0, abs=1e-9)  # held samples, dt = 0.01
+
+
+def test_metric_result_bounds() -> None:
+    assert M.MetricResult("a", "peak", 1.0, None, 2.0).passed
+    assert not M.MetricResult("a", "peak", 3.0, None, 2.0).passed
+    assert not M.MetricResult("a", "peak", 1.0, 1.5, None).passed
+    assert not M.MetricResult("a", "l2_ratio", math.nan, None, 2.0).passed  # NaN never passes
