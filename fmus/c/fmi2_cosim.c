@@ -365,6 +365,26 @@ fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t 
 /* ------------------------------------------------------------------ FMU state */
 #define STATE_MASK (ST_INSTANTIATED | ST_INITIALIZATION | ST_STEP_COMPLETE | ST_TERMINATED | ST_ERROR)
 
+/* Why a snapshot cannot be restored (NULL: it can). A snapshot restores the call-order state
+ * too, so a corrupted one (e.g. state 0, which even fmi2Reset refuses) must be rejected; values
+ * must pass the checks fmi2SetReal applies. */
+static const char *bad_data(const Data *d) {
+    int i;
+    if (d->magic != STATE_MAGIC) return "not a state of this FMU";
+    if (d->state != ST_INSTANTIATED && d->state != ST_INITIALIZATION && d->state != ST_STEP_COMPLETE &&
+        d->state != ST_TERMINATED && d->state != ST_ERROR)
+        return "invalid model state";
+    if (!isfinite(d->time) || (d->outputs_valid != 0 && d->outputs_valid != 1)) return "invalid time or flags";
+    for (i = 0; i < NV; i++) {
+        const VariableInfo *v = &VARIABLES[i];
+        double value = v->kind == KIND_PARAMETER ? d->p[v->index] : d->u[v->index];
+        if (v->kind != KIND_OUTPUT && (!isfinite(value) || value < v->min || value > v->max))
+            return "parameter or input value invalid or out of range";
+    }
+    if (d->state != ST_ERROR && !all_finite(d->x, NX)) return "non-finite state outside the error state";
+    return NULL;
+}
+
 fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *FMUstate) {
     Data *copy;
     CHECK(c, "fmi2GetFMUstate", STATE_MASK);
@@ -377,9 +397,10 @@ fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *FMUstate) {
 }
 
 fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate FMUstate) {
+    const char *why;
     CHECK(c, "fmi2SetFMUstate", STATE_MASK);
-    if (!FMUstate || ((Data *)FMUstate)->magic != STATE_MAGIC)
-        return ERROR(inst, "fmi2SetFMUstate: not a state of this FMU");
+    if (!FMUstate) return ERROR(inst, "fmi2SetFMUstate: not a state of this FMU");
+    if ((why = bad_data((const Data *)FMUstate)) != NULL) return ERROR(inst, "fmi2SetFMUstate: %s", why);
     inst->d = *(Data *)FMUstate;
     return fmi2OK;
 }
@@ -412,11 +433,12 @@ fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate FMUstate, fmi2Byt
 fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte serializedState[], size_t size,
                                    fmi2FMUstate *FMUstate) {
     Data tmp;
+    const char *why;
     CHECK(c, "fmi2DeSerializeFMUstate", STATE_MASK);
     if (!serializedState || !FMUstate) return ERROR(inst, "fmi2DeSerializeFMUstate: NULL argument");
     if (size != sizeof(Data)) return ERROR(inst, "fmi2DeSerializeFMUstate: %zu bytes, expected %zu", size, sizeof(Data));
     memcpy(&tmp, serializedState, sizeof(Data));
-    if (tmp.magic != STATE_MAGIC) return ERROR(inst, "fmi2DeSerializeFMUstate: not a state of this FMU");
+    if ((why = bad_data(&tmp)) != NULL) return ERROR(inst, "fmi2DeSerializeFMUstate: %s", why);
     if (!*FMUstate) *FMUstate = malloc(sizeof(Data));
     if (!*FMUstate) return ERROR(inst, "fmi2DeSerializeFMUstate: out of memory");
     memcpy(*FMUstate, &tmp, sizeof(Data));
