@@ -171,6 +171,12 @@ class CoSimulation:
         comp = self.components[inst]
         return comp, comp.expand(var)
 
+    def unit(self, qualified: str) -> str:
+        """Declared unit of one variable (``"1"`` if none)."""
+        comp, names = self.resolve(qualified)
+        var = comp.variable(names[0])
+        return getattr(var, "unit", None) or getattr(getattr(var, "declaredType", None), "unit", None) or "1"
+
     def connect(self, source: str, target: str) -> None:
         """Connect outputs to inputs; base names connect index by index."""
         sc, sv = self.resolve(source)

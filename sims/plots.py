@@ -1,8 +1,9 @@
 """Matplotlib figures of co-simulation results (written as PNG, no display needed)."""
 from __future__ import annotations
 
+import textwrap
 from pathlib import Path
-from typing import Sequence
+from typing import Mapping, Sequence
 
 import matplotlib
 
@@ -11,16 +12,19 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 
-def time_series(res: np.ndarray, panels: Sequence[Sequence[str]], path: Path, title: str = "") -> None:
-    """One panel per group of recorded columns, against time."""
+def time_series(res: np.ndarray, panels: Sequence[Sequence[str]], path: Path, title: str = "",
+                units: Mapping[str, str] | None = None) -> None:
+    """One panel per group of recorded columns, against time; y label = the columns' unit."""
     fig, axes = plt.subplots(len(panels), 1, sharex=True, figsize=(8, 2.2 * len(panels) + 0.6), squeeze=False)
     for ax, cols in zip(axes[:, 0], panels):
         for c in cols:
             ax.plot(res["time"], res[c], label=c)
         ax.grid(True, alpha=0.3)
         ax.legend(loc="upper right", fontsize=7, ncol=min(3, len(cols)))
+        found = sorted({(units or {}).get(c) or "1" for c in cols})
+        ax.set_ylabel(", ".join(found))
     axes[-1, 0].set_xlabel("time (s)")
-    fig.suptitle(title, fontsize=9)
+    fig.suptitle(textwrap.fill(title, 100), fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)

@@ -257,8 +257,10 @@ def run(name_or_path: str | Path, fmu_dir: Path, backend: str = "native",
         write_csv(res, result.files["csv"])
         panels = scenario.data.get("plot", {}).get("panels") or [[r] for r in scenario.data.get("record", [])]
         result.files["plot"] = folder / f"{scenario.name}_{backend}.png"
-        plots.time_series(res, [_columns(sim, p) for p in panels], result.files["plot"],
-                          title=f"{scenario.name}: {scenario.data.get('description', '')}")
+        cols = [_columns(sim, p) for p in panels]
+        units = {c: sim.unit(c) for group in cols for c in group}
+        plots.time_series(res, cols, result.files["plot"],
+                          title=f"{scenario.name}: {scenario.data.get('description', '')}", units=units)
         for mname, curve in curves.items():
             bound = next(m.max for m in mres if m.name == mname)
             f = folder / f"{scenario.name}_{backend}_l2_ratio.png"

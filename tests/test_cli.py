@@ -1,0 +1,46 @@
+"""The satfmu command line: exit codes and messages a user sees."""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from sims.cli import main
+
+
+def test_run_passes_and_writes_summary(fmu_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    code = main(["run", "mrp_eq44", "--fmu-dir", str(fmu_dir), "--out", str(tmp_path),
+                 "--summary", str(tmp_path / "all.json")])
+    out = capsys.readouterr().out
+    assert code == 0 and "PASS mrp_eq44" in out
+    summary = json.loads((tmp_path / "all.json").read_text())
+    assert summary[0]["passed"] and summary[0]["metrics"][0]["value"] < 0.42
+
+
+def test_run_fails_with_exit_1_when_a_bound_is_missed(fmu_dir: Path, tmp_path: Path,
+                                                      capsys: pytest.CaptureFixture) -> None:
+    src = Path(__file__).resolve().parents[1] / "sims" / "scenarios" / "mrp_eq44.toml"
+    strict = tmp_path / "strict.toml"
+    strict.write_text(src.read_text().replace("max = 0.42", "max = 0.2"))  # 0.277 > 0.2
+    assert main(["run", str(strict), "--fmu-dir", str(fmu_dir), "--out", str(tmp_path)]) == 1
+    assert "FAIL" in capsys.readouterr().out
+
+
+def test_errors_exit_2_with_a_message(fmu_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    assert main(["run", "no_such_scenario", "--fmu-dir", str(fmu_dir)]) == 2
+    assert "no scenario file 'no_such_scenario'" in capsys.readouterr().err
+    assert main(["validate", "--fmu-dir", str(tmp_path)]) == 2
+    assert "run `satfmu build` first" in capsys.readouterr().err
+
+
+def test_validate_reports_every_fmu(fmu_dir: Path, capsys: pytest.CaptureFixture) -> None:
+    assert main(["validate", "--fmu-dir", str(fmu_dir)]) == 0
+    assert "4 of 4 FMUs pass" in capsys.readouterr().out
+
+
+def test_list_shows_shipped_scenarios(capsys: pytest.CaptureFixture) -> None:
+    assert main(["list"]) == 0
+    out = capsys.readouterr().out
+    for name in ("mrp_200deg", "mrp_200deg_sat", "mrp_320deg_sat", "mrp_eq44"):
+        assert name in out
