@@ -13,8 +13,10 @@ satfmu's own model description (the same one the native FMU carries).
 """
 from __future__ import annotations
 
+import ctypes
 import math
 import os
+import sys
 from types import ModuleType
 from typing import Any, Callable, Sequence
 from xml.etree.ElementTree import Element, parse
@@ -70,9 +72,6 @@ def _compensate_pythonfmu_refcount(module_name: str) -> None:
     the count stays balanced however many instances a process creates. Outside pythonfmu
     (the builder, tests) the extra reference only keeps that namespace alive.
     """
-    import ctypes
-    import sys
-
     module = sys.modules.get(module_name)
     if module is not None:
         ctypes.pythonapi.Py_IncRef(ctypes.py_object(module.__dict__))
@@ -155,7 +154,17 @@ class SatfmuSlave(Fmi2Slave):
         self.outputs_valid = False
 
     def _reject(self, message: str) -> None:
+        """Log ``message`` and fail the call (pythonfmu 0.7.0 returns fmi2Fatal for any exception).
+
+        On an exception pythonfmu's ``handle_py_exception`` releases its references to this
+        instance, its class and its log queue without forgetting them, and releases them
+        again in fmi2FreeInstance (or fmi2Reset): a host that frees the instance after the
+        fmi2Fatal (as :class:`sims.master.CoSimulation` does) crashed. One extra reference
+        each keeps the count balanced; an instance that is never freed stays alive.
+        """
         self.log(message, Fmi2Status.error, "logStatusError")
+        for obj in (self, type(self), self.log_queue):
+            ctypes.pythonapi.Py_IncRef(ctypes.py_object(obj))
         raise FmuCallError(message)
 
     def _require(self, fn: str, *modes: str) -> None:
@@ -165,6 +174,10 @@ class SatfmuSlave(Fmi2Slave):
     # ------------------------------------------------------------ FMI
     def setup_experiment(self, start_time: float, stop_time: float | None, tolerance: float | None) -> None:
         self._require("fmi2SetupExperiment", "Instantiated")
+        if not math.isfinite(start_time):
+            self._reject("fmi2SetupExperiment: non-finite startTime")
+        if stop_time is not None and not stop_time >= start_time:
+            self._reject(f"fmi2SetupExperiment: stopTime {stop_time:g} before startTime {start_time:g}")
         self.time = float(start_time)
 
     def enter_initialization_mode(self) -> None:
@@ -192,7 +205,10 @@ class SatfmuSlave(Fmi2Slave):
             n = substep_count(h, n_sub, h_max)
             if n > MAX_SUBSTEPS:
                 self._reject(f"fmi2DoStep: step {h:g} s would need {n} RK4 substeps (limit {MAX_SUBSTEPS}); raise h_max")
-            x = rk4_step(self.generated, current_time, self.x, self.u, self.p, h, n)
+            try:
+                x = rk4_step(self.generated, current_time, self.x, self.u, self.p, h, n)
+            except ArithmeticError:  # float ** overflows with OverflowError where C gives inf
+                x = [math.inf]
             if not all(math.isfinite(v) for v in x):
                 self.mode = "Error"
                 self._reject(f"fmi2DoStep: the state became non-finite in the step from t = {current_time:g} s "

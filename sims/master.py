@@ -67,6 +67,8 @@ class Component:
     slave: FMU2Slave
     variables: dict[str, Any]
     log: list[str] = field(default_factory=list)
+    fatal: bool = False
+    """Set when the FMU returned fmi2Fatal: FMI then allows no further call, not even a free."""
 
     def variable(self, name: str) -> Any:
         try:
@@ -238,6 +240,7 @@ class CoSimulation:
         try:
             return getattr(comp.slave, fn)(*args)
         except FMICallException as exc:
+            comp.fatal |= exc.status == 4  # fmi2Fatal
             tail = "; ".join(comp.log[-5:]) or "no log message"
             raise FmuCallError(f"{comp.name} ({comp.path.name}): {exc} -- FMU log: {tail}") from None
 
@@ -313,6 +316,10 @@ class CoSimulation:
         n_steps = int(round(n_float))
         if abs(n_float - n_steps) > 1e-9 * max(1.0, n_float):
             raise ValueError(f"(stop_time - start_time) / step_size = {n_float} is not an integer")
+        dead = [c.name for c in self.components.values() if c.fatal]
+        if dead:
+            raise MasterError(f"FMU instance(s) {dead} returned fmi2Fatal in an earlier run and cannot be "
+                              "used again; create a new CoSimulation")
         parameters = parameters or {}
         for inst in parameters:
             if inst not in self.components:
@@ -346,7 +353,8 @@ class CoSimulation:
         instantiated: list[Component] = []
         try:
             for comp in self.components.values():
-                comp.slave.instantiate(callbacks=self._callbacks)
+                comp.log.clear()
+                comp.slave.instantiate(callbacks=self._callbacks, loggingOn=True)
                 instantiated.append(comp)
                 self._set_parameters(comp, parameters.get(comp.name, {}))
                 self._call(comp, "setupExperiment", None, start_time, stop_time)
@@ -381,7 +389,8 @@ class CoSimulation:
                 self._call(comp, "terminate")
         finally:
             for comp in instantiated:  # the library stays loaded so the same set can run again
-                comp.slave.fmi2FreeInstance(comp.slave.component)
+                if not comp.fatal:  # after fmi2Fatal the instance is abandoned, as FMI 2.0 requires
+                    comp.slave.fmi2FreeInstance(comp.slave.component)
         dtype = [("time", "f8")] + [(n, "f8") for n in rec_names]
         out = np.zeros(n_steps + 1, dtype=dtype)
         out["time"] = times
@@ -398,7 +407,8 @@ class CoSimulation:
     def close(self) -> None:
         """Unload the FMU libraries and remove the extracted FMU folders."""
         for comp in self.components.values():
-            comp.slave.freeLibrary()
+            if not comp.fatal:  # an abandoned instance may still reference its library
+                comp.slave.freeLibrary()
             shutil.rmtree(comp.unzip_dir, ignore_errors=True)
 
     def __enter__(self) -> "CoSimulation":

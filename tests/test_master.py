@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from sims import scenario
-from sims.master import ConnectionError_, CoSimulation, FmuCallError, UnknownVariableError
+from sims.master import ConnectionError_, CoSimulation, FmuCallError, MasterError, UnknownVariableError
 from sims.profiles import make
 
 
@@ -52,6 +52,17 @@ def test_wrong_parameter_type_and_bad_value(tmp_path: Path, fmu_dir: Path) -> No
     # the FMU itself rejects the value; its log line (naming I_x) is in the exception
     with pytest.raises(FmuCallError, match="I_x"):
         scenario.run(_write(tmp_path, body), fmu_dir)
+
+
+def test_pythonfmu_error_is_reported_and_the_host_survives(fmu_dir: Path) -> None:
+    # pythonfmu returns fmi2Fatal for any refused call; the master reports the FMU's own message
+    # (naming I_x), abandons the instance as FMI requires, and refuses to reuse it.
+    for _ in range(3):  # repeated: a use-after-free in the FMU would crash here
+        with CoSimulation({"plant": fmu_dir / "mrp_satellite_py.fmu"}) as sim:
+            with pytest.raises(FmuCallError, match="I_x"):
+                sim.run(1.0, 0.1, parameters={"plant": {"I_x": -1.0}})
+            with pytest.raises(MasterError, match="fmi2Fatal"):
+                sim.run(1.0, 0.1)
 
 
 def test_causality_and_double_drive(tmp_path: Path, fmu_dir: Path) -> None:

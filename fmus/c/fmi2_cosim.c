@@ -365,24 +365,25 @@ fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t 
 /* ------------------------------------------------------------------ FMU state */
 #define STATE_MASK (ST_INSTANTIATED | ST_INITIALIZATION | ST_STEP_COMPLETE | ST_TERMINATED | ST_ERROR)
 
-/* Why a snapshot cannot be restored (NULL: it can). A snapshot restores the call-order state
- * too, so a corrupted one (e.g. state 0, which even fmi2Reset refuses) must be rejected; values
- * must pass the checks fmi2SetReal applies. */
-static const char *bad_data(const Data *d) {
+/* A snapshot restores the call-order state too, so a corrupted one (e.g. state 0, which even
+ * fmi2Reset refuses) is rejected; its parameters and inputs must pass fmi2SetReal's checks. */
+static fmi2Status check_data(Instance *inst, const Data *d, const char *fn) {
     int i;
-    if (d->magic != STATE_MAGIC) return "not a state of this FMU";
+    if (d->magic != STATE_MAGIC) return ERROR(inst, "%s: not a state of this FMU", fn);
     if (d->state != ST_INSTANTIATED && d->state != ST_INITIALIZATION && d->state != ST_STEP_COMPLETE &&
         d->state != ST_TERMINATED && d->state != ST_ERROR)
-        return "invalid model state";
-    if (!isfinite(d->time) || (d->outputs_valid != 0 && d->outputs_valid != 1)) return "invalid time or flags";
+        return ERROR(inst, "%s: corrupted state (invalid model state %d)", fn, d->state);
+    if (!isfinite(d->time) || (d->outputs_valid != 0 && d->outputs_valid != 1))
+        return ERROR(inst, "%s: corrupted state (time %g, flag %d)", fn, d->time, d->outputs_valid);
     for (i = 0; i < NV; i++) {
         const VariableInfo *v = &VARIABLES[i];
-        double value = v->kind == KIND_PARAMETER ? d->p[v->index] : d->u[v->index];
-        if (v->kind != KIND_OUTPUT && (!isfinite(value) || value < v->min || value > v->max))
-            return "parameter or input value invalid or out of range";
+        double value;
+        if (v->kind == KIND_OUTPUT) continue;
+        value = v->kind == KIND_PARAMETER ? d->p[v->index] : d->u[v->index];
+        if (!isfinite(value) || value < v->min || value > v->max)
+            return ERROR(inst, "%s: corrupted state (variable '%s' = %g)", fn, v->name, value);
     }
-    if (d->state != ST_ERROR && !all_finite(d->x, NX)) return "non-finite state outside the error state";
-    return NULL;
+    return fmi2OK;
 }
 
 fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *FMUstate) {
@@ -397,10 +398,9 @@ fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *FMUstate) {
 }
 
 fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate FMUstate) {
-    const char *why;
     CHECK(c, "fmi2SetFMUstate", STATE_MASK);
     if (!FMUstate) return ERROR(inst, "fmi2SetFMUstate: not a state of this FMU");
-    if ((why = bad_data((const Data *)FMUstate)) != NULL) return ERROR(inst, "fmi2SetFMUstate: %s", why);
+    if (check_data(inst, (const Data *)FMUstate, "fmi2SetFMUstate") != fmi2OK) return fmi2Error;
     inst->d = *(Data *)FMUstate;
     return fmi2OK;
 }
@@ -433,12 +433,11 @@ fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate FMUstate, fmi2Byt
 fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte serializedState[], size_t size,
                                    fmi2FMUstate *FMUstate) {
     Data tmp;
-    const char *why;
     CHECK(c, "fmi2DeSerializeFMUstate", STATE_MASK);
     if (!serializedState || !FMUstate) return ERROR(inst, "fmi2DeSerializeFMUstate: NULL argument");
     if (size != sizeof(Data)) return ERROR(inst, "fmi2DeSerializeFMUstate: %zu bytes, expected %zu", size, sizeof(Data));
     memcpy(&tmp, serializedState, sizeof(Data));
-    if ((why = bad_data(&tmp)) != NULL) return ERROR(inst, "fmi2DeSerializeFMUstate: %s", why);
+    if (check_data(inst, &tmp, "fmi2DeSerializeFMUstate") != fmi2OK) return fmi2Error;
     if (!*FMUstate) *FMUstate = malloc(sizeof(Data));
     if (!*FMUstate) return ERROR(inst, "fmi2DeSerializeFMUstate: out of memory");
     memcpy(*FMUstate, &tmp, sizeof(Data));

@@ -1,0 +1,735 @@
+"""Robustness of the four FMUs against misuse, through fmpy's low-level FMI 2.0 API.
+
+Each case drives ``FMU2Slave`` directly and collects the FMU's log through its own
+``fmi2CallbackFunctions.logger``, so it can check the returned status *and* the text.
+
+Native FMUs (``fmus/c/fmi2_cosim.c``) reject a bad call with fmi2Error, log a
+message naming the variable or function (whether or not logging is on), change
+nothing, and stay usable.
+
+pythonfmu FMUs (``fmus/pyslave.py`` behind pythonfmu 0.7.0's C++ layer) behave
+differently, measured here:
+
+* every rejected call returns **fmi2Fatal**, not fmi2Error: pythonfmu turns any
+  Python exception into fmi2Fatal (its ``handle_py_exception``);
+* the log holds satfmu's message (status fmi2Error, the same text as the native
+  one, without the ``fmi2SetReal:`` prefix for setters) followed by pythonfmu's own
+  fmi2Fatal line ``Fatal py exception encountered: [setReal] PyObject_CallMethod ...``;
+* messages reach the logger only if logging is on (``loggingOn=fmi2True`` or
+  fmi2SetDebugLogging): pythonfmu filters every message, errors included;
+* unknown value references and wrong types are caught by pythonfmu itself
+  (KeyError/TypeError), so there is no satfmu message, only pythonfmu's line;
+* the GUID passed to fmi2Instantiate is not checked;
+* FMI 2.0 allows no further call to an instance after fmi2Fatal, so these tests
+  never call a pythonfmu instance again after one (not even fmi2FreeInstance, see
+  ``Instance.free``); continuing after an error is tested on the native FMUs only.
+"""
+from __future__ import annotations
+
+import ctypes
+import math
+import random
+import shutil
+import struct
+import subprocess
+import sys
+import textwrap
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Iterator
+
+import pytest
+from fmpy import calloc, extract, free, read_model_description
+from fmpy.fmi1 import FMICallException
+from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
+                       fmi2CallbackFunctions, fmi2CallbackLoggerTYPE, fmi2Error, fmi2Fatal, fmi2FMUstate,
+                       fmi2OK)
+
+
+PLANT, PLANT_PY = "mrp_satellite.fmu", "mrp_satellite_py.fmu"
+CTRL, CTRL_PY = "mrp_hinf_published.fmu", "mrp_hinf_published_py.fmu"
+ALL = (PLANT, PLANT_PY, CTRL, CTRL_PY)
+NATIVE = (PLANT, CTRL)
+PYTHON = (PLANT_PY, CTRL_PY)
+# (input to abuse, output to watch) per model
+IO = {"mrp_satellite": ("u[1]", "omega[1]"), "mrp_hinf_published": ("omega[1]", "u[1]")}
+STATE_MAGIC = 0x5A7F3D01  # fmi2_cosim.c: first field of every native FMU state
+ST_STEP_COMPLETE = 1 << 2  # fmi2_cosim.c: ModelState after fmi2ExitInitializationMode
+BLOW_UP = {"h_max": 1e6, "omega_0[1]": 1e3, "omega_0[2]": 1e3, "omega_0[3]": 1e3}
+
+# pythonfmu instances that returned fmi2Fatal: kept referenced (with their callbacks) and never
+# called again, as FMI 2.0 requires
+_ABANDONED: list[Any] = []
+
+
+@dataclass
+class Fmu:
+    """One built FMU, extracted once per session."""
+
+    file: str
+    path: Path
+    md: Any
+    unzip: str  # fmpy.extract's folder (a str or a Path, depending on the fmpy version)
+    is_python: bool
+
+    @property
+    def model(self) -> str:
+        return self.md.modelName
+
+    @property
+    def input(self) -> str:
+        return IO[self.model][0]
+
+    @property
+    def output(self) -> str:
+        return IO[self.model][1]
+
+
+class Instance:
+    """An FMU2Slave with a logger that records ``(status, category, message)``."""
+
+    def __init__(self, fmu: Fmu, guid: str | None = None, logging_on: bool | None = None,
+                 instantiate: bool = True) -> None:
+        self.fmu = fmu
+        self.vars = {v.name: v for v in fmu.md.modelVariables}
+        self.log: list[tuple[int, str, str]] = []
+        self.dead = False  # returned fmi2Fatal: no further calls
+        self.live = False
+        # pythonfmu passes messages on only when logging is on; native FMUs log errors regardless
+        self.logging_on = fmu.is_python if logging_on is None else logging_on
+        # what a rejected call returns: see the module docstring
+        self.err = fmi2Fatal if fmu.is_python else fmi2Error
+
+        def logger(env: Any, name: bytes, status: int, category: bytes, message: bytes) -> None:
+            self.log.append((status, (category or b"").decode(errors="replace"),
+                             (message or b"").decode(errors="replace")))
+
+        self._logger = logger
+        self.callbacks = fmi2CallbackFunctions()
+        self.callbacks.logger = fmi2CallbackLoggerTYPE(logger)
+        self.callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+        self.callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+        self.slave = FMU2Slave(guid=guid or fmu.md.guid, unzipDirectory=fmu.unzip,
+                               modelIdentifier=fmu.md.coSimulation.modelIdentifier, instanceName="robust")
+        if instantiate:
+            self.instantiate()
+
+    def instantiate(self) -> None:
+        self.slave.instantiate(callbacks=self.callbacks, loggingOn=self.logging_on)
+        self.live = True
+
+    def vr(self, name: str) -> int:
+        return self.vars[name].valueReference
+
+    def text(self, since: int = 0) -> str:
+        return "\n".join(m for _, _, m in self.log[since:])
+
+    def ok(self, fn: str, *args: Any) -> Any:
+        """Call ``FMU2Slave.<fn>``; it must succeed (fmpy raises on fmi2Error/fmi2Fatal)."""
+        return getattr(self.slave, fn)(*args)
+
+    def attempt(self, fn: str, *args: Any) -> tuple[int, str]:
+        """Call ``FMU2Slave.<fn>``; return its status and the log lines it produced."""
+        n = len(self.log)
+        try:
+            getattr(self.slave, fn)(*args)
+            status = fmi2OK
+        except FMICallException as exc:
+            status = exc.status
+        if status == fmi2Fatal:
+            self.dead = True
+        return status, self.text(n)
+
+    def rejected(self, fn: str, *args: Any, contains: tuple[str, ...] = ()) -> str:
+        """Call ``fn``, which must be rejected with :attr:`err` and log every string of ``contains``."""
+        status, text = self.attempt(fn, *args)
+        # native: fmi2Error (the FMU stays usable); pythonfmu 0.7.0: fmi2Fatal for any exception
+        assert status == self.err, f"{fn}{args}: status {status}, log: {text!r}"
+        for part in contains:
+            # the message must say what was wrong: the variable, the function or the state
+            assert part in text, f"{part!r} not in the log of {fn}{args}: {text!r}"
+        return text
+
+    def get(self, names: list[str]) -> list[float]:
+        return self.ok("getReal", [self.vr(n) for n in names])
+
+    def outputs(self) -> list[float]:
+        return self.get([v.name for v in self.fmu.md.modelVariables if v.causality == "output"])
+
+    def set_value(self, name: str, value: Any) -> None:
+        vtype = self.vars[name].type
+        if vtype == "Integer":
+            self.ok("setInteger", [self.vr(name)], [int(value)])
+        elif vtype == "Boolean":
+            self.ok("setBoolean", [self.vr(name)], [bool(value)])
+        else:
+            self.ok("setReal", [self.vr(name)], [float(value)])
+
+    def initialize(self, params: dict[str, Any] | None = None, exit_init: bool = True) -> None:
+        self.ok("setupExperiment", None, 0.0)
+        self.ok("enterInitializationMode")
+        for name, value in (params or {}).items():
+            self.set_value(name, value)
+        if exit_init:
+            self.ok("exitInitializationMode")
+
+    def free(self) -> None:
+        """fmi2FreeInstance, unless the instance returned fmi2Fatal.
+
+        After fmi2Fatal FMI 2.0 allows no call at all, and for exceptions pythonfmu raises
+        itself (unknown value reference, wrong type, corrupt serialized state) fmi2FreeInstance
+        would release its Python objects a second time. The library stays loaded (as in
+        sims.master): unloading pythonfmu's library while other instances exist is not needed here.
+        """
+        if self.dead:
+            _ABANDONED.append(self)
+        elif self.live:
+            self.slave.fmi2FreeInstance(self.slave.component)
+        self.live = False
+
+
+@pytest.fixture(scope="session")
+def fmus(fmu_dir: Path) -> Iterator[dict[str, Fmu]]:
+    """The four FMUs, extracted once per session.
+
+    ``fmu_dir`` (tests/conftest.py) is the session's ``sims.catalog.build_all`` output in a
+    pytest tmp dir, built from the current tree and shared with the other test modules.
+    """
+    out = {}
+    for name in ALL:
+        path = fmu_dir / name
+        out[name] = Fmu(name, path, read_model_description(str(path)), extract(str(path)),
+                        path.stem.endswith("_py"))
+    yield out
+    for fmu in out.values():  # loaded libraries stay mapped; only the files go
+        shutil.rmtree(fmu.unzip, ignore_errors=True)
+
+
+@pytest.fixture
+def make(fmus: dict[str, Fmu]):
+    """Factory of :class:`Instance` objects, freed at teardown."""
+    made: list[Instance] = []
+
+    def _make(file: str, **kwargs: Any) -> Instance:
+        inst = Instance(fmus[file], **kwargs)
+        made.append(inst)
+        return inst
+
+    yield _make
+    for inst in made:
+        inst.free()
+
+
+# ----------------------------------------------------------------------------- 1. inputs
+@pytest.mark.parametrize("bad", [math.nan, math.inf, -math.inf], ids=["nan", "+inf", "-inf"])
+@pytest.mark.parametrize("file", ALL)
+def test_non_finite_input_is_rejected_and_old_value_kept(make, file: str, bad: float) -> None:
+    """A non-finite input value is refused and changes nothing.
+
+    pythonfmu: fmi2Fatal with satfmu's message ``variable 'u[1]' set to non-finite value
+    nan`` and pythonfmu's ``[setReal]`` line; the instance is not used afterwards.
+    """
+    inst = make(file)
+    name = inst.fmu.input
+    inst.initialize()
+    inst.ok("setReal", [inst.vr(name)], [0.25])
+    before = inst.outputs()
+    text = inst.rejected("setReal", [inst.vr(name)], [bad], contains=(f"'{name}'", "non-finite"))
+    if inst.fmu.is_python:
+        # pythonfmu's own fmi2Fatal line names the FMI call that failed
+        assert "[setReal]" in text
+        return
+    # the C wrapper validates before storing: the previous value is still there, bit for bit
+    assert inst.get([name]) == [0.25]
+    # the rejected call did not touch the inputs, so the outputs are unchanged exactly
+    assert inst.outputs() == before
+    inst.ok("doStep", 0.0, 0.1)
+    inst.ok("doStep", 0.1, 0.1)
+    if inst.fmu.model == "mrp_satellite":
+        # only u[1] = 0.25 N.m acts on a body at rest: omega[1]' = u / I_x with I_x = 15 kg m^2 and
+        # omega[2] = omega[3] = 0 (no gyroscopic coupling), a constant derivative that RK4
+        # integrates exactly up to the rounding of ~20 substeps: rel 1e-12 is ~1e4 ulp of margin
+        assert inst.get(["omega[1]"])[0] == pytest.approx(0.25 / 15.0 * 0.2, rel=1e-12)
+    else:
+        # the controller is static (no states): same inputs give the same outputs, exactly
+        assert inst.outputs() == before
+
+
+# ----------------------------------------------------------------------------- 2. ranges
+RANGE_CASES = [(PLANT, "I_x", -1.0), (PLANT, "h_max", 2e6), (PLANT, "n_substeps", 0), (CTRL, "u_max", -1.0)]
+RANGE_CASES += [(f.replace(".fmu", "_py.fmu"), n, v) for f, n, v in RANGE_CASES]
+
+
+@pytest.mark.parametrize("file,name,value", RANGE_CASES, ids=lambda x: str(x))
+def test_out_of_range_parameter_is_rejected(make, file: str, name: str, value: float) -> None:
+    """A parameter outside its declared [min, max] is refused (set via setReal or setInteger).
+
+    pythonfmu: fmi2Fatal, satfmu's ``variable 'I_x' = -1 is outside its range [1e-09, inf]``.
+    """
+    inst = make(file)
+    inst.initialize(exit_init=False)
+    var = inst.vars[name]
+    fn = "setInteger" if var.type == "Integer" else "setReal"
+    inst.rejected(fn, [inst.vr(name)], [value], contains=(f"'{name}'", "outside its range"))
+    if inst.fmu.is_python:
+        return
+    start = float(var.start)
+    getter = "getInteger" if var.type == "Integer" else "getReal"
+    # the rejected value was not stored: the parameter still has its declared start value
+    assert inst.ok(getter, [inst.vr(name)]) == [start]
+    inst.ok("exitInitializationMode")
+    inst.ok("doStep", 0.0, 0.1)
+
+
+# ----------------------------------------------------------------------------- 3. types
+TYPE_CASES = [(PLANT, "n_substeps"), (PLANT, "saturation_on"), (CTRL, "saturation_on")]
+TYPE_CASES += [(f.replace(".fmu", "_py.fmu"), n) for f, n in TYPE_CASES]
+
+
+@pytest.mark.parametrize("file,name", TYPE_CASES, ids=lambda x: str(x))
+def test_set_real_on_integer_or_boolean_is_rejected(make, file: str, name: str) -> None:
+    """fmi2SetReal on the value reference of an Integer or Boolean variable is refused.
+
+    pythonfmu: caught by pythonfmu's own ``set_real`` (TypeError): fmi2Fatal with only
+    pythonfmu's line ``... [setReal] ... TypeError('Variable with valueReference=3 is not
+    of type Real!')``, which names the call and the value reference, not the variable.
+    """
+    inst = make(file)
+    inst.initialize(exit_init=False)
+    vr = inst.vr(name)
+    if inst.fmu.is_python:
+        inst.rejected("setReal", [vr], [1.0], contains=("[setReal]", f"valueReference={vr}", "not of type Real"))
+        return
+    inst.rejected("setReal", [vr], [1.0], contains=("fmi2SetReal", f"'{name}'", "another type"))
+    if inst.vars[name].type == "Integer":
+        # unchanged: n_substeps keeps its start value 4
+        assert inst.ok("getInteger", [vr]) == [4]
+    else:
+        # unchanged: saturation_on keeps its start value false
+        assert inst.ok("getBoolean", [vr]) == [False]
+    inst.ok("exitInitializationMode")
+    inst.ok("doStep", 0.0, 0.1)
+
+
+# ----------------------------------------------------------------------------- 4. value references
+@pytest.mark.parametrize("fn", ["setReal", "getReal"])
+@pytest.mark.parametrize("file", ALL)
+def test_unknown_value_reference_is_rejected(make, file: str, fn: str) -> None:
+    """Value reference 10**6 (no such variable) is refused for set and get.
+
+    pythonfmu: KeyError in pythonfmu's ``vars`` lookup: fmi2Fatal with pythonfmu's line
+    ``[setReal] PyObject_CallMethod`` and the exception value ``(1000000,)``.
+    """
+    inst = make(file)
+    inst.initialize()
+    args = ([10**6], [1.0]) if fn == "setReal" else ([10**6],)
+    if inst.fmu.is_python:
+        inst.rejected(fn, *args, contains=(f"[{fn}]", "1000000"))
+        return
+    inst.rejected(fn, *args, contains=(f"fmi2{fn[0].upper()}{fn[1:]}", "unknown value reference 1000000"))
+    inst.ok("doStep", 0.0, 0.1)
+
+
+# ----------------------------------------------------------------------------- 5. doStep arguments
+STEP_CASES = {
+    "h=0": ((0.1, 0.0), "communicationStepSize"),
+    "h<0": ((0.1, -0.1), "communicationStepSize"),
+    "h=nan": ((0.1, math.nan), "communicationStepSize"),
+    "t behind": ((0.0, 0.1), "currentCommunicationPoint"),
+    "t ahead": ((0.2, 0.1), "currentCommunicationPoint"),
+}
+
+
+@pytest.mark.parametrize("case", list(STEP_CASES))
+@pytest.mark.parametrize("file", ALL)
+def test_bad_do_step_is_rejected_and_fmu_still_steps(make, file: str, case: str) -> None:
+    """doStep with a step size that is not finite and > 0, or at a communication point
+    other than the FMU time (0.1 s here, after one step), is refused.
+
+    pythonfmu: fmi2Fatal with the same satfmu message as the native FMU.
+    """
+    inst = make(file)
+    inst.initialize()
+    inst.ok("doStep", 0.0, 0.1)
+    args, what = STEP_CASES[case]
+    inst.rejected("doStep", *args, contains=("fmi2DoStep", what))
+    if inst.fmu.is_python:
+        return
+    # nothing advanced: the FMU time is still 0.1 s, so steps from there succeed
+    inst.ok("doStep", 0.1, 0.1)
+    inst.ok("doStep", 0.2, 0.1)
+
+
+# ----------------------------------------------------------------------------- 6. call order
+def _order_case(inst: Instance, case: str) -> str:
+    """Bring ``inst`` to the state of ``case``, make the illegal call and recover (native)."""
+    name = inst.fmu.input
+    if case == "doStep before initialization":
+        text = inst.rejected("doStep", 0.0, 0.1, contains=("fmi2DoStep", "Instantiated"))
+    elif case == "getReal in Instantiated":
+        text = inst.rejected("getReal", [inst.vr(inst.fmu.output)], contains=("must not be called in state Instantiated",))
+    elif case == "exit without enter":
+        text = inst.rejected("exitInitializationMode", contains=("fmi2ExitInitializationMode", "Instantiated"))
+    elif case == "fixed parameter after init":
+        inst.initialize()
+        text = inst.rejected("setReal", [inst.vr("u_max")], [1.0], contains=("'u_max'", "fixed", "StepComplete"))
+    else:  # setReal after terminate
+        inst.initialize()
+        inst.ok("doStep", 0.0, 0.1)
+        inst.ok("terminate")
+        text = inst.rejected("setReal", [inst.vr(name)], [0.5], contains=(f"'{name}'", "Terminated"))
+    return text
+
+
+ORDER_CASES = ["doStep before initialization", "getReal in Instantiated", "exit without enter",
+               "fixed parameter after init", "setReal after terminate"]
+
+
+@pytest.mark.parametrize("case", ORDER_CASES)
+@pytest.mark.parametrize("file", ALL)
+def test_illegal_call_order_is_rejected(make, file: str, case: str) -> None:
+    """Calls outside the FMI 2.0 co-simulation state machine are refused, naming the function
+    (native) or the state, and the instance is unchanged.
+
+    pythonfmu: fmi2Fatal; getReal in Instantiated is reported per variable
+    (``get 'omega[1]' must not be called in state Instantiated``).
+    """
+    inst = make(file)
+    text = _order_case(inst, case)
+    if inst.fmu.is_python:
+        return
+    if case == "getReal in Instantiated":
+        # native messages start with the FMI function's name
+        assert text.startswith("fmi2GetReal")
+    if case == "fixed parameter after init":
+        # the refused value was not stored: u_max still has its start value 5 N.m
+        assert inst.get(["u_max"]) == [5.0]
+        inst.ok("doStep", 0.0, 0.1)
+        return
+    if case == "setReal after terminate":
+        inst.ok("reset")
+    # the refused call changed no state: the normal sequence still works from here
+    inst.initialize()
+    inst.ok("doStep", 0.0, 0.1)
+
+
+@pytest.mark.parametrize("file", ALL)
+def test_bad_setup_experiment_is_rejected(make, file: str) -> None:
+    """fmi2SetupExperiment with a non-finite start time is refused (pythonfmu: fmi2Fatal)."""
+    inst = make(file)
+    inst.rejected("setupExperiment", None, math.nan, contains=("fmi2SetupExperiment", "non-finite startTime"))
+    if not inst.fmu.is_python:
+        # still in Instantiated: a correct set-up and initialization follow
+        inst.initialize()
+        inst.ok("doStep", 0.0, 0.1)
+
+
+@pytest.mark.parametrize("file", ALL)
+def test_errors_logged_only_with_logging_on_for_pythonfmu(make, file: str) -> None:
+    """With loggingOn = false the native FMU still logs errors; pythonfmu logs nothing at all."""
+    inst = make(file, logging_on=False)
+    inst.initialize()
+    text = inst.rejected("setReal", [inst.vr(inst.fmu.input)], [math.nan])
+    if inst.fmu.is_python:
+        # pythonfmu's PyLogger drops every message unless debug logging is on
+        assert text == ""
+    else:
+        # the C wrapper logs fmi2Error messages regardless of loggingOn (only fmi2OK ones are filtered)
+        assert f"'{inst.fmu.input}'" in text
+
+
+# ----------------------------------------------------------------------------- 7. error state
+def test_native_non_finite_state_enters_error_state_until_reset(make) -> None:
+    """A step whose state overflows leaves the native plant in the error state: doStep and
+    setReal are refused, outputs can still be read, and fmi2SetFMUstate or fmi2Reset recover."""
+    inst = make(PLANT)
+    inst.initialize(BLOW_UP)
+    before = inst.ok("getFMUstate")
+    inst.rejected("doStep", 0.0, 1e3, contains=("fmi2DoStep", "non-finite"))
+    # the wrapper advanced its time to 1000 s before detecting the overflow; any doStep is refused
+    inst.rejected("doStep", 1e3, 1.0, contains=("fmi2DoStep must not be called in state Error",))
+    inst.rejected("setReal", [inst.vr("u[1]")], [0.0], contains=("'u[1]'", "state Error"))
+    # reading is allowed in the error state for diagnosis; the state is what overflowed
+    assert not all(math.isfinite(v) for v in inst.get(["omega[1]", "omega[2]", "omega[3]"]))
+    # recovery 1: the snapshot taken before the step (omega = 1e3 rad/s, h_max = 1e6 s)
+    inst.ok("setFMUstate", before)
+    # a 1 ms step (4 RK4 substeps of 0.25 ms) stays finite from 1e3 rad/s
+    inst.ok("doStep", 0.0, 1e-3)
+    # back to normal computation: every output of that step is finite again
+    assert all(math.isfinite(v) for v in inst.outputs())
+    inst.ok("freeFMUstate", before)
+    # from these rates a 1000 s step (4 substeps of 250 s) overflows again: back in the error state
+    inst.rejected("doStep", 1e-3, 1e3, contains=("non-finite",))
+    # terminate is allowed from the error state (FMI 2.0 state machine)
+    inst.ok("terminate")
+    # recovery 2: reset goes back to Instantiated with the declared start values
+    inst.ok("reset")
+    inst.initialize()
+    inst.ok("doStep", 0.0, 0.05)
+    # defaults: omega_0 = sigma_0 = 0 and u = w_d = 0, an equilibrium: every output stays exactly 0
+    assert inst.outputs() == [0.0] * 7
+
+
+@pytest.mark.parametrize("n_substeps", [4, 1])
+def test_pythonfmu_non_finite_state_is_fatal(make, n_substeps: int) -> None:
+    """The pythonfmu plant reports the same overflow as the native one, but with fmi2Fatal,
+    and cannot be recovered (no call is allowed after fmi2Fatal, so no fmi2Reset).
+
+    With n_substeps = 1 Python's ``float ** 2`` raises OverflowError inside the model
+    (C's ``pow`` returns inf there); fmus/pyslave.py reports that as the same non-finite
+    state. (The native FMU happens to stay finite in that single 1000 s substep, at
+    |sigma| ~ 1e163, because the overflowing term is unused when shadow switching is off.)
+    """
+    inst = make(PLANT_PY)
+    inst.initialize({**BLOW_UP, "n_substeps": n_substeps})
+    inst.rejected("doStep", 0.0, 1e3, contains=("fmi2DoStep", "non-finite", "[doStep]"))
+
+
+# ----------------------------------------------------------------------------- 8. FMU state
+def _drive(inst: Instance, t: float) -> None:
+    """Inputs as a deterministic function of time, so two runs from one state are identical."""
+    if inst.fmu.model == "mrp_satellite":
+        inst.ok("setReal", [inst.vr(n) for n in ("u[1]", "u[2]", "u[3]")],
+                [0.5 * math.sin(t), 0.3 * math.cos(2 * t), -0.2])
+    else:
+        inst.ok("setReal", [inst.vr(n) for n in ("omega[1]", "omega[2]", "sigma[3]")],
+                [0.1 * math.sin(t), -0.05 * t, 0.3 * math.cos(t)])
+
+
+def _run(inst: Instance, t: float, n: int, h: float = 0.05) -> tuple[float, list[list[float]]]:
+    rows = []
+    for _ in range(n):
+        _drive(inst, t)
+        inst.ok("doStep", t, h)
+        t += h
+        rows.append(inst.outputs())
+    return t, rows
+
+
+PLANT_INIT = {"omega_0[1]": 0.1, "omega_0[2]": -0.2, "omega_0[3]": 0.3,
+              "sigma_0[1]": 0.2, "sigma_0[2]": 0.1, "sigma_0[3]": -0.3}
+
+
+def _start(inst: Instance) -> tuple[float, Any]:
+    """Initialize, take 10 steps, snapshot; returns (time, state)."""
+    inst.initialize(PLANT_INIT if inst.fmu.model == "mrp_satellite" else None)
+    t, _ = _run(inst, 0.0, 10)
+    return t, inst.ok("getFMUstate")
+
+
+@pytest.mark.parametrize("file", ALL)
+def test_fmu_state_round_trip_is_exact(make, file: str) -> None:
+    """get/set and serialize/deserialize FMU state: replaying from a snapshot gives the
+    same outputs bit for bit (both backends declare canGetAndSetFMUstate and
+    canSerializeFMUstate; pythonfmu serializes satfmu's state dict as JSON)."""
+    inst = make(file)
+    caps = inst.fmu.md.coSimulation
+    if not (caps.canGetAndSetFMUstate and caps.canSerializeFMUstate):
+        pytest.skip("FMU does not declare FMU state support")
+    t10, state = _start(inst)
+    t20, first = _run(inst, t10, 10)
+    inst.ok("setFMUstate", state)
+    # doStep checks currentCommunicationPoint against the FMU time: stepping from t10 works only
+    # if the snapshot restored the time; the same arithmetic on the same data is deterministic
+    t_again, again = _run(inst, t10, 10)
+    assert again == first  # exact: identical state, inputs and operations
+    assert t_again == t20  # same float additions from the same t10
+    blob = inst.ok("serializeFMUstate", state)
+    copy = inst.ok("deSerializeFMUstate", blob)
+    # a round trip through bytes reproduces the same serialization (native: memcpy; pythonfmu: JSON
+    # with repr floats, which round-trip exactly)
+    assert inst.ok("serializeFMUstate", copy) == blob
+    inst.ok("setFMUstate", copy)
+    _, replay = _run(inst, t10, 10)
+    assert replay == first  # exact, as above
+    inst.ok("freeFMUstate", state)
+    inst.ok("freeFMUstate", copy)
+
+
+def _corrupt(kind: str, good: bytes, marker: float) -> tuple[bytes, str]:
+    """A damaged copy of the native serialized state ``good`` and the expected log text."""
+    if kind == "truncated":
+        return good[:-1], "expected"
+    if kind == "extended":
+        return good + b"\0", "expected"
+    if kind == "empty":
+        return b"", "expected"
+    if kind == "zeros":
+        return bytes(len(good)), "not a state of this FMU"
+    if kind == "random":
+        # the magic number matches random bytes with probability 2**-32
+        return random.Random(1).randbytes(len(good)), "not a state of this FMU"
+    if kind == "model state":  # Data.state (int at offset 4) = 0: no state; even fmi2Reset refuses it
+        return good[:4] + struct.pack("<i", 0) + good[8:], "invalid model state"
+    if kind == "time":  # Data.time (double at offset 8) = NaN
+        return good[:8] + struct.pack("<d", math.nan) + good[16:], "corrupted state"
+    # kind == "parameter": the parameter set to ``marker`` becomes -1, below its minimum
+    old = struct.pack("<d", marker)
+    # the marker value occurs once, so exactly that parameter is damaged
+    assert good.count(old) == 1
+    return good.replace(old, struct.pack("<d", -1.0)), "corrupted state (variable"
+
+
+CORRUPTIONS = ["truncated", "extended", "empty", "zeros", "random", "model state", "time", "parameter"]
+
+
+@pytest.mark.parametrize("kind", CORRUPTIONS)
+@pytest.mark.parametrize("file", NATIVE)
+def test_native_corrupted_serialized_state_is_rejected(make, file: str, kind: str) -> None:
+    """fmi2DeSerializeFMUstate refuses a buffer of the wrong size or with invalid content
+    (magic number, model state, time, parameter range), and the instance keeps working."""
+    inst = make(file)
+    marker, param = (15.125, "I_x") if inst.fmu.model == "mrp_satellite" else (4.875, "u_max")
+    inst.initialize({param: marker})
+    inst.ok("doStep", 0.0, 0.1)
+    state = inst.ok("getFMUstate")
+    good = inst.ok("serializeFMUstate", state)
+    # layout check of fmi2_cosim.c's Data (magic, then the model state) before damaging fields
+    assert struct.unpack_from("<Ii", good) == (STATE_MAGIC, ST_STEP_COMPLETE)
+    bad, what = _corrupt(kind, good, marker)
+    inst.rejected("deSerializeFMUstate", bad, contains=("fmi2DeSerializeFMUstate", what))
+    if kind == "parameter":
+        # the message names the damaged variable
+        assert f"'{param}'" in inst.text()
+    # the good snapshot still restores and the FMU steps on from its time, 0.1 s
+    inst.ok("setFMUstate", state)
+    inst.ok("doStep", 0.1, 0.1)
+    inst.ok("freeFMUstate", state)
+
+
+@pytest.mark.parametrize("file", NATIVE)
+def test_native_set_null_fmu_state_is_rejected(make, file: str) -> None:
+    """fmi2SetFMUstate(NULL) is refused with an error, not dereferenced."""
+    inst = make(file)
+    inst.initialize()
+    inst.rejected("setFMUstate", fmi2FMUstate(), contains=("fmi2SetFMUstate", "not a state of this FMU"))
+    inst.ok("doStep", 0.0, 0.1)
+
+
+@pytest.mark.parametrize("kind", ["truncated", "garbage"])
+@pytest.mark.parametrize("file", PYTHON)
+def test_pythonfmu_corrupted_serialized_state_is_fatal(make, file: str, kind: str) -> None:
+    """pythonfmu decodes the buffer as UTF-8 JSON: a truncated or garbage buffer makes that
+    fail, which pythonfmu reports as fmi2Fatal with the decoder's exception (no crash)."""
+    inst = make(file)
+    _, state = _start(inst)
+    good = inst.ok("serializeFMUstate", state)
+    if kind == "truncated":
+        bad, error = good[:-5], "JSONDecodeError"
+    else:
+        bad, error = b"\xff" * len(good), "UnicodeDecodeError"
+    inst.rejected("deSerializeFMUstate", bad, contains=("[DeSerializeFMUstate]", error))
+
+
+# ----------------------------------------------------------------------------- 9. memory
+def _rss_kib() -> int:
+    for line in Path("/proc/self/status").read_text().splitlines():
+        if line.startswith("VmRSS:"):
+            return int(line.split()[1])
+    raise RuntimeError("no VmRSS in /proc/self/status")
+
+
+def _heap_bytes() -> int | None:
+    """Bytes in use on glibc's malloc heap (mallinfo2, glibc >= 2.33), or None."""
+    try:
+        libc = ctypes.CDLL("libc.so.6")
+        fn = libc.mallinfo2
+    except (OSError, AttributeError):
+        return None
+
+    class Mallinfo2(ctypes.Structure):
+        _fields_ = [(n, ctypes.c_size_t) for n in
+                    ("arena", "ordblks", "smblks", "hblks", "hblkhd", "usmblks", "fsmblks", "uordblks",
+                     "fordblks", "keepcost")]
+
+    fn.restype = Mallinfo2
+    return fn().uordblks
+
+
+def test_native_instantiate_free_cycles_do_not_leak(make) -> None:
+    """1000 fmi2Instantiate/fmi2FreeInstance cycles of the native plant (each with an
+    initialization, a step and an FMU state get/serialize/deserialize/free) in-process.
+    Takes well under a second, so it is not marked slow."""
+    inst = make(PLANT)
+    slave = inst.slave
+
+    def cycle() -> None:
+        slave.fmi2FreeInstance(slave.component)
+        inst.instantiate()
+        inst.initialize()
+        slave.doStep(0.0, 0.1)
+        state = slave.getFMUstate()
+        copy = slave.deSerializeFMUstate(slave.serializeFMUstate(state))
+        slave.freeFMUstate(state)
+        slave.freeFMUstate(copy)
+        slave.terminate()
+
+    for _ in range(50):  # warm-up: allocator pools, ctypes caches, fmpy's lazily built objects
+        cycle()
+    rss0, heap0 = _rss_kib(), _heap_bytes()
+    for _ in range(1000):
+        cycle()
+    # the brief's bound: 5 MiB = 5 KiB per cycle; an instance is ~0.4 KiB, so RSS alone would not
+    # see a one-instance-per-cycle leak (hence the heap check below)
+    assert _rss_kib() - rss0 < 5 * 1024
+    if heap0 is not None:
+        # malloc'd bytes in use: leaking one FMU state (~290 B) or one instance (~370 B with its
+        # name) per cycle would add >= 290 KB; 128 KiB leaves room for Python/ctypes allocations
+        assert _heap_bytes() - heap0 < 128 * 1024
+    # no error was logged in any cycle
+    assert inst.log == []
+
+
+# ----------------------------------------------------------------------------- 10. GUID
+@pytest.mark.parametrize("file", ALL)
+def test_wrong_guid(make, file: str) -> None:
+    """The native FMU refuses a GUID that is not its own (fmi2Instantiate returns NULL and
+    logs both GUIDs). pythonfmu does not check the GUID: instantiation succeeds."""
+    wrong = "{00000000-0000-0000-0000-000000000000}"
+    inst = make(file, guid=wrong, instantiate=False)
+    if inst.fmu.is_python:
+        inst.instantiate()
+        # pythonfmu 0.7.0's fmi2Instantiate ignores fmuGUID; the instance works
+        assert inst.slave.component is not None
+        inst.initialize()
+        inst.ok("doStep", 0.0, 0.1)
+        return
+    # fmpy raises this when fmi2Instantiate returns NULL
+    with pytest.raises(Exception, match="Failed to instantiate"):
+        inst.instantiate()
+    # one error naming both the GUID given and the FMU's own
+    assert [s for s, _, _ in inst.log] == [fmi2Error]
+    assert "GUID" in inst.text() and wrong in inst.text() and inst.fmu.md.guid in inst.text()
+
+
+# ----------------------------------------------------------------------------- pythonfmu after fmi2Fatal
+def test_pythonfmu_free_after_fatal_does_not_crash(fmus: dict[str, Fmu]) -> None:
+    """A host that frees a pythonfmu instance after a rejected call (sims.master does, in its
+    ``finally``) must not crash. pythonfmu 0.7.0 releases the instance's Python objects on the
+    exception and again in fmi2FreeInstance; fmus/pyslave.py balances that for the calls it
+    rejects. 30 cycles in a child process (a segfault must not take pytest down): before the
+    fix the child died with SIGSEGV within ~5 cycles."""
+    fmu = fmus[PLANT_PY]
+    code = textwrap.dedent(f"""
+        import gc, math
+        from fmpy.fmi1 import FMICallException
+        from fmpy.fmi2 import FMU2Slave
+        for k in range(30):
+            s = FMU2Slave(guid={fmu.md.guid!r}, unzipDirectory={str(fmu.unzip)!r},
+                          modelIdentifier={fmu.md.coSimulation.modelIdentifier!r}, instanceName="x")
+            s.instantiate()
+            s.setupExperiment(startTime=0.0)
+            s.enterInitializationMode()
+            try:
+                s.setReal([0], [-1.0])  # I_x below its minimum
+            except FMICallException as e:
+                assert e.status == 4, e.status
+            else:
+                raise SystemExit("not rejected")
+            s.fmi2FreeInstance(s.component)
+            gc.collect()
+        print("survived")
+    """)
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    # exit code 0 and the last line printed: all 30 fatal + free cycles ran (SIGSEGV gives -11)
+    assert proc.returncode == 0 and "survived" in proc.stdout, (proc.returncode, proc.stderr[-2000:])
