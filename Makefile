@@ -40,7 +40,7 @@ demo: build
 	$(SATFMU) run $(SCENARIOS) --fmu-dir $(FMU_DIR) --out results --summary results/summary.json
 	$(SATFMU) run mrp_200deg --backend python --fmu-dir $(FMU_DIR) --out results
 	$(PY) bench/cosim_speed.py
-	@echo "plots, CSV and summaries are in results/"
+	@echo "plots, CSV and summaries (results/summary.md, results/summary.json) are in results/"
 
 test: build
 	$(PY) -m pytest -q

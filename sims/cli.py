@@ -54,9 +54,22 @@ def _run(args: argparse.Namespace) -> int:
             print(f"     {k}: {f}")
         failed += not res.passed
     if args.summary:
-        Path(args.summary).parent.mkdir(parents=True, exist_ok=True)
-        Path(args.summary).write_text(json.dumps(summaries, indent=1) + "\n")
+        path = Path(args.summary)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(json.dumps(summaries, indent=1) + "\n")
+        path.with_suffix(".md").write_text(_markdown(summaries))
     return 1 if failed else 0
+
+
+def _markdown(summaries: list[dict]) -> str:
+    """The run summaries as a Markdown table (one row per metric)."""
+    lines = ["| scenario | backend | metric | value | unit | bounds | result |", "|---|---|---|---|---|---|---|"]
+    for s in summaries:
+        for m in s["metrics"]:
+            bounds = " ".join(f"{k} {m[k]:g}" for k in ("min", "max") if m[k] is not None)
+            lines.append(f"| {s['scenario']} | {s['backend']} | {m['name']} | {m['value']:.6g} | {m['unit']} | "
+                         f"{bounds} | {'pass' if m['passed'] else 'FAIL'} |")
+    return "\n".join(lines) + "\n"
 
 
 def _list(args: argparse.Namespace) -> int:

@@ -16,6 +16,8 @@ def test_run_passes_and_writes_summary(fmu_dir: Path, tmp_path: Path, capsys: py
     assert code == 0 and "PASS mrp_eq44" in out
     summary = json.loads((tmp_path / "all.json").read_text())
     assert summary[0]["passed"] and summary[0]["metrics"][0]["value"] < 0.42
+    table = (tmp_path / "all.md").read_text()
+    assert "| mrp_eq44 | native | truncated L2 ratio" in table and "| pass |" in table
 
 
 def test_run_fails_with_exit_1_when_a_bound_is_missed(fmu_dir: Path, tmp_path: Path,
