@@ -1,0 +1,400 @@
+"""Sum-of-squares programs over cvxpy, with independent verification of every result.
+
+Layers (each a function or class with a test):
+
+1. :mod:`synthesis.polynomial`: polynomials with affine decision-variable coefficients.
+2. :class:`SOSProgram`: decision variables and polynomials, scalar SOS constraints
+   ``p(x) = z(x)^T G z(x), G >= 0`` on a pruned monomial basis ``z``, SOS-matrix
+   constraints (``v^T M(x) v`` SOS in ``(x, v)``), S-procedure multipliers for ball and
+   box regions, linear and PSD constraints; coefficient matching is one sparse matrix per
+   constraint.
+3. :meth:`SOSProgram.solve`: Clarabel (default), SCS as fallback; returns a
+   :class:`SOSSolution` with the decision values and Gram matrices.
+4. :func:`verify`: re-checks each SOS constraint without the solver: minimum eigenvalue of
+   the Gram matrix, coefficient-match residual, and a sampled check of the polynomial
+   inequality. A constraint is *certified* when ``lambda_min(G) >= N * max|residual|``
+   (then ``p - z^T G z`` is absorbed by ``G``'s margin: ``p`` is SOS exactly) and the
+   sampled values are non-negative.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import cvxpy as cp
+import numpy as np
+import scipy.sparse as sps
+
+from synthesis.polynomial import Poly, PolyMatrix, monomials, quadratic_form
+
+
+class SOSError(RuntimeError):
+    """The program is infeasible, the solver failed, or the input is invalid."""
+
+
+def _in_hull(points: np.ndarray, targets: np.ndarray) -> np.ndarray:
+    """For each target, whether it lies in the convex hull of ``points`` (one small LP each)."""
+    from scipy.optimize import linprog
+
+    k = points.shape[0]
+    A_eq = np.vstack([points.T.astype(float), np.ones((1, k))])
+    out = np.zeros(len(targets), bool)
+    for i, t in enumerate(targets):
+        res = linprog(np.zeros(k), A_eq=A_eq, b_eq=np.append(t.astype(float), 1.0), bounds=(0, None),
+                      method="highs")
+        out[i] = res.status == 0
+    return out
+
+
+def newton_basis(support: np.ndarray) -> np.ndarray:
+    """A monomial basis ``z`` for ``p = z^T G z`` from ``p``'s support.
+
+    Start from every monomial with degree between half the lowest and half the highest
+    degree of the support, keep those in half the Newton polytope (``2 z`` in the convex
+    hull of the support, an LP per candidate), then repeatedly drop ``z_i`` whose square
+    ``2 z_i`` is neither in the support nor the sum of two other basis monomials (its
+    diagonal Gram entry would be forced to zero, hence its whole row).
+    """
+    if support.shape[0] == 0:
+        return np.zeros((0, support.shape[1]), np.int64)
+    n = support.shape[1]
+    deg = support.sum(axis=1)
+    lo, hi = int(np.ceil(deg.min() / 2)), int(deg.max() // 2)
+    cand = monomials(n, hi, lo)
+    half_max = support.max(axis=0) // 2
+    half_min = (support.min(axis=0) + 1) // 2
+    cand = cand[np.all(cand <= half_max, axis=1) & np.all(cand >= half_min, axis=1)]
+    if len(cand):
+        cand = cand[_in_hull(np.unique(support, axis=0), 2 * cand)]
+    supp = {tuple(r) for r in support}
+    while True:
+        sums: dict[tuple, int] = {}
+        for i in range(len(cand)):
+            for j in range(i + 1, len(cand)):
+                key = tuple(cand[i] + cand[j])
+                sums[key] = sums.get(key, 0) + 1
+        keep = np.array([tuple(2 * z) in supp or tuple(2 * z) in sums for z in cand], bool)
+        if keep.all():
+            return cand
+        cand = cand[keep]
+
+
+def gram_map(basis: np.ndarray) -> tuple[np.ndarray, sps.csr_matrix]:
+    """Monomials of ``z z^T`` and the matrix taking ``vec(G)`` (column-major) to their coefficients."""
+    N = basis.shape[0]
+    pairs = (basis[:, None, :] + basis[None, :, :]).reshape(N * N, -1)
+    mons, inv = np.unique(pairs, axis=0, return_inverse=True)
+    inv = inv.ravel()
+    # entry (i, j) of G sits at column-major index j * N + i
+    idx = np.arange(N * N).reshape(N, N).T.ravel()
+    A = sps.csr_matrix((np.ones(N * N), (inv, idx)), shape=(len(mons), N * N))
+    return mons, A
+
+
+@dataclass
+class SOSConstraint:
+    """A scalar SOS constraint ``p = z^T G z`` (``p`` may depend on decision variables)."""
+
+    name: str
+    poly: Poly
+    basis: np.ndarray
+    region: str = "global"
+
+
+@dataclass
+class SOSSolution:
+    """Solver output: decision vector, Gram matrices, status and timings (s)."""
+
+    y: np.ndarray
+    grams: dict[str, np.ndarray]
+    status: str
+    solver: str
+    objective: float
+    timings: dict[str, float] = field(default_factory=dict)
+
+
+@dataclass
+class Check:
+    """Independent verification of one SOS constraint."""
+
+    name: str
+    region: str
+    basis_size: int
+    min_eig: float
+    residual: float
+    sampled_min: float
+    certified: bool
+    exact: bool
+    """``lambda_min(G) >= N * residual``: then p is SOS exactly, not only to tolerance."""
+
+    def to_json(self) -> dict[str, Any]:
+        return {k: (float(v) if isinstance(v, (float, np.floating)) else v) for k, v in self.__dict__.items()}
+
+
+class SOSProgram:
+    """An SOS program in the polynomial variables ``x`` (count ``n_vars``).
+
+    Examples
+    --------
+    >>> prog = SOSProgram(2)
+    >>> p = Poly.from_sympy(sp.sympify("x**2 - 2*x*y + 2*y**2"), sp.symbols("x y"))  # doctest: +SKIP
+    >>> prog.add_sos(p, "p")  # doctest: +SKIP
+    >>> sol = prog.solve()  # doctest: +SKIP
+    """
+
+    def __init__(self, n_vars: int, gram_margin: float = 0.0) -> None:
+        """``gram_margin``: constrain every Gram matrix to ``G >= gram_margin I`` (tightens each
+        SOS condition by ``gram_margin * z^T z``; use it when a strictly interior, exactly
+        checkable certificate is wanted and the basis has no forced-zero monomials)."""
+        self.n_vars = n_vars
+        self.gram_margin = gram_margin
+        self.n_decision = 0
+        self.sos: list[SOSConstraint] = []
+        self.equalities: list[tuple[sps.csr_matrix, np.ndarray]] = []   # A y + b == 0
+        self.inequalities: list[tuple[sps.csr_matrix, np.ndarray]] = []  # A y + b >= 0
+        self.psd: list[tuple[str, list[list[tuple[sps.csr_matrix, float]]]]] = []
+        self.build_seconds = 0.0
+
+    # ---------------------------------------------------------------- variables
+    def new_variables(self, n: int) -> np.ndarray:
+        """Indices of ``n`` fresh scalar decision variables."""
+        idx = np.arange(self.n_decision, self.n_decision + n)
+        self.n_decision += n
+        return idx
+
+    def selector(self, indices: np.ndarray) -> sps.csr_matrix:
+        """Rows picking decision variables ``indices`` (width = current decision count)."""
+        k = len(indices)
+        return sps.csr_matrix((np.ones(k), (np.arange(k), indices)), shape=(k, self.n_decision))
+
+    def new_poly(self, exps: np.ndarray) -> Poly:
+        """A polynomial with one fresh coefficient per exponent row."""
+        exps = np.asarray(exps, np.int64).reshape(-1, self.n_vars)
+        idx = self.new_variables(len(exps))
+        return Poly(exps, np.zeros(len(exps)), self.selector(idx))
+
+    def new_symmetric(self, n: int) -> list[list[Poly]]:
+        """A constant symmetric n x n matrix of fresh variables, as constant polynomials."""
+        idx = self.new_variables(n * (n + 1) // 2)
+        zero = np.zeros((1, self.n_vars), np.int64)
+        M: list[list[Poly | None]] = [[None] * n for _ in range(n)]
+        k = 0
+        for i in range(n):
+            for j in range(i, n):
+                p = Poly(zero, np.zeros(1), self.selector(idx[k:k + 1]))
+                M[i][j] = M[j][i] = p
+                k += 1
+        return M  # type: ignore[return-value]
+
+    # ---------------------------------------------------------------- constraints
+    def add_sos(self, p: Poly, name: str, region: str = "global") -> SOSConstraint:
+        """Require ``p`` to be a sum of squares (``p >= 0`` everywhere)."""
+        t0 = time.perf_counter()
+        if p.n_vars != self.n_vars:
+            raise SOSError(f"{name}: polynomial in {p.n_vars} variables, program has {self.n_vars}")
+        basis = newton_basis(p.support())
+        c = SOSConstraint(name, p, basis, region)
+        self.sos.append(c)
+        self.build_seconds += time.perf_counter() - t0
+        return c
+
+    def add_sos_on_region(self, p: Poly, name: str, region: list[Poly], multiplier_degree: int,
+                          label: str) -> SOSConstraint:
+        """Require ``p >= 0`` where every ``g in region`` is ``>= 0`` (S-procedure).
+
+        ``p - sum_i s_i g_i`` must be SOS with SOS multipliers ``s_i`` of degree
+        ``multiplier_degree`` (even).
+        """
+        if multiplier_degree % 2:
+            raise SOSError(f"{name}: multiplier degree must be even, got {multiplier_degree}")
+        rest = p
+        for k, g in enumerate(region):
+            s = self.new_poly(monomials(self.n_vars, multiplier_degree))
+            self.add_sos(s, f"{name}: multiplier {k}", "global")
+            rest = rest - s * g
+        return self.add_sos(rest, name, label)
+
+    def add_sos_matrix(self, M: PolyMatrix, name: str, region: list[Poly] | None = None,
+                       multiplier_degree: int = 2, label: str = "global") -> SOSConstraint:
+        """Require ``M(x) >= 0`` as an SOS matrix: ``v^T M(x) v`` SOS in ``(x, v)``.
+
+        With ``region`` the condition holds where the region polynomials are ``>= 0``:
+        the multipliers are ``v^T v * s_i(x)``. The constraint is recorded in the
+        extended program of ``n_vars + dim`` variables.
+        """
+        q = quadratic_form(M)
+        dim = M.shape[0]
+        sub = _Extended(self, dim)
+        if region:
+            # v^T v = sum_i v_i^2 in (x, v)
+            vv = Poly.numeric(np.hstack([np.zeros((dim, self.n_vars), np.int64), 2 * np.eye(dim, dtype=np.int64)]),
+                              np.ones(dim))
+            for k, g in enumerate(region):
+                s = self.new_poly(monomials(self.n_vars, multiplier_degree))
+                self.add_sos(s, f"{name}: multiplier {k}")
+                q = q - (_lift(s, dim) * _lift(g, dim)) * vv
+        return sub.add(q, name, label)
+
+    def add_linear(self, A: sps.spmatrix, b: np.ndarray, kind: str = "eq") -> None:
+        """``A y + b == 0`` (kind "eq") or ``>= 0`` (kind "ge")."""
+        (self.equalities if kind == "eq" else self.inequalities).append((sps.csr_matrix(A), np.asarray(b, float)))
+
+    def add_psd_constant(self, M: list[list[Poly]], name: str, margin: float = 0.0) -> None:
+        """A constant (degree-0) polynomial matrix ``M - margin I`` is PSD."""
+        entries = [[(e.C[0:1] if e.C.shape[0] else sps.csr_matrix((1, e.n_decision)), float(e.c0[0]) -
+                     (margin if i == j else 0.0)) for j, e in enumerate(row)] for i, row in enumerate(M)]
+        self.psd.append((name, entries))
+
+    # ---------------------------------------------------------------- solve
+    def solve(self, objective: sps.spmatrix | None = None, solver: str = "CLARABEL",
+              fallback: str | None = "SCS", **options: Any) -> SOSSolution:
+        """Minimize ``objective @ y`` (feasibility if None) subject to all constraints.
+
+        Raises
+        ------
+        SOSError
+            If both solvers fail or report infeasibility.
+        """
+        t0 = time.perf_counter()
+        y = cp.Variable(self.n_decision) if self.n_decision else None
+        cons = []
+        grams: dict[str, cp.Variable] = {}
+
+        def aff(C: sps.spmatrix, c0: np.ndarray) -> Any:
+            C = sps.csr_matrix(C)
+            if C.shape[1] < self.n_decision:
+                C = sps.hstack([C, sps.csr_matrix((C.shape[0], self.n_decision - C.shape[1]))]).tocsr()
+            return c0 if y is None else C @ y + c0
+
+        for k, c in enumerate(self.sos):
+            N = c.basis.shape[0]
+            mons, A = gram_map(c.basis)
+            key = f"{k}:{c.name}"
+            if N == 0:
+                if np.any(np.abs(c.poly.c0) > 0) or c.poly.C.nnz:
+                    cons.append(aff(c.poly.C, c.poly.c0) == 0)
+                continue
+            G = cp.Variable((N, N), symmetric=True, name=f"G{k}")
+            grams[key] = G
+            cons.append(G >> self.gram_margin * np.eye(N))
+            rows = _match(c.poly.exps, mons)
+            inside = rows >= 0
+            P = sps.csr_matrix((np.ones(inside.sum()), (rows[inside], np.nonzero(inside)[0])),
+                               shape=(len(mons), len(rows)))
+            cons.append(A @ cp.vec(G, order="F") == aff(P @ c.poly.C, P @ c.poly.c0))
+            outside = ~inside & ((c.poly.c0 != 0) | (np.asarray(abs(c.poly.C).sum(axis=1)).ravel() > 0))
+            if outside.any():  # monomials no Gram entry reaches must vanish
+                cons.append(aff(c.poly.C[outside], c.poly.c0[outside]) == 0)
+        for A, b in self.equalities:
+            cons.append(aff(A, b) == 0)
+        for A, b in self.inequalities:
+            cons.append(aff(A, b) >= 0)
+        for name, entries in self.psd:
+            M = cp.bmat([[aff(C, np.array([c])) for C, c in row] for row in entries])
+            cons.append((M + M.T) / 2 >> 0)
+        obj = cp.Minimize(0 if objective is None or y is None else aff(objective, np.zeros(1))[0])
+        prob = cp.Problem(obj, cons)
+        build = time.perf_counter() - t0 + self.build_seconds
+        status, used = None, solver
+        for name in [solver] + ([fallback] if fallback else []):
+            used = name
+            try:
+                t1 = time.perf_counter()
+                prob.solve(solver=name, **options)
+                solve_s = time.perf_counter() - t1
+            except (cp.error.SolverError, cp.error.DCPError) as exc:
+                status = f"solver error: {exc}"
+                continue
+            status = prob.status
+            if status in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
+                break
+        if status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
+            raise SOSError(f"SOS program not solved: status {status} (solver {used})")
+        yv = np.asarray(y.value, float) if y is not None else np.zeros(0)
+        return SOSSolution(yv, {k: np.asarray(G.value, float) for k, G in grams.items()}, str(status), used,
+                           float(prob.value) if prob.value is not None else 0.0,
+                           {"build": build, "solve": solve_s})
+
+
+class _Extended:
+    """Adds an SOS constraint in (x, v) to a program in x (for SOS-matrix conditions)."""
+
+    def __init__(self, prog: SOSProgram, dim: int) -> None:
+        self.prog, self.dim = prog, dim
+
+    def add(self, q: Poly, name: str, label: str) -> SOSConstraint:
+        t0 = time.perf_counter()
+        support = q.support()
+        # q is quadratic in v, so the basis monomials are v_i * z(x), z from the x parts
+        quadratic = support[:, self.prog.n_vars:].sum(axis=1) == 2
+        basis_x = newton_basis(support[quadratic, : self.prog.n_vars])
+        rows = []
+        for i in range(self.dim):
+            v = np.zeros((len(basis_x), self.dim), np.int64)
+            v[:, i] = 1
+            rows.append(np.hstack([basis_x, v]))
+        basis = np.vstack(rows) if rows else np.zeros((0, self.prog.n_vars + self.dim), np.int64)
+        c = SOSConstraint(name, q, basis, label)
+        self.prog.sos.append(c)
+        self.prog.build_seconds += time.perf_counter() - t0
+        return c
+
+
+def _lift(p: Poly, dim: int) -> Poly:
+    """``p(x)`` as a polynomial in ``(x, v)``."""
+    return Poly(np.hstack([p.exps, np.zeros((p.exps.shape[0], dim), np.int64)]), p.c0, p.C)
+
+
+def _match(rows: np.ndarray, table: np.ndarray) -> np.ndarray:
+    """Index in ``table`` of each exponent row (-1 where absent)."""
+    lookup = {tuple(r): i for i, r in enumerate(table)}
+    return np.array([lookup.get(tuple(r), -1) for r in rows], np.int64)
+
+
+def verify(prog: SOSProgram, sol: SOSSolution, n_samples: int = 2000, sample_radius: float = 1.0,
+           seed: int = 0, eig_tol: float = 1e-7, res_tol: float = 1e-7) -> list[Check]:
+    """Re-check every SOS constraint from the numbers alone (no solver).
+
+    For each constraint: ``lambda_min`` of its Gram matrix, the largest coefficient of
+    ``p(y) - z^T G z``, and the smallest value of ``p(y)`` at ``n_samples`` points drawn
+    uniformly in the ball of radius ``sample_radius`` (for SOS-matrix constraints ``v`` is
+    drawn on the unit sphere). *Certified*: ``lambda_min >= -eig_tol * max(1, |G|)``,
+    residual ``<= res_tol * max(1, |p|)`` and no sampled value below ``-res_tol`` relative,
+    i.e. SOS to the solver's accuracy (interior-point solutions of degenerate programs sit
+    on the cone's boundary). *Exact*: additionally ``lambda_min >= N * residual``.
+    """
+    rng = np.random.default_rng(seed)
+    out = []
+    for k, c in enumerate(prog.sos):
+        key = f"{k}:{c.name}"
+        p = c.poly.value(sol.y)
+        N = c.basis.shape[0]
+        if N == 0:
+            res = float(np.max(np.abs(p.c0))) if p.c0.size else 0.0
+            out.append(Check(c.name, c.region, 0, 0.0, res, -res, res <= res_tol, res == 0.0))
+            continue
+        G = sol.grams[key]
+        mons, A = gram_map(c.basis)
+        gcoef = A @ G.ravel(order="F")
+        rows = _match(p.exps, mons)
+        pc = np.zeros(len(mons))
+        np.add.at(pc, rows[rows >= 0], p.c0[rows >= 0])
+        extra = float(np.max(np.abs(p.c0[rows < 0]), initial=0.0))  # terms no Gram entry reaches
+        residual = max(float(np.max(np.abs(pc - gcoef))), extra)
+        min_eig = float(np.linalg.eigvalsh((G + G.T) / 2).min())
+        n = p.n_vars
+        pts = rng.normal(size=(n_samples, n))
+        pts *= (sample_radius * rng.random(n_samples) ** (1 / n) / np.linalg.norm(pts, axis=1))[:, None]
+        if n > prog.n_vars:  # SOS matrix: v on the unit sphere
+            v = rng.normal(size=(n_samples, n - prog.n_vars))
+            pts[:, prog.n_vars:] = v / np.linalg.norm(v, axis=1, keepdims=True)
+        vals = p.evaluate(pts)
+        sampled_min = float(vals.min())
+        pscale = max(1.0, float(np.max(np.abs(p.c0))))
+        gscale = max(1.0, float(np.max(np.abs(G))))
+        certified = (min_eig >= -eig_tol * gscale and residual <= res_tol * pscale
+                     and sampled_min >= -res_tol * pscale * N)
+        exact = certified and min_eig >= N * residual
+        out.append(Check(c.name, c.region, N, min_eig, residual, sampled_min, bool(certified), bool(exact)))
+    return out

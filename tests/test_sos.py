@@ -1,0 +1,131 @@
+"""The SOS layer on textbook cases with known answers."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.sparse as sps
+import sympy as sp
+
+from synthesis.polynomial import Poly, PolyMatrix, monomials, quadratic_form
+from synthesis.sos import SOSError, SOSProgram, newton_basis, verify
+
+x, y = sp.symbols("x y", real=True)
+
+
+def test_polynomial_arithmetic_matches_sympy() -> None:
+    a = Poly.from_sympy(3 * x**2 - x * y + 2, [x, y])
+    b = Poly.from_sympy(x - 4 * y**3, [x, y])
+    assert sp.expand((a * b).to_sympy([x, y]) - (3 * x**2 - x * y + 2) * (x - 4 * y**3)) == 0
+    assert sp.expand((a - b).to_sympy([x, y]) - (3 * x**2 - x * y + 2 - x + 4 * y**3)) == 0
+    pts = np.random.default_rng(0).normal(size=(20, 2))
+    f = sp.lambdify((x, y), (3 * x**2 - x * y + 2) * (x - 4 * y**3))
+    assert np.allclose((a * b).evaluate(pts), f(pts[:, 0], pts[:, 1]), rtol=1e-13)
+
+
+def test_quadratic_form_of_a_polynomial_matrix() -> None:
+    M = PolyMatrix.from_sympy(sp.Matrix([[1 + x**2, x], [x, 2]]), [x])
+    q = quadratic_form(M)
+    v1, v2 = sp.symbols("v1 v2")
+    assert sp.expand(q.to_sympy([x, v1, v2]) - ((1 + x**2) * v1**2 + 2 * x * v1 * v2 + 2 * v2**2)) == 0
+
+
+def test_newton_basis_prunes_to_the_half_polytope() -> None:
+    # x^4 y^2 + x^2 y^4 + 1: candidate monomials of degree <= 3 reduce to {1, x y, x^2 y, x y^2}
+    supp = np.array([[4, 2], [2, 4], [0, 0], [2, 2]])
+    basis = {tuple(r) for r in newton_basis(supp)}
+    assert basis == {(0, 0), (1, 1), (2, 1), (1, 2)}
+    assert len(monomials(2, 3)) == 10
+
+
+def _prove(expr: sp.Expr) -> tuple[SOSProgram, list]:
+    prog = SOSProgram(2)
+    prog.add_sos(Poly.from_sympy(expr, [x, y]), "p")
+    sol = prog.solve()
+    return prog, verify(prog, sol)
+
+
+def test_sos_polynomial_is_certified() -> None:
+    # (x^2 - y)^2 + (x y - 1)^2 + x^2 is SOS by construction
+    prog, checks = _prove((x**2 - y) ** 2 + (x * y - 1) ** 2 + x**2)
+    assert checks[0].certified and checks[0].exact and checks[0].min_eig > 0
+
+
+def test_motzkin_polynomial_is_not_sos() -> None:
+    # Motzkin: non-negative but not a sum of squares; the program must be reported infeasible
+    with pytest.raises(SOSError, match="not solved"):
+        _prove(x**4 * y**2 + x**2 * y**4 - 3 * x**2 * y**2 + 1)
+
+
+def test_global_lower_bound_by_sos() -> None:
+    # max g s.t. x^4 - 3 x^2 + 2 - g is SOS: the true minimum -0.25 at x^2 = 1.5 (univariate: exact)
+    prog = SOSProgram(1)
+    g = prog.new_variables(1)
+    p = Poly.from_sympy(x**4 - 3 * x**2 + 2, [x])
+    gp = Poly(np.zeros((1, 1), np.int64), np.zeros(1), prog.selector(g))
+    prog.add_sos(p - gp, "p - g")
+    obj = -prog.selector(g)
+    sol = prog.solve(objective=obj)
+    # the bound is tight (univariate: non-negative = SOS); interior-point accuracy ~1e-8
+    assert sol.y[g[0]] == pytest.approx(-0.25, abs=1e-6)
+    assert verify(prog, sol)[0].certified
+    sol.y[g[0]] += 0.1  # tampered decision value: claims a bound above the true minimum
+    check = verify(prog, sol)[0]
+    assert not check.certified and check.residual == pytest.approx(0.1, rel=1e-6)
+
+
+def test_lyapunov_function_for_a_nonlinear_system() -> None:
+    # x' = -x + y, y' = -x^3 - y: V = x^4/2 + y^2 works; search V of degree 2..4 with
+    # V - 0.01 (x^2 + y^2) SOS and -dV/dt SOS, then check V decreases along a simulation.
+    prog = SOSProgram(2)
+    V = prog.new_poly(monomials(2, 4, 2))
+    r2 = Poly.from_sympy(x**2 + y**2, [x, y])
+    prog.add_sos(V - 0.01 * r2, "V positive")
+    f = [Poly.from_sympy(-x + y, [x, y]), Poly.from_sympy(-x**3 - y, [x, y])]
+    Vdot = _grad(V, 0) * f[0] + _grad(V, 1) * f[1]
+    prog.add_sos(-Vdot, "-dV/dt")
+    sol = prog.solve()
+    assert sol.solver == "CLARABEL"  # solved by the default solver, no fallback needed
+    checks = verify(prog, sol)
+    assert all(c.certified for c in checks), [c.to_json() for c in checks]
+    from scipy.integrate import solve_ivp
+
+    traj = solve_ivp(lambda t, s: [-s[0] + s[1], -s[0] ** 3 - s[1]], (0, 5), [1.5, -1.0], rtol=1e-9, max_step=0.05)
+    vals = V.evaluate(traj.y.T, sol.y)
+    assert np.all(np.diff(vals) <= 1e-9)  # non-increasing along the trajectory
+
+
+def _grad(p: Poly, i: int) -> Poly:
+    e = p.exps.copy()
+    factor = e[:, i].astype(float)
+    keep = factor > 0
+    e[keep, i] -= 1
+    return Poly(e[keep], p.c0[keep] * factor[keep], sps.diags(factor).tocsr()[keep] @ p.C)
+
+
+def test_tampered_certificate_is_rejected() -> None:
+    prog = SOSProgram(2)
+    prog.add_sos(Poly.from_sympy((x**2 - y) ** 2 + (x * y - 1) ** 2 + x**2, [x, y]), "p")
+    sol = prog.solve()
+    key = next(iter(sol.grams))
+    G = sol.grams[key]
+    w, V = np.linalg.eigh(G)
+    sol.grams[key] = G - (w[0] + 1e-3) * np.outer(V[:, 0], V[:, 0])  # one eigenvalue to -1e-3
+    check = verify(prog, sol)[0]
+    assert not check.certified and check.min_eig == pytest.approx(-1e-3, rel=1e-6)
+    sol.grams[key] = G + np.eye(len(G))  # PSD but no longer z^T G z = p: residual 1 > margin
+    check = verify(prog, sol)[0]
+    assert not check.certified and check.residual == pytest.approx(1.0, rel=1e-6)
+
+
+def test_sos_matrix_on_a_region() -> None:
+    # M(x) = [[1 - x^2, 0], [0, 1]] is PSD only for |x| <= 1: infeasible globally, feasible on |x| <= 0.9
+    M = PolyMatrix.from_sympy(sp.Matrix([[1 - x**2, 0], [0, 1]]), [x])
+    prog = SOSProgram(1)
+    prog.add_sos_matrix(M, "M")
+    with pytest.raises(SOSError):
+        prog.solve()
+    prog = SOSProgram(1)
+    ball = Poly.from_sympy(sp.Rational(81, 100) - x**2, [x])
+    prog.add_sos_matrix(M, "M on |x| <= 0.9", region=[ball], multiplier_degree=0, label="|x| <= 0.9")
+    sol = prog.solve()
+    assert all(c.certified for c in verify(prog, sol))
