@@ -48,7 +48,7 @@ class UnknownVariableError(MasterError, KeyError):
         return str(self.args[0])
 
 
-class ConnectionError_(MasterError):
+class WiringError(MasterError):
     """A connection or profile target is invalid (types, causality, driven twice, loops)."""
 
 
@@ -184,15 +184,15 @@ class CoSimulation:
         sc, sv = self.resolve(source)
         dc, dv = self.resolve(target)
         if len(sv) != len(dv):
-            raise ConnectionError_(f"{source} has {len(sv)} variables, {target} has {len(dv)}")
+            raise WiringError(f"{source} has {len(sv)} variables, {target} has {len(dv)}")
         for s, d in zip(sv, dv):
             vs, vd = sc.variable(s), dc.variable(d)
             if vs.causality != "output":
-                raise ConnectionError_(f"{sc.name}.{s} is a {vs.causality}, not an output")
+                raise WiringError(f"{sc.name}.{s} is a {vs.causality}, not an output")
             if vd.causality != "input":
-                raise ConnectionError_(f"{dc.name}.{d} is a {vd.causality}, not an input")
+                raise WiringError(f"{dc.name}.{d} is a {vd.causality}, not an input")
             if vs.type != "Real" or vd.type != "Real":
-                raise ConnectionError_(f"{sc.name}.{s} -> {dc.name}.{d}: only Real connections are supported")
+                raise WiringError(f"{sc.name}.{s} -> {dc.name}.{d}: only Real connections are supported")
             self.connections.append((f"{sc.name}.{s}", f"{dc.name}.{d}"))
 
     def add_profile(self, target: str, profile: Profile) -> None:
@@ -200,14 +200,14 @@ class CoSimulation:
         comp, names = self.resolve(target)
         for n in names:
             if comp.variable(n).causality != "input" or comp.variable(n).type != "Real":
-                raise ConnectionError_(f"profile target {comp.name}.{n} is not a Real input")
+                raise WiringError(f"profile target {comp.name}.{n} is not a Real input")
             self.profiles.append((f"{comp.name}.{n}", profile))
 
     def _check_drivers(self) -> None:
         driven: dict[str, str] = {}
         for src, dst in self.connections + [(f"profile {p.kind}", t) for t, p in self.profiles]:
             if dst in driven:
-                raise ConnectionError_(f"input {dst} is driven twice (by {driven[dst]} and by {src})")
+                raise WiringError(f"input {dst} is driven twice (by {driven[dst]} and by {src})")
             driven[dst] = src
 
     def _order(self) -> list[Component]:
@@ -223,7 +223,7 @@ class CoSimulation:
 
         def visit(n: str, path: list[str]) -> None:
             if state.get(n) == 1:
-                raise ConnectionError_("algebraic loop through direct feedthrough: " + " -> ".join(path + [n]))
+                raise WiringError("algebraic loop through direct feedthrough: " + " -> ".join(path + [n]))
             if state.get(n) == 2:
                 return
             state[n] = 1
@@ -248,22 +248,22 @@ class CoSimulation:
         for name, value in values.items():
             var = comp.variable(name)
             if var.causality not in ("parameter", "input"):
-                raise ConnectionError_(f"{comp.name}.{name} is a {var.causality}; only parameters and inputs can be set")
+                raise WiringError(f"{comp.name}.{name} is a {var.causality}; only parameters and inputs can be set")
             vr = [var.valueReference]
             if var.type == "Real":
                 if isinstance(value, bool) or not isinstance(value, (int, float)):
-                    raise ConnectionError_(f"{comp.name}.{name} is Real; got {value!r}")
+                    raise WiringError(f"{comp.name}.{name} is Real; got {value!r}")
                 self._call(comp, "setReal", vr, [float(value)])
             elif var.type == "Integer":
                 if isinstance(value, bool) or not isinstance(value, int):
-                    raise ConnectionError_(f"{comp.name}.{name} is Integer; got {value!r}")
+                    raise WiringError(f"{comp.name}.{name} is Integer; got {value!r}")
                 self._call(comp, "setInteger", vr, [value])
             elif var.type == "Boolean":
                 if not isinstance(value, bool):
-                    raise ConnectionError_(f"{comp.name}.{name} is Boolean; got {value!r} (use true/false)")
+                    raise WiringError(f"{comp.name}.{name} is Boolean; got {value!r} (use true/false)")
                 self._call(comp, "setBoolean", vr, [value])
             else:
-                raise ConnectionError_(f"{comp.name}.{name}: type {var.type} is not supported")
+                raise WiringError(f"{comp.name}.{name}: type {var.type} is not supported")
 
     def _transfers(self, order: list[Component]) -> list[_Transfer]:
         groups: dict[tuple[str, str], list[tuple[int, int]]] = defaultdict(list)
@@ -303,7 +303,7 @@ class CoSimulation:
 
         Raises
         ------
-        ValueError, UnknownVariableError, ConnectionError_, FmuCallError
+        ValueError, UnknownVariableError, WiringError, FmuCallError
         """
         for label, v in (("start_time", start_time), ("stop_time", stop_time), ("step_size", step_size)):
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
@@ -336,7 +336,7 @@ class CoSimulation:
             c, v = q.split(".", 1)
             var = self.components[c].variable(v)
             if var.type != "Real":
-                raise ConnectionError_(f"only Real variables can be recorded; {q} is {var.type}")
+                raise WiringError(f"only Real variables can be recorded; {q} is {var.type}")
             rec_groups[c].append((var.valueReference, col))
         rec_bufs = {c: ((ctypes.c_uint * len(g))(*[p[0] for p in g]), (ctypes.c_double * len(g))(),
                         np.array([p[1] for p in g])) for c, g in rec_groups.items()}

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from itertools import combinations_with_replacement
-from typing import Iterable, Sequence
+from typing import Sequence
 
 import numpy as np
 import scipy.sparse as sps
@@ -223,7 +223,3 @@ def quadratic_form(M: PolyMatrix) -> Poly:
             acc = acc + Poly(np.hstack([e.exps, v]), e.c0, e.C)
     return acc
 
-
-def concat_exponents(rows: Iterable[np.ndarray], n: int) -> np.ndarray:
-    rows = [np.asarray(r, np.int64).reshape(-1, n) for r in rows]
-    return np.unique(np.vstack(rows), axis=0) if rows else np.zeros((0, n), np.int64)
