@@ -1,0 +1,146 @@
+"""Seed 000, Theorem 1: polynomial state feedback for the MRP satellite by SOS.
+
+Seed: shared/seeds/000_5179ecf13c1ccfb7.txt, eq. (23) and section 5.2; restated in
+shared/MODELS.md, "Seed 000". Find a constant ``Q = Q^T > 0`` and a polynomial ``K(x)``
+(3 x 6) with
+
+    M(x) = A(x) Q + Q A(x)^T + B K(x) + K(x)^T B^T  <= -E        (E >= 0, an SOS-matrix condition)
+
+then ``u = K(x) P x``, ``P = Q^-1``, and ``V = x^T P x`` satisfies
+``dV/dt = (P x)^T M(x) (P x) <= -(P x)^T E (P x)``. Following the paper's numerical
+advice, ``B = [I3; 0]`` in the program (B's diagonal folded into K) and the torque law is
+``u = diag(I) K(x) P x``.
+
+What can be proved (MODELS.md, "What a certificate can prove"):
+
+- ``region=None``: ``E = diag(eps I3, 0)``, globally. ``dV/dt <= -eps |P_w x|^2`` and
+  LaSalle's invariance principle gives global asymptotic stability ("global,
+  semi-definite + LaSalle").
+- ``region=r < 1``: ``E = eps I`` on ``|sigma| <= r`` (S-procedure multipliers): strict
+  decrease on that region ("strict on |sigma| <= r").
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import sympy as sp
+
+from fmus import mrp_satellite
+from fmus.model import Model
+from synthesis.polynomial import Poly, PolyMatrix, monomials
+from synthesis.sos import Check, SOSProgram, SOSSolution, verify
+
+
+@dataclass
+class Theorem1Result:
+    """A solved and independently verified Theorem 1 design."""
+
+    Q: np.ndarray
+    K: list[list[Poly]]
+    """Torque gains ``diag(I) K(x)`` as numeric polynomials in x (3 x 6)."""
+    checks: list[Check]
+    proved: str
+    region: str
+    solution: SOSSolution
+    timings: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def certified(self) -> bool:
+        return all(c.certified for c in self.checks)
+
+    def law_terms(self) -> list[list[list[dict[str, Any]]]]:
+        """K as artifact terms (``gain_times_lyapunov`` form)."""
+        return [[[{"c": float(c), "e": [int(v) for v in e]} for c, e in zip(p.c0, p.exps) if c != 0.0]
+                 for p in row] for row in self.K]
+
+
+def theorem1(model: Model = mrp_satellite.MODEL, k_degree: int = 2, rate_margin: float = 1e-2,
+             region: float | None = None, strict_margin: float = 1e-3, multiplier_degree: int = 0,
+             q_min: float = 1.0) -> Theorem1Result:
+    """Solve Theorem 1 for ``model``'s SDC form at its default inertia.
+
+    Parameters
+    ----------
+    k_degree : int
+        Degree of every entry of K(x).
+    rate_margin : float
+        eps of ``E = diag(eps I3, 0)`` in the global variant (1/s, on ``Q``'s scale).
+    region : float, optional
+        r < 1: prove strict decrease (``E = strict_margin I``) on ``|sigma| <= r``.
+    q_min : float
+        ``Q >= q_min I`` fixes the scale of the homogeneous problem; trace(Q) is minimized.
+
+    Raises
+    ------
+    synthesis.sos.SOSError
+        If the program is infeasible (e.g. a strict margin globally).
+    """
+    xs = [s.symbol for s in model.states]
+    n = len(xs)
+    subs = {v.symbol: v.start for v in model.parameters}
+    A = PolyMatrix.from_sympy(model.sdc.A.subs(subs), xs)  # type: ignore[union-attr]
+    m = 3
+    Bf = PolyMatrix.from_sympy(sp.Matrix(sp.BlockMatrix([[sp.eye(m)], [sp.zeros(n - m, m)]])), xs)
+    prog = SOSProgram(n)
+    Qe = prog.new_symmetric(n)
+    Q = PolyMatrix(Qe)
+    K = PolyMatrix([[prog.new_poly(monomials(n, k_degree)) for _ in range(n)] for _ in range(m)])
+    M = A @ Q + (A @ Q).T + Bf @ K + (Bf @ K).T
+    negM = PolyMatrix([[e.scale(-1.0) for e in row] for row in M.entries])
+    prog.add_psd_constant(Qe, "Q >= q_min I", margin=q_min)
+    if region is None:
+        E = np.diag([rate_margin] * m + [0.0] * (n - m))
+        label, proved = "global", f"global, semi-definite + LaSalle: dV/dt <= -{rate_margin:g} |P_w x|^2"
+        prog.add_sos_matrix(_minus_const(negM, E), "-M - E", label=label)
+    else:
+        if not 0 < region < 1:
+            raise ValueError(f"region radius must be in (0, 1), got {region}")
+        E = strict_margin * np.eye(n)
+        label = f"|sigma| <= {region:g}"
+        proved = f"strict on |sigma| <= {region:g}: dV/dt <= -{strict_margin:g} |P x|^2"
+        s2 = sum(sp.Symbol(f"sigma[{i}]", real=True) ** 2 for i in (1, 2, 3))
+        ball = Poly.from_sympy(region**2 - s2, xs)
+        prog.add_sos_matrix(_minus_const(negM, E), "-M - E", region=[ball],
+                            multiplier_degree=multiplier_degree, label=label)
+    trace = sum(Qe[i][i].C for i in range(n))
+    sol = prog.solve(objective=trace)
+    checks = verify(prog, sol)
+    Qv = np.array([[float(e.value(sol.y).c0[0]) for e in row] for row in Qe])
+    inertia = np.array([subs[sp.Symbol(f"I_{a}", real=True)] for a in "xyz"])
+    Kt = [[K.entries[i][j].value(sol.y).scale(inertia[i]) for j in range(n)] for i in range(m)]
+    return Theorem1Result(Qv, Kt, checks, proved, label, sol, dict(sol.timings))
+
+
+def _minus_const(M: PolyMatrix, E: np.ndarray) -> PolyMatrix:
+    """``M - E`` for a constant matrix ``E``."""
+    return PolyMatrix([[e - float(E[i, j]) if E[i, j] else e for j, e in enumerate(row)]
+                       for i, row in enumerate(M.entries)])
+
+
+def artifact_data(result: Theorem1Result, name: str, model: Model = mrp_satellite.MODEL) -> dict[str, Any]:
+    """Controller artifact (JSON data, format of :mod:`controllers.artifact`) of a design.
+
+    The certificate status is "certified" only when every SOS constraint passed the
+    independent verification; the numbers of each check are recorded.
+    """
+    states = [{"name": s.variable.name, "unit": s.variable.unit} for s in model.states]
+    outputs = [{"name": f"u[{i}]", "unit": "N.m", "description": f"Control torque about body axis {i}"}
+               for i in (1, 2, 3)]
+    return {
+        "format": "satfmu-controller", "format_version": 1, "kind": "polynomial_state_feedback",
+        "name": name, "plant": model.name,
+        "description": f"Seed 000 Theorem 1 state feedback u = diag(I) K(x) P x, synthesized by satfmu ({result.region})",
+        "states": states, "outputs": outputs,
+        "law": {"form": "gain_times_lyapunov", "K": result.law_terms(), "P": np.linalg.inv(result.Q).tolist()},
+        "lyapunov": {"Q": result.Q.tolist(), "note": "V = x^T Q^-1 x"},
+        "certificate": {
+            "status": "certified" if result.certified else "not_verified",
+            "proved": result.proved, "region": result.region,
+            "numbers": {f"{c.name}: {k}": float(getattr(c, k)) for c in result.checks
+                        for k in ("min_eig", "residual", "sampled_min")},
+        },
+        "provenance": {"source": "satfmu synthesis.hinf_sos.theorem1 (seed 000 eq. 23)",
+                       "solver": result.solution.solver, "timings_s": result.timings},
+    }
