@@ -7,7 +7,6 @@ pythonfmu FMU embeds the generated Python module and :mod:`fmus.pyslave`.
 """
 from __future__ import annotations
 
-import os
 import shutil
 import subprocess
 import sys

@@ -137,10 +137,13 @@ class SOSProgram:
 
     Examples
     --------
+    >>> import sympy as sp
+    >>> x, y = sp.symbols("x y")
     >>> prog = SOSProgram(2)
-    >>> p = Poly.from_sympy(sp.sympify("x**2 - 2*x*y + 2*y**2"), sp.symbols("x y"))  # doctest: +SKIP
-    >>> prog.add_sos(p, "p")  # doctest: +SKIP
-    >>> sol = prog.solve()  # doctest: +SKIP
+    >>> _ = prog.add_sos(Poly.from_sympy(x**2 - 2*x*y + 2*y**2, [x, y]), "p")
+    >>> sol = prog.solve()
+    >>> all(c.certified for c in verify(prog, sol))
+    True
     """
 
     def __init__(self, n_vars: int, gram_margin: float = 0.0) -> None:
@@ -241,9 +244,11 @@ class SOSProgram:
         (self.equalities if kind == "eq" else self.inequalities).append((sps.csr_matrix(A), np.asarray(b, float)))
 
     def add_psd_constant(self, M: list[list[Poly]], name: str, margin: float = 0.0) -> None:
-        """A constant (degree-0) polynomial matrix ``M - margin I`` is PSD."""
-        entries = [[(e.C[0:1] if e.C.shape[0] else sps.csr_matrix((1, e.n_decision)), float(e.c0[0]) -
-                     (margin if i == j else 0.0)) for j, e in enumerate(row)] for i, row in enumerate(M)]
+        """A constant polynomial matrix (one degree-0 term per entry) with ``M - margin I`` PSD."""
+        if any(e.exps.shape[0] != 1 or e.exps.any() for row in M for e in row):
+            raise SOSError(f"{name}: add_psd_constant needs constant entries")
+        entries = [[(e.C, float(e.c0[0]) - (margin if i == j else 0.0)) for j, e in enumerate(row)]
+                   for i, row in enumerate(M)]
         self.psd.append((name, entries))
 
     # ---------------------------------------------------------------- solve
