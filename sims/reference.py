@@ -14,6 +14,7 @@ master, integrator), not a second copy of the dynamics.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
 from scipy.integrate import solve_ivp
@@ -32,22 +33,35 @@ class LoopResult:
     u: np.ndarray
 
 
+Exogenous = Callable[[float], dict[str, float]]
+"""Plant inputs not driven by the controller (e.g. disturbance torques) as a function of the
+communication time; each value is held over the step, as the master holds its profiles."""
+
+
 class _Loop:
     def __init__(self, plant: Model, controller: Model, plant_params: dict | None,
-                 controller_params: dict | None, command_inputs: list[str]) -> None:
+                 controller_params: dict | None, command_inputs: list[str],
+                 exogenous: Exogenous | None = None) -> None:
         self.plant, self.ctrl = codegen.load_python(plant), codegen.load_python(controller)
         self.pp = plant.parameter_vector(plant_params).tolist()
         self.cp = controller.parameter_vector(controller_params).tolist()
         self.x0 = plant.initial_state(np.array(self.pp))
         names = [v.name for v in plant.inputs]
+        self.names = names
         self.u_index = [names.index(n) for n in command_inputs]
         self.nu = len(names)
+        self.exogenous = exogenous
         state_names = [s.variable.name for s in plant.states]
         self.meas_index = [state_names.index(v.name) for v in controller.inputs]
 
-    def command(self, x: "np.ndarray | list[float]") -> tuple[list[float], list[float]]:
-        y = self.ctrl.outputs(0.0, [], [float(x[i]) for i in self.meas_index], self.cp)
+    def command(self, x: "np.ndarray | list[float]", t: float = 0.0) -> tuple[list[float], list[float]]:
+        y = self.ctrl.outputs(t, [], [float(x[i]) for i in self.meas_index], self.cp)
         u = [0.0] * self.nu
+        if self.exogenous is not None:
+            for name, v in self.exogenous(t).items():
+                if name not in self.names:
+                    raise ValueError(f"exogenous input {name!r} is not a plant input ({self.names})")
+                u[self.names.index(name)] = float(v)
         for i, v in zip(self.u_index, y):
             u[i] = v
         return u, y
@@ -56,22 +70,23 @@ class _Loop:
 def closed_loop_solve_ivp(plant: Model, controller: Model, stop_time: float, step_size: float,
                           plant_params: dict | None = None, controller_params: dict | None = None,
                           command_inputs: list[str] | None = None, rtol: float = 1e-10,
-                          atol: float = 1e-12, method: str = "DOP853") -> LoopResult:
+                          atol: float = 1e-12, method: str = "DOP853",
+                          exogenous: Exogenous | None = None) -> LoopResult:
     """Sampled-data closed loop integrated by scipy between communication points.
 
     ``command_inputs`` names the plant inputs that receive the controller outputs
-    (default: the plant inputs named like the controller outputs). Other plant inputs
-    are 0. The plant's post-step map is applied at communication points only, so use
+    (default: the plant inputs named like the controller outputs); ``exogenous`` gives
+    other plant inputs (held over each step); the rest are 0. The plant's post-step map is applied at communication points only, so use
     it with models whose post_step is the identity in the run (e.g. no shadow switching).
     """
     loop = _Loop(plant, controller, plant_params, controller_params,
-                 command_inputs or [o.variable.name for o in controller.outputs])
+                 command_inputs or [o.variable.name for o in controller.outputs], exogenous)
     n = int(round(stop_time / step_size))
     t = step_size * np.arange(n + 1)
     xs, us = [loop.x0], []
     x = loop.x0
     for k in range(n):
-        u, y = loop.command(x)
+        u, y = loop.command(x, float(t[k]))
         us.append(y)
         sol = solve_ivp(lambda tt, xx: loop.plant.derivatives(tt, xx, u, loop.pp), (t[k], t[k + 1]), x,
                         method=method, rtol=rtol, atol=atol)
@@ -79,16 +94,16 @@ def closed_loop_solve_ivp(plant: Model, controller: Model, stop_time: float, ste
             raise RuntimeError(f"solve_ivp failed at t = {t[k]} s: {sol.message}")
         x = np.array(loop.plant.post_step(t[k + 1], sol.y[:, -1], loop.pp))
         xs.append(x)
-    us.append(loop.command(x)[1])
+    us.append(loop.command(x, float(t[-1]))[1])
     return LoopResult(t, np.array(xs), np.array(us))
 
 
 def closed_loop_rk4(plant: Model, controller: Model, stop_time: float, step_size: float,
                     plant_params: dict | None = None, controller_params: dict | None = None,
-                    command_inputs: list[str] | None = None) -> LoopResult:
+                    command_inputs: list[str] | None = None, exogenous: Exogenous | None = None) -> LoopResult:
     """The same loop with the FMUs' fixed-step RK4 (substeps from n_substeps and h_max)."""
     loop = _Loop(plant, controller, plant_params, controller_params,
-                 command_inputs or [o.variable.name for o in controller.outputs])
+                 command_inputs or [o.variable.name for o in controller.outputs], exogenous)
     names = [v.name for v in plant.parameters]
     n_sub = substep_count(step_size, loop.pp[names.index("n_substeps")], loop.pp[names.index("h_max")])
     n = int(round(stop_time / step_size))
@@ -96,9 +111,9 @@ def closed_loop_rk4(plant: Model, controller: Model, stop_time: float, step_size
     xs, us = [loop.x0], []
     x = loop.x0.tolist()
     for k in range(n):
-        u, y = loop.command(x)
+        u, y = loop.command(x, float(t[k]))
         us.append(y)
         x = rk4_step(loop.plant, float(t[k]), x, u, loop.pp, step_size, n_sub)
         xs.append(x)
-    us.append(loop.command(x)[1])
+    us.append(loop.command(x, float(t[-1]))[1])
     return LoopResult(t, np.array(xs), np.array(us))

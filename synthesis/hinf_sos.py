@@ -22,9 +22,10 @@ What can be proved (MODELS.md, "What a certificate can prove"):
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Mapping
 
 import numpy as np
+import scipy.sparse as sps
 import sympy as sp
 
 from fmus import mrp_satellite
@@ -57,8 +58,11 @@ class Theorem1Result:
 
 
 def theorem1(model: Model = mrp_satellite.MODEL, k_degree: int = 2, rate_margin: float = 1e-2,
-             region: float | None = None, strict_margin: float = 1e-3, multiplier_degree: int = 0,
-             q_min: float = 1.0) -> Theorem1Result:
+             region: float | None = None, strict_margin: float = 1e-3, decay_rate: float = 0.0,
+             multiplier_degree: int = 0,
+             q_min: float = 1.0,
+             coefficient_bounds: Mapping[tuple[int, int], tuple[float | None, float | None]] | None = None,
+             coefficient_limit: float | None = None) -> Theorem1Result:
     """Solve Theorem 1 for ``model``'s SDC form at its default inertia.
 
     Parameters
@@ -69,8 +73,19 @@ def theorem1(model: Model = mrp_satellite.MODEL, k_degree: int = 2, rate_margin:
         eps of ``E = diag(eps I3, 0)`` in the global variant (1/s, on ``Q``'s scale).
     region : float, optional
         r < 1: prove strict decrease (``E = strict_margin I``) on ``|sigma| <= r``.
+    decay_rate : float
+        With ``region``: also ``M + 2 decay_rate Q <= -E`` there, i.e.
+        ``dV/dt <= -2 decay_rate V`` (exponential convergence at that rate, 1/s, inside the
+        largest level set of V in the region). The design knob of the two-step iteration.
     q_min : float
         ``Q >= q_min I`` fixes the scale of the homogeneous problem; trace(Q) is minimized.
+    coefficient_bounds : mapping, optional
+        ``{(i, j): (lower, upper)}``: bounds on the constant coefficient of ``K[i][j]``
+        (0-based; ``None`` for no bound), the paper's "coefficient <= -2" tuning knob
+        (section 4, eq. 30). In the program's units (B's diagonal folded into K).
+    coefficient_limit : float, optional
+        ``|k| <= coefficient_limit`` for every coefficient of K (program units): keeps the
+        gains finite where the objective does not price them.
 
     Raises
     ------
@@ -89,6 +104,23 @@ def theorem1(model: Model = mrp_satellite.MODEL, k_degree: int = 2, rate_margin:
     K = PolyMatrix([[prog.new_poly(monomials(n, k_degree)) for _ in range(n)] for _ in range(m)])
     M = A @ Q + (A @ Q).T + Bf @ K + (Bf @ K).T
     negM = PolyMatrix([[e.scale(-1.0) for e in row] for row in M.entries])
+    if coefficient_limit is not None:
+        if not coefficient_limit > 0:
+            raise ValueError(f"coefficient limit must be > 0, got {coefficient_limit}")
+        allk = sps.vstack([e.with_decision_size(prog.n_decision).C for row in K.entries for e in row],
+                          format="csr")
+        lim = np.full(allk.shape[0], float(coefficient_limit))
+        prog.add_linear(allk, lim, kind="ge")
+        prog.add_linear(-allk, lim, kind="ge")
+    for (i, j), (lower, upper) in (coefficient_bounds or {}).items():
+        if not (0 <= i < m and 0 <= j < n):
+            raise ValueError(f"coefficient bound on K[{i}][{j}]: K is {m} x {n}")
+        entry = K.entries[i][j]
+        row = entry.C[np.flatnonzero(~entry.exps.any(axis=1))]
+        if lower is not None:
+            prog.add_linear(row, np.array([-float(lower)]), kind="ge")
+        if upper is not None:
+            prog.add_linear(-row, np.array([float(upper)]), kind="ge")
     prog.add_psd_constant(Qe, "Q >= q_min I", margin=q_min)
     if region is None:
         E = np.diag([rate_margin] * m + [0.0] * (n - m))
@@ -97,9 +129,15 @@ def theorem1(model: Model = mrp_satellite.MODEL, k_degree: int = 2, rate_margin:
     else:
         if not 0 < region < 1:
             raise ValueError(f"region radius must be in (0, 1), got {region}")
+        if decay_rate < 0:
+            raise ValueError(f"decay rate must be >= 0, got {decay_rate}")
         E = strict_margin * np.eye(n)
         label = f"|sigma| <= {region:g}"
         proved = f"strict on |sigma| <= {region:g}: dV/dt <= -{strict_margin:g} |P x|^2"
+        if decay_rate > 0:
+            negM = PolyMatrix([[e - q.scale(2 * decay_rate) for e, q in zip(row, qrow)]
+                               for row, qrow in zip(negM.entries, Qe)])
+            proved += f" - {2 * decay_rate:g} V"
         s2 = sum(sp.Symbol(f"sigma[{i}]", real=True) ** 2 for i in (1, 2, 3))
         ball = Poly.from_sympy(region**2 - s2, xs)
         prog.add_sos_matrix(_minus_const(negM, E), "-M - E", region=[ball],

@@ -86,21 +86,27 @@ class Poly:
         """The same polynomial with ``C`` padded to ``n`` decision columns."""
         if n < self.n_decision:
             raise ValueError("cannot shrink the decision vector")
-        C = sps.hstack([self.C, sps.csr_matrix((self.C.shape[0], n - self.n_decision))]).tocsr()
+        if n == self.n_decision:
+            return self
+        C = sps.csr_matrix((self.C.data, self.C.indices, self.C.indptr), shape=(self.C.shape[0], n))
         return Poly(self.exps, self.c0, C)
 
-    def _align(self, other: "Poly") -> tuple["Poly", "Poly"]:
-        if self.n_vars != other.n_vars:
-            raise ValueError(f"polynomials in {self.n_vars} and {other.n_vars} variables")
-        n = max(self.n_decision, other.n_decision)
-        return self.with_decision_size(n), other.with_decision_size(n)
+    @staticmethod
+    def sum(polys: Sequence["Poly"]) -> "Poly":
+        """Sum of polynomials in the same variables (one merge for all terms)."""
+        if not polys:
+            raise ValueError("sum of no polynomials")
+        n = max(p.n_decision for p in polys)
+        polys = [p.with_decision_size(n) for p in polys]
+        return Poly(*_merge(np.vstack([p.exps for p in polys]), np.concatenate([p.c0 for p in polys]),
+                            sps.vstack([p.C for p in polys], format="csr")))
 
     def __add__(self, other: "Poly | float") -> "Poly":
         if not isinstance(other, Poly):
             other = Poly.constant(float(other), self.n_vars, self.n_decision)
-        a, b = self._align(other)
-        return Poly(*_merge(np.vstack([a.exps, b.exps]), np.concatenate([a.c0, b.c0]),
-                            sps.vstack([a.C, b.C])))
+        if self.n_vars != other.n_vars:
+            raise ValueError(f"polynomials in {self.n_vars} and {other.n_vars} variables")
+        return Poly.sum([self, other])
 
     __radd__ = __add__
 
@@ -143,7 +149,23 @@ class Poly:
         """Values at points ``x`` of shape (m, n) (or (n,))."""
         c = self.value(y).c0
         x = np.atleast_2d(np.asarray(x, float))
-        return np.prod(x[:, None, :] ** self.exps[None, :, :], axis=2) @ c
+        out = np.zeros(len(x))
+        if not len(c):
+            return out
+        # powers x_j^d by repeated products, then one gather-multiply per variable
+        chunk = max(1, 4_000_000 // max(1, len(c)))  # bounds the (m, k) temporary
+        top = int(self.exps.max(initial=0))
+        for i in range(0, len(x), chunk):
+            xc = x[i:i + chunk]
+            pw = np.ones((len(xc), self.n_vars, top + 1))
+            for d in range(1, top + 1):
+                pw[:, :, d] = pw[:, :, d - 1] * xc
+            terms = np.ones((len(xc), len(c)))
+            for j in range(self.n_vars):
+                if self.exps[:, j].any():
+                    terms *= pw[:, j, self.exps[:, j]]
+            out[i:i + chunk] = terms @ c
+        return out
 
     def degree(self) -> int:
         return int(self.exps.sum(axis=1).max()) if self.exps.size else 0
@@ -181,13 +203,8 @@ class PolyMatrix:
         n = self.entries[0][0].n_vars
         out = []
         for i in range(r):
-            row = []
-            for j in range(c):
-                acc = Poly.constant(0.0, n)
-                for m in range(k):
-                    acc = acc + self.entries[i][m] * other.entries[m][j]
-                row.append(acc)
-            out.append(row)
+            out.append([Poly.sum([Poly.constant(0.0, n)] + [self.entries[i][m] * other.entries[m][j]
+                                                            for m in range(k)]) for j in range(c)])
         return PolyMatrix(out)
 
     def __add__(self, other: "PolyMatrix") -> "PolyMatrix":
@@ -211,7 +228,7 @@ def quadratic_form(M: PolyMatrix) -> Poly:
     if r != c:
         raise ValueError(f"quadratic form of a non-square {M.shape} matrix")
     n = M.entries[0][0].n_vars
-    acc = Poly.constant(0.0, n + r)
+    terms = [Poly.constant(0.0, n + r)]
     for i in range(r):
         for j in range(r):
             e = M.entries[i][j]
@@ -220,6 +237,6 @@ def quadratic_form(M: PolyMatrix) -> Poly:
             v = np.zeros((e.exps.shape[0], r), np.int64)
             v[:, i] += 1
             v[:, j] += 1
-            acc = acc + Poly(np.hstack([e.exps, v]), e.c0, e.C)
-    return acc
+            terms.append(Poly(np.hstack([e.exps, v]), e.c0, e.C))
+    return Poly.sum(terms)
 

@@ -67,6 +67,15 @@ def newton_basis(support: np.ndarray) -> np.ndarray:
     cand = cand[np.all(cand <= half_max, axis=1) & np.all(cand >= half_min, axis=1)]
     if len(cand):
         cand = cand[_in_hull(np.unique(support, axis=0), 2 * cand)]
+    return prune_diagonal(cand, support)
+
+
+def prune_diagonal(cand: np.ndarray, support: np.ndarray) -> np.ndarray:
+    """Drop basis monomials whose Gram diagonal entry is forced to zero, until none is.
+
+    ``z_i`` goes when ``2 z_i`` is neither in ``support`` nor the sum of two other
+    basis monomials: then ``G_ii = 0``, so ``G >= 0`` zeroes its whole row.
+    """
     supp = {tuple(r) for r in support}
     while True:
         sums: dict[tuple, int] = {}
@@ -312,7 +321,9 @@ class SOSProgram:
                 status = f"solver error: {exc}"
                 continue
             status = prob.status
-            if status in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
+            # a clean infeasibility certificate is final; only errors and inaccurate
+            # infeasibility claims go to the fallback solver
+            if status in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE, cp.INFEASIBLE, cp.UNBOUNDED):
                 break
         if status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
             raise SOSError(f"SOS program not solved: status {status} (solver {used})")
@@ -340,6 +351,7 @@ class _Extended:
             v[:, i] = 1
             rows.append(np.hstack([basis_x, v]))
         basis = np.vstack(rows) if rows else np.zeros((0, self.prog.n_vars + self.dim), np.int64)
+        basis = prune_diagonal(basis, support)
         c = SOSConstraint(name, q, basis, label)
         self.prog.sos.append(c)
         self.prog.build_seconds += time.perf_counter() - t0
