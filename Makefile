@@ -4,7 +4,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 SATFMU := $(VENV)/bin/satfmu
 FMU_DIR := build/fmus
-SCENARIOS := mrp_200deg mrp_200deg_sat mrp_320deg_sat mrp_eq44
+SCENARIOS := mrp_200deg mrp_200deg_sat mrp_320deg_sat mrp_eq44 mrp_200deg_synth mrp_320deg_sat_synth mrp_eq44_synth
 
 .PHONY: demo test test-all build validate bench clean system-deps
 
@@ -49,7 +49,9 @@ test-all: build
 	$(PY) -m pytest -q -m "slow or not slow"
 
 bench: build
+	$(PY) -m pip install -q -e '.[bench]'
 	$(PY) bench/cosim_speed.py
+	$(PY) bench/sos_speed.py
 
 clean:
 	rm -rf build results .pytest_cache

@@ -225,6 +225,12 @@ def parse(data: Any, where: str = "artifact") -> ControllerArtifact:
         _get(cert, key, str, where + ".certificate")
     for k, v in cert.get("numbers", {}).items():
         _finite(v, f"{where}.certificate.numbers.{k}")
+    if "l2_gain" in cert:
+        l2 = _get(cert, "l2_gain", dict, where + ".certificate")
+        for key in ("c", "kv"):
+            if _finite(l2.get(key), f"{where}.certificate.l2_gain.{key}") <= 0:
+                raise _fail(f"{where}.certificate.l2_gain.{key}", "must be > 0")
+        _get(l2, "region", str, where + ".certificate.l2_gain")
     prov = _get(data, "provenance", dict, where)
     _get(prov, "source", str, where + ".provenance")
     return ControllerArtifact(name, _get(data, "description", str, where), _get(data, "plant", str, where),

@@ -14,11 +14,21 @@ import numpy as np  # noqa: E402
 
 def time_series(res: np.ndarray, panels: Sequence[Sequence[str]], path: Path, title: str = "",
                 units: Mapping[str, str] | None = None) -> None:
-    """One panel per group of recorded columns, against time; y label = the columns' unit."""
+    """One panel per group of recorded columns, against time; y label = the columns' unit.
+
+    Columns of different FMU instances in one panel are overlaid: one colour per
+    component, one line style per instance (solid for the first, dashed for the second...).
+    """
+    styles = ["-", "--", ":", "-."]
     fig, axes = plt.subplots(len(panels), 1, sharex=True, figsize=(8, 2.2 * len(panels) + 0.6), squeeze=False)
     for ax, cols in zip(axes[:, 0], panels):
+        instances = list(dict.fromkeys(c.split(".", 1)[0] for c in cols))
+        rank: dict[str, int] = {}
         for c in cols:
-            ax.plot(res["time"], res[c], label=c)
+            inst = c.split(".", 1)[0]
+            k = rank[inst] = rank.get(inst, -1) + 1
+            ax.plot(res["time"], res[c], label=c, color=f"C{k % 10}",
+                    ls=styles[instances.index(inst) % len(styles)])
         ax.grid(True, alpha=0.3)
         ax.legend(loc="upper right", fontsize=7, ncol=min(3, len(cols)))
         found = sorted({(units or {}).get(c) or "1" for c in cols})
@@ -30,16 +40,20 @@ def time_series(res: np.ndarray, panels: Sequence[Sequence[str]], path: Path, ti
     plt.close(fig)
 
 
-def l2_ratio(t: np.ndarray, ratio: np.ndarray, bound: float | None, path: Path, title: str = "") -> None:
-    """Truncated L2 ratio over T, with the certified bound as a dashed line (seed 000, Fig. 9)."""
+def l2_ratio(t: np.ndarray, curves: Mapping[str, tuple[np.ndarray, float | None]], path: Path,
+             title: str = "") -> None:
+    """Truncated L2 ratio over T of each named curve, with its bound dashed in the same colour
+    (seed 000, Fig. 9)."""
     fig, ax = plt.subplots(figsize=(7, 3.2))
-    ax.plot(t, ratio, label="||z||_2,T / ||w||_2,T")
-    if bound is not None:
-        ax.axhline(bound, ls="--", color="k", label=f"bound {bound:g}")
+    for k, (name, (ratio, bound)) in enumerate(curves.items()):
+        ax.plot(t, ratio, color=f"C{k}", label=name)
+        if bound is not None:
+            ax.axhline(bound, ls="--", color=f"C{k}", label=f"bound {bound:g}")
     ax.set_xlabel("T (s)")
+    ax.set_ylabel("||z||_2,T / ||w||_2,T")
     ax.grid(True, alpha=0.3)
-    ax.legend()
-    ax.set_title(title, fontsize=9)
+    ax.legend(fontsize=7)
+    ax.set_title(textwrap.fill(title, 90), fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)

@@ -261,10 +261,11 @@ def run(name_or_path: str | Path, fmu_dir: Path, backend: str = "native",
         units = {c: sim.unit(c) for group in cols for c in group}
         plots.time_series(res, cols, result.files["plot"],
                           title=f"{scenario.name}: {scenario.data.get('description', '')}", units=units)
-        for mname, curve in curves.items():
-            bound = next(m.max for m in mres if m.name == mname)
+        if curves:
             f = folder / f"{scenario.name}_{backend}_l2_ratio.png"
-            plots.l2_ratio(res["time"], curve, bound, f, title=f"{scenario.name}: {mname}")
+            bounds = {m.name: m.max for m in mres}
+            plots.l2_ratio(res["time"], {n: (c, bounds[n]) for n, c in curves.items()}, f,
+                           title=f"{scenario.name}: truncated L2 ratio over T")
             result.files["l2_ratio_plot"] = f
         result.files["summary"] = folder / f"summary_{backend}.json"
         result.files["summary"].write_text(json.dumps(result.summary(), indent=1) + "\n")

@@ -19,6 +19,7 @@ Layers (each a function or class with a test):
 from __future__ import annotations
 
 import time
+import warnings
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -315,7 +316,9 @@ class SOSProgram:
             used = name
             try:
                 t1 = time.perf_counter()
-                prob.solve(solver=name, **options)
+                with warnings.catch_warnings():  # "inaccurate" is in the status; verify() judges
+                    warnings.simplefilter("ignore", UserWarning)
+                    prob.solve(solver=name, **options)
                 solve_s = time.perf_counter() - t1
             except (cp.error.SolverError, cp.error.DCPError) as exc:
                 status = f"solver error: {exc}"

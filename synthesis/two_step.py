@@ -122,15 +122,21 @@ class TwoStepResult:
             "region": region.label, "kv": best.sos.kv, "q2": 1.0,
             "checks": {f"{c.name}: {k}": float(getattr(c, k)) for c in best.sos.checks
                        for k in ("min_eig", "residual", "sampled_min")},
-            "sampled_c": best.sampled.c, "sampled_kv": best.sampled.kv, "sampled_points": best.sampled.n_samples,
+            "sampled_c": _json_value(best.sampled.c), "sampled_kv": best.sampled.kv, "sampled_points": best.sampled.n_samples,
             "diagonal_c": best.diagonal[0] if best.diagonal else None,
             "diagonal_kv": best.diagonal[1] if best.diagonal else None,
         }
         data["provenance"]["source"] = "satfmu synth mrp-hinf (synthesis.two_step, seed 000 section 4)"
         data["provenance"]["settings"] = {k: (v.to_json() if hasattr(v, "to_json") else v)
                                           for k, v in self.settings.items()}
-        data["provenance"]["iterations"] = [it.row() for it in self.iterates]
+        data["provenance"]["iterations"] = [{k: _json_value(v) for k, v in it.row().items()}
+                                            for it in self.iterates]
         return data
+
+
+def _json_value(v: Any) -> Any:
+    """Non-finite floats as None (strict JSON has no NaN or Infinity)."""
+    return None if isinstance(v, float) and not np.isfinite(v) else v
 
 
 def _response(design: hinf_sos.Theorem1Result) -> tuple[float, float]:
