@@ -96,6 +96,35 @@ def test_corrupt_terms_are_rejected(raw: dict) -> None:
             artifact.parse(bad)
 
 
+def test_l2_gain_record_is_validated(raw: dict) -> None:
+    good = {"c": 0.3, "kv": 12.0, "region": "|sigma| <= 0.9"}
+    cases = [({**good, "c": float("inf")}, r"l2_gain\.c: must be a finite number"),
+             ({**good, "kv": -1.0}, r"l2_gain\.kv: must be > 0"),
+             ({k: v for k, v in good.items() if k != "region"}, "missing key 'region'"),
+             ("0.3", "l2_gain")]
+    ok = copy.deepcopy(raw)
+    ok["certificate"]["l2_gain"] = good
+    assert artifact.parse(ok).certificate["l2_gain"]["c"] == 0.3
+    for value, message in cases:
+        bad = copy.deepcopy(raw)
+        bad["certificate"]["l2_gain"] = value
+        with pytest.raises(artifact.ArtifactError, match=message):
+            artifact.parse(bad)
+
+
+def test_shipped_synthesized_artifact_states_its_proof_and_region() -> None:
+    a = artifact.load(polynomial.ARTIFACTS / "mrp_hinf_satfmu.json")
+    cert = a.certificate
+    assert cert["status"] == "certified" and cert["region"] == "|sigma| <= 0.9"
+    assert cert["proved"].startswith("strict on |sigma| <= 0.9") and "V" in cert["proved"]
+    assert cert["l2_gain"]["region"] == "|omega_i| <= 0.2 rad/s, |sigma| <= 0.9"
+    # the sampled lower bound never exceeds the certified upper bound
+    assert cert["l2_gain"]["sampled_c"] <= cert["l2_gain"]["c"] * (1 + 1e-9)
+    # every recorded Gram matrix is PSD to solver accuracy (verify()'s tolerance, scale ~1)
+    assert min(v for k, v in cert["numbers"].items() if k.endswith("min_eig")) > -1e-6
+    assert len(a.provenance["iterations"]) >= 2
+
+
 def test_unreadable_files(tmp_path: Path) -> None:
     with pytest.raises(artifact.ArtifactError, match="cannot read artifact"):
         artifact.load(tmp_path / "missing.json")

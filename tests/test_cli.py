@@ -49,3 +49,21 @@ def test_list_shows_shipped_scenarios(capsys: pytest.CaptureFixture) -> None:
     out = capsys.readouterr().out
     for name in ("mrp_200deg", "mrp_200deg_sat", "mrp_320deg_sat", "mrp_eq44"):
         assert name in out
+
+
+def test_l2_reports_the_three_estimates_for_the_published_controller(capsys: pytest.CaptureFixture) -> None:
+    assert main(["l2", "mrp_hinf_published", "--samples", "20000"]) == 0
+    out = capsys.readouterr().out
+    assert "c = 0.4200 at kv = 10000" in out  # the seed's c_min = 0.42 at kv = 1e4, 4 digits
+    assert "no finite c for any kv" in out and "only semi-definite" in out
+    assert "SOS certificate of H <= 0" in out and "none (" in out
+
+
+def test_synth_fails_cleanly_when_no_iterate_fits_the_budget(tmp_path: Path,
+                                                             capsys: pytest.CaptureFixture) -> None:
+    # the 200 deg manoeuvre needs about 6.1 N m: a 1 N m budget rejects the first iterate
+    code = main(["synth", "mrp-hinf", "--torque-budget", "1", "--samples", "2000", "--out", str(tmp_path),
+                 "--fmu-dir", ""])
+    err = capsys.readouterr().err
+    assert code == 2 and "no iterate accepted" in err and "over the budget 1" in err
+    assert not list(tmp_path.iterdir())  # nothing written

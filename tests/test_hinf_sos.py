@@ -43,3 +43,31 @@ def test_regional_strict_design_is_certified_on_its_ball() -> None:
 def test_bad_region_is_refused() -> None:
     with pytest.raises(ValueError, match="region radius"):
         theorem1(region=1.2)
+
+
+def test_decay_rate_and_coefficient_limit_are_honoured() -> None:
+    r = theorem1(region=0.9, decay_rate=0.01, coefficient_limit=1.0)
+    assert r.certified and "- 0.02 V" in r.proved
+    inertia = np.array([15.0, 16.0, 12.5])
+    # torque gains are diag(I) K: every K coefficient within the limit (solver feasibility 1e-7)
+    assert max(float(np.abs(p.c0).max()) / inertia[i] for i, row in enumerate(r.K) for p in row) <= 1.0 + 1e-7
+    # dV/dt <= -2 lambda V on the ball, checked on the nonlinear closed loop at sampled points
+    a = artifact.parse(artifact_data(r, "check"))
+    P = np.linalg.inv(r.Q)
+    rng = np.random.default_rng(1)
+    x = rng.normal(size=(2000, 6)) * [0.2, 0.2, 0.2, 0.4, 0.4, 0.4]
+    x = x[np.linalg.norm(x[:, 3:], axis=1) <= 0.9]
+    f = mrp_satellite.MODEL.lambdify(mrp_satellite.MODEL.rhs)
+    p = mrp_satellite.MODEL.parameter_vector()
+    for xi in x[:300]:
+        u = a.evaluate(xi)
+        dx = np.ravel(f(0.0, xi, np.r_[u, 0.0, 0.0, 0.0], p))
+        vdot, v = 2 * xi @ P @ dx, xi @ P @ xi
+        assert vdot <= -0.02 * v + 1e-9 * v  # rounding of the Gram identity, relative
+
+
+def test_coefficient_bounds_are_checked() -> None:
+    with pytest.raises(ValueError, match=r"K\[3\]\[0\]"):
+        theorem1(coefficient_bounds={(3, 0): (None, -1.0)})
+    with pytest.raises(ValueError, match="decay rate"):
+        theorem1(region=0.9, decay_rate=-1.0)
