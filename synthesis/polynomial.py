@@ -207,6 +207,42 @@ class PolyMatrix:
                                                             for m in range(k)]) for j in range(c)])
         return PolyMatrix(out)
 
+    @staticmethod
+    def constant(M: np.ndarray, n_vars: int) -> "PolyMatrix":
+        """A numeric constant matrix as degree-0 polynomials in ``n_vars`` variables."""
+        M = np.atleast_2d(np.asarray(M, float))
+        return PolyMatrix([[Poly.constant(v, n_vars) for v in row] for row in M])
+
+    @staticmethod
+    def block(rows: Sequence[Sequence["PolyMatrix | None"]]) -> "PolyMatrix":
+        """Assemble a block matrix; ``None`` is a zero block (its size from its row and column)."""
+        heights = [next(b.shape[0] for b in row if b is not None) for row in rows]
+        widths = [next(rows[i][j].shape[1] for i in range(len(rows)) if rows[i][j] is not None)  # type: ignore[union-attr]
+                  for j in range(len(rows[0]))]
+        n = next(b for row in rows for b in row if b is not None).entries[0][0].n_vars
+        out: list[list[Poly]] = []
+        for i, row in enumerate(rows):
+            for r in range(heights[i]):
+                line: list[Poly] = []
+                for j, b in enumerate(row):
+                    if b is None:
+                        line.extend(Poly.constant(0.0, n) for _ in range(widths[j]))
+                    else:
+                        if b.shape != (heights[i], widths[j]):
+                            raise ValueError(f"block ({i}, {j}) is {b.shape}, expected {(heights[i], widths[j])}")
+                        line.extend(b.entries[r])
+                out.append(line)
+        return PolyMatrix(out)
+
+    def scale(self, s: float) -> "PolyMatrix":
+        return PolyMatrix([[e.scale(s) for e in row] for row in self.entries])
+
+    def __neg__(self) -> "PolyMatrix":
+        return self.scale(-1.0)
+
+    def __sub__(self, other: "PolyMatrix") -> "PolyMatrix":
+        return self + (-other)
+
     def __add__(self, other: "PolyMatrix") -> "PolyMatrix":
         if self.shape != other.shape:
             raise ValueError(f"shapes {self.shape} and {other.shape} do not add")

@@ -266,6 +266,9 @@ class SOSProgram:
               fallback: str | None = "SCS", **options: Any) -> SOSSolution:
         """Minimize ``objective @ y`` (feasibility if None) subject to all constraints.
 
+        ``options`` go to the primary ``solver`` only (solver settings differ); the fallback
+        runs with its defaults.
+
         Raises
         ------
         SOSError
@@ -318,7 +321,7 @@ class SOSProgram:
                 t1 = time.perf_counter()
                 with warnings.catch_warnings():  # "inaccurate" is in the status; verify() judges
                     warnings.simplefilter("ignore", UserWarning)
-                    prob.solve(solver=name, **options)
+                    prob.solve(solver=name, **(options if name == solver else {}))
                 solve_s = time.perf_counter() - t1
             except (cp.error.SolverError, cp.error.DCPError) as exc:
                 status = f"solver error: {exc}"
