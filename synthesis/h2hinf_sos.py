@@ -120,7 +120,8 @@ def _constant_matrix(prog: SOSProgram, rows: int, cols: int, symmetric: bool = F
 def theorem8(gamma: float, alpha: float, beta: float, variant: str = "slack", region: float = 0.9,
              y_degree: int = 2, Qh: np.ndarray | None = None, Rh: np.ndarray | None = None,
              x0: np.ndarray = X0_200, margin: float = 1e-4, multiplier_degree: int = 0,
-             frozen: bool = False, model: Model = mrp_satellite.MODEL) -> Theorem8Result:
+             frozen: bool = False, rate_max: float | None = None,
+             model: Model = mrp_satellite.MODEL) -> Theorem8Result:
     """Solve Theorem 8 at fixed ``gamma``, ``alpha``, ``beta`` (minimize lambda).
 
     Parameters
@@ -141,6 +142,9 @@ def theorem8(gamma: float, alpha: float, beta: float, variant: str = "slack", re
         Full-matrix margin ``e`` of both SOS-matrix conditions and of X2, Xinf.
     frozen : bool
         Freeze A(x) at x = 0 (the linearization; LMIs): the reference design of MODELS.md.
+    rate_max : float, optional
+        Also restrict the region to ``|omega_i| <= rate_max`` (rad/s): the H2 condition's
+        (2,1) block is linear in the rates through the gyroscopic terms.
 
     Raises
     ------
@@ -154,6 +158,8 @@ def theorem8(gamma: float, alpha: float, beta: float, variant: str = "slack", re
     for name, v in (("gamma", gamma), ("alpha", alpha), ("beta", beta), ("region", region)):
         if not (np.isfinite(v) and v > 0):
             raise ValueError(f"{name} must be finite and > 0, got {v}")
+    if rate_max is not None and not (np.isfinite(rate_max) and rate_max > 0):
+        raise ValueError(f"rate_max must be finite and > 0, got {rate_max}")
     t0 = time.perf_counter()
     xs = [s.symbol for s in model.states]
     n = len(xs)
@@ -210,6 +216,9 @@ def theorem8(gamma: float, alpha: float, beta: float, variant: str = "slack", re
     else:
         regions = [Poly.from_sympy(region**2 - sum(x**2 for x in xs[n - 3:]), xs)]
         label = f"|sigma| <= {region:g}"
+        if rate_max is not None:
+            regions += [Poly.from_sympy(rate_max**2 - x**2, xs) for x in xs[:n - 3]]
+            label = f"|omega_i| <= {rate_max:g} rad/s, " + label
     for name, M in (("H2", M2), ("Hinf", Minf)):
         prog.add_sos_matrix(_symmetrize_lower(M).scale(-1.0), f"-M_{name}", region=regions,
                             multiplier_degree=multiplier_degree, label=label)

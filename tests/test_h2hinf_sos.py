@@ -91,6 +91,7 @@ def test_too_small_gamma_is_never_certified() -> None:
 @pytest.mark.parametrize("kwargs,message", [
     ({"variant": "other"}, "variant"), ({"gamma": 0.0}, "gamma"), ({"alpha": float("nan")}, "alpha"),
     ({"Qh": -np.eye(6)}, "Qh"), ({"Rh": np.eye(2)}, "Rh"), ({"x0": np.zeros(5)}, "x0"),
+    ({"rate_max": -0.1}, "rate_max"),
 ])
 def test_bad_input_is_refused(kwargs: dict, message: str) -> None:
     args = {"gamma": 1.0, "alpha": 1e-3, "beta": 1e-3, "variant": "slack", "frozen": True, "y_degree": 0}
