@@ -32,9 +32,12 @@ import math
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from fmus.model import Model
 
 FORMAT = "satfmu-controller"
 FORMAT_VERSION = 1
@@ -93,6 +96,21 @@ class ControllerArtifact:
         if self.lyapunov:
             data["lyapunov"] = self.lyapunov
         return data
+
+
+def new_data(plant: "Model", name: str, description: str, law: dict[str, Any], certificate: dict[str, Any],
+             provenance: dict[str, Any], lyapunov: dict[str, Any] | None = None) -> dict[str, Any]:
+    """JSON data of a new artifact for a state feedback of ``plant``: its states are the
+    controller's inputs and its command inputs ``u[i]`` the controller's outputs."""
+    states = [{"name": s.variable.name, "unit": s.variable.unit} for s in plant.states]
+    outputs = [{"name": v.name, "unit": v.unit, "description": v.description}
+               for v in plant.inputs if v.base_name == "u"]
+    data = {"format": FORMAT, "format_version": FORMAT_VERSION, "kind": KIND, "name": name, "plant": plant.name,
+            "description": description, "states": states, "outputs": outputs, "law": law,
+            "certificate": certificate, "provenance": provenance}
+    if lyapunov:
+        data["lyapunov"] = lyapunov
+    return data
 
 
 def _fail(where: str, msg: str) -> ArtifactError:

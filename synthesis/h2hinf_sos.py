@@ -42,10 +42,11 @@ from typing import Any, Callable
 import numpy as np
 from scipy.optimize import minimize_scalar
 
+from controllers import artifact as artifacts
 from fmus import mrp_satellite
 from fmus.model import Model
 from synthesis.polynomial import Poly, PolyMatrix, monomials
-from synthesis.sos import Check, SOSError, SOSProgram, SOSSolution, verify
+from synthesis.sos import Check, SOSError, SOSProgram, SOSSolution, check_numbers, verify
 
 X0_200 = np.array([0.0, 0.0, 0.0, 0.5992, -0.7976, 0.6517])
 """x(0) of the H2 bound: seed 000's 200 deg rest-to-rest start (**substitute**, MODELS.md)."""
@@ -313,29 +314,21 @@ def search(gamma: float, variant: str = "slack", alpha_bounds: tuple[float, floa
 
 def artifact_data(result: Theorem8Result, name: str, model: Model = mrp_satellite.MODEL) -> dict[str, Any]:
     """Controller artifact (format of :mod:`controllers.artifact`, form "polynomial")."""
-    states = [{"name": s.variable.name, "unit": s.variable.unit} for s in model.states]
-    outputs = [{"name": f"u[{i}]", "unit": "N.m", "description": f"Control torque about body axis {i}"}
-               for i in (1, 2, 3)]
-    return {
-        "format": "satfmu-controller", "format_version": 1, "kind": "polynomial_state_feedback",
-        "name": name, "plant": model.name,
-        "description": (f"Seed 001 Theorem 8 mixed H2/H-infinity state feedback u = Y(x) F^-1 x "
-                        f"({result.variant} Lyapunov matrices, gamma = {result.gamma:g}), synthesized by satfmu"),
-        "states": states, "outputs": outputs,
-        "law": {"form": "polynomial", "terms": result.law_terms()},
-        "lyapunov": {"Q": result.X2.tolist(), "note": "X2: J2 <= x0^T X2^-1 x0 <= lambda"},
-        "certificate": {
+    return artifacts.new_data(
+        model, name,
+        (f"Seed 001 Theorem 8 mixed H2/H-infinity state feedback u = Y(x) F^-1 x "
+         f"({result.variant} Lyapunov matrices, gamma = {result.gamma:g}), synthesized by satfmu"),
+        law={"form": "polynomial", "terms": result.law_terms()},
+        lyapunov={"Q": result.X2.tolist(), "note": "X2: J2 <= x0^T X2^-1 x0 <= lambda"},
+        certificate={
             "status": "certified" if result.certified else "not_verified",
             "proved": result.proved, "region": result.region,
-            "numbers": {**{f"{c.name}: {k}": float(getattr(c, k)) for c in result.checks
-                           for k in ("min_eig", "residual", "sampled_min")},
-                        "lambda": result.lam, "gamma": result.gamma, "alpha": result.alpha, "beta": result.beta,
-                        "psd_margin": _psd_margin(result)},
+            "numbers": {**check_numbers(result.checks), "lambda": result.lam, "gamma": result.gamma,
+                        "alpha": result.alpha, "beta": result.beta, "psd_margin": _psd_margin(result)},
             "h2": {"lambda": result.lam, "x0": result.x0.tolist()},
             "Xinf": result.Xinf.tolist(), "F": result.F.tolist(),
         },
-        "provenance": {"source": "satfmu synthesis.h2hinf_sos.theorem8 (seed 001 Theorem 8)",
-                       "solver": result.solution.solver, "timings_s": result.timings},
-    }
+        provenance={"source": "satfmu synthesis.h2hinf_sos.theorem8 (seed 001 Theorem 8)",
+                    "solver": result.solution.solver, "timings_s": result.timings})
 
 

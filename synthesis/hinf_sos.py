@@ -29,10 +29,11 @@ import numpy as np
 import scipy.sparse as sps
 import sympy as sp
 
+from controllers import artifact as artifacts
 from fmus import mrp_satellite
 from fmus.model import Model
 from synthesis.polynomial import Poly, PolyMatrix, monomials
-from synthesis.sos import Check, SOSProgram, SOSSolution, verify
+from synthesis.sos import Check, SOSProgram, SOSSolution, check_numbers, verify
 
 
 @dataclass
@@ -170,22 +171,12 @@ def artifact_data(result: Theorem1Result, name: str, model: Model = mrp_satellit
     The certificate status is "certified" only when every SOS constraint passed the
     independent verification; the numbers of each check are recorded.
     """
-    states = [{"name": s.variable.name, "unit": s.variable.unit} for s in model.states]
-    outputs = [{"name": f"u[{i}]", "unit": "N.m", "description": f"Control torque about body axis {i}"}
-               for i in (1, 2, 3)]
-    return {
-        "format": "satfmu-controller", "format_version": 1, "kind": "polynomial_state_feedback",
-        "name": name, "plant": model.name,
-        "description": f"Seed 000 Theorem 1 state feedback u = diag(I) K(x) P x, synthesized by satfmu ({result.region})",
-        "states": states, "outputs": outputs,
-        "law": {"form": "gain_times_lyapunov", "K": result.law_terms(), "P": np.linalg.inv(result.Q).tolist()},
-        "lyapunov": {"Q": result.Q.tolist(), "note": "V = x^T Q^-1 x"},
-        "certificate": {
-            "status": "certified" if result.certified else "not_verified",
-            "proved": result.proved, "region": result.region,
-            "numbers": {f"{c.name}: {k}": float(getattr(c, k)) for c in result.checks
-                        for k in ("min_eig", "residual", "sampled_min")},
-        },
-        "provenance": {"source": "satfmu synthesis.hinf_sos.theorem1 (seed 000 eq. 23)",
-                       "solver": result.solution.solver, "timings_s": result.timings},
-    }
+    return artifacts.new_data(
+        model, name,
+        f"Seed 000 Theorem 1 state feedback u = diag(I) K(x) P x, synthesized by satfmu ({result.region})",
+        law={"form": "gain_times_lyapunov", "K": result.law_terms(), "P": np.linalg.inv(result.Q).tolist()},
+        lyapunov={"Q": result.Q.tolist(), "note": "V = x^T Q^-1 x"},
+        certificate={"status": "certified" if result.certified else "not_verified",
+                     "proved": result.proved, "region": result.region, "numbers": check_numbers(result.checks)},
+        provenance={"source": "satfmu synthesis.hinf_sos.theorem1 (seed 000 eq. 23)",
+                    "solver": result.solution.solver, "timings_s": result.timings})

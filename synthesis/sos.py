@@ -375,6 +375,11 @@ def _match(rows: np.ndarray, table: np.ndarray) -> np.ndarray:
     return np.array([lookup.get(tuple(r), -1) for r in rows], np.int64)
 
 
+def check_numbers(checks: list[Check]) -> dict[str, float]:
+    """The verification numbers of ``checks`` as a flat ``{"<name>: <quantity>": value}`` map."""
+    return {f"{c.name}: {k}": float(getattr(c, k)) for c in checks for k in ("min_eig", "residual", "sampled_min")}
+
+
 def verify(prog: SOSProgram, sol: SOSSolution, n_samples: int = 2000, sample_radius: float = 1.0,
            seed: int = 0, eig_tol: float = 1e-7, res_tol: float = 1e-7) -> list[Check]:
     """Re-check every SOS constraint from the numbers alone (no solver).

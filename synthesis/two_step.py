@@ -37,7 +37,7 @@ from controllers.artifact import parse
 from fmus import mrp_satellite
 from sims import reference
 from synthesis import hinf_sos, l2_gain
-from synthesis.sos import SOSError
+from synthesis.sos import SOSError, check_numbers
 
 DECAY_RATES = tuple(0.0025 * np.sqrt(2.0) ** k for k in range(10))
 """Default schedule of certified decay rates lambda, 1/s (geometric, factor sqrt 2)."""
@@ -120,8 +120,7 @@ class TwoStepResult:
         data["certificate"]["l2_gain"] = {
             "c": best.c, "method": "SOS certificate of H(x) <= 0 (S-procedure on the region), V = kv x^T P x",
             "region": region.label, "kv": best.sos.kv, "q2": 1.0,
-            "checks": {f"{c.name}: {k}": float(getattr(c, k)) for c in best.sos.checks
-                       for k in ("min_eig", "residual", "sampled_min")},
+            "checks": check_numbers(best.sos.checks),
             "sampled_c": _json_value(best.sampled.c), "sampled_kv": best.sampled.kv, "sampled_points": best.sampled.n_samples,
             "diagonal_c": best.diagonal[0] if best.diagonal else None,
             "diagonal_kv": best.diagonal[1] if best.diagonal else None,
