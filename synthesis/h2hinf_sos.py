@@ -21,17 +21,32 @@ with ``G11 = G13 = A F + Bu Y + (A F + Bu Y)^T`` and ``G12 = X2 - F + a (A F + B
 ``u = Y(x) F^-1 x``. The closed loop then has H2 cost ``J2 <= lambda`` from ``x0`` and L2 gain
 ``w -> z`` below ``gamma`` where the conditions hold.
 
-Choices (MODELS.md, "Checked numerically before building"):
+Choices (MODELS.md, "Checked numerically before building", and what we measured):
 
-- ``X2``, ``Xinf`` and ``F`` are constant: then the ``dX/dx`` terms vanish and
-  ``u = Y(x) F^-1 x`` is a polynomial (no linear solve at run time). With a constant F the
-  conditions cannot hold for large ``|sigma|``, so they are certified on ``|sigma| <= r``
-  (S-procedure), and the artifact says so.
-- The margin ``e`` is a full-matrix margin (the seed's sits on the (1,1) block only), so
-  ``-a (F + F^T) < 0`` and F is invertible.
+- ``Y = Y~(x~) + Kg(x) F``: ``Kg`` cancels the actuated rows of ``A(x)`` (the gyroscopic
+  torque; :class:`SplitPlant`), so the conditions involve ``A~(x~)`` only and hold for
+  *every* rate, on ``|x~| <= r`` (S-procedure). The law is
+  ``u = omega x I omega + Y~(sigma) F^-1 x``.
+- ``X2``, ``Xinf`` and ``F`` are constant, so the ``dX/dx`` terms vanish and the law is a
+  polynomial (no linear solve at run time). A state-dependent ``F`` cannot widen the
+  region: with ``U = [Acl; -I; I; K]``, ``V = [I; a I; 0; 0]`` the H2 matrix is
+  ``Psi + He(U F V^T)``, and projecting on ``ker U^T`` gives
+  ``Acl X2 + X2 Acl^T + X2 (Qh + K^T Rh K) X2 < 0`` whatever F is. Its sigma-sigma block,
+  ``G(sigma) X2_ws + (.)^T``, no feedback can change, and no constant ``X2_ws`` keeps it
+  negative once ``B(sigma)/(1 + |sigma|^2)`` (a rotation by ``2 atan|sigma|``) reaches
+  90 deg: constant Lyapunov matrices certify only ``|sigma| < 1``. (Measured at r = 0.3:
+  F of degree 2 in sigma lowers lambda by 1 % for a 9x slower, uncertified solve.)
+- The same projection (``ker [Acl; -I; 0; C]^T``) gives the dual bounded-real lemma from
+  the H-infinity matrix, so both conditions are sound for any ``a, b > 0``.
+- The margin ``e`` sits on every diagonal block (the seed's sits on the (1,1) block only),
+  as ``a e`` on ``-a (F + F^T)``, so ``F + F^T >= e I`` and F is invertible.
 - ``variant="common"``: ``X2 = Xinf = F`` (symmetric), the common-Lyapunov baseline the
   seed says the slack design beats.
-- ``alpha`` and ``beta`` are fixed in one SDP and searched outside (:func:`search`).
+- ``alpha`` and ``beta`` are fixed in one SDP and searched outside (:func:`search`); below
+  ``a ~ 0.05`` the SDPs become too ill-conditioned for Clarabel.
+- ``x0`` of the H2 bound: seed 000's 200 deg start has ``|sigma| = 1.19``, outside any
+  region constant Lyapunov matrices can certify, so the default is the 90 deg rest-to-rest
+  about the same axis (``|sigma| = 0.414``; **substitute**, a parameter).
 """
 from __future__ import annotations
 
@@ -40,6 +55,7 @@ from dataclasses import dataclass, field
 from typing import Any, Callable
 
 import numpy as np
+import sympy as sp
 from scipy.optimize import minimize_scalar
 
 from controllers import artifact as artifacts
@@ -49,8 +65,84 @@ from synthesis.polynomial import Poly, PolyMatrix, monomials
 from synthesis.sos import Check, SOSError, SOSProgram, SOSSolution, check_numbers, verify
 
 X0_200 = np.array([0.0, 0.0, 0.0, 0.5992, -0.7976, 0.6517])
-"""x(0) of the H2 bound: seed 000's 200 deg rest-to-rest start (**substitute**, MODELS.md)."""
+"""Seed 000's 200 deg rest-to-rest start (MODELS.md's x(0), outside every certifiable region)."""
+X0_90 = np.concatenate([np.zeros(3), X0_200[3:] / np.linalg.norm(X0_200[3:]) * np.tan(np.pi / 8)])
+"""Default x(0) of the H2 bound: 90 deg rest-to-rest about the 200 deg case's axis."""
 VARIANTS = ("slack", "common")
+
+
+@dataclass(frozen=True)
+class SplitPlant:
+    """The SDC plant split as Theorem 8 needs it (parameters at their defaults).
+
+    ``x~`` (``tilde``) are the states whose rows of ``[Bu Bw]`` are zero, the others are
+    ``actuated``. ``Kg(x) = -(Bu^T Bu)^-1 Bu^T A(x)`` cancels the actuated rows of A (for
+    the MRP satellite: the gyroscopic torque, ``Kg x = omega x I omega``), so with
+    ``Y = Y~(x~) + Kg F`` the conditions only involve ``A~ = A + Bu Kg``, a function of x~.
+    """
+
+    symbols: tuple[sp.Symbol, ...]
+    tilde: tuple[int, ...]
+    actuated: tuple[int, ...]
+    A_tilde: PolyMatrix
+    """``A + Bu Kg`` as polynomials in x~."""
+    Kg: sp.Matrix
+    """The cancelling feedback gain, in the state symbols."""
+    Bu: np.ndarray
+    Bw: np.ndarray
+    C: np.ndarray
+    """``z = C x = x~`` (seed 001: the MRPs)."""
+
+    @property
+    def n(self) -> int:
+        return len(self.symbols)
+
+    @property
+    def m(self) -> int:
+        return self.Bu.shape[1]
+
+    @property
+    def tilde_symbols(self) -> list[sp.Symbol]:
+        return [self.symbols[i] for i in self.tilde]
+
+    @property
+    def tilde_name(self) -> str:
+        return _base(self.symbols[self.tilde[0]])
+
+    @property
+    def actuated_name(self) -> str:
+        return _base(self.symbols[self.actuated[0]])
+
+
+def _base(s: sp.Symbol) -> str:
+    return str(s).split("[", 1)[0]
+
+
+def _split(model: Model, frozen: bool) -> SplitPlant:
+    xs = [s.symbol for s in model.states]
+    subs = {v.symbol: v.start for v in model.parameters}
+    sdc = model.sdc
+    if sdc is None:
+        raise ValueError(f"model {model.name!r} has no SDC form")
+    A = sp.Matrix(sdc.A.subs(subs))
+    if frozen:
+        A = A.subs({x: 0 for x in xs})
+    B = sp.Matrix(sdc.B.subs(subs))
+    m = B.shape[1] // 2
+    Bu = B[:, :m]
+    tilde = tuple(i for i in range(len(xs)) if all(B[i, j] == 0 for j in range(B.shape[1])))
+    actuated = tuple(i for i in range(len(xs)) if i not in tilde)
+    Kg = sp.simplify(-(Bu.T * Bu).inv() * Bu.T * A)
+    A_tilde = sp.simplify(A + Bu * Kg)
+    xt = [xs[i] for i in tilde]
+    if not A_tilde.free_symbols <= set(xt):
+        raise ValueError(f"model {model.name!r}: A + Bu Kg depends on "
+                         f"{sorted(map(str, A_tilde.free_symbols - set(xt)))}, not only on x~")
+    C = np.zeros((len(tilde), len(xs)))
+    C[np.arange(len(tilde)), list(tilde)] = 1.0
+    Bn = np.array(B, float)
+    return SplitPlant(tuple(xs), tilde, actuated, PolyMatrix.from_sympy(A_tilde, xt), Kg,
+                      Bn[:, :m], Bn[:, m:], C)
 
 
 @dataclass
@@ -66,9 +158,13 @@ class Theorem8Result:
     X2: np.ndarray
     Xinf: np.ndarray
     F: np.ndarray
+    """The slack matrix (constant: see the module notes)."""
     Y: list[list[Poly]]
+    """Y~(x~): the law is ``u = Kg(x) x + Y~(x~) F^-1 x``."""
+    plant: SplitPlant
     checks: list[Check]
     region: str
+    radius: float
     x0: np.ndarray
     solution: SOSSolution
     timings: dict[str, float] = field(default_factory=dict)
@@ -77,31 +173,47 @@ class Theorem8Result:
     def certified(self) -> bool:
         return all(c.certified for c in self.checks) and _psd_margin(self) >= -1e-9
 
+    def h2_level(self) -> float:
+        """``x0^T X2^-1 x0`` (<= lambda): the H2 cost bound and the Lyapunov level from x0."""
+        return float(self.x0 @ np.linalg.solve(self.X2, self.x0))
+
+    def reach(self, X: np.ndarray, level: float) -> float:
+        """Largest ``|x~|`` on the ellipsoid ``x^T X^-1 x <= level`` (any rates)."""
+        C = self.plant.C
+        return float(np.sqrt(level * np.linalg.eigvalsh(C @ X @ C.T).max()))
+
+    @property
+    def h2_proved(self) -> bool:
+        """The trajectory from x0 cannot leave the region: its Lyapunov sublevel set of X2
+        lies inside ``|x~| <= radius`` (so ``J2 <= lambda`` is proved, not just local)."""
+        return self.reach(self.X2, self.h2_level()) <= self.radius
+
+    def disturbance_energy(self) -> float:
+        """Largest ``||w||_2^2`` (N^2 m^2 s) from rest for which the state provably stays in
+        the region: ``x^T Xinf^-1 x <= gamma^2 ||w||^2`` along trajectories."""
+        return float(self.radius**2 / (self.gamma**2 * np.linalg.eigvalsh(
+            self.plant.C @ self.Xinf @ self.plant.C.T).max()))
+
     @property
     def proved(self) -> str:
-        return (f"mixed H2/H-infinity ({self.variant} Lyapunov matrices) on {self.region}: "
-                f"J2 <= lambda = {self.lam:.6g} from x0 while the state stays in the region, "
-                f"L2 gain w -> sigma <= gamma = {self.gamma:g}")
+        h2 = ("J2 <= lambda = {:.6g} from x0 (its X2 sublevel set lies in the region)" if self.h2_proved
+              else "J2 <= lambda = {:.6g} from x0 while the trajectory stays in the region").format(self.lam)
+        return (f"mixed H2/H-infinity ({self.variant} Lyapunov matrices) on {self.region}: {h2}; "
+                f"L2 gain w -> {self.plant.tilde_name} <= gamma = {self.gamma:g} from rest for "
+                f"||w||_2^2 <= {self.disturbance_energy():.4g} (the state then stays in the region)")
 
-    def gain(self) -> list[list[Poly]]:
-        """``K(x) = Y(x) F^-1`` (3 x 6 numeric polynomials), so that ``u = K(x) x``."""
-        Fi = np.linalg.inv(self.F)
-        return [[Poly.sum([self.Y[i][k].scale(Fi[k, j]) for k in range(Fi.shape[0])]) for j in range(Fi.shape[1])]
-                for i in range(len(self.Y))]
+    def law(self) -> sp.Matrix:
+        """``u = Kg(x) x + Y~(x~) F^-1 x``, expanded polynomials in the state symbols."""
+        xs = sp.Matrix(self.plant.symbols)
+        Y = sp.Matrix([[p.to_sympy(self.plant.tilde_symbols) for p in row] for row in self.Y])
+        Fi = sp.Matrix(np.linalg.inv(self.F))
+        return (self.plant.Kg * xs + Y * (Fi * xs)).applyfunc(sp.expand)
 
     def law_terms(self) -> list[list[dict[str, Any]]]:
-        """``u_i = sum_j K_ij(x) x_j`` as artifact terms (form "polynomial")."""
-        out = []
-        for row in self.gain():
-            n = row[0].n_vars
-            parts = []
-            for j, k in enumerate(row):
-                e = np.zeros((1, n), np.int64)
-                e[0, j] = 1
-                parts.append(k * Poly.numeric(e, np.ones(1)))
-            p = Poly.sum(parts)
-            out.append([{"c": float(c), "e": [int(v) for v in e]} for c, e in zip(p.c0, p.exps) if c != 0.0])
-        return out
+        """:meth:`law` as artifact terms (form "polynomial")."""
+        xs = self.plant.symbols
+        return [[{"c": float(c), "e": [int(v) for v in e]} for e, c in sp.Poly(u, *xs).terms() if c != 0]
+                for u in self.law()]
 
 
 def _psd_margin(r: Theorem8Result) -> float:
@@ -111,18 +223,10 @@ def _psd_margin(r: Theorem8Result) -> float:
                      np.linalg.eigvalsh(lam_block).min() / max(1.0, r.lam)))
 
 
-def _constant_matrix(prog: SOSProgram, rows: int, cols: int, symmetric: bool = False) -> PolyMatrix:
-    if symmetric:
-        return PolyMatrix(prog.new_symmetric(rows))
-    zero = np.zeros((1, prog.n_vars), np.int64)
-    return PolyMatrix([[prog.new_poly(zero) for _ in range(cols)] for _ in range(rows)])
-
-
-def theorem8(gamma: float, alpha: float, beta: float, variant: str = "slack", region: float = 0.9,
-             y_degree: int = 2, Qh: np.ndarray | None = None, Rh: np.ndarray | None = None,
-             x0: np.ndarray = X0_200, margin: float = 1e-4, multiplier_degree: int = 0,
-             frozen: bool = False, rate_max: float | None = None,
-             model: Model = mrp_satellite.MODEL) -> Theorem8Result:
+def theorem8(gamma: float, alpha: float, beta: float, variant: str = "slack", region: float = 0.45,
+             y_degree: int = 1, Qh: np.ndarray | None = None, Rh: np.ndarray | None = None,
+             x0: np.ndarray = X0_90, margin: float = 1e-6, multiplier_degree: int = 0,
+             frozen: bool = False, model: Model = mrp_satellite.MODEL) -> Theorem8Result:
     """Solve Theorem 8 at fixed ``gamma``, ``alpha``, ``beta`` (minimize lambda).
 
     Parameters
@@ -134,23 +238,25 @@ def theorem8(gamma: float, alpha: float, beta: float, variant: str = "slack", re
     variant : {"slack", "common"}
         Separate X2, Xinf and slack F (the seed's design) or X2 = Xinf = F.
     region : float
-        Certificate region ``|sigma| <= region``.
+        Certificate region ``|x~| <= region`` (x~: the MRPs), any rates.
     y_degree : int
-        Degree of every entry of Y(x).
+        Degree in x~ of every entry of Y~(x~) (0 or 1: higher degrees put the weight rows'
+        entries at degree 2 and every row needs a multiplier).
     Qh, Rh : ndarray, optional
         H2 weights (default I6, I3: **substitute**, the seed gives none).
     margin : float
-        Full-matrix margin ``e`` of both SOS-matrix conditions and of X2, Xinf.
+        Margin ``e`` on the diagonal blocks of both SOS-matrix conditions (``a e`` on the
+        F block) and on X2, Xinf.
+    multiplier_degree : int
+        Degree of the S-procedure multipliers of the region (even).
     frozen : bool
         Freeze A(x) at x = 0 (the linearization; LMIs): the reference design of MODELS.md.
-    rate_max : float, optional
-        Also restrict the region to ``|omega_i| <= rate_max`` (rad/s): the H2 condition's
-        (2,1) block is linear in the rates through the gyroscopic terms.
 
     Raises
     ------
     ValueError
-        On invalid scalars, variant or weights.
+        On invalid scalars, degrees, variant or weights, or a model whose conditions do
+        not reduce to x~ after the actuated rows are cancelled.
     synthesis.sos.SOSError
         If the program is infeasible at these values.
     """
@@ -159,20 +265,11 @@ def theorem8(gamma: float, alpha: float, beta: float, variant: str = "slack", re
     for name, v in (("gamma", gamma), ("alpha", alpha), ("beta", beta), ("region", region)):
         if not (np.isfinite(v) and v > 0):
             raise ValueError(f"{name} must be finite and > 0, got {v}")
-    if rate_max is not None and not (np.isfinite(rate_max) and rate_max > 0):
-        raise ValueError(f"rate_max must be finite and > 0, got {rate_max}")
+    if int(y_degree) != y_degree or y_degree < 0:
+        raise ValueError(f"y_degree must be a non-negative integer, got {y_degree}")
     t0 = time.perf_counter()
-    xs = [s.symbol for s in model.states]
-    n = len(xs)
-    subs = {v.symbol: v.start for v in model.parameters}
-    sdc = model.sdc
-    assert sdc is not None
-    A_sym = sdc.A.subs(subs)
-    A = PolyMatrix.from_sympy(A_sym.subs({x: 0 for x in xs}) if frozen else A_sym, xs)
-    Bfull = np.array(sdc.B.subs(subs), float)
-    m = Bfull.shape[1] // 2
-    Bu, Bw = Bfull[:, :m], Bfull[:, m:]
-    C = np.hstack([np.zeros((n - m, m)), np.eye(n - m)])
+    plant = _split(model, frozen)
+    n, m, nt = plant.n, plant.m, len(plant.tilde)
     Qh = np.eye(n) if Qh is None else np.asarray(Qh, float)
     Rh = np.eye(m) if Rh is None else np.asarray(Rh, float)
     for name, W, k in (("Qh", Qh, n), ("Rh", Rh, m)):
@@ -182,53 +279,58 @@ def theorem8(gamma: float, alpha: float, beta: float, variant: str = "slack", re
     if x0.shape != (n,) or not np.all(np.isfinite(x0)):
         raise ValueError(f"x0 must be {n} finite numbers")
 
-    prog = SOSProgram(n)
-    F = _constant_matrix(prog, n, n, symmetric=variant == "common")
+    prog = SOSProgram(nt)  # the conditions depend on x~ only
+    zero = np.zeros((1, nt), np.int64)
     if variant == "common":
+        F = PolyMatrix(prog.new_symmetric(n))
         X2 = Xinf = F
     else:
-        X2 = _constant_matrix(prog, n, n, symmetric=True)
-        Xinf = _constant_matrix(prog, n, n, symmetric=True)
-    Y = PolyMatrix([[prog.new_poly(monomials(n, y_degree)) for _ in range(n)] for _ in range(m)])
+        F = PolyMatrix([[prog.new_poly(zero) for _ in range(n)] for _ in range(n)])
+        X2, Xinf = PolyMatrix(prog.new_symmetric(n)), PolyMatrix(prog.new_symmetric(n))
+    Y = PolyMatrix([[prog.new_poly(monomials(nt, y_degree)) for _ in range(n)] for _ in range(m)])
     lam_idx = prog.new_variables(1)
 
     def const(M: np.ndarray) -> PolyMatrix:
-        return PolyMatrix.constant(M, n)
+        return PolyMatrix.constant(M, nt)
 
-    AFBY = A @ F + const(Bu) @ Y
+    # A F + Bu Y with Y = Y~ + Kg F: the actuated rows of A cancel (A~ = A + Bu Kg)
+    AFBY = plant.A_tilde @ F + const(plant.Bu) @ Y
     G11 = AFBY + AFBY.T
     FFt = F + F.T
     eye = np.eye
     M2 = PolyMatrix.block([
-        [G11 + const(margin * eye(n)), None, None, None],
+        [G11, None, None, None],
         [X2 - F + AFBY.T.scale(alpha), -FFt.scale(alpha), None, None],
         [F, F.scale(alpha), const(-np.linalg.inv(Qh)), None],
         [Y, Y.scale(alpha), None, const(-np.linalg.inv(Rh))],
     ])
-    CF = const(C) @ F
+    CF = const(plant.C) @ F
     Minf = PolyMatrix.block([
-        [G11 + const(margin * eye(n)), None, None, None],
+        [G11, None, None, None],
         [Xinf - F + AFBY.T.scale(beta), -FFt.scale(beta), None, None],
-        [const(Bw.T), None, const(-gamma**2 * eye(m)), None],
+        [const(plant.Bw.T), None, const(-gamma**2 * eye(m)), None],
         [CF, CF.scale(beta), None, const(-eye(n - m))],
     ])
     if frozen:  # constant matrices: plain LMIs, no region
         regions, label = None, "x = 0 (A frozen at the origin: the linearization)"
     else:
-        regions = [Poly.from_sympy(region**2 - sum(x**2 for x in xs[n - 3:]), xs)]
-        label = f"|sigma| <= {region:g}"
-        if rate_max is not None:
-            regions += [Poly.from_sympy(rate_max**2 - x**2, xs) for x in xs[:n - 3]]
-            label = f"|omega_i| <= {rate_max:g} rad/s, " + label
-    for name, M in (("H2", M2), ("Hinf", Minf)):
+        regions = [Poly.from_sympy(region**2 - sum(x**2 for x in plant.tilde_symbols), plant.tilde_symbols)]
+        label = f"|{plant.tilde_name}| <= {region:g}, any {plant.actuated_name}"
+    def margins(a: float, weights: int) -> PolyMatrix:  # e diag(I, a I, I): F + F^T >= e I
+        return const(margin * np.diag(np.concatenate([np.ones(n), np.full(n, a), np.ones(weights)])))
+
+    for name, M in (("H2", M2 + margins(alpha, n + m)), ("Hinf", Minf + margins(beta, m + n - m))):
+        # only the first two block rows are quadratic in x~; the weight rows are at most
+        # linear and need no multiplier (smaller Gram basis)
         prog.add_sos_matrix(_symmetrize_lower(M).scale(-1.0), f"-M_{name}", region=regions,
-                            multiplier_degree=multiplier_degree, label=label)
+                            multiplier_degree=multiplier_degree, label=label,
+                            multiplier_rows=range(2 * n) if y_degree <= 1 else None)
     prog.add_psd_constant(X2.entries, "X2 > 0", margin=margin)
     if variant == "slack":
         prog.add_psd_constant(Xinf.entries, "Xinf > 0", margin=margin)
     # [lambda x0^T; x0 X2] >= 0
-    lam = Poly(np.zeros((1, n), np.int64), np.zeros(1), prog.selector(lam_idx))
-    x0c = [Poly.constant(v, n) for v in x0]
+    lam = Poly(zero, np.zeros(1), prog.selector(lam_idx))
+    x0c = [Poly.constant(v, nt) for v in x0]
     block = [[lam] + x0c] + [[x0c[i]] + X2.entries[i] for i in range(n)]
     prog.add_psd_constant(block, "lambda bound")
     objective = prog.selector(lam_idx)
@@ -236,17 +338,21 @@ def theorem8(gamma: float, alpha: float, beta: float, variant: str = "slack", re
     # tighter than Clarabel's defaults (1e-8): the optimum sits on the cone boundary and the
     # independent verification checks coefficient residuals at 1e-7 relative
     sol = prog.solve(objective=objective, tol_feas=1e-10, tol_gap_abs=1e-10, tol_gap_rel=1e-10)
+    solve_s = sol.timings["solve"]
     t2 = time.perf_counter()
     checks = verify(prog, sol, sample_radius=region)
-    timings = {"build": t1 - t0 + sol.timings["build"] - prog.build_seconds, "solve": sol.timings["solve"],
+    timings = {"build": t1 - t0 + sol.timings["build"] - prog.build_seconds, "solve": solve_s,
                "verify": time.perf_counter() - t2}
 
     def num(M: PolyMatrix) -> np.ndarray:
         return np.array([[float(e.value(sol.y).c0[0]) if e.exps.shape[0] else 0.0 for e in row] for row in M.entries])
 
-    Yv = [[Y.entries[i][j].value(sol.y) for j in range(n)] for i in range(m)]
+    def polys(M: PolyMatrix) -> list[list[Poly]]:
+        return [[e.value(sol.y) for e in row] for row in M.entries]
+
     return Theorem8Result(variant, float(gamma), float(alpha), float(beta), float(sol.y[lam_idx[0]]),
-                          num(X2), num(Xinf), num(F), Yv, checks, label, x0, sol, timings)
+                          num(X2), num(Xinf), num(F), polys(Y), plant, checks, label, float(region), x0,
+                          sol, timings)
 
 
 def _symmetrize_lower(M: PolyMatrix) -> PolyMatrix:
@@ -257,6 +363,8 @@ def _symmetrize_lower(M: PolyMatrix) -> PolyMatrix:
 
 
 Progress = Callable[[int, int, str], None]
+_REJECTED = 1e12
+"""Objective given to the line search for an infeasible or uncertified point."""
 
 
 @dataclass
@@ -268,48 +376,45 @@ class SearchResult:
     """``(alpha, beta, lambda)`` per SDP (lambda inf where infeasible or not certified)."""
 
 
-def search(gamma: float, variant: str = "slack", alpha_bounds: tuple[float, float] = (1e-5, 1.0),
-           beta_bounds: tuple[float, float] = (1e-5, 1.0), sweeps: int = 2, progress: Progress | None = None,
+def search(gamma: float, variant: str = "slack", bounds: tuple[float, float] = (0.05, 2.0),
+           xatol: float = 0.1, max_evaluations: int = 20, progress: Progress | None = None,
            **kwargs: Any) -> SearchResult:
-    """Minimize lambda over log alpha and log beta (coordinate-wise golden section, ``sweeps``
-    passes), one certified SDP per evaluation."""
+    """Minimize the certified lambda over alpha and beta (one SDP per evaluation).
+
+    Golden section (Brent, bounded) on ``log10 alpha`` with ``beta = alpha``, then on
+    ``log10 beta`` at the best alpha; ``xatol`` in decades. Infeasible, failed and
+    uncertified SDPs count as rejected. ``kwargs`` go to :func:`theorem8`.
+    """
+    if not (0 < bounds[0] < bounds[1] and np.all(np.isfinite(bounds))):
+        raise ValueError(f"bounds must satisfy 0 < low < high, got {bounds}")
     evaluations: list[tuple[float, float, float]] = []
-    cache: dict[tuple[float, float], Theorem8Result | None] = {}
-    budget = sweeps * 2 * 14 + 2
-    state = {"best": None}
+    best: list[Theorem8Result] = []
 
     def solve(a: float, b: float) -> float:
-        key = (round(np.log10(a), 6), round(np.log10(b), 6))
-        if key not in cache:
-            if progress is not None:
-                progress(min(len(evaluations), budget - 1), budget,
-                         f"{variant}, gamma = {gamma:g}: alpha = {a:.3g}, beta = {b:.3g}")
-            try:
-                r = theorem8(gamma, a, b, variant, **kwargs)
-                cache[key] = r if r.certified else None
-            except SOSError:
-                cache[key] = None
-            r = cache[key]
-            evaluations.append((a, b, r.lam if r is not None else float("inf")))
-            if r is not None and (state["best"] is None or r.lam < state["best"].lam):
-                state["best"] = r
-        r = cache[key]
-        return r.lam if r is not None else float("inf")
+        if len(evaluations) >= max_evaluations:
+            return _REJECTED
+        if progress is not None:
+            progress(len(evaluations), max_evaluations, f"{variant}, gamma = {gamma:g}: alpha = {a:.3g}, beta = {b:.3g}")
+        try:
+            r: Theorem8Result | None = theorem8(gamma, a, b, variant, **kwargs)
+        except SOSError:
+            r = None
+        if r is not None and not r.certified:
+            r = None
+        evaluations.append((a, b, r.lam if r is not None else float("inf")))
+        if r is not None and (not best or r.lam < best[0].lam):
+            best[:] = [r]
+        return r.lam if r is not None else _REJECTED
 
-    a, b = np.sqrt(alpha_bounds[0] * alpha_bounds[1]), np.sqrt(beta_bounds[0] * beta_bounds[1])
-    for _ in range(sweeps):
-        for which in ("alpha", "beta"):
-            lo, hi = np.log10(alpha_bounds if which == "alpha" else beta_bounds)
-            res = minimize_scalar(lambda t: solve(10**t, b) if which == "alpha" else solve(a, 10**t),
-                                  bounds=(lo, hi), method="bounded", options={"xatol": 0.05, "maxiter": 12})
-            if np.isfinite(res.fun):
-                if which == "alpha":
-                    a = 10**res.x
-                else:
-                    b = 10**res.x
+    lo, hi = np.log10(bounds)
+    opts = {"xatol": xatol, "maxiter": max_evaluations}
+    minimize_scalar(lambda t: solve(10**t, 10**t), bounds=(lo, hi), method="bounded", options=opts)
+    if best:
+        a = best[0].alpha
+        minimize_scalar(lambda t: solve(a, 10**t), bounds=(lo, hi), method="bounded", options=opts)
     if progress is not None:
-        progress(budget, budget, "done")
-    return SearchResult(state["best"], evaluations)
+        progress(max_evaluations, max_evaluations, "done")
+    return SearchResult(best[0] if best else None, evaluations)
 
 
 def artifact_data(result: Theorem8Result, name: str, model: Model = mrp_satellite.MODEL) -> dict[str, Any]:

@@ -21,7 +21,7 @@ from __future__ import annotations
 import time
 import warnings
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Sequence
 
 import cvxpy as cp
 import numpy as np
@@ -229,20 +229,28 @@ class SOSProgram:
         return self.add_sos(rest, name, label)
 
     def add_sos_matrix(self, M: PolyMatrix, name: str, region: list[Poly] | None = None,
-                       multiplier_degree: int = 2, label: str = "global") -> SOSConstraint:
+                       multiplier_degree: int = 2, label: str = "global",
+                       multiplier_rows: Sequence[int] | None = None) -> SOSConstraint:
         """Require ``M(x) >= 0`` as an SOS matrix: ``v^T M(x) v`` SOS in ``(x, v)``.
 
         With ``region`` the condition holds where the region polynomials are ``>= 0``:
-        the multipliers are ``v^T v * s_i(x)``. The constraint is recorded in the
-        extended program of ``n_vars + dim`` variables.
+        the multipliers are ``v_R^T v_R * s_i(x)`` with ``v_R`` the entries of ``v`` in
+        ``multiplier_rows`` (default all; ``M - s_i g_i D_R >= 0`` with ``D_R >= 0`` still
+        proves ``M >= 0`` where ``g_i >= 0``). Leaving out rows whose entries are constant
+        or linear in x keeps their ``v_i z(x)`` monomials out of the Gram basis. The
+        constraint is recorded in the extended program of ``n_vars + dim`` variables.
         """
         q = quadratic_form(M)
         dim = M.shape[0]
         sub = _Extended(self, dim)
         if region:
-            # v^T v = sum_i v_i^2 in (x, v)
-            vv = Poly.numeric(np.hstack([np.zeros((dim, self.n_vars), np.int64), 2 * np.eye(dim, dtype=np.int64)]),
-                              np.ones(dim))
+            rows = np.arange(dim) if multiplier_rows is None else np.asarray(sorted(set(multiplier_rows)), np.int64)
+            if rows.size == 0 or rows.min() < 0 or rows.max() >= dim:
+                raise SOSError(f"{name}: multiplier_rows must be a non-empty subset of 0..{dim - 1}")
+            # v_R^T v_R = sum_{i in R} v_i^2 in (x, v)
+            vexp = np.zeros((rows.size, dim), np.int64)
+            vexp[np.arange(rows.size), rows] = 2
+            vv = Poly.numeric(np.hstack([np.zeros((rows.size, self.n_vars), np.int64), vexp]), np.ones(rows.size))
             for k, g in enumerate(region):
                 s = self.new_poly(monomials(self.n_vars, multiplier_degree))
                 self.add_sos(s, f"{name}: multiplier {k}")
