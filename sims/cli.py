@@ -5,11 +5,14 @@
     satfmu run SCENARIO [SCENARIO ...] [--backend native|python] [--fmu-dir DIR] [--out results]
     satfmu list
     satfmu synth mrp-hinf [--name mrp_hinf_satfmu] [--out controllers/artifacts] [--fmu-dir DIR] ...
+    satfmu synth mrp-h2hinf --gamma G [--variant slack|common] [--region 0.45] [--name ...] ...
+    satfmu sweep mrp-h2hinf [--gammas 1 0.8 ...] [--region 0.45] [--out results/h2hinf_sweep]
     satfmu l2 CONTROLLER [--rate-max 0.2] [--sigma-max 0.9] [--samples 200000]
 
 ``run`` exits with status 1 when a metric misses its bound, 2 on an error. ``synth``
-runs seed 000's two-step iteration, writes the chosen controller's artifact and builds its
-FMUs. ``l2`` reports the three L2-gain estimates of a controller (name of a shipped
+runs a design (seed 000's two-step iteration, or seed 001's Theorem 8 with its alpha/beta
+search and closed-loop check), writes the controller's artifact and builds its FMUs.
+``sweep`` writes the gamma-lambda trade-off of both Theorem 8 variants (CSV and PNG). ``l2`` reports the three L2-gain estimates of a controller (name of a shipped
 artifact or a .json path).
 """
 from __future__ import annotations
@@ -94,17 +97,13 @@ def _progress(done: int, total: int, message: str) -> None:
           file=sys.stderr, flush=True)
 
 
-def _synth(args: argparse.Namespace) -> int:
+def _save_and_build(data: dict, args: argparse.Namespace) -> None:
+    """Validate and write an artifact, then build its native and pythonfmu FMUs."""
     from controllers import artifact as artifacts
     from controllers import polynomial
     from fmus import export
-    from synthesis import l2_gain, two_step
 
-    result = two_step.two_step(region=args.region, l2_region=l2_gain.Region(args.rate_max, args.sigma_max),
-                               coefficient_limit=args.coefficient_limit, torque_budget=args.torque_budget,
-                               n_samples=args.samples, progress=_progress)
-    print(result.table())
-    art = artifacts.parse(result.artifact_data(args.name), where=args.name)
+    art = artifacts.parse(data, where=args.name)
     out = Path(args.out) / f"{args.name}.json"
     out.parent.mkdir(parents=True, exist_ok=True)
     artifacts.save(art, out)
@@ -113,6 +112,52 @@ def _synth(args: argparse.Namespace) -> int:
         model = polynomial.build(art)
         for build in (export.build_native, export.build_python):
             print(f"built {build(model, Path(args.fmu_dir), polynomial.artifact_resource(art))}")
+
+
+def _synth(args: argparse.Namespace) -> int:
+    from synthesis import l2_gain, two_step
+
+    result = two_step.two_step(region=args.region, l2_region=l2_gain.Region(args.rate_max, args.sigma_max),
+                               coefficient_limit=args.coefficient_limit, torque_budget=args.torque_budget,
+                               n_samples=args.samples, progress=_progress)
+    print(result.table())
+    _save_and_build(result.artifact_data(args.name), args)
+    return 0
+
+
+def _synth_h2hinf(args: argparse.Namespace) -> int:
+    from synthesis import h2hinf_sos
+
+    found = h2hinf_sos.search(args.gamma, args.variant, bounds=tuple(args.alpha_range),
+                              max_evaluations=args.evaluations, progress=_progress, region=args.region)
+    r = found.best
+    if r is None:
+        raise RuntimeError(f"no certified {args.variant} design at gamma = {args.gamma:g} on |sigma| <= "
+                           f"{args.region:g} ({len(found.evaluations)} SDPs; try a larger gamma or region)")
+    check = h2hinf_sos.closed_loop_check(r)
+    print(f"{r.proved}\n  alpha = {r.alpha:.4g}, beta = {r.beta:.4g}, {len(found.evaluations)} SDPs; "
+          f"simulated J2 = {check.j2:.4f} over {check.stop_time:g} s (bound {r.lam:.4f}), max |sigma| "
+          f"{check.max_tilde:.4f}, linearization max Re eig {check.max_real_eig:.4f} 1/s")
+    if not check.passed:
+        raise RuntimeError("the closed-loop check failed: the design is not saved")
+    _save_and_build(h2hinf_sos.artifact_data(r, args.name, check), args)
+    return 0
+
+
+def _sweep(args: argparse.Namespace) -> int:
+    from synthesis import h2hinf_sos
+    from sims import plots
+
+    rows = h2hinf_sos.sweep(args.gammas, bounds=tuple(args.alpha_range), max_evaluations=args.evaluations,
+                            progress=_progress, region=args.region)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    with open(out / "gamma_lambda.csv", "w") as fh:
+        fh.write(h2hinf_sos.sweep_csv(rows))
+    plots.tradeoff(rows, out / "gamma_lambda.png",
+                   f"Seed 001 Theorem 8 on |sigma| <= {args.region:g}: certified H2 bound vs gamma")
+    print(h2hinf_sos.sweep_csv(rows), end="")
+    print(f"wrote {out / 'gamma_lambda.csv'} and {out / 'gamma_lambda.png'}")
     return 0
 
 
@@ -169,20 +214,38 @@ def main(argv: list[str] | None = None) -> int:
     r.set_defaults(fn=_run)
     ls = sub.add_parser("list", help="list the shipped scenarios")
     ls.set_defaults(fn=_list)
-    sy = sub.add_parser("synth", help="synthesize a controller (mrp-hinf: seed 000 two-step iteration)")
-    sy.add_argument("design", choices=["mrp-hinf"])
-    sy.add_argument("--name", default="mrp_hinf_satfmu", help="artifact and FMU name")
-    sy.add_argument("--out", default="controllers/artifacts", help="directory of the artifact")
-    sy.add_argument("--fmu-dir", default=str(catalog.DEFAULT_FMU_DIR),
-                    help="build the controller FMUs here ('' to skip)")
-    sy.add_argument("--region", type=float, default=0.9, help="Theorem 1 region |sigma| <= r (< 1)")
-    sy.add_argument("--rate-max", type=float, default=0.2, help="L2 region |omega_i| <= rate-max, rad/s")
-    sy.add_argument("--sigma-max", type=float, default=0.9, help="L2 region |sigma| <= sigma-max")
-    sy.add_argument("--coefficient-limit", type=float, default=1.0, help="bound on every K coefficient")
-    sy.add_argument("--torque-budget", type=float, default=6.5,
+    sy = sub.add_parser("synth", help="synthesize a controller, write its artifact, build its FMUs")
+    designs = sy.add_subparsers(dest="design", required=True)
+    out = argparse.ArgumentParser(add_help=False)
+    out.add_argument("--out", default="controllers/artifacts", help="directory of the artifact")
+    out.add_argument("--fmu-dir", default=str(catalog.DEFAULT_FMU_DIR),
+                     help="build the controller FMUs here ('' to skip)")
+    hi = designs.add_parser("mrp-hinf", parents=[out], help="seed 000: two-step nonlinear H-infinity iteration")
+    hi.add_argument("--name", default="mrp_hinf_satfmu", help="artifact and FMU name")
+    hi.add_argument("--region", type=float, default=0.9, help="Theorem 1 region |sigma| <= r (< 1)")
+    hi.add_argument("--rate-max", type=float, default=0.2, help="L2 region |omega_i| <= rate-max, rad/s")
+    hi.add_argument("--sigma-max", type=float, default=0.9, help="L2 region |sigma| <= sigma-max")
+    hi.add_argument("--coefficient-limit", type=float, default=1.0, help="bound on every K coefficient")
+    hi.add_argument("--torque-budget", type=float, default=6.5,
                     help="largest peak |u_i| on the 200 deg manoeuvre, N m")
-    sy.add_argument("--samples", type=int, default=20_000, help="random points of the sampled L2 check")
-    sy.set_defaults(fn=_synth)
+    hi.add_argument("--samples", type=int, default=20_000, help="random points of the sampled L2 check")
+    hi.set_defaults(fn=_synth)
+    mixed = argparse.ArgumentParser(add_help=False)
+    mixed.add_argument("--region", type=float, default=0.45, help="certificate region |sigma| <= r (< 1), any rate")
+    mixed.add_argument("--alpha-range", type=float, nargs=2, default=(0.05, 2.0), metavar=("LOW", "HIGH"),
+                       help="line-search interval of alpha and beta")
+    mixed.add_argument("--evaluations", type=int, default=12, help="SDPs per line search (alpha, then beta)")
+    h2 = designs.add_parser("mrp-h2hinf", parents=[out, mixed],
+                            help="seed 001: mixed H2/H-infinity (Theorem 8) at one gamma")
+    h2.add_argument("--gamma", type=float, required=True, help="L2-gain bound w -> sigma")
+    h2.add_argument("--variant", choices=["slack", "common"], default="slack")
+    h2.add_argument("--name", default="mrp_h2hinf_satfmu", help="artifact and FMU name")
+    h2.set_defaults(fn=_synth_h2hinf)
+    sw = sub.add_parser("sweep", parents=[mixed], help="gamma-lambda trade-off of seed 001's Theorem 8, both variants")
+    sw.add_argument("design", choices=["mrp-h2hinf"])
+    sw.add_argument("--gammas", type=float, nargs="+", default=[1.0, 0.8, 0.7, 0.6, 0.55])
+    sw.add_argument("--out", default="results/h2hinf_sweep", help="directory of the CSV and PNG")
+    sw.set_defaults(fn=_sweep)
     l2 = sub.add_parser("l2", help="L2 gain of a controller's closed loop: diagonal, sampled, SOS")
     l2.add_argument("controller", help="shipped artifact name or .json path")
     l2.add_argument("--rate-max", type=float, default=0.2, help="region |omega_i| <= rate-max, rad/s")

@@ -404,6 +404,11 @@ class CoSimulation:
         held |= {t for t, _ in self.profiles}
         return held
 
+    def input_signals(self) -> set[str]:
+        """Qualified FMU inputs the master sets (connection targets and profiles): piecewise
+        constant over each step."""
+        return {dst for _, dst in self.connections} | {t for t, _ in self.profiles}
+
     def close(self) -> None:
         """Unload the FMU libraries and remove the extracted FMU folders."""
         for comp in self.components.values():

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Sequence
 
 import numpy as np
 
@@ -61,7 +61,14 @@ def time_in_saturation(t: np.ndarray, y: np.ndarray, limit: float, held: bool = 
     return float(np.sum(flags * dt))
 
 
-KINDS = ("final", "peak", "rms", "settling_time", "l2_ratio", "time_in_saturation")
+def integral_square(t: np.ndarray, y: np.ndarray, held: Sequence[bool]) -> float:
+    """``integral of sum_i y_i^2 dt`` over the run (e.g. an H2 cost with unit weights), each
+    signal by its own rule (``held[i]``: left rectangle, else trapezoidal)."""
+    y = np.atleast_2d(y.T).T
+    return float(sum(_cumulative(t, y[:, i] ** 2, held[i])[-1] for i in range(y.shape[1])))
+
+
+KINDS = ("final", "peak", "rms", "settling_time", "l2_ratio", "time_in_saturation", "integral_square")
 
 
 @dataclass

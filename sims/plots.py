@@ -57,3 +57,22 @@ def l2_ratio(t: np.ndarray, curves: Mapping[str, tuple[np.ndarray, float | None]
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
+
+
+def tradeoff(rows: Sequence, path: Path, title: str = "") -> None:
+    """Certified lambda against gamma, one line per variant (rows with ``gamma``, ``variant``,
+    ``lam``; an infinite lambda, no certified design, is left out)."""
+    fig, ax = plt.subplots(figsize=(6, 3.6))
+    for k, variant in enumerate(dict.fromkeys(r.variant for r in rows)):
+        pts = sorted((r.gamma, r.lam) for r in rows if r.variant == variant and np.isfinite(r.lam))
+        if pts:
+            g, lam = zip(*pts)
+            ax.plot(g, lam, "o-", color=f"C{k}", label=variant)
+    ax.set_xlabel("gamma (L2 gain bound w -> sigma)")
+    ax.set_ylabel("lambda (certified H2 bound)")
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8)
+    ax.set_title(textwrap.fill(title, 70), fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)

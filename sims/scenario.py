@@ -29,7 +29,8 @@ with pass/fail bounds. Example (sims/scenarios/mrp_200deg.toml)::
 
     [[metrics]]
     name = "angle error at the end"
-    kind = "final"               # final, peak, rms, settling_time, l2_ratio, time_in_saturation
+    kind = "final"               # final, peak, rms, settling_time, l2_ratio, time_in_saturation,
+                                 # integral_square
     signals = ["plant.phi"]
     scale = 57.29577951308232    # rad -> deg
     unit = "deg"
@@ -39,6 +40,9 @@ Metric fields: ``signals``, ``scale`` (applied to signals, tolerance and limit a
 scaled units), ``unit``, ``min``/``max`` bounds; ``tolerance`` for settling_time,
 ``limit`` for time_in_saturation, ``disturbances`` (the denominator signals) for
 l2_ratio, whose value is the largest ratio over T and whose curve is plotted.
+integral_square is ``integral of sum_i y_i^2 dt`` (an H2 cost with unit weights): plant
+outputs by the trapezoidal rule, FMU inputs (held over each step, e.g. ``plant.u``) by the
+left rectangle.
 """
 from __future__ import annotations
 
@@ -222,6 +226,8 @@ def evaluate(scenario: Scenario, res: np.ndarray, sim: CoSimulation
             value = M.settling_time(t, y, float(m["tolerance"]))
         elif kind == "time_in_saturation":
             value = M.time_in_saturation(t, y, float(m["limit"]), held=is_held)
+        elif kind == "integral_square":
+            value = M.integral_square(t, y, [c in sim.input_signals() for c in cols])
         else:
             wcols = _columns(sim, m["disturbances"])
             w = np.stack([res[c] for c in wcols], axis=1)

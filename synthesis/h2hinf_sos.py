@@ -56,10 +56,11 @@ from typing import Any, Callable
 
 import numpy as np
 import sympy as sp
+from scipy.integrate import solve_ivp
 from scipy.optimize import minimize_scalar
 
 from controllers import artifact as artifacts
-from fmus import mrp_satellite
+from fmus import codegen, mrp_satellite
 from fmus.model import Model
 from synthesis.polynomial import Poly, PolyMatrix, monomials
 from synthesis.sos import Check, SOSError, SOSProgram, SOSSolution, check_numbers, verify
@@ -417,23 +418,127 @@ def search(gamma: float, variant: str = "slack", bounds: tuple[float, float] = (
     return SearchResult(best[0] if best else None, evaluations)
 
 
-def artifact_data(result: Theorem8Result, name: str, model: Model = mrp_satellite.MODEL) -> dict[str, Any]:
-    """Controller artifact (format of :mod:`controllers.artifact`, form "polynomial")."""
+@dataclass(frozen=True)
+class SweepRow:
+    """One point of the gamma-lambda trade-off (lambda inf: no certified design)."""
+
+    gamma: float
+    variant: str
+    lam: float
+    alpha: float
+    beta: float
+    n_sdps: int
+
+
+def sweep(gammas: list[float], bounds: tuple[float, float] = (0.05, 2.0), max_evaluations: int = 12,
+          progress: Progress | None = None, **kwargs: Any) -> list[SweepRow]:
+    """:func:`search` at every gamma for both variants (``kwargs`` go to :func:`theorem8`)."""
+    if not gammas or any(not (np.isfinite(g) and g > 0) for g in gammas):
+        raise ValueError(f"gammas must be finite and > 0, got {gammas}")
+    rows = []
+    jobs = [(g, v) for g in sorted(gammas, reverse=True) for v in VARIANTS]
+    for k, (g, v) in enumerate(jobs):
+        def report(done: int, total: int, msg: str, k: int = k) -> None:
+            if progress is not None:
+                progress(k * total + done, len(jobs) * total, msg)
+        found = search(g, v, bounds, max_evaluations=max_evaluations, progress=report, **kwargs)
+        b = found.best
+        rows.append(SweepRow(g, v, b.lam if b else float("inf"), b.alpha if b else float("nan"),
+                             b.beta if b else float("nan"), len(found.evaluations)))
+    return rows
+
+
+def sweep_csv(rows: list[SweepRow]) -> str:
+    """The sweep as CSV text (``lambda`` empty where no design was certified)."""
+    lines = ["gamma,variant,lambda,alpha,beta,sdps"]
+    for r in rows:
+        lam = f"{r.lam:.6f}" if np.isfinite(r.lam) else ""
+        ab = f"{r.alpha:.4g},{r.beta:.4g}" if np.isfinite(r.lam) else ","
+        lines.append(f"{r.gamma:g},{r.variant},{lam},{ab},{r.n_sdps}")
+    return "\n".join(lines) + "\n"
+
+
+@dataclass(frozen=True)
+class ClosedLoopCheck:
+    """The law on the nonlinear plant, independent of the solver (continuous time, no w)."""
+
+    j2: float
+    """``integral of x^T Qh x + u^T Rh u`` from x0 over ``stop_time`` (must be <= lambda)."""
+    tail: float
+    """``x(T)^T X2^-1 x(T)``: what the certificate still allows after ``stop_time``."""
+    max_tilde: float
+    """Largest ``|x~|`` along the trajectory (the certificate needs it <= the region radius)."""
+    max_real_eig: float
+    """Largest real part of the closed loop linearized at the origin (< 0: locally stable)."""
+    stop_time: float
+    lam: float
+    """The certified bound."""
+
+    @property
+    def passed(self) -> bool:
+        """Locally stable and the simulated cost within the certified bound."""
+        return bool(self.max_real_eig < 0 and np.isfinite(self.j2) and self.j2 <= self.lam)
+
+
+def closed_loop_check(result: Theorem8Result, stop_time: float = 300.0, Qh: np.ndarray | None = None,
+                      Rh: np.ndarray | None = None, model: Model = mrp_satellite.MODEL) -> ClosedLoopCheck:
+    """Simulate ``x' = f(x, u(x))`` from x0 (scipy DOP853, rtol 1e-10) with the cost as an
+    extra state, and linearize the closed loop at the origin."""
+    xs = result.plant.symbols
+    n, m = result.plant.n, result.plant.m
+    Qh = np.eye(n) if Qh is None else np.asarray(Qh, float)
+    Rh = np.eye(m) if Rh is None else np.asarray(Rh, float)
+    law = result.law()
+    u_of = sp.lambdify([xs], list(law), "numpy")
+    plant = codegen.load_python(model)
+    p = model.parameter_vector().tolist()
+    n_inputs = len(model.inputs)
+
+    def rhs(_t: float, z: np.ndarray) -> np.ndarray:
+        x = z[:n]
+        u = np.asarray(u_of(x), float)
+        dx = plant.derivatives(0.0, x.tolist(), list(u) + [0.0] * (n_inputs - m), p)
+        return np.concatenate([dx, [x @ Qh @ x + u @ Rh @ u]])
+
+    sol = solve_ivp(rhs, (0.0, stop_time), np.concatenate([result.x0, [0.0]]), method="DOP853",
+                    rtol=1e-10, atol=1e-12, dense_output=False)
+    xT = sol.y[:n, -1]
+    subs = {v.symbol: v.start for v in model.parameters}
+    f = sp.Matrix(model.rhs).subs(subs).subs(dict(zip([v.symbol for v in model.inputs[:m]], law)))
+    f = f.subs({v.symbol: 0 for v in model.inputs[m:]})
+    J = np.array(f.jacobian(xs).subs({x: 0 for x in xs}), float)
+    tilde = np.linalg.norm(sol.y[list(result.plant.tilde)], axis=0)
+    return ClosedLoopCheck(float(sol.y[n, -1]) if sol.success else float("inf"),
+                           float(xT @ np.linalg.solve(result.X2, xT)), float(tilde.max()),
+                           float(np.linalg.eigvals(J).real.max()), stop_time, result.lam)
+
+
+def artifact_data(result: Theorem8Result, name: str, check: ClosedLoopCheck,
+                  model: Model = mrp_satellite.MODEL) -> dict[str, Any]:
+    """Controller artifact (format of :mod:`controllers.artifact`, form "polynomial").
+
+    Status "certified" needs the SOS checks and the closed-loop check to pass.
+    """
+    ok = result.certified and check.passed
     return artifacts.new_data(
         model, name,
-        (f"Seed 001 Theorem 8 mixed H2/H-infinity state feedback u = Y(x) F^-1 x "
+        (f"Seed 001 Theorem 8 mixed H2/H-infinity state feedback u = omega x I omega + Y(sigma) F^-1 x "
          f"({result.variant} Lyapunov matrices, gamma = {result.gamma:g}), synthesized by satfmu"),
         law={"form": "polynomial", "terms": result.law_terms()},
-        lyapunov={"Q": result.X2.tolist(), "note": "X2: J2 <= x0^T X2^-1 x0 <= lambda"},
+        lyapunov={"Q": result.X2.tolist(), "note": "X2: V = x^T X2^-1 x, J2 <= x0^T X2^-1 x0 <= lambda"},
         certificate={
-            "status": "certified" if result.certified else "not_verified",
+            "status": "certified" if ok else "not_verified",
             "proved": result.proved, "region": result.region,
             "numbers": {**check_numbers(result.checks), "lambda": result.lam, "gamma": result.gamma,
-                        "alpha": result.alpha, "beta": result.beta, "psd_margin": _psd_margin(result)},
-            "h2": {"lambda": result.lam, "x0": result.x0.tolist()},
+                        "alpha": result.alpha, "beta": result.beta, "psd_margin": _psd_margin(result),
+                        "h2 level x0^T X2^-1 x0": result.h2_level(),
+                        "max disturbance energy ||w||^2 (N^2 m^2 s)": result.disturbance_energy(),
+                        f"simulated J2 over {check.stop_time:g} s": check.j2,
+                        "simulated tail bound x(T)^T X2^-1 x(T)": check.tail,
+                        f"max |{result.plant.tilde_name}| along the x0 trajectory": check.max_tilde,
+                        "max real part of eig(Acl(0))": check.max_real_eig},
+            "h2": {"lambda": result.lam, "x0": result.x0.tolist(), "sublevel_set_in_region": result.h2_proved},
             "Xinf": result.Xinf.tolist(), "F": result.F.tolist(),
         },
         provenance={"source": "satfmu synthesis.h2hinf_sos.theorem8 (seed 001 Theorem 8)",
                     "solver": result.solution.solver, "timings_s": result.timings})
-
-
