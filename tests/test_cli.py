@@ -67,3 +67,25 @@ def test_synth_fails_cleanly_when_no_iterate_fits_the_budget(tmp_path: Path,
     err = capsys.readouterr().err
     assert code == 2 and "no iterate accepted" in err and "over the budget 1" in err
     assert not list(tmp_path.iterdir())  # nothing written
+
+
+def test_synth_h2hinf_fails_cleanly_without_a_certified_design(tmp_path: Path,
+                                                               capsys: pytest.CaptureFixture) -> None:
+    # gamma = 0.3 is below what the region allows (the frozen design already needs ~0.5)
+    code = main(["synth", "mrp-h2hinf", "--gamma", "0.3", "--evaluations", "1", "--out", str(tmp_path),
+                 "--fmu-dir", ""])
+    err = capsys.readouterr().err
+    assert code == 2 and "no certified slack design at gamma = 0.3" in err
+    assert not list(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize("argv,message", [
+    (["synth", "mrp-h2hinf"], "--gamma"),
+    (["synth", "mrp-h2hinf", "--gamma", "1", "--variant", "other"], "invalid choice"),
+    (["sweep", "mrp-h2hinf", "--gammas"], "--gammas"),
+])
+def test_synth_and_sweep_refuse_bad_arguments(argv: list[str], message: str,
+                                              capsys: pytest.CaptureFixture) -> None:
+    with pytest.raises(SystemExit) as exc:
+        main(argv)
+    assert exc.value.code == 2 and message in capsys.readouterr().err
