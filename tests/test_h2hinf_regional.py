@@ -23,6 +23,26 @@ def designs() -> dict[str, T.Theorem8Result]:
     return {v: T.theorem8(1.0, A_B, A_B, v) for v in T.VARIANTS}
 
 
+def _lam(gamma: float, variant: str) -> float:
+    try:
+        r = T.theorem8(gamma, A_B, A_B, variant)
+    except SOSError:
+        return float("inf")
+    return r.lam if r.certified else float("inf")
+
+
+def test_three_gammas_certified_monotone_and_slack_no_worse(designs) -> None:
+    # at fixed alpha, beta the feasible set grows with gamma and contains the common variant's
+    lam = {(1.0, v): designs[v].lam for v in T.VARIANTS}
+    lam.update({(g, v): _lam(g, v) for g in (0.8, 0.7) for v in T.VARIANTS})
+    slack = [lam[(g, "slack")] for g in (0.7, 0.8, 1.0)]
+    assert all(np.isfinite(slack))
+    assert all(b <= a * (1 + 1e-6) for a, b in zip(slack, slack[1:]))  # solver accuracy ~1e-8
+    for g in (0.7, 0.8, 1.0):
+        if np.isfinite(lam[(g, "common")]):
+            assert lam[(g, "slack")] <= lam[(g, "common")] * (1 + 1e-6)
+
+
 def test_both_variants_are_certified_and_slack_is_no_worse(designs) -> None:
     for r in designs.values():
         assert r.certified, [(c.name, c.min_eig, c.residual) for c in r.checks]
