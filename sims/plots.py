@@ -49,14 +49,7 @@ def l2_ratio(t: np.ndarray, curves: Mapping[str, tuple[np.ndarray, float | None]
         ax.plot(t, ratio, color=f"C{k}", label=name)
         if bound is not None:
             ax.axhline(bound, ls="--", color=f"C{k}", label=f"bound {bound:g}")
-    ax.set_xlabel("T (s)")
-    ax.set_ylabel("||z||_2,T / ||w||_2,T")
-    ax.grid(True, alpha=0.3)
-    ax.legend(fontsize=7)
-    ax.set_title(textwrap.fill(title, 90), fontsize=9)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    _finish(fig, ax, path, "T (s)", "||z||_2,T / ||w||_2,T", textwrap.fill(title, 90), legend_size=7)
 
 
 def tradeoff(rows: Sequence, path: Path, title: str = "") -> None:
@@ -68,11 +61,18 @@ def tradeoff(rows: Sequence, path: Path, title: str = "") -> None:
         if pts:
             g, lam = zip(*pts)
             ax.plot(g, lam, "o-", color=f"C{k}", label=variant)
-    ax.set_xlabel("gamma (L2 gain bound w -> sigma)")
-    ax.set_ylabel("lambda (certified H2 bound)")
+    _finish(fig, ax, path, "gamma (L2 gain bound w -> sigma)", "lambda (certified H2 bound)",
+            textwrap.fill(title, 70), legend_size=8)
+
+
+def _finish(fig: plt.Figure, ax: plt.Axes, path: Path, xlabel: str, ylabel: str, title: str,
+            legend_size: int) -> None:
+    """Labels, grid, legend and title of a one-axes figure; write it as PNG and close it."""
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
     ax.grid(True, alpha=0.3)
-    ax.legend(fontsize=8)
-    ax.set_title(textwrap.fill(title, 70), fontsize=9)
+    ax.legend(fontsize=legend_size)
+    ax.set_title(title, fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)

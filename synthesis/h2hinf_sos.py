@@ -167,6 +167,9 @@ class Theorem8Result:
     region: str
     radius: float
     x0: np.ndarray
+    Qh: np.ndarray
+    Rh: np.ndarray
+    """The H2 weights the design used."""
     solution: SOSSolution
     timings: dict[str, float] = field(default_factory=dict)
 
@@ -298,7 +301,6 @@ def theorem8(gamma: float, alpha: float, beta: float, variant: str = "slack", re
     AFBY = plant.A_tilde @ F + const(plant.Bu) @ Y
     G11 = AFBY + AFBY.T
     FFt = F + F.T
-    eye = np.eye
     M2 = PolyMatrix.block([
         [G11, None, None, None],
         [X2 - F + AFBY.T.scale(alpha), -FFt.scale(alpha), None, None],
@@ -309,8 +311,8 @@ def theorem8(gamma: float, alpha: float, beta: float, variant: str = "slack", re
     Minf = PolyMatrix.block([
         [G11, None, None, None],
         [Xinf - F + AFBY.T.scale(beta), -FFt.scale(beta), None, None],
-        [const(plant.Bw.T), None, const(-gamma**2 * eye(m)), None],
-        [CF, CF.scale(beta), None, const(-eye(n - m))],
+        [const(plant.Bw.T), None, const(-gamma**2 * np.eye(m)), None],
+        [CF, CF.scale(beta), None, const(-np.eye(n - m))],
     ])
     if frozen:  # constant matrices: plain LMIs, no region
         regions, label = None, "x = 0 (A frozen at the origin: the linearization)"
@@ -353,7 +355,7 @@ def theorem8(gamma: float, alpha: float, beta: float, variant: str = "slack", re
 
     return Theorem8Result(variant, float(gamma), float(alpha), float(beta), float(sol.y[lam_idx[0]]),
                           num(X2), num(Xinf), num(F), polys(Y), plant, checks, label, float(region), x0,
-                          sol, timings)
+                          Qh, Rh, sol, timings)
 
 
 def _symmetrize_lower(M: PolyMatrix) -> PolyMatrix:
@@ -480,14 +482,13 @@ class ClosedLoopCheck:
         return bool(self.max_real_eig < 0 and np.isfinite(self.j2) and self.j2 <= self.lam)
 
 
-def closed_loop_check(result: Theorem8Result, stop_time: float = 300.0, Qh: np.ndarray | None = None,
-                      Rh: np.ndarray | None = None, model: Model = mrp_satellite.MODEL) -> ClosedLoopCheck:
-    """Simulate ``x' = f(x, u(x))`` from x0 (scipy DOP853, rtol 1e-10) with the cost as an
-    extra state, and linearize the closed loop at the origin."""
+def closed_loop_check(result: Theorem8Result, stop_time: float = 300.0,
+                      model: Model = mrp_satellite.MODEL) -> ClosedLoopCheck:
+    """Simulate ``x' = f(x, u(x))`` from x0 (scipy DOP853, rtol 1e-10) with the cost (the
+    design's weights) as an extra state, and linearize the closed loop at the origin."""
     xs = result.plant.symbols
     n, m = result.plant.n, result.plant.m
-    Qh = np.eye(n) if Qh is None else np.asarray(Qh, float)
-    Rh = np.eye(m) if Rh is None else np.asarray(Rh, float)
+    Qh, Rh = result.Qh, result.Rh
     law = result.law()
     u_of = sp.lambdify([xs], list(law), "numpy")
     plant = codegen.load_python(model)
