@@ -37,9 +37,12 @@ class LoweredFunction:
 
 
 def _array_substitution(model: Model) -> dict[sp.Symbol, sp.Symbol]:
-    subs: dict[sp.Symbol, sp.Symbol] = {}
+    subs: dict[sp.Symbol, sp.Symbol] = {sym: sp.Symbol(f"d_{k}", real=True)
+                                        for k, (sym, _) in enumerate(model.definitions)}
     for i, s in enumerate(model.state_symbols):
         subs[s] = sp.Symbol(f"x[{i}]", real=True)
+    for i, s in enumerate(model.previous_symbols):
+        subs[s] = sp.Symbol(f"xp[{i}]", real=True)
     for i, s in enumerate(model.input_symbols):
         subs[s] = sp.Symbol(f"u[{i}]", real=True)
     for i, s in enumerate(model.parameter_symbols):
@@ -47,22 +50,56 @@ def _array_substitution(model: Model) -> dict[sp.Symbol, sp.Symbol]:
     return subs
 
 
-def lower(model: Model, name: str, exprs: Sequence[sp.Expr]) -> LoweredFunction:
-    """Substitute array elements for symbols and eliminate common subexpressions."""
+def lower(model: Model, name: str, exprs: Sequence[sp.Expr], previous_is_current: bool = False
+          ) -> LoweredFunction:
+    """Substitute array elements for symbols and eliminate common subexpressions.
+
+    ``previous_is_current`` reads the substep-start state as the current state (outputs).
+    The model's definitions that ``exprs`` use (directly or through other definitions)
+    become temporaries too, ordered so every temporary follows what it uses.
+    """
     subs = _array_substitution(model)
+    if previous_is_current:
+        subs.update({p: subs[x] for p, x in zip(model.previous_symbols, model.state_symbols)})
     exprs = [sp.sympify(e).xreplace(subs) for e in exprs]
     if not exprs:
         return LoweredFunction(name, [], [])
-    temps, reduced = sp.cse(exprs, symbols=sp.numbered_symbols("c_"), optimizations="basic")
-    return LoweredFunction(name, list(temps), list(reduced))
+    defs = [(subs[sym], sp.sympify(e).xreplace(subs)) for sym, e in model.definitions]
+    needed = set().union(*(e.free_symbols for e in exprs))
+    for sym, e in reversed(defs):
+        if sym in needed:
+            needed |= e.free_symbols
+    defs = [(sym, e) for sym, e in defs if sym in needed]
+    temps, reduced = sp.cse([e for _, e in defs] + exprs, symbols=sp.numbered_symbols("c_"),
+                            optimizations="basic")
+    assignments = list(temps) + [(sym, e) for (sym, _), e in zip(defs, reduced)]
+    return LoweredFunction(name, _dependency_order(assignments), list(reduced[len(defs):]))
+
+
+def _dependency_order(assignments: list[tuple[sp.Symbol, sp.Expr]]) -> list[tuple[sp.Symbol, sp.Expr]]:
+    """Assignments sorted so that each comes after the ones whose symbols it uses (stable)."""
+    pending = {sym: set(e.free_symbols) for sym, e in assignments}
+    defined = {sym for sym, _ in assignments}
+    done: set[sp.Symbol] = set()
+    ordered: list[tuple[sp.Symbol, sp.Expr]] = []
+    remaining = list(assignments)
+    while remaining:
+        ready = [a for a in remaining if not (pending[a[0]] & defined) - done]
+        if not ready:
+            raise ValueError("cyclic definitions: " + ", ".join(str(a[0]) for a in remaining))
+        for a in ready:
+            ordered.append(a)
+            done.add(a[0])
+        remaining = [a for a in remaining if a[0] not in done]
+    return ordered
 
 
 def functions(model: Model) -> list[LoweredFunction]:
-    """The four generated functions: derivatives, outputs, post_step, (identity if absent)."""
+    """The three generated functions: derivatives, outputs, post_step (identity if absent)."""
     post = model.post_step if model.post_step is not None else sp.Matrix(model.state_symbols)
     return [
         lower(model, "derivatives", list(model.rhs)),
-        lower(model, "outputs", [o.expression for o in model.outputs]),
+        lower(model, "outputs", [o.expression for o in model.outputs], previous_is_current=True),
         lower(model, "post_step", list(post)),
     ]
 
@@ -95,8 +132,9 @@ class _Py(PythonCodePrinter):
 def python_source(model: Model) -> str:
     """A self-contained Python module (``math`` only) evaluating the model.
 
-    It defines ``derivatives(t, x, u, p)``, ``outputs(t, x, u, p)``,
-    ``post_step(t, x, p)`` (each returning a list), ``VARIABLES`` (the variable
+    It defines ``derivatives(t, x, xp, u, p)``, ``outputs(t, x, u, p)``,
+    ``post_step(t, x, xp, u, p)`` (each returning a list; ``xp`` is the state at the start
+    of the integration substep), ``VARIABLES`` (the variable
     table), ``STATE_INITIAL`` (parameter index of each state's initial value) and
     ``GUID``.
     """
@@ -107,7 +145,7 @@ def python_source(model: Model) -> str:
              f"N_STATES = {len(model.states)}",
              f"VARIABLES = {variable_table(model)!r}",
              f"STATE_INITIAL = {_state_initial(model)!r}", ""]
-    sig = {"derivatives": "t, x, u, p", "outputs": "t, x, u, p", "post_step": "t, x, p"}
+    sig = {"derivatives": "t, x, xp, u, p", "outputs": "t, x, u, p", "post_step": "t, x, xp, u, p"}
     for f in functions(model):
         lines.append(f"def {f.name}({sig[f.name]}):")
         for sym, e in f.temporaries:
@@ -141,6 +179,13 @@ class _C(C99CodePrinter):
     def _print_Symbol(self, expr: sp.Symbol) -> str:
         return expr.name
 
+    # Every operand of && and || in parentheses: gcc -Wparentheses (an error with -Werror).
+    def _print_And(self, expr: sp.And) -> str:
+        return " && ".join(f"({self._print(a)})" for a in sorted(expr.args, key=sp.default_sort_key))
+
+    def _print_Or(self, expr: sp.Or) -> str:
+        return " || ".join(f"({self._print(a)})" for a in sorted(expr.args, key=sp.default_sort_key))
+
 
 def _c_double(v: float | None, default: str) -> str:
     if v is None or (isinstance(v, float) and math.isinf(v)):
@@ -170,12 +215,14 @@ def c_source(model: Model) -> str:
     lines.append("};")
     init = _state_initial(model) or [0]
     lines.append(f"static const int STATE_INITIAL[{max(1, n['NX'])}] = {{{', '.join(map(str, init))}}};")
-    sig = {"derivatives": "double t, const double *x, const double *u, const double *p, double *out",
+    sig = {"derivatives": "double t, const double *x, const double *xp, const double *u, const double *p, "
+                          "double *out",
            "outputs": "double t, const double *x, const double *u, const double *p, double *out",
-           "post_step": "double t, const double *x, const double *p, double *out"}
+           "post_step": "double t, const double *x, const double *xp, const double *u, const double *p, "
+                        "double *out"}
     for f in functions(model):
         lines.append(f"static void model_{f.name}({sig[f.name]}) {{")
-        unused = "t x p out" if f.name == "post_step" else "t x u p out"
+        unused = "t x u p out" if f.name == "outputs" else "t x xp u p out"
         lines.append("    " + " ".join(f"(void){a};" for a in unused.split()))
         for sym, e in f.temporaries:
             lines.append(f"    const double {sym} = {pr.doprint(e)};")

@@ -15,7 +15,7 @@ Everything else is generated from it:
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Callable, Literal, Sequence
 
 import numpy as np
@@ -31,6 +31,10 @@ UNITS: dict[str, dict[str, int]] = {
     "rad/s": {"rad": 1, "s": -1},
     "N.m": {"kg": 1, "m": 2, "s": -2},
     "kg.m2": {"kg": 1, "m": 2},
+    "N.m.s": {"kg": 1, "m": 2, "s": -1},
+    "N.m.s/rad": {"kg": 1, "m": 2, "s": -1, "rad": -1},
+    "J": {"kg": 1, "m": 2, "s": -2},
+    "rad.s": {"rad": 1, "s": 1},
 }
 
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*(\[[0-9]+\])?$")
@@ -144,10 +148,23 @@ class Model:
         Time derivative of the states, in terms of state, input and parameter
         symbols (and ``t``).
     post_step : sympy.Matrix, optional
-        State map applied after every integration substep (projection, switching).
+        State map applied after every integration substep (projection, switching,
+        stopping an axis in stiction).
+
+    The right-hand side and the post-step map may also use the state at the start of
+    the integration substep, :meth:`previous`: a piecewise law (a friction mode, say)
+    frozen over the substep, and a zero crossing detected against the substep's start.
+    In the outputs it stands for the current state.
     sdc : SDCForm, optional
+    definitions : list of (sympy.Symbol, sympy.Expr)
+        Named intermediate quantities in evaluation order; later definitions and all
+        expressions above may use their symbols. Code generation emits each once (a
+        stick-slip friction law, say, shared by the right-hand side, the outputs and the
+        post-step map), which keeps large piecewise laws small and fast to build.
     default_stop_time, default_step_size : float
         DefaultExperiment of the FMU, s.
+    default_h_max : float
+        Default of the ``h_max`` parameter (largest RK4 substep), s.
     """
 
     name: str
@@ -159,15 +176,18 @@ class Model:
     rhs: sp.Matrix = field(default_factory=lambda: sp.zeros(0, 1))
     post_step: sp.Matrix | None = None
     sdc: SDCForm | None = None
+    definitions: list[tuple[sp.Symbol, sp.Expr]] = field(default_factory=list)
     default_stop_time: float = 10.0
     default_step_size: float = 0.05
+    default_h_max: float = 0.0125
 
     t = sp.Symbol("t", real=True)
 
     def __post_init__(self) -> None:
         self.parameters = list(self.parameters) + [s.initial for s in self.states]
         if self.states:
-            self.parameters += list(INTEGRATOR_PARAMETERS)
+            n_sub, h_max = INTEGRATOR_PARAMETERS
+            self.parameters += [n_sub, replace(h_max, start=self.default_h_max)]
         self.rhs = sp.Matrix(self.rhs)
         self._validate()
 
@@ -191,11 +211,18 @@ class Model:
                 f"{self.name}: rhs has shape {self.rhs.shape}, expected ({len(self.states)}, 1)")
         if self.post_step is not None and sp.Matrix(self.post_step).shape != self.rhs.shape:
             raise ModelDefinitionError(f"{self.name}: post_step must have one entry per state")
-        allowed = set(self.state_symbols + self.input_symbols + self.parameter_symbols + [self.t])
-        exprs = list(self.rhs) + [o.expression for o in self.outputs]
-        if self.post_step is not None:
-            exprs += list(self.post_step)
-        for e in exprs:
+        allowed = set(self.state_symbols + self.input_symbols + self.parameter_symbols + [self.t]
+                      + self.previous_symbols)
+        for sym, e in self.definitions:
+            extra = sp.sympify(e).free_symbols - allowed
+            if extra:
+                raise ModelDefinitionError(
+                    f"{self.name}: definition {sym} uses undeclared symbols {sorted(map(str, extra))}")
+            if sym in allowed:
+                raise ModelDefinitionError(f"{self.name}: definition {sym} redefines a symbol")
+            allowed.add(sym)
+        post = list(self.post_step) if self.post_step is not None else []
+        for e in list(self.rhs) + [o.expression for o in self.outputs] + post:
             extra = sp.sympify(e).free_symbols - allowed
             if extra:
                 raise ModelDefinitionError(
@@ -210,6 +237,16 @@ class Model:
     @property
     def state_symbols(self) -> list[sp.Symbol]:
         return [s.symbol for s in self.states]
+
+    @property
+    def previous_symbols(self) -> list[sp.Symbol]:
+        """Symbols of the state at the start of the integration substep (see :meth:`previous`)."""
+        return [self.previous(s.variable.name) for s in self.states]
+
+    @staticmethod
+    def previous(state_name: str) -> sp.Symbol:
+        """The symbol of state ``state_name`` at the start of the integration substep."""
+        return sp.Symbol(f"previous({state_name})", real=True)
 
     @property
     def input_symbols(self) -> list[sp.Symbol]:
@@ -247,9 +284,17 @@ class Model:
         index = {v.name: i for i, v in enumerate(self.parameters)}
         return np.array([p[index[s.initial.name]] for s in self.states])
 
+    def free_symbols(self, expr: sp.Expr) -> set[sp.Symbol]:
+        """Free symbols of ``expr`` with :attr:`definitions` followed to the variables they use."""
+        free = set(sp.sympify(expr).free_symbols)
+        for sym, e in reversed(self.definitions):
+            if sym in free:
+                free = (free - {sym}) | sp.sympify(e).free_symbols
+        return free
+
     def output_dependencies(self) -> dict[str, list[str]]:
         """For each output, the inputs it depends on directly (feedthrough)."""
-        return {o.variable.name: [v.name for v in self.inputs if v.symbol in sp.sympify(o.expression).free_symbols]
+        return {o.variable.name: [v.name for v in self.inputs if v.symbol in self.free_symbols(o.expression)]
                 for o in self.outputs}
 
     def initial_output_dependencies(self) -> dict[str, list[str]]:
@@ -258,53 +303,96 @@ class Model:
         known = self.parameters + self.inputs
         deps = {}
         for o in self.outputs:
-            free = sp.sympify(o.expression).subs(x0).free_symbols
+            free = {x0.get(s, s) for s in self.free_symbols(o.expression)}
             deps[o.variable.name] = [v.name for v in known if v.symbol in free]
         return deps
 
     # --------------------------------------------------------------- numerics
     def lambdify(self, exprs: sp.Matrix | Sequence[sp.Expr]) -> Callable[..., np.ndarray]:
-        """Vectorized numpy function ``f(t, x, u, p)`` of expressions in this model's symbols."""
+        """Vectorized numpy function ``f(t, x, u, p)`` of expressions in this model's symbols.
+
+        Raises
+        ------
+        ModelDefinitionError
+            If the model has :attr:`definitions` (use :func:`fmus.codegen.load_python`).
+        """
+        if self.definitions:
+            raise ModelDefinitionError(f"model {self.name!r} has definitions; evaluate it with the "
+                                       "generated code (fmus.codegen.load_python)")
         args = (self.t, self.state_symbols, self.input_symbols, self.parameter_symbols)
         return sp.lambdify(args, sp.Matrix(exprs), modules="numpy", cse=True)
 
-    def sdc_functions(self) -> tuple[Callable[..., np.ndarray], Callable[..., np.ndarray]]:
-        """Numpy functions ``A(x, p)`` and ``B(x, p)`` of the SDC form."""
-        if self.sdc is None:
-            raise ModelDefinitionError(f"model {self.name!r} declares no SDC form")
+    def sdc_functions(self, sdc: SDCForm | None = None
+                      ) -> tuple[Callable[..., np.ndarray], Callable[..., np.ndarray]]:
+        """Numpy functions ``A(x, p)`` and ``B(x, p)`` of the SDC form (default: :attr:`sdc`)."""
+        sdc = sdc or self._require_sdc()
         args = (self.state_symbols, self.parameter_symbols)
-        return (sp.lambdify(args, self.sdc.A, modules="numpy", cse=True),
-                sp.lambdify(args, self.sdc.B, modules="numpy", cse=True))
+        return (sp.lambdify(args, sdc.A, modules="numpy", cse=True),
+                sp.lambdify(args, sdc.B, modules="numpy", cse=True))
 
-    def sdc_residual_symbolic(self) -> sp.Matrix:
-        """``A(x) x + B(x) v - f(x, u)`` simplified; zero when the SDC form is exact."""
-        sdc = self._require_sdc()
+    def sdc_residual_symbolic(self, sdc: SDCForm | None = None) -> sp.Matrix:
+        """``A(x) x + B(x) v - f(x, u)`` simplified; zero when the SDC form is exact.
+
+        ``sdc`` checks another factorization of this model than :attr:`sdc`.
+        """
+        sdc = sdc or self._require_sdc()
         subs = {sp.Symbol(k, real=True): v for k, v in sdc.assumptions.items()}
         v = sp.Matrix([sp.Symbol(n, real=True) for n in sdc.inputs])
         x = sp.Matrix(self.state_symbols)
-        return sp.simplify(sdc.A * x + sdc.B * v - self.rhs.subs(subs))
+        return sp.simplify(sdc.A * x + sdc.B * v - self.expand(self.rhs.subs(subs), subs))
+
+    def expand(self, expr: sp.Basic, subs: dict | None = None) -> sp.Basic:
+        """``expr`` with the :attr:`definitions` it uses substituted (each after ``subs``)."""
+        for sym, e in reversed(self.definitions):
+            if sym in expr.free_symbols:
+                expr = expr.xreplace({sym: sp.sympify(e).subs(subs or {})})
+        return expr
 
     def sdc_residual_sampled(self, n_points: int = 200, scale: float = 1.0,
-                             seed: int = 0) -> float:
+                             seed: int = 0, sdc: SDCForm | None = None) -> float:
         """Largest ``|A(x) x + B(x) v - f(x, u)|`` over random points (state, inputs ~ N(0, scale^2))."""
-        sdc = self._require_sdc()
+        sdc = sdc or self._require_sdc()
         rng = np.random.default_rng(seed)
         p = self.parameter_vector(sdc.assumptions)
-        A, B = self.sdc_functions()
-        f = self.lambdify(self.rhs)
+        A, B = self.sdc_functions(sdc)
+        from fmus.codegen import load_python  # codegen imports this module
+
+        f = load_python(self).derivatives
         in_index = [[v.name for v in self.inputs].index(n) for n in sdc.inputs]
         worst = 0.0
         for _ in range(n_points):
             x = rng.normal(0.0, scale, len(self.states))
             u = rng.normal(0.0, scale, len(self.inputs))
             lhs = np.asarray(A(x, p), float) @ x + np.asarray(B(x, p), float) @ u[in_index]
-            worst = max(worst, float(np.max(np.abs(lhs - np.asarray(f(0.0, x, u, p), float).ravel()))))
+            fx = f(0.0, list(x), list(x), list(u), list(p))
+            worst = max(worst, float(np.max(np.abs(lhs - np.asarray(fx, float)))))
         return worst
 
     def _require_sdc(self) -> SDCForm:
         if self.sdc is None:
             raise ModelDefinitionError(f"model {self.name!r} declares no SDC form")
         return self.sdc
+
+
+class Definitions(list):
+    """Collects :attr:`Model.definitions`: ``d("name", expr)`` records and returns a new symbol.
+
+    ``d.flag("name", condition)`` defines a 0/1 number for a condition; test it with
+    :func:`is_set` in later conditions (conditions on small symbols keep sympy fast).
+    """
+
+    def __call__(self, name: str, expr: sp.Expr) -> sp.Symbol:
+        sym = sp.Symbol(name, real=True)
+        self.append((sym, sp.sympify(expr)))
+        return sym
+
+    def flag(self, name: str, condition: sp.Basic) -> sp.Symbol:
+        return self(name, sp.Piecewise((1, condition), (0, True), evaluate=False))
+
+
+def is_set(flag: sp.Expr) -> sp.Basic:
+    """The condition "0/1 flag is 1"."""
+    return flag > sp.Rational(1, 2)
 
 
 def vector(base: str, n: int, unit: str, description: str, start: Sequence[float] | float = 0.0,

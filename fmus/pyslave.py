@@ -47,15 +47,15 @@ def rk4_step(gen: ModuleType, t: float, x: Sequence[float], u: Sequence[float], 
     x = list(x)
     nx = len(x)
     for k in range(n):
-        k1 = f(t, x, u, p)
+        k1 = f(t, x, x, u, p)
         xt = [x[i] + 0.5 * hs * k1[i] for i in range(nx)]
-        k2 = f(t + 0.5 * hs, xt, u, p)
+        k2 = f(t + 0.5 * hs, xt, x, u, p)
         xt = [x[i] + 0.5 * hs * k2[i] for i in range(nx)]
-        k3 = f(t + 0.5 * hs, xt, u, p)
+        k3 = f(t + 0.5 * hs, xt, x, u, p)
         xt = [x[i] + hs * k3[i] for i in range(nx)]
-        k4 = f(t + hs, xt, u, p)
+        k4 = f(t + hs, xt, x, u, p)
         xt = [x[i] + hs / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]) for i in range(nx)]
-        x = post(t + hs, xt, p)
+        x = post(t + hs, xt, x, u, p)
         t = t + hs
     return x
 

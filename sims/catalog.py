@@ -8,7 +8,7 @@ from pathlib import Path
 
 from controllers import artifact as artifacts
 from controllers import polynomial
-from fmus import export, mrp_satellite
+from fmus import export, mrp_satellite, vscmg
 from fmus.model import Model
 
 DEFAULT_FMU_DIR = Path("build/fmus")
@@ -24,7 +24,7 @@ class FmuSource:
 
 def sources() -> list[FmuSource]:
     """Plants first, then the controllers of the shipped artifacts."""
-    out = [FmuSource(mrp_satellite.MODEL, {})]
+    out = [FmuSource(mrp_satellite.MODEL, {}), FmuSource(vscmg.MODEL, {})]
     for path in polynomial.shipped_artifacts():
         art = artifacts.load(path)
         out.append(FmuSource(polynomial.build(art), polynomial.artifact_resource(art)))

@@ -71,13 +71,16 @@ def closed_loop_solve_ivp(plant: Model, controller: Model, stop_time: float, ste
                           plant_params: dict | None = None, controller_params: dict | None = None,
                           command_inputs: list[str] | None = None, rtol: float = 1e-10,
                           atol: float = 1e-12, method: str = "DOP853",
-                          exogenous: Exogenous | None = None) -> LoopResult:
+                          exogenous: Exogenous | None = None, substeps: int = 1) -> LoopResult:
     """Sampled-data closed loop integrated by scipy between communication points.
 
     ``command_inputs`` names the plant inputs that receive the controller outputs
     (default: the plant inputs named like the controller outputs); ``exogenous`` gives
-    other plant inputs (held over each step); the rest are 0. The plant's post-step map is applied at communication points only, so use
-    it with models whose post_step is the identity in the run (e.g. no shadow switching).
+    other plant inputs (held over each step); the rest are 0. Each communication step is
+    cut into ``substeps`` equal intervals: the plant's substep-start state (a friction
+    mode, say) is frozen over each and its post-step map applied at its end, as the FMUs
+    do with as many RK4 substeps. Pass the FMU's substep count to compare a plant whose
+    post-step map or frozen mode acts during the run.
     """
     loop = _Loop(plant, controller, plant_params, controller_params,
                  command_inputs or [o.variable.name for o in controller.outputs], exogenous)
@@ -88,11 +91,14 @@ def closed_loop_solve_ivp(plant: Model, controller: Model, stop_time: float, ste
     for k in range(n):
         u, y = loop.command(x, float(t[k]))
         us.append(y)
-        sol = solve_ivp(lambda tt, xx: loop.plant.derivatives(tt, xx, u, loop.pp), (t[k], t[k + 1]), x,
-                        method=method, rtol=rtol, atol=atol)
-        if not sol.success:
-            raise RuntimeError(f"solve_ivp failed at t = {t[k]} s: {sol.message}")
-        x = np.array(loop.plant.post_step(t[k + 1], sol.y[:, -1], loop.pp))
+        edges = np.linspace(t[k], t[k + 1], substeps + 1)
+        for a, b in zip(edges[:-1], edges[1:]):
+            start = x.tolist()
+            sol = solve_ivp(lambda tt, xx: loop.plant.derivatives(tt, xx, start, u, loop.pp), (a, b), x,
+                            method=method, rtol=rtol, atol=atol)
+            if not sol.success:
+                raise RuntimeError(f"solve_ivp failed at t = {a} s: {sol.message}")
+            x = np.array(loop.plant.post_step(b, sol.y[:, -1], start, u, loop.pp))
         xs.append(x)
     us.append(loop.command(x, float(t[-1]))[1])
     return LoopResult(t, np.array(xs), np.array(us))

@@ -498,7 +498,7 @@ def closed_loop_check(result: Theorem8Result, stop_time: float = 300.0,
     def rhs(_t: float, z: np.ndarray) -> np.ndarray:
         x = z[:n]
         u = np.asarray(u_of(x), float)
-        dx = plant.derivatives(0.0, x.tolist(), list(u) + [0.0] * (n_inputs - m), p)
+        dx = plant.derivatives(0.0, x.tolist(), x.tolist(), list(u) + [0.0] * (n_inputs - m), p)
         return np.concatenate([dx, [x @ Qh @ x + u @ Rh @ u]])
 
     sol = solve_ivp(rhs, (0.0, stop_time), np.concatenate([result.x0, [0.0]]), method="DOP853",

@@ -43,14 +43,14 @@ def test_generated_python_equals_lambdified_rhs() -> None:
     p = MODEL.parameter_vector({"saturation_on": 1, "u_max": 0.7})
     for _ in range(50):
         x, u = rng.normal(size=6), rng.normal(size=6)
-        assert np.allclose(gen.derivatives(0.0, x, u, p), np.ravel(f(0.0, x, u, p)), rtol=1e-13, atol=1e-14)
+        assert np.allclose(gen.derivatives(0.0, x, x, u, p), np.ravel(f(0.0, x, u, p)), rtol=1e-13, atol=1e-14)
 
 
 def test_saturation_clips_the_applied_torque() -> None:
     # With saturation on, a 10 N m command acts as u_max = 5 N m: omega1' = 5 / Ix at rest.
     gen = codegen.load_python(MODEL)
     p = MODEL.parameter_vector({"saturation_on": 1})
-    dx = gen.derivatives(0.0, [0.0] * 6, [10.0, -10.0, 1.0, 0.0, 0.0, 0.0], p)
+    dx = gen.derivatives(0.0, [0.0] * 6, [0.0] * 6, [10.0, -10.0, 1.0, 0.0, 0.0, 0.0], p)
     assert dx[:3] == pytest.approx([5 / 15, -5 / 16, 1 / 12.5], rel=1e-15)
 
 
@@ -59,12 +59,12 @@ def test_shadow_set_switching_only_when_enabled_and_outside_unit_ball() -> None:
     s = [0.0, 0.0, 0.0, 0.6, -0.8, 0.65]
     off = MODEL.parameter_vector()
     on = MODEL.parameter_vector({"shadow_switching": 1})
-    assert gen.post_step(0.0, s, off) == s  # default off: the seed's runs are unswitched
+    assert gen.post_step(0.0, s, s, [0.0] * 6, off) == s  # default off: the seed's runs are unswitched
     n2 = 0.6**2 + 0.8**2 + 0.65**2
-    assert gen.post_step(0.0, s, on)[3:] == pytest.approx([-0.6 / n2, 0.8 / n2, -0.65 / n2], rel=1e-15)
+    assert gen.post_step(0.0, s, s, [0.0] * 6, on)[3:] == pytest.approx([-0.6 / n2, 0.8 / n2, -0.65 / n2], rel=1e-15)
     inside = [0.0, 0.0, 0.0, 0.1, 0.2, 0.3]
-    assert gen.post_step(0.0, inside, on) == inside
-    assert gen.post_step(0.0, [0.0] * 6, on) == [0.0] * 6  # |s| = 0: no division by zero
+    assert gen.post_step(0.0, inside, inside, [0.0] * 6, on) == inside
+    assert gen.post_step(0.0, [0.0] * 6, [0.0] * 6, [0.0] * 6, on) == [0.0] * 6  # |s| = 0: no division by zero
 
 
 def test_mrp_from_axis_angle_reproduces_the_seeds_initial_attitude() -> None:

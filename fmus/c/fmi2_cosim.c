@@ -144,18 +144,21 @@ static int all_finite(const double *v, int n) {
 
 /* ------------------------------------------------------------------ integration */
 static void rk4(Data *d, double h) {
-    double k1[DIM(NX)], k2[DIM(NX)], k3[DIM(NX)], k4[DIM(NX)], xt[DIM(NX)];
+    double k1[DIM(NX)], k2[DIM(NX)], k3[DIM(NX)], k4[DIM(NX)], xt[DIM(NX)], xp[DIM(NX)];
     int i;
     double t = d->time;
-    model_derivatives(t, d->x, d->u, d->p, k1);
+    model_derivatives(t, d->x, d->x, d->u, d->p, k1);
     for (i = 0; i < NX; i++) xt[i] = d->x[i] + 0.5 * h * k1[i];
-    model_derivatives(t + 0.5 * h, xt, d->u, d->p, k2);
+    model_derivatives(t + 0.5 * h, xt, d->x, d->u, d->p, k2);
     for (i = 0; i < NX; i++) xt[i] = d->x[i] + 0.5 * h * k2[i];
-    model_derivatives(t + 0.5 * h, xt, d->u, d->p, k3);
+    model_derivatives(t + 0.5 * h, xt, d->x, d->u, d->p, k3);
     for (i = 0; i < NX; i++) xt[i] = d->x[i] + h * k3[i];
-    model_derivatives(t + h, xt, d->u, d->p, k4);
-    for (i = 0; i < NX; i++) xt[i] = d->x[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
-    model_post_step(t + h, xt, d->p, d->x);
+    model_derivatives(t + h, xt, d->x, d->u, d->p, k4);
+    for (i = 0; i < NX; i++) {
+        xp[i] = d->x[i];
+        xt[i] = d->x[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
+    }
+    model_post_step(t + h, xt, xp, d->u, d->p, d->x);
 }
 
 /* ------------------------------------------------------------------ variable access */
