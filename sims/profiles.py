@@ -13,6 +13,10 @@ Kinds (times in s, values in the target input's unit):
 ``sinusoid``  amplitude, frequency_Hz, phase_rad = 0, offset = 0
 ``random``    seed, std, mean = 0, hold = communication step  (Gaussian, held over ``hold``)
 ``csv``       file, column, time_column = "time", interpolation = "linear"
+``cosine_ramp`` start, stop, before, after, derivative = 0 | 1 | 2
+              ``before`` until ``start``, then (1 - cos(pi (t - start)/(stop - start)))/2 of
+              the way to ``after``, reached at ``stop`` (seed 002 eq. 24-25); ``derivative``
+              gives its first or second time derivative instead (per s, per s^2)
 """
 from __future__ import annotations
 
@@ -106,9 +110,33 @@ def make(spec: dict[str, Any], where: str = "profile", base_dir: Path | None = N
         fn = _random(spec, where, step_size)
     elif kind == "csv":
         fn = _csv(spec, where, base_dir)
+    elif kind == "cosine_ramp":
+        fn = _cosine_ramp(spec, where)
     else:
-        raise ProfileError(f"{where}: unknown kind; use constant, step, table, sinusoid, random or csv")
+        raise ProfileError(f"{where}: unknown kind; use constant, step, table, sinusoid, random, csv "
+                           "or cosine_ramp")
     return Profile(str(kind), dict(spec), fn)
+
+
+def _cosine_ramp(spec: dict, where: str) -> Callable[[np.ndarray], np.ndarray]:
+    t0, t1 = _num(spec, "start", where), _num(spec, "stop", where)
+    a, b = _num(spec, "before", where), _num(spec, "after", where)
+    order = spec.get("derivative", 0)
+    if t1 <= t0:
+        raise ProfileError(f"{where}: 'stop' must be after 'start'")
+    if order not in (0, 1, 2) or isinstance(order, bool):
+        raise ProfileError(f"{where}: 'derivative' must be 0, 1 or 2, got {order!r}")
+    w = np.pi / (t1 - t0)
+
+    def fn(t: np.ndarray) -> np.ndarray:
+        inside = (t >= t0) & (t <= t1)
+        x = w * (np.clip(t, t0, t1) - t0)
+        if order == 0:
+            return a + (b - a) * (1 - np.cos(x)) / 2
+        if order == 1:
+            return np.where(inside, (b - a) * w * np.sin(x) / 2, 0.0)
+        return np.where(inside, (b - a) * w**2 * np.cos(x) / 2, 0.0)
+    return fn
 
 
 def _random(spec: dict, where: str, step_size: float | None) -> Callable[[np.ndarray], np.ndarray]:

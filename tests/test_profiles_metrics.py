@@ -41,6 +41,26 @@ def test_random_is_seeded_and_held() -> None:
     assert np.std(long) == pytest.approx(0.3, rel=0.05)  # 10^4 draws: 5 % covers ~7 sigma of the estimator
 
 
+def test_cosine_ramp_is_seed_002_eq_24_and_its_derivatives_are_consistent() -> None:
+    spec = {"kind": "cosine_ramp", "start": 4.0, "stop": 8.0, "before": math.pi / 18, "after": 1 + math.pi / 18}
+    t = np.linspace(0.0, 12.0, 1201)
+    q = make(spec).sample(t)
+    # The seed's own formula: -(1/2)(sin(pi t/4 - pi/2) - 1) + pi/18 on [4, 8].
+    seed = np.where(t < 4, math.pi / 18, np.where(t > 8, 1 + math.pi / 18,
+                                                  -(np.sin(np.pi * t / 4 - np.pi / 2) - 1) / 2 + math.pi / 18))
+    assert np.max(np.abs(q - seed)) < 1e-15
+    dq = make({**spec, "derivative": 1}).sample(t)
+    ddq = make({**spec, "derivative": 2}).sample(t)
+    # Central differences at h = 0.01 s: O(h^2) ~ 1e-5 of the amplitude.
+    assert np.max(np.abs(np.gradient(q, t)[1:-1] - dq[1:-1])) < 2e-4
+    inner = (t > 4.02) & (t < 7.98)
+    assert np.max(np.abs(np.gradient(dq, t)[inner] - ddq[inner])) < 2e-4
+    with pytest.raises(ProfileError, match="'stop' must be after 'start'"):
+        make({**spec, "stop": 4.0})
+    with pytest.raises(ProfileError, match="'derivative' must be 0, 1 or 2"):
+        make({**spec, "derivative": 3})
+
+
 def test_csv_profile(tmp_path: Path) -> None:
     (tmp_path / "w.csv").write_text("time,wx\n0,0\n10,5\n")
     v = make({"kind": "csv", "file": "w.csv", "column": "wx"}, base_dir=tmp_path).sample(np.array([0.0, 4.0]))
