@@ -51,10 +51,12 @@ def test_cosine_ramp_is_seed_002_eq_24_and_its_derivatives_are_consistent() -> N
     assert np.max(np.abs(q - seed)) < 1e-15
     dq = make({**spec, "derivative": 1}).sample(t)
     ddq = make({**spec, "derivative": 2}).sample(t)
-    # Central differences at h = 0.01 s: O(h^2) ~ 1e-5 of the amplitude.
-    assert np.max(np.abs(np.gradient(q, t)[1:-1] - dq[1:-1])) < 2e-4
-    inner = (t > 4.02) & (t < 7.98)
-    assert np.max(np.abs(np.gradient(dq, t)[inner] - ddq[inner])) < 2e-4
+    # Central differences at h = 0.01 s: O(h^2) ~ 1e-5 of the amplitude away from the
+    # corners at 4 and 8 s, where the second derivative jumps (an O(h) error there).
+    smooth = (np.abs(t - 4) > 0.015) & (np.abs(t - 8) > 0.015)
+    smooth[[0, -1]] = False
+    assert np.max(np.abs(np.gradient(q, t)[smooth] - dq[smooth])) < 2e-4
+    assert np.max(np.abs(np.gradient(dq, t)[smooth] - ddq[smooth])) < 2e-4
     with pytest.raises(ProfileError, match="'stop' must be after 'start'"):
         make({**spec, "stop": 4.0})
     with pytest.raises(ProfileError, match="'derivative' must be 0, 1 or 2"):
