@@ -42,6 +42,7 @@ if TYPE_CHECKING:
 FORMAT = "satfmu-controller"
 FORMAT_VERSION = 1
 KIND = "polynomial_state_feedback"
+SERVO_KIND = "servo_gain_schedule"
 CERTIFICATE_STATUS = ("certified", "not_verified")
 _NAME = re.compile(r"^[a-z][a-z0-9_]*$")
 
@@ -184,7 +185,15 @@ def _expand_kpx(K: list[list[list[Term]]], P: np.ndarray, n: int) -> list[list[T
     return out
 
 
-def parse(data: Any, where: str = "artifact") -> ControllerArtifact:
+def _check_named(items: list, label: str, where: str) -> None:
+    if not items:
+        raise _fail(f"{where}.{label}", "must not be empty")
+    for i, s in enumerate(items):
+        if not isinstance(s, dict) or not isinstance(s.get("name"), str) or not isinstance(s.get("unit"), str):
+            raise _fail(f"{where}.{label}[{i}]", 'must be {"name": str, "unit": str, ...}')
+
+
+def parse(data: Any, where: str = "artifact") -> ControllerArtifact | ServoArtifact:
     """Validate JSON data and return the artifact.
 
     Raises
@@ -199,19 +208,18 @@ def parse(data: Any, where: str = "artifact") -> ControllerArtifact:
     version = data.get("format_version")
     if version != FORMAT_VERSION:
         raise _fail(where, f"format_version {version!r} is not supported (this satfmu reads {FORMAT_VERSION})")
-    if data.get("kind") != KIND:
-        raise _fail(where, f"'kind' must be {KIND!r}, got {data.get('kind')!r}")
+    if data.get("kind") not in (KIND, SERVO_KIND):
+        raise _fail(where, f"'kind' must be {KIND!r} or {SERVO_KIND!r}, got {data.get('kind')!r}")
     name = _get(data, "name", str, where)
     if not _NAME.match(name):
         raise _fail(where, f"name {name!r} must be lower_snake_case (it becomes the FMU's modelIdentifier)")
-    states = _get(data, "states", list, where)
     outputs = _get(data, "outputs", list, where)
-    for label, items in (("states", states), ("outputs", outputs)):
-        if not items:
-            raise _fail(f"{where}.{label}", "must not be empty")
-        for i, s in enumerate(items):
-            if not isinstance(s, dict) or not isinstance(s.get("name"), str) or not isinstance(s.get("unit"), str):
-                raise _fail(f"{where}.{label}[{i}]", 'must be {"name": str, "unit": str, ...}')
+    if data["kind"] == SERVO_KIND:
+        _check_named(outputs, "outputs", where)
+        return _parse_servo(data, where, name, outputs)
+    states = _get(data, "states", list, where)
+    _check_named(states, "states", where)
+    _check_named(outputs, "outputs", where)
     n = len(states)
     law = _get(data, "law", dict, where)
     form = law.get("form")
@@ -236,6 +244,97 @@ def parse(data: Any, where: str = "artifact") -> ControllerArtifact:
         Q = _matrix(lyap.get("Q"), (n, n), where + ".lyapunov.Q")
         if not np.allclose(Q, Q.T) or np.linalg.eigvalsh(Q).min() <= 0:
             raise _fail(where + ".lyapunov.Q", "must be symmetric positive definite")
+    cert = _certificate(data, where)
+    if "l2_gain" in cert:
+        l2 = _get(cert, "l2_gain", dict, where + ".certificate")
+        for key in ("c", "kv"):
+            if _finite(l2.get(key), f"{where}.certificate.l2_gain.{key}") <= 0:
+                raise _fail(f"{where}.certificate.l2_gain.{key}", "must be > 0")
+        _get(l2, "region", str, where + ".certificate.l2_gain")
+    prov = _provenance(data, where)
+    return ControllerArtifact(name, _get(data, "description", str, where), _get(data, "plant", str, where),
+                              states, outputs, terms, law, cert, prov, lyap)
+
+
+@dataclass
+class ServoArtifact:
+    """A validated gain-scheduled servo: ``u = -K(s) xe`` with polynomial gain entries.
+
+    Schema (kind ``"servo_gain_schedule"``, format_version 1)::
+
+        {"format": "satfmu-controller", "format_version": 1, "kind": "servo_gain_schedule",
+         "name": str, "description": str, "plant": str,
+         "tracked":  [{"name": plant output, "reference": input name, "unit": str}, ...],
+         "rates":    [{"name": plant output, "unit": str}, ...],
+         "scheduling": [tracked or rate name, ...],
+         "outputs":  [{"name": str, "unit": str, "description": str}, ...],
+         "gain": [[[term, ...] per servo state] per output],   (exponents per scheduling variable)
+         "certificate": {...}, "provenance": {...}, "fit": {...} (optional)}
+
+    The servo state is ``xe = [int e_1 .. int e_m, e_1 .. e_m, rates]`` with
+    ``e_i = reference_i - tracked_i``.
+    """
+
+    name: str
+    description: str
+    plant: str
+    tracked: list[dict[str, str]]
+    rates: list[dict[str, str]]
+    scheduling: list[str]
+    outputs: list[dict[str, str]]
+    gain: list[list[list[Term]]]
+    certificate: dict[str, Any]
+    provenance: dict[str, Any]
+    fit: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def n_servo(self) -> int:
+        return 2 * len(self.tracked) + len(self.rates)
+
+    def gain_at(self, s: np.ndarray) -> np.ndarray:
+        """K at scheduling values ``s`` (shape (n_sched,) or (n, n_sched)) -> (..., n_out, n_servo)."""
+        s = np.asarray(s, float)
+        return np.stack([np.stack([sum((t.c * np.prod(s ** np.array(t.e), axis=-1) for t in entry),
+                                       np.zeros(s.shape[:-1])) for entry in row], axis=-1)
+                         for row in self.gain], axis=-2)
+
+    def to_json(self) -> dict[str, Any]:
+        data = {"format": FORMAT, "format_version": FORMAT_VERSION, "kind": SERVO_KIND, "name": self.name,
+                "description": self.description, "plant": self.plant, "tracked": self.tracked,
+                "rates": self.rates, "scheduling": self.scheduling, "outputs": self.outputs,
+                "gain": [[[{"c": t.c, "e": list(t.e)} for t in entry] for entry in row] for row in self.gain],
+                "certificate": self.certificate, "provenance": self.provenance}
+        if self.fit:
+            data["fit"] = self.fit
+        return data
+
+
+def _parse_servo(data: dict, where: str, name: str, outputs: list) -> ServoArtifact:
+    tracked = _get(data, "tracked", list, where)
+    rates = _get(data, "rates", list, where)
+    for label, items, keys in (("tracked", tracked, ("name", "reference", "unit")), ("rates", rates, ("name", "unit"))):
+        if not items:
+            raise _fail(f"{where}.{label}", "must not be empty")
+        for i, item in enumerate(items):
+            if not isinstance(item, dict) or any(not isinstance(item.get(k), str) for k in keys):
+                raise _fail(f"{where}.{label}[{i}]", f"must have string fields {list(keys)}")
+    known = [t["name"] for t in tracked] + [r["name"] for r in rates]
+    sched = _get(data, "scheduling", list, where)
+    for v in sched:
+        if v not in known:
+            raise _fail(f"{where}.scheduling", f"{v!r} is not a tracked or rate variable ({known})")
+    n_servo = 2 * len(tracked) + len(rates)
+    gain = _get(data, "gain", list, where)
+    if len(gain) != len(outputs) or any(not isinstance(r, list) or len(r) != n_servo for r in gain):
+        raise _fail(where + ".gain", f"must be {len(outputs)} x {n_servo} polynomials")
+    K = [[_terms(gain[i][j], len(sched), f"{where}.gain[{i}][{j}]") for j in range(n_servo)]
+         for i in range(len(outputs))]
+    return ServoArtifact(name, _get(data, "description", str, where), _get(data, "plant", str, where),
+                         tracked, rates, sched, outputs, K, _certificate(data, where),
+                         _provenance(data, where), data.get("fit", {}))
+
+
+def _certificate(data: dict, where: str) -> dict[str, Any]:
     cert = _get(data, "certificate", dict, where)
     if cert.get("status") not in CERTIFICATE_STATUS:
         raise _fail(where + ".certificate", f"'status' must be one of {CERTIFICATE_STATUS}")
@@ -243,19 +342,21 @@ def parse(data: Any, where: str = "artifact") -> ControllerArtifact:
         _get(cert, key, str, where + ".certificate")
     for k, v in cert.get("numbers", {}).items():
         _finite(v, f"{where}.certificate.numbers.{k}")
-    if "l2_gain" in cert:
-        l2 = _get(cert, "l2_gain", dict, where + ".certificate")
-        for key in ("c", "kv"):
-            if _finite(l2.get(key), f"{where}.certificate.l2_gain.{key}") <= 0:
-                raise _fail(f"{where}.certificate.l2_gain.{key}", "must be > 0")
-        _get(l2, "region", str, where + ".certificate.l2_gain")
+    return cert
+
+
+def _provenance(data: dict, where: str) -> dict[str, Any]:
     prov = _get(data, "provenance", dict, where)
     _get(prov, "source", str, where + ".provenance")
-    return ControllerArtifact(name, _get(data, "description", str, where), _get(data, "plant", str, where),
-                              states, outputs, terms, law, cert, prov, lyap)
+    return prov
 
 
-def load(path: str | Path) -> ControllerArtifact:
+def resource(artifact: ControllerArtifact | ServoArtifact) -> dict[str, bytes]:
+    """The artifact as a file for an FMU's ``resources/`` (traceability)."""
+    return {"artifact.json": (json.dumps(artifact.to_json(), indent=1) + "\n").encode()}
+
+
+def load(path: str | Path) -> ControllerArtifact | ServoArtifact:
     """Read and validate an artifact file.
 
     Raises
@@ -275,7 +376,7 @@ def load(path: str | Path) -> ControllerArtifact:
     return parse(data, where=str(path))
 
 
-def save(artifact: ControllerArtifact, path: str | Path) -> None:
+def save(artifact: ControllerArtifact | ServoArtifact, path: str | Path) -> None:
     """Write an artifact (re-validated first, so an invalid one is never written)."""
     data = artifact.to_json()
     parse(json.loads(json.dumps(data)), where=str(path))

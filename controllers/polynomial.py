@@ -8,7 +8,6 @@ connect by name to the plant's outputs); outputs are the commands; parameters
 """
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import sympy as sp
@@ -38,11 +37,6 @@ def build(artifact: ControllerArtifact) -> Model:
 def shipped_artifacts() -> list[Path]:
     """The controller artifacts shipped with satfmu (one controller FMU each)."""
     return sorted(ARTIFACTS.glob("*.json"))
-
-
-def artifact_resource(artifact: ControllerArtifact) -> dict[str, bytes]:
-    """The artifact as a file for the FMU's ``resources/`` (traceability)."""
-    return {"artifact.json": (json.dumps(artifact.to_json(), indent=1) + "\n").encode()}
 
 
 def load_model(path: str | Path) -> Model:

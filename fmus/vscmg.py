@@ -328,3 +328,52 @@ def model_sdc(model: Model, factorization: str) -> SDCForm:
 
 
 MODEL = build()
+
+
+def friction_compensation(measured: dict[str, sp.Symbol], errors: dict[str, sp.Expr],
+                          command: list[sp.Expr]) -> tuple[list[sp.Expr], list[Variable]]:
+    """Coulomb friction compensation torques [dT1, dT2] for a servo of this plant, N m.
+
+    Gimbal 4 has no motor: its friction is countered through the rotor's reaction torque.
+    Eliminating w1' from the rotor row of the equations of motion gives
+    (J2 + (J1 - JD) s^2) w4' = -s (T1 - F1 - N1) - N3 - F4, so a gimbal-4 torque F4 needs
+    dT1 = -F4 / s (s = sin q2, bounded below by 0.05 here). Each estimate is a smoothed
+    Coulomb torque ``Fc_hat tanh(v / delta)`` in the direction v of the wanted motion:
+    v = w + lambda e for the gimbals (motion, or the error while at rest), and for the rotor
+    v = w1 + kappa T1 (its motion, or the commanded torque while at rest).
+
+    Parameters
+    ----------
+    measured : dict
+        Symbols of the measured ``q2``, ``w1``, ``w2``, ``w4``.
+    errors : dict
+        Tracking errors ``q2`` and ``q4`` (reference - measured), rad.
+    command : list of 2 expressions
+        The servo's own [T1, T2], N m.
+
+    Returns
+    -------
+    torques : list of 2 expressions
+        Added to [T1, T2] when the parameter ``compensation_on`` is true.
+    parameters : list of Variable
+        ``compensation_on`` (off by default), ``comp_lambda`` (1/s), ``comp_delta``
+        (rad/s), ``comp_kappa`` (rad/s per N m) and the estimates ``Fc{1,2,4}_hat`` (N m,
+        default Table 1).
+    """
+    on = Variable("compensation_on", "1", "Add the Coulomb friction compensation torques", 0, "Boolean")
+    lam = Variable("comp_lambda", "1", "Weight (1/s) of the error in a gimbal's wanted-motion direction w + lambda e",
+                   2.0, min=0.0)
+    delta = Variable("comp_delta", "rad/s", "Smoothing width of the compensation's tanh sign", 1e-3, min=1e-9)
+    kappa = Variable("comp_kappa", "1", "Weight (rad/s per N m) of the commanded T1 in the rotor's direction",
+                     0.1, min=0.0)
+    fc = [Variable(f"Fc{a}_hat", "N.m", f"Estimated Coulomb friction of axis {a}", v, min=0.0)
+          for a, v in zip(AXES, FRICTION_TABLE_1["Fc"])]
+    F1, F2, F4 = (v.symbol for v in fc)
+    m = measured
+    sign = lambda v: sp.tanh(v / delta.symbol)  # noqa: E731
+    gimbal4 = -F4 * sign(m["w4"] + lam.symbol * errors["q4"]) / sp.Max(sp.sin(m["q2"]), sp.Rational(1, 20))
+    rotor = F1 * sign(m["w1"] + kappa.symbol * (command[0] + gimbal4))
+    gimbal2 = F2 * sign(m["w2"] + lam.symbol * errors["q2"])
+    enabled = on.symbol > sp.Rational(1, 2)
+    torques = [sp.Piecewise((gimbal4 + rotor, enabled), (0, True)), sp.Piecewise((gimbal2, enabled), (0, True))]
+    return torques, [on, lam, delta, kappa] + fc

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from controllers import artifact as artifacts
-from controllers import polynomial
+from controllers import polynomial, servo
 from fmus import export, mrp_satellite, vscmg
 from fmus.model import Model
 
@@ -25,10 +25,13 @@ class FmuSource:
 def sources() -> list[FmuSource]:
     """Plants first, then the controllers of the shipped artifacts."""
     out = [FmuSource(mrp_satellite.MODEL, {}), FmuSource(vscmg.MODEL, {})]
-    for path in polynomial.shipped_artifacts():
-        art = artifacts.load(path)
-        out.append(FmuSource(polynomial.build(art), polynomial.artifact_resource(art)))
-    return out
+    return out + [controller_source(artifacts.load(path)) for path in polynomial.shipped_artifacts()]
+
+
+def controller_source(art: artifacts.ControllerArtifact | artifacts.ServoArtifact) -> FmuSource:
+    """The controller model of an artifact (by its kind) and the artifact as its resource."""
+    model = servo.build(art) if isinstance(art, artifacts.ServoArtifact) else polynomial.build(art)
+    return FmuSource(model, artifacts.resource(art))
 
 
 def build_all(dest: Path = DEFAULT_FMU_DIR, backends: tuple[str, ...] = ("native", "python")) -> list[Path]:

@@ -100,7 +100,6 @@ def _progress(done: int, total: int, message: str) -> None:
 def _save_and_build(data: dict, args: argparse.Namespace) -> None:
     """Validate and write an artifact, then build its native and pythonfmu FMUs."""
     from controllers import artifact as artifacts
-    from controllers import polynomial
     from fmus import export
 
     art = artifacts.parse(data, where=args.name)
@@ -109,9 +108,9 @@ def _save_and_build(data: dict, args: argparse.Namespace) -> None:
     artifacts.save(art, out)
     print(f"wrote {out}")
     if args.fmu_dir:
-        model = polynomial.build(art)
+        src = catalog.controller_source(art)
         for build in (export.build_native, export.build_python):
-            print(f"built {build(model, Path(args.fmu_dir), polynomial.artifact_resource(art))}")
+            print(f"built {build(src.model, Path(args.fmu_dir), src.resources)}")
 
 
 def _synth(args: argparse.Namespace) -> int:

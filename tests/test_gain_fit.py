@@ -1,0 +1,54 @@
+"""Gain approximation of the SDRE servo (seed 002 section 3.2), the LQ baseline, the servo controller model."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from controllers import artifact, servo
+from fmus import codegen
+from synthesis import gain_fit, sdre
+
+
+@pytest.fixture(scope="module")
+def approx() -> tuple[gain_fit.GainFit, artifact.ServoArtifact]:
+    s = sdre.Servo("w1_free", freeze_w2=True)
+    result = gain_fit.fit(*gain_fit.sdre_grid(s, n_q2=12, n_w4=13), degrees=range(1, 7))
+    return result, artifact.parse(gain_fit.approximated_sdre_data(result, s))
+
+
+def test_fit_accuracy_improves_with_degree_and_the_artifact_evaluates_the_fit(approx) -> None:
+    result, art = approx
+    cv = [result.cv_errors[d] for d in sorted(result.cv_errors)]
+    assert all(b < a for a, b in zip(cv, cv[1:]))  # smooth gains: every degree helps
+    assert result.max_rel_error < 1e-2  # measured 8e-4 at degree 8 on the 23 x 25 grid
+    # The artifact's polynomials are the fit (JSON round trip at 17 digits: rounding only).
+    pts = result.grid
+    assert np.max(np.abs(art.gain_at(pts) - result.evaluate(pts))) < 1e-9
+
+
+def test_servo_controller_model_computes_minus_K_xe(approx) -> None:
+    _, art = approx
+    model = servo.build(art)
+    gen = codegen.load_python(model)
+    names = [v.name for v in model.inputs]
+    u = dict(q2=0.7, q4=0.2, q2_ref=0.75, q4_ref=0.25, w1=1.5, w2=-0.1, w4=0.3)
+    y = gen.outputs(0.0, [0.01, -0.02], [u[n] for n in names], model.parameter_vector().tolist())
+    xe = np.array([0.01, -0.02, 0.05, 0.05, 1.5, -0.1, 0.3])
+    K = art.gain_at(np.array([0.7, 0.3]))
+    assert np.allclose(y[:2], -K @ xe, rtol=1e-12, atol=1e-14)
+    assert y[2:] == pytest.approx([0.05, 0.05], abs=1e-15)  # the tracking errors
+
+
+def test_lq_servo_is_the_checked_gain_at_the_start_state() -> None:
+    x0 = np.array([0.0, np.pi / 18, 0.0, 0.0, 0.0, 0.0])
+    s = sdre.Servo("gyro_on_w2")
+    art = artifact.parse(gain_fit.lq_data(s, x0))
+    assert np.allclose(art.gain_at(np.array([1.0, 0.5])), s.gain(x0)[0], rtol=0, atol=0)
+    assert art.certificate["numbers"]["riccati_residual"] < 1e-8
+
+
+def test_fit_rejects_bad_shapes_and_too_small_grids() -> None:
+    with pytest.raises(ValueError, match="points must be"):
+        gain_fit.fit(np.zeros((10, 3)), np.zeros((10, 2, 7)))
+    with pytest.raises(ValueError, match="too few for degree"):
+        gain_fit.fit(np.random.default_rng(0).normal(size=(10, 2)), np.zeros((10, 2, 7)), degrees=range(1, 5))
