@@ -59,6 +59,14 @@ class Term:
     e: tuple[int, ...]
 
 
+def evaluate_terms(terms: list[Term], x: np.ndarray) -> np.ndarray:
+    """``sum c prod x_j^e_j`` over the last axis of ``x``."""
+    val = np.zeros(x.shape[:-1])
+    for t in terms:
+        val = val + t.c * np.prod(x ** np.array(t.e), axis=-1)
+    return val
+
+
 @dataclass
 class ControllerArtifact:
     """A validated polynomial state-feedback controller artifact."""
@@ -80,13 +88,7 @@ class ControllerArtifact:
         x = np.asarray(x, float)
         if x.shape[-1] != len(self.states):
             raise ValueError(f"artifact {self.name!r}: x has {x.shape[-1]} entries, expected {len(self.states)}")
-        out = []
-        for terms in self.terms:
-            val = np.zeros(x.shape[:-1])
-            for t in terms:
-                val = val + t.c * np.prod(x ** np.array(t.e), axis=-1)
-            out.append(val)
-        return np.stack(out, axis=-1)
+        return np.stack([evaluate_terms(terms, x) for terms in self.terms], axis=-1)
 
     def to_json(self) -> dict[str, Any]:
         """The artifact as JSON-ready data (the law in its original form)."""
@@ -185,12 +187,12 @@ def _expand_kpx(K: list[list[list[Term]]], P: np.ndarray, n: int) -> list[list[T
     return out
 
 
-def _check_named(items: list, label: str, where: str) -> None:
+def _check_named(items: list, label: str, where: str, keys: tuple[str, ...] = ("name", "unit")) -> None:
     if not items:
         raise _fail(f"{where}.{label}", "must not be empty")
     for i, s in enumerate(items):
-        if not isinstance(s, dict) or not isinstance(s.get("name"), str) or not isinstance(s.get("unit"), str):
-            raise _fail(f"{where}.{label}[{i}]", 'must be {"name": str, "unit": str, ...}')
+        if not isinstance(s, dict) or any(not isinstance(s.get(k), str) for k in keys):
+            raise _fail(f"{where}.{label}[{i}]", "must be {" + ", ".join(f'"{k}": str' for k in keys) + ", ...}")
 
 
 def parse(data: Any, where: str = "artifact") -> ControllerArtifact | ServoArtifact:
@@ -287,16 +289,11 @@ class ServoArtifact:
     provenance: dict[str, Any]
     fit: dict[str, Any] = field(default_factory=dict)
 
-    @property
-    def n_servo(self) -> int:
-        return 2 * len(self.tracked) + len(self.rates)
-
     def gain_at(self, s: np.ndarray) -> np.ndarray:
         """K at scheduling values ``s`` (shape (n_sched,) or (n, n_sched)) -> (..., n_out, n_servo)."""
         s = np.asarray(s, float)
-        return np.stack([np.stack([sum((t.c * np.prod(s ** np.array(t.e), axis=-1) for t in entry),
-                                       np.zeros(s.shape[:-1])) for entry in row], axis=-1)
-                         for row in self.gain], axis=-2)
+        return np.stack([np.stack([evaluate_terms(entry, s) for entry in row], axis=-1) for row in self.gain],
+                        axis=-2)
 
     def to_json(self) -> dict[str, Any]:
         data = {"format": FORMAT, "format_version": FORMAT_VERSION, "kind": SERVO_KIND, "name": self.name,
@@ -312,12 +309,8 @@ class ServoArtifact:
 def _parse_servo(data: dict, where: str, name: str, outputs: list) -> ServoArtifact:
     tracked = _get(data, "tracked", list, where)
     rates = _get(data, "rates", list, where)
-    for label, items, keys in (("tracked", tracked, ("name", "reference", "unit")), ("rates", rates, ("name", "unit"))):
-        if not items:
-            raise _fail(f"{where}.{label}", "must not be empty")
-        for i, item in enumerate(items):
-            if not isinstance(item, dict) or any(not isinstance(item.get(k), str) for k in keys):
-                raise _fail(f"{where}.{label}[{i}]", f"must have string fields {list(keys)}")
+    _check_named(tracked, "tracked", where, ("name", "reference", "unit"))
+    _check_named(rates, "rates", where)
     known = [t["name"] for t in tracked] + [r["name"] for r in rates]
     sched = _get(data, "scheduling", list, where)
     for v in sched:

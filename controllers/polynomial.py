@@ -12,7 +12,7 @@ from pathlib import Path
 
 import sympy as sp
 
-from controllers.artifact import ControllerArtifact, load
+from controllers.artifact import ControllerArtifact, Term, load
 from fmus.model import Model, Output, Variable, saturate
 
 ARTIFACTS = Path(__file__).resolve().parent / "artifacts"
@@ -27,11 +27,16 @@ def build(artifact: ControllerArtifact) -> Model:
     x = [v.symbol for v in inputs]
     outputs = []
     for out, terms in zip(artifact.outputs, artifact.terms):
-        poly = sp.Add(*[sp.Float(t.c, 17) * sp.Mul(*[xi ** e for xi, e in zip(x, t.e)]) for t in terms])
+        poly = sympy_polynomial(terms, x)
         var = Variable(out["name"], out["unit"], out.get("description", f"Command {out['name']}"))
         outputs.append(Output(var, saturate(poly, u_max.symbol, sat_on.symbol)))
     return Model(name=artifact.name, description=artifact.description, states=[], inputs=inputs,
                  parameters=[sat_on, u_max], outputs=outputs)
+
+
+def sympy_polynomial(terms: list[Term], variables: list[sp.Symbol]) -> sp.Expr:
+    """``sum c prod v_j^e_j`` with every coefficient at full double precision."""
+    return sp.Add(*[sp.Float(t.c, 17) * sp.Mul(*[v ** e for v, e in zip(variables, t.e)]) for t in terms])
 
 
 def shipped_artifacts() -> list[Path]:

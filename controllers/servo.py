@@ -16,6 +16,7 @@ from __future__ import annotations
 import sympy as sp
 
 from controllers.artifact import ServoArtifact
+from controllers.polynomial import sympy_polynomial
 from fmus import vscmg
 from fmus.model import Model, Output, State, Variable
 
@@ -32,8 +33,7 @@ def build(artifact: ServoArtifact) -> Model:
     xe = [s.symbol for s in integrals] + e + [r.symbol for r in rates]
     by_name = {v.name: v.symbol for v in tracked + rates}
     sched = [by_name[n] for n in artifact.scheduling]
-    K = [[sp.Add(*[sp.Float(t.c, 17) * sp.Mul(*[v ** k for v, k in zip(sched, t.e)]) for t in entry])
-          for entry in row] for row in artifact.gain]
+    K = [[sympy_polynomial(entry, sched) for entry in row] for row in artifact.gain]
     commands = [-sum((kij * xj for kij, xj in zip(row, xe)), sp.Integer(0)) for row in K]
     parameters: list[Variable] = []
     if artifact.plant == vscmg.MODEL.name:

@@ -119,20 +119,13 @@ class Servo:
                                     f"rad/s ({self.factorization} SDC)") from exc
 
 
-def seed_references(t: np.ndarray | float) -> np.ndarray:
-    """Seed 002 eq. (24)-(25): [q2_ref, q4_ref] (rad) at the times ``t`` (s), shape (len(t), 2)."""
-    from sims.profiles import make  # the same profile the scenarios declare
-
-    t = np.atleast_1d(np.asarray(t, float))
-    return np.column_stack([make(spec).sample(t) for spec in SEED_REFERENCE_PROFILES.values()])
-
-
 SEED_REFERENCE_PROFILES = {
     "q2_ref": {"kind": "cosine_ramp", "start": 4.0, "stop": 8.0, "before": float(np.pi / 18),
                "after": float(1 + np.pi / 18)},
     "q4_ref": {"kind": "cosine_ramp", "start": 4.0, "stop": 8.0, "before": 0.0, "after": 1.0},
 }
-"""Seed 002 eq. (24)-(25) as profile declarations (the scenarios use the same)."""
+"""Seed 002 eq. (24)-(25) as profile declarations (:func:`sims.profiles.make`; the scenarios
+declare the same)."""
 
 
 @dataclass
@@ -150,9 +143,11 @@ class ServoRun:
         return self.reference - self.x[:, [1, 2]]
 
 
-def simulate_online(servo: Servo, stop_time: float = 15.0, period: float = 0.01,
-                    plant_params: dict | None = None) -> ServoRun:
+def simulate_online(servo: Servo, reference: Callable[[np.ndarray], np.ndarray], stop_time: float = 15.0,
+                    period: float = 0.01, plant_params: dict | None = None) -> ServoRun:
     """Online SDRE on the plant's generated code, u held over each control period.
+
+    ``reference(t)`` gives [q2_ref, q4_ref] (rad) at the times ``t`` (s), shape (len(t), 2).
 
     The plant is advanced with the FMUs' RK4 (:func:`fmus.pyslave.rk4_step`) and the
     integral of the error by e held over the period, as the controller FMU does.
@@ -172,7 +167,7 @@ def simulate_online(servo: Servo, stop_time: float = 15.0, period: float = 0.01,
     n_sub = substep_count(period, p[names.index("n_substeps")], p[names.index("h_max")])
     n = int(round(stop_time / period))
     t = period * np.arange(n + 1)
-    ref = seed_references(t)
+    ref = np.asarray(reference(t), float)
     x = model.initial_state(p).tolist()
     integrals = np.zeros(2)
     xs, us = [x], []
