@@ -21,7 +21,7 @@ Schema (format_version 1)::
      "law": {"form": "polynomial", "terms": [[term, ...] per output]}
           | {"form": "gain_times_lyapunov", "K": [[[term, ...] per state] per output], "P": [[...]]},
      "lyapunov": {"Q": [[...]]}            (optional),
-     "certificate": {"status": "certified" | "not_verified", "proved": str, "region": str,
+     "certificate": {"status": "certified" | "sampled" | "not_verified", "proved": str, "region": str,
                      "numbers": {str: float}},
      "provenance": {"source": str, ...}}
 """
@@ -43,7 +43,9 @@ FORMAT = "satfmu-controller"
 FORMAT_VERSION = 1
 KIND = "polynomial_state_feedback"
 SERVO_KIND = "servo_gain_schedule"
-CERTIFICATE_STATUS = ("certified", "not_verified")
+CERTIFICATE_STATUS = ("certified", "sampled", "not_verified")
+"""certified: proved (SOS, Riccati check at the design point); sampled: checked on samples and
+in simulation, no proof; not_verified: nothing checked."""
 _NAME = re.compile(r"^[a-z][a-z0-9_]*$")
 
 

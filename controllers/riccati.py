@@ -120,3 +120,37 @@ def riccati_gain(A: np.ndarray, B: np.ndarray, Q: np.ndarray, R: np.ndarray, eps
     if failures:
         raise RiccatiCheckError("Riccati solution rejected: " + "; ".join(failures))
     return K, check
+
+
+def sampled_gain(values: list[float], n: int, m: int) -> list[float]:
+    """Checked gain from flat data: the sample function of the online SDRE controller FMU.
+
+    Parameters
+    ----------
+    values : list of float
+        ``A`` (n x n, row-major), ``B`` (n x m, row-major), the diagonals of ``Q`` (n) and
+        ``R`` (m), and ``eps`` (1/s): ``n*n + n*m + n + m + 1`` numbers.
+    n, m : int
+        State and input dimensions.
+
+    Returns
+    -------
+    list of float
+        ``K`` row-major (m x n), then the check's relative residual and ``max_re`` (1/s).
+
+    Raises
+    ------
+    ValueError
+        If ``values`` has the wrong length.
+    RiccatiCheckError
+        As :func:`riccati_gain`.
+    """
+    v = np.asarray(values, float)
+    if v.shape != (n * n + n * m + n + m + 1,):
+        raise ValueError(f"expected {n * n + n * m + n + m + 1} values for n = {n}, m = {m}, got {v.shape}")
+    A = v[:n * n].reshape(n, n)
+    B = v[n * n:n * n + n * m].reshape(n, m)
+    q = v[n * n + n * m:n * n + n * m + n]
+    r = v[n * n + n * m + n:-1]
+    K, check = riccati_gain(A, B, np.diag(q), np.diag(r), float(v[-1]))
+    return K.ravel().tolist() + [check.residual, check.max_re]

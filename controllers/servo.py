@@ -1,11 +1,19 @@
-"""Controller "gain-scheduled servo": u = -K(s) xe (+ friction compensation), from an artifact.
+"""Servo controllers u = -K xe (+ friction compensation): gain-scheduled and online SDRE.
 
-Built from a validated :class:`controllers.artifact.ServoArtifact` (an LQ servo is the
-degree-0 case, the approximated SDRE of seed 002 a fitted polynomial gain). Inputs: the
-tracked plant outputs, their references and the measured rates (named as the plant's
-outputs, so they connect by name); states: the integrals of the tracking errors, advanced
-by the FMU's integrator with the inputs held over each step; outputs: the commands and the
-tracking errors e = reference - tracked.
+Both share one model builder, :func:`servo_model`. Inputs: the tracked plant outputs,
+their references and the measured rates (named as the plant's outputs, so they connect by
+name); states: the integrals of the tracking errors, advanced by the FMU's integrator with
+the inputs held over each step; outputs: the commands and the tracking errors
+e = reference - tracked. The servo state is xe = [int e, e, rates].
+
+- :func:`build`: the gain of a :class:`controllers.artifact.ServoArtifact`, polynomials in
+  the scheduling variables (an LQ servo is the degree-0 case, the approximated SDRE of
+  seed 002 a fitted polynomial gain). Native and pythonfmu FMUs.
+- :func:`build_online`: the online SDRE of seed 002. The gain is solved and checked
+  (:func:`controllers.riccati.sampled_gain`) at every control instant from the servo's
+  SDC matrices (:func:`synthesis.sdre.servo_matrices`, the plant's own factorization) and
+  held in between; a rejected solution stops the FMU with the check's message. pythonfmu
+  FMU only (it needs numpy and scipy at run time).
 
 For the VSCMG (``plant == "vscmg"``) the optional friction compensation of
 :func:`fmus.vscmg.friction_compensation` is added (parameter ``compensation_on``, off by
@@ -13,37 +21,101 @@ default).
 """
 from __future__ import annotations
 
+from pathlib import Path
+
 import sympy as sp
 
+from controllers import riccati
 from controllers.artifact import ServoArtifact
 from controllers.polynomial import sympy_polynomial
 from fmus import vscmg
-from fmus.model import Model, Output, State, Variable
+from fmus.model import Model, Output, Sampler, State, Variable, vector
+
+
+def servo_model(name: str, description: str, plant: str, tracked: list[dict], rates: list[dict],
+                outputs: list[dict], gain: list[list[sp.Expr]], parameters: list[Variable] = (),
+                sampler: Sampler | None = None, extra_outputs: list[Output] = ()) -> Model:
+    """Symbolic servo model with the gain ``gain`` (rows: commands, columns: xe entries).
+
+    ``gain`` may use the tracked and rate symbols (by name), ``parameters`` and the
+    sampler's held values.
+    """
+    tracked_v = [Variable(t["name"], t["unit"], f"Measured {t['name']}") for t in tracked]
+    refs = [Variable(t["reference"], t["unit"], f"Reference of {t['name']}") for t in tracked]
+    rates_v = [Variable(r["name"], r["unit"], f"Measured {r['name']}") for r in rates]
+    integrals = [State(Variable(f"int_e_{t['name']}", "rad.s", f"Integral of the {t['name']} tracking error"),
+                       Variable(f"int_e_{t['name']}_0", "rad.s", f"Initial integral of the {t['name']} error"))
+                 for t in tracked]
+    e = [r.symbol - y.symbol for r, y in zip(refs, tracked_v)]
+    xe = [s.symbol for s in integrals] + e + [r.symbol for r in rates_v]
+    commands = [-sum((kij * xj for kij, xj in zip(row, xe)), sp.Integer(0)) for row in gain]
+    parameters = list(parameters)
+    if plant == vscmg.MODEL.name:
+        by_name = {v.name: v.symbol for v in tracked_v + rates_v}
+        errors = dict(zip([t["name"] for t in tracked], e))
+        extra, comp = vscmg.friction_compensation(by_name, errors, commands)
+        commands = [c + x for c, x in zip(commands, extra)]
+        parameters += comp
+    outs = [Output(Variable(o["name"], o["unit"], o.get("description", f"Command {o['name']}")), c)
+            for o, c in zip(outputs, commands)]
+    outs += [Output(Variable(f"e_{t['name']}", t["unit"], f"Tracking error {t['reference']} - {t['name']}"), ei)
+             for t, ei in zip(tracked, e)]
+    return Model(name=name, description=description, states=integrals, inputs=tracked_v + refs + rates_v,
+                 parameters=parameters, outputs=outs + list(extra_outputs), rhs=sp.Matrix(e),
+                 default_stop_time=15.0, default_step_size=0.01, default_h_max=0.01, sampler=sampler)
 
 
 def build(artifact: ServoArtifact) -> Model:
-    """Symbolic model of the servo described by ``artifact``."""
-    tracked = [Variable(t["name"], t["unit"], f"Measured {t['name']}") for t in artifact.tracked]
-    refs = [Variable(t["reference"], t["unit"], f"Reference of {t['name']}") for t in artifact.tracked]
-    rates = [Variable(r["name"], r["unit"], f"Measured {r['name']}") for r in artifact.rates]
-    integrals = [State(Variable(f"int_e_{t['name']}", "rad.s", f"Integral of the {t['name']} tracking error"),
-                       Variable(f"int_e_{t['name']}_0", "rad.s", f"Initial integral of the {t['name']} error"))
-                 for t in artifact.tracked]
-    e = [r.symbol - y.symbol for r, y in zip(refs, tracked)]
-    xe = [s.symbol for s in integrals] + e + [r.symbol for r in rates]
-    by_name = {v.name: v.symbol for v in tracked + rates}
-    sched = [by_name[n] for n in artifact.scheduling]
+    """Symbolic model of the gain-scheduled servo described by ``artifact``."""
+    sched = [sp.Symbol(n, real=True) for n in artifact.scheduling]
     K = [[sympy_polynomial(entry, sched) for entry in row] for row in artifact.gain]
-    commands = [-sum((kij * xj for kij, xj in zip(row, xe)), sp.Integer(0)) for row in K]
-    parameters: list[Variable] = []
-    if artifact.plant == vscmg.MODEL.name:
-        errors = dict(zip([t["name"] for t in artifact.tracked], e))
-        extra, parameters = vscmg.friction_compensation(by_name, errors, commands)
-        commands = [c + x for c, x in zip(commands, extra)]
-    outputs = [Output(Variable(o["name"], o["unit"], o.get("description", f"Command {o['name']}")), c)
-               for o, c in zip(artifact.outputs, commands)]
-    outputs += [Output(Variable(f"e_{t['name']}", t["unit"], f"Tracking error {t['reference']} - {t['name']}"), ei)
-                for t, ei in zip(artifact.tracked, e)]
-    return Model(name=artifact.name, description=artifact.description, states=integrals,
-                 inputs=tracked + refs + rates, parameters=parameters, outputs=outputs,
-                 rhs=sp.Matrix(e), default_stop_time=15.0, default_step_size=0.01, default_h_max=0.01)
+    return servo_model(artifact.name, artifact.description, artifact.plant, artifact.tracked, artifact.rates,
+                       artifact.outputs, K)
+
+
+ONLINE_VARIANTS = {"vscmg_sdre_online": ("gyro_on_w2", False), "vscmg_sdre_online_w1free": ("w1_free", True)}
+"""Shipped online SDRE FMUs: name -> (SDC factorization, w2 := 0). The second is the law the
+approximated SDRE fits (its closed-loop deviation measures the fit alone)."""
+
+
+def build_online(name: str = "vscmg_sdre_online") -> Model:
+    """Symbolic model of the VSCMG's online SDRE servo (seed 002, eq. 5-12), one of
+    :data:`ONLINE_VARIANTS`.
+
+    Parameters (besides the plant inertias the SDC uses and the compensation's):
+    ``control_period`` (s), ``Q[1..7]`` and ``R[1..2]`` (the diagonals of Qe, Re, default the
+    seed's) and ``riccati_eps`` (1/s). Extra outputs: the relative residual and the largest
+    closed-loop real part (1/s) of the solution in use.
+    """
+    from synthesis import gain_fit, sdre  # synthesis imports this package
+
+    factorization, freeze_w2 = ONLINE_VARIANTS[name]
+    Ae, Be = sdre.servo_matrices(vscmg.MODEL, factorization)
+    if freeze_w2:
+        w2 = sp.Symbol("w2", real=True)
+        Ae, Be = Ae.subs(w2, 0), Be.subs(w2, 0)
+    n, m = Be.shape
+    used = set().union(*(sp.sympify(e).free_symbols for e in list(Ae) + list(Be)))
+    inertias = [v for v in vscmg.MODEL.parameters if v.symbol in used]
+    q = vector("Q", n, "1", "Diagonal entry {i} of the servo state weight Qe (seed 002 eq. 10)",
+               [float(v) for v in sdre.Q_SEED.diagonal()], min=0.0)
+    r = vector("R", m, "1", "Diagonal entry {i} of the input weight Re (seed 002 eq. 10)",
+               [float(v) for v in sdre.R_SEED.diagonal()], min=1e-12)
+    eps = Variable("riccati_eps", "1/s", "Shift of the Riccati pair (Ae - eps I, Be)", sdre.EPS, min=0.0)
+    period = Variable("control_period", "s", "Gain update period (the gain is held in between)", 0.01,
+                      min=1e-6)
+    held = [Variable(f"K_{i + 1}_{j + 1}", "1", f"SDRE gain entry ({i + 1}, {j + 1})") for i in range(m)
+            for j in range(n)]
+    held += [Variable("held_residual"), Variable("held_max_re", "1/s")]
+    sampler = Sampler(held=held, arguments=list(Ae) + list(Be) + [v.symbol for v in q + r] + [eps.symbol],
+                      period=period.name, module=str(Path(riccati.__file__)), function="sampled_gain",
+                      options={"n": n, "m": m})
+    K = [[held[i * n + j].symbol for j in range(n)] for i in range(m)]
+    monitors = [Output(Variable("riccati_residual", "1", "Relative residual of the Riccati solution in use"),
+                       held[-2].symbol),
+                Output(Variable("riccati_max_re", "1/s", "Largest real part of the closed-loop eigenvalues "
+                                "of the SDC pair in use"), held[-1].symbol)]
+    sdc = factorization + (" at w2 = 0" if freeze_w2 else "")
+    return servo_model(name, f"Online SDRE servo of the VSCMG (seed 002, {sdc} SDC): checked "
+                       "Riccati gain every control period", vscmg.MODEL.name, gain_fit.TRACKED, gain_fit.RATES,
+                       gain_fit.OUTPUTS, K, inertias + q + r + [eps, period], sampler, monitors)

@@ -69,6 +69,9 @@ def build_native(model: Model, dest_dir: Path, resources: dict[str, bytes] | Non
     FmuBuildError
         If the compiler is missing or reports an error or a warning.
     """
+    if model.sampler is not None:
+        raise FmuBuildError(f"model {model.name!r} samples a Python function ({model.sampler.function}); "
+                            "it has no native FMU, build its pythonfmu FMU")
     if shutil.which(cc) is None:
         raise FmuBuildError(f"C compiler {cc!r} not found (install gcc)")
     with tempfile.TemporaryDirectory(prefix="satfmu_") as tmp:
@@ -123,7 +126,8 @@ def build_python(model: Model, dest_dir: Path, resources: dict[str, bytes] | Non
     """Generate and package the pythonfmu FMU ``<dest_dir>/<model.name>_py.fmu``.
 
     The FMU needs, in the importing tool's Python, only pythonfmu's runtime (which
-    it embeds) and the standard library.
+    it embeds) and the standard library; a model with a sampler also needs what its
+    module imports (numpy and scipy for the online SDRE).
     """
     from pythonfmu.builder import FmuBuilder
 
@@ -135,6 +139,8 @@ def build_python(model: Model, dest_dir: Path, resources: dict[str, bytes] | Non
         proj.mkdir()
         (proj / f"{generated}.py").write_text(codegen.python_source(model))
         shutil.copy(PYSLAVE, proj / "satfmu_pyslave.py")
+        if model.sampler is not None:
+            shutil.copy(model.sampler.module, proj / f"{codegen.sampler_module_name(model)}.py")
         desc = model_description(model, Capabilities(cls, needs_execution_tool=True))
         (proj / "satfmu_description.xml").write_bytes(to_xml_bytes(desc))
         _write_resources(proj, resources)
@@ -148,7 +154,7 @@ def build_python(model: Model, dest_dir: Path, resources: dict[str, bytes] | Non
             fmu = FmuBuilder.build_FMU(script, dest=out, project_files=files)
         finally:
             sys.path.remove(str(proj))
-            for mod in (cls, generated, "satfmu_pyslave"):
+            for mod in (cls, generated, "satfmu_pyslave", codegen.sampler_module_name(model) if model.sampler else ""):
                 sys.modules.pop(mod, None)
         dest = Path(dest_dir) / f"{cls}.fmu"
         dest.parent.mkdir(parents=True, exist_ok=True)

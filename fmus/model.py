@@ -35,6 +35,7 @@ UNITS: dict[str, dict[str, int]] = {
     "N.m.s/rad": {"kg": 1, "m": 2, "s": -1, "rad": -1},
     "J": {"kg": 1, "m": 2, "s": -2},
     "rad.s": {"rad": 1, "s": 1},
+    "1/s": {"s": -1},
 }
 
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*(\[[0-9]+\])?$")
@@ -118,6 +119,55 @@ class SDCForm:
     assumptions: dict[str, float] = field(default_factory=dict)
 
 
+@dataclass(frozen=True)
+class Sampler:
+    """Values held between sample instants and computed there by a Python function.
+
+    At every sample instant ``t0 + k * period`` the FMU evaluates :attr:`arguments` at the
+    current state, inputs and parameters and calls ``function(arguments, **options)`` of
+    the module file :attr:`module`; the returned values are held until the next instant.
+    The expressions of the model read them through the symbols of :attr:`held`. An online
+    SDRE law holds its gain this way (the Riccati solve is no expression). Models with a
+    sampler are exported as pythonfmu FMUs only.
+
+    Parameters
+    ----------
+    held : list of Variable
+        The held values (internal; expose one through an output to show it).
+    arguments : list of sympy.Expr
+        Expressions in the model's state, input and parameter symbols.
+    period : str
+        Name of the model parameter giving the sample period, s.
+    module : str
+        Path of a Python file that imports only the standard library, numpy and scipy; it
+        is embedded in the FMU.
+    function : str
+        Name of the function in ``module``; it returns ``len(held)`` numbers and raises
+        on failure (the FMU then reports fmi2Error with the message).
+    options : dict
+        Keyword arguments of the call (plain data).
+    """
+
+    held: list[Variable]
+    arguments: list[sp.Expr]
+    period: str
+    module: str
+    function: str
+    options: dict = field(default_factory=dict)
+
+    def load(self) -> Callable[..., list[float]]:
+        """The function itself, ``values -> held`` with the options bound (in-process use)."""
+        import functools
+        import importlib.util
+
+        spec = importlib.util.spec_from_file_location(f"satfmu_sampler_{id(self)}", self.module)
+        if spec is None or spec.loader is None:
+            raise ModelDefinitionError(f"sampler module {self.module!r} cannot be loaded")
+        mod = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(mod)
+        return functools.partial(getattr(mod, self.function), **self.options)
+
+
 #: Parameters every model with states gets, read by the integrators of both FMU backends.
 INTEGRATOR_PARAMETERS = (
     Variable("n_substeps", "1", "Minimum number of RK4 substeps per communication step",
@@ -165,6 +215,8 @@ class Model:
         DefaultExperiment of the FMU, s.
     default_h_max : float
         Default of the ``h_max`` parameter (largest RK4 substep), s.
+    sampler : Sampler, optional
+        Values computed by a Python function at sample instants and held in between.
     """
 
     name: str
@@ -180,6 +232,7 @@ class Model:
     default_stop_time: float = 10.0
     default_step_size: float = 0.05
     default_h_max: float = 0.0125
+    sampler: Sampler | None = None
 
     t = sp.Symbol("t", real=True)
 
@@ -211,8 +264,19 @@ class Model:
                 f"{self.name}: rhs has shape {self.rhs.shape}, expected ({len(self.states)}, 1)")
         if self.post_step is not None and sp.Matrix(self.post_step).shape != self.rhs.shape:
             raise ModelDefinitionError(f"{self.name}: post_step must have one entry per state")
-        allowed = set(self.state_symbols + self.input_symbols + self.parameter_symbols + [self.t]
-                      + self.previous_symbols)
+        base = set(self.state_symbols + self.input_symbols + self.parameter_symbols + [self.t])
+        allowed = base | set(self.previous_symbols) | set(self.held_symbols)
+        if self.sampler is not None:
+            if self.sampler.period not in [v.name for v in self.parameters]:
+                raise ModelDefinitionError(f"{self.name}: sampler period {self.sampler.period!r} is no parameter")
+            clash = {v.name for v in self.sampler.held} & set(fmu_names + symbol_names)
+            if clash:
+                raise ModelDefinitionError(f"{self.name}: held values reuse names {sorted(clash)}")
+            for e in self.sampler.arguments:
+                extra = sp.sympify(e).free_symbols - base
+                if extra:
+                    raise ModelDefinitionError(
+                        f"{self.name}: sampler argument uses undeclared symbols {sorted(map(str, extra))}")
         for sym, e in self.definitions:
             extra = sp.sympify(e).free_symbols - allowed
             if extra:
@@ -247,6 +311,11 @@ class Model:
     def previous(state_name: str) -> sp.Symbol:
         """The symbol of state ``state_name`` at the start of the integration substep."""
         return sp.Symbol(f"previous({state_name})", real=True)
+
+    @property
+    def held_symbols(self) -> list[sp.Symbol]:
+        """Symbols of the sampler's held values (none without a sampler)."""
+        return [v.symbol for v in self.sampler.held] if self.sampler is not None else []
 
     @property
     def input_symbols(self) -> list[sp.Symbol]:
@@ -285,11 +354,17 @@ class Model:
         return np.array([p[index[s.initial.name]] for s in self.states])
 
     def free_symbols(self, expr: sp.Expr) -> set[sp.Symbol]:
-        """Free symbols of ``expr`` with :attr:`definitions` followed to the variables they use."""
+        """Free symbols of ``expr`` with :attr:`definitions` and held values followed to the
+        variables they use (a held value is sampled from the inputs of its instant)."""
         free = set(sp.sympify(expr).free_symbols)
         for sym, e in reversed(self.definitions):
             if sym in free:
                 free = (free - {sym}) | sp.sympify(e).free_symbols
+        held = set(self.held_symbols)
+        if free & held:
+            free -= held
+            for e in self.sampler.arguments:  # type: ignore[union-attr]
+                free |= sp.sympify(e).free_symbols
         return free
 
     def output_dependencies(self) -> dict[str, list[str]]:

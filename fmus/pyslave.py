@@ -7,6 +7,12 @@ behaviour as the generic C wrapper ``fmus/c/fmi2_cosim.c``: RK4 with held inputs
 ``max(n_substeps, ceil(h / h_max))`` substeps, the post-step map, value checks
 (finite, in range, right causality), the co-simulation call order, and FMU state.
 
+A model with a sampler (:class:`fmus.model.Sampler`, Python FMUs only) also holds
+values computed by a Python function at the instants ``t0 + k * period``: a step is
+integrated in segments between instants. The values of an instant at a communication
+point are computed from the inputs set at that point, when first needed (an output
+read or the next step), and again if an input changes there.
+
 pythonfmu 0.7.0 writes parameters without variability and omits the
 ModelStructure's InitialUnknowns; :meth:`SatfmuSlave.to_xml` therefore returns
 satfmu's own model description (the same one the native FMU carries).
@@ -14,6 +20,8 @@ satfmu's own model description (the same one the native FMU carries).
 from __future__ import annotations
 
 import ctypes
+import functools
+import importlib
 import math
 import os
 import sys
@@ -98,6 +106,11 @@ class SatfmuSlave(Fmi2Slave):
         pnames = [v["name"] for v in self._table if v["kind"] == KIND_PARAMETER]
         self._i_nsub = pnames.index("n_substeps") if "n_substeps" in pnames else -1
         self._i_hmax = pnames.index("h_max") if "h_max" in pnames else -1
+        smp = gen.SAMPLER
+        self._sampler = smp
+        if smp is not None:
+            fn = getattr(importlib.import_module(smp["module"]), smp["function"])
+            self._sample_fn = functools.partial(fn, **smp["options"])
         self._defaults()
         for row in self._table:
             self.register_variable(self._make_variable(row), nested=False)
@@ -107,6 +120,11 @@ class SatfmuSlave(Fmi2Slave):
         self.mode = "Instantiated"
         self.time = 0.0
         self.p = [float(v["start"]) for v in self._table if v["kind"] == KIND_PARAMETER]
+        self.p += [0.0] * (self._sampler["n_held"] if self._sampler else 0)  # held values follow
+        self.start_time = 0.0
+        self.sample_index = 0  # last sample instant reached: start_time + sample_index * period
+        self.at_instant = True  # the FMU time is a sample instant
+        self.sample_due = self._sampler is not None  # the held values of that instant are stale
         self.u = [float(v["start"]) for v in self._table if v["kind"] == KIND_INPUT]
         self.y = [0.0] * self._ny
         self.x = [0.0] * self.generated.N_STATES
@@ -131,6 +149,8 @@ class SatfmuSlave(Fmi2Slave):
         if row["kind"] == KIND_OUTPUT and not self.outputs_valid:
             if self.mode in ("Instantiated", "InitializationMode"):
                 self.x = [self.p[i] for i in self.generated.STATE_INITIAL]
+            if self.sample_due:
+                self._sample()
             self.y = self.generated.outputs(self.time, self.x, self.u, self.p)
             self.outputs_valid = True
         return self._slot(row)[row["index"]]
@@ -152,6 +172,7 @@ class SatfmuSlave(Fmi2Slave):
             self._reject(f"variable '{name}' = {v:g} is outside its range [{lo:g}, {hi:g}]")
         self._slot(row)[row["index"]] = v
         self.outputs_valid = False
+        self.sample_due = self._sampler is not None and self.at_instant
 
     def _reject(self, message: str) -> None:
         """Log ``message`` and fail the call (pythonfmu 0.7.0 returns fmi2Fatal for any exception).
@@ -167,6 +188,22 @@ class SatfmuSlave(Fmi2Slave):
             ctypes.pythonapi.Py_IncRef(ctypes.py_object(obj))
         raise FmuCallError(message)
 
+    def _sample(self) -> None:
+        """Compute the held values at the current time, state, inputs and parameters."""
+        args = self.generated.sample_arguments(self.time, self.x, self.u, self.p)
+        try:
+            held = [float(v) for v in self._sample_fn(args)]
+        except Exception as exc:  # the sampler's own message names what failed
+            self.mode = "Error"
+            self._reject(f"sample at t = {self.time:g} s failed: {type(exc).__name__}: {exc}")
+        if len(held) != self._sampler["n_held"] or not all(math.isfinite(v) for v in held):
+            self.mode = "Error"
+            self._reject(f"sample at t = {self.time:g} s returned {held!r}, expected "
+                         f"{self._sampler['n_held']} finite values")
+        self.p[len(self.p) - len(held):] = held
+        self.sample_due = False
+        self.outputs_valid = False
+
     def _require(self, fn: str, *modes: str) -> None:
         if self.mode not in modes:
             self._reject(f"{fn} must not be called in state {self.mode}")
@@ -179,6 +216,7 @@ class SatfmuSlave(Fmi2Slave):
         if stop_time is not None and not stop_time >= start_time:
             self._reject(f"fmi2SetupExperiment: stopTime {stop_time:g} before startTime {start_time:g}")
         self.time = float(start_time)
+        self.start_time = self.time
 
     def enter_initialization_mode(self) -> None:
         self._require("fmi2EnterInitializationMode", "Instantiated")
@@ -190,6 +228,8 @@ class SatfmuSlave(Fmi2Slave):
         self.x = [self.p[i] for i in self.generated.STATE_INITIAL]
         self.mode = "StepComplete"
         self.outputs_valid = False
+        self.sample_index, self.at_instant = 0, True
+        self.sample_due = self._sampler is not None
 
     def do_step(self, current_time: float, step_size: float) -> bool:
         self._require("fmi2DoStep", "StepComplete")
@@ -199,24 +239,55 @@ class SatfmuSlave(Fmi2Slave):
         if not math.isfinite(current_time) or abs(current_time - self.time) > 1e-9 * max(1.0, abs(self.time)):
             self._reject(f"fmi2DoStep: currentCommunicationPoint {current_time!r} differs from the FMU time {self.time!r}")
         t_end = current_time + h
-        if self.generated.N_STATES:
-            n_sub = self.p[self._i_nsub] if self._i_nsub >= 0 else 1.0
-            h_max = self.p[self._i_hmax] if self._i_hmax >= 0 else math.inf
-            n = substep_count(h, n_sub, h_max)
-            if n > MAX_SUBSTEPS:
-                self._reject(f"fmi2DoStep: step {h:g} s would need {n} RK4 substeps (limit {MAX_SUBSTEPS}); raise h_max")
-            try:
-                x = rk4_step(self.generated, current_time, self.x, self.u, self.p, h, n)
-            except ArithmeticError:  # float ** overflows with OverflowError where C gives inf
-                x = [math.inf]
-            if not all(math.isfinite(v) for v in x):
-                self.mode = "Error"
-                self._reject(f"fmi2DoStep: the state became non-finite in the step from t = {current_time:g} s "
-                             f"with h = {h:g} s ({n} substeps); reduce the step or h_max, or restore an FMU state")
-            self.x = x
+        if self._sampler is None:
+            self._integrate(current_time, h)
+        else:
+            self._step_sampled(current_time, t_end)
         self.time = t_end
         self.outputs_valid = False
         return True
+
+    def _step_sampled(self, t: float, t_end: float) -> None:
+        """Integrate to ``t_end`` in segments between sample instants, sampling at each."""
+        period = self.p[self._sampler["period_index"]]
+        if not (math.isfinite(period) and period > 0.0):
+            self._reject(f"fmi2DoStep: sample period {period!r} must be finite and > 0 s")
+        tol = 1e-9 * max(1.0, abs(t_end))
+        if self.sample_due:
+            self._sample()
+        while True:
+            t_next = self.start_time + (self.sample_index + 1) * period
+            if t_next < t_end - tol:
+                self._integrate(t, t_next - t)
+                t = self.time = t_next
+                self.sample_index += 1
+                self._sample()
+                continue
+            self._integrate(t, t_end - t)
+            self.at_instant = abs(t_next - t_end) <= tol
+            if self.at_instant:
+                self.sample_index += 1
+            self.sample_due = self.at_instant
+            return
+
+    def _integrate(self, t: float, h: float) -> None:
+        """Advance the state by ``h`` seconds from ``t`` (inputs and held values constant)."""
+        if not self.generated.N_STATES:
+            return
+        n_sub = self.p[self._i_nsub] if self._i_nsub >= 0 else 1.0
+        h_max = self.p[self._i_hmax] if self._i_hmax >= 0 else math.inf
+        n = substep_count(h, n_sub, h_max)
+        if n > MAX_SUBSTEPS:
+            self._reject(f"fmi2DoStep: step {h:g} s would need {n} RK4 substeps (limit {MAX_SUBSTEPS}); raise h_max")
+        try:
+            x = rk4_step(self.generated, t, self.x, self.u, self.p, h, n)
+        except ArithmeticError:  # float ** overflows with OverflowError where C gives inf
+            x = [math.inf]
+        if not all(math.isfinite(v) for v in x):
+            self.mode = "Error"
+            self._reject(f"fmi2DoStep: the state became non-finite in the step from t = {t:g} s "
+                         f"with h = {h:g} s ({n} substeps); reduce the step or h_max, or restore an FMU state")
+        self.x = x
 
     def terminate(self) -> None:
         self._require("fmi2Terminate", "StepComplete", "Error")
@@ -224,10 +295,12 @@ class SatfmuSlave(Fmi2Slave):
 
     def _get_fmu_state(self) -> dict[str, Any]:
         return {"mode": self.mode, "time": self.time, "x": list(self.x), "u": list(self.u),
-                "p": list(self.p), "y": list(self.y), "outputs_valid": self.outputs_valid}
+                "p": list(self.p), "y": list(self.y), "outputs_valid": self.outputs_valid,
+                "start_time": self.start_time, "sample_index": self.sample_index,
+                "at_instant": self.at_instant, "sample_due": self.sample_due}
 
     def _set_fmu_state(self, state: dict[str, Any]) -> None:
-        for key in ("mode", "time", "outputs_valid"):
+        for key in ("mode", "time", "outputs_valid", "start_time", "sample_index", "at_instant", "sample_due"):
             setattr(self, key, state[key])
         for key in ("x", "u", "p", "y"):
             setattr(self, key, list(state[key]))

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from controllers import artifact as artifacts
-from controllers import polynomial, servo
+from controllers import backstepping, polynomial, servo
 from fmus import export, mrp_satellite, vscmg
 from fmus.model import Model
 
@@ -20,12 +20,17 @@ class FmuSource:
 
     model: Model
     resources: dict[str, bytes]
+    backends: tuple[str, ...] = ("native", "python")
+    """FMU backends the model supports (a model with a Python sampler: pythonfmu only)."""
 
 
 def sources() -> list[FmuSource]:
-    """Plants first, then the controllers of the shipped artifacts."""
+    """Plants first, then the controllers of the shipped artifacts, then the designs without
+    an artifact (online SDRE, backstepping)."""
     out = [FmuSource(mrp_satellite.MODEL, {}), FmuSource(vscmg.MODEL, {})]
-    return out + [controller_source(artifacts.load(path)) for path in polynomial.shipped_artifacts()]
+    out += [controller_source(artifacts.load(path)) for path in polynomial.shipped_artifacts()]
+    out += [FmuSource(servo.build_online(name), {}, ("python",)) for name in servo.ONLINE_VARIANTS]
+    return out + [FmuSource(backstepping.build(), {})]
 
 
 def controller_source(art: artifacts.ControllerArtifact | artifacts.ServoArtifact) -> FmuSource:
@@ -38,9 +43,9 @@ def build_all(dest: Path = DEFAULT_FMU_DIR, backends: tuple[str, ...] = ("native
     """Build every FMU into ``dest``; returns the FMU paths."""
     built = []
     for src in sources():
-        if "native" in backends:
+        if "native" in backends and "native" in src.backends:
             built.append(export.build_native(src.model, dest, src.resources))
-        if "python" in backends:
+        if "python" in backends and "python" in src.backends:
             built.append(export.build_python(src.model, dest, src.resources))
     return built
 

@@ -6,6 +6,7 @@
     satfmu list
     satfmu synth mrp-hinf [--name mrp_hinf_satfmu] [--out controllers/artifacts] [--fmu-dir DIR] ...
     satfmu synth mrp-h2hinf --gamma G [--variant slack|common] [--region 0.45] [--name ...] ...
+    satfmu synth vscmg-sdre [--grid 23 25] [--max-degree 8] [--out ...] [--fmu-dir DIR]
     satfmu sweep mrp-h2hinf [--gammas 1 0.8 ...] [--region 0.45] [--out results/h2hinf_sweep]
     satfmu l2 CONTROLLER [--rate-max 0.2] [--sigma-max 0.9] [--samples 200000]
 
@@ -143,6 +144,17 @@ def _synth_h2hinf(args: argparse.Namespace) -> int:
     return 0
 
 
+def _synth_vscmg(args: argparse.Namespace) -> int:
+    from synthesis import gain_fit
+
+    result, approx, lq = gain_fit.synthesize(*args.grid, degrees=range(1, args.max_degree + 1))
+    print(gain_fit.table(result, {k: v for k, v in approx["certificate"]["numbers"].items()
+                                  if not k.startswith("fit_")}))
+    for data in (approx, lq):
+        _save_and_build(data, argparse.Namespace(**{**vars(args), "name": data["name"]}))
+    return 0
+
+
 def _sweep(args: argparse.Namespace) -> int:
     from synthesis import h2hinf_sos
     from sims import plots
@@ -240,6 +252,12 @@ def main(argv: list[str] | None = None) -> int:
     h2.add_argument("--variant", choices=["slack", "common"], default="slack")
     h2.add_argument("--name", default="mrp_h2hinf_satfmu", help="artifact and FMU name")
     h2.set_defaults(fn=_synth_h2hinf)
+    vs = designs.add_parser("vscmg-sdre", parents=[out],
+                            help="seed 002: approximated SDRE (gain fit) and LQ servo artifacts")
+    vs.add_argument("--grid", type=int, nargs=2, default=(23, 25), metavar=("N_Q2", "N_W4"),
+                    help="SDRE grid points over q2 and w4")
+    vs.add_argument("--max-degree", type=int, default=8, help="largest polynomial degree tried")
+    vs.set_defaults(fn=_synth_vscmg)
     sw = sub.add_parser("sweep", parents=[mixed], help="gamma-lambda trade-off of seed 001's Theorem 8, both variants")
     sw.add_argument("design", choices=["mrp-h2hinf"])
     sw.add_argument("--gammas", type=float, nargs="+", default=[1.0, 0.8, 0.7, 0.6, 0.55])

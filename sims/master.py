@@ -5,9 +5,10 @@ or a base name such as ``"plant.omega"`` that expands to every index), feeds
 profiles to inputs, and steps all FMUs at one communication step:
 
 1. instantiate, set parameters, ``fmi2SetupExperiment``, enter initialization mode;
-2. apply profile values at t0 and propagate outputs to inputs in feedthrough order
-   (an FMU whose outputs depend directly on its inputs is updated after the FMUs
-   feeding it; a feedthrough cycle is an algebraic loop and is refused);
+2. apply profile values at t0 and propagate outputs to inputs in feedthrough order,
+   variable by variable (an output that depends directly on an input is copied after
+   the connection feeding that input; a cycle of such variables is an algebraic loop
+   and is refused);
 3. exit initialization mode, record t0;
 4. for each step: ``fmi2DoStep`` on every FMU, then profiles and propagation at the
    new time, then record.
@@ -210,30 +211,38 @@ class CoSimulation:
                 raise WiringError(f"input {dst} is driven twice (by {driven[dst]} and by {src})")
             driven[dst] = src
 
-    def _order(self) -> list[Component]:
-        """Components in feedthrough order (sources of direct-feedthrough inputs first)."""
-        edges: dict[str, set[str]] = defaultdict(set)
-        for src, dst in self.connections:
-            sname, dname = src.split(".", 1)[0], dst.split(".", 1)[0]
-            dcomp = self.components[dname]
-            dvar = dst.split(".", 1)[1]
-            if any(dvar in deps for deps in dcomp.feedthrough().values()):
-                edges[sname].add(dname)
-        order, state = [], {}
+    def _levels(self) -> dict[tuple[str, str], int]:
+        """Each connection's propagation level, from variable-level feedthrough.
 
-        def visit(n: str, path: list[str]) -> None:
-            if state.get(n) == 1:
-                raise WiringError("algebraic loop through direct feedthrough: " + " -> ".join(path + [n]))
-            if state.get(n) == 2:
-                return
-            state[n] = 1
-            for m in sorted(edges[n]):
-                visit(m, path + [n])
-            state[n] = 2
-            order.append(n)
-        for n in self.components:
-            visit(n, [])
-        return [self.components[n] for n in reversed(order)]
+        A connection ``a.y -> b.u`` must be copied after every connection into an input of
+        ``a`` that ``y`` depends on directly.  The level is the longest such chain (0 for a
+        connection from an output without feedthrough).  Only a cycle through variables is
+        an algebraic loop: a plant whose saturation output depends on ``T`` may feed a
+        controller whose ``T`` depends on the plant's state outputs.
+        """
+        into: dict[str, list[tuple[str, str]]] = defaultdict(list)  # qualified input -> connections
+        for src, dst in self.connections:
+            into[dst].append((src, dst))
+        feed = {c.name: c.feedthrough() for c in self.components.values()}
+        level: dict[tuple[str, str], int] = {}
+        active: list[tuple[str, str]] = []
+
+        def visit(conn: tuple[str, str]) -> int:
+            if conn in level:
+                return level[conn]
+            if conn in active:
+                loop = active[active.index(conn):] + [conn]
+                raise WiringError("algebraic loop through direct feedthrough: "
+                                  + " -> ".join(f"{s} => {d}" for s, d in loop))
+            active.append(conn)
+            comp, var = conn[0].split(".", 1)
+            deps = feed[comp].get(var, set())
+            level[conn] = 1 + max((visit(c) for u in sorted(deps) for c in into[f"{comp}.{u}"]), default=-1)
+            active.pop()
+            return level[conn]
+        for conn in self.connections:
+            visit(conn)
+        return level
 
     # ------------------------------------------------------------------ calls
     def _call(self, comp: Component, fn: str, *args: Any) -> Any:
@@ -265,16 +274,17 @@ class CoSimulation:
             else:
                 raise WiringError(f"{comp.name}.{name}: type {var.type} is not supported")
 
-    def _transfers(self, order: list[Component]) -> list[_Transfer]:
-        groups: dict[tuple[str, str], list[tuple[int, int]]] = defaultdict(list)
+    def _transfers(self) -> list[_Transfer]:
+        """Connections batched per (level, source FMU, target FMU), in level order."""
+        level = self._levels()
+        groups: dict[tuple[int, str, str], list[tuple[int, int]]] = defaultdict(list)
         for src, dst in self.connections:
             sc, sv = src.split(".", 1)
             dc, dv = dst.split(".", 1)
-            groups[(sc, dc)].append((self.components[sc].variable(sv).valueReference,
-                                     self.components[dc].variable(dv).valueReference))
-        rank = {c.name: i for i, c in enumerate(order)}
+            groups[(level[(src, dst)], sc, dc)].append((self.components[sc].variable(sv).valueReference,
+                                                        self.components[dc].variable(dv).valueReference))
         out = []
-        for (sc, dc), pairs in sorted(groups.items(), key=lambda kv: rank[kv[0][0]]):
+        for (_, sc, dc), pairs in sorted(groups.items()):
             n = len(pairs)
             vr_t = ctypes.c_uint * n
             out.append(_Transfer(self.components[sc], self.components[dc], vr_t(*[p[0] for p in pairs]),
@@ -325,8 +335,7 @@ class CoSimulation:
             if inst not in self.components:
                 raise UnknownVariableError(f"parameters given for unknown FMU instance {inst!r}")
         self._check_drivers()
-        order = self._order()
-        transfers = self._transfers(order)
+        transfers = self._transfers()
         rec_names: list[str] = []
         for r in record:
             comp, names = self.resolve(r)

@@ -68,7 +68,8 @@ def integral_square(t: np.ndarray, y: np.ndarray, held: Sequence[bool]) -> float
     return float(sum(_cumulative(t, y[:, i] ** 2, held[i])[-1] for i in range(y.shape[1])))
 
 
-KINDS = ("final", "peak", "rms", "settling_time", "l2_ratio", "time_in_saturation", "integral_square")
+KINDS = ("final", "peak", "rms", "settling_time", "l2_ratio", "time_in_saturation", "integral_square",
+         "max_difference")
 
 
 @dataclass

@@ -30,7 +30,7 @@ with pass/fail bounds. Example (sims/scenarios/mrp_200deg.toml)::
     [[metrics]]
     name = "angle error at the end"
     kind = "final"               # final, peak, rms, settling_time, l2_ratio, time_in_saturation,
-                                 # integral_square
+                                 # integral_square, max_difference
     signals = ["plant.phi"]
     scale = 57.29577951308232    # rad -> deg
     unit = "deg"
@@ -39,7 +39,9 @@ with pass/fail bounds. Example (sims/scenarios/mrp_200deg.toml)::
 Metric fields: ``signals``, ``scale`` (applied to signals, tolerance and limit are in
 scaled units), ``unit``, ``min``/``max`` bounds; ``tolerance`` for settling_time,
 ``limit`` for time_in_saturation, ``disturbances`` (the denominator signals) for
-l2_ratio, whose value is the largest ratio over T and whose curve is plotted.
+l2_ratio, whose value is the largest ratio over T and whose curve is plotted, ``versus``
+for max_difference (the largest ``|signal - versus|`` over time, signal by signal: an
+approximated law against the exact one, say).
 integral_square is ``integral of sum_i y_i^2 dt`` (an H2 cost with unit weights): plant
 outputs by the trapezoidal rule, FMU inputs (held over each step, e.g. ``plant.u``) by the
 left rectangle.
@@ -66,7 +68,7 @@ _TOP = {"name", "description", "stop_time", "step_size", "start_time", "fmus", "
         "profiles", "record", "metrics", "plot", "reference"}
 _FMU = {"model", "path", "backend", "parameters"}
 _METRIC = {"name", "kind", "signals", "scale", "unit", "min", "max", "tolerance", "limit",
-           "disturbances", "description"}
+           "disturbances", "versus", "description"}
 
 
 class ScenarioError(ValueError):
@@ -154,7 +156,8 @@ def load(name_or_path: str | Path) -> Scenario:
             raise ScenarioError(f"{w}: kind must be one of {M.KINDS}, got {m.get('kind')!r}")
         if not m.get("name") or not m.get("signals"):
             raise ScenarioError(f"{w}: needs 'name' and 'signals'")
-        need = {"settling_time": "tolerance", "time_in_saturation": "limit", "l2_ratio": "disturbances"}
+        need = {"settling_time": "tolerance", "time_in_saturation": "limit", "l2_ratio": "disturbances",
+                "max_difference": "versus"}
         if m["kind"] in need and need[m["kind"]] not in m:
             raise ScenarioError(f"{w}: kind {m['kind']} needs {need[m['kind']]!r}")
     return Scenario(path, data)
@@ -195,7 +198,7 @@ def simulate(scenario: Scenario, fmu_dir: Path, backend: str = "native") -> tupl
                                                   scenario.path.parent, d["step_size"]))
         record = list(d.get("record", []))
         for m in d.get("metrics", []):
-            record += m["signals"] + m.get("disturbances", [])
+            record += m["signals"] + m.get("disturbances", []) + m.get("versus", [])
         record = list(dict.fromkeys(_columns(sim, record)))
         params = {inst: spec.get("parameters", {}) for inst, spec in d["fmus"].items()}
         res = sim.run(d["stop_time"], d["step_size"], d.get("start_time", 0.0), params, record)
@@ -228,6 +231,11 @@ def evaluate(scenario: Scenario, res: np.ndarray, sim: CoSimulation
             value = M.time_in_saturation(t, y, float(m["limit"]), held=is_held)
         elif kind == "integral_square":
             value = M.integral_square(t, y, [c in sim.input_signals() for c in cols])
+        elif kind == "max_difference":
+            vcols = _columns(sim, m["versus"])
+            if len(vcols) != len(cols):
+                raise ScenarioError(f"metric {m['name']!r}: {len(cols)} signals but {len(vcols)} 'versus' signals")
+            value = M.peak(y - np.stack([res[c] for c in vcols], axis=1) * scale)
         else:
             wcols = _columns(sim, m["disturbances"])
             w = np.stack([res[c] for c in wcols], axis=1)

@@ -118,6 +118,10 @@ class Servo:
             raise RiccatiCheckError(f"{exc} at q2 = {x[1]:.4g} rad, w = [{x[3]:.4g}, {x[4]:.4g}, {x[5]:.4g}] "
                                     f"rad/s ({self.factorization} SDC)") from exc
 
+    def __call__(self, x: np.ndarray) -> np.ndarray:
+        """The checked gain K (2x7) at the plant state ``x`` (the law of :func:`simulate_servo`)."""
+        return self.gain(x)[0]
+
 
 SEED_REFERENCE_PROFILES = {
     "q2_ref": {"kind": "cosine_ramp", "start": 4.0, "stop": 8.0, "before": float(np.pi / 18),
@@ -143,11 +147,14 @@ class ServoRun:
         return self.reference - self.x[:, [1, 2]]
 
 
-def simulate_online(servo: Servo, reference: Callable[[np.ndarray], np.ndarray], stop_time: float = 15.0,
-                    period: float = 0.01, plant_params: dict | None = None) -> ServoRun:
-    """Online SDRE on the plant's generated code, u held over each control period.
+def simulate_servo(gain: Callable[[np.ndarray], np.ndarray], reference: Callable[[np.ndarray], np.ndarray],
+                   stop_time: float = 15.0, period: float = 0.01, plant_params: dict | None = None,
+                   model: Model = vscmg.MODEL) -> ServoRun:
+    """A servo u = -K(x) xe on the plant's generated code, u held over each control period.
 
-    ``reference(t)`` gives [q2_ref, q4_ref] (rad) at the times ``t`` (s), shape (len(t), 2).
+    ``gain(x)`` gives K (2x7) at the plant state x: a :class:`Servo` (online SDRE) or a
+    fitted gain (:class:`synthesis.gain_fit.GainFit`). ``reference(t)`` gives
+    [q2_ref, q4_ref] (rad) at the times ``t`` (s), shape (len(t), 2).
 
     The plant is advanced with the FMUs' RK4 (:func:`fmus.pyslave.rk4_step`) and the
     integral of the error by e held over the period, as the controller FMU does.
@@ -155,12 +162,11 @@ def simulate_online(servo: Servo, reference: Callable[[np.ndarray], np.ndarray],
     Raises
     ------
     controllers.riccati.RiccatiCheckError
-        At the first state whose Riccati solution fails a check.
+        At the first state whose Riccati solution fails a check (online SDRE).
     """
     from fmus import codegen
     from fmus.pyslave import rk4_step, substep_count
 
-    model = servo.model
     gen = codegen.load_python(model)
     p = model.parameter_vector(plant_params)
     names = [v.name for v in model.parameters]
@@ -172,7 +178,7 @@ def simulate_online(servo: Servo, reference: Callable[[np.ndarray], np.ndarray],
     integrals = np.zeros(2)
     xs, us = [x], []
     for k in range(n):
-        K, _ = servo.gain(np.array(x))
+        K = gain(np.array(x))
         xe = servo_state(np.array(x), integrals, ref[k])
         u = -K @ xe
         us.append(u)

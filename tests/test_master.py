@@ -85,6 +85,8 @@ def test_scenario_file_errors(tmp_path: Path) -> None:
         scenario.load(_write(tmp_path, BASE + '[[metrics]]\nname = "x"\nkind = "maximum"\nsignals = ["plant.phi"]\n'))
     with pytest.raises(scenario.ScenarioError, match="needs 'tolerance'"):
         scenario.load(_write(tmp_path, BASE + '[[metrics]]\nname = "x"\nkind = "settling_time"\nsignals = ["plant.phi"]\n'))
+    with pytest.raises(scenario.ScenarioError, match="needs 'versus'"):
+        scenario.load(_write(tmp_path, BASE + '[[metrics]]\nname = "x"\nkind = "max_difference"\nsignals = ["plant.phi"]\n'))
 
 
 def test_missing_fmu_file(tmp_path: Path) -> None:
