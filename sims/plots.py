@@ -18,15 +18,20 @@ def time_series(res: np.ndarray, panels: Sequence[Sequence[str]], path: Path, ti
 
     Columns of different FMU instances in one panel are overlaid: one colour per
     component, one line style per instance (solid for the first, dashed for the second...).
+    A panel with one column per instance (one signal compared across controllers) gives
+    each instance its own colour as well.
     """
     styles = ["-", "--", ":", "-."]
     fig, axes = plt.subplots(len(panels), 1, sharex=True, figsize=(8, 2.2 * len(panels) + 0.6), squeeze=False)
     for ax, cols in zip(axes[:, 0], panels):
         instances = list(dict.fromkeys(c.split(".", 1)[0] for c in cols))
         rank: dict[str, int] = {}
+        by_instance = len(instances) == len(cols)
         for c in cols:
             inst = c.split(".", 1)[0]
             k = rank[inst] = rank.get(inst, -1) + 1
+            if by_instance:
+                k = instances.index(inst)
             ax.plot(res["time"], res[c], label=c, color=f"C{k % 10}",
                     ls=styles[instances.index(inst) % len(styles)])
         ax.grid(True, alpha=0.3)
