@@ -79,6 +79,20 @@ def test_synth_h2hinf_fails_cleanly_without_a_certified_design(tmp_path: Path,
     assert not list(tmp_path.iterdir())
 
 
+def test_synth_vscmg_writes_verified_artifacts_or_nothing(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    # Degree 1 cannot follow the SDRE gain (off-grid error ~2.5e-2 > 1e-2): rejected, nothing written.
+    code = main(["synth", "vscmg-sdre", "--grid", "12", "13", "--max-degree", "1", "--out", str(tmp_path),
+                 "--fmu-dir", ""])
+    assert code == 2 and "fitted SDRE gain rejected: offgrid_max_rel_error" in capsys.readouterr().err
+    assert not list(tmp_path.iterdir())
+    code = main(["synth", "vscmg-sdre", "--grid", "12", "13", "--max-degree", "6", "--out", str(tmp_path),
+                 "--fmu-dir", ""])
+    assert code == 0 and "<- chosen" in capsys.readouterr().out
+    approx = json.loads((tmp_path / "vscmg_sdre_approx.json").read_text())
+    assert approx["certificate"]["status"] == "sampled" and approx["fit"]["degree"] == 6
+    assert (tmp_path / "vscmg_lq_servo.json").is_file()
+
+
 @pytest.mark.parametrize("argv,message", [
     (["synth", "mrp-h2hinf"], "--gamma"),
     (["synth", "mrp-h2hinf", "--gamma", "1", "--variant", "other"], "invalid choice"),
