@@ -52,6 +52,7 @@ bench: build
 	$(PY) -m pip install -q -e '.[bench]'
 	$(PY) bench/cosim_speed.py
 	$(PY) bench/sos_speed.py
+	$(PY) bench/sdre_speed.py
 
 clean:
 	rm -rf build results .pytest_cache
