@@ -11,10 +11,11 @@ from __future__ import annotations
 
 import argparse
 import tempfile
-import time
 from pathlib import Path
 
 import numpy as np
+
+from timing import best_of
 
 from controllers import polynomial
 from fmus import mrp_satellite
@@ -35,14 +36,6 @@ def _fmu_loop(fmu_dir: Path, suffix: str) -> CoSimulation:
     return sim
 
 
-def _best(fn, repeat: int) -> tuple[float, object]:
-    best, out = float("inf"), None
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        out = fn()
-        best = min(best, time.perf_counter() - t0)
-    return best, out
-
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -59,11 +52,11 @@ def main() -> None:
         timings, finals = {}, {}
         for label, suffix in (("native FMUs", ""), ("pythonfmu FMUs", "_py")):
             with _fmu_loop(fmu_dir, suffix) as sim:
-                dt, res = _best(lambda: sim.run(STOP, STEP, parameters=params, record=record), args.repeat)
+                dt, res = best_of(lambda: sim.run(STOP, STEP, parameters=params, record=record), args.repeat)
             timings[label] = dt
             finals[label] = np.array([res[f"plant.sigma[{i}]"][-1] for i in (1, 2, 3)])
         ctrl = polynomial.load_model(ARTIFACT)
-        dt, res = _best(lambda: reference.closed_loop_rk4(mrp_satellite.MODEL, ctrl, STOP, STEP, SIGMA_200),
+        dt, res = best_of(lambda: reference.closed_loop_rk4(mrp_satellite.MODEL, ctrl, STOP, STEP, SIGMA_200),
                         args.repeat)
         timings["in-process RK4 loop"] = dt
         finals["in-process RK4 loop"] = res.x[-1, 3:]

@@ -38,13 +38,13 @@ import argparse
 import ctypes
 import shutil
 import tempfile
-import time
 from pathlib import Path
-from typing import Any, Callable
 
 import numpy as np
 from fmpy import extract, read_model_description
 from fmpy.fmi2 import FMU2Slave, fmi2True
+
+from timing import best_of
 
 from controllers import artifact, riccati, servo
 from fmus import codegen, export
@@ -69,14 +69,6 @@ def controller_inputs(model: Model, x: np.ndarray, ref: np.ndarray) -> list[list
             "w1": x[:, 3], "w2": x[:, 4], "w4": x[:, 5]}
     return np.column_stack([cols[v.name] for v in model.inputs]).tolist()
 
-
-def _best(fn: Callable[[], Any], repeat: int) -> tuple[float, Any]:
-    best, out = float("inf"), None
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        out = fn()
-        best = min(best, time.perf_counter() - t0)
-    return best, out
 
 
 def fmu_steps(path: Path, inputs: list[list[float]], input_names: list[str], repeat: int) -> float:
@@ -106,7 +98,7 @@ def fmu_steps(path: Path, inputs: list[list[float]], input_names: list[str], rep
                     slave.fmi2GetReal(slave.component, out_vr, 2, out_buf)
                     slave.fmi2DoStep(slave.component, t, STEP, fmi2True)
 
-            dt, _ = _best(run, repeat)
+            dt, _ = best_of(run, repeat)
             slave.terminate()
         finally:
             slave.freeInstance()
@@ -137,15 +129,15 @@ def main(argv: list[str] | None = None) -> None:
     timings: dict[str, float] = {}
     n = args.points
     gyro, w1_free = Servo("gyro_on_w2"), Servo("w1_free", freeze_w2=True)
-    timings["online SDRE gyro_on_w2, Servo.gain"], k_gyro = _best(lambda: [gyro.gain(s)[0] for s in x], args.repeat)
-    timings["online SDRE w1_free w2:=0, Servo.gain"], k_free = _best(lambda: [w1_free.gain(s)[0] for s in x],
+    timings["online SDRE gyro_on_w2, Servo.gain"], k_gyro = best_of(lambda: [gyro.gain(s)[0] for s in x], args.repeat)
+    timings["online SDRE w1_free w2:=0, Servo.gain"], k_free = best_of(lambda: [w1_free.gain(s)[0] for s in x],
                                                                      args.repeat)
-    timings["approx. SDRE, gain_at per point"], k_fit = _best(lambda: [art.gain_at(s) for s in sched], args.repeat)
-    timings["approx. SDRE, gain_at batch"], _ = _best(lambda: art.gain_at(sched), args.repeat)
-    timings["generated online sample path"], k_gen = _best(
+    timings["approx. SDRE, gain_at per point"], k_fit = best_of(lambda: [art.gain_at(s) for s in sched], args.repeat)
+    timings["approx. SDRE, gain_at batch"], _ = best_of(lambda: art.gain_at(sched), args.repeat)
+    timings["generated online sample path"], k_gen = best_of(
         lambda: [riccati.sampled_gain(gen_online.sample_arguments(0.0, [0.0, 0.0], u, p_online), n_xe, n_u)[:n_xe * n_u]
                  for u in u_online], args.repeat)
-    timings["generated approx. outputs"], y_gen = _best(
+    timings["generated approx. outputs"], y_gen = best_of(
         lambda: [gen_approx.outputs(0.0, [0.0, 0.0], u, p_approx) for u in u_approx], args.repeat)
 
     with tempfile.TemporaryDirectory(prefix="sdre_speed_") as tmp:

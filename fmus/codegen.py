@@ -14,6 +14,7 @@ import json
 import math
 import uuid
 from dataclasses import dataclass
+from pathlib import Path
 from types import ModuleType
 from typing import Sequence
 
@@ -123,8 +124,6 @@ def sampler_table(model: Model) -> dict | None:
 
 def sampler_module_name(model: Model) -> str:
     """Name under which the sampler's module file is embedded in the FMU."""
-    from pathlib import Path
-
     return f"satfmu_sampler_{Path(model.sampler.module).stem}"  # type: ignore[union-attr]
 
 

@@ -67,18 +67,20 @@ def build_native(model: Model, dest_dir: Path, resources: dict[str, bytes] | Non
     Raises
     ------
     FmuBuildError
-        If the compiler is missing or reports an error or a warning.
+        If the model has no C form (a Python sampler), or the compiler is missing or reports
+        an error or a warning.
     """
-    if model.sampler is not None:
-        raise FmuBuildError(f"model {model.name!r} samples a Python function ({model.sampler.function}); "
-                            "it has no native FMU, build its pythonfmu FMU")
+    try:
+        model_c = codegen.c_source(model)
+    except ValueError as exc:  # a model the C code cannot express (a Python sampler)
+        raise FmuBuildError(str(exc)) from None
     if shutil.which(cc) is None:
         raise FmuBuildError(f"C compiler {cc!r} not found (install gcc)")
     with tempfile.TemporaryDirectory(prefix="satfmu_") as tmp:
         root = Path(tmp)
         src = root / "sources"
         src.mkdir()
-        (src / "model.c").write_text(codegen.c_source(model))
+        (src / "model.c").write_text(model_c)
         shutil.copy(WRAPPER, src / WRAPPER.name)
         desc = model_description(model, Capabilities(model.name))
         files = SubElement(desc.find("CoSimulation"), "SourceFiles")  # type: ignore[arg-type]
@@ -154,7 +156,8 @@ def build_python(model: Model, dest_dir: Path, resources: dict[str, bytes] | Non
             fmu = FmuBuilder.build_FMU(script, dest=out, project_files=files)
         finally:
             sys.path.remove(str(proj))
-            for mod in (cls, generated, "satfmu_pyslave", codegen.sampler_module_name(model) if model.sampler else ""):
+            sampler = [codegen.sampler_module_name(model)] if model.sampler else []
+            for mod in [cls, generated, "satfmu_pyslave"] + sampler:
                 sys.modules.pop(mod, None)
         dest = Path(dest_dir) / f"{cls}.fmu"
         dest.parent.mkdir(parents=True, exist_ok=True)
