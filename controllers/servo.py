@@ -22,6 +22,7 @@ default).
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Sequence
 
 import sympy as sp
 
@@ -33,8 +34,8 @@ from fmus.model import Model, Output, Sampler, State, Variable, vector
 
 
 def servo_model(name: str, description: str, plant: str, tracked: list[dict], rates: list[dict],
-                outputs: list[dict], gain: list[list[sp.Expr]], parameters: list[Variable] = (),
-                sampler: Sampler | None = None, extra_outputs: list[Output] = ()) -> Model:
+                outputs: list[dict], gain: list[list[sp.Expr]], parameters: Sequence[Variable] = (),
+                sampler: Sampler | None = None, extra_outputs: Sequence[Output] = ()) -> Model:
     """Symbolic servo model with the gain ``gain`` (rows: commands, columns: xe entries).
 
     ``gain`` may use the tracked and rate symbols (by name), ``parameters`` and the
@@ -90,10 +91,7 @@ def build_online(name: str = "vscmg_sdre_online") -> Model:
     from synthesis import gain_fit, sdre  # synthesis imports this package
 
     factorization, freeze_w2 = ONLINE_VARIANTS[name]
-    Ae, Be = sdre.servo_matrices(vscmg.MODEL, factorization)
-    if freeze_w2:
-        w2 = sp.Symbol("w2", real=True)
-        Ae, Be = Ae.subs(w2, 0), Be.subs(w2, 0)
+    Ae, Be = sdre.servo_matrices(vscmg.MODEL, factorization, freeze_w2)
     n, m = Be.shape
     used = set().union(*(sp.sympify(e).free_symbols for e in list(Ae) + list(Be)))
     inertias = [v for v in vscmg.MODEL.parameters if v.symbol in used]

@@ -38,9 +38,10 @@ EPS = 1e-6
 PLANT_STATES = ("q1", "q2", "q4", "w1", "w2", "w4")
 
 
-def servo_matrices(model: Model = vscmg.MODEL, factorization: str = "gyro_on_w2"
+def servo_matrices(model: Model = vscmg.MODEL, factorization: str = "gyro_on_w2", freeze_w2: bool = False
                    ) -> tuple[sp.Matrix, sp.Matrix]:
-    """Symbolic Ae(x) (7x7) and Be(x) (7x2) in the plant's state and parameter symbols."""
+    """Symbolic Ae(x) (7x7) and Be(x) (7x2) in the plant's state and parameter symbols
+    (with ``freeze_w2``, evaluated at w2 = 0: the seed's setting for the approximation)."""
     sdc = vscmg.model_sdc(model, factorization)
     Ae = sp.zeros(7, 7)
     Ae[0, 2] = Ae[1, 3] = 1
@@ -48,6 +49,9 @@ def servo_matrices(model: Model = vscmg.MODEL, factorization: str = "gyro_on_w2"
     Ae[4:7, 4:7] = sdc.A[3:6, 3:6]
     Be = sp.zeros(7, 2)
     Be[4:7, :] = sdc.B[3:6, 0:2]
+    if freeze_w2:
+        w2 = {s.variable.name: s.symbol for s in model.states}["w2"]
+        Ae, Be = Ae.subs(w2, 0), Be.subs(w2, 0)
     return Ae, Be
 
 
@@ -85,7 +89,7 @@ class Servo:
     model: Model = field(default_factory=lambda: vscmg.MODEL, repr=False)
 
     def __post_init__(self) -> None:
-        Ae, Be = servo_matrices(self.model, self.factorization)
+        Ae, Be = servo_matrices(self.model, self.factorization, self.freeze_w2)
         args = (self.model.state_symbols, self.model.parameter_symbols)
         self._A: Callable = sp.lambdify(args, Ae, "numpy", cse=True)
         self._B: Callable = sp.lambdify(args, Be, "numpy", cse=True)
@@ -99,8 +103,6 @@ class Servo:
         x = np.array(x, float)
         if x.shape != (6,) or not np.all(np.isfinite(x)):
             raise ValueError(f"plant state must be 6 finite values {PLANT_STATES}, got {x!r}")
-        if self.freeze_w2:
-            x[4] = 0.0
         return np.asarray(self._A(x, self._p), float), np.asarray(self._B(x, self._p), float)
 
     def gain(self, x: np.ndarray) -> tuple[np.ndarray, RiccatiCheck]:
