@@ -118,7 +118,7 @@ def main(argv: list[str] | None = None) -> None:
         ap.error("--steps must be between 1 and --points")
     x, ref = sample_states(args.points, args.seed)
     art = artifact.load(ARTIFACT)
-    sched = x[:, [1, 5]]  # [q2, w4], the artifact's scheduling variables
+    sched = art.scheduling_values({"q2": x[:, 1], "w4": x[:, 5]})
     approx, online = servo.build(art), servo.build_online()
     gen_approx, gen_online = codegen.load_python(approx), codegen.load_python(online)
     u_approx, u_online = controller_inputs(approx, x, ref), controller_inputs(online, x, ref)

@@ -47,6 +47,24 @@ CERTIFICATE_STATUS = ("certified", "sampled", "not_verified")
 """certified: proved (SOS, Riccati check at the design point); sampled: checked on samples and
 in simulation, no proof; not_verified: nothing checked."""
 _NAME = re.compile(r"^[a-z][a-z0-9_]*$")
+SCHEDULING_FUNCTIONS = {"sin": np.sin, "cos": np.cos}
+"""Functions a servo's scheduling variable may apply to a measured signal (rad)."""
+_SCHEDULING = re.compile(r"^(?:(?P<f>[a-z]+)\((?P<inner>\w+)\)|(?P<plain>\w+))$")
+
+
+def scheduling_signal(entry: str) -> tuple[str | None, str]:
+    """``(function, signal)`` of a scheduling entry ``"name"`` or ``"sin(name)"``/``"cos(name)"``.
+
+    Raises
+    ------
+    ValueError
+        If ``entry`` has another form or names an unknown function.
+    """
+    m = _SCHEDULING.match(entry) if isinstance(entry, str) else None
+    if m is None or (m["f"] is not None and m["f"] not in SCHEDULING_FUNCTIONS):
+        raise ValueError(f"scheduling entry {entry!r} must be a signal name or one of "
+                         f"{[f + '(name)' for f in SCHEDULING_FUNCTIONS]}")
+    return (m["f"], m["inner"]) if m["f"] else (None, m["plain"])
 
 
 class ArtifactError(ValueError):
@@ -270,7 +288,7 @@ class ServoArtifact:
          "name": str, "description": str, "plant": str,
          "tracked":  [{"name": plant output, "reference": input name, "unit": str}, ...],
          "rates":    [{"name": plant output, "unit": str}, ...],
-         "scheduling": [tracked or rate name, ...],
+         "scheduling": [tracked or rate name, or "sin(name)" / "cos(name)", ...],
          "outputs":  [{"name": str, "unit": str, "description": str}, ...],
          "gain": [[[term, ...] per servo state] per output],   (exponents per scheduling variable)
          "certificate": {...}, "provenance": {...}, "fit": {...} (optional)}
@@ -290,6 +308,22 @@ class ServoArtifact:
     certificate: dict[str, Any]
     provenance: dict[str, Any]
     fit: dict[str, Any] = field(default_factory=dict)
+
+    def scheduling_values(self, signals: dict[str, Any]) -> np.ndarray:
+        """The scheduling variables from measured ``signals`` (name -> value or array):
+        shape (n_sched,) or (n, n_sched), the argument of :meth:`gain_at`.
+
+        Raises
+        ------
+        KeyError
+            If a signal the schedule needs is missing.
+        """
+        cols = []
+        for entry in self.scheduling:
+            f, name = scheduling_signal(entry)
+            v = np.asarray(signals[name], float)
+            cols.append(SCHEDULING_FUNCTIONS[f](v) if f else v)
+        return np.stack(cols, axis=-1)
 
     def gain_at(self, s: np.ndarray) -> np.ndarray:
         """K at scheduling values ``s`` (shape (n_sched,) or (n, n_sched)) -> (..., n_out, n_servo)."""
@@ -316,8 +350,12 @@ def _parse_servo(data: dict, where: str, name: str, outputs: list) -> ServoArtif
     known = [t["name"] for t in tracked] + [r["name"] for r in rates]
     sched = _get(data, "scheduling", list, where)
     for v in sched:
-        if v not in known:
-            raise _fail(f"{where}.scheduling", f"{v!r} is not a tracked or rate variable ({known})")
+        try:
+            _, signal = scheduling_signal(v)
+        except ValueError as exc:
+            raise _fail(f"{where}.scheduling", str(exc)) from None
+        if signal not in known:
+            raise _fail(f"{where}.scheduling", f"{signal!r} is not a tracked or rate variable ({known})")
     n_servo = 2 * len(tracked) + len(rates)
     gain = _get(data, "gain", list, where)
     if len(gain) != len(outputs) or any(not isinstance(r, list) or len(r) != n_servo for r in gain):

@@ -27,7 +27,7 @@ from typing import Sequence
 import sympy as sp
 
 from controllers import riccati
-from controllers.artifact import ServoArtifact
+from controllers.artifact import ServoArtifact, scheduling_signal
 from controllers.polynomial import sympy_polynomial
 from fmus import vscmg
 from fmus.model import Model, Output, Sampler, State, Variable, vector
@@ -68,7 +68,11 @@ def servo_model(name: str, description: str, plant: str, tracked: list[dict], ra
 
 def build(artifact: ServoArtifact) -> Model:
     """Symbolic model of the gain-scheduled servo described by ``artifact``."""
-    sched = [sp.Symbol(n, real=True) for n in artifact.scheduling]
+    sched = []
+    for entry in artifact.scheduling:
+        f, signal = scheduling_signal(entry)
+        v = sp.Symbol(signal, real=True)
+        sched.append(getattr(sp, f)(v) if f else v)
     K = [[sympy_polynomial(entry, sched) for entry in row] for row in artifact.gain]
     return servo_model(artifact.name, artifact.description, artifact.plant, artifact.tracked, artifact.rates,
                        artifact.outputs, K)

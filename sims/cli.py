@@ -6,7 +6,7 @@
     satfmu list
     satfmu synth mrp-hinf [--name mrp_hinf_satfmu] [--out controllers/artifacts] [--fmu-dir DIR] ...
     satfmu synth mrp-h2hinf --gamma G [--variant slack|common] [--region 0.45] [--name ...] ...
-    satfmu synth vscmg-sdre [--grid 23 25] [--max-degree 8] [--out ...] [--fmu-dir DIR]
+    satfmu synth vscmg-sdre [--grid 23 25] [--max-degree 8] [--cv-tol TOL] [--out ...] [--fmu-dir DIR]
     satfmu sweep mrp-h2hinf [--gammas 1 0.8 ...] [--region 0.45] [--out results/h2hinf_sweep]
     satfmu l2 CONTROLLER [--rate-max 0.2] [--sigma-max 0.9] [--samples 200000]
 
@@ -147,7 +147,8 @@ def _synth_h2hinf(args: argparse.Namespace) -> int:
 def _synth_vscmg(args: argparse.Namespace) -> int:
     from synthesis import gain_fit
 
-    result, approx, lq = gain_fit.synthesize(*args.grid, degrees=range(1, args.max_degree + 1))
+    tol = {} if args.cv_tol is None else {"cv_tol": args.cv_tol if args.cv_tol > 0 else None}
+    result, approx, lq = gain_fit.synthesize(*args.grid, degrees=range(1, args.max_degree + 1), **tol)
     print(gain_fit.table(result, {k: v for k, v in approx["certificate"]["numbers"].items()
                                   if not k.startswith("fit_")}))
     for data in (approx, lq):
@@ -257,6 +258,9 @@ def main(argv: list[str] | None = None) -> int:
     vs.add_argument("--grid", type=int, nargs=2, default=(23, 25), metavar=("N_Q2", "N_W4"),
                     help="SDRE grid points over q2 and w4")
     vs.add_argument("--max-degree", type=int, default=8, help="largest polynomial degree tried")
+    vs.add_argument("--cv-tol", type=float, default=None,
+                    help="choose the smallest degree with this cross-validated relative error "
+                         "(default synthesis.gain_fit.CV_TOL; 0: the smallest error)")
     vs.set_defaults(fn=_synth_vscmg)
     sw = sub.add_parser("sweep", parents=[mixed], help="gamma-lambda trade-off of seed 001's Theorem 8, both variants")
     sw.add_argument("design", choices=["mrp-h2hinf"])
