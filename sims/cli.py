@@ -9,12 +9,14 @@
     satfmu synth vscmg-sdre [--grid 23 25] [--max-degree 8] [--cv-tol TOL] [--out ...] [--fmu-dir DIR]
     satfmu sweep mrp-h2hinf [--gammas 1 0.8 ...] [--region 0.45] [--out results/h2hinf_sweep]
     satfmu l2 CONTROLLER [--rate-max 0.2] [--sigma-max 0.9] [--samples 200000]
+    satfmu region vscmg-sdre [--artifact NAME] [--box-q2 LO HI] [--box-w4 LO HI] [--cells 7 6] [--out DIR]
 
 ``run`` exits with status 1 when a metric misses its bound, 2 on an error. ``synth``
 runs a design (seed 000's two-step iteration, or seed 001's Theorem 8 with its alpha/beta
 search and closed-loop check), writes the controller's artifact and builds its FMUs.
 ``sweep`` writes the gamma-lambda trade-off of both Theorem 8 variants (CSV and PNG). ``l2`` reports the three L2-gain estimates of a controller (name of a shipped
-artifact or a .json path).
+artifact or a .json path). ``region`` solves seed 002's re-posed SOS stability region on
+one box and maps it cell by cell (JSON and PNG).
 """
 from __future__ import annotations
 
@@ -148,7 +150,9 @@ def _synth_vscmg(args: argparse.Namespace) -> int:
     from synthesis import gain_fit
 
     tol = {} if args.cv_tol is None else {"cv_tol": args.cv_tol if args.cv_tol > 0 else None}
-    result, approx, lq = gain_fit.synthesize(*args.grid, degrees=range(1, args.max_degree + 1), **tol)
+    result, approx, lq = gain_fit.synthesize(*args.grid, degrees=range(1, args.max_degree + 1),
+                                             region=not args.skip_region, **tol)
+    print(f"certificate: {approx['certificate']['status']}: {approx['certificate']['proved']}")
     print(gain_fit.table(result, {k: v for k, v in approx["certificate"]["numbers"].items()
                                   if not k.startswith("fit_")}))
     for data in (approx, lq):
@@ -170,6 +174,41 @@ def _sweep(args: argparse.Namespace) -> int:
                    f"Seed 001 Theorem 8 on |sigma| <= {args.region:g}: certified H2 bound vs gamma")
     print(h2hinf_sos.sweep_csv(rows), end="")
     print(f"wrote {out / 'gamma_lambda.csv'} and {out / 'gamma_lambda.png'}")
+    return 0
+
+
+def _region(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from controllers import artifact as artifacts
+    from controllers.polynomial import ARTIFACTS
+    from sims import plots
+    from synthesis import vscmg_region
+    from synthesis.sdre import SEED_REFERENCE_PROFILES, simulate_servo
+    from sims.profiles import make
+
+    path = Path(args.artifact) if args.artifact.endswith(".json") else ARTIFACTS / f"{args.artifact}.json"
+    art = artifacts.load(path)
+    loop = vscmg_region.ClosedLoop.build(art)
+    box_q2, box_w4 = (tuple(b) if b else d for b, d in zip((args.box_q2, args.box_w4), vscmg_region.OPERATING_BOX))
+    box = vscmg_region.certify(loop, box_q2, box_w4)
+    trig = vscmg_region.trig_check(loop, box) if box.Y is not None else {}
+    print(f"box q2 {box.q2} w4 {box.w4}: {box.message}; eps {box.eps:.4g}, decay bound {box.decay:.4g} 1/s, "
+          f"margin {box.margin:.4g}, {box.seconds:.0f} s")
+    for k, v in {**trig, **vscmg_region.cos_errors(box.q2)}.items():
+        print(f"  {k}: {v:.4g}")
+    cells = vscmg_region.map_region(loop, np.linspace(*args.q2, args.cells[0] + 1),
+                                    np.linspace(*args.w4, args.cells[1] + 1), progress=_progress)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "region.json").write_text(json.dumps(vscmg_region.region_data(loop, box, trig, cells), indent=1))
+    refs = [make(SEED_REFERENCE_PROFILES[n]) for n in ("q2_ref", "q4_ref")]
+    run = simulate_servo(lambda x: art.gain_at(art.scheduling_values({"q2": x[1], "w4": x[5]})),
+                         lambda t: np.stack([r.sample(t) for r in refs], axis=1), plant_params={"friction_on": 0})
+    plots.region_map(cells, out / "region.png", [box], (run.x[:, 1], run.x[:, 5]),
+                     f"Seed 002 section 4 re-posed: SOS stability region of {art.name} (frozen SDC loop off p4)")
+    print(f"cells certified: {sum(c.certified for c in cells)}/{len(cells)}; "
+          f"wrote {out / 'region.json'} and {out / 'region.png'}")
     return 0
 
 
@@ -261,12 +300,26 @@ def main(argv: list[str] | None = None) -> int:
     vs.add_argument("--cv-tol", type=float, default=None,
                     help="choose the smallest degree with this cross-validated relative error "
                          "(default synthesis.gain_fit.CV_TOL; 0: the smallest error)")
+    vs.add_argument("--skip-region", action="store_true",
+                    help="do not solve the SOS stability region (the artifact stays 'sampled')")
     vs.set_defaults(fn=_synth_vscmg)
     sw = sub.add_parser("sweep", parents=[mixed], help="gamma-lambda trade-off of seed 001's Theorem 8, both variants")
     sw.add_argument("design", choices=["mrp-h2hinf"])
     sw.add_argument("--gammas", type=float, nargs="+", default=[1.0, 0.8, 0.7, 0.6, 0.55])
     sw.add_argument("--out", default="results/h2hinf_sweep", help="directory of the CSV and PNG")
     sw.set_defaults(fn=_sweep)
+    rg = sub.add_parser("region", help="seed 002: SOS stability region of the approximated SDRE, box and map")
+    rg.add_argument("design", choices=["vscmg-sdre"])
+    rg.add_argument("--artifact", default="vscmg_sdre_approx", help="shipped artifact name or .json path")
+    rg.add_argument("--box-q2", type=float, nargs=2, metavar=("LO", "HI"),
+                    help="q2 interval of the one-Y box, rad (default: synthesis.vscmg_region.OPERATING_BOX)")
+    rg.add_argument("--box-w4", type=float, nargs=2, metavar=("LO", "HI"),
+                    help="w4 interval of the one-Y box, rad/s (default: OPERATING_BOX)")
+    rg.add_argument("--q2", type=float, nargs=2, default=[0.05, 1.52], metavar=("LO", "HI"), help="map range, rad")
+    rg.add_argument("--w4", type=float, nargs=2, default=[-1.8, 1.8], metavar=("LO", "HI"), help="map range, rad/s")
+    rg.add_argument("--cells", type=int, nargs=2, default=[7, 6], metavar=("N_Q2", "N_W4"), help="map cells")
+    rg.add_argument("--out", default="results/vscmg_region", help="directory of region.json and region.png")
+    rg.set_defaults(fn=_region)
     l2 = sub.add_parser("l2", help="L2 gain of a controller's closed loop: diagonal, sampled, SOS")
     l2.add_argument("controller", help="shipped artifact name or .json path")
     l2.add_argument("--rate-max", type=float, default=0.2, help="region |omega_i| <= rate-max, rad/s")

@@ -81,3 +81,38 @@ def _finish(fig: plt.Figure, ax: plt.Axes, path: Path, xlabel: str, ylabel: str,
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
+
+
+def region_map(cells: Sequence, path: Path, boxes: Sequence = (), trajectory: tuple[np.ndarray, np.ndarray] | None = None,
+               title: str = "") -> None:
+    """A stability-region map over (q2, w4) like seed 002's Fig. 2: certified cells (objects
+    with ``q2``, ``w4`` intervals and ``certified``, ``decay``) shaded by their decay bound,
+    failed cells hatched; ``boxes`` (same objects) outlined; ``trajectory`` (q2, w4) drawn."""
+    from matplotlib.patches import Rectangle
+
+    fig, ax = plt.subplots(figsize=(6.4, 4.4))
+    decays = [c.decay for c in cells if c.certified]
+    top = max(decays, default=1.0)
+    cmap = plt.get_cmap("Greens")
+    for c in cells:
+        (q0, q1), (w0, w1) = c.q2, c.w4
+        if c.certified:
+            ax.add_patch(Rectangle((q0, w0), q1 - q0, w1 - w0, facecolor=cmap(0.25 + 0.65 * c.decay / top),
+                                   edgecolor="white", lw=0.8))
+        else:
+            ax.add_patch(Rectangle((q0, w0), q1 - q0, w1 - w0, facecolor="0.92", edgecolor="0.6", hatch="xx", lw=0.5))
+    for k, b in enumerate(boxes):
+        (q0, q1), (w0, w1) = b.q2, b.w4
+        ax.add_patch(Rectangle((q0, w0), q1 - q0, w1 - w0, fill=False, edgecolor="C3" if b.certified else "k", lw=2,
+                               label=f"box {'certified' if b.certified else 'NOT certified'} (one Y)" if k == 0 else None))
+    if trajectory is not None:
+        ax.plot(*trajectory, color="C0", lw=1.5, label="seed manoeuvre (q2, w4)")
+    ax.plot([], [], "s", color=cmap(0.6), label="cell certified (shade: decay bound)")
+    ax.plot([], [], "s", color="0.85", label="cell not certified")
+    q = [v for c in cells for v in c.q2] or [0, 1]
+    w = [v for c in cells for v in c.w4] or [-1, 1]
+    ax.set_xlim(min(q), max(q))
+    ax.set_ylim(min(w), max(w))
+    secax = ax.secondary_xaxis("top", functions=(np.sin, np.arcsin))
+    secax.set_xlabel("a = sin q2", fontsize=8)
+    _finish(fig, ax, path, "q2 (rad)", "w4 (rad/s)", textwrap.fill(title, 80), legend_size=7)

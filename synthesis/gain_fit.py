@@ -261,14 +261,16 @@ START_STATE = np.array([0.0, np.pi / 18, 0.0, 0.0, 0.0, 0.0])
 """The seed's start state q0 = [0, pi/18, 0] at rest (design point of the LQ baseline)."""
 
 
-def synthesize(n_q2: int = 23, n_w4: int = 25, degrees: range = range(1, 9), cv_tol: float | None = CV_TOL
-               ) -> tuple[GainFit, dict, dict]:
+def synthesize(n_q2: int = 23, n_w4: int = 25, degrees: range = range(1, 9), cv_tol: float | None = CV_TOL,
+               region: bool = True) -> tuple[GainFit, dict, dict]:
     """Seed 002's approximated SDRE and the LQ baseline: the fit and both artifacts' data.
 
     The approximation uses the seed's w1-free SDC with w2 := 0 (a gain in q2 and w4 only,
     fitted in sin q2 and w4 with the degree rule of :func:`fit`);
     the fit is verified by :func:`verify` with the plant's own factorization on the same
-    grid before its data is returned.
+    grid before its data is returned. With ``region`` the SOS stability region of
+    :mod:`synthesis.vscmg_region` is solved on its operating box and the certificate says
+    what it proved (status ``certified`` only if it holds).
 
     Raises
     ------
@@ -277,7 +279,14 @@ def synthesize(n_q2: int = 23, n_w4: int = 25, degrees: range = range(1, 9), cv_
     servo = Servo("w1_free", freeze_w2=True)
     result = fit(*sdre_grid(servo, n_q2, n_w4), degrees=degrees, cv_tol=cv_tol)
     checks = verify(result, servo)
-    return result, approximated_sdre_data(result, servo, checks), lq_data(Servo("gyro_on_w2"), START_STATE)
+    approx = approximated_sdre_data(result, servo, checks)
+    if region:
+        from controllers.artifact import parse
+        from synthesis import vscmg_region
+
+        cert, trig = vscmg_region.certify_operating_box(parse(approx))
+        approx["certificate"] = vscmg_region.artifact_certificate(approx["certificate"], cert, trig)
+    return result, approx, lq_data(Servo("gyro_on_w2"), START_STATE)
 
 
 def table(result: GainFit, checks: dict[str, float]) -> str:

@@ -89,12 +89,15 @@ def test_synth_vscmg_writes_verified_artifacts_or_nothing(tmp_path: Path, capsys
                  "--fmu-dir", ""])
     assert code == 0 and "<- chosen" in capsys.readouterr().out
     approx = json.loads((tmp_path / "vscmg_sdre_approx.json").read_text())
-    # the smallest degree within CV_TOL = 2e-3 (CV error 1.4e-3 at degree 4 on the 23 x 25 grid)
-    assert approx["certificate"]["status"] == "sampled" and approx["fit"]["degree"] == 4
+    # the smallest degree within CV_TOL = 2e-3 (CV error 1.4e-3 at degree 4 on the 23 x 25 grid),
+    # and the SOS region holds on the operating box (synthesis.vscmg_region)
+    assert approx["certificate"]["status"] == "certified" and approx["fit"]["degree"] == 4
+    assert approx["certificate"]["numbers"]["region_trig_max_lyapunov_eig"] < 0
     assert (tmp_path / "vscmg_lq_servo.json").is_file()
     code = main(["synth", "vscmg-sdre", "--grid", "12", "13", "--max-degree", "6", "--cv-tol", "0",
-                 "--out", str(tmp_path), "--fmu-dir", ""])
-    assert code == 0 and json.loads((tmp_path / "vscmg_sdre_approx.json").read_text())["fit"]["degree"] == 6
+                 "--skip-region", "--out", str(tmp_path), "--fmu-dir", ""])
+    approx = json.loads((tmp_path / "vscmg_sdre_approx.json").read_text())
+    assert code == 0 and approx["fit"]["degree"] == 6 and approx["certificate"]["status"] == "sampled"
 
 
 @pytest.mark.parametrize("argv,message", [
