@@ -43,6 +43,9 @@ def test_operating_box_is_certified_and_re_verified(loop: vr.ClosedLoop, box: vr
     # Solver inaccuracy (Gram eigenvalues >= -1e-6, residuals ~1e-10) takes < 1e-3 of eps = 16.7.
     assert box.eps > 1.0 and box.margin > 0.99 * box.eps
     assert np.linalg.eigvalsh(box.Y).min() > 0
+    # The shipped artifact says so, with the same optimum (interior-point run to 1e-8 gap).
+    cert = loop.artifact.certificate
+    assert cert["status"] == "certified" and cert["numbers"]["region_eps"] == pytest.approx(box.eps, rel=1e-4)
     trig = vr.trig_check(loop, box, n=200)
     # On the true sin/cos model: V decreases off p4 (measured max eigenvalue -0.28) and no frozen
     # mode off p4 is slower than the proved decay (measured -1.00 against -0.147 1/s).
