@@ -45,6 +45,7 @@ import scipy.linalg as sla
 import sympy as sp
 
 from controllers.artifact import ServoArtifact
+from controllers.polynomial import sympy_polynomial
 from fmus import vscmg
 from fmus.model import Model
 from synthesis.polynomial import Poly, PolyMatrix, monomials
@@ -104,8 +105,7 @@ class ClosedLoop:
         M = vscmg.mass_matrix(sp.asin(_A), inertias).applyfunc(sp.expand)
         det = sp.expand(M.det())
         D = det / det.subs(_A, 0)
-        K = sp.Matrix(artifact.gain_at(np.zeros(2)).shape[0], 7, lambda i, j: sp.Add(*[
-            sp.Float(t.c, 17) * _A ** t.e[0] * _W ** t.e[1] for t in artifact.gain[i][j]]))
+        K = sp.Matrix([[sympy_polynomial(entry, [_A, _W]) for entry in row] for row in artifact.gain])
         Ae_p = Ae.subs(values).subs(trig)
         Be_p = Be.subs(values).subs(trig)
         acl = (Ae_p * D - (Be_p * D).applyfunc(sp.cancel) * K).applyfunc(lambda e: sp.expand(sp.cancel(e)))
