@@ -4,7 +4,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 SATFMU := $(VENV)/bin/satfmu
 FMU_DIR := build/fmus
-SCENARIOS := mrp_200deg mrp_200deg_sat mrp_320deg_sat mrp_eq44 mrp_200deg_synth mrp_320deg_sat_synth mrp_eq44_synth mrp_90deg_h2 mrp_200deg_h2hinf mrp_320deg_sat_h2hinf mrp_eq44_h2hinf vscmg_seed vscmg_seed_friction
+SCENARIOS := mrp_200deg mrp_200deg_sat mrp_320deg_sat mrp_eq44 mrp_200deg_synth mrp_320deg_sat_synth mrp_eq44_synth mrp_90deg_h2 mrp_200deg_h2hinf mrp_320deg_sat_h2hinf mrp_eq44_h2hinf vscmg_seed vscmg_seed_friction cubesat_detumble
 
 .PHONY: demo test test-all build validate bench clean system-deps
 
@@ -39,6 +39,7 @@ demo: build
 	$(SATFMU) validate --fmu-dir $(FMU_DIR)
 	$(SATFMU) run $(SCENARIOS) --fmu-dir $(FMU_DIR) --out results --summary results/summary.json
 	$(SATFMU) run mrp_200deg --backend python --fmu-dir $(FMU_DIR) --out results
+	$(SATFMU) detumble --fmu-dir $(FMU_DIR) --out results/cubesat
 	$(PY) bench/cosim_speed.py
 	@echo "plots, CSV and summaries (results/summary.md, results/summary.json) are in results/"
 

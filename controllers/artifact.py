@@ -43,6 +43,7 @@ FORMAT = "satfmu-controller"
 FORMAT_VERSION = 1
 KIND = "polynomial_state_feedback"
 SERVO_KIND = "servo_gain_schedule"
+PERIODIC_KIND = "periodic_gain_schedule"
 CERTIFICATE_STATUS = ("certified", "sampled", "not_verified")
 """certified: proved (SOS, Riccati check at the design point); sampled: checked on samples and
 in simulation, no proof; not_verified: nothing checked."""
@@ -215,7 +216,7 @@ def _check_named(items: list, label: str, where: str, keys: tuple[str, ...] = ("
             raise _fail(f"{where}.{label}[{i}]", "must be {" + ", ".join(f'"{k}": str' for k in keys) + ", ...}")
 
 
-def parse(data: Any, where: str = "artifact") -> ControllerArtifact | ServoArtifact:
+def parse(data: Any, where: str = "artifact") -> ControllerArtifact | ServoArtifact | PeriodicArtifact:
     """Validate JSON data and return the artifact.
 
     Raises
@@ -230,8 +231,9 @@ def parse(data: Any, where: str = "artifact") -> ControllerArtifact | ServoArtif
     version = data.get("format_version")
     if version != FORMAT_VERSION:
         raise _fail(where, f"format_version {version!r} is not supported (this satfmu reads {FORMAT_VERSION})")
-    if data.get("kind") not in (KIND, SERVO_KIND):
-        raise _fail(where, f"'kind' must be {KIND!r} or {SERVO_KIND!r}, got {data.get('kind')!r}")
+    kinds = (KIND, SERVO_KIND, PERIODIC_KIND)
+    if data.get("kind") not in kinds:
+        raise _fail(where, f"'kind' must be one of {kinds}, got {data.get('kind')!r}")
     name = _get(data, "name", str, where)
     if not _NAME.match(name):
         raise _fail(where, f"name {name!r} must be lower_snake_case (it becomes the FMU's modelIdentifier)")
@@ -239,6 +241,9 @@ def parse(data: Any, where: str = "artifact") -> ControllerArtifact | ServoArtif
     if data["kind"] == SERVO_KIND:
         _check_named(outputs, "outputs", where)
         return _parse_servo(data, where, name, outputs)
+    if data["kind"] == PERIODIC_KIND:
+        _check_named(outputs, "outputs", where)
+        return _parse_periodic(data, where, name, outputs)
     states = _get(data, "states", list, where)
     _check_named(states, "states", where)
     _check_named(outputs, "outputs", where)
@@ -367,6 +372,79 @@ def _parse_servo(data: dict, where: str, name: str, outputs: list) -> ServoArtif
                          _provenance(data, where), data.get("fit", {}))
 
 
+@dataclass
+class PeriodicArtifact:
+    """A validated periodic gain schedule with zero-order hold: ``u = F(k) y`` held over a sample.
+
+    Schema (kind ``"periodic_gain_schedule"``, format_version 1)::
+
+        {"format": "satfmu-controller", "format_version": 1, "kind": "periodic_gain_schedule",
+         "name": str, "description": str, "plant": str,
+         "inputs":  [{"name": plant output, "unit": str}, ...],
+         "outputs": [{"name": str, "unit": str, "description": str}, ...],
+         "sample_period": Ts (s), "schedule_period": N * Ts (s),
+         "gains": [F(0), ..., F(N-1)], each n_outputs x n_inputs,
+         "certificate": {...}, "provenance": {...}, "design": {...} (optional)}
+
+    The gain in use at orbit time ``tau`` is ``F(k)``, ``k = floor(tau / Ts) mod N``.
+    """
+
+    name: str
+    description: str
+    plant: str
+    inputs: list[dict[str, str]]
+    outputs: list[dict[str, str]]
+    sample_period: float
+    schedule_period: float
+    gains: np.ndarray
+    certificate: dict[str, Any]
+    provenance: dict[str, Any]
+    design: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def n_samples(self) -> int:
+        """N, the number of gains (samples per schedule period)."""
+        return len(self.gains)
+
+    def gain_index(self, tau: np.ndarray | float) -> np.ndarray:
+        """Index k of the gain in use at orbit time ``tau`` (s)."""
+        return np.floor(np.asarray(tau, float) / self.sample_period + INDEX_TOL).astype(int) % self.n_samples
+
+    def to_json(self) -> dict[str, Any]:
+        data = {"format": FORMAT, "format_version": FORMAT_VERSION, "kind": PERIODIC_KIND, "name": self.name,
+                "description": self.description, "plant": self.plant, "inputs": self.inputs,
+                "outputs": self.outputs, "sample_period": self.sample_period,
+                "schedule_period": self.schedule_period, "gains": self.gains.tolist(),
+                "certificate": self.certificate, "provenance": self.provenance}
+        if self.design:
+            data["design"] = self.design
+        return data
+
+
+INDEX_TOL = 1e-6
+"""Fraction of a sample period added before the floor of the gain index: an instant computed
+as 899.9999999999 s selects the gain of 900 s."""
+
+
+def _parse_periodic(data: dict, where: str, name: str, outputs: list) -> PeriodicArtifact:
+    inputs = _get(data, "inputs", list, where)
+    _check_named(inputs, "inputs", where)
+    ts = _finite(data.get("sample_period"), where + ".sample_period")
+    tp = _finite(data.get("schedule_period"), where + ".schedule_period")
+    if ts <= 0 or tp <= 0:
+        raise _fail(where, "sample_period and schedule_period must be > 0 s")
+    gains = _get(data, "gains", list, where)
+    n = round(tp / ts)
+    if n < 1 or abs(n * ts - tp) > 1e-9 * tp:
+        raise _fail(where, f"schedule_period {tp:g} s is not a whole number of sample periods {ts:g} s")
+    if len(gains) != n:
+        raise _fail(where + ".gains", f"{len(gains)} gains for {n} samples per schedule period")
+    F = np.stack([_matrix(g, (len(outputs), len(inputs)), f"{where}.gains[{k}]") for k, g in enumerate(gains)])
+    return PeriodicArtifact(name, _get(data, "description", str, where), _get(data, "plant", str, where),
+                            inputs, outputs, ts, tp, F, _certificate(data, where), _provenance(data, where),
+                            data.get("design", {}))
+
+
 def _certificate(data: dict, where: str) -> dict[str, Any]:
     cert = _get(data, "certificate", dict, where)
     if cert.get("status") not in CERTIFICATE_STATUS:
@@ -384,12 +462,12 @@ def _provenance(data: dict, where: str) -> dict[str, Any]:
     return prov
 
 
-def resource(artifact: ControllerArtifact | ServoArtifact) -> dict[str, bytes]:
+def resource(artifact: ControllerArtifact | ServoArtifact | PeriodicArtifact) -> dict[str, bytes]:
     """The artifact as a file for an FMU's ``resources/`` (traceability)."""
     return {"artifact.json": (json.dumps(artifact.to_json(), indent=1) + "\n").encode()}
 
 
-def load(path: str | Path) -> ControllerArtifact | ServoArtifact:
+def load(path: str | Path) -> ControllerArtifact | ServoArtifact | PeriodicArtifact:
     """Read and validate an artifact file.
 
     Raises
@@ -409,7 +487,7 @@ def load(path: str | Path) -> ControllerArtifact | ServoArtifact:
     return parse(data, where=str(path))
 
 
-def save(artifact: ControllerArtifact | ServoArtifact, path: str | Path) -> None:
+def save(artifact: ControllerArtifact | ServoArtifact | PeriodicArtifact, path: str | Path) -> None:
     """Write an artifact (re-validated first, so an invalid one is never written)."""
     data = artifact.to_json()
     parse(json.loads(json.dumps(data)), where=str(path))

@@ -118,8 +118,9 @@ def sampler_table(model: Model) -> dict | None:
     if smp is None:
         return None
     names = [v.name for v in model.parameters]
-    return {"module": sampler_module_name(model), "function": smp.function, "options": dict(smp.options),
-            "period_index": names.index(smp.period), "n_held": len(smp.held)}
+    return {"module": None if smp.is_expression else sampler_module_name(model), "function": smp.function,
+            "options": dict(smp.options), "period_index": names.index(smp.period),
+            "phase_index": None if smp.phase is None else names.index(smp.phase), "n_held": len(smp.held)}
 
 
 def sampler_module_name(model: Model) -> str:
@@ -203,8 +204,18 @@ def _state_initial(model: Model) -> list[int]:
 
 # ----------------------------------------------------------------------------- C
 class _C(C99CodePrinter):
+    """C99 without the POSIX math macros (M_PI is not in strict C99): constants as literals."""
+
+    def __init__(self) -> None:
+        super().__init__({"math_macros": {}})
+
     def _print_Symbol(self, expr: sp.Symbol) -> str:
         return expr.name
+
+    def _print_NumberSymbol(self, expr: sp.Expr) -> str:
+        return repr(float(expr))
+
+    _print_Pi = _print_Exp1 = _print_NumberSymbol
 
     # Every operand of && and || in parentheses: gcc -Wparentheses (an error with -Werror).
     def _print_And(self, expr: sp.And) -> str:
@@ -226,9 +237,9 @@ def c_source(model: Model) -> str:
     Raises
     ------
     ValueError
-        If the model has a sampler (a Python function: pythonfmu FMUs only).
+        If the model has a Python sampler (pythonfmu FMUs only).
     """
-    if model.sampler is not None:
+    if model.sampler is not None and not model.sampler.is_expression:
         raise ValueError(f"model {model.name!r} samples a Python function ({model.sampler.function}); "
                          "it has no native FMU, build its pythonfmu FMU")
     pr = _C()
@@ -243,6 +254,11 @@ def c_source(model: Model) -> str:
     lines.append(f"#define NV {len(table)}")
     lines.append(f"#define P_N_SUBSTEPS {pnames.index('n_substeps') if 'n_substeps' in pnames else -1}")
     lines.append(f"#define P_H_MAX {pnames.index('h_max') if 'h_max' in pnames else -1}")
+    smp = sampler_table(model)
+    lines.append(f"#define NH {smp['n_held'] if smp else 0}")
+    lines.append(f"#define P_PERIOD {smp['period_index'] if smp else -1}")
+    phase = smp["phase_index"] if smp else None
+    lines.append(f"#define P_PHASE {-1 if phase is None else phase}")
     lines.append("static const VariableInfo VARIABLES[NV] = {")
     for r in table:
         lines.append(f'    {{"{r["name"]}", {r["kind"]}, {TYPE_CODES[r["type"]]}, {r["index"]}, '
@@ -255,10 +271,14 @@ def c_source(model: Model) -> str:
                           "double *out",
            "outputs": "double t, const double *x, const double *u, const double *p, double *out",
            "post_step": "double t, const double *x, const double *xp, const double *u, const double *p, "
-                        "double *out"}
-    for f in functions(model):
+                        "double *out",
+           "sample_arguments": "double t, const double *x, const double *u, const double *p, double *out"}
+    generated = functions(model)
+    if model.sampler is None:  # the wrapper calls it only when NH > 0
+        generated.append(LoweredFunction("sample_arguments", [], []))
+    for f in generated:
         lines.append(f"static void model_{f.name}({sig[f.name]}) {{")
-        unused = "t x u p out" if f.name == "outputs" else "t x xp u p out"
+        unused = "t x u p out" if f.name in ("outputs", "sample_arguments") else "t x xp u p out"
         lines.append("    " + " ".join(f"(void){a};" for a in unused.split()))
         for sym, e in f.temporaries:
             lines.append(f"    const double {sym} = {pr.doprint(e)};")

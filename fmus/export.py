@@ -128,7 +128,7 @@ def build_python(model: Model, dest_dir: Path, resources: dict[str, bytes] | Non
     """Generate and package the pythonfmu FMU ``<dest_dir>/<model.name>_py.fmu``.
 
     The FMU needs, in the importing tool's Python, only pythonfmu's runtime (which
-    it embeds) and the standard library; a model with a sampler also needs what its
+    it embeds) and the standard library; a model with a Python sampler also needs what its
     module imports (numpy and scipy for the online SDRE).
     """
     from pythonfmu.builder import FmuBuilder
@@ -141,7 +141,8 @@ def build_python(model: Model, dest_dir: Path, resources: dict[str, bytes] | Non
         proj.mkdir()
         (proj / f"{generated}.py").write_text(codegen.python_source(model))
         shutil.copy(PYSLAVE, proj / "satfmu_pyslave.py")
-        if model.sampler is not None:
+        python_sampler = model.sampler is not None and not model.sampler.is_expression
+        if python_sampler:
             shutil.copy(model.sampler.module, proj / f"{codegen.sampler_module_name(model)}.py")
         desc = model_description(model, Capabilities(cls, needs_execution_tool=True))
         (proj / "satfmu_description.xml").write_bytes(to_xml_bytes(desc))
@@ -156,7 +157,7 @@ def build_python(model: Model, dest_dir: Path, resources: dict[str, bytes] | Non
             fmu = FmuBuilder.build_FMU(script, dest=out, project_files=files)
         finally:
             sys.path.remove(str(proj))
-            sampler = [codegen.sampler_module_name(model)] if model.sampler else []
+            sampler = [codegen.sampler_module_name(model)] if python_sampler else []
             for mod in [cls, generated, "satfmu_pyslave"] + sampler:
                 sys.modules.pop(mod, None)
         dest = Path(dest_dir) / f"{cls}.fmu"

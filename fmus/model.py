@@ -36,6 +36,10 @@ UNITS: dict[str, dict[str, int]] = {
     "J": {"kg": 1, "m": 2, "s": -2},
     "rad.s": {"rad": 1, "s": 1},
     "1/s": {"s": -1},
+    "m": {"m": 1},
+    "T": {"kg": 1, "s": -2, "A": -1},
+    "A.m2": {"A": 1, "m": 2},
+    "T.m3": {"kg": 1, "m": 3, "s": -2, "A": -1},
 }
 
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*(\[[0-9]+\])?$")
@@ -121,45 +125,64 @@ class SDCForm:
 
 @dataclass(frozen=True)
 class Sampler:
-    """Values held between sample instants and computed there by a Python function.
+    """Values held between sample instants and computed at them (a zero-order hold).
 
-    At every sample instant ``t0 + k * period`` the FMU evaluates :attr:`arguments` at the
-    current state, inputs and parameters and calls ``function(arguments, **options)`` of
-    the module file :attr:`module`; the returned values are held until the next instant.
-    The expressions of the model read them through the symbols of :attr:`held`. An online
-    SDRE law holds its gain this way (the Riccati solve is no expression). Models with a
-    sampler are exported as pythonfmu FMUs only.
+    The instants are the start time and every time ``t`` with ``t + phase`` a multiple of
+    the period (without a phase: ``start + k * period``). At each instant the FMU evaluates
+    :attr:`arguments` at the current time, state, inputs, parameters and held values (the
+    ones of the previous instant) and holds the result until the next instant:
+
+    - an *expression sampler* (no :attr:`module`): the held values ARE the arguments, one
+      expression each. Native and pythonfmu FMUs (a periodic gain schedule, a sampled
+      B-dot law);
+    - a *Python sampler*: ``function(arguments, **options)`` of the module file
+      :attr:`module` returns the held values (an online SDRE law holds its gain this way:
+      the Riccati solve is no expression). pythonfmu FMUs only.
+
+    The expressions of the model read the held values through the symbols of :attr:`held`.
 
     Parameters
     ----------
     held : list of Variable
         The held values (internal; expose one through an output to show it).
     arguments : list of sympy.Expr
-        Expressions in the model's state, input and parameter symbols.
+        Expressions in the model's time, state, input and parameter symbols and the held
+        values' symbols.
     period : str
         Name of the model parameter giving the sample period, s.
-    module : str
+    module : str, optional
         Path of a Python file that imports only the standard library, numpy and scipy; it
         is embedded in the FMU.
-    function : str
+    function : str, optional
         Name of the function in ``module``; it returns ``len(held)`` numbers and raises
         on failure (the FMU then reports fmi2Error with the message).
     options : dict
         Keyword arguments of the call (plain data).
+    phase : str, optional
+        Name of the model parameter giving the phase of the instants, s (an orbit time at
+        ``t = 0``, say, so that the instants fall on orbit times ``k * period``).
     """
 
     held: list[Variable]
     arguments: list[sp.Expr]
     period: str
-    module: str
-    function: str
+    module: str | None = None
+    function: str | None = None
     options: dict = field(default_factory=dict)
+    phase: str | None = None
+
+    @property
+    def is_expression(self) -> bool:
+        """Whether the held values are the arguments themselves (no Python function)."""
+        return self.module is None
 
     def load(self) -> Callable[..., list[float]]:
         """The function itself, ``values -> held`` with the options bound (in-process use)."""
         import functools
         import importlib.util
 
+        if self.module is None:
+            return list
         spec = importlib.util.spec_from_file_location(f"satfmu_sampler_{id(self)}", self.module)
         if spec is None or spec.loader is None:
             raise ModelDefinitionError(f"sampler module {self.module!r} cannot be loaded")
@@ -267,13 +290,20 @@ class Model:
         base = set(self.state_symbols + self.input_symbols + self.parameter_symbols + [self.t])
         allowed = base | set(self.previous_symbols) | set(self.held_symbols)
         if self.sampler is not None:
-            if self.sampler.period not in [v.name for v in self.parameters]:
-                raise ModelDefinitionError(f"{self.name}: sampler period {self.sampler.period!r} is no parameter")
+            smp = self.sampler
+            for label, pname in (("period", smp.period), ("phase", smp.phase)):
+                if pname is not None and pname not in [v.name for v in self.parameters]:
+                    raise ModelDefinitionError(f"{self.name}: sampler {label} {pname!r} is no parameter")
+            if (smp.module is None) != (smp.function is None):
+                raise ModelDefinitionError(f"{self.name}: a sampler needs both module and function, or neither")
+            if smp.is_expression and len(smp.arguments) != len(smp.held):
+                raise ModelDefinitionError(f"{self.name}: an expression sampler needs one argument per held "
+                                           f"value ({len(smp.arguments)} for {len(smp.held)})")
             clash = {v.name for v in self.sampler.held} & set(fmu_names + symbol_names)
             if clash:
                 raise ModelDefinitionError(f"{self.name}: held values reuse names {sorted(clash)}")
             for e in self.sampler.arguments:
-                extra = sp.sympify(e).free_symbols - base
+                extra = sp.sympify(e).free_symbols - base - set(self.held_symbols)
                 if extra:
                     raise ModelDefinitionError(
                         f"{self.name}: sampler argument uses undeclared symbols {sorted(map(str, extra))}")
@@ -364,7 +394,7 @@ class Model:
         if free & held:
             free -= held
             for e in self.sampler.arguments:  # type: ignore[union-attr]
-                free |= sp.sympify(e).free_symbols
+                free |= sp.sympify(e).free_symbols - held
         return free
 
     def output_dependencies(self) -> dict[str, list[str]]:

@@ -7,9 +7,9 @@ behaviour as the generic C wrapper ``fmus/c/fmi2_cosim.c``: RK4 with held inputs
 ``max(n_substeps, ceil(h / h_max))`` substeps, the post-step map, value checks
 (finite, in range, right causality), the co-simulation call order, and FMU state.
 
-A model with a sampler (:class:`fmus.model.Sampler`, Python FMUs only) also holds
-values computed by a Python function at the instants ``t0 + k * period``: a step is
-integrated in segments between instants. The values of an instant at a communication
+A model with a sampler (:class:`fmus.model.Sampler`) also holds values computed at the
+start and at the instants ``k * period - phase`` (``t0 + k * period`` without a phase): a
+step is integrated in segments between instants. The values of an instant at a communication
 point are computed from the inputs set at that point, when first needed (an output
 read or the next step), and again if an input changes there.
 
@@ -35,6 +35,8 @@ from pythonfmu.enums import Fmi2Status
 KIND_PARAMETER, KIND_INPUT, KIND_OUTPUT = 0, 1, 2
 DESCRIPTION_FILE = "satfmu_description.xml"
 MAX_SUBSTEPS = 10_000_000
+TIME_TOL = 1e-9
+"""Relative tolerance (times max(1, |t|)) under which two times are the same instant, as in C."""
 
 
 def substep_count(h: float, n_substeps: float, h_max: float) -> int:
@@ -108,9 +110,11 @@ class SatfmuSlave(Fmi2Slave):
         self._i_hmax = pnames.index("h_max") if "h_max" in pnames else -1
         smp = gen.SAMPLER
         self._sampler = smp
-        if smp is not None:
+        if smp is not None and smp["module"] is not None:
             fn = getattr(importlib.import_module(smp["module"]), smp["function"])
             self._sample_fn = functools.partial(fn, **smp["options"])
+        elif smp is not None:  # an expression sampler holds its arguments
+            self._sample_fn = list
         self._defaults()
         for row in self._table:
             self.register_variable(self._make_variable(row), nested=False)
@@ -122,7 +126,8 @@ class SatfmuSlave(Fmi2Slave):
         self.p = [float(v["start"]) for v in self._table if v["kind"] == KIND_PARAMETER]
         self.p += [0.0] * (self._sampler["n_held"] if self._sampler else 0)  # held values follow
         self.start_time = 0.0
-        self.sample_index = 0  # last sample instant reached: start_time + sample_index * period
+        self.next_instant = 0.0  # the first sample instant after the FMU time
+        self.held_prev = [0.0] * (self._sampler["n_held"] if self._sampler else 0)  # previous instant's
         self.at_instant = True  # the FMU time is a sample instant
         self.sample_due = self._sampler is not None  # the held values of that instant are stale
         self.u = [float(v["start"]) for v in self._table if v["kind"] == KIND_INPUT]
@@ -190,7 +195,9 @@ class SatfmuSlave(Fmi2Slave):
 
     def _sample(self) -> None:
         """Compute the held values at the current time, state, inputs and parameters."""
-        args = self.generated.sample_arguments(self.time, self.x, self.u, self.p)
+        n_held = self._sampler["n_held"]
+        p = self.p[:len(self.p) - n_held] + self.held_prev  # expressions read the previous instant's values
+        args = self.generated.sample_arguments(self.time, self.x, self.u, p)
         try:
             held = [float(v) for v in self._sample_fn(args)]
         except Exception as exc:  # the sampler's own message names what failed
@@ -228,8 +235,10 @@ class SatfmuSlave(Fmi2Slave):
         self.x = [self.p[i] for i in self.generated.STATE_INITIAL]
         self.mode = "StepComplete"
         self.outputs_valid = False
-        self.sample_index, self.at_instant = 0, True
+        self.at_instant = True
         self.sample_due = self._sampler is not None
+        if self._sampler is not None:
+            self.next_instant = self._instant_after(self.time)
 
     def do_step(self, current_time: float, step_size: float) -> bool:
         self._require("fmi2DoStep", "StepComplete")
@@ -247,26 +256,41 @@ class SatfmuSlave(Fmi2Slave):
         self.outputs_valid = False
         return True
 
-    def _step_sampled(self, t: float, t_end: float) -> None:
-        """Integrate to ``t_end`` in segments between sample instants, sampling at each."""
+    def _instant_after(self, t: float) -> float:
+        """The first sample instant later than ``t`` (by more than the time tolerance)."""
         period = self.p[self._sampler["period_index"]]
         if not (math.isfinite(period) and period > 0.0):
-            self._reject(f"fmi2DoStep: sample period {period!r} must be finite and > 0 s")
-        tol = 1e-9 * max(1.0, abs(t_end))
+            self._reject(f"sample period {period!r} must be finite and > 0 s")
+        i_phase = self._sampler["phase_index"]
+        phase = -self.start_time if i_phase is None else self.p[i_phase]
+        k = math.floor((t + phase) / period) + 1
+        if k * period - phase <= t + TIME_TOL * max(1.0, abs(t)):
+            k += 1
+        return k * period - phase
+
+    def _new_instant(self) -> None:
+        """The FMU time reached a new instant: what is held becomes the previous instant's values."""
+        self.held_prev = self.p[len(self.p) - self._sampler["n_held"]:]
+
+    def _step_sampled(self, t: float, t_end: float) -> None:
+        """Integrate to ``t_end`` in segments between sample instants, sampling at each."""
+        tol = TIME_TOL * max(1.0, abs(t_end))
         if self.sample_due:
             self._sample()
         while True:
-            t_next = self.start_time + (self.sample_index + 1) * period
+            t_next = self.next_instant
             if t_next < t_end - tol:
                 self._integrate(t, t_next - t)
                 t = self.time = t_next
-                self.sample_index += 1
+                self.next_instant = self._instant_after(t)
+                self._new_instant()
                 self._sample()
                 continue
             self._integrate(t, t_end - t)
             self.at_instant = abs(t_next - t_end) <= tol
             if self.at_instant:
-                self.sample_index += 1
+                self.next_instant = self._instant_after(t_next)
+                self._new_instant()
             self.sample_due = self.at_instant
             return
 
@@ -296,13 +320,13 @@ class SatfmuSlave(Fmi2Slave):
     def _get_fmu_state(self) -> dict[str, Any]:
         return {"mode": self.mode, "time": self.time, "x": list(self.x), "u": list(self.u),
                 "p": list(self.p), "y": list(self.y), "outputs_valid": self.outputs_valid,
-                "start_time": self.start_time, "sample_index": self.sample_index,
+                "start_time": self.start_time, "next_instant": self.next_instant, "held_prev": list(self.held_prev),
                 "at_instant": self.at_instant, "sample_due": self.sample_due}
 
     def _set_fmu_state(self, state: dict[str, Any]) -> None:
-        for key in ("mode", "time", "outputs_valid", "start_time", "sample_index", "at_instant", "sample_due"):
+        for key in ("mode", "time", "outputs_valid", "start_time", "next_instant", "at_instant", "sample_due"):
             setattr(self, key, state[key])
-        for key in ("x", "u", "p", "y"):
+        for key in ("x", "u", "p", "y", "held_prev"):
             setattr(self, key, list(state[key]))
 
     def to_xml(self, model_options: dict[str, str] | None = None) -> Element:

@@ -7,8 +7,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from controllers import artifact as artifacts
-from controllers import backstepping, polynomial, servo
-from fmus import export, mrp_satellite, vscmg
+from controllers import backstepping, magnetic, polynomial, servo
+from fmus import cubesat, export, mrp_satellite, vscmg
 from fmus.model import Model
 
 DEFAULT_FMU_DIR = Path("build/fmus")
@@ -26,16 +26,22 @@ class FmuSource:
 
 def sources() -> list[FmuSource]:
     """Plants first, then the controllers of the shipped artifacts, then the designs without
-    an artifact (online SDRE, backstepping)."""
-    out = [FmuSource(mrp_satellite.MODEL, {}), FmuSource(vscmg.MODEL, {})]
+    an artifact (online SDRE, backstepping, B-dot)."""
+    out = [FmuSource(mrp_satellite.MODEL, {}), FmuSource(vscmg.MODEL, {}), FmuSource(cubesat.MODEL, {})]
     out += [controller_source(artifacts.load(path)) for path in polynomial.shipped_artifacts()]
     out += [FmuSource(servo.build_online(name), {}, ("python",)) for name in servo.ONLINE_VARIANTS]
-    return out + [FmuSource(backstepping.build(), {})]
+    return out + [FmuSource(backstepping.build(), {}), FmuSource(magnetic.build_bdot(), {})]
 
 
-def controller_source(art: artifacts.ControllerArtifact | artifacts.ServoArtifact) -> FmuSource:
+def controller_source(art: artifacts.ControllerArtifact | artifacts.ServoArtifact | artifacts.PeriodicArtifact
+                      ) -> FmuSource:
     """The controller model of an artifact (by its kind) and the artifact as its resource."""
-    model = servo.build(art) if isinstance(art, artifacts.ServoArtifact) else polynomial.build(art)
+    if isinstance(art, artifacts.ServoArtifact):
+        model = servo.build(art)
+    elif isinstance(art, artifacts.PeriodicArtifact):
+        model = magnetic.build_periodic(art)
+    else:
+        model = polynomial.build(art)
     return FmuSource(model, artifacts.resource(art))
 
 

@@ -7,6 +7,8 @@
     satfmu synth mrp-hinf [--name mrp_hinf_satfmu] [--out controllers/artifacts] [--fmu-dir DIR] ...
     satfmu synth mrp-h2hinf --gamma G [--variant slack|common] [--region 0.45] [--name ...] ...
     satfmu synth vscmg-sdre [--grid 23 25] [--max-degree 8] [--cv-tol TOL] [--out ...] [--fmu-dir DIR]
+    satfmu synth cubesat-periodic [--gamma G] [--out ...] [--fmu-dir DIR]
+    satfmu detumble [--runs 2000] [--seed 0] [--rates R ...] [--fmu-dir DIR] [--out results/cubesat]
     satfmu sweep mrp-h2hinf [--gammas 1 0.8 ...] [--region 0.45] [--out results/h2hinf_sweep]
     satfmu l2 CONTROLLER [--rate-max 0.2] [--sigma-max 0.9] [--samples 200000]
     satfmu region vscmg-sdre [--artifact NAME] [--box-q2 LO HI] [--box-w4 LO HI] [--cells 7 6] [--out DIR]
@@ -160,6 +162,69 @@ def _synth_vscmg(args: argparse.Namespace) -> int:
     return 0
 
 
+def _synth_cubesat(args: argparse.Namespace) -> int:
+    from synthesis import cubesat_periodic
+
+    r = cubesat_periodic.synthesize(args.gamma)
+    lo, hi, n = r.bracket
+    print(f"seed 003 Theorem 2: gamma_min {r.gamma_min:.4f} (minimized); bisection bracket [{lo:.4f}, {hi:.4f}] "
+          f"in {n} solves; the seed's gamma {cubesat_periodic.GAMMA_SEED:g} is "
+          f"{'feasible' if r.numbers['seed_gamma_feasible'] else 'infeasible'}")
+    for k, v in r.numbers.items():
+        print(f"  {k}: {v:.6g}")
+    print("  gains F(k) (rows m_x, m_y, m_z; columns omega_x, omega_y, omega_z), ours | published:")
+    for k, (f, p) in enumerate(zip(r.design.F, cubesat_periodic.PUBLISHED_GAINS)):
+        for i in range(3):
+            print(f"    k={k} " + " ".join(f"{v:8.4f}" for v in f[i]) + "  | " + " ".join(f"{v:8.4f}" for v in p[i]))
+    _save_and_build(r.artifact_data(args.name, r.design.F, r.design.gamma, r.design.check, "satfmu"),
+                    argparse.Namespace(**vars(args)))
+    if r.published is not None:
+        data = r.artifact_data(args.published_name, cubesat_periodic.PUBLISHED_GAINS, r.published.gamma,
+                               r.published.check, "published (seed 003, gains as printed)")
+        _save_and_build(data, argparse.Namespace(**{**vars(args), "name": args.published_name}))
+    return 0
+
+
+def _detumble(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from controllers import artifact as artifacts
+    from controllers.polynomial import ARTIFACTS
+    from sims import detumble, plots
+
+    gains = {label: artifacts.load(ARTIFACTS / f"{name}.json").gains
+             for label, name in (("satfmu", "cubesat_periodic_satfmu"), ("published", "cubesat_periodic_published"))}
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    runs = detumble.linear_campaign(gains, args.runs, args.seed)
+    print(f"(a) linear sampled model, {args.runs} seeded realizations each, w(0) = {detumble.W0_DIRECTION.tolist()} rad/s")
+    for r in runs:
+        n = r.k[-1] // 2
+        per_orbit = r.ms_exact[2 * n] / r.ms_exact[n]
+        print(f"  {r.label}: ESMS spectral radius {r.spectral_radius:.4g}; RMS |w| {r.rms()[0]:.4g} -> "
+              f"{r.rms()[n]:.3g} (1 orbit) -> {r.rms()[-1]:.3g} rad/s (2 orbits); E|w|^2 orbit 2 / orbit 1 "
+              f"{per_orbit:.3g}; Monte Carlo vs exact at 2 orbits: {r.ms_mc[-1]:.3g} +- {r.ms_se[-1]:.2g} vs "
+              f"{r.ms_exact[-1]:.3g}")
+    plots.detumble_linear(runs, out / "linear_fig2.png", "Seed 003 Fig. 2 analogue: linear periodic model with "
+                          "multiplicative noises, rates and held dipoles at the 15-min samples")
+    rates = args.rates or list(np.geomspace(1e-4, 1.0, 17))
+    rows = detumble.sweep(Path(args.fmu_dir), rates, progress=_progress)
+    table = detumble.sweep_table(rows)
+    (out / "sweep.md").write_text(table)
+    with open(out / "sweep.csv", "w") as fh:
+        fh.write("controller,w0_rad_s,final_ratio,min_ratio,effort_A2m4s,detumbled\n")
+        for r in rows:
+            fh.write(f"{r.controller},{r.w0:.6g},{r.final_ratio:.6g},{r.min_ratio:.6g},{r.effort:.6g},{r.detumbled}\n")
+    plots.detumble_sweep(rows, out / "sweep.png", "Seed 003 on the nonlinear plant: two orbits from |w(0)| "
+                         "along [0.05, -0.04, 0.03]")
+    print("(b) nonlinear plant through the master, two orbits:\n" + table, end="")
+    for label, (low, high) in detumble.detumbled_band(rows).items():
+        band = f"{low:.3g} to {high:.3g} rad/s" if math.isfinite(high) else "none of the swept rates"
+        print(f"  {label}: |w(0)| detumbled 10x within two orbits: {band}")
+    print(f"wrote {out / 'linear_fig2.png'}, {out / 'sweep.md'}, {out / 'sweep.csv'}, {out / 'sweep.png'}")
+    return 0
+
+
 def _sweep(args: argparse.Namespace) -> int:
     from synthesis import h2hinf_sos
     from sims import plots
@@ -303,6 +368,21 @@ def main(argv: list[str] | None = None) -> int:
     vs.add_argument("--skip-region", action="store_true",
                     help="do not solve the SOS stability region (the artifact stays 'sampled')")
     vs.set_defaults(fn=_synth_vscmg)
+    cs = designs.add_parser("cubesat-periodic", parents=[out],
+                            help="seed 003: periodic stochastic H-infinity gains (Theorem 2) + published gains")
+    cs.add_argument("--gamma", type=float, default=None,
+                    help="design level (default gamma_min (1 + synthesis.cubesat_periodic.GAMMA_MARGIN))")
+    cs.add_argument("--name", default="cubesat_periodic_satfmu", help="artifact and FMU name")
+    cs.add_argument("--published-name", default="cubesat_periodic_published",
+                    help="artifact and FMU name of the published gains")
+    cs.set_defaults(fn=_synth_cubesat)
+    dt = sub.add_parser("detumble", help="seed 003: linear Monte Carlo (Fig. 2) and the nonlinear initial-rate sweep")
+    dt.add_argument("--runs", type=int, default=2000, help="Monte Carlo realizations per gain set")
+    dt.add_argument("--seed", type=int, default=0)
+    dt.add_argument("--rates", type=float, nargs="+", help="initial rates |w(0)|, rad/s (default 17 from 1e-4 to 1)")
+    dt.add_argument("--fmu-dir", default=str(catalog.DEFAULT_FMU_DIR))
+    dt.add_argument("--out", default="results/cubesat")
+    dt.set_defaults(fn=_detumble)
     sw = sub.add_parser("sweep", parents=[mixed], help="gamma-lambda trade-off of seed 001's Theorem 8, both variants")
     sw.add_argument("design", choices=["mrp-h2hinf"])
     sw.add_argument("--gammas", type=float, nargs="+", default=[1.0, 0.8, 0.7, 0.6, 0.55])

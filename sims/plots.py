@@ -116,3 +116,52 @@ def region_map(cells: Sequence, path: Path, boxes: Sequence = (), trajectory: tu
     secax = ax.secondary_xaxis("top", functions=(np.sin, np.arcsin))
     secax.set_xlabel("a = sin q2", fontsize=8)
     _finish(fig, ax, path, "q2 (rad)", "w4 (rad/s)", textwrap.fill(title, 80), legend_size=7)
+
+
+def detumble_linear(runs: Sequence, path: Path, title: str = "") -> None:
+    """Seed 003 Fig. 2 analogue: rates and dipoles at the sampling instants of the linear model.
+
+    ``runs`` are :class:`sims.detumble.LinearRun`: per gain set, the exact RMS rate, the Monte
+    Carlo one, the 10-90 % band of |w(k)| and the median |m(k)|, against orbit time (min).
+    """
+    fig, (ax_w, ax_m) = plt.subplots(2, 1, sharex=True, figsize=(8, 6))
+    for i, r in enumerate(runs):
+        color = f"C{i}"
+        t = r.k * 15.0
+        ax_w.semilogy(t, r.rms(), "-", color=color, label=f"{r.label}: exact RMS (rho = {r.spectral_radius:.3g})")
+        ax_w.semilogy(t, np.sqrt(r.ms_mc), "o", color=color, ms=4, label=f"{r.label}: Monte Carlo RMS")
+        lo, hi = np.percentile(r.rate_samples, [10, 90], axis=0)
+        ax_w.fill_between(t, lo, hi, color=color, alpha=0.2, step=None)
+        ax_m.step(t[:-1], np.median(r.dipole_samples, axis=0), where="post", color=color, label=r.label)
+    ax_w.set_ylabel("|w| at the samples, rad/s")
+    ax_w.legend(fontsize=7)
+    ax_m.set_ylabel("median |m| held, A m^2")
+    ax_m.set_xlabel("orbit time, min (samples every 15 min)")
+    ax_m.legend(fontsize=7)
+    for ax in (ax_w, ax_m):
+        ax.grid(True, alpha=0.3)
+    fig.suptitle("\n".join(textwrap.wrap(title, 90)), fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def detumble_sweep(rows: Sequence, path: Path, title: str = "") -> None:
+    """|w(2 orbits)| / |w(0)| and dipole effort against |w(0)| per controller (:class:`sims.detumble.SweepRow`)."""
+    fig, (ax_r, ax_e) = plt.subplots(2, 1, sharex=True, figsize=(8, 6))
+    for label in dict.fromkeys(r.controller for r in rows):
+        mine = sorted((r for r in rows if r.controller == label), key=lambda r: r.w0)
+        w0 = [r.w0 for r in mine]
+        ax_r.loglog(w0, [r.final_ratio for r in mine], "o-", label=label)
+        ax_e.loglog(w0, [max(r.effort, 1e-30) for r in mine], "o-", label=label)
+    ax_r.axhline(0.1, color="k", lw=0.8, ls="--", label="10x reduction")
+    ax_r.set_ylabel("|w| after 2 orbits / |w(0)|")
+    ax_e.set_ylabel("integral |m|^2 dt, A^2 m^4 s")
+    ax_e.set_xlabel("|w(0)|, rad/s")
+    for ax in (ax_r, ax_e):
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=7)
+    fig.suptitle("\n".join(textwrap.wrap(title, 90)), fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)

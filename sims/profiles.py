@@ -17,12 +17,21 @@ Kinds (times in s, values in the target input's unit):
               ``before`` until ``start``, then (1 - cos(pi (t - start)/(stop - start)))/2 of
               the way to ``after``, reached at ``stop`` (seed 002 eq. 24-25); ``derivative``
               gives its first or second time derivative instead (per s, per s^2)
+``igrf``      component (1 | 2 | 3), epoch (ISO date "2020-01-01" or a TOML date),
+              max_degree = 13, orbit_period, orbit_time_0, orbit_altitude,
+              orbit_inclination, orbit_raan, orbit_arg_latitude_0, earth_rotation_angle_0
+              (= the magnetorquer cubesat's parameters, defaulting to its start values)
+              IGRF field along orbit axis ``component`` at orbit time orbit_time_0 + t, T
+              (:func:`fmus.geomagnetic.igrf_orbit_field`), for the cubesat's ``b_ext[i]``
+              inputs with ``field_model = 2``; give the plant the same orbit_period.
 """
 from __future__ import annotations
 
 import csv
+import datetime as dt
 import math
 from dataclasses import dataclass, field
+from functools import lru_cache
 from pathlib import Path
 from typing import Any, Callable
 
@@ -112,9 +121,11 @@ def make(spec: dict[str, Any], where: str = "profile", base_dir: Path | None = N
         fn = _csv(spec, where, base_dir)
     elif kind == "cosine_ramp":
         fn = _cosine_ramp(spec, where)
+    elif kind == "igrf":
+        fn = _igrf(spec, where)
     else:
-        raise ProfileError(f"{where}: unknown kind; use constant, step, table, sinusoid, random, csv "
-                           "or cosine_ramp")
+        raise ProfileError(f"{where}: unknown kind; use constant, step, table, sinusoid, random, csv, "
+                           "cosine_ramp or igrf")
     return Profile(str(kind), dict(spec), fn)
 
 
@@ -137,6 +148,64 @@ def _cosine_ramp(spec: dict, where: str) -> Callable[[np.ndarray], np.ndarray]:
             return np.where(inside, (b - a) * w * np.sin(x) / 2, 0.0)
         return np.where(inside, (b - a) * w**2 * np.cos(x) / 2, 0.0)
     return fn
+
+
+_IGRF_ORBIT = ("orbit_period", "orbit_time_0", "orbit_altitude", "orbit_inclination", "orbit_raan",
+               "orbit_arg_latitude_0", "earth_rotation_angle_0")
+
+
+def _igrf(spec: dict, where: str) -> Callable[[np.ndarray], np.ndarray]:
+    # fmus.geomagnetic imports ppigrf and pandas: only when this kind is used
+    from fmus import geomagnetic
+
+    unknown = sorted(set(spec) - {"kind", "component", "epoch", "max_degree", *_IGRF_ORBIT})
+    if unknown:
+        raise ProfileError(f"{where}: unknown field(s) {unknown}; allowed: component, epoch, max_degree, "
+                           + ", ".join(_IGRF_ORBIT))
+    comp = spec.get("component")
+    if isinstance(comp, bool) or comp not in (1, 2, 3) or not isinstance(comp, int):
+        raise ProfileError(f"{where}: 'component' must be 1, 2 or 3 (orbit axis), got {comp!r}")
+    epoch = spec.get("epoch")
+    if isinstance(epoch, str):
+        try:
+            epoch = dt.datetime.fromisoformat(epoch)
+        except ValueError:
+            raise ProfileError(f"{where}: 'epoch' must be an ISO date like \"2020-01-01\", got {epoch!r}") from None
+    elif not isinstance(epoch, dt.date):
+        raise ProfileError(f"{where}: 'epoch' must be an ISO date like \"2020-01-01\", got {epoch!r}")
+    first, last = geomagnetic.igrf_validity()
+    if not first <= geomagnetic.epoch_datetime(epoch) <= last:
+        raise ProfileError(f"{where}: 'epoch' {epoch} is outside the IGRF coefficients "
+                           f"({first:%Y-%m-%d} to {last:%Y-%m-%d})")
+    degree = spec.get("max_degree", 13)
+    if isinstance(degree, bool) or not isinstance(degree, int) or not 1 <= degree <= 13:
+        raise ProfileError(f"{where}: 'max_degree' must be an integer in 1..13, got {degree!r}")
+    defaults = geomagnetic.model_defaults()
+    orbit = {k: _num(spec, k, where, defaults[k]) for k in _IGRF_ORBIT}
+    if orbit["orbit_period"] <= 0:
+        raise ProfileError(f"{where}: 'orbit_period' must be > 0 s")
+    if orbit["orbit_altitude"] < 0:
+        raise ProfileError(f"{where}: 'orbit_altitude' must be >= 0 m")
+    tau0 = orbit.pop("orbit_time_0")
+    key = (geomagnetic.epoch_datetime(epoch), degree, tau0, tuple(sorted(orbit.items())))
+
+    def fn(t: np.ndarray) -> np.ndarray:
+        tt = np.atleast_1d(t)
+        b = _igrf_field(key, tt.astype(float).ravel().tobytes())
+        return b[:, comp - 1].reshape(tt.shape) if np.ndim(t) else b[0, comp - 1]
+    return fn
+
+
+@lru_cache(maxsize=4)
+def _igrf_field(key: tuple, t_bytes: bytes) -> np.ndarray:
+    """IGRF along the orbit at the times ``t_bytes`` (float64), cached: the three components of
+    one field usually sample the same grid."""
+    from fmus import geomagnetic
+
+    epoch, degree, tau0, orbit = key
+    b = geomagnetic.igrf_orbit_field(tau0 + np.frombuffer(t_bytes), epoch, dict(orbit), max_degree=degree)
+    b.setflags(write=False)
+    return b
 
 
 def _random(spec: dict, where: str, step_size: float | None) -> Callable[[np.ndarray], np.ndarray]:

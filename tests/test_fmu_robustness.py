@@ -53,7 +53,7 @@ NATIVE = (PLANT, CTRL)
 PYTHON = (PLANT_PY, CTRL_PY)
 # (input to abuse, output to watch) per model
 IO = {"mrp_satellite": ("u[1]", "omega[1]"), "mrp_hinf_published": ("omega[1]", "u[1]")}
-STATE_MAGIC = 0x5A7F3D01  # fmi2_cosim.c: first field of every native FMU state
+STATE_MAGIC = 0x5A7F3D02  # fmi2_cosim.c: first field of every native FMU state (layout version)
 ST_STEP_COMPLETE = 1 << 2  # fmi2_cosim.c: ModelState after fmi2ExitInitializationMode
 BLOW_UP = {"h_max": 1e6, "omega_0[1]": 1e3, "omega_0[2]": 1e3, "omega_0[3]": 1e3}
 

@@ -8,6 +8,15 @@
  * (zero-order hold), n = max(n_substeps, ceil(h / h_max)) substeps, post_step map
  * (projection / switching) after every substep.
  *
+ * Sampling (NH > 0, an expression sampler of fmus/model.py): NH values are computed by
+ * model_sample_arguments at the start and at the instants k * period - phase (start +
+ * k * period without a phase parameter) and held in p[NP..NP+NH-1] in between; a step is
+ * integrated in segments between instants. The values of an instant at a communication
+ * point are computed from the inputs set there, when first needed (an output read or the
+ * next step), and again if an input changes there (as fmus/pyslave.py does). The held
+ * values the expressions read are always those of the previous instant (held_prev), so a
+ * repeated sample at one instant gives the same result as a single one.
+ *
  * Robustness: every call checks the instance pointer, the call order against the
  * FMI 2.0 co-simulation state machine, value references, types, finiteness and
  * declared ranges; a violation returns fmi2Error with a message naming the
@@ -39,7 +48,8 @@ enum { TYPE_REAL = 0, TYPE_INTEGER = 1, TYPE_BOOLEAN = 2 };
 
 #define DIM(n) ((n) > 0 ? (n) : 1)
 #define MAX_SUBSTEPS 10000000.0
-#define STATE_MAGIC 0x5a7f3d01u
+#define STATE_MAGIC 0x5a7f3d02u
+#define TIME_TOL 1e-9 /* relative (times max(1, |t|)): two times closer than this are one instant */
 
 typedef enum {
     ST_INSTANTIATED = 1 << 0,
@@ -66,9 +76,14 @@ typedef struct {
     double time;
     double x[DIM(NX)];
     double u[DIM(NU)];
-    double p[DIM(NP)];
+    double p[DIM(NP + NH)]; /* parameters, then the held values */
     double y[DIM(NY)];
     int outputs_valid;
+    double start_time;
+    double next_instant; /* the first sample instant after the FMU time */
+    double held_prev[DIM(NH)]; /* the held values of the previous instant */
+    int at_instant;      /* the FMU time is a sample instant */
+    int sample_due;      /* the held values of that instant are stale */
 } Data;
 
 typedef struct {
@@ -117,6 +132,8 @@ static void set_defaults(Data *d) {
     memset(d, 0, sizeof *d);
     d->magic = STATE_MAGIC;
     d->state = ST_INSTANTIATED;
+    d->at_instant = 1;
+    d->sample_due = NH > 0;
     for (i = 0; i < NV; i++) {
         const VariableInfo *v = &VARIABLES[i];
         if (v->kind == KIND_PARAMETER) d->p[v->index] = v->start;
@@ -129,16 +146,57 @@ static void initial_state(Data *d) {
     for (i = 0; i < NX; i++) d->x[i] = d->p[STATE_INITIAL[i]];
 }
 
-static void update_outputs(Data *d) {
-    if (d->outputs_valid) return;
-    if (d->state & (ST_INSTANTIATED | ST_INITIALIZATION)) initial_state(d);
-    if (NY > 0) model_outputs(d->time, d->x, d->u, d->p, d->y);
-    d->outputs_valid = 1;
-}
-
 static int all_finite(const double *v, int n) {
     int i;
     for (i = 0; i < n; i++) if (!isfinite(v[i])) return 0;
+    return 1;
+}
+
+/* ------------------------------------------------------------------ sampling */
+static double instant_after(const Data *d, double t) {
+    const double period = d->p[P_PERIOD > 0 ? P_PERIOD : 0];
+    const double phase = P_PHASE >= 0 ? d->p[P_PHASE > 0 ? P_PHASE : 0] : -d->start_time;
+    double k = floor((t + phase) / period) + 1.0;
+    if (k * period - phase <= t + TIME_TOL * fmax(1.0, fabs(t))) k += 1.0;
+    return k * period - phase;
+}
+
+/* Held values of the current instant; 0 (and the error state) when one is not finite. */
+static int sample(Instance *inst) {
+    double held[DIM(NH)], pp[DIM(NP + NH)];
+    int i;
+    Data *d = &inst->d;
+    if (NH == 0) return 1;
+    for (i = 0; i < NP; i++) pp[i] = d->p[i];
+    for (i = 0; i < NH; i++) pp[NP + i] = d->held_prev[i];
+    model_sample_arguments(d->time, d->x, d->u, pp, held);
+    for (i = 0; i < NH; i++) {
+        if (!isfinite(held[i])) {
+            d->state = ST_ERROR;
+            log_msg(inst, fmi2Error, "logStatusError", "sample at t = %g s: held value %d is %g", d->time, i,
+                    held[i]);
+            return 0;
+        }
+    }
+    for (i = 0; i < NH; i++) d->p[NP + i] = held[i];
+    d->sample_due = 0;
+    d->outputs_valid = 0;
+    return 1;
+}
+
+/* The FMU time reached a new instant: what is held now becomes the previous instant's values. */
+static void new_instant(Data *d) {
+    int i;
+    for (i = 0; i < NH; i++) d->held_prev[i] = d->p[NP + i];
+}
+
+static int update_outputs(Instance *inst) {
+    Data *d = &inst->d;
+    if (d->outputs_valid) return 1;
+    if (d->state & (ST_INSTANTIATED | ST_INITIALIZATION)) initial_state(d);
+    if (d->sample_due && !sample(inst)) return 0;
+    if (NY > 0) model_outputs(d->time, d->x, d->u, d->p, d->y);
+    d->outputs_valid = 1;
     return 1;
 }
 
@@ -188,7 +246,7 @@ static fmi2Status get_values(fmi2Component c, const fmi2ValueReference vr[], siz
     if (nvr > 0 && (!vr || (!r && !n && !b))) return ERROR(inst, "%s: NULL array argument", fn);
     for (i = 0; i < nvr; i++)
         if (!lookup(inst, vr[i], type, fn)) return fmi2Error;
-    update_outputs(&inst->d);
+    if (!update_outputs(inst)) return fmi2Error;
     for (i = 0; i < nvr; i++) {
         double v = *slot(&inst->d, &VARIABLES[vr[i]]);
         if (r) r[i] = v;
@@ -228,6 +286,7 @@ static fmi2Status set_values(fmi2Component c, const fmi2ValueReference vr[], siz
     for (i = 0; i < nvr; i++)
         *slot(&inst->d, &VARIABLES[vr[i]]) = r ? r[i] : (n ? (double)n[i] : (b[i] ? 1.0 : 0.0));
     inst->d.outputs_valid = 0;
+    inst->d.sample_due = NH > 0 && inst->d.at_instant;
     return fmi2OK;
 }
 
@@ -302,6 +361,7 @@ fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean toleranceDefined, fm
     if (stopTimeDefined && !(stopTime >= startTime))
         return ERROR(inst, "fmi2SetupExperiment: stopTime %g before startTime %g", stopTime, startTime);
     inst->d.time = startTime;
+    inst->d.start_time = startTime;
     return fmi2OK;
 }
 
@@ -317,6 +377,9 @@ fmi2Status fmi2ExitInitializationMode(fmi2Component c) {
     initial_state(&inst->d);
     inst->d.state = ST_STEP_COMPLETE;
     inst->d.outputs_valid = 0;
+    inst->d.at_instant = 1;
+    inst->d.sample_due = NH > 0;
+    if (NH > 0) inst->d.next_instant = instant_after(&inst->d, inst->d.time);
     return fmi2OK;
 }
 
@@ -378,6 +441,11 @@ static fmi2Status check_data(Instance *inst, const Data *d, const char *fn) {
         return ERROR(inst, "%s: corrupted state (invalid model state %d)", fn, d->state);
     if (!isfinite(d->time) || (d->outputs_valid != 0 && d->outputs_valid != 1))
         return ERROR(inst, "%s: corrupted state (time %g, flag %d)", fn, d->time, d->outputs_valid);
+    if (!isfinite(d->start_time) || !isfinite(d->next_instant) || (d->at_instant != 0 && d->at_instant != 1) ||
+        (d->sample_due != 0 && d->sample_due != 1))
+        return ERROR(inst, "%s: corrupted state (sampling record)", fn);
+    if (!all_finite(d->held_prev, NH) || !all_finite(d->p + NP, NH))
+        return ERROR(inst, "%s: corrupted state (held values)", fn);
     for (i = 0; i < NV; i++) {
         const VariableInfo *v = &VARIABLES[i];
         double value;
@@ -470,10 +538,63 @@ fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReferenc
     return ERROR(inst, "fmi2GetRealOutputDerivatives: not provided (maxOutputDerivativeOrder=0)");
 }
 
+/* Integrate h seconds from the FMU time in RK4 substeps; the instance time ends at t_end. */
+static fmi2Status integrate(Instance *inst, double h, double t_end) {
+    const double t0 = inst->d.time;
+    double n_sub, hs;
+    long k, n;
+    if (NX == 0) {
+        inst->d.time = t_end;
+        return fmi2OK;
+    }
+    n_sub = P_N_SUBSTEPS >= 0 ? inst->d.p[P_N_SUBSTEPS] : 1.0;
+    if (P_H_MAX >= 0) n_sub = fmax(n_sub, ceil(h / inst->d.p[P_H_MAX]));
+    if (n_sub > MAX_SUBSTEPS)
+        return ERROR(inst, "fmi2DoStep: step %g s would need %g RK4 substeps (limit %g); raise h_max", h, n_sub,
+                     MAX_SUBSTEPS);
+    n = (long)n_sub;
+    hs = h / (double)n;
+    for (k = 0; k < n; k++) {
+        rk4(&inst->d, hs);
+        inst->d.time = (k + 1 == n) ? t_end : inst->d.time + hs;
+    }
+    if (!all_finite(inst->d.x, NX)) {
+        inst->d.state = ST_ERROR;
+        return ERROR(inst, "fmi2DoStep: the state became non-finite in the step from t = %g s with h = %g s "
+                           "(%ld substeps); reduce the step or h_max, or restore an FMU state", t0, h, n);
+    }
+    return fmi2OK;
+}
+
+/* Integrate to t_end in segments between sample instants, sampling at each. */
+static fmi2Status step_sampled(Instance *inst, double t_end) {
+    const double tol = TIME_TOL * fmax(1.0, fabs(t_end));
+    double t_next;
+    if (inst->d.sample_due && !sample(inst)) return fmi2Error;
+    for (;;) {
+        t_next = inst->d.next_instant;
+        if (t_next < t_end - tol) {
+            if (integrate(inst, t_next - inst->d.time, t_next) != fmi2OK) return fmi2Error;
+            inst->d.next_instant = instant_after(&inst->d, t_next);
+            new_instant(&inst->d);
+            if (!sample(inst)) return fmi2Error;
+            continue;
+        }
+        if (integrate(inst, t_end - inst->d.time, t_end) != fmi2OK) return fmi2Error;
+        inst->d.at_instant = fabs(t_next - t_end) <= tol;
+        if (inst->d.at_instant) {
+            inst->d.next_instant = instant_after(&inst->d, t_next);
+            new_instant(&inst->d);
+        }
+        inst->d.sample_due = inst->d.at_instant;
+        return fmi2OK;
+    }
+}
+
 fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint, fmi2Real communicationStepSize,
                       fmi2Boolean noSetFMUStatePriorToCurrentPoint) {
-    double h = communicationStepSize, n_sub, hs, t_end;
-    long k, n;
+    double h = communicationStepSize;
+    fmi2Status status;
     CHECK(c, "fmi2DoStep", ST_STEP_COMPLETE);
     (void)noSetFMUStatePriorToCurrentPoint;
     if (!isfinite(h) || !(h > 0.0))
@@ -482,30 +603,10 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint, fmi2R
         fabs(currentCommunicationPoint - inst->d.time) > 1e-9 * fmax(1.0, fabs(inst->d.time)))
         return ERROR(inst, "fmi2DoStep: currentCommunicationPoint %.17g differs from the FMU time %.17g",
                      currentCommunicationPoint, inst->d.time);
-    t_end = currentCommunicationPoint + h;
-    if (NX > 0) {
-        n_sub = P_N_SUBSTEPS >= 0 ? inst->d.p[P_N_SUBSTEPS] : 1.0;
-        if (P_H_MAX >= 0) n_sub = fmax(n_sub, ceil(h / inst->d.p[P_H_MAX]));
-        if (n_sub > MAX_SUBSTEPS)
-            return ERROR(inst, "fmi2DoStep: step %g s would need %g RK4 substeps (limit %g); raise h_max", h,
-                         n_sub, MAX_SUBSTEPS);
-        n = (long)n_sub;
-        hs = h / (double)n;
-        for (k = 0; k < n; k++) {
-            rk4(&inst->d, hs);
-            inst->d.time = (k + 1 == n) ? t_end : inst->d.time + hs;
-        }
-        if (!all_finite(inst->d.x, NX)) {
-            inst->d.state = ST_ERROR;
-            return ERROR(inst, "fmi2DoStep: the state became non-finite in the step from t = %g s with h = %g s "
-                               "(%ld substeps); reduce the step or h_max, or restore an FMU state",
-                         currentCommunicationPoint, h, n);
-        }
-    } else {
-        inst->d.time = t_end;
-    }
+    status = NH > 0 ? step_sampled(inst, currentCommunicationPoint + h)
+                    : integrate(inst, h, currentCommunicationPoint + h);
     inst->d.outputs_valid = 0;
-    return fmi2OK;
+    return status;
 }
 
 fmi2Status fmi2CancelStep(fmi2Component c) {

@@ -1,0 +1,154 @@
+"""Seed 003's detumbling campaigns: the linear sampled model (Fig. 2) and the nonlinear plant sweep.
+
+- :func:`linear_campaign`: the seed's own setting. The discrete periodic rate model with
+  the multiplicative noises (:func:`synthesis.cubesat_periodic.system`), two orbits from
+  w(0), seeded Monte Carlo realizations of each gain set, the exact mean square beside the
+  Monte Carlo one, and the ESMS spectral radius that predicts its decay per orbit.
+- :func:`sweep`: the controller FMUs on the nonlinear plant FMU through the master (the
+  shipped scenario ``cubesat_detumble`` with its initial rate rescaled), for initial rates
+  from small to tumbling: the final |w| / |w(0)| after two orbits and the dipole effort
+  ``integral |m|^2 dt`` of each controller, and the largest initial rate each one detumbles
+  (|w| reduced 10x within two orbits).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Callable, Sequence
+
+import numpy as np
+
+from sims import scenario as scenarios
+
+SCENARIO = "cubesat_detumble"
+CONTROLLERS = {"periodic LMI (satfmu)": ("lmi_plant", "lmi"), "periodic LMI (published)": ("pub_plant", "pub"),
+               "B-dot": ("bdot_plant", "bdot")}
+"""Controller label -> (plant instance, controller instance) in the scenario."""
+W0_DIRECTION = np.array([0.05, -0.04, 0.03])
+"""The issue's substitute initial rate, rad/s (its direction is kept in the sweep)."""
+REDUCTION = 0.1
+"""Detumbled: |w| at the end of two orbits at most this fraction of |w(0)|."""
+
+
+@dataclass
+class LinearRun:
+    """Monte Carlo of one gain set on the linear sampled model."""
+
+    label: str
+    spectral_radius: float
+    k: np.ndarray
+    ms_exact: np.ndarray
+    ms_mc: np.ndarray
+    ms_se: np.ndarray
+    rate_samples: np.ndarray
+    dipole_samples: np.ndarray
+
+    def rms(self) -> np.ndarray:
+        """sqrt(E|w(k)|^2), exact, rad/s."""
+        return np.sqrt(self.ms_exact)
+
+
+def linear_campaign(gains: dict[str, np.ndarray], n_runs: int = 2000, seed: int = 0,
+                    w0: np.ndarray = W0_DIRECTION, orbits: int = 2) -> list[LinearRun]:
+    """Seeded Monte Carlo of the linear sampled model for each gain set (``label -> F``).
+
+    Raises
+    ------
+    ValueError
+        If n_runs < 2 or orbits < 1.
+    """
+    from synthesis import cubesat_periodic, periodic_hinf as ph
+
+    if n_runs < 2 or orbits < 1:
+        raise ValueError("need n_runs >= 2 and orbits >= 1")
+    sys_ = cubesat_periodic.system()
+    n = orbits * sys_.dims[0]
+    out = []
+    for i, (label, F) in enumerate(gains.items()):
+        x, u = ph.monte_carlo(sys_, F, w0, n, n_runs, seed + i)
+        sq = (x**2).sum(axis=2)
+        exact = np.trace(ph.second_moment(sys_, F, np.outer(w0, w0), n), axis1=1, axis2=2)
+        out.append(LinearRun(label, ph.ms_spectral_radius(sys_, F), np.arange(n + 1), exact, sq.mean(axis=0),
+                             sq.std(axis=0) / math.sqrt(n_runs), np.linalg.norm(x, axis=2),
+                             np.linalg.norm(u, axis=2)))
+    return out
+
+
+@dataclass
+class SweepRow:
+    """One controller from one initial rate, two orbits on the nonlinear plant."""
+
+    controller: str
+    w0: float
+    final_ratio: float
+    min_ratio: float
+    effort: float
+    detumbled: bool
+
+
+def sweep(fmu_dir: Path, rates: Sequence[float], backend: str = "native",
+          progress: Callable[[int, int, str], None] | None = None) -> list[SweepRow]:
+    """Run the scenario from each initial rate |w(0)| (rad/s, along :data:`W0_DIRECTION`).
+
+    The effort is ``integral of |m|^2 dt`` of the dipole held over each step (A^2 m^4 s).
+
+    Raises
+    ------
+    ValueError
+        If a rate is not finite and > 0.
+    """
+    if not rates or any(not (math.isfinite(r) and r > 0) for r in rates):
+        raise ValueError("rates must be finite and > 0 rad/s")
+    base = scenarios.load(SCENARIO)
+    direction = W0_DIRECTION / np.linalg.norm(W0_DIRECTION)
+    rows = []
+    for j, rate in enumerate(rates):
+        data = {**base.data, "fmus": {k: dict(v) for k, v in base.data["fmus"].items()}}
+        for plant, _ in CONTROLLERS.values():
+            params = dict(data["fmus"][plant].get("parameters", {}))
+            params.update({f"omega_0[{i + 1}]": float(rate * d) for i, d in enumerate(direction)})
+            data["fmus"][plant]["parameters"] = params
+        res, _ = scenarios.simulate(replace(base, data=data), fmu_dir, backend)
+        dt = np.diff(res["time"])
+        for label, (plant, ctrl) in CONTROLLERS.items():
+            w = res[f"{plant}.rate_norm"]
+            m2 = sum(res[f"{ctrl}.m[{i}]"] ** 2 for i in (1, 2, 3))  # held over each step
+            ratio = w / w[0]
+            rows.append(SweepRow(label, float(rate), float(ratio[-1]), float(ratio.min()),
+                                 float(np.sum(m2[:-1] * dt)), bool(ratio[-1] <= REDUCTION)))
+        if progress:
+            progress(j + 1, len(rates), f"|w(0)| = {rate:.3g} rad/s")
+    return rows
+
+
+def detumbled_band(rows: Sequence[SweepRow]) -> dict[str, tuple[float, float]]:
+    """Per controller: the contiguous band ``(low, high)`` of swept initial rates detumbled 10x that
+    ends at the largest rate detumbled; (NaN, NaN) when none is. Below the band B-dot cannot
+    reach 10x: its own equilibrium spins the body with the field, about twice the orbit rate."""
+    out = {}
+    for label in dict.fromkeys(r.controller for r in rows):
+        mine = sorted((r for r in rows if r.controller == label), key=lambda r: r.w0)
+        ok = [i for i, r in enumerate(mine) if r.detumbled]
+        if not ok:
+            out[label] = (math.nan, math.nan)
+            continue
+        hi = lo = ok[-1]
+        while lo > 0 and mine[lo - 1].detumbled:
+            lo -= 1
+        out[label] = (mine[lo].w0, mine[hi].w0)
+    return out
+
+
+def sweep_table(rows: Sequence[SweepRow]) -> str:
+    """Markdown table: one row per initial rate, ratio and effort per controller."""
+    labels = list(dict.fromkeys(r.controller for r in rows))
+    head = "| |w(0)| rad/s | " + " | ".join(f"{c}: |w(2T)|/|w(0)| | {c}: effort A^2 m^4 s" for c in labels) + " |"
+    lines = [head, "|" + "---|" * (1 + 2 * len(labels))]
+    for rate in sorted({r.w0 for r in rows}):
+        cells = []
+        for c in labels:
+            r = next(x for x in rows if x.w0 == rate and x.controller == c)
+            cells += [f"{r.final_ratio:.3g}{' (10x)' if r.detumbled else ''}", f"{r.effort:.3g}"]
+        lines.append(f"| {rate:.3g} | " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"

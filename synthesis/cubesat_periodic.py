@@ -1,0 +1,186 @@
+"""Seed 003's instance of Theorem 2: the cubesat's rate subsystem, sampled every 15 min.
+
+The design model comes from the plant's own definition (:data:`fmus.cubesat.MODEL`):
+``B(t) = d omega' / d m`` at ``q = [0 0 0 1]``, ``omega = 0``, the Fourier field, saturation
+off (seed eq. 7: rows ``[0, 200 bz, -200 by]``, ...). With a dipole held over each sample
+``[k Ts, (k+1) Ts]`` and A = 0 (the gyroscopic term is quadratic), the exact discretization is
+
+    omega(k+1) = omega(k) + (integral of B over the hold) m(k).
+
+Noises (MODELS.md, "Checked numerically"): the coefficients ``1/I_l`` (200, 200, 500) are
+perturbed by ``sigma_l xi_l`` (seed: 6.67, 6.67, 11.67): ``B2_l = sigma_l`` times the
+integral of the unit-coefficient pattern ``e_l e_l^T I B(t)``; the disturbance enters
+through ``B1_l = 1e-2 B2_l`` for every l = 0..3. Quality output ``z = [W1 omega; W2 m]``.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import sympy as sp
+
+from controllers.artifact import FORMAT, FORMAT_VERSION, PERIODIC_KIND
+from fmus import cubesat
+from synthesis.periodic_hinf import (LMICheck, PeriodicDesign, PeriodicSystem, analyze, bisect_gamma, design,
+                                     gamma_min, ms_spectral_radius)
+
+TS_SEED = 900.0
+"""The seed's sample period, s (15 min)."""
+N_SEED = 6
+SIGMA_SEED = (6.67, 6.67, 11.67)
+"""Standard deviations of the noises on 1/I_x, 1/I_y, 1/I_z, 1/(kg m^2) (as printed; the seed's
+own +-10 %, 3-sigma rule gives 16.67 for the third)."""
+W1_SEED, W2_SEED, GAMMA_SEED = 100.0, 1.0, 0.5
+DISTURBANCE_SCALE = 1e-2
+"""The disturbance enters through 1e-2 times the control matrices (seed)."""
+
+PUBLISHED_GAINS = np.array([
+    [[-.0001, .00301, -.0011], [-.0225, .0001, .0776], [.0006, -.0415, 0]],
+    [[0, .0467, -.0021], [-.0467, 0, .0017], [.0008, -.0007, 0]],
+    [[-.0009, .0438, -.0031], [-.0345, .0009, .0308], [.0016, -.0157, 0]],
+    [[-.0059, -.0403, .0117], [.0213, .0059, .0410], [-.0100, -.0352, 0]],
+    [[-.0022, -.0505, .0299], [.0484, .0022, -.0188], [-.0108, .068, 0]],
+    [[-.0080, -.0435, .0159], [.0302, .0079, .0336], [-.0113, -.0240, 0]],
+])
+"""The seed's gains F(k) (rate columns; rows m_x, m_y, m_z), A m^2 per rad/s, at t = 0, 15, ..., 75
+min (its quaternion columns are zero)."""
+
+
+def input_matrix(parameters: dict[str, float] | None = None):
+    """Numpy function ``B(t)`` (3 x 3, rad/s^2 per A m^2) of the plant linearized at rest, orbit
+    time t (s); ``parameters`` override the plant's defaults (field model 0 is used)."""
+    model = cubesat.MODEL
+    values = {v.symbol: float(v.start) for v in model.parameters}
+    values.update({sp.Symbol(k, real=True): float(v) for k, v in (parameters or {}).items()})
+    values[sp.Symbol("field_model", real=True)] = 0.0
+    values[sp.Symbol("saturation_on", real=True)] = 0.0
+    values[sp.Symbol("orbit_time_0", real=True)] = 0.0
+    rest = {s.symbol: 0.0 for s in model.states[:3]}
+    rest.update({s.symbol: v for s, v in zip(model.states[3:7], (0.0, 0.0, 0.0, 1.0))})
+    rest[model.states[7].symbol] = 0.0
+    rates = sp.Matrix(model.rhs[:3]).xreplace(values)
+    jac = rates.jacobian(sp.Matrix(model.input_symbols[:3])).xreplace(rest)
+    jac = jac.xreplace({s: 0.0 for s in model.input_symbols})
+    return sp.lambdify(model.t, jac, modules="numpy")
+
+
+def held_integrals(Ts: float = TS_SEED, N: int = N_SEED, parameters: dict[str, float] | None = None,
+                   n_nodes: int = 24) -> np.ndarray:
+    """``integral of B(t) dt`` over each hold ``[k Ts, (k+1) Ts]``, shape (N, 3, 3), by Gauss-Legendre.
+
+    The integrand is a trigonometric polynomial of period >= T_orbit / 2; 24 nodes per hold
+    of up to a sixth of the orbit are exact to rounding.
+    """
+    B = input_matrix(parameters)
+    nodes, weights = np.polynomial.legendre.leggauss(n_nodes)
+    out = np.zeros((N, 3, 3))
+    for k in range(N):
+        t = k * Ts + (nodes + 1) * Ts / 2
+        out[k] = sum(w * np.asarray(B(ti), float) for w, ti in zip(weights, t)) * Ts / 2
+    return out
+
+
+def system(Ts: float = TS_SEED, N: int = N_SEED, sigma: tuple[float, float, float] = SIGMA_SEED,
+           W1: float = W1_SEED, W2: float = W2_SEED, parameters: dict[str, float] | None = None,
+           time_unit: float = 1.0) -> PeriodicSystem:
+    """The seed's periodic system (rate subsystem), r = 3 noises.
+
+    ``time_unit`` (s) divides the hold integrals: 60 integrates B(t) with t in minutes (the
+    seed's field is printed with t in minutes; MODELS.md suspects its design did so).
+
+    Raises
+    ------
+    ValueError
+        If Ts, N, W1, W2 are not positive or a sigma is negative.
+    """
+    if not (Ts > 0 and N >= 1 and W1 > 0 and W2 > 0 and time_unit > 0) or len(sigma) != 3 \
+            or any(not s >= 0 for s in sigma):
+        raise ValueError("need Ts, W1, W2, time_unit > 0, N >= 1 and three sigma >= 0")
+    inertia = np.array([float(v.start) for v in cubesat.MODEL.parameters[:3]])
+    if parameters:
+        inertia = np.array([parameters.get(f"I_{a}", i) for a, i in zip("xyz", inertia)])
+    Bd = held_integrals(Ts, N, parameters) / time_unit
+    B2 = np.zeros((N, 4, 3, 3))
+    B2[:, 0] = Bd
+    for l in range(3):  # unit-coefficient pattern of row l, times its noise's standard deviation
+        B2[:, l + 1, l] = sigma[l] * inertia[l] * Bd[:, l]
+    A = np.zeros((N, 4, 3, 3))
+    A[:, 0] = np.eye(3)
+    C = np.tile(np.vstack([W1 * np.eye(3), np.zeros((3, 3))]), (N, 1, 1))
+    D = np.tile(np.vstack([np.zeros((3, 3)), W2 * np.eye(3)]), (N, 1, 1))
+    return PeriodicSystem(A, DISTURBANCE_SCALE * B2, B2, C, D)
+
+
+GAMMA_MARGIN = 0.02
+"""Default design level: gamma_min (1 + GAMMA_MARGIN), away from the boundary of feasibility."""
+
+INPUTS = [{"name": f"omega[{i}]", "unit": "rad/s"} for i in (1, 2, 3)]
+OUTPUTS = [{"name": f"m[{i}]", "unit": "A.m2", "description": f"Commanded dipole along body axis {i}"}
+           for i in (1, 2, 3)]
+REGION = ("the linear sampled rate model of seed 003 (eq. 7, q = identity, |omega| small, dipole held "
+          "15 min, Fourier field), with the multiplicative noises of the inverse inertias; not the "
+          "nonlinear plant")
+
+
+@dataclass
+class Synthesis:
+    """Seed 003's design and the analysis of the published gains, all numbers re-verified."""
+
+    system: PeriodicSystem
+    gamma_min: float
+    bracket: tuple[float, float, int]
+    design: PeriodicDesign
+    published: PeriodicDesign | None
+    numbers: dict[str, float]
+
+    def artifact_data(self, name: str, F: np.ndarray, gamma: float, check: LMICheck, source: str) -> dict:
+        """Artifact (kind periodic_gain_schedule) of the gains ``F`` proved at ``gamma``."""
+        rho = ms_spectral_radius(self.system, F)
+        proved = (f"Theorem 2 (seed 003) LMIs hold at gamma = {gamma:.6g} with these gains: every block's "
+                  f"largest eigenvalue <= {check.block_max_eig.max():.3e}, Y(k) >= {check.y_min_eig.min():.3e} "
+                  f"(numpy, scaled coordinates, no solver); mean-square stable: second-moment monodromy "
+                  f"spectral radius {rho:.4g} < 1")
+        return {"format": FORMAT, "format_version": FORMAT_VERSION, "kind": PERIODIC_KIND, "name": name,
+                "description": f"Periodic magnetorquer gains, seed 003 Theorem 2 ({source}), dipole held "
+                               f"{TS_SEED / 60:g} min, N = {N_SEED}",
+                "plant": cubesat.MODEL.name, "inputs": INPUTS, "outputs": OUTPUTS,
+                "sample_period": TS_SEED, "schedule_period": TS_SEED * N_SEED, "gains": np.asarray(F).tolist(),
+                "certificate": {"status": "certified", "proved": proved, "region": REGION,
+                                "numbers": {"gamma": gamma, "ms_spectral_radius": rho,
+                                            "max_block_eig": float(check.block_max_eig.max()),
+                                            "min_y_eig": float(check.y_min_eig.min())}},
+                "provenance": {"source": source, "sigma": list(SIGMA_SEED), "W1": W1_SEED, "W2": W2_SEED,
+                               "disturbance_scale": DISTURBANCE_SCALE}}
+
+
+def synthesize(gamma: float | None = None, bisect: bool = True) -> Synthesis:
+    """gamma_min (direct and, with ``bisect``, by bisection), the design at ``gamma`` (default
+    gamma_min (1 + GAMMA_MARGIN)) and the analysis of the published gains.
+
+    Raises
+    ------
+    RuntimeError
+        If no level is found, or the design at ``gamma`` is infeasible (the message gives
+        gamma_min).
+    """
+    sys_ = system()
+    best = gamma_min(sys_)
+    if best is None:
+        raise RuntimeError("Theorem 2 has no verified solution at any gamma for the seed's system")
+    bracket = bisect_gamma(sys_, best.gamma / 2, best.gamma * 1.05) if bisect else (np.nan, np.nan, 0)
+    level = best.gamma * (1 + GAMMA_MARGIN) if gamma is None else gamma
+    found = design(sys_, level)
+    if found is None:
+        raise RuntimeError(f"Theorem 2 is infeasible at gamma = {level:g} (gamma_min = {best.gamma:.4g})")
+    pub = analyze(sys_, PUBLISHED_GAINS)
+    minutes = gamma_min(system(time_unit=60.0))
+    numbers = {
+        "gamma_min": best.gamma, "gamma_design": level, "seed_gamma_feasible": float(design(sys_, GAMMA_SEED) is not None),
+        "gamma_min_t_in_minutes": minutes.gamma if minutes else np.nan,
+        "max_block_eig": float(found.check.block_max_eig.max()), "min_y_eig": float(found.check.y_min_eig.min()),
+        "ms_spectral_radius": ms_spectral_radius(sys_, found.F), "max_abs_gain": float(np.abs(found.F).max()),
+        "ms_spectral_radius_negated": ms_spectral_radius(sys_, -found.F),
+        "published_ms_spectral_radius": ms_spectral_radius(sys_, PUBLISHED_GAINS),
+        "published_gamma": pub.gamma if pub else np.nan,
+        "published_max_abs_gain": float(np.abs(PUBLISHED_GAINS).max()), "solve_seconds": found.solve_seconds}
+    return Synthesis(sys_, best.gamma, bracket, found, pub, numbers)
