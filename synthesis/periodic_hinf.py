@@ -152,19 +152,23 @@ ABS_MARGIN = 1e-9
 for EPS = 1e-6; numpy's eigenvalue error is about 1e-16 times the largest entry)."""
 
 
-def lmi_block(sys: PeriodicSystem, Y: np.ndarray, Z: np.ndarray, gamma: float, k: int) -> np.ndarray:
-    """The k-th matrix of Theorem 2 evaluated in numpy (symmetric, size n + m1 + (r+1) n + p)."""
+def _theorem2(sys: PeriodicSystem, k: int, Yk, Yn, Zk, g2, stack, kron, block):
+    """The k-th matrix of Theorem 2 (not yet symmetrized), built with the array functions given:
+    numpy's (``np.hstack, np.kron, np.block``) for a check, cvxpy's for the program."""
     N, r, n, m1, m2, p = sys.dims
-    Yk, Yn, Zk = Y[k], Y[(k + 1) % N], Z[k]
-    M = np.hstack([Yk @ sys.A[k, l].T + Zk @ sys.B2[k, l].T for l in range(r + 1)])
+    M = stack([Yk @ sys.A[k, l].T + Zk @ sys.B2[k, l].T for l in range(r + 1)])
     Nk = Yk @ sys.C[k].T + Zk @ sys.D[k].T
     Bcal = np.hstack([sys.B1[k, l].T for l in range(r + 1)])
-    Ycal = np.kron(np.eye(r + 1), Yn)
     z = np.zeros
-    L = np.block([[-Yk, z((n, m1)), M, Nk],
-                  [z((m1, n)), -gamma**2 * np.eye(m1), Bcal, z((m1, p))],
-                  [M.T, Bcal.T, -Ycal, z(((r + 1) * n, p))],
+    return block([[-Yk, z((n, m1)), M, Nk],
+                  [z((m1, n)), -g2 * np.eye(m1), Bcal, z((m1, p))],
+                  [M.T, Bcal.T, -kron(np.eye(r + 1), Yn), z(((r + 1) * n, p))],
                   [Nk.T, z((p, m1)), z((p, (r + 1) * n)), -np.eye(p)]])
+
+
+def lmi_block(sys: PeriodicSystem, Y: np.ndarray, Z: np.ndarray, gamma: float, k: int) -> np.ndarray:
+    """The k-th matrix of Theorem 2 evaluated in numpy (symmetric, size n + m1 + (r+1) n + p)."""
+    L = _theorem2(sys, k, Y[k], Y[(k + 1) % sys.dims[0]], Z[k], gamma**2, np.hstack, np.kron, np.block)
     return (L + L.T) / 2
 
 
@@ -195,18 +199,8 @@ def _problem(sys: PeriodicSystem, gamma: float | None, eps: float, F: np.ndarray
     g = cp.Variable(nonneg=True) if gamma is None else cp.Constant(gamma**2)
     cons = []
     for k in range(N):
-        Yk, Yn, Zk = Y[k], Y[(k + 1) % N], Z[k]
-        M = cp.hstack([Yk @ sys.A[k, l].T + Zk @ sys.B2[k, l].T for l in range(r + 1)])
-        Nk = Yk @ sys.C[k].T + Zk @ sys.D[k].T
-        Bcal = np.hstack([sys.B1[k, l].T for l in range(r + 1)])
-        Ycal = cp.kron(np.eye(r + 1), Yn)
-        z = np.zeros
-        L = cp.bmat([[-Yk, z((n, m1)), M, Nk],
-                     [z((m1, n)), -g * np.eye(m1), Bcal, z((m1, p))],
-                     [M.T, Bcal.T, -Ycal, z(((r + 1) * n, p))],
-                     [Nk.T, z((p, m1)), z((p, (r + 1) * n)), -np.eye(p)]])
-        size = n + m1 + (r + 1) * n + p
-        cons += [(L + L.T) / 2 << -eps * np.eye(size), Yk >> eps * np.eye(n)]
+        L = _theorem2(sys, k, Y[k], Y[(k + 1) % N], Z[k], g, cp.hstack, cp.kron, cp.bmat)
+        cons += [(L + L.T) / 2 << -eps * np.eye(L.shape[0]), Y[k] >> eps * np.eye(n)]
     objective = cp.Minimize(g) if gamma is None else cp.Minimize(0)
     return cp.Problem(objective, cons), Y, Z, g
 
