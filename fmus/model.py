@@ -32,6 +32,9 @@ UNITS: dict[str, dict[str, int]] = {
     "N.m": {"kg": 1, "m": 2, "s": -2},
     "kg.m2": {"kg": 1, "m": 2},
     "N.m.s": {"kg": 1, "m": 2, "s": -1},
+    "N.m/s": {"kg": 1, "m": 2, "s": -3},
+    "N.m/rad": {"kg": 1, "m": 2, "s": -2, "rad": -1},
+    "N.m/(rad.s)": {"kg": 1, "m": 2, "s": -3, "rad": -1},
     "N.m.s/rad": {"kg": 1, "m": 2, "s": -1, "rad": -1},
     "J": {"kg": 1, "m": 2, "s": -2},
     "rad.s": {"rad": 1, "s": 1},
@@ -42,7 +45,7 @@ UNITS: dict[str, dict[str, int]] = {
     "T.m3": {"kg": 1, "m": 3, "s": -2, "A": -1},
 }
 
-_NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*(\[[0-9]+\])?$")
+_NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*(\[[0-9]+(,[0-9]+)*\])?$")
 
 
 class ModelDefinitionError(ValueError):
@@ -240,6 +243,18 @@ class Model:
         Default of the ``h_max`` parameter (largest RK4 substep), s.
     sampler : Sampler, optional
         Values computed by a Python function at sample instants and held in between.
+    integrator : {"rk4", "exact"}
+        ``"rk4"``: classical RK4 substeps (parameters ``n_substeps``, ``h_max``).
+        ``"exact"``: the right-hand side is affine in the state once the substep-start
+        state (:meth:`previous`) is frozen, ``x' = A x + b`` with ``A`` and ``b`` constant
+        over the substep (no ``t``), and every step is the exact flow
+        ``x(h) = e^{A h} x + (integral_0^h e^{A s} ds) b`` (a linear plant with inputs held
+        over a communication step is then exact for any step size).
+    switch_time : sympy.Expr, optional
+        With ``integrator="exact"``: the time, s, from the substep start (state ``x``,
+        inputs held) at which the frozen piecewise law stops being valid (a momentum
+        integrator reaching its bound, say), ``oo`` when never; the step is cut there and
+        continues with the law of the new substep start, so the switch is exact too.
     """
 
     name: str
@@ -256,12 +271,14 @@ class Model:
     default_step_size: float = 0.05
     default_h_max: float = 0.0125
     sampler: Sampler | None = None
+    integrator: Literal["rk4", "exact"] = "rk4"
+    switch_time: sp.Expr | None = None
 
     t = sp.Symbol("t", real=True)
 
     def __post_init__(self) -> None:
         self.parameters = list(self.parameters) + [s.initial for s in self.states]
-        if self.states:
+        if self.states and self.integrator == "rk4":
             n_sub, h_max = INTEGRATOR_PARAMETERS
             self.parameters += [n_sub, replace(h_max, start=self.default_h_max)]
         self.rhs = sp.Matrix(self.rhs)
@@ -316,11 +333,41 @@ class Model:
                 raise ModelDefinitionError(f"{self.name}: definition {sym} redefines a symbol")
             allowed.add(sym)
         post = list(self.post_step) if self.post_step is not None else []
-        for e in list(self.rhs) + [o.expression for o in self.outputs] + post:
+        switch = [self.switch_time] if self.switch_time is not None else []
+        for e in list(self.rhs) + [o.expression for o in self.outputs] + post + switch:
             extra = sp.sympify(e).free_symbols - allowed
             if extra:
                 raise ModelDefinitionError(
                     f"{self.name}: expression uses undeclared symbols {sorted(map(str, extra))}")
+        self._validate_integrator()
+
+    def _validate_integrator(self) -> None:
+        if self.integrator not in ("rk4", "exact"):
+            raise ModelDefinitionError(f"{self.name}: unknown integrator {self.integrator!r}")
+        if self.integrator == "rk4":
+            if self.switch_time is not None:
+                raise ModelDefinitionError(f"{self.name}: switch_time needs integrator='exact'")
+            return
+        x = set(self.state_symbols)
+        for sym, e in self.definitions:
+            if self.free_symbols(sym) & (x | {self.t}):
+                raise ModelDefinitionError(f"{self.name}: with integrator='exact' the definitions may not "
+                                           f"depend on the state or time ({sym} does)")
+        if self.t in set().union(*(sp.sympify(e).free_symbols for e in self.rhs)):
+            raise ModelDefinitionError(f"{self.name}: with integrator='exact' the right-hand side may not "
+                                       "depend on time")
+        jac = self.jacobian
+        if any(s in x for e in jac for s in sp.sympify(e).free_symbols):
+            raise ModelDefinitionError(f"{self.name}: with integrator='exact' the right-hand side must be "
+                                       "affine in the state (the substep-start state frozen)")
+
+    @property
+    def jacobian(self) -> sp.Matrix:
+        """``d rhs / d x`` (the substep-start state and definitions held fixed), row-major."""
+        cached = self.__dict__.get("_jacobian")
+        if cached is None:
+            cached = self.__dict__["_jacobian"] = self.rhs.jacobian(self.state_symbols)
+        return cached
 
     # --------------------------------------------------------------- accessors
     @property

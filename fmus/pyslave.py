@@ -4,7 +4,8 @@ This file is copied verbatim into every pythonfmu FMU (as ``resources/satfmu_pys
 next to the generated model module (:func:`fmus.codegen.python_source`), so at run
 time it may import only the standard library and pythonfmu. It implements the same
 behaviour as the generic C wrapper ``fmus/c/fmi2_cosim.c``: RK4 with held inputs,
-``max(n_substeps, ceil(h / h_max))`` substeps, the post-step map, value checks
+``max(n_substeps, ceil(h / h_max))`` substeps (or the exact flow of an affine model,
+:class:`ExactFlow`), the post-step map, value checks
 (finite, in range, right causality), the co-simulation call order, and FMU state.
 
 A model with a sampler (:class:`fmus.model.Sampler`) also holds values computed at the
@@ -42,6 +43,81 @@ TIME_TOL = 1e-9
 def substep_count(h: float, n_substeps: float, h_max: float) -> int:
     """Number of RK4 substeps for a communication step of ``h`` seconds."""
     return int(max(n_substeps, math.ceil(h / h_max)))
+
+
+TAYLOR_TERMS = 18
+MAX_SWITCHES = 64
+
+
+def _matmul(a: list[list[float]], b: list[list[float]]) -> list[list[float]]:
+    bt = list(zip(*b))
+    return [[sum(x * y for x, y in zip(row, col)) for col in bt] for row in a]
+
+
+def affine_flow(A: list[list[float]], tau: float) -> tuple[list[list[float]], list[list[float]]]:
+    """``Phi = e^{A tau}`` and ``Gamma = integral_0^tau e^{A s} ds`` as the C wrapper computes them.
+
+    Taylor series of Gamma at ``tau / 2^s`` with ``|A|_inf tau / 2^s <= 1/2`` (18 terms), then
+    ``s`` doublings ``Gamma <- (I + Phi) Gamma``, ``Phi <- Phi^2``.
+    """
+    n = len(A)
+    eye = [[1.0 if i == j else 0.0 for j in range(n)] for i in range(n)]
+    norm = max((sum(abs(v) for v in row) for row in A), default=0.0) * tau
+    s = 0
+    while norm > 0.5 and s < 1000:
+        norm *= 0.5
+        s += 1
+    dt = math.ldexp(tau, -s)
+    T = eye
+    for k in range(TAYLOR_TERMS, 0, -1):
+        W = _matmul(A, T)
+        T = [[W[i][j] * dt / (k + 1) + eye[i][j] for j in range(n)] for i in range(n)]
+    gamma = [[dt * v for v in row] for row in T]
+    phi = _matmul(A, gamma)
+    for i in range(n):
+        phi[i][i] += 1.0
+    for _ in range(s):
+        W = _matmul(phi, gamma)
+        gamma = [[g + w for g, w in zip(rg, rw)] for rg, rw in zip(gamma, W)]
+        phi = _matmul(phi, phi)
+    return phi, gamma
+
+
+class ExactFlow:
+    """The exact integrator of an affine model (``INTEGRATOR == "exact"``), with the C wrapper's
+    cache of ``(Phi, Gamma)`` for the last ``(A, tau)``."""
+
+    def __init__(self, gen: ModuleType) -> None:
+        self.gen = gen
+        self.key: tuple | None = None
+        self.flow: tuple[list[list[float]], list[list[float]]] | None = None
+
+    def segment(self, t: float, x: list[float], u: Sequence[float], p: Sequence[float], tau: float) -> list[float]:
+        """Exact flow over ``tau`` seconds with the law frozen at ``x``, then the post-step map."""
+        n = len(x)
+        flat = self.gen.jacobian(t, x, x, u, p)
+        b = self.gen.derivatives(t, [0.0] * n, x, u, p)
+        key = (tau, tuple(flat))
+        if key != self.key:
+            self.flow = affine_flow([list(flat[i * n:(i + 1) * n]) for i in range(n)], tau)
+            self.key = key
+        phi, gamma = self.flow  # type: ignore[misc]
+        xt = [sum(f * v for f, v in zip(phi[i], x)) + sum(g * v for g, v in zip(gamma[i], b)) for i in range(n)]
+        return self.gen.post_step(t + tau, xt, x, u, p)
+
+    def step(self, t: float, x: Sequence[float], u: Sequence[float], p: Sequence[float], h: float, t_end: float
+             ) -> list[float]:
+        """Advance ``h`` seconds from ``t`` to ``t_end``, cut at the switch instants of the piecewise
+        law (an uncut step uses ``h`` itself, so a constant step size reuses the cached flow)."""
+        x = list(x)
+        t_start = t
+        for _ in range(MAX_SWITCHES):
+            ts = self.gen.switch_time(t, x, u, p)[0]
+            if not ts > TIME_TOL * max(1.0, abs(t_end)) or ts >= t_end - t:
+                break
+            x = self.segment(t, x, u, p, ts)
+            t += ts
+        return self.segment(t, x, u, p, h if t == t_start else t_end - t)
 
 
 def rk4_step(gen: ModuleType, t: float, x: Sequence[float], u: Sequence[float], p: Sequence[float],
@@ -108,6 +184,7 @@ class SatfmuSlave(Fmi2Slave):
         pnames = [v["name"] for v in self._table if v["kind"] == KIND_PARAMETER]
         self._i_nsub = pnames.index("n_substeps") if "n_substeps" in pnames else -1
         self._i_hmax = pnames.index("h_max") if "h_max" in pnames else -1
+        self._flow = ExactFlow(gen) if gen.INTEGRATOR == "exact" else None
         smp = gen.SAMPLER
         self._sampler = smp
         if smp is not None and smp["module"] is not None:
@@ -304,7 +381,13 @@ class SatfmuSlave(Fmi2Slave):
         if n > MAX_SUBSTEPS:
             self._reject(f"fmi2DoStep: step {h:g} s would need {n} RK4 substeps (limit {MAX_SUBSTEPS}); raise h_max")
         try:
-            x = rk4_step(self.generated, t, self.x, self.u, self.p, h, n)
+            if self._flow is not None:
+                x = self.x
+                for k in range(n):
+                    x = self._flow.step(t + k * h / n, x, self.u, self.p, h / n,
+                                        t + h if k + 1 == n else t + (k + 1) * h / n)
+            else:
+                x = rk4_step(self.generated, t, self.x, self.u, self.p, h, n)
         except ArithmeticError:  # float ** overflows with OverflowError where C gives inf
             x = [math.inf]
         if not all(math.isfinite(v) for v in x):

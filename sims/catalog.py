@@ -7,8 +7,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from controllers import artifact as artifacts
-from controllers import backstepping, magnetic, polynomial, servo
-from fmus import cubesat, export, mrp_satellite, vscmg
+from controllers import backstepping, magnetic, polynomial, servo, state_feedback
+from fmus import cubesat, demeter, export, mrp_satellite, vscmg
 from fmus.model import Model
 
 DEFAULT_FMU_DIR = Path("build/fmus")
@@ -26,11 +26,14 @@ class FmuSource:
 
 def sources() -> list[FmuSource]:
     """Plants first, then the controllers of the shipped artifacts, then the designs without
-    an artifact (online SDRE, backstepping, B-dot)."""
-    out = [FmuSource(mrp_satellite.MODEL, {}), FmuSource(vscmg.MODEL, {}), FmuSource(cubesat.MODEL, {})]
+    an artifact (online SDRE, backstepping, B-dot, the DEMETER state feedback with its gains as
+    parameters)."""
+    out = [FmuSource(mrp_satellite.MODEL, {}), FmuSource(vscmg.MODEL, {}), FmuSource(cubesat.MODEL, {}),
+           FmuSource(demeter.MODEL, {})]
     out += [controller_source(artifacts.load(path)) for path in polynomial.shipped_artifacts()]
     out += [FmuSource(servo.build_online(name), {}, ("python",)) for name in servo.ONLINE_VARIANTS]
-    return out + [FmuSource(backstepping.build(), {}), FmuSource(magnetic.build_bdot(), {})]
+    return out + [FmuSource(backstepping.build(), {}), FmuSource(magnetic.build_bdot(), {}),
+                  FmuSource(state_feedback.build(), {})]
 
 
 def controller_source(art: artifacts.ControllerArtifact | artifacts.ServoArtifact | artifacts.PeriodicArtifact

@@ -8,6 +8,13 @@
  * (zero-order hold), n = max(n_substeps, ceil(h / h_max)) substeps, post_step map
  * (projection / switching) after every substep.
  *
+ * Exact integration (EXACT 1, a model affine in the state with its piecewise law frozen at
+ * the substep start): x(tau) = Phi x + Gamma b with Phi = e^{A tau}, Gamma = integral_0^tau
+ * e^{A s} ds, A = model_jacobian, b = the derivatives at x = 0. Phi and Gamma come from a
+ * Taylor series of Gamma at tau / 2^s (|A| tau / 2^s <= 1/2, 18 terms, truncation below
+ * 1e-22) and s doublings Gamma <- (I + Phi) Gamma, Phi <- Phi^2; they are cached for the
+ * last (A, tau). A substep ends early at model_switch_time (the frozen law's validity).
+ *
  * Sampling (NH > 0, an expression sampler of fmus/model.py): NH values are computed by
  * model_sample_arguments at the start and at the instants k * period - phase (start +
  * k * period without a phase parameter) and held in p[NP..NP+NH-1] in between; a step is
@@ -86,8 +93,20 @@ typedef struct {
     int sample_due;      /* the held values of that instant are stale */
 } Data;
 
+#if EXACT
+/* Phi and Gamma of the last (A, tau): derived data, not part of an FMU state. */
+typedef struct {
+    int valid;
+    double tau;
+    double A[NX * NX], Phi[NX * NX], Gamma[NX * NX];
+} FlowCache;
+#endif
+
 typedef struct {
     Data d;
+#if EXACT
+    FlowCache flow;
+#endif
     char *instance_name;
     fmi2CallbackLogger logger;
     fmi2ComponentEnvironment env;
@@ -201,6 +220,7 @@ static int update_outputs(Instance *inst) {
 }
 
 /* ------------------------------------------------------------------ integration */
+#if !EXACT
 static void rk4(Data *d, double h) {
     double k1[DIM(NX)], k2[DIM(NX)], k3[DIM(NX)], k4[DIM(NX)], xt[DIM(NX)], xp[DIM(NX)];
     int i;
@@ -218,6 +238,89 @@ static void rk4(Data *d, double h) {
     }
     model_post_step(t + h, xt, xp, d->u, d->p, d->x);
 }
+#endif
+
+#if EXACT
+#define TAYLOR_TERMS 18
+#define MAX_SWITCHES 64 /* per substep; beyond that the law of the last switch is kept */
+
+static void matmul(const double *a, const double *b, double *c) {
+    int i, j, k;
+    for (i = 0; i < NX; i++)
+        for (j = 0; j < NX; j++) {
+            double s = 0.0;
+            for (k = 0; k < NX; k++) s += a[i * NX + k] * b[k * NX + j];
+            c[i * NX + j] = s;
+        }
+}
+
+/* Phi = e^{A tau}, Gamma = integral_0^tau e^{A s} ds (see the header comment). */
+static void affine_flow(const double *A, double tau, double *Phi, double *Gamma) {
+    double T[NX * NX], W[NX * NX], norm = 0.0, dt;
+    int i, j, k, s = 0;
+    for (i = 0; i < NX; i++) {
+        double row = 0.0;
+        for (j = 0; j < NX; j++) row += fabs(A[i * NX + j]);
+        norm = fmax(norm, row);
+    }
+    norm *= tau;
+    while (norm > 0.5 && s < 1000) { norm *= 0.5; s++; }
+    dt = ldexp(tau, -s);
+    for (i = 0; i < NX * NX; i++) T[i] = (i % (NX + 1) == 0) ? 1.0 : 0.0;
+    for (k = TAYLOR_TERMS; k >= 1; k--) { /* T <- I + (A dt / (k + 1)) T */
+        matmul(A, T, W);
+        for (i = 0; i < NX * NX; i++) T[i] = W[i] * dt / (double)(k + 1) + ((i % (NX + 1) == 0) ? 1.0 : 0.0);
+    }
+    for (i = 0; i < NX * NX; i++) Gamma[i] = dt * T[i];
+    matmul(A, Gamma, Phi);
+    for (i = 0; i < NX; i++) Phi[i * NX + i] += 1.0;
+    for (k = 0; k < s; k++) {
+        matmul(Phi, Gamma, W);
+        for (i = 0; i < NX * NX; i++) Gamma[i] += W[i];
+        matmul(Phi, Phi, W);
+        memcpy(Phi, W, sizeof W);
+    }
+}
+
+/* Exact flow over tau seconds with the law frozen at the current state, then post_step. */
+static void exact_segment(Instance *inst, double tau) {
+    Data *d = &inst->d;
+    FlowCache *fc = &inst->flow;
+    double A[NX * NX], zero[NX], b[NX], xt[NX];
+    int i, j;
+    memset(zero, 0, sizeof zero);
+    model_jacobian(d->time, d->x, d->x, d->u, d->p, A);
+    model_derivatives(d->time, zero, d->x, d->u, d->p, b);
+    if (!fc->valid || fc->tau != tau || memcmp(fc->A, A, sizeof A) != 0) {
+        affine_flow(A, tau, fc->Phi, fc->Gamma);
+        memcpy(fc->A, A, sizeof A);
+        fc->tau = tau;
+        fc->valid = 1;
+    }
+    for (i = 0; i < NX; i++) {
+        double s = 0.0;
+        for (j = 0; j < NX; j++) s += fc->Phi[i * NX + j] * d->x[j] + fc->Gamma[i * NX + j] * b[j];
+        xt[i] = s;
+    }
+    model_post_step(d->time + tau, xt, d->x, d->u, d->p, d->x);
+}
+
+/* Exact substep of h seconds ending at t_end, cut at the switch instants of the piecewise law
+ * (an uncut substep uses h itself, so a constant step size reuses the cached flow). */
+static void exact_substep(Instance *inst, double h, double t_end) {
+    int n, cut = 0;
+    for (n = 0; n < MAX_SWITCHES; n++) {
+        double ts, remaining = t_end - inst->d.time;
+        model_switch_time(inst->d.time, inst->d.x, inst->d.u, inst->d.p, &ts);
+        if (!(ts > TIME_TOL * fmax(1.0, fabs(t_end))) || ts >= remaining) break;
+        exact_segment(inst, ts);
+        inst->d.time += ts;
+        cut = 1;
+    }
+    exact_segment(inst, cut ? t_end - inst->d.time : h);
+    inst->d.time = t_end;
+}
+#endif
 
 /* ------------------------------------------------------------------ variable access */
 static const VariableInfo *lookup(Instance *inst, fmi2ValueReference vr, int type, const char *fn) {
@@ -555,8 +658,12 @@ static fmi2Status integrate(Instance *inst, double h, double t_end) {
     n = (long)n_sub;
     hs = h / (double)n;
     for (k = 0; k < n; k++) {
+#if EXACT
+        exact_substep(inst, hs, (k + 1 == n) ? t_end : t0 + (double)(k + 1) * hs);
+#else
         rk4(&inst->d, hs);
         inst->d.time = (k + 1 == n) ? t_end : inst->d.time + hs;
+#endif
     }
     if (!all_finite(inst->d.x, NX)) {
         inst->d.state = ST_ERROR;

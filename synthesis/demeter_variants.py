@@ -1,0 +1,472 @@
+"""DEMETER model variants (seed 004, section 2.6) and the state-feedback design model (Fig. 3).
+
+A :class:`Variant` selects the axes, the appendages, ``model_type`` (1: each appendage has its
+own omega, zeta; 2: all identical), ``uncertainty_type`` (1: norm-bounded, 2: intervals,
+3: inertia norm-bounded, the rest uniform in intervals) and the wheels. :func:`design_model`
+returns the uncertain design model in two exact forms built from the same equations:
+
+- an **affine descriptor** ``N(delta) [x'; x; v; u; w1] = 0``, ``N = N0 + sum delta_k N_k``,
+  with auxiliaries ``v`` that make every parameter enter affinely (the inertia through its
+  root S: ``c = S theta''`` and ``S (c + L_r eta'') + J_off theta'' = tau``; the modes through
+  ``g = omega eta + 2 zeta eta'`` and ``L_r^T c + eta'' + omega g = 0``), used by the
+  parameter-dependent Lyapunov analysis;
+- the **LFT** ``p = Delta q`` obtained from it by factoring each ``N_k = U_k V_k`` (the
+  repetition of ``delta_k`` is the rank of ``N_k``: the root of each J_ii twice, each omega
+  twice, each zeta once, each product of inertia twice, as in the seed), used by the design.
+
+Parameters are normalized to ``delta`` in [-1, 1]: ``sqrt(J_ii)`` in [sqrt(0.7 J0_ii),
+sqrt(1.3 J0_ii)] (the seed's LFT of the root, section 2.4), ``J_ij = J0_ij + 3 delta``,
+omega in [0.2, 0.6] 2 pi rad/s, zeta in [5e-4, 5e-3]. Flexible coordinates sharing omega and
+zeta (an appendage's bending and torsion; with ``model_type`` 2 every selected appendage)
+are reduced to ``min(n_axes, n_coordinates)`` coordinates ``eta_r = Q eta`` with the
+coupling ``L_r = (L_g L_g^T)^(1/2)``, ``Q = L_r^-1 L_g``: the rest is decoupled from the
+body (section 2.6 (a), (c); one axis, one appendage: eq. 8 with l = ||L[axis, columns]||).
+
+Design model (Fig. 3; the wiring is **ours**, the seed does not define it): per axis the
+attitude error integrator ``xi' = theta``, the input pseudo-integrator ``xw' = -a xw + u_c``
+(a = 1e-3 1/s, the wheel-momentum proxy), and the wheel ``y = H(s) u_c`` with states
+``(y, y')`` (y: the wheel torque on the body). ``w1``: torque disturbance added to the body
+torque (N m); ``z1 = theta`` (rad). ``w2``: an impulse whose response is the worst-case initial
+state of the seed, 0.262 rad on theta and 1.4e-3 rad/s on theta' (one column each per axis);
+``z2 = xw`` (N m s). Design states per axis, in order: theta, theta', (eta_r, eta_r' of all
+reduced coordinates after all axes), xi, xw, y, y'.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.linalg import sqrtm
+
+from fmus import demeter
+
+PSEUDO_INTEGRATOR_POLE = 1e-3
+"""a of the input pseudo-integrator 1/(s + a), 1/s (seed section 3)."""
+THETA_WORST = 15 * np.pi / 180
+"""Worst-case initial attitude error, rad (seed: 15 deg)."""
+RATE_WORST = 0.08 * np.pi / 180
+"""Worst-case initial rate, rad/s (seed: 0.08 deg/s)."""
+INERTIA_DIAGONAL_SPREAD = 0.3
+INERTIA_PRODUCT_SPREAD = 3.0
+
+
+class VariantError(ValueError):
+    """A variant selects axes, appendages or types that do not exist."""
+
+
+@dataclass(frozen=True)
+class Variant:
+    """One of the seed's model variants (section 2.6, the arguments of demeterPerformance).
+
+    Parameters
+    ----------
+    axes : tuple of int
+        Selected axes, 1-based, e.g. ``(1,)`` or ``(1, 2)``.
+    appendages : tuple of int
+        Selected appendages, 1-based, subset of 1..4.
+    model_type : {1, 2}
+        1: independent omega, zeta per appendage; 2: identical appendages.
+    uncertainty_type : {1, 2, 3}
+        1: norm-bounded; 2: intervals; 3: inertia norm-bounded, the rest uniform in intervals.
+    wheels : bool
+        Reaction-wheel dynamics H(s) in the model.
+    """
+
+    axes: tuple[int, ...] = (1,)
+    appendages: tuple[int, ...] = (1,)
+    model_type: int = 1
+    uncertainty_type: int = 1
+    wheels: bool = True
+
+    def __post_init__(self) -> None:
+        for name, sel, top in (("axes", self.axes, demeter.N_AXES), ("appendages", self.appendages, demeter.N_APPENDAGES)):
+            if not sel or len(set(sel)) != len(sel) or any(not isinstance(i, (int, np.integer)) or not 1 <= i <= top
+                                                          for i in sel):
+                raise VariantError(f"{name} must be distinct integers in 1..{top}, got {sel!r}")
+            object.__setattr__(self, name, tuple(sorted(int(i) for i in sel)))
+        if self.model_type not in (1, 2):
+            raise VariantError(f"model_type must be 1 or 2, got {self.model_type!r}")
+        if self.uncertainty_type not in (1, 2, 3):
+            raise VariantError(f"uncertainty_type must be 1, 2 or 3, got {self.uncertainty_type!r}")
+
+    @property
+    def label(self) -> str:
+        return (f"axes {','.join(map(str, self.axes))} | appendages {','.join(map(str, self.appendages))} | "
+                f"model {self.model_type} | unc {self.uncertainty_type} | wheels {int(self.wheels)}")
+
+
+@dataclass(frozen=True)
+class UncertainParameter:
+    """A real parameter ``nominal + half_width * delta``, delta in [-1, 1].
+
+    ``kind``: "sqrtJ" (root of a principal inertia, axis index), "Jprod" (product of inertia,
+    axis pair), "omega" / "zeta" (mode group index); ``distribution``: "norm-bounded" or
+    "uniform" (how the randomized methods of part 2 sample it).
+    """
+
+    name: str
+    kind: str
+    index: tuple[int, ...]
+    nominal: float
+    half_width: float
+    distribution: str
+
+    def value(self, delta: float) -> float:
+        return self.nominal + self.half_width * delta
+
+
+@dataclass
+class DesignModel:
+    """The uncertain design model of a variant (see the module docstring for the forms)."""
+
+    variant: Variant
+    parameters: list[UncertainParameter]
+    state_names: list[str]
+    groups: list[list[int]]
+    """Plant flexible coordinates (0-based, of the 8) of each group sharing omega, zeta."""
+    L: np.ndarray
+    """Coupling used, 3 x 8 (columns of unselected appendages zero)."""
+    Q: np.ndarray
+    """Reduced flexible coordinates from the plant's: eta_r = Q eta, shape (nr, 8)."""
+    L_r: np.ndarray
+    """Reduced coupling, (na, nr)."""
+    mode_group: np.ndarray
+    """Group index of each reduced coordinate, shape (nr,)."""
+    N0: np.ndarray
+    Nk: np.ndarray
+    n: int
+    n_v: int
+    C1: np.ndarray
+    B2: np.ndarray
+    C2: np.ndarray
+    meta: dict = field(default_factory=dict)
+
+    @property
+    def na(self) -> int:
+        return len(self.variant.axes)
+
+    @property
+    def nr(self) -> int:
+        return self.L_r.shape[1]
+
+    @property
+    def names(self) -> list[str]:
+        return [p.name for p in self.parameters]
+
+    # -------------------------------------------------------------- evaluation
+    def values(self, delta: np.ndarray) -> dict[str, np.ndarray]:
+        """Physical values at ``delta``: J (na x na), S (diag root), zeta, omega per group."""
+        delta = self._check_delta(delta)
+        na = self.na
+        S = np.zeros((na, na))
+        J = np.zeros((na, na))
+        ng = len(self.groups)
+        zeta, omega = np.zeros(ng), np.zeros(ng)
+        for p, d in zip(self.parameters, delta):
+            v = p.value(d)
+            if p.kind == "sqrtJ":
+                S[p.index[0], p.index[0]] = v
+            elif p.kind == "Jprod":
+                J[p.index] = J[p.index[::-1]] = v
+            elif p.kind == "omega":
+                omega[p.index[0]] = v
+            else:
+                zeta[p.index[0]] = v
+        J += S @ S
+        return {"J": J, "S": S, "zeta": zeta, "omega": omega}
+
+    def _check_delta(self, delta: np.ndarray) -> np.ndarray:
+        d = np.asarray(delta, float).reshape(-1)
+        if d.shape != (len(self.parameters),) or not np.all(np.isfinite(d)) or np.abs(d).max(initial=0) > 1 + 1e-12:
+            raise VariantError(f"delta must be {len(self.parameters)} finite numbers in [-1, 1], got {delta!r}")
+        return d
+
+    def N(self, delta: np.ndarray) -> np.ndarray:
+        """``N(delta) = N0 + sum delta_k N_k``."""
+        return self.N0 + np.tensordot(self._check_delta(delta), self.Nk, axes=1)
+
+    def state_space(self, delta: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``x' = A x + Bu u + B1 w1`` at ``delta``, solved from the descriptor."""
+        Nd = self.N(delta)
+        n, nv = self.n, self.n_v
+        lhs = np.hstack([Nd[:, :n], Nd[:, 2 * n:2 * n + nv]])
+        rhs = -np.hstack([Nd[:, n:2 * n], Nd[:, 2 * n + nv:]])
+        sol = np.linalg.solve(lhs, rhs)[:n]
+        m = self.na
+        return sol[:, :n], sol[:, n:n + m], sol[:, n + m:]
+
+    def direct(self, delta: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The same design model built the direct way: eq. (4) by :func:`fmus.demeter.second_order`
+        with the reduced coupling, a full inverse of M, then the augmentation (the check of the
+        descriptor and the LFT)."""
+        v = self.values(delta)
+        A0, B0 = demeter.state_space(v["J"], self.L_r, v["zeta"][self.mode_group], v["omega"][self.mode_group],
+                                     pairs=False)
+        return _augment(A0, B0, self.na, self.nr, self.variant.wheels)
+
+    def sample(self, n: int, rng: np.random.Generator) -> np.ndarray:
+        """``n`` parameter vectors delta, uniform in the box (shape (n, N))."""
+        return rng.uniform(-1.0, 1.0, (n, len(self.parameters)))
+
+    def fmu_parameters(self, delta: np.ndarray) -> dict[str, float]:
+        """Parameters of the plant FMU that make it this variant at ``delta``: unselected axes
+        decoupled (their products of inertia and rows of L zero), unselected appendages
+        removed (their columns of L zero)."""
+        v = self.values(delta)
+        J = np.diag(np.diag(demeter.J0)).astype(float)
+        ax = [a - 1 for a in self.variant.axes]
+        J[np.ix_(ax, ax)] = v["J"]
+        zeta = np.full(demeter.N_APPENDAGES, demeter.ZETA_NOMINAL)
+        omega = np.full(demeter.N_APPENDAGES, demeter.OMEGA_NOMINAL)
+        for g, cols in enumerate(self.groups):
+            for a in {c // 2 for c in cols}:
+                zeta[a], omega[a] = v["zeta"][g], v["omega"][g]
+        out = demeter.parameter_values(J, self.L, zeta, omega)
+        out["wheels_on"] = float(self.variant.wheels)
+        return out
+
+
+    def lft(self) -> dict[str, np.ndarray | tuple]:
+        """The LFT of the design model (matrices of :class:`synthesis.robust_lmi.LFTPlant`).
+
+        Each ``N_k = U_k V_k`` (SVD, rank ``r_k``) gives the channel ``p_k = delta_k q_k``,
+        ``q_k = V_k xi``; solving ``N0 xi + sum U_k p_k = 0`` for ``(x', v)`` gives
+        ``x' = A x + Bp p + Bu u + B1 w1`` and ``q = Cq x + Dqp p + Dqu u + Dq1 w1``.
+        """
+        n, nv, m = self.n, self.n_v, self.na
+        U_parts, V_parts, blocks = [], [], []
+        for p, Nk in zip(self.parameters, self.Nk):
+            U, sv, Vt = np.linalg.svd(Nk)
+            r = int(np.sum(sv > 1e-12 * sv[0])) if sv[0] > 0 else 0
+            U_parts.append(U[:, :r] * sv[:r])
+            V_parts.append(Vt[:r])
+            blocks.append((p.name, r))
+        Uall, Vall = np.hstack(U_parts), np.vstack(V_parts)
+        ycols = np.r_[0:n, 2 * n:2 * n + nv]
+        kcols = np.r_[n:2 * n, 2 * n + nv:2 * n + nv + 2 * m]
+        sol = -np.linalg.solve(self.N0[:, ycols], np.hstack([self.N0[:, kcols], Uall]))
+        Yk, Yp = sol[:, :len(kcols)], sol[:, len(kcols):]
+        Qk = Vall[:, ycols] @ Yk + Vall[:, kcols]
+        x, u, w = slice(0, n), slice(n, n + m), slice(n + m, n + 2 * m)
+        nz = np.zeros
+        return {"A": Yk[:n, x], "Bp": Yp[:n], "Bu": Yk[:n, u], "B1": Yk[:n, w], "B2": self.B2,
+                "Cq": Qk[:, x], "Dqp": Vall[:, ycols] @ Yp, "Dqu": Qk[:, u], "Dq1": Qk[:, w],
+                "C1": self.C1, "D1p": nz((m, Yp.shape[1])), "D1u": nz((m, m)), "D11": nz((m, m)),
+                "C2": self.C2, "blocks": tuple(blocks)}
+
+    def fmu_gains(self, K: np.ndarray) -> dict[str, float]:
+        """Parameters of the state-feedback FMU (:mod:`controllers.state_feedback`) for the gain
+        ``u = K x`` on this design model's states (unselected axes: zero command).
+
+        Raises
+        ------
+        VariantError
+            If K does not have shape (n_axes, n) or is not finite.
+        """
+        K = np.asarray(K, float)
+        na, nr = self.na, self.nr
+        if K.shape != (na, self.n) or not np.all(np.isfinite(K)):
+            raise VariantError(f"K must be a finite {na} x {self.n} matrix, got shape {K.shape}")
+        ax = [a - 1 for a in self.variant.axes]
+        base = 2 * na + 2 * nr
+        full = {"K_theta": np.zeros((3, 3)), "K_theta_dot": np.zeros((3, 3)), "K_xi": np.zeros((3, 3)),
+                "K_xw": np.zeros((3, 3)), "K_torque": np.zeros((3, 3)), "K_torque_rate": np.zeros((3, 3)),
+                "K_eta": np.zeros((3, demeter.N_FLEX)), "K_eta_dot": np.zeros((3, demeter.N_FLEX))}
+        blocks = {"K_theta": 0, "K_theta_dot": na, "K_xi": base, "K_xw": base + na}
+        if self.variant.wheels:
+            blocks.update(K_torque=base + 2 * na, K_torque_rate=base + 3 * na)
+        for name, start in blocks.items():
+            full[name][np.ix_(ax, ax)] = K[:, start:start + na]
+        full["K_eta"][ax] = K[:, 2 * na:2 * na + nr] @ self.Q
+        full["K_eta_dot"][ax] = K[:, 2 * na + nr:base] @ self.Q
+        return {f"{name}[{i + 1},{j + 1}]": float(G[i, j]) for name, G in full.items()
+                for i in range(G.shape[0]) for j in range(G.shape[1])}
+
+
+def _augment(A0: np.ndarray, B0: np.ndarray, na: int, nr: int, wheels: bool
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Plant (theta, theta', eta_r, eta_r') + xi, xw (+ y, y'): the design model's A, Bu, B1."""
+    npl = A0.shape[0]
+    nw = 2 * na if wheels else 0
+    n = npl + 2 * na + nw
+    A = np.zeros((n, n))
+    Bu = np.zeros((n, na))
+    A[:npl, :npl] = A0
+    B1 = np.zeros((n, na))
+    B1[:npl] = B0
+    xi, xw = npl, npl + na
+    A[xi:xi + na, :na] = np.eye(na)
+    A[xw:xw + na, xw:xw + na] = -PSEUDO_INTEGRATOR_POLE * np.eye(na)
+    Bu[xw:xw + na] = np.eye(na)
+    if wheels:
+        y, yd = xw + na, xw + 2 * na
+        Aw, _, _ = demeter.wheel_state_space()
+        wn2, c = -Aw[2, 1], -Aw[2, 2]
+        A[:npl, y:y + na] = B0
+        A[y:y + na, yd:yd + na] = np.eye(na)
+        A[yd:yd + na, y:y + na] = -wn2 * np.eye(na)
+        A[yd:yd + na, yd:yd + na] = -c * np.eye(na)
+        Bu[yd:yd + na] = wn2 * np.eye(na)
+    else:
+        A_u = np.zeros((n, na))
+        A_u[:npl] = B0
+        Bu = Bu + A_u
+    return A, Bu, B1
+
+
+def _groups(variant: Variant) -> list[list[int]]:
+    cols = [[2 * (a - 1), 2 * (a - 1) + 1] for a in variant.appendages]
+    return [sum(cols, [])] if variant.model_type == 2 else cols
+
+
+def _reduce(L_g: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Reduced coupling and projection of one group: (L_r, Q) with L_g eta = L_r (Q eta)."""
+    na, nc = L_g.shape
+    if nc <= na:
+        return L_g.copy(), np.eye(nc)
+    L_r = np.real(sqrtm(L_g @ L_g.T))
+    return L_r, np.linalg.solve(L_r, L_g)
+
+
+def parameters(variant: Variant) -> list[UncertainParameter]:
+    """The uncertain parameters of a variant, in the order of delta."""
+    ax = [a - 1 for a in variant.axes]
+    inertia = "norm-bounded" if variant.uncertainty_type in (1, 3) else "uniform"
+    modes = "norm-bounded" if variant.uncertainty_type == 1 else "uniform"
+    out = []
+    for k, i in enumerate(ax):
+        lo, hi = np.sqrt((1 - INERTIA_DIAGONAL_SPREAD) * demeter.J0[i, i]), np.sqrt((1 + INERTIA_DIAGONAL_SPREAD) * demeter.J0[i, i])
+        out.append(UncertainParameter(f"sqrtJ{i + 1}{i + 1}", "sqrtJ", (k,), (lo + hi) / 2, (hi - lo) / 2, inertia))
+    for k1 in range(len(ax)):
+        for k2 in range(k1 + 1, len(ax)):
+            i, j = ax[k1], ax[k2]
+            out.append(UncertainParameter(f"J{i + 1}{j + 1}", "Jprod", (k1, k2), float(demeter.J0[i, j]),
+                                          INERTIA_PRODUCT_SPREAD, inertia))
+    ngr = len(_groups(variant))
+    for g in range(ngr):
+        tag = "" if ngr == 1 else f"{variant.appendages[g]}"
+        lo, hi = demeter.OMEGA_RANGE
+        out.append(UncertainParameter(f"omega{tag}", "omega", (g,), (lo + hi) / 2, (hi - lo) / 2, modes))
+        lo, hi = demeter.ZETA_RANGE
+        out.append(UncertainParameter(f"zeta{tag}", "zeta", (g,), (lo + hi) / 2, (hi - lo) / 2, modes))
+    return out
+
+
+def design_model(variant: Variant, L: np.ndarray | None = None) -> DesignModel:
+    """The uncertain design model of ``variant`` (coupling ``L``, default the substitute)."""
+    L_full = demeter.L_SUBSTITUTE if L is None else np.asarray(L, float)
+    if L_full.shape != (demeter.N_AXES, demeter.N_FLEX) or not np.all(np.isfinite(L_full)):
+        raise VariantError(f"L must be a finite 3 x 8 matrix, got shape {np.shape(L_full)}")
+    ax = [a - 1 for a in variant.axes]
+    groups = _groups(variant)
+    L_used = np.zeros_like(L_full)
+    L_used[np.ix_(ax, sum(groups, []))] = L_full[np.ix_(ax, sum(groups, []))]
+    blocks_L, blocks_Q, mode_group = [], [], []
+    for g, cols in enumerate(groups):
+        L_r, Q = _reduce(L_full[np.ix_(ax, cols)])
+        Qf = np.zeros((Q.shape[0], demeter.N_FLEX))
+        Qf[:, cols] = Q
+        blocks_L.append(L_r)
+        blocks_Q.append(Qf)
+        mode_group += [g] * L_r.shape[1]
+    return _assemble(variant, parameters(variant), groups, L_used, np.vstack(blocks_Q), np.hstack(blocks_L),
+                     np.array(mode_group, int))
+
+
+def _assemble(variant: Variant, params: list[UncertainParameter], groups: list[list[int]], L_used: np.ndarray,
+              Q: np.ndarray, L_r: np.ndarray, mode_group: np.ndarray) -> DesignModel:
+    """The affine descriptor of the design model (columns x', x, v, u, w1)."""
+    na, nr = L_r.shape
+    wheels = variant.wheels
+    # state layout
+    th, thd = np.arange(na), na + np.arange(na)
+    eta, etad = 2 * na + np.arange(nr), 2 * na + nr + np.arange(nr)
+    base = 2 * na + 2 * nr
+    xi, xw = base + np.arange(na), base + na + np.arange(na)
+    y, yd = base + 2 * na + np.arange(na), base + 3 * na + np.arange(na)
+    n = base + (4 if wheels else 2) * na
+    # auxiliaries: c = S theta'' (na), g = omega eta + 2 zeta eta' (nr)
+    c_v, g_v = np.arange(na), na + np.arange(nr)
+    n_v = na + nr
+    cols = 2 * n + n_v + 2 * na
+    XD, X, V, U, W = 0, n, 2 * n, 2 * n + n_v, 2 * n + n_v + na
+    rows = n + n_v
+    N0 = np.zeros((rows, cols))
+    Nk = np.zeros((len(params), rows, cols))
+
+    def coef(kind: str, index: tuple[int, ...]) -> tuple[float, float, int]:
+        for k, p in enumerate(params):
+            if p.kind == kind and p.index == index:
+                return p.nominal, p.half_width, k
+        raise KeyError((kind, index))
+
+    r = 0
+
+    def add(row: int, col: int, const: float, k: int | None = None, width: float = 0.0) -> None:
+        N0[row, col] += const
+        if k is not None:
+            Nk[k, row, col] += width
+
+    # kinematic rows: theta' = theta_dot ; eta' = eta_dot
+    for i in range(na):
+        add(r, XD + th[i], 1.0); add(r, X + thd[i], -1.0); r += 1
+    for j in range(nr):
+        add(r, XD + eta[j], 1.0); add(r, X + etad[j], -1.0); r += 1
+    # c_i - S_i theta''_i = 0
+    for i in range(na):
+        s0, sw, k = coef("sqrtJ", (i,))
+        add(r, V + c_v[i], 1.0); add(r, XD + thd[i], -s0, k, -sw); r += 1
+    # rigid: S_i (c_i + sum_j L_r[i,j] eta''_j) + sum_{l != i} J_il theta''_l - tau_i - w1_i = 0
+    for i in range(na):
+        s0, sw, k = coef("sqrtJ", (i,))
+        add(r, V + c_v[i], s0, k, sw)
+        for j in range(nr):
+            add(r, XD + etad[j], s0 * L_r[i, j], k, sw * L_r[i, j])
+        for l in range(na):
+            if l != i:
+                p0, pw, kp = coef("Jprod", (min(i, l), max(i, l)))
+                add(r, XD + thd[l], p0, kp, pw)
+        if wheels:
+            add(r, X + y[i], -1.0)
+        else:
+            add(r, U + i, -1.0)
+        add(r, W + i, -1.0)
+        r += 1
+    # g_j - omega eta_j - 2 zeta eta'_j = 0
+    for j in range(nr):
+        w0, ww, kw = coef("omega", (int(mode_group[j]),))
+        z0, zw, kz = coef("zeta", (int(mode_group[j]),))
+        add(r, V + g_v[j], 1.0); add(r, X + eta[j], -w0, kw, -ww); add(r, X + etad[j], -2 * z0, kz, -2 * zw); r += 1
+    # flex: sum_i L_r[i,j] c_i + eta''_j + omega g_j = 0
+    for j in range(nr):
+        w0, ww, kw = coef("omega", (int(mode_group[j]),))
+        for i in range(na):
+            add(r, V + c_v[i], L_r[i, j])
+        add(r, XD + etad[j], 1.0); add(r, V + g_v[j], w0, kw, ww); r += 1
+    # integrator, pseudo-integrator, wheel
+    for i in range(na):
+        add(r, XD + xi[i], 1.0); add(r, X + th[i], -1.0); r += 1
+    for i in range(na):
+        add(r, XD + xw[i], 1.0); add(r, X + xw[i], PSEUDO_INTEGRATOR_POLE); add(r, U + i, -1.0); r += 1
+    if wheels:
+        Aw, _, _ = demeter.wheel_state_space()
+        wn2, cw = -Aw[2, 1], -Aw[2, 2]
+        for i in range(na):
+            add(r, XD + y[i], 1.0); add(r, X + yd[i], -1.0); r += 1
+        for i in range(na):
+            add(r, XD + yd[i], 1.0); add(r, X + y[i], wn2); add(r, X + yd[i], cw); add(r, U + i, -wn2); r += 1
+    assert r == rows, (r, rows)
+    names = ([f"theta[{a}]" for a in variant.axes] + [f"theta_dot[{a}]" for a in variant.axes]
+             + [f"eta_r[{j + 1}]" for j in range(nr)] + [f"eta_r_dot[{j + 1}]" for j in range(nr)]
+             + [f"xi[{a}]" for a in variant.axes] + [f"xw[{a}]" for a in variant.axes])
+    if wheels:
+        names += [f"wheel_torque[{a}]" for a in variant.axes] + [f"wheel_torque_rate[{a}]" for a in variant.axes]
+    C1 = np.zeros((na, n))
+    C1[:, th] = np.eye(na)
+    B2 = np.zeros((n, 2 * na))
+    for i in range(na):
+        B2[th[i], 2 * i] = THETA_WORST
+        B2[thd[i], 2 * i + 1] = RATE_WORST
+    C2 = np.zeros((na, n))
+    C2[:, xw] = np.eye(na)
+    return DesignModel(variant, params, names, groups, L_used, Q, L_r, mode_group, N0, Nk, n, n_v, C1, B2, C2)
