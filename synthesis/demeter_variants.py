@@ -48,6 +48,8 @@ RATE_WORST = 0.08 * np.pi / 180
 """Worst-case initial rate, rad/s (seed: 0.08 deg/s)."""
 INERTIA_DIAGONAL_SPREAD = 0.3
 INERTIA_PRODUCT_SPREAD = 3.0
+LFT_ROUNDING = 1e-13
+"""Entries of an LFT matrix below this times its largest entry are rounding residue, set to 0."""
 
 
 class VariantError(ValueError):
@@ -249,10 +251,12 @@ class DesignModel:
         Qk = Vall[:, ycols] @ Yk + Vall[:, kcols]
         x, u, w = slice(0, n), slice(n, n + m), slice(n + m, n + 2 * m)
         nz = np.zeros
-        return {"A": Yk[:n, x], "Bp": Yp[:n], "Bu": Yk[:n, u], "B1": Yk[:n, w], "B2": self.B2,
-                "Cq": Qk[:, x], "Dqp": Vall[:, ycols] @ Yp, "Dqu": Qk[:, u], "Dq1": Qk[:, w],
-                "C1": self.C1, "D1p": nz((m, Yp.shape[1])), "D1u": nz((m, m)), "D11": nz((m, m)),
-                "C2": self.C2, "blocks": tuple(blocks)}
+        out = {"A": Yk[:n, x], "Bp": Yp[:n], "Bu": Yk[:n, u], "B1": Yk[:n, w], "B2": self.B2,
+               "Cq": Qk[:, x], "Dqp": Vall[:, ycols] @ Yp, "Dqu": Qk[:, u], "Dq1": Qk[:, w],
+               "C1": self.C1, "D1p": nz((m, Yp.shape[1])), "D1u": nz((m, m)), "D11": nz((m, m)), "C2": self.C2}
+        for k, v in out.items():  # rounding residue of the solves (1e-18 where the exact value is 0)
+            v[np.abs(v) < LFT_ROUNDING * np.abs(v).max(initial=0.0)] = 0.0
+        return {**out, "blocks": tuple(blocks)}
 
     def fmu_gains(self, K: np.ndarray) -> dict[str, float]:
         """Parameters of the state-feedback FMU (:mod:`controllers.state_feedback`) for the gain

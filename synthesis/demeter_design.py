@@ -1,0 +1,156 @@
+"""Deterministic robust design and analysis of a DEMETER variant (seed 004, sections 4.1, 5.1).
+
+:func:`deterministic` runs the seed's pipeline on one :class:`~synthesis.demeter_variants.Variant`:
+
+1. the design model's LFT (:meth:`~synthesis.demeter_variants.DesignModel.lft`) in scaled
+   coordinates ``x = T x_s`` (:data:`STATE_SCALE`: the states' sizes in the seed's worst-case
+   manoeuvre, so the LMIs' entries are of order one; gains, bounds and poles do not depend on
+   T);
+2. :func:`synthesis.robust_lmi.design`: one Lyapunov matrix for H-infinity ``w1 -> z1``,
+   impulse-to-peak ``w2 -> z2`` and the pole region ``-10 < Re s < -1e-4``, objective
+   ``1 gamma + 100 nu``; D-G scalings for norm-bounded parameters (uncertainty types 1, 3),
+   vertex separators for intervals (type 2);
+3. deterministic analysis of the closed loop: H-infinity bound with a parameter-dependent
+   Lyapunov function on the affine descriptor (:func:`synthesis.robust_lmi.pdlf_hinf`) and
+   the impulse-to-peak bound with a common one (:func:`synthesis.robust_lmi.i2p_bound`);
+4. an independent sampled check: ``n`` plants drawn in the box, closed-loop poles, exact
+   H-infinity norms and impulse-to-peak values against the bounds.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from synthesis import robust_lmi as rl
+from synthesis.demeter_variants import RATE_WORST, THETA_WORST, DesignModel, Variant, design_model
+
+ALPHA = 1e-4
+"""Pole region: Re s < -ALPHA, 1/s (seed: region('plane', -1e-4))."""
+BETA = 10.0
+"""Pole region: Re s > -BETA, 1/s (seed: region('plane', -10, pi))."""
+W_HINF, W_I2P = 1.0, 100.0
+"""The seed's objective weights, "+1*hinfty(usysIW1) +100*i2p(usysIW2)"."""
+
+
+def state_scale(dm: DesignModel) -> np.ndarray:
+    """T of ``x = T x_s``: rad for theta (15 deg), rad/s for theta' (0.08 deg/s), modal
+    coordinates 0.1, their rates 0.01, xi 10 rad s, xw 0.1 N m s, wheel torque 5e-3 N m
+    (satT), its rate 5e-2 N m/s."""
+    na, nr = dm.na, dm.nr
+    parts = [np.full(na, THETA_WORST), np.full(na, RATE_WORST), np.full(nr, 0.1), np.full(nr, 0.01),
+             np.full(na, 10.0), np.full(na, 0.1)]
+    if dm.variant.wheels:
+        parts += [np.full(na, 5e-3), np.full(na, 5e-2)]
+    return np.concatenate(parts)
+
+
+def scaled_lft(dm: DesignModel, T: np.ndarray) -> rl.LFTPlant:
+    """The design model's LFT in the coordinates ``x_s = T^-1 x``, each uncertainty channel
+    balanced: ``p_i = delta q_i`` holds for ``p_i / c_i``, ``q_i / c_i`` too, and
+    ``c_i = sqrt(|Cq_i| / |Bp_i|)`` gives its input and output columns the same size."""
+    L = dm.lft()
+    out = dict(L)
+    out["A"] = L["A"] * T[None, :] / T[:, None]
+    for k in ("Bp", "Bu", "B1", "B2"):
+        out[k] = L[k] / T[:, None]
+    for k in ("Cq", "C1", "C2"):
+        out[k] = L[k] * T[None, :]
+    bp, cq = np.linalg.norm(out["Bp"], axis=0), np.linalg.norm(out["Cq"], axis=1)
+    c = np.sqrt(np.where((bp > 0) & (cq > 0), cq / np.where(bp > 0, bp, 1.0), 1.0))
+    out["Bp"], out["D1p"] = out["Bp"] * c, out["D1p"] * c
+    out["Dqp"] = out["Dqp"] * c[None, :] / c[:, None]
+    for k in ("Cq", "Dqu", "Dq1"):
+        out[k] = out[k] / c[:, None]
+    return rl.LFTPlant(**out)
+
+
+def scaled_descriptor(dm: DesignModel, T: np.ndarray) -> rl.AffineDescriptor:
+    """The design model's affine descriptor in the coordinates ``x_s = T^-1 x``."""
+    n = dm.n
+    S = np.ones(dm.N0.shape[1])
+    S[:n] = S[n:2 * n] = T
+    m = dm.na
+    return rl.AffineDescriptor(N0=dm.N0 * S, Nk=dm.Nk * S, n=n, n_v=dm.n_v, m_u=m, m_w=m, C1=dm.C1 * T,
+                               D1u=np.zeros((m, m)), D11=np.zeros((m, m)), names=tuple(dm.names))
+
+
+@dataclass
+class SampledCheck:
+    """Closed loops of ``n`` plants drawn uniformly in the parameter box."""
+
+    n: int
+    seed: int
+    max_real_pole: float
+    min_real_pole: float
+    hinf: np.ndarray
+    i2p: np.ndarray
+
+    @property
+    def in_region(self) -> bool:
+        return self.max_real_pole < -ALPHA and self.min_real_pole > -BETA
+
+
+def sampled_check(dm: DesignModel, K: np.ndarray, n: int = 100, seed: int = 0, i2p_horizon: float = 2000.0
+                  ) -> SampledCheck:
+    """Poles, exact H-infinity norm ``w1 -> z1`` and impulse-to-peak ``w2 -> z2`` of ``n`` sampled loops."""
+    rng = np.random.default_rng(seed)
+    poles_hi, poles_lo, hinf, i2p = -np.inf, np.inf, [], []
+    for d in dm.sample(n, rng):
+        A, Bu, B1 = dm.state_space(d)
+        Acl = A + Bu @ K
+        ev = np.linalg.eigvals(Acl)
+        poles_hi, poles_lo = max(poles_hi, ev.real.max()), min(poles_lo, ev.real.min())
+        hinf.append(rl.hinf_norm(Acl, B1, dm.C1, np.zeros((dm.na, dm.na))))
+        i2p.append(rl.impulse_to_peak(Acl, dm.B2, dm.C2, i2p_horizon, 4001))
+    return SampledCheck(n, seed, float(poles_hi), float(poles_lo), np.array(hinf), np.array(i2p))
+
+
+@dataclass
+class DeterministicResult:
+    """One Det row of Table 1: design bounds, analysis bounds, sampled check, seconds."""
+
+    variant: Variant
+    uncertainty: str
+    design: rl.RobustDesign
+    K: np.ndarray | None
+    analysis_hinf: rl.PDLFResult | None = None
+    analysis_hinf_common: rl.PDLFResult | None = None
+    analysis_i2p: rl.RobustDesign | None = None
+    check: SampledCheck | None = None
+    seconds: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def feasible(self) -> bool:
+        return self.K is not None
+
+
+def uncertainty_kind(variant: Variant) -> str:
+    """"vertex" for interval parameters (type 2), "norm" otherwise."""
+    return "vertex" if variant.uncertainty_type == 2 else "norm"
+
+
+def deterministic(variant: Variant, *, n_samples: int = 100, seed: int = 0, analysis: bool = True
+                  ) -> DeterministicResult:
+    """Design, analyse and check one variant (see the module docstring)."""
+    dm = design_model(variant)
+    T = state_scale(dm)
+    kind = uncertainty_kind(variant)
+    t0 = time.perf_counter()
+    des = rl.design(scaled_lft(dm, T), w_hinf=W_HINF, w_i2p=W_I2P, alpha=ALPHA, beta=BETA, uncertainty=kind)
+    out = DeterministicResult(variant, kind, des, None if des.K is None else des.K / T,
+                              seconds={"design": time.perf_counter() - t0})
+    if out.K is None:
+        return out
+    if analysis:
+        t0 = time.perf_counter()
+        Ks = des.K
+        out.analysis_hinf = rl.pdlf_hinf(scaled_descriptor(dm, T), Ks)
+        out.analysis_hinf_common = rl.pdlf_hinf(scaled_descriptor(dm, T), Ks, common=True)
+        out.analysis_i2p = rl.i2p_bound(scaled_lft(dm, T), Ks, alpha=0.0, uncertainty=kind)
+        out.seconds["analysis"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    out.check = sampled_check(dm, out.K, n_samples, seed)
+    out.seconds["sampled check"] = time.perf_counter() - t0
+    return out
