@@ -304,8 +304,7 @@ def _augment(A0: np.ndarray, B0: np.ndarray, na: int, nr: int, wheels: bool
     Bu[xw:xw + na] = np.eye(na)
     if wheels:
         y, yd = xw + na, xw + 2 * na
-        Aw, _, _ = demeter.wheel_state_space()
-        wn2, c = -Aw[2, 1], -Aw[2, 2]
+        wn2, c = _wheel_coefficients()
         A[:npl, y:y + na] = B0
         A[y:y + na, yd:yd + na] = np.eye(na)
         A[yd:yd + na, y:y + na] = -wn2 * np.eye(na)
@@ -316,6 +315,12 @@ def _augment(A0: np.ndarray, B0: np.ndarray, na: int, nr: int, wheels: bool
         A_u[:npl] = B0
         Bu = Bu + A_u
     return A, Bu, B1
+
+
+def _wheel_coefficients() -> tuple[float, float]:
+    """``(wn^2, 2 zw wn)`` of the wheel ``y'' = wn^2 (u_c - y) - 2 zw wn y'`` (the plant's H(s))."""
+    Aw, _, _ = demeter.wheel_state_space()
+    return -Aw[2, 1], -Aw[2, 2]
 
 
 def _groups(variant: Variant) -> list[list[int]]:
@@ -453,8 +458,7 @@ def _assemble(variant: Variant, params: list[UncertainParameter], groups: list[l
     for i in range(na):
         add(r, XD + xw[i], 1.0); add(r, X + xw[i], PSEUDO_INTEGRATOR_POLE); add(r, U + i, -1.0); r += 1
     if wheels:
-        Aw, _, _ = demeter.wheel_state_space()
-        wn2, cw = -Aw[2, 1], -Aw[2, 2]
+        wn2, cw = _wheel_coefficients()
         for i in range(na):
             add(r, XD + y[i], 1.0); add(r, X + yd[i], -1.0); r += 1
         for i in range(na):

@@ -216,11 +216,7 @@ def test_reduced_variant_has_the_full_plants_transfer() -> None:
         d = dm.sample(1, rng)[0]
         v = dm.values(d)
         A_r, B_r = demeter.state_space(v["J"], dm.L_r, v["zeta"][dm.mode_group], v["omega"][dm.mode_group], pairs=False)
-        p = dm.fmu_parameters(d)
-        J = np.array([[p[f"J[{min(i, j) + 1},{max(i, j) + 1}]"] for j in range(3)] for i in range(3)])
-        L = np.array([[p[f"L[{i + 1},{j + 1}]"] for j in range(8)] for i in range(3)])
-        A_f, B_f = demeter.state_space(J, L, [p[f"zeta[{k}]"] for k in (1, 2, 3, 4)],
-                                       [p[f"omega[{k}]"] for k in (1, 2, 3, 4)])
+        A_f, B_f = demeter.state_space(*_plant_matrices(dm.fmu_parameters(d)))
         ax = [a - 1 for a in var.axes]
         for w in (0.05, 0.7, 2.5, 9.0):
             G_r = np.linalg.solve(1j * w * np.eye(len(A_r)) - A_r, B_r)[:dm.na]
