@@ -3,9 +3,8 @@
 :func:`deterministic` runs the seed's pipeline on one :class:`~synthesis.demeter_variants.Variant`:
 
 1. the design model's LFT (:meth:`~synthesis.demeter_variants.DesignModel.lft`) in scaled
-   coordinates ``x = T x_s`` (:data:`STATE_SCALE`: the states' sizes in the seed's worst-case
-   manoeuvre, so the LMIs' entries are of order one; gains, bounds and poles do not depend on
-   T);
+   coordinates ``x = T x_s`` (:func:`state_scale`: the states' sizes, balanced, so the LMIs'
+   entries are of comparable size; gains, bounds and poles do not depend on T);
 2. :func:`synthesis.robust_lmi.design`: one Lyapunov matrix for H-infinity ``w1 -> z1``,
    impulse-to-peak ``w2 -> z2`` and the pole region ``-10 < Re s < -1e-4``, objective
    ``1 gamma + 100 nu``; D-G scalings for norm-bounded parameters (uncertainty types 1, 3),
@@ -22,6 +21,7 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.linalg import matrix_balance
 
 from synthesis import robust_lmi as rl
 from synthesis.demeter_variants import RATE_WORST, THETA_WORST, DesignModel, Variant, design_model
@@ -35,15 +35,26 @@ W_HINF, W_I2P = 1.0, 100.0
 
 
 def state_scale(dm: DesignModel) -> np.ndarray:
-    """T of ``x = T x_s``: rad for theta (15 deg), rad/s for theta' (0.08 deg/s), modal
-    coordinates 0.1, their rates 0.01, xi 10 rad s, xw 0.1 N m s, wheel torque 5e-3 N m
-    (satT), its rate 5e-2 N m/s."""
+    """T of ``x = T x_s``: the states' sizes, balanced.
+
+    Starts from the sizes in the seed's worst-case manoeuvre (rad for theta (15 deg), rad/s for
+    theta' (0.08 deg/s), modal coordinates 0.1, their rates 0.01, xi 10 rad s, xw 0.1 N m s, wheel
+    torque 5e-3 N m (satT), its rate 5e-2 N m/s), then balances the magnitudes of the open-loop
+    couplings ``|A| + |Bp| |Cq|`` (:func:`scipy.linalg.matrix_balance`, powers of 2), so that no
+    path of the loop is 10^3 times another: the slow momentum mode (-a) and the stiff flexible
+    coupling then stay within the solver's relative accuracy (without this, the robust row-1
+    program stalls in Clarabel).
+    """
     na, nr = dm.na, dm.nr
     parts = [np.full(na, THETA_WORST), np.full(na, RATE_WORST), np.full(nr, 0.1), np.full(nr, 0.01),
              np.full(na, 10.0), np.full(na, 0.1)]
     if dm.variant.wheels:
         parts += [np.full(na, 5e-3), np.full(na, 5e-2)]
-    return np.concatenate(parts)
+    T0 = np.concatenate(parts)
+    L = dm.lft()
+    coupling = np.abs(L["A"]) + np.abs(L["Bp"]) @ np.abs(L["Cq"])
+    _, (s, _) = matrix_balance(coupling * T0[None, :] / T0[:, None], permute=False, separate=True)
+    return T0 * s
 
 
 def scaled_lft(dm: DesignModel, T: np.ndarray) -> rl.LFTPlant:
@@ -74,6 +85,58 @@ def scaled_descriptor(dm: DesignModel, T: np.ndarray) -> rl.AffineDescriptor:
     m = dm.na
     return rl.AffineDescriptor(N0=dm.N0 * S, Nk=dm.Nk * S, n=n, n_v=dm.n_v, m_u=m, m_w=m, C1=dm.C1 * T,
                                D1u=np.zeros((m, m)), D11=np.zeros((m, m)), names=tuple(dm.names))
+
+
+@dataclass
+class CoincidentModes:
+    """Why common-Lyapunov designs of a variant are infeasible: a free oscillator that no gain
+    reaches, whose frequency sweeps the whole omega interval.
+
+    When two mode groups with their own omega, zeta (``model_type`` 1) have the same values, a
+    combination of their reduced coordinates (``n_r - n_axes`` of them) is decoupled from the
+    body: ``L_r^T c`` drives every coordinate of a group along the coupling, and at equal
+    frequencies the combinations orthogonal to the columns of ``L_r`` obey
+    ``e'' + 2 zeta omega e' + omega^2 e = 0`` for every gain K. Its state ``C x`` is a quotient of
+    the closed loop: ``C A_cl = A_osc C`` with C constant. A common Lyapunov matrix Y of the loop
+    over the box (what D-G scalings and vertex separators certify) gives one of the oscillator,
+    ``C Y C^T``, over ``omega`` in ``[omega_lo, omega_hi]``. Two stable 2 x 2 matrices have one iff
+    ``A_lo A_hi`` and ``A_lo A_hi^-1`` have no negative real eigenvalue (Shorten & Narendra, Int.
+    J. Adaptive Control Signal Process. 16, 2002), which needs
+    ``zeta > (omega_hi - omega_lo) / (2 sqrt(omega_lo omega_hi))``: the largest zeta of the box
+    is far below, so no gain exists, whatever L.
+    """
+
+    omega: tuple[float, float]
+    zeta: float
+    required_zeta: float
+    eigenvalues: np.ndarray
+    """Eigenvalues of ``A_lo A_hi`` at the largest zeta."""
+    n_free: int
+    """Decoupled combinations at coincidence, ``n_r - n_axes``."""
+
+    @property
+    def proves_infeasible(self) -> bool:
+        ev = self.eigenvalues
+        return bool(np.any((ev.real < 0) & (np.abs(ev.imag) <= 1e-9 * np.abs(ev))))
+
+
+def oscillator(omega: float, zeta: float) -> np.ndarray:
+    """``[[0, 1], [-omega^2, -2 zeta omega]]`` (omega in rad/s)."""
+    return np.array([[0.0, 1.0], [-omega**2, -2.0 * zeta * omega]])
+
+
+def coincident_modes(variant: Variant) -> CoincidentModes | None:
+    """The obstruction of :class:`CoincidentModes`, or None if the variant's groups cannot
+    leave a coordinate undriven (one group, or no more reduced coordinates than axes)."""
+    dm = design_model(variant)
+    if len(dm.groups) < 2 or dm.nr <= dm.na:
+        return None
+    omega = [p for p in dm.parameters if p.kind == "omega"][0]
+    zeta = [p for p in dm.parameters if p.kind == "zeta"][0]
+    lo, hi = omega.value(-1.0), omega.value(1.0)
+    z = zeta.value(1.0)
+    ev = np.linalg.eigvals(oscillator(lo, z) @ oscillator(hi, z))
+    return CoincidentModes((lo, hi), z, (hi - lo) / (2 * np.sqrt(lo * hi)), ev, dm.nr - dm.na)
 
 
 @dataclass
@@ -120,6 +183,8 @@ class DeterministicResult:
     analysis_i2p: rl.RobustDesign | None = None
     check: SampledCheck | None = None
     seconds: dict[str, float] = field(default_factory=dict)
+    obstruction: CoincidentModes | None = None
+    """Set when the variant is provably infeasible for any common-Lyapunov design."""
 
     @property
     def feasible(self) -> bool:
@@ -140,15 +205,19 @@ def deterministic(variant: Variant, *, n_samples: int = 100, seed: int = 0, anal
     t0 = time.perf_counter()
     des = rl.design(scaled_lft(dm, T), w_hinf=W_HINF, w_i2p=W_I2P, alpha=ALPHA, beta=BETA, uncertainty=kind)
     out = DeterministicResult(variant, kind, des, None if des.K is None else des.K / T,
-                              seconds={"design": time.perf_counter() - t0})
+                              seconds={"design": time.perf_counter() - t0}, obstruction=coincident_modes(variant))
     if out.K is None:
         return out
     if analysis:
         t0 = time.perf_counter()
-        Ks = des.K
-        out.analysis_hinf = rl.pdlf_hinf(scaled_descriptor(dm, T), Ks)
-        out.analysis_hinf_common = rl.pdlf_hinf(scaled_descriptor(dm, T), Ks, common=True)
-        out.analysis_i2p = rl.i2p_bound(scaled_lft(dm, T), Ks, alpha=0.0, uncertainty=kind)
+        if des.state_scaling is not None:  # the design's own well-conditioned coordinates
+            T = T * des.state_scaling
+        plant = scaled_lft(dm, T)
+        Ks = out.K * T
+        desc = rl.AffineDescriptor.from_lft(plant)
+        out.analysis_hinf = rl.pdlf_hinf(desc, Ks)
+        out.analysis_hinf_common = rl.pdlf_hinf(desc, Ks, common=True)
+        out.analysis_i2p = rl.i2p_bound(plant, Ks, alpha=0.0, uncertainty=kind)
         out.seconds["analysis"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     out.check = sampled_check(dm, out.K, n_samples, seed)

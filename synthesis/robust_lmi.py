@@ -101,15 +101,16 @@ Every result returned as ``"optimal"`` has been re-verified without the solver (
 K), its extreme eigenvalue of the right sign with a margin; otherwise ``"unverified"``. An
 optimal interior-point solution lies within the solver's accuracy (about 1e-8 of the largest
 entry) of the boundary, too close for such a check, so every minimization is followed by a
-back-off solve: the levels fixed at ``1 + BACKOFF`` times the optimum and the smallest
-strictness margin of all the LMIs maximized. The certificate returned is the back-off one.
+back-off solve: the levels fixed at ``1 + b`` times the optimum and the smallest strictness
+margin of all the LMIs maximized, for b in :data:`BACKOFFS` until one verifies. The certificate
+returned is the back-off one.
 """
 from __future__ import annotations
 
 import itertools
 import time
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import cvxpy as cp
 import numpy as np
@@ -119,11 +120,14 @@ ABS_MARGIN = 1e-9
 """Smallest eigenvalue margin accepted as strict (the solver is asked for ``eps``, default
 1e-7; numpy's eigenvalue error is about 1e-16 times the largest entry)."""
 
-BACKOFF = 1e-4
-"""Relative back-off of the optimal levels: after the minimization, gamma and nu (or g) are
-fixed at ``(1 + BACKOFF)`` times the solver's values and the smallest strictness margin of all
-the LMIs is maximized (a second solve), so that the certificate checked without the solver is
-far from the solver's accuracy (about 1e-8 relative to the largest entry)."""
+BACKOFFS = (1e-4, 1e-3, 1e-2)
+"""Relative back-offs of the optimal levels, tried in turn: after the minimization, gamma and
+nu (or g) are fixed at ``(1 + b)`` times the solver's values and the smallest strictness margin
+of all the LMIs is maximized (a second solve), so that the certificate checked without the
+solver is far from the solver's accuracy (about 1e-8 relative to the largest entry). A larger b
+is tried only when the certificate at the smaller one fails :func:`verify`: a poorly
+conditioned program (DEMETER's momentum mode at -1e-3 1/s) can report an optimum slightly
+below the true one, and no strictly feasible point exists at 1e-4 above it."""
 
 MAX_VERTICES = 4096
 """Default largest number of box vertices (2^N) a vertex program may enumerate."""
@@ -337,6 +341,23 @@ class LFTPlant:
         A, Bu, B1, C1, D1u, D11 = self.evaluate(delta)
         K = _check_gain(K, Bu.shape[1], A.shape[0])
         return A + Bu @ K, B1, C1 + D1u @ K, D11
+
+    def scale_states(self, T) -> LFTPlant:
+        """The same plant in the coordinates ``x_s`` of ``x = diag(T) x_s`` (T > 0, shape (n,)).
+
+        A gain ``K`` of this plant becomes ``K_s = K diag(T)``; a dual Lyapunov matrix ``Y``
+        becomes ``Y_s = diag(T)^-1 Y diag(T)^-1``; bounds, multipliers and poles are unchanged.
+        """
+        T = np.asarray(T, dtype=float)
+        if T.shape != (self.A.shape[0],) or not np.all(np.isfinite(T) & (T > 0)):
+            raise PlantDataError(f"T must be {self.A.shape[0]} positive scales, got {T}")
+        out = {k: getattr(self, k) for k in _LFT_FIELDS}
+        out["A"] = self.A * T[None, :] / T[:, None]
+        for k in ("Bp", "Bu", "B1", "B2"):
+            out[k] = out[k] / T[:, None]
+        for k in ("Cq", "C1", "C2"):
+            out[k] = out[k] * T[None, :]
+        return LFTPlant(**out, blocks=self.blocks)
 
 
 @dataclass(frozen=True)
@@ -698,14 +719,18 @@ class RobustDesign:
     ``"infeasible"`` (the solver proved infeasibility), ``"unverified"`` (a solution that failed
     :func:`verify`, or no usable solver answer; K, gamma, nu are then None, ``check`` tells why).
     ``gamma`` (H-infinity bound, units of z1/w1) and ``nu`` (peak bound, units of z2 per unit
-    impulse of w2) are the solver's optimal values times ``1 + BACKOFF`` (:data:`BACKOFF`), the
-    levels at which the returned certificate (from the back-off solve) is verified;
+    impulse of w2) are the solver's optimal values times ``1 + backoff`` (the first of
+    :data:`BACKOFFS` that verifies), the levels at which the returned certificate (from the
+    back-off solve) is verified;
     ``solver_objective`` is the minimized ``w_hinf gamma + w_i2p nu`` itself (not certified).
     ``n_vertices``: box
     vertices enumerated (0 with D-G scalings); ``n_multipliers``: scaling pairs (D-G: one per
     block and robust LMI) or full-block multipliers (one per robust LMI). Times in seconds:
     ``build_seconds`` to build the cvxpy problem, ``solve_seconds`` the wall time of
-    ``Problem.solve`` (canonicalization and Clarabel), both summed over the two solves.
+    ``Problem.solve`` (canonicalization and Clarabel), both summed over all the solves.
+    ``backoff``: the back-off that verified; ``state_scaling``: None, or T when the certificate
+    was found (and ``check`` computed) in the coordinates ``x = diag(T) x_s``: K and Y are given
+    in the plant's own coordinates (``Y = diag(T) Y_s diag(T)``).
     """
 
     status: str
@@ -723,6 +748,8 @@ class RobustDesign:
     solver_status: str
     solve_seconds: float
     build_seconds: float
+    backoff: float | None = None
+    state_scaling: np.ndarray | None = None
 
 
 RELAXED_TOLERANCES = {"tol_gap_abs": 1e-6, "tol_gap_rel": 1e-6, "tol_feas": 1e-7, "tol_ktratio": 1e-5}
@@ -789,10 +816,39 @@ def _robust_constraints(plant: LFTPlant, K: np.ndarray | None, specs: list[_Spec
     return Y, W, values, cons
 
 
+def _rescaled_program(plant: LFTPlant, K: np.ndarray | None, rescale: bool, **options) -> RobustDesign:
+    """:func:`_robust_program` at the first back-off; if its certificate fails :func:`verify`,
+    once more in the coordinates where the first solve's Y has a unit diagonal
+    (``x = diag(sqrt(Y_ii)) x_s``) with every back-off; failing that, the caller's coordinates
+    with the larger back-offs.
+
+    A Lyapunov matrix with eigenvalues 10^7 apart (slow modes next to stiff ones) leaves the
+    solver's answer just outside the feasible set whatever the back-off; the diagonal scaling
+    from its own first answer brings Y's condition number to about 10 (DEMETER row 1: 10^7 to
+    13). The returned K, Y are in the caller's coordinates; ``state_scaling`` holds the scale,
+    ``check`` the verification in the scaled coordinates (:meth:`LFTPlant.scale_states`).
+    """
+    out, Y1 = _robust_program(plant, K, backoffs=BACKOFFS[:1], **options)
+    if out.status != "unverified" or Y1 is None:
+        return out
+    scaled = None
+    if rescale and np.all(np.diag(Y1) > 0):
+        T = np.sqrt(np.diag(Y1))
+        scaled, _ = _robust_program(plant.scale_states(T), None if K is None else K * T, backoffs=BACKOFFS,
+                                    **options)
+    if scaled is None or scaled.status != "optimal":
+        return _robust_program(plant, K, backoffs=BACKOFFS[1:], **options)[0]
+    return replace(scaled, K=scaled.K / T, Y=T[:, None] * scaled.Y * T[None, :], state_scaling=T,
+                   solve_seconds=scaled.solve_seconds + out.solve_seconds,
+                   build_seconds=scaled.build_seconds + out.build_seconds,
+                   solver_status=f"{out.solver_status}; rescaled: {scaled.solver_status}")
+
+
 def _robust_program(plant: LFTPlant, K: np.ndarray | None, *, hinf: bool, w_hinf: float, w_i2p: float,
-                    alpha: float, beta: float | None, uncertainty: str, eps: float) -> RobustDesign:
-    """Solve (minimize the objective), back off (levels x (1 + BACKOFF), largest common margin)
-    and verify the common-Lyapunov program (options already checked)."""
+                    alpha: float, beta: float | None, uncertainty: str, eps: float,
+                    backoffs: tuple[float, ...] = BACKOFFS) -> tuple[RobustDesign, np.ndarray | None]:
+    """Solve (minimize the objective), back off (levels x (1 + b), b in BACKOFFS, largest common margin)
+    and verify the common-Lyapunov program (options already checked); also the first solve's Y."""
     t0 = time.perf_counter()
     specs = _specs(plant, alpha, beta, hinf)
     gamma = cp.Variable() if hinf else None
@@ -806,32 +862,35 @@ def _robust_program(plant: LFTPlant, K: np.ndarray | None, *, hinf: bool, w_hinf
             "n_multipliers": n_mult, "fixed_gain": K is not None}
     if status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE) or Y.value is None:
         return RobustDesign(_failed(status), None, None, None, None, {}, None, None, **info,
-                            solver_status=status, solve_seconds=seconds, build_seconds=build)
-    optimum = float(prob.value)
-    t0 = time.perf_counter()
-    g = float(gamma.value) * (1 + BACKOFF) if hinf else None
-    nv = float(nu.value) * (1 + BACKOFF)
-    t = cp.Variable()
-    Y, W, values, cons = _robust_constraints(plant, K, specs, uncertainty, t, g, nv)
-    prob = cp.Problem(cp.Maximize(t), cons)
-    build += time.perf_counter() - t0
-    status2, seconds2 = _solve(prob)
-    times = {"solver_status": f"{status}; back-off: {status2}", "solve_seconds": seconds + seconds2,
-             "build_seconds": build}
-    if status2 not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE) or Y.value is None:
-        return RobustDesign("unverified", None, None, None, None, {}, None, optimum, **info, **times)
-    Yv = _sym(Y.value)
-    Kv = np.linalg.solve(Yv, np.asarray(W.value).T).T if K is None else K
-    mults = {k: f() for k, f in values.items()}
-    check = verify(plant, Kv, Yv, g, nv, mults, alpha=alpha, beta=beta)
-    if not check.ok:
-        return RobustDesign("unverified", None, None, None, None, mults, check, optimum, **info, **times)
-    return RobustDesign("optimal", Kv, g, nv, Yv, mults, check, optimum, **info, **times)
+                            solver_status=status, solve_seconds=seconds, build_seconds=build), None
+    optimum, Y1 = float(prob.value), _sym(Y.value)
+    times = {"solver_status": status, "solve_seconds": seconds, "build_seconds": build}
+    mults, check = {}, None
+    for b in backoffs:
+        t0 = time.perf_counter()
+        g = float(gamma.value) * (1 + b) if hinf else None
+        nv = float(nu.value) * (1 + b)
+        t = cp.Variable()
+        Yb, Wb, values, cons = _robust_constraints(plant, K, specs, uncertainty, t, g, nv)
+        prob = cp.Problem(cp.Maximize(t), cons)
+        times["build_seconds"] += time.perf_counter() - t0
+        status2, seconds2 = _solve(prob)
+        times["solver_status"] += f"; back-off {b:g}: {status2}"
+        times["solve_seconds"] += seconds2
+        if status2 not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE) or Yb.value is None:
+            continue
+        Yv = _sym(Yb.value)
+        Kv = np.linalg.solve(Yv, np.asarray(Wb.value).T).T if K is None else K
+        mults = {k: f() for k, f in values.items()}
+        check = verify(plant, Kv, Yv, g, nv, mults, alpha=alpha, beta=beta)
+        if check.ok:
+            return RobustDesign("optimal", Kv, g, nv, Yv, mults, check, optimum, **info, **times, backoff=b), Y1
+    return RobustDesign("unverified", None, None, None, None, mults, check, optimum, **info, **times), Y1
 
 
 def design(plant: LFTPlant, K=None, *, w_hinf: float = 1.0, w_i2p: float = 100.0, alpha: float = 1e-4,
            beta: float = 10.0, uncertainty: str = "norm", max_vertices: int = MAX_VERTICES,
-           eps: float = EPS) -> RobustDesign:
+           eps: float = EPS, rescale: bool = True) -> RobustDesign:
     """Robust multi-objective state feedback ``u = K x`` with one Lyapunov matrix (module docstring).
 
     Minimizes ``w_hinf gamma + w_i2p nu`` (the seed's "+1*hinfty +100*i2p") subject to, for
@@ -855,6 +914,9 @@ def design(plant: LFTPlant, K=None, *, w_hinf: float = 1.0, w_i2p: float = 100.0
         Largest ``2^N`` accepted with ``"vertex"``.
     eps : float
         Strictness of the LMIs in the solver.
+    rescale : bool
+        If the certificate fails :func:`verify`, solve once more in the coordinates where the
+        first solve's Y has a unit diagonal (see ``state_scaling`` of the result).
 
     Returns
     -------
@@ -874,12 +936,12 @@ def design(plant: LFTPlant, K=None, *, w_hinf: float = 1.0, w_i2p: float = 100.0
         _check_vertices(plant.n_params, max_vertices)
     if K is not None:
         K = _check_gain(K, plant.Bu.shape[1], plant.A.shape[0])
-    return _robust_program(plant, K, hinf=True, w_hinf=w_hinf, w_i2p=w_i2p, alpha=alpha, beta=beta,
-                           uncertainty=uncertainty, eps=eps)
+    return _rescaled_program(plant, K, rescale, hinf=True, w_hinf=w_hinf, w_i2p=w_i2p, alpha=alpha, beta=beta,
+                             uncertainty=uncertainty, eps=eps)
 
 
 def i2p_bound(plant: LFTPlant, K, *, alpha: float = 0.0, uncertainty: str = "norm",
-              max_vertices: int = MAX_VERTICES, eps: float = EPS) -> RobustDesign:
+              max_vertices: int = MAX_VERTICES, eps: float = EPS, rescale: bool = True) -> RobustDesign:
     """Deterministic impulse-to-peak bound of the loop ``u = K x`` over the whole box.
 
     Smallest ``nu`` with ``[[Y, B2], [B2^T, nu I]] >= 0``, ``C2 Y C2^T <= nu I`` and the robust
@@ -896,8 +958,8 @@ def i2p_bound(plant: LFTPlant, K, *, alpha: float = 0.0, uncertainty: str = "nor
     if uncertainty == "vertex":
         _check_vertices(plant.n_params, max_vertices)
     K = _check_gain(K, plant.Bu.shape[1], plant.A.shape[0])
-    return _robust_program(plant, K, hinf=False, w_hinf=0.0, w_i2p=1.0, alpha=alpha, beta=None,
-                           uncertainty=uncertainty, eps=eps)
+    return _rescaled_program(plant, K, rescale, hinf=False, w_hinf=0.0, w_i2p=1.0, alpha=alpha, beta=None,
+                             uncertainty=uncertainty, eps=eps)
 
 
 @dataclass
@@ -905,9 +967,11 @@ class PDLFResult:
     """Result of :func:`pdlf_hinf`.
 
     ``gamma``: the certified bound of ``||w1 -> z1||_inf`` over the box (sqrt of the minimized
-    ``g``, times ``1 + BACKOFF``: :data:`BACKOFF`); ``P0``, ``Pk`` (shape (N, n, n), zeros if
-    ``common``) the Lyapunov matrix ``P(delta) = P0 + sum delta_k Pk[k]``; ``F`` the slack, shape
-    (2 n + n_v + m_w, n + n_v). Status and times as :class:`RobustDesign`.
+    ``g``, times ``1 + backoff``: :data:`BACKOFFS`; with ``method == "bisection"`` the smallest
+    level verified by the bisection, within :data:`PDLF_BISECTION_TOL` of the smallest it could
+    not verify); ``P0``, ``Pk`` (shape (N, n, n), zeros if ``common``) the Lyapunov matrix
+    ``P(delta) = P0 + sum delta_k Pk[k]``; ``F`` the slack, shape (2 n + n_v + m_w, n + n_v).
+    Status and times as :class:`RobustDesign`.
     """
 
     status: str
@@ -921,6 +985,8 @@ class PDLFResult:
     solver_status: str
     solve_seconds: float
     build_seconds: float
+    backoff: float | None = None
+    method: str = "minimize"
 
 
 def _pdlf_lmi(desc: AffineDescriptor, K: np.ndarray, P, F, g, delta: np.ndarray, bmat):
@@ -996,31 +1062,90 @@ def pdlf_hinf(desc: AffineDescriptor, K, *, common: bool = False, max_vertices: 
     g = cp.Variable()
     P0, Pk, F, cons = _pdlf_constraints(desc, K, common, eps, g)
     prob = cp.Problem(cp.Minimize(g), cons)
-    build = time.perf_counter() - t0
+    info = {"common": common, "n_vertices": 2**desc.n_params, "solve_seconds": 0.0,
+            "build_seconds": time.perf_counter() - t0}
+    status = _timed_solve(prob, info)
+    info["solver_status"] = status
+    if status in (cp.INFEASIBLE, cp.INFEASIBLE_INACCURATE):
+        return PDLFResult("infeasible", None, None, None, None, None, **info)
+    check = None
+    if status in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE) and g.value is not None:
+        root = float(np.sqrt(max(float(g.value), 0.0)))
+        for b in BACKOFFS:
+            found, check = _pdlf_at(desc, K, common, root * (1 + b), info, f"back-off {b:g}")
+            if found is not None:
+                return replace(found, backoff=b)
+    return _pdlf_bisection(desc, K, common, info, check)
+
+
+PDLF_BISECTION_TOL = 5e-3
+"""Relative width in gamma at which :func:`pdlf_hinf`'s bisection stops."""
+PDLF_MAX_DOUBLINGS = 30
+"""Doublings of the nominal norm tried before the bisection gives up finding a feasible level."""
+
+
+def _timed_solve(prob: cp.Problem, info: dict) -> str:
     status, seconds = _solve(prob)
-    info = {"common": common, "n_vertices": 2**desc.n_params}
-    if status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE) or P0.value is None:
-        return PDLFResult(_failed(status), None, None, None, None, None, **info, solver_status=status,
-                          solve_seconds=seconds, build_seconds=build)
-    gamma = float(np.sqrt(max(g.value, 0.0))) * (1 + BACKOFF)
+    info["solve_seconds"] += seconds
+    return status
+
+
+def _pdlf_at(desc: AffineDescriptor, K: np.ndarray, common: bool, gamma: float, info: dict, label: str
+             ) -> tuple[PDLFResult | None, RobustCheck | None]:
+    """The largest common margin of the PDLF LMIs at level ``gamma`` (bounded by 1), verified:
+    ``(result, check)``; result None if the certificate fails :func:`verify_pdlf`."""
     t0 = time.perf_counter()
     t = cp.Variable()
     P0, Pk, F, cons = _pdlf_constraints(desc, K, common, t, gamma**2)
-    prob = cp.Problem(cp.Maximize(t), cons)
-    build += time.perf_counter() - t0
-    status2, seconds2 = _solve(prob)
-    info.update(solver_status=f"{status}; back-off: {status2}", solve_seconds=seconds + seconds2,
-                build_seconds=build)
-    if status2 not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE) or P0.value is None:
-        return PDLFResult("unverified", None, None, None, None, None, **info)
+    prob = cp.Problem(cp.Maximize(t), cons + [t <= 1])
+    info["build_seconds"] += time.perf_counter() - t0
+    status = _timed_solve(prob, info)
+    info["solver_status"] += f"; {label}: {status}"
+    if status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE) or P0.value is None or t.value is None or t.value <= 0:
+        return None, None
     n, N = desc.n, desc.n_params
     P0v = _sym(P0.value)
     Pkv = np.stack([_sym(p.value) for p in Pk]) if Pk else np.zeros((N, n, n))
     Fv = np.asarray(F.value)
     check = verify_pdlf(desc, K, P0v, Pkv, Fv, gamma)
     if not check.ok:
+        return None, check
+    return PDLFResult("optimal", gamma, P0v, Pkv, Fv, check, **info), check
+
+
+def _pdlf_bisection(desc: AffineDescriptor, K: np.ndarray, common: bool, info: dict,
+                    check: RobustCheck | None) -> PDLFResult:
+    """Smallest verified PDLF level by bisection on gamma, each level a bounded-margin
+    feasibility problem (:func:`_pdlf_at`): the fallback when the minimization of g fails (a
+    slow closed-loop mode next to stiff ones leaves Clarabel without a usable optimum, while the
+    feasibility problems stay well posed). Starts from the nominal closed loop's exact norm (a
+    lower bound of any robust bound) and doubles it until a level verifies; stops when the
+    bracket is narrower than :data:`PDLF_BISECTION_TOL`."""
+    A, Bu, B1 = desc.state_space(np.zeros(desc.n_params))
+    try:
+        low = float(hinf_norm(A + Bu @ K, B1, desc.C1 + desc.D1u @ K, desc.D11))
+    except NotHurwitzError:
+        info["solver_status"] += "; bisection: the nominal loop is not stable"
+        return PDLFResult("infeasible", None, None, None, None, None, **info)
+    best = None
+    high = low
+    for _ in range(PDLF_MAX_DOUBLINGS):
+        high *= 2.0
+        best, check = _pdlf_at(desc, K, common, high, info, f"bisection {high:.6g}")
+        if best is not None:
+            break
+        low = high
+    if best is None:
         return PDLFResult("unverified", None, None, None, None, check, **info)
-    return PDLFResult("optimal", gamma, P0v, Pkv, Fv, check, **info)
+    while high > low * (1 + PDLF_BISECTION_TOL):
+        mid = float(np.sqrt(low * high))
+        found, _ = _pdlf_at(desc, K, common, mid, info, f"bisection {mid:.6g}")
+        if found is None:
+            low = mid
+        else:
+            best, high = found, mid
+    return replace(best, **{k: info[k] for k in ("solver_status", "solve_seconds", "build_seconds")},
+                   method="bisection")
 
 
 def _pdlf_constraints(desc: AffineDescriptor, K: np.ndarray, common: bool, margin, g) -> tuple:
