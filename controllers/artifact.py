@@ -1,4 +1,8 @@
-"""Versioned JSON artifacts of polynomial state-feedback controllers, validated on load.
+"""Versioned JSON artifacts of controllers, validated on load.
+
+Kinds: polynomial state feedback (below), gain-scheduled servo (:class:`ServoArtifact`),
+periodic gain schedule (:class:`PeriodicArtifact`), static linear state feedback with named
+gains (:class:`GainArtifact`).
 
 An artifact is what synthesis writes and what a controller FMU is built from. It
 holds the law, where it came from and what was proved about it. Two forms of the
@@ -44,6 +48,7 @@ FORMAT_VERSION = 1
 KIND = "polynomial_state_feedback"
 SERVO_KIND = "servo_gain_schedule"
 PERIODIC_KIND = "periodic_gain_schedule"
+GAIN_KIND = "linear_state_feedback"
 CERTIFICATE_STATUS = ("certified", "sampled", "not_verified")
 """certified: proved (SOS, Riccati check at the design point); sampled: checked on samples and
 in simulation, no proof; not_verified: nothing checked."""
@@ -216,7 +221,7 @@ def _check_named(items: list, label: str, where: str, keys: tuple[str, ...] = ("
             raise _fail(f"{where}.{label}[{i}]", "must be {" + ", ".join(f'"{k}": str' for k in keys) + ", ...}")
 
 
-def parse(data: Any, where: str = "artifact") -> ControllerArtifact | ServoArtifact | PeriodicArtifact:
+def parse(data: Any, where: str = "artifact") -> Artifact:
     """Validate JSON data and return the artifact.
 
     Raises
@@ -231,7 +236,7 @@ def parse(data: Any, where: str = "artifact") -> ControllerArtifact | ServoArtif
     version = data.get("format_version")
     if version != FORMAT_VERSION:
         raise _fail(where, f"format_version {version!r} is not supported (this satfmu reads {FORMAT_VERSION})")
-    kinds = (KIND, SERVO_KIND, PERIODIC_KIND)
+    kinds = (KIND, SERVO_KIND, PERIODIC_KIND, GAIN_KIND)
     if data.get("kind") not in kinds:
         raise _fail(where, f"'kind' must be one of {kinds}, got {data.get('kind')!r}")
     name = _get(data, "name", str, where)
@@ -244,6 +249,9 @@ def parse(data: Any, where: str = "artifact") -> ControllerArtifact | ServoArtif
     if data["kind"] == PERIODIC_KIND:
         _check_named(outputs, "outputs", where)
         return _parse_periodic(data, where, name, outputs)
+    if data["kind"] == GAIN_KIND:
+        _check_named(outputs, "outputs", where)
+        return _parse_gains(data, where, name, outputs)
     states = _get(data, "states", list, where)
     _check_named(states, "states", where)
     _check_named(outputs, "outputs", where)
@@ -445,6 +453,58 @@ def _parse_periodic(data: dict, where: str, name: str, outputs: list) -> Periodi
                             data.get("design", {}))
 
 
+@dataclass
+class GainArtifact:
+    """A validated static state feedback given by named gains (the parameters of its FMU).
+
+    Schema (kind ``"linear_state_feedback"``, format_version 1)::
+
+        {"format": "satfmu-controller", "format_version": 1, "kind": "linear_state_feedback",
+         "name": str, "description": str, "plant": str,
+         "outputs": [{"name": str, "unit": str, "description": str}, ...],
+         "gains": {"K_block[i,j]": float, ...},
+         "certificate": {...}, "provenance": {...}, "design": {...} (optional)}
+
+    Gains not listed are 0. Which gain names exist is the law's business
+    (:func:`controllers.state_feedback.build` rejects unknown ones).
+    """
+
+    name: str
+    description: str
+    plant: str
+    outputs: list[dict[str, str]]
+    gains: dict[str, float]
+    certificate: dict[str, Any]
+    provenance: dict[str, Any]
+    design: dict[str, Any] = field(default_factory=dict)
+
+    def to_json(self) -> dict[str, Any]:
+        data = {"format": FORMAT, "format_version": FORMAT_VERSION, "kind": GAIN_KIND, "name": self.name,
+                "description": self.description, "plant": self.plant, "outputs": self.outputs,
+                "gains": self.gains, "certificate": self.certificate, "provenance": self.provenance}
+        if self.design:
+            data["design"] = self.design
+        return data
+
+
+_GAIN_NAME = re.compile(r"^K_[a-z_]+\[\d+,\d+\]$")
+
+
+def _parse_gains(data: dict, where: str, name: str, outputs: list) -> GainArtifact:
+    raw = _get(data, "gains", dict, where)
+    gains = {}
+    for key, value in raw.items():
+        if not _GAIN_NAME.match(key):
+            raise _fail(where + ".gains", f"gain name {key!r} is not of the form 'K_block[i,j]'")
+        gains[key] = _finite(value, f"{where}.gains.{key}")
+    return GainArtifact(name, _get(data, "description", str, where), _get(data, "plant", str, where), outputs,
+                        gains, _certificate(data, where), _provenance(data, where), data.get("design", {}))
+
+
+Artifact = ControllerArtifact | ServoArtifact | PeriodicArtifact | GainArtifact
+"""Any artifact :func:`parse` returns."""
+
+
 def _certificate(data: dict, where: str) -> dict[str, Any]:
     cert = _get(data, "certificate", dict, where)
     if cert.get("status") not in CERTIFICATE_STATUS:
@@ -462,12 +522,12 @@ def _provenance(data: dict, where: str) -> dict[str, Any]:
     return prov
 
 
-def resource(artifact: ControllerArtifact | ServoArtifact | PeriodicArtifact) -> dict[str, bytes]:
+def resource(artifact: Artifact) -> dict[str, bytes]:
     """The artifact as a file for an FMU's ``resources/`` (traceability)."""
     return {"artifact.json": (json.dumps(artifact.to_json(), indent=1) + "\n").encode()}
 
 
-def load(path: str | Path) -> ControllerArtifact | ServoArtifact | PeriodicArtifact:
+def load(path: str | Path) -> Artifact:
     """Read and validate an artifact file.
 
     Raises
@@ -487,7 +547,7 @@ def load(path: str | Path) -> ControllerArtifact | ServoArtifact | PeriodicArtif
     return parse(data, where=str(path))
 
 
-def save(artifact: ControllerArtifact | ServoArtifact | PeriodicArtifact, path: str | Path) -> None:
+def save(artifact: Artifact, path: str | Path) -> None:
     """Write an artifact (re-validated first, so an invalid one is never written)."""
     data = artifact.to_json()
     parse(json.loads(json.dumps(data)), where=str(path))

@@ -25,24 +25,24 @@ class FmuSource:
 
 
 def sources() -> list[FmuSource]:
-    """Plants first, then the controllers of the shipped artifacts, then the designs without
-    an artifact (online SDRE, backstepping, B-dot, the DEMETER state feedback with its gains as
-    parameters)."""
+    """Plants first, then the controllers of the shipped artifacts (the DEMETER state feedback
+    of Table 1 row 1 among them, every gain a parameter), then the designs without an artifact
+    (online SDRE, backstepping, B-dot)."""
     out = [FmuSource(mrp_satellite.MODEL, {}), FmuSource(vscmg.MODEL, {}), FmuSource(cubesat.MODEL, {}),
            FmuSource(demeter.MODEL, {})]
     out += [controller_source(artifacts.load(path)) for path in polynomial.shipped_artifacts()]
     out += [FmuSource(servo.build_online(name), {}, ("python",)) for name in servo.ONLINE_VARIANTS]
-    return out + [FmuSource(backstepping.build(), {}), FmuSource(magnetic.build_bdot(), {}),
-                  FmuSource(state_feedback.build(), {})]
+    return out + [FmuSource(backstepping.build(), {}), FmuSource(magnetic.build_bdot(), {})]
 
 
-def controller_source(art: artifacts.ControllerArtifact | artifacts.ServoArtifact | artifacts.PeriodicArtifact
-                      ) -> FmuSource:
+def controller_source(art: artifacts.Artifact) -> FmuSource:
     """The controller model of an artifact (by its kind) and the artifact as its resource."""
     if isinstance(art, artifacts.ServoArtifact):
         model = servo.build(art)
     elif isinstance(art, artifacts.PeriodicArtifact):
         model = magnetic.build_periodic(art)
+    elif isinstance(art, artifacts.GainArtifact):
+        model = state_feedback.build(art.gains, name=art.name, description=art.description)
     else:
         model = polynomial.build(art)
     return FmuSource(model, artifacts.resource(art))

@@ -8,6 +8,8 @@
     satfmu synth mrp-h2hinf --gamma G [--variant slack|common] [--region 0.45] [--name ...] ...
     satfmu synth vscmg-sdre [--grid 23 25] [--max-degree 8] [--cv-tol TOL] [--out ...] [--fmu-dir DIR]
     satfmu synth cubesat-periodic [--gamma G] [--out ...] [--fmu-dir DIR]
+    satfmu synth demeter [--axes 1] [--appendages 1] [--model-type 1] [--uncertainty-type 1] [--no-wheels]
+                         [--samples 100] [--name demeter_row1_det] [--out ...] [--fmu-dir DIR]
     satfmu detumble [--runs 2000] [--seed 0] [--rates R ...] [--fmu-dir DIR] [--out results/cubesat]
     satfmu sweep mrp-h2hinf [--gammas 1 0.8 ...] [--region 0.45] [--out results/h2hinf_sweep]
     satfmu l2 CONTROLLER [--rate-max 0.2] [--sigma-max 0.9] [--samples 200000]
@@ -182,6 +184,26 @@ def _synth_cubesat(args: argparse.Namespace) -> int:
         data = r.artifact_data(args.published_name, cubesat_periodic.PUBLISHED_GAINS, r.published.gamma,
                                r.published.check, "published (seed 003, gains as printed)")
         _save_and_build(data, argparse.Namespace(**{**vars(args), "name": args.published_name}))
+    return 0
+
+
+def _synth_demeter(args: argparse.Namespace) -> int:
+    from synthesis import demeter_design as dd
+    from synthesis.demeter_variants import Variant
+
+    variant = Variant(tuple(args.axes), tuple(args.appendages), args.model_type, args.uncertainty_type,
+                      not args.no_wheels)
+    r = dd.deterministic(variant, n_samples=args.samples)
+    print(dd.table([r]))
+    if not r.feasible:
+        if r.obstruction is not None and r.obstruction.proves_infeasible:
+            o = r.obstruction
+            print(f"infeasible for any common-Lyapunov design: at coincident omega, {o.n_free} combination(s) of "
+                  f"the modes are free oscillators; over omega in [{o.omega[0]:.4g}, {o.omega[1]:.4g}] rad/s they "
+                  f"need zeta > {o.required_zeta:.4g} (the box has zeta <= {o.zeta:g}); eig(A_lo A_hi) = "
+                  f"{', '.join(f'{v.real:.4g}' for v in o.eigenvalues)}")
+        return 1
+    _save_and_build(dd.artifact_data(r, args.name), args)
     return 0
 
 
@@ -376,6 +398,18 @@ def main(argv: list[str] | None = None) -> int:
     cs.add_argument("--published-name", default="cubesat_periodic_published",
                     help="artifact and FMU name of the published gains")
     cs.set_defaults(fn=_synth_cubesat)
+    dm = designs.add_parser("demeter", parents=[out],
+                            help="seed 004: deterministic robust state feedback of a DEMETER variant (Table 1 Det)")
+    dm.add_argument("--axes", type=int, nargs="+", default=[1], help="axes, 1-based")
+    dm.add_argument("--appendages", type=int, nargs="+", default=[1], help="appendages, 1-based")
+    dm.add_argument("--model-type", type=int, choices=[1, 2], default=1,
+                    help="1: independent appendages, 2: identical")
+    dm.add_argument("--uncertainty-type", type=int, choices=[1, 2, 3], default=1,
+                    help="1: norm-bounded (D-G), 2: intervals (vertices), 3: inertia norm-bounded")
+    dm.add_argument("--no-wheels", action="store_true", help="design without the wheel dynamics H(s)")
+    dm.add_argument("--samples", type=int, default=100, help="sampled plants of the independent check")
+    dm.add_argument("--name", default="demeter_row1_det", help="artifact and FMU name")
+    dm.set_defaults(fn=_synth_demeter)
     dt = sub.add_parser("detumble", help="seed 003: linear Monte Carlo (Fig. 2) and the nonlinear initial-rate sweep")
     dt.add_argument("--runs", type=int, default=2000, help="Monte Carlo realizations per gain set")
     dt.add_argument("--seed", type=int, default=0)

@@ -86,7 +86,7 @@ def test_exact_integrator_rejects_non_affine_models() -> None:
 def test_fmus_validate_cleanly(plant: dict[str, Path], fmu_dir: Path, backend: str) -> None:
     assert catalog.validate(plant[backend]) == []
     suffix = "" if backend == "native" else "_py"
-    assert catalog.validate(fmu_dir / f"demeter_state_feedback{suffix}.fmu") == []
+    assert catalog.validate(fmu_dir / f"demeter_row1_det{suffix}.fmu") == []
 
 
 @pytest.mark.parametrize("backend, step, stop", [("native", 0.5, 120.0), ("python", 2.0, 40.0)])
@@ -257,7 +257,7 @@ def test_closed_loop_fmus_equal_the_sampled_data_reference(fmu_dir: Path) -> Non
     K = -Bu.T @ P / 1e3
     gains = dm.fmu_gains(K)
     h, n_steps = 0.1, 3000
-    sim = CoSimulation({"plant": fmu_dir / "demeter_flexible.fmu", "ctrl": fmu_dir / "demeter_state_feedback.fmu"})
+    sim = CoSimulation({"plant": fmu_dir / "demeter_flexible.fmu", "ctrl": fmu_dir / "demeter_row1_det.fmu"})
     for name in ("theta", "theta_dot", "eta", "eta_dot", "wheel_torque", "wheel_torque_rate"):
         sim.connect(f"plant.{name}", f"ctrl.{name}")
     sim.connect("ctrl.u_c", "plant.u_c")

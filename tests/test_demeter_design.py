@@ -6,6 +6,8 @@ import numpy as np
 import pytest
 from scipy.linalg import null_space
 
+from controllers import artifact as artifacts
+from controllers import polynomial, state_feedback
 from synthesis import demeter_design as dd
 from synthesis import demeter_variants as dv
 from synthesis import robust_lmi as rl
@@ -117,3 +119,27 @@ def test_row3_design_program_does_not_claim_a_design() -> None:
     res = dd.deterministic(ROW3, analysis=False)
     assert res.K is None and res.design.status in ("infeasible", "unverified")
     assert res.obstruction is not None and res.obstruction.proves_infeasible
+
+
+def test_shipped_row1_artifact_is_this_design(row1) -> None:
+    art = artifacts.load(polynomial.ARTIFACTS / "demeter_row1_det.json")
+    assert isinstance(art, artifacts.GainArtifact) and art.plant == "demeter_flexible"
+    assert art.certificate["status"] == "certified"
+    nums = art.certificate["numbers"]
+    # a fresh design on this machine: the same bounds to the solver's accuracy (1e-2, as above)
+    assert nums["design_hinf_bound"] == pytest.approx(row1.design.gamma, rel=1e-2)
+    assert nums["design_i2p_bound"] == pytest.approx(row1.design.nu, rel=1e-2)
+    # the shipped gains themselves, checked independently on 100 other plants (seed 7)
+    dm = dv.design_model(ROW1)
+    K = np.array(art.design["K"])
+    assert dm.fmu_gains(K) == art.gains
+    ck = dd.sampled_check(dm, K, 100, seed=7)
+    assert ck.in_region and ck.hinf.max() <= nums["analysis_hinf_pdlf"] and ck.i2p.max() <= nums["analysis_i2p"]
+    # the controller FMU's defaults are the artifact's gains
+    model = state_feedback.build(art.gains, name=art.name)
+    defaults = {p.name: p.start for p in model.parameters}
+    assert all(defaults[k] == v for k, v in art.gains.items())
+    with pytest.raises(artifacts.ArtifactError, match="K_block"):
+        artifacts.parse({**art.to_json(), "gains": {"gain": 1.0}})
+    with pytest.raises(artifacts.ArtifactError, match="finite"):
+        artifacts.parse({**art.to_json(), "gains": {"K_theta[1,1]": float("nan")}})
