@@ -8,6 +8,7 @@
     satfmu synth mrp-h2hinf --gamma G [--variant slack|common] [--region 0.45] [--name ...] ...
     satfmu synth vscmg-sdre [--grid 23 25] [--max-degree 8] [--cv-tol TOL] [--out ...] [--fmu-dir DIR]
     satfmu synth cubesat-periodic [--gamma G] [--out ...] [--fmu-dir DIR]
+    satfmu campaign demeter [--artifact demeter_row1_det] [--n 100000] [--workers 2] [--scheduler tcp://...]
     satfmu synth demeter [--axes 1] [--appendages 1] [--model-type 1] [--uncertainty-type 1] [--no-wheels]
                          [--samples 100] [--name demeter_row1_det] [--out ...] [--fmu-dir DIR]
     satfmu detumble [--runs 2000] [--seed 0] [--rates R ...] [--fmu-dir DIR] [--out results/cubesat]
@@ -204,6 +205,36 @@ def _synth_demeter(args: argparse.Namespace) -> int:
                   f"{', '.join(f'{v.real:.4g}' for v in o.eigenvalues)}")
         return 1
     _save_and_build(dd.artifact_data(r, args.name), args)
+    return 0
+
+
+def _campaign_demeter(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from controllers import artifact as artifacts
+    from controllers import polynomial
+    from sims import campaign
+    from synthesis import demeter_design as dd
+    from synthesis import demeter_random as dr
+    from synthesis.demeter_variants import Variant
+
+    path = Path(args.artifact)
+    art = artifacts.load(path if path.suffix == ".json" else polynomial.ARTIFACTS / f"{args.artifact}.json")
+    if not isinstance(art, artifacts.GainArtifact) or "variant" not in art.design:
+        raise ValueError(f"{args.artifact}: not a DEMETER state-feedback design artifact")
+    v = art.design["variant"]
+    variant = Variant(tuple(v["axes"]), tuple(v["appendages"]), v["model_type"], v["uncertainty_type"], v["wheels"])
+    task = dr.ClosedLoopSamples(variant, np.array(art.design["K"]))
+    camp = campaign.Campaign(name=args.name or f"{art.name}-n{args.n}-s{args.seed}", task=task, n=args.n,
+                             seed=args.seed, chunk=args.chunk,
+                             sampler=dr.BoxSampler(len(task.design_model().parameters)))
+    df = campaign.run(camp, Path(args.out), scheduler=args.scheduler, n_workers=args.workers,
+                      progress=lambda done, total: _progress(done, total, camp.name))
+    numbers = art.certificate.get("numbers", {})
+    levels = {"hinf": numbers.get("analysis_hinf_pdlf"), "i2p": numbers.get("analysis_i2p"),
+              "max_real_pole": -dd.ALPHA}
+    for column, level in levels.items():
+        print(campaign.summarize(df, column, level=level, epsilon=args.epsilon, delta=args.delta).text())
     return 0
 
 
@@ -410,6 +441,21 @@ def main(argv: list[str] | None = None) -> int:
     dm.add_argument("--samples", type=int, default=100, help="sampled plants of the independent check")
     dm.add_argument("--name", default="demeter_row1_det", help="artifact and FMU name")
     dm.set_defaults(fn=_synth_demeter)
+    ca = sub.add_parser("campaign", help="Monte Carlo campaigns on Dask (results in Parquet, resumable)")
+    kinds = ca.add_subparsers(dest="kind", required=True)
+    cd = kinds.add_parser("demeter", help="seed 004: closed-loop poles, exact H-infinity and i2p of sampled "
+                                          "plants under a design artifact, with the Chernoff statements")
+    cd.add_argument("--artifact", default="demeter_row1_det", help="shipped artifact name or a .json path")
+    cd.add_argument("--n", type=int, default=100_000, help="samples")
+    cd.add_argument("--chunk", type=int, default=5000, help="samples per task and per Parquet file")
+    cd.add_argument("--seed", type=int, default=0, help="root seed (results depend only on seed, chunk, n)")
+    cd.add_argument("--workers", type=int, default=2, help="local Dask workers (ignored with --scheduler)")
+    cd.add_argument("--scheduler", default=None, help="address of a running Dask scheduler, tcp://host:port")
+    cd.add_argument("--epsilon", type=float, default=0.1, help="accuracy of the statements")
+    cd.add_argument("--delta", type=float, default=1e-6, help="1 - confidence of the statements")
+    cd.add_argument("--name", default=None, help="campaign (folder) name; default from artifact, n, seed")
+    cd.add_argument("--out", default="results/campaigns", help="folder of the campaign folders")
+    cd.set_defaults(fn=_campaign_demeter)
     dt = sub.add_parser("detumble", help="seed 003: linear Monte Carlo (Fig. 2) and the nonlinear initial-rate sweep")
     dt.add_argument("--runs", type=int, default=2000, help="Monte Carlo realizations per gain set")
     dt.add_argument("--seed", type=int, default=0)

@@ -177,10 +177,13 @@ class DesignModel:
         J += S @ S
         return {"J": J, "S": S, "zeta": zeta, "omega": omega}
 
-    def _check_delta(self, delta: np.ndarray) -> np.ndarray:
-        d = np.asarray(delta, float).reshape(-1)
-        if d.shape != (len(self.parameters),) or not np.all(np.isfinite(d)) or np.abs(d).max(initial=0) > 1 + 1e-12:
-            raise VariantError(f"delta must be {len(self.parameters)} finite numbers in [-1, 1], got {delta!r}")
+    def _check_delta(self, delta: np.ndarray, stack: bool = False) -> np.ndarray:
+        """delta as shape (N,), or (S, N) with ``stack``; finite and in the box."""
+        d = np.asarray(delta, float)
+        d = d.reshape(-1, len(self.parameters)) if stack and d.ndim == 2 else d.reshape(-1)
+        if d.shape[-1:] != (len(self.parameters),) or not np.all(np.isfinite(d)) or np.abs(d).max(initial=0) > 1 + 1e-12:
+            raise VariantError(f"delta must be {len(self.parameters)} finite numbers in [-1, 1] "
+                               f"{'per row ' if stack else ''}, got shape {np.shape(delta)}")
         return d
 
     def N(self, delta: np.ndarray) -> np.ndarray:
@@ -188,14 +191,16 @@ class DesignModel:
         return self.N0 + np.tensordot(self._check_delta(delta), self.Nk, axes=1)
 
     def state_space(self, delta: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``x' = A x + Bu u + B1 w1`` at ``delta``, solved from the descriptor."""
-        Nd = self.N(delta)
+        """``x' = A x + Bu u + B1 w1`` at ``delta``, solved from the descriptor; ``delta`` of
+        shape (S, N) gives stacks (S, n, .) (one batched solve)."""
+        d = self._check_delta(delta, stack=True)
+        Nd = self.N0 + np.tensordot(d, self.Nk, axes=([-1], [0]))
         n, nv = self.n, self.n_v
-        lhs = np.hstack([Nd[:, :n], Nd[:, 2 * n:2 * n + nv]])
-        rhs = -np.hstack([Nd[:, n:2 * n], Nd[:, 2 * n + nv:]])
-        sol = np.linalg.solve(lhs, rhs)[:n]
+        lhs = np.concatenate([Nd[..., :n], Nd[..., 2 * n:2 * n + nv]], axis=-1)
+        rhs = -np.concatenate([Nd[..., n:2 * n], Nd[..., 2 * n + nv:]], axis=-1)
+        sol = np.linalg.solve(lhs, rhs)[..., :n, :]
         m = self.na
-        return sol[:, :n], sol[:, n:n + m], sol[:, n + m:]
+        return sol[..., :n], sol[..., n:n + m], sol[..., n + m:]
 
     def direct(self, delta: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The same design model built the direct way: eq. (4) by :func:`fmus.demeter.second_order`

@@ -110,6 +110,7 @@ from __future__ import annotations
 import itertools
 import time
 import warnings
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 
 import cvxpy as cp
@@ -341,6 +342,11 @@ class LFTPlant:
         A, Bu, B1, C1, D1u, D11 = self.evaluate(delta)
         K = _check_gain(K, Bu.shape[1], A.shape[0])
         return A + Bu @ K, B1, C1 + D1u @ K, D11
+
+    def at(self, delta) -> LFTPlant:
+        """The certain plant at ``delta`` (no blocks; w2, z2 unchanged)."""
+        A, Bu, B1, C1, D1u, D11 = self.evaluate(delta)
+        return LFTPlant.without_uncertainty(A, Bu, B1, self.B2, C1, D1u, D11, self.C2)
 
     def scale_states(self, T) -> LFTPlant:
         """The same plant in the coordinates ``x_s`` of ``x = diag(T) x_s`` (T > 0, shape (n,)).
@@ -794,29 +800,64 @@ def _check_options(w_hinf: float, w_i2p: float, alpha: float, beta: float | None
     _check_eps(eps)
 
 
-def _robust_constraints(plant: LFTPlant, K: np.ndarray | None, specs: list[_Spec], uncertainty: str,
-                        margin, gamma, nu) -> tuple[cp.Variable, object, dict, list]:
-    """``(Y, W, multiplier values, constraints)`` of the common-Lyapunov program, every LMI strict by
-    ``margin`` (eps, or the variable the back-off maximizes); gamma, nu variables or constants."""
-    n, m = plant.A.shape[0], plant.Bu.shape[1]
-    deltas = _vertex_deltas(plant) if uncertainty == "vertex" else []
+def _key(i: int, name: str, n_plants: int) -> str:
+    """Name of a robust LMI: the spec's, prefixed by the plant's index when there are several."""
+    return name if n_plants == 1 else f"{i}/{name}"
+
+
+def _distinct_i2p(plants: tuple[LFTPlant, ...]) -> list[LFTPlant]:
+    """One plant per distinct ``(B2, C2)``: the i2p blocks of the others are the same LMIs."""
+    out: list[LFTPlant] = []
+    for p in plants:
+        if not any(np.array_equal(p.B2, q.B2) and np.array_equal(p.C2, q.C2) for q in out):
+            out.append(p)
+    return out
+
+
+def _robust_constraints(plants: tuple[LFTPlant, ...], K: np.ndarray | None, specs: list[list[_Spec]],
+                        uncertainty: str, margin, gamma, nu) -> tuple[cp.Variable, object, dict, list]:
+    """``(Y, W, multiplier values, constraints)`` of the common-Lyapunov program over every plant
+    (``specs[i]`` of plant i), every LMI strict by ``margin`` (eps, or the variable the back-off
+    maximizes); gamma, nu variables or constants."""
+    n, m = plants[0].A.shape[0], plants[0].Bu.shape[1]
     Y = cp.Variable((n, n), symmetric=True)
     W = cp.Variable((m, n)) if K is None else K @ Y
     cons = [Y >> margin * np.eye(n)]
     values = {}
-    for s in specs:
-        triple = None
-        if plant.n_params:
-            mcons, triple, values[s.name] = _multiplier_program(plant, uncertainty, deltas, margin)
-            cons += mcons
-        L = _dual_lmi(s, plant, Y, W, triple, gamma, cp.vstack, cp.bmat)
-        cons.append(L << -margin * np.eye(L.shape[0]))
-    upper, lower = _i2p_blocks(plant, Y, nu, cp.bmat)
-    cons += [upper >> margin * np.eye(upper.shape[0]), lower << -margin * np.eye(lower.shape[0])]
+    for i, (plant, plant_specs) in enumerate(zip(plants, specs)):
+        deltas = _vertex_deltas(plant) if uncertainty == "vertex" else []
+        for s in plant_specs:
+            triple = None
+            if plant.n_params:
+                mcons, triple, values[_key(i, s.name, len(plants))] = _multiplier_program(
+                    plant, uncertainty, deltas, margin)
+                cons += mcons
+            L = _dual_lmi(s, plant, Y, W, triple, gamma, cp.vstack, cp.bmat)
+            cons.append(L << -margin * np.eye(L.shape[0]))
+    for plant in _distinct_i2p(plants):
+        upper, lower = _i2p_blocks(plant, Y, nu, cp.bmat)
+        cons += [upper >> margin * np.eye(upper.shape[0]), lower << -margin * np.eye(lower.shape[0])]
     return Y, W, values, cons
 
 
-def _rescaled_program(plant: LFTPlant, K: np.ndarray | None, rescale: bool, **options) -> RobustDesign:
+def _verify_plants(plants: tuple[LFTPlant, ...], K, Y, gamma, nu, multipliers: dict[str, Multiplier], *,
+                   alpha: float, beta: float | None) -> RobustCheck:
+    """:func:`verify` at every plant, merged: the smallest margin, names prefixed as :func:`_key`."""
+    if len(plants) == 1:
+        return verify(plants[0], K, Y, gamma, nu, multipliers, alpha=alpha, beta=beta)
+    checks = []
+    for i, plant in enumerate(plants):
+        own = {k.split("/", 1)[1]: v for k, v in multipliers.items() if k.startswith(f"{i}/")}
+        checks.append(verify(plant, K, Y, gamma, nu, own, alpha=alpha, beta=beta))
+    worst = min(range(len(checks)), key=lambda i: checks[i].margin)
+    return RobustCheck({f"{i}/{k}": v for i, c in enumerate(checks) for k, v in c.max_eig.items()},
+                       {f"{i}/{k}": v for i, c in enumerate(checks) for k, v in c.min_eig.items()},
+                       checks[worst].margin, max(c.scale for c in checks),
+                       max(c.structure_error for c in checks), [f"plant {worst}: {d}" for d in checks[worst].details])
+
+
+def _rescaled_program(plants: tuple[LFTPlant, ...], K: np.ndarray | None, rescale: bool, **options
+                      ) -> RobustDesign:
     """:func:`_robust_program` at the first back-off; if its certificate fails :func:`verify`,
     once more in the coordinates where the first solve's Y has a unit diagonal
     (``x = diag(sqrt(Y_ii)) x_s``) with every back-off; failing that, the caller's coordinates
@@ -828,37 +869,40 @@ def _rescaled_program(plant: LFTPlant, K: np.ndarray | None, rescale: bool, **op
     13). The returned K, Y are in the caller's coordinates; ``state_scaling`` holds the scale,
     ``check`` the verification in the scaled coordinates (:meth:`LFTPlant.scale_states`).
     """
-    out, Y1 = _robust_program(plant, K, backoffs=BACKOFFS[:1], **options)
+    out, Y1 = _robust_program(plants, K, backoffs=BACKOFFS[:1], **options)
     if out.status != "unverified" or Y1 is None:
         return out
     scaled = None
     if rescale and np.all(np.diag(Y1) > 0):
         T = np.sqrt(np.diag(Y1))
-        scaled, _ = _robust_program(plant.scale_states(T), None if K is None else K * T, backoffs=BACKOFFS,
-                                    **options)
+        scaled, _ = _robust_program(tuple(p.scale_states(T) for p in plants), None if K is None else K * T,
+                                    backoffs=BACKOFFS, **options)
     if scaled is None or scaled.status != "optimal":
-        return _robust_program(plant, K, backoffs=BACKOFFS[1:], **options)[0]
+        return _robust_program(plants, K, backoffs=BACKOFFS[1:], **options)[0]
     return replace(scaled, K=scaled.K / T, Y=T[:, None] * scaled.Y * T[None, :], state_scaling=T,
                    solve_seconds=scaled.solve_seconds + out.solve_seconds,
                    build_seconds=scaled.build_seconds + out.build_seconds,
                    solver_status=f"{out.solver_status}; rescaled: {scaled.solver_status}")
 
 
-def _robust_program(plant: LFTPlant, K: np.ndarray | None, *, hinf: bool, w_hinf: float, w_i2p: float,
+def _robust_program(plants: tuple[LFTPlant, ...], K: np.ndarray | None, *, hinf: bool, w_hinf: float,
+                    w_i2p: float,
                     alpha: float, beta: float | None, uncertainty: str, eps: float,
                     backoffs: tuple[float, ...] = BACKOFFS) -> tuple[RobustDesign, np.ndarray | None]:
     """Solve (minimize the objective), back off (levels x (1 + b), b in BACKOFFS, largest common margin)
     and verify the common-Lyapunov program (options already checked); also the first solve's Y."""
     t0 = time.perf_counter()
-    specs = _specs(plant, alpha, beta, hinf)
+    specs = [_specs(p, alpha, beta, hinf) for p in plants]
     gamma = cp.Variable() if hinf else None
     nu = cp.Variable()
-    Y, W, _, cons = _robust_constraints(plant, K, specs, uncertainty, eps, gamma, nu)
+    Y, W, _, cons = _robust_constraints(plants, K, specs, uncertainty, eps, gamma, nu)
     prob = cp.Problem(cp.Minimize(w_i2p * nu + (w_hinf * gamma if hinf else 0)), cons)
     build = time.perf_counter() - t0
     status, seconds = _solve(prob)
-    n_mult = len(specs) * (plant.n_params if uncertainty == "norm" else min(plant.n_params, 1))
-    info = {"uncertainty": uncertainty, "n_vertices": 2**plant.n_params if uncertainty == "vertex" else 0,
+    n_mult = sum(len(s) * (p.n_params if uncertainty == "norm" else min(p.n_params, 1))
+                 for p, s in zip(plants, specs))
+    info = {"uncertainty": uncertainty,
+            "n_vertices": sum(2**p.n_params for p in plants) if uncertainty == "vertex" else 0,
             "n_multipliers": n_mult, "fixed_gain": K is not None}
     if status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE) or Y.value is None:
         return RobustDesign(_failed(status), None, None, None, None, {}, None, None, **info,
@@ -871,7 +915,7 @@ def _robust_program(plant: LFTPlant, K: np.ndarray | None, *, hinf: bool, w_hinf
         g = float(gamma.value) * (1 + b) if hinf else None
         nv = float(nu.value) * (1 + b)
         t = cp.Variable()
-        Yb, Wb, values, cons = _robust_constraints(plant, K, specs, uncertainty, t, g, nv)
+        Yb, Wb, values, cons = _robust_constraints(plants, K, specs, uncertainty, t, g, nv)
         prob = cp.Problem(cp.Maximize(t), cons)
         times["build_seconds"] += time.perf_counter() - t0
         status2, seconds2 = _solve(prob)
@@ -882,13 +926,29 @@ def _robust_program(plant: LFTPlant, K: np.ndarray | None, *, hinf: bool, w_hinf
         Yv = _sym(Yb.value)
         Kv = np.linalg.solve(Yv, np.asarray(Wb.value).T).T if K is None else K
         mults = {k: f() for k, f in values.items()}
-        check = verify(plant, Kv, Yv, g, nv, mults, alpha=alpha, beta=beta)
+        check = _verify_plants(plants, Kv, Yv, g, nv, mults, alpha=alpha, beta=beta)
         if check.ok:
             return RobustDesign("optimal", Kv, g, nv, Yv, mults, check, optimum, **info, **times, backoff=b), Y1
     return RobustDesign("unverified", None, None, None, None, mults, check, optimum, **info, **times), Y1
 
 
-def design(plant: LFTPlant, K=None, *, w_hinf: float = 1.0, w_i2p: float = 100.0, alpha: float = 1e-4,
+def _plant_list(plant: LFTPlant | Sequence[LFTPlant], uncertainty: str, max_vertices: int
+                ) -> tuple[LFTPlant, ...]:
+    """The plants of a program: one, or several sharing the state and input sizes (each checked
+    against ``max_vertices`` with ``"vertex"``)."""
+    plants = (plant,) if isinstance(plant, LFTPlant) else tuple(plant)
+    if not plants or not all(isinstance(p, LFTPlant) for p in plants):
+        raise PlantDataError("plant must be an LFTPlant or a non-empty sequence of them")
+    n, m = plants[0].A.shape[0], plants[0].Bu.shape[1]
+    if any(p.A.shape[0] != n or p.Bu.shape[1] != m for p in plants):
+        raise PlantDataError(f"every plant must have {n} states and {m} inputs")
+    if uncertainty == "vertex":
+        for p in plants:
+            _check_vertices(p.n_params, max_vertices)
+    return plants
+
+
+def design(plant: LFTPlant | Sequence[LFTPlant], K=None, *, w_hinf: float = 1.0, w_i2p: float = 100.0, alpha: float = 1e-4,
            beta: float = 10.0, uncertainty: str = "norm", max_vertices: int = MAX_VERTICES,
            eps: float = EPS, rescale: bool = True) -> RobustDesign:
     """Robust multi-objective state feedback ``u = K x`` with one Lyapunov matrix (module docstring).
@@ -900,7 +960,10 @@ def design(plant: LFTPlant, K=None, *, w_hinf: float = 1.0, w_i2p: float = 100.0
 
     Parameters
     ----------
-    plant : LFTPlant
+    plant : LFTPlant or sequence of LFTPlant
+        Several plants: the same Lyapunov matrix, gain and levels for all (each with its own
+        multipliers, named ``"i/hinf"`` etc.); a list of certain plants (:meth:`LFTPlant.at`)
+        is the scenario program of a randomized design.
     K : ndarray, shape (m, n), optional
         A fixed gain: the same LMIs with ``W = K Y`` (linear in Y), i.e. the common-Lyapunov
         analysis of that gain (``gamma``, ``nu`` minimized for it). None: synthesis.
@@ -932,15 +995,14 @@ def design(plant: LFTPlant, K=None, *, w_hinf: float = 1.0, w_i2p: float = 100.0
         With ``"vertex"`` when ``2^N > max_vertices`` (before anything is built).
     """
     _check_options(w_hinf, w_i2p, alpha, beta, uncertainty, eps)
-    if uncertainty == "vertex":
-        _check_vertices(plant.n_params, max_vertices)
+    plants = _plant_list(plant, uncertainty, max_vertices)
     if K is not None:
-        K = _check_gain(K, plant.Bu.shape[1], plant.A.shape[0])
-    return _rescaled_program(plant, K, rescale, hinf=True, w_hinf=w_hinf, w_i2p=w_i2p, alpha=alpha, beta=beta,
+        K = _check_gain(K, plants[0].Bu.shape[1], plants[0].A.shape[0])
+    return _rescaled_program(plants, K, rescale, hinf=True, w_hinf=w_hinf, w_i2p=w_i2p, alpha=alpha, beta=beta,
                              uncertainty=uncertainty, eps=eps)
 
 
-def i2p_bound(plant: LFTPlant, K, *, alpha: float = 0.0, uncertainty: str = "norm",
+def i2p_bound(plant: LFTPlant | Sequence[LFTPlant], K, *, alpha: float = 0.0, uncertainty: str = "norm",
               max_vertices: int = MAX_VERTICES, eps: float = EPS, rescale: bool = True) -> RobustDesign:
     """Deterministic impulse-to-peak bound of the loop ``u = K x`` over the whole box.
 
@@ -955,10 +1017,9 @@ def i2p_bound(plant: LFTPlant, K, *, alpha: float = 0.0, uncertainty: str = "nor
         As :func:`design`.
     """
     _check_options(0.0, 1.0, alpha, None, uncertainty, eps)
-    if uncertainty == "vertex":
-        _check_vertices(plant.n_params, max_vertices)
-    K = _check_gain(K, plant.Bu.shape[1], plant.A.shape[0])
-    return _rescaled_program(plant, K, rescale, hinf=False, w_hinf=0.0, w_i2p=1.0, alpha=alpha, beta=None,
+    plants = _plant_list(plant, uncertainty, max_vertices)
+    K = _check_gain(K, plants[0].Bu.shape[1], plants[0].A.shape[0])
+    return _rescaled_program(plants, K, rescale, hinf=False, w_hinf=0.0, w_i2p=1.0, alpha=alpha, beta=None,
                              uncertainty=uncertainty, eps=eps)
 
 

@@ -1,0 +1,481 @@
+"""Monte Carlo campaigns: a pure task evaluated on N random samples, on Dask distributed.
+
+A campaign draws its samples chunk by chunk.  Chunk ``k`` covers the sample indices
+``[k * chunk, min((k + 1) * chunk, n))`` and draws them with its own generator,
+``default_rng(SeedSequence(seed, spawn_key=(k,)))``, so every value depends only on
+``(seed, chunk, n)``: never on the number of workers or on the order in which chunks
+complete.  The task is vectorized (one call per chunk) and returns one column per metric.
+
+:func:`run` submits the chunks to a Dask cluster and, in the driver, writes each completed
+chunk to its own Parquet file (``chunk-000042.parquet``, written to a ``.tmp`` file then
+renamed).  An interrupted campaign is resumed by running it again: chunks whose file exists
+are not submitted.  A worker that dies mid-task makes Dask run the task again elsewhere; as
+only the driver writes, and each chunk has one file name, no sample is lost or duplicated.
+
+:func:`summarize` turns one result column into the probabilistic statements of the seeds
+(the worst case by the log-over-log bound, a probability by the Chernoff-Hoeffding bound).
+"""
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import json
+import math
+import os
+import pickle
+import re
+import uuid
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+from functools import partial
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from distributed import Client, LocalCluster, as_completed
+
+from sims.master import CoSimulation, FmuCallError
+from synthesis import probabilistic as pr
+
+Task = Callable[[np.ndarray], dict[str, np.ndarray]]
+Sampler = Callable[[np.random.Generator, int], np.ndarray]
+Progress = Callable[[int, int], None]
+
+_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,99}")
+_META = "campaign.json"
+_IDENTITY = ("n", "seed", "chunk", "task", "sampler")
+
+
+class CampaignError(ValueError):
+    """Invalid campaign, task output or result folder; the message says what and where."""
+
+
+@dataclass(frozen=True, kw_only=True)
+class Campaign:
+    """A pure task evaluated on ``n`` random samples drawn chunk by chunk.
+
+    Parameters
+    ----------
+    name : str
+        Folder name of the results: letters, digits, ``.``, ``_``, ``-`` (at most 100).
+    task : callable
+        ``task(samples) -> {column: 1-D float array of len(samples)}``; module-level (it is
+        pickled by reference to the workers) and pure.
+    n : int
+        Number of samples, >= 1.
+    seed : int
+        Root seed, >= 0.
+    chunk : int
+        Samples per chunk (per task call and per result file), >= 1.
+    sampler : callable
+        ``sampler(rng, count) -> array`` whose first axis has ``count`` samples; module-level.
+
+    Raises
+    ------
+    CampaignError
+        If a field is invalid.
+    """
+
+    name: str
+    task: Task
+    n: int
+    seed: int
+    chunk: int = 1000
+    sampler: Sampler
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.name, str) or not _NAME.fullmatch(self.name):
+            raise CampaignError(f"campaign name {self.name!r} is not a safe folder name "
+                                "(letters, digits, '.', '_', '-'; first a letter or digit; at most 100)")
+        for label, value, least in (("n", self.n, 1), ("chunk", self.chunk, 1), ("seed", self.seed, 0)):
+            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < least:
+                raise CampaignError(f"campaign {self.name!r}: {label} must be an integer >= {least}, got {value!r}")
+        for label, value in (("task", self.task), ("sampler", self.sampler)):
+            if not callable(value):
+                raise CampaignError(f"campaign {self.name!r}: {label} must be callable, got {value!r}")
+
+    @property
+    def n_chunks(self) -> int:
+        """Number of chunks, ``ceil(n / chunk)``."""
+        return -(-self.n // self.chunk)
+
+    def identity(self) -> dict[str, Any]:
+        """What makes two campaigns the same: n, seed, chunk and the task's and sampler's names."""
+        return {"n": int(self.n), "seed": int(self.seed), "chunk": int(self.chunk),
+                "task": _qualified_name(self.task), "sampler": _qualified_name(self.sampler)}
+
+
+def _qualified_name(fn: Callable) -> str:
+    """``module.qualname`` of a function; for a callable object, of its class plus a digest of
+    its pickled state (two tasks of one class with other settings are other campaigns)."""
+    if hasattr(fn, "__qualname__"):
+        return f"{fn.__module__}.{fn.__qualname__}"
+    digest = hashlib.sha256(pickle.dumps(fn, protocol=4)).hexdigest()[:16]
+    return f"{type(fn).__module__}.{type(fn).__qualname__}:{digest}"
+
+
+def chunk_range(campaign: Campaign, k: int) -> range:
+    """Global sample indices of chunk ``k``.
+
+    Raises
+    ------
+    CampaignError
+        If ``k`` is not in ``0 .. n_chunks - 1``.
+    """
+    if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or not 0 <= k < campaign.n_chunks:
+        raise CampaignError(f"campaign {campaign.name!r}: chunk {k!r} is not in 0..{campaign.n_chunks - 1}")
+    return range(k * campaign.chunk, min((k + 1) * campaign.chunk, campaign.n))
+
+
+def run_chunk(campaign: Campaign, k: int) -> pd.DataFrame:
+    """Draw the samples of chunk ``k`` and evaluate the task on them.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Column ``sample`` (int64 global index), then the task's columns (float64).
+
+    Raises
+    ------
+    CampaignError
+        If ``k`` is out of range, the sampler returns the wrong number of samples, or the task
+        output is not a dict of 1-D real arrays of the chunk's length without infinities.
+    """
+    indices = chunk_range(campaign, k)
+    rng = np.random.default_rng(np.random.SeedSequence(int(campaign.seed), spawn_key=(int(k),)))
+    samples = np.asarray(campaign.sampler(rng, len(indices)))
+    if samples.ndim == 0 or samples.shape[0] != len(indices):
+        raise CampaignError(f"campaign {campaign.name!r}: sampler returned shape {samples.shape} for "
+                            f"{len(indices)} samples (first axis must be the samples)")
+    output = campaign.task(samples)
+    columns = _checked_columns(campaign.name, output, len(indices))
+    return pd.DataFrame({"sample": np.arange(indices.start, indices.stop, dtype=np.int64), **columns})
+
+
+def _checked_columns(name: str, output: Any, count: int) -> dict[str, np.ndarray]:
+    """The task output as float64 columns, after checking types, shapes and values."""
+    if not isinstance(output, dict) or not output:
+        raise CampaignError(f"campaign {name!r}: the task must return a non-empty dict of column -> array, "
+                            f"got {type(output).__name__}")
+    columns = {}
+    for col, values in output.items():
+        where = f"campaign {name!r}, task column {col!r}"
+        if not isinstance(col, str) or col == "sample":
+            raise CampaignError(f"{where}: column names must be strings other than 'sample'")
+        arr = np.asarray(values)
+        if arr.ndim != 1 or arr.shape[0] != count:
+            raise CampaignError(f"{where}: expected a 1-D array of {count} values, got shape {arr.shape}")
+        if arr.dtype.kind not in "biuf":
+            raise CampaignError(f"{where}: expected real numbers, got dtype {arr.dtype}")
+        arr = arr.astype(np.float64)
+        if np.isinf(arr).any():
+            raise CampaignError(f"{where}: {int(np.isinf(arr).sum())} infinite values (use NaN for a failed sample)")
+        columns[col] = arr
+    return columns
+
+
+def chunk_path(folder: Path, k: int) -> Path:
+    """Result file of chunk ``k`` in a campaign folder."""
+    return Path(folder) / f"chunk-{k:06d}.parquet"
+
+
+def run(campaign: Campaign, out_dir: Path, *, scheduler: str | None = None, n_workers: int = 2,
+        threads_per_worker: int = 1, progress: Progress | None = None,
+        client: Client | None = None) -> pd.DataFrame:
+    """Run (or resume) a campaign on Dask and return all its results.
+
+    Parameters
+    ----------
+    campaign : Campaign
+    out_dir : Path
+        Results go to ``out_dir / campaign.name``: ``campaign.json`` and one Parquet file per chunk.
+    scheduler : str, optional
+        Address of a running scheduler (``"tcp://host:port"``).  Default: an in-process
+        ``LocalCluster`` of ``n_workers`` processes with ``threads_per_worker`` threads,
+        closed at the end (also on an error or Ctrl-C).
+    n_workers, threads_per_worker : int
+        Size of the local cluster (ignored with ``scheduler`` or ``client``).
+    progress : callable, optional
+        Called as ``progress(done_chunks, total_chunks)`` after each chunk file is written.
+    client : distributed.Client, optional
+        Client to use as is (not closed).
+
+    Returns
+    -------
+    pandas.DataFrame
+        :func:`load` of the campaign folder.
+
+    Raises
+    ------
+    CampaignError
+        If the folder holds a different campaign, a task fails its output check, or a sample
+        is missing or duplicated at the end.
+    """
+    folder = Path(out_dir) / campaign.name
+    _claim_folder(folder, campaign)
+    todo = [k for k in range(campaign.n_chunks) if not chunk_path(folder, k).exists()]
+    if todo:
+        with _client(scheduler, client, n_workers, threads_per_worker) as active:
+            _compute(active, campaign, folder, todo, progress)
+    return load(folder)
+
+
+def _claim_folder(folder: Path, campaign: Campaign) -> None:
+    """Create the folder and its ``campaign.json``, or check that it holds this campaign."""
+    meta = folder / _META
+    record = {"name": campaign.name, **campaign.identity(), "n_chunks": campaign.n_chunks}
+    if meta.exists():
+        stored = json.loads(meta.read_text())
+        differ = [key for key in _IDENTITY if stored.get(key) != record[key]]
+        if differ:
+            raise CampaignError(f"{folder} holds another campaign (differs in {', '.join(differ)}: stored "
+                                f"{ {k: stored.get(k) for k in differ} }, now { {k: record[k] for k in differ} }); "
+                                "use another name or out_dir, or delete the folder")
+        return
+    folder.mkdir(parents=True, exist_ok=True)
+    _write_atomically(meta, lambda tmp: tmp.write_text(json.dumps(record, indent=1) + "\n"))
+
+
+def _write_atomically(path: Path, write: Callable[[Path], Any]) -> None:
+    """``write`` to ``path.tmp``, then rename it to ``path`` (readers never see a partial file)."""
+    tmp = path.with_name(path.name + ".tmp")
+    write(tmp)
+    os.replace(tmp, path)
+
+
+@contextlib.contextmanager
+def _client(scheduler: str | None, client: Client | None, n_workers: int,
+            threads_per_worker: int) -> Iterator[Client]:
+    """The given client, a client of ``scheduler``, or a local cluster's; the latter two closed at exit."""
+    if client is not None:
+        yield client
+    elif scheduler is not None:
+        with Client(scheduler) as remote:
+            yield remote
+    else:
+        with LocalCluster(n_workers=n_workers, threads_per_worker=threads_per_worker, processes=True) as cluster, \
+                Client(cluster) as local:
+            yield local
+
+
+def _compute(client: Client, campaign: Campaign, folder: Path, todo: list[int], progress: Progress | None) -> None:
+    """Submit the chunks ``todo`` and write each result as it completes."""
+    # One key per chunk and per call: a chunk is never computed twice at once, and the keys of an
+    # interrupted call (cancelled below, asynchronously) are never those of its resumption.
+    run_id = uuid.uuid4().hex[:12]
+    futures = {client.submit(run_chunk, campaign, k, key=f"{campaign.name}-chunk-{k}-{run_id}", retries=2): k
+               for k in todo}
+    done = campaign.n_chunks - len(todo)
+    try:
+        for future in as_completed(list(futures)):
+            k = futures.pop(future)
+            frame = future.result()
+            _write_atomically(chunk_path(folder, k), partial(frame.to_parquet, index=False))
+            future.release()
+            done += 1
+            if progress is not None:
+                progress(done, campaign.n_chunks)
+    finally:
+        client.cancel(list(futures))
+
+
+def load(path: Path) -> pd.DataFrame:
+    """All chunk files of a campaign folder, concatenated and sorted by ``sample``.
+
+    Raises
+    ------
+    CampaignError
+        If ``campaign.json`` is missing, the chunk files have different columns, or a sample
+        index of ``0 .. n - 1`` is missing or appears more than once.
+    """
+    folder = Path(path)
+    meta = folder / _META
+    if not meta.is_file():
+        raise CampaignError(f"{folder} is not a campaign folder (no {_META})")
+    n = int(json.loads(meta.read_text())["n"])
+    files = sorted(folder.glob("chunk-*.parquet"))
+    if not files:
+        raise CampaignError(f"{folder}: no chunk files; missing all {n} samples")
+    frames = [pd.read_parquet(f) for f in files]
+    columns = list(frames[0].columns)
+    for f, frame in zip(files, frames):
+        if list(frame.columns) != columns:
+            raise CampaignError(f"{f}: columns {list(frame.columns)} differ from {columns}")
+    df = pd.concat(frames, ignore_index=True).sort_values("sample", kind="stable", ignore_index=True)
+    _check_indices(folder, df["sample"].to_numpy(), n)
+    return df
+
+
+def _check_indices(folder: Path, samples: np.ndarray, n: int) -> None:
+    """Raise CampaignError unless ``samples`` holds each of ``0 .. n - 1`` exactly once."""
+    outside = samples[(samples < 0) | (samples >= n)]
+    counts = np.bincount(samples[(samples >= 0) & (samples < n)], minlength=n)
+    missing, duplicated = np.flatnonzero(counts == 0), np.flatnonzero(counts > 1)
+    problems = [f"{len(idx)} {what} (first: {idx[:10].tolist()})"
+                for what, idx in (("missing", missing), ("duplicated", duplicated), ("out of range", outside))
+                if len(idx)]
+    if problems:
+        raise CampaignError(f"{folder}: sample indices of 0..{n - 1}: " + "; ".join(problems))
+
+
+@dataclass
+class Summary:
+    """Statistics of one result column and the probabilistic statements they support.
+
+    ``n`` counts every sample, NaN ones included; mean, minimum and maximum are over the
+    non-NaN samples.  Units are those of the column.
+    """
+
+    column: str
+    n: int
+    n_nan: int
+    mean: float
+    min: float
+    max: float
+    epsilon: float
+    delta: float
+    n_worst_case: int
+    """Samples needed by the log-over-log bound, ``ceil(ln(1/delta) / ln(1/(1-epsilon)))``."""
+    level: float | None = None
+    p: float | None = None
+    """Fraction of samples with value <= level (NaN samples count as failures)."""
+    eps_n: float | None = None
+    """Chernoff-Hoeffding half-width ``sqrt(ln(2/delta) / (2 n))``."""
+    n_chernoff: int | None = None
+    """Samples needed for ``eps_n <= epsilon``, ``ceil(ln(2/delta) / (2 epsilon^2))``."""
+
+    @property
+    def worst_case_valid(self) -> bool:
+        """The log-over-log statement holds: enough samples and none NaN."""
+        return self.n >= self.n_worst_case and self.n_nan == 0
+
+    def text(self) -> str:
+        """The statistics and statements as sentences with their numbers."""
+        lines = [(f"{self.column}: N = {self.n} samples ({self.n_nan} NaN), mean {self.mean:.6g}, "
+                  f"min {self.min:.6g}, max {self.max:.6g}.")]
+        need = (f"ln(1/delta)/ln(1/(1-epsilon)) = {self.n_worst_case} samples needed for epsilon = "
+                f"{self.epsilon:g}, delta = {self.delta:g}")
+        if self.n_nan:
+            lines.append(f"Worst case: not estimated, {self.n_nan} samples are NaN (failed) ({need}).")
+        elif self.n < self.n_worst_case:
+            lines.append(f"Worst case: N = {self.n} is NOT enough for P(value > {self.max:.6g}) <= "
+                         f"{self.epsilon:g} with confidence 1 - {self.delta:g} ({need}).")
+        else:
+            lines.append(f"Worst case: P(value > {self.max:.6g}) <= {self.epsilon:g} with confidence "
+                         f"1 - {self.delta:g}; N = {self.n} is enough ({need}).")
+        if self.level is not None:
+            lines.append(f"Level: p = {self.p:.6g} of the samples have value <= {self.level:.6g} "
+                         f"({self.n_nan} NaN counted as failures); |P(value <= {self.level:.6g}) - p| <= "
+                         f"eps_N = sqrt(ln(2/delta)/(2N)) = {self.eps_n:.6g} with confidence 1 - {self.delta:g} "
+                         f"(eps_N <= {self.epsilon:g} needs N >= {self.n_chernoff}).")
+        return "\n".join(lines)
+
+
+def summarize(df: pd.DataFrame, column: str, *, level: float | None = None, epsilon: float = 0.1,
+              delta: float = 1e-6) -> Summary:
+    """Statistics of ``df[column]`` with the worst-case and (given ``level``) probability bounds.
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        Campaign results (one row per sample).
+    column : str
+        Result column (any unit).
+    level : float, optional
+        Threshold, in the column's unit, of the probability ``P(value <= level)``.
+    epsilon, delta : float
+        Accuracy and 1 - confidence of the statements, both in (0, 1).
+
+    Raises
+    ------
+    CampaignError
+        If the column is missing or empty, or epsilon or delta is not in (0, 1).
+    """
+    if column not in df.columns:
+        raise CampaignError(f"no column {column!r}; columns are {list(df.columns)}")
+    for label, value in (("epsilon", epsilon), ("delta", delta)):
+        if not 0.0 < value < 1.0:
+            raise CampaignError(f"{label} must be in (0, 1), got {value!r}")
+    values = df[column].to_numpy(dtype=np.float64)
+    if values.size == 0:
+        raise CampaignError(f"column {column!r} has no samples")
+    ok = values[~np.isnan(values)]
+    stats = (float(ok.mean()), float(ok.min()), float(ok.max())) if ok.size else (math.nan,) * 3
+    summary = Summary(column, int(values.size), int(values.size - ok.size), *stats, epsilon, delta,
+                      pr.worst_case_samples(epsilon, delta))
+    if level is not None:
+        summary.level = float(level)
+        summary.p = float(np.mean(values <= level))
+        summary.eps_n = pr.chernoff_accuracy(values.size, delta)
+        summary.n_chernoff = pr.chernoff_samples(epsilon, delta)
+    return summary
+
+
+@dataclass(frozen=True)
+class FmuTask:
+    """Campaign task that runs one co-simulation per sample and reduces it to metrics.
+
+    Built by :func:`fmu_task`; picklable when ``parameters`` and the metrics are
+    module-level functions.
+    """
+
+    fmus: dict[str, str]
+    connections: list[tuple[str, str]]
+    parameters: Callable[[np.ndarray], dict[str, dict[str, float]]]
+    stop_time: float
+    step_size: float
+    metrics: dict[str, Callable[[dict[str, np.ndarray]], float]]
+    record: list[str]
+
+    def __call__(self, samples: np.ndarray) -> dict[str, np.ndarray]:
+        """One value per metric and sample row (NaN for every metric where an FMU failed)."""
+        out = {name: np.full(len(samples), np.nan) for name in self.metrics}
+        for i, row in enumerate(samples):
+            result = self._simulate(row)
+            for name, metric in self.metrics.items():
+                out[name][i] = np.nan if result is None else float(metric(result))
+        return out
+
+    def _simulate(self, row: np.ndarray) -> dict[str, np.ndarray] | None:
+        """Recorded signals (plus ``time``, s) of one fresh co-simulation, None if an FMU failed."""
+        with CoSimulation(self.fmus) as sim:
+            for source, target in self.connections:
+                sim.connect(source, target)
+            try:
+                res = sim.run(self.stop_time, self.step_size, parameters=self.parameters(row), record=self.record)
+            except FmuCallError:
+                return None
+        return {name: res[name] for name in res.dtype.names}
+
+
+def fmu_task(fmus: dict[str, str], connections: list[tuple[str, str]],
+             parameters: Callable[[np.ndarray], dict[str, dict[str, float]]], stop_time: float,
+             step_size: float, metrics: dict[str, Callable[[dict[str, np.ndarray]], float]],
+             record: list[str]) -> FmuTask:
+    """A campaign task that co-simulates FMUs once per sample.
+
+    Parameters
+    ----------
+    fmus : dict of str to str
+        Instance name -> FMU path (readable by the workers).
+    connections : list of (str, str)
+        ``("plant.theta", "ctrl.theta")``: output -> input, as :meth:`CoSimulation.connect`.
+    parameters : callable
+        ``parameters(row) -> {instance: {variable: value}}`` for one sample row; module-level.
+    stop_time, step_size : float
+        s; ``stop_time / step_size`` must be an integer.
+    metrics : dict of str to callable
+        Column name -> ``metric(result) -> float``, where ``result`` maps each recorded
+        qualified name (``"plant.theta[1]"``) and ``"time"`` to its array; module-level.
+    record : list of str
+        Variables to record (base names expand to every index).
+
+    Returns
+    -------
+    FmuTask
+        ``task(samples) -> {metric: array}``; a sample whose run raises
+        :class:`~sims.master.FmuCallError` gets NaN for every metric.
+    """
+    return FmuTask({k: str(v) for k, v in fmus.items()}, [tuple(c) for c in connections], parameters,
+                   float(stop_time), float(step_size), dict(metrics), list(record))

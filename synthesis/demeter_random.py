@@ -1,0 +1,158 @@
+"""Randomized design and analysis of a DEMETER variant (seed 004, sections 4.2, 5.2).
+
+- :func:`scenario`: the scenario approach. The design LMIs of
+  :func:`synthesis.demeter_design.deterministic` (one Lyapunov matrix; H-infinity ``w1 -> z1``,
+  impulse-to-peak ``w2 -> z2``, pole region; objective ``1 gamma + 100 nu``) imposed at N plants
+  drawn uniformly in the parameter box, N from the Campi-Garatti bound for the program's
+  decision variables (:func:`synthesis.probabilistic.scenario_samples`): with confidence
+  ``1 - delta`` the design violates the specs on a set of plants of probability at most epsilon.
+  The program is solved in the coordinates where the nominal design's Lyapunov matrix has a unit
+  diagonal (without that, Clarabel fails on this stiff loop; see the README).
+- :func:`analyse`: the probabilistic analysis of a gain: closed-loop poles, exact H-infinity
+  norms and impulse-to-peak values of N sampled plants, all vectorized, with the log-over-log
+  worst-case statement (N = 132 at the seed's epsilon 0.1, delta 1e-6).
+- :class:`ClosedLoopSamples`: the same per-sample values as a pure, picklable task for
+  :mod:`sims.campaign` (Chernoff campaigns of 1e5 samples on Dask).
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from synthesis import demeter_design as dd
+from synthesis import probabilistic as pr
+from synthesis import robust_lmi as rl
+from synthesis.demeter_variants import DesignModel, Variant, design_model
+
+SCENARIO_EPSILON, SCENARIO_DELTA = 0.1, 1e-9
+"""The scenario design's violation level and confidence (MODELS.md: N = 962 for row 1)."""
+ANALYSIS_EPSILON, ANALYSIS_DELTA = 0.1, 1e-6
+"""The seed's ``randsettings`` for the analysis."""
+I2P_HORIZON, I2P_POINTS = 2000.0, 4001
+"""Impulse-to-peak grid: 2000 s (the slowest closed-loop modes are near -3e-4 1/s, but the
+pseudo-integrator peaks within the first few hundred seconds), 0.5 s apart."""
+
+
+def n_decision(dm: DesignModel) -> int:
+    """Decision variables of the scenario program: Y (n(n+1)/2), W (m n), gamma and nu."""
+    return dm.n * (dm.n + 1) // 2 + dm.na * dm.n + 2
+
+
+@dataclass
+class Analysis:
+    """Probabilistic analysis of one gain on N sampled plants (:func:`analyse`)."""
+
+    n: int
+    seed: int
+    max_real_pole: float
+    min_real_pole: float
+    hinf: pr.WorstCase
+    i2p: pr.WorstCase
+    seconds: float
+
+    @property
+    def in_region(self) -> bool:
+        return self.max_real_pole < -dd.ALPHA and self.min_real_pole > -dd.BETA
+
+
+@dataclass(frozen=True)
+class BoxSampler:
+    """Parameter vectors uniform in ``[-1, 1]^n_params`` (the order of
+    :meth:`~synthesis.demeter_variants.DesignModel.sample`): a picklable campaign sampler."""
+
+    n_params: int
+
+    def __call__(self, rng: np.random.Generator, count: int) -> np.ndarray:
+        return rng.uniform(-1.0, 1.0, (count, self.n_params))
+
+
+@dataclass
+class ClosedLoopSamples:
+    """Per-sample closed-loop values of ``u = K x`` on a variant's design model: a pure task
+    (picklable; deterministic in its input) mapping parameter vectors delta, shape (S, N), to
+    ``max_real_pole`` (1/s), ``hinf`` (rad/(N m); inf if unstable) and ``i2p`` (N m s)."""
+
+    variant: Variant
+    K: np.ndarray
+    _dm: DesignModel | None = field(default=None, repr=False, compare=False)
+
+    def design_model(self) -> DesignModel:
+        if self._dm is None:
+            self._dm = design_model(self.variant)
+        return self._dm
+
+    def __call__(self, deltas: np.ndarray) -> dict[str, np.ndarray]:
+        dm = self.design_model()
+        A, Bu, B1 = dm.state_space(deltas)
+        Acl = A + Bu @ self.K
+        re = np.linalg.eigvals(Acl).real
+        stable = re.max(axis=1) < 0
+        hinf = np.full(len(Acl), np.inf)
+        i2p = np.full(len(Acl), np.inf)
+        if stable.any():
+            D = np.zeros((dm.C1.shape[0], B1.shape[-1]))
+            hinf[stable] = pr.hinf_norms(Acl[stable], B1[stable], dm.C1, D)
+            i2p[stable] = rl.impulse_to_peak(Acl[stable], dm.B2, dm.C2, I2P_HORIZON, I2P_POINTS)
+        return {"max_real_pole": re.max(axis=1), "min_real_pole": re.min(axis=1), "hinf": hinf, "i2p": i2p}
+
+    def __getstate__(self) -> dict:
+        return {"variant": self.variant, "K": self.K, "_dm": None}  # rebuilt in the worker
+
+
+def analyse(variant: Variant, K: np.ndarray, *, n: int | None = None, seed: int = 1,
+            epsilon: float = ANALYSIS_EPSILON, delta: float = ANALYSIS_DELTA) -> Analysis:
+    """Worst cases over ``n`` plants drawn uniformly in the box (default: the log-over-log
+    count for epsilon, delta)."""
+    n = pr.worst_case_samples(epsilon, delta) if n is None else n
+    task = ClosedLoopSamples(variant, np.asarray(K, float))
+    t0 = time.perf_counter()
+    v = task(task.design_model().sample(n, np.random.default_rng(seed)))
+    return Analysis(n, seed, float(v["max_real_pole"].max()), float(v["min_real_pole"].min()),
+                    pr.worst_case(v["hinf"], epsilon, delta), pr.worst_case(v["i2p"], epsilon, delta),
+                    time.perf_counter() - t0)
+
+
+@dataclass
+class ScenarioResult:
+    """One Prob row of Table 1: scenario design, probabilistic analysis, seconds."""
+
+    variant: Variant
+    design: rl.RobustDesign
+    K: np.ndarray | None
+    n_samples: int
+    n_decision: int
+    epsilon: float
+    delta: float
+    analysis: Analysis | None = None
+    seconds: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def feasible(self) -> bool:
+        return self.K is not None
+
+
+def scenario(variant: Variant, *, epsilon: float = SCENARIO_EPSILON, delta: float = SCENARIO_DELTA,
+             n: int | None = None, seed: int = 0, analysis: bool = True) -> ScenarioResult:
+    """Scenario design of ``variant`` (module docstring); ``n`` overrides the Campi-Garatti count."""
+    dm = design_model(variant)
+    d = n_decision(dm)
+    n = pr.scenario_samples(d, epsilon, delta) if n is None else n
+    if n < 1:
+        raise rl.OptionError(f"n must be >= 1, got {n!r}")
+    t0 = time.perf_counter()
+    T = dd.state_scale(dm)
+    nominal = rl.design(dd.scaled_lft(dm, T).at(np.zeros(len(dm.parameters))), w_hinf=dd.W_HINF,
+                        w_i2p=dd.W_I2P, alpha=dd.ALPHA, beta=dd.BETA)
+    if nominal.Y is not None:  # the nominal Lyapunov matrix's diagonal: the program's coordinates
+        T = T * np.sqrt(np.diag(nominal.Y))
+    P = dd.scaled_lft(dm, T)
+    plants = [P.at(x) for x in dm.sample(n, np.random.default_rng(seed))]
+    des = rl.design(plants, w_hinf=dd.W_HINF, w_i2p=dd.W_I2P, alpha=dd.ALPHA, beta=dd.BETA)
+    out = ScenarioResult(variant, des, None if des.K is None else des.K / T, n, d, epsilon, delta,
+                         seconds={"design": time.perf_counter() - t0})
+    if analysis and out.K is not None:
+        out.analysis = analyse(variant, out.K, seed=seed + 1)
+        out.seconds["analysis"] = out.analysis.seconds
+    return out

@@ -1,0 +1,233 @@
+"""Monte Carlo campaigns on Dask (sims.campaign): bit-for-bit reproducibility, resume, loss of a
+worker, the probabilistic bounds, and a campaign of co-simulated FMUs."""
+from __future__ import annotations
+
+import math
+import os
+import signal
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from distributed import Client, LocalCluster
+from pandas.testing import assert_frame_equal
+
+from controllers import artifact
+from fmus import demeter, export
+from sims import campaign as cp
+from sims import catalog
+from sims.campaign import Campaign, CampaignError
+from synthesis.demeter_variants import Variant, design_model
+
+ROOT = Path(__file__).resolve().parents[1]
+N, CHUNK, SEED = 20_000, 2_000, 2024
+ROW1 = design_model(Variant((1,), (1,), 1, 1))
+WIRES = [(f"plant.{n}", f"ctrl.{n}") for n in
+         ("theta", "theta_dot", "eta", "eta_dot", "wheel_torque", "wheel_torque_rate")] + [("ctrl.u_c", "plant.u_c")]
+
+
+# Tasks and samplers are module-level: the workers import them from this module.
+def normal_matrices(rng: np.random.Generator, count: int) -> np.ndarray:
+    """Entries (a, b, c, d) of random 2x2 matrices [[a, b], [c, d]]."""
+    return rng.standard_normal((count, 4))
+
+
+def abscissa(samples: np.ndarray) -> dict[str, np.ndarray]:
+    """Spectral abscissa (largest real part of the eigenvalues) and trace of each matrix."""
+    a, b, c, d = samples.T
+    disc = ((a - d) / 2) ** 2 + b * c
+    return {"abscissa": (a + d) / 2 + np.sqrt(np.maximum(disc, 0.0)), "trace": a + d}
+
+
+def slow_abscissa(samples: np.ndarray) -> dict[str, np.ndarray]:
+    time.sleep(0.4)
+    return abscissa(samples)
+
+
+def short_column(samples: np.ndarray) -> dict[str, np.ndarray]:
+    return {"abscissa": np.zeros(len(samples) - 1)}
+
+
+def matrix_column(samples: np.ndarray) -> dict[str, np.ndarray]:
+    return {"grid": np.zeros((len(samples), 2))}
+
+
+def uniform_delta(rng: np.random.Generator, count: int) -> np.ndarray:
+    return rng.uniform(-1.0, 1.0, (count, 3))
+
+
+def demeter_parameters(delta: np.ndarray) -> dict[str, dict[str, float]]:
+    """The row-1 plant at ``delta``, starting at rest in attitude with a 1 mrad/s rate."""
+    plant = {**ROW1.fmu_parameters(delta), "theta_dot_0[1]": 1e-3}
+    plant["wheels_on"] = bool(plant["wheels_on"])
+    return {"plant": plant}
+
+
+def peak_theta(result: dict[str, np.ndarray]) -> float:
+    return float(np.abs(result["plant.theta[1]"]).max())
+
+
+def matrices(name: str = "abscissa", **changes: object) -> Campaign:
+    return Campaign(**{"name": name, "task": abscissa, "n": N, "seed": SEED, "chunk": CHUNK,
+                       "sampler": normal_matrices, **changes})
+
+
+def serial(campaign: Campaign) -> pd.DataFrame:
+    return pd.concat([cp.run_chunk(campaign, k) for k in range(campaign.n_chunks)], ignore_index=True)
+
+
+@pytest.fixture(scope="module")
+def cluster() -> Iterator[tuple[LocalCluster, Client]]:
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0") as lc, \
+            Client(lc) as client:
+        yield lc, client
+
+
+@pytest.fixture(scope="module")
+def reference() -> pd.DataFrame:
+    return serial(matrices())
+
+
+def test_chunk_samples_depend_only_on_seed_and_chunk_index(reference: pd.DataFrame) -> None:
+    # Chunk 3 is drawn from SeedSequence(seed, spawn_key=(3,)) whatever n is. Exact: same draws.
+    rng = np.random.default_rng(np.random.SeedSequence(SEED, spawn_key=(3,)))
+    direct = abscissa(normal_matrices(rng, CHUNK))["abscissa"]
+    assert np.array_equal(reference["abscissa"].to_numpy()[3 * CHUNK:4 * CHUNK], direct)
+    assert_frame_equal(cp.run_chunk(matrices(n=7 * CHUNK + 5), 3), cp.run_chunk(matrices(), 3), check_exact=True)
+    # the last chunk is short and keeps the global sample indices
+    last = cp.run_chunk(matrices(n=7 * CHUNK + 5), 7)
+    assert last["sample"].tolist() == list(range(7 * CHUNK, 7 * CHUNK + 5))
+    # the task is right: eigenvalues by LAPACK; 1e-12: two roundings of the same 2x2 eigenvalues
+    m = normal_matrices(np.random.default_rng(0), 200)
+    eig = np.linalg.eigvals(m.reshape(-1, 2, 2)).real.max(axis=1)
+    assert np.abs(abscissa(m)["abscissa"] - eig).max() < 1e-12
+
+
+def test_one_and_two_workers_equal_the_serial_reference(tmp_path: Path, cluster, reference) -> None:
+    # Exact: the same chunk computations in any process, written and read back losslessly.
+    one = cp.run(matrices(), tmp_path / "one", n_workers=1)  # the runner's own LocalCluster
+    assert_frame_equal(one, reference, check_exact=True)
+    two = cp.run(matrices(), tmp_path / "two", client=cluster[1])
+    assert_frame_equal(two, reference, check_exact=True)
+    assert reference["sample"].tolist() == list(range(N))
+    assert reference["abscissa"].nunique() == N  # every sample differs: no chunk reuses a stream
+
+
+def test_an_interrupted_campaign_resumes_with_the_missing_chunks_only(tmp_path: Path, cluster, reference) -> None:
+    first: list[int] = []
+
+    def stop_after_three(done: int, total: int) -> None:
+        first.append(done)
+        if len(first) == 3:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        cp.run(matrices(), tmp_path, client=cluster[1], progress=stop_after_three)
+    folder = tmp_path / "abscissa"
+    written = {f.name: f.stat().st_mtime_ns for f in folder.glob("chunk-*.parquet")}
+    assert len(written) == 3  # a file is written before its progress call; the 3rd call stopped the run
+    assert not list(folder.glob("*.tmp"))
+    second: list[tuple[int, int]] = []
+    df = cp.run(matrices(), tmp_path, scheduler=cluster[0].scheduler_address,
+                progress=lambda done, total: second.append((done, total)))
+    assert_frame_equal(df, reference, check_exact=True)  # exact: same chunks, whichever run made them
+    assert second == [(done, 10) for done in range(4, 11)]  # only the 7 missing chunks were computed
+    assert {f: (folder / f).stat().st_mtime_ns for f in written} == written  # and the 3 not rewritten
+
+
+def test_killing_a_worker_loses_and_duplicates_no_sample(tmp_path: Path, reference) -> None:
+    # 10 chunks of 0.4 s on 2 workers: about 2 s; after 2 chunks one busy worker is SIGKILLed.
+    killed: list[str] = []
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0") as lc, \
+            Client(lc) as client:
+        pids = client.run(os.getpid)
+
+        def kill_one(done: int, total: int) -> None:
+            if done == 2:
+                busy = [w for w, keys in client.processing().items() if keys and w in pids]
+                assert busy  # a chunk is in flight on the worker we kill: its result is lost with it
+                os.kill(pids[busy[0]], signal.SIGKILL)
+                killed.append(busy[0])
+
+        df = cp.run(matrices(task=slow_abscissa), tmp_path, client=client, progress=kill_one)
+        assert killed and killed[0] not in client.scheduler_info()["workers"]  # the worker did die
+    # exact: every sample once (load checks it) with the values of the serial reference
+    assert_frame_equal(df, reference, check_exact=True)
+
+
+def test_a_different_campaign_in_the_same_folder_is_refused(tmp_path: Path, cluster) -> None:
+    small = {"n": 10, "chunk": 5}
+    cp.run(matrices(**small), tmp_path, client=cluster[1])
+    for change, word in (({"seed": 1}, "seed"), ({"n": 11}, "n"), ({"chunk": 4}, "chunk"),
+                         ({"task": slow_abscissa}, "task")):
+        with pytest.raises(CampaignError, match=f"differs in {word}"):
+            cp.run(matrices(**{**small, **change}), tmp_path, client=cluster[1])
+    assert len(cp.run(matrices(**small), tmp_path, client=cluster[1])) == 10  # the same campaign resumes
+
+
+def test_load_names_missing_and_duplicated_samples(tmp_path: Path, cluster) -> None:
+    cp.run(matrices(n=10, chunk=5), tmp_path, client=cluster[1])
+    folder = tmp_path / "abscissa"
+    (folder / "chunk-000009.parquet").write_bytes((folder / "chunk-000001.parquet").read_bytes())
+    with pytest.raises(CampaignError, match=r"5 duplicated \(first: \[5, 6, 7, 8, 9\]\)"):
+        cp.load(folder)
+    (folder / "chunk-000000.parquet").unlink()
+    with pytest.raises(CampaignError, match=r"5 missing \(first: \[0, 1, 2, 3, 4\]\)"):
+        cp.load(folder)
+
+
+def test_bad_campaigns_and_task_outputs_raise_named_errors(tmp_path: Path, cluster) -> None:
+    for changes, text in (({"n": 0}, "n must be an integer >= 1"), ({"chunk": 0}, "chunk must be"),
+                          ({"name": "../up"}, "not a safe folder name"), ({"seed": -1}, "seed must be")):
+        with pytest.raises(CampaignError, match=text):
+            matrices(**changes)
+    short = r"column 'abscissa': expected a 1-D array of 2000 values, got shape \(1999,\)"
+    with pytest.raises(CampaignError, match=short):
+        cp.run_chunk(matrices(task=short_column), 0)
+    with pytest.raises(CampaignError, match=r"column 'grid': expected a 1-D array of 5 values, got shape \(5, 2\)"):
+        cp.run(matrices(task=matrix_column, n=10, chunk=5), tmp_path, client=cluster[1])  # raised by a worker
+
+
+def test_summary_numbers_and_bounds() -> None:
+    df = pd.DataFrame({"x": np.arange(1, 1001) / 1000})  # 0.001 .. 1.000, uniform grid
+    s = cp.summarize(df, "x", level=0.25)
+    # exact or 1e-12: sums of 1000 values of the grid, rounding only
+    assert (s.n, s.n_nan, s.min, s.max) == (1000, 0, 0.001, 1.0)
+    assert abs(s.mean - 0.5005) < 1e-12
+    assert s.p == 0.25  # exact: 250 of 1000 grid values are <= 0.25
+    worst = math.ceil(math.log(1 / 1e-6) / math.log(1 / 0.9))
+    chernoff = math.ceil(math.log(2 / 1e-6) / (2 * 0.1 ** 2))
+    assert (worst, chernoff) == (132, 726) == (s.n_worst_case, s.n_chernoff)
+    assert s.eps_n == math.sqrt(math.log(2 / 1e-6) / 2000)  # exact: the same closed form
+    text = s.text()
+    assert "132 samples needed" in text and "N = 1000 is enough" in text and "N >= 726" in text
+    assert f"eps_N = sqrt(ln(2/delta)/(2N)) = {s.eps_n:.6g}" in text and "P(value > 1)" in text
+    few = cp.summarize(df.iloc[:100], "x")
+    assert not few.worst_case_valid and "N = 100 is NOT enough" in few.text()
+    failed = cp.summarize(pd.concat([df, pd.DataFrame({"x": [np.nan] * 10})]), "x", level=0.25)
+    assert failed.n_nan == 10 and failed.p == 250 / 1010  # exact: NaN samples fail the level
+    assert failed.max == 1.0 and not failed.worst_case_valid and "10 samples are NaN" in failed.text()
+
+
+@pytest.fixture(scope="module")
+def demeter_fmus(tmp_path_factory: pytest.TempPathFactory) -> dict[str, str]:
+    """The flexible plant and the row-1 controller FMUs only (the full catalog takes minutes)."""
+    dest = tmp_path_factory.mktemp("demeter_fmus")
+    ctrl = catalog.controller_source(artifact.load(ROOT / "controllers" / "artifacts" / "demeter_row1_det.json"))
+    return {"plant": str(export.build_native(demeter.MODEL, dest)),
+            "ctrl": str(export.build_native(ctrl.model, dest, ctrl.resources))}
+
+
+def test_fmu_campaign_equals_the_in_process_runs(tmp_path: Path, cluster, demeter_fmus) -> None:
+    task = cp.fmu_task(demeter_fmus, WIRES, demeter_parameters, 20.0, 0.5, {"peak_theta": peak_theta},
+                       ["plant.theta[1]"])
+    campaign = Campaign(name="demeter", task=task, n=8, seed=4, chunk=2, sampler=uniform_delta)
+    df = cp.run(campaign, tmp_path, client=cluster[1])
+    # exact: the same FMU binaries and steps in a worker as in this process
+    assert_frame_equal(df, serial(campaign), check_exact=True)
+    assert df["peak_theta"].nunique() == 8  # the sampled plants differ
+    # 1 mrad/s for 20 s drifts at most 20 mrad; the loop keeps it above 5 mrad (values 7-12 mrad)
+    assert df["peak_theta"].between(0.005, 0.02).all()
