@@ -24,6 +24,7 @@ import numpy as np
 from synthesis import demeter_design as dd
 from synthesis import probabilistic as pr
 from synthesis import robust_lmi as rl
+from synthesis import sequential as sq
 from synthesis.demeter_variants import DesignModel, Variant, design_model
 
 SCENARIO_EPSILON, SCENARIO_DELTA = 0.1, 1e-9
@@ -33,6 +34,15 @@ ANALYSIS_EPSILON, ANALYSIS_DELTA = 0.1, 1e-6
 I2P_HORIZON, I2P_POINTS = 2000.0, 4001
 """Impulse-to-peak grid: 2000 s (the slowest closed-loop modes are near -3e-4 1/s, but the
 pseudo-integrator peaks within the first few hundred seconds), 0.5 s apart."""
+
+
+def design_scale(dm: DesignModel) -> np.ndarray:
+    """State scale of the randomized programs: :func:`synthesis.demeter_design.state_scale` times
+    the square root of the nominal design's Lyapunov diagonal (unit diagonal at the nominal)."""
+    T = dd.state_scale(dm)
+    nominal = rl.design(dd.scaled_lft(dm, T).at(np.zeros(len(dm.parameters))), w_hinf=dd.W_HINF,
+                        w_i2p=dd.W_I2P, alpha=dd.ALPHA, beta=dd.BETA)
+    return T if nominal.Y is None else T * np.sqrt(np.diag(nominal.Y))
 
 
 def n_decision(dm: DesignModel) -> int:
@@ -142,11 +152,7 @@ def scenario(variant: Variant, *, epsilon: float = SCENARIO_EPSILON, delta: floa
     if n < 1:
         raise rl.OptionError(f"n must be >= 1, got {n!r}")
     t0 = time.perf_counter()
-    T = dd.state_scale(dm)
-    nominal = rl.design(dd.scaled_lft(dm, T).at(np.zeros(len(dm.parameters))), w_hinf=dd.W_HINF,
-                        w_i2p=dd.W_I2P, alpha=dd.ALPHA, beta=dd.BETA)
-    if nominal.Y is not None:  # the nominal Lyapunov matrix's diagonal: the program's coordinates
-        T = T * np.sqrt(np.diag(nominal.Y))
+    T = design_scale(dm)
     P = dd.scaled_lft(dm, T)
     plants = [P.at(x) for x in dm.sample(n, np.random.default_rng(seed))]
     des = rl.design(plants, w_hinf=dd.W_HINF, w_i2p=dd.W_I2P, alpha=dd.ALPHA, beta=dd.BETA)
@@ -156,3 +162,43 @@ def scenario(variant: Variant, *, epsilon: float = SCENARIO_EPSILON, delta: floa
         out.analysis = analyse(variant, out.K, seed=seed + 1)
         out.seconds["analysis"] = out.analysis.seconds
     return out
+
+
+@dataclass
+class SequentialDesign:
+    """The sequential method started from the deterministic design, at its levels times ``scale``."""
+
+    variant: Variant
+    deterministic: rl.RobustDesign
+    result: sq.SequentialResult
+    K: np.ndarray | None
+
+    @property
+    def validated(self) -> bool:
+        return self.result.status == "validated"
+
+
+def sequential_design(variant: Variant, *, scale: float = 0.99, epsilon: float = ANALYSIS_EPSILON,
+                      delta: float = ANALYSIS_DELTA, max_updates: int = 200, seed: int = 0) -> SequentialDesign:
+    """Lower the deterministic design's levels (gamma, nu) by ``scale`` and look for a gain that
+    meets them on all but a fraction epsilon of the plants (:func:`synthesis.sequential.sequential`,
+    from the deterministic (Y, W), which meets the unscaled levels on the whole box).
+
+    Raises
+    ------
+    ValueError
+        If the variant has no deterministic design to start from.
+    """
+    dm = design_model(variant)
+    T0 = dd.state_scale(dm)  # the deterministic design's own coordinates (as deterministic())
+    det = rl.design(dd.scaled_lft(dm, T0), w_hinf=dd.W_HINF, w_i2p=dd.W_I2P, alpha=dd.ALPHA, beta=dd.BETA,
+                    uncertainty=dd.uncertainty_kind(variant))
+    if det.K is None:
+        raise ValueError(f"{variant.label}: no deterministic design to start from ({det.status})")
+    T = design_scale(dm)
+    s = T / T0  # x_T0 = s x_T: Y and the gain carried over exactly
+    Y0 = det.Y / s[:, None] / s[None, :]
+    res = sq.sequential(dd.scaled_lft(dm, T), BoxSampler(len(dm.parameters)), det.gamma * scale, det.nu * scale,
+                        Y0, (det.K * s) @ Y0, alpha=dd.ALPHA, beta=dd.BETA, epsilon=epsilon, delta=delta,
+                        max_updates=max_updates, seed=seed)
+    return SequentialDesign(variant, det, res, res.K / T if res.status == "validated" else None)

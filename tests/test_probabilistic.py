@@ -12,6 +12,7 @@ from synthesis import demeter_design as dd
 from synthesis import demeter_random as dr
 from synthesis import probabilistic as pr
 from synthesis import robust_lmi as rl
+from synthesis import sequential as sq
 from synthesis.demeter_variants import Variant, design_model
 
 ROW1 = Variant((1,), (1,), 1, 1)
@@ -131,3 +132,21 @@ def test_campaign_command_states_the_chernoff_bounds(tmp_path, capsys) -> None:
     assert main(args) == 0  # resumed: nothing left to compute, same statements
     assert "hinf: N = 300 samples (0 NaN)" in capsys.readouterr().out
     assert main(["campaign", "demeter", "--artifact", "mrp_hinf_published", "--out", str(tmp_path)]) == 2
+
+
+def test_sequential_method_lowers_the_deterministic_levels() -> None:
+    # ln(pi^2 / (6e-6)) / ln(1 / 0.9) = 135.85: round 1 draws 136 plants; more rounds, more
+    assert sq.validation_samples(1, 0.1, 1e-6) == 136 and sq.validation_samples(2, 0.1, 1e-6) == 150
+    with pytest.raises(rl.OptionError):
+        sq.validation_samples(0, 0.1, 1e-6)
+    same = dr.sequential_design(ROW1, scale=1.0, max_updates=5)
+    # the deterministic certificate holds on the whole box: no update needed
+    assert same.validated and same.result.updates == 0 and same.result.samples == 136
+    lower = dr.sequential_design(ROW1, scale=0.994, max_updates=60)
+    # measured: 4 updates, 773 samples, well under a second (255.0, 2.55 against 256.6, 2.566)
+    assert lower.validated and 0 < lower.result.updates <= 60
+    assert lower.result.gamma < same.result.gamma and lower.result.nu < same.result.nu
+    assert "P(specs violated at gamma" in lower.result.text()
+    # an independent look at 300 fresh plants: stable, inside the region, below the levels
+    a = dr.analyse(ROW1, lower.K, n=300, seed=21)
+    assert a.in_region and a.hinf.estimate <= lower.result.gamma and a.i2p.estimate <= lower.result.nu
