@@ -8,6 +8,8 @@
     satfmu synth mrp-h2hinf --gamma G [--variant slack|common] [--region 0.45] [--name ...] ...
     satfmu synth vscmg-sdre [--grid 23 25] [--max-degree 8] [--cv-tol TOL] [--out ...] [--fmu-dir DIR]
     satfmu synth cubesat-periodic [--gamma G] [--out ...] [--fmu-dir DIR]
+    satfmu table1 [--rows 1 2 ...] [--scenarios N] [--out results/table1]
+    satfmu figures demeter [--n 100] [--stop 60] [--step 0.001] [--out results/demeter]
     satfmu campaign demeter [--artifact demeter_row1_det] [--n 100000] [--workers 2] [--scheduler tcp://...]
     satfmu synth demeter [--axes 1] [--appendages 1] [--model-type 1] [--uncertainty-type 1] [--no-wheels]
                          [--samples 100] [--name demeter_row1_det] [--out ...] [--fmu-dir DIR]
@@ -238,6 +240,48 @@ def _campaign_demeter(args: argparse.Namespace) -> int:
     return 0
 
 
+def _table1(args: argparse.Namespace) -> int:
+    from synthesis import demeter_table
+    from synthesis.demeter_variants import SEED_TABLE1
+
+    keys = list(SEED_TABLE1)
+    if args.rows:
+        bad = [r for r in args.rows if not 1 <= r <= len(keys)]
+        if bad:
+            raise ValueError(f"rows must be in 1..{len(keys)} (the seed's order), got {bad}")
+        keys = [keys[r - 1] for r in args.rows]
+    rows = demeter_table.run(keys, n_scenarios=args.scenarios, progress=_progress)
+    print(demeter_table.markdown(rows))
+    for path in demeter_table.write(rows, Path(args.out)):
+        print(f"wrote {path}")
+    return 0
+
+
+def _figures_demeter(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from controllers import polynomial
+    from sims import demeter_loops
+
+    path = Path(args.artifact)
+    art = path if path.suffix == ".json" else polynomial.ARTIFACTS / f"{args.artifact}.json"
+    out = Path(args.out)
+    for limits in ("wheels", "linear"):
+        loops = demeter_loops.run(Path(args.fmu_dir), art, n=args.n, seed=args.seed, stop_time=args.stop,
+                                  step_size=args.step, limits=limits)
+        paths = demeter_loops.plot(loops, out)
+        extra = (f"largest |theta - exact design model| {loops.linear_error:.3g} rad" if limits == "linear" else
+                 f"time at the momentum limit: up to {100 * loops.saturated.max():.3g} % of the run")
+        print(f"FMUs ({'wheel limits' if limits == 'wheels' else 'no limits'}), {args.n} loops, {args.stop:g} s at "
+              f"{args.step:g} s: peak |z2| {np.abs(loops.z2).max():.4g} N m s, |theta| at the end <= "
+              f"{np.abs(loops.theta[:, -1]).max():.4g} rad; {extra}; {', '.join(map(str, paths))}")
+    loops = demeter_loops.linear(art, n=args.n, seed=args.seed, stop_time=args.linear_stop)
+    paths = demeter_loops.plot(loops, out)
+    print(f"design model, {args.n} loops, {args.linear_stop:g} s: peak |z2| {np.abs(loops.z2).max():.4g} N m s, "
+          f"|theta| at the end <= {np.abs(loops.theta[:, -1]).max():.4g} rad; {', '.join(map(str, paths))}")
+    return 0
+
+
 def _detumble(args: argparse.Namespace) -> int:
     import numpy as np
 
@@ -441,6 +485,26 @@ def main(argv: list[str] | None = None) -> int:
     dm.add_argument("--samples", type=int, default=100, help="sampled plants of the independent check")
     dm.add_argument("--name", default="demeter_row1_det", help="artifact and FMU name")
     dm.set_defaults(fn=_synth_demeter)
+    t1 = sub.add_parser("table1", help="seed 004 Table 1: every row, both methods, beside the seed's numbers")
+    t1.add_argument("--rows", type=int, nargs="+", default=None,
+                    help="rows 1..14 in the seed's order (default all; the 3-axis rows take hours)")
+    t1.add_argument("--scenarios", type=int, default=None,
+                    help="scenarios per Prob design (default: the Campi-Garatti count, epsilon 0.1, delta 1e-9)")
+    t1.add_argument("--out", default="results/table1", help="folder of table1.md and table1.csv")
+    t1.set_defaults(fn=_table1)
+    fg = sub.add_parser("figures", help="figures of the seeds' papers from the FMUs")
+    figs = fg.add_subparsers(dest="figure", required=True)
+    fd = figs.add_parser("demeter", help="seed 004 Figs 4-5: random closed loops of the DEMETER FMUs")
+    fd.add_argument("--artifact", default="demeter_row1_det", help="shipped artifact name or a .json path")
+    fd.add_argument("--n", type=int, default=100, help="random plants")
+    fd.add_argument("--seed", type=int, default=0, help="seed of the plant samples")
+    fd.add_argument("--stop", type=float, default=60.0, help="FMU horizon, s")
+    fd.add_argument("--step", type=float, default=1e-3,
+                    help="communication step, s (the row-1 design needs <= 1.5 ms; see sims/demeter_loops.py)")
+    fd.add_argument("--linear-stop", type=float, default=10000.0, help="design-model horizon, s")
+    fd.add_argument("--fmu-dir", default=str(catalog.DEFAULT_FMU_DIR))
+    fd.add_argument("--out", default="results/demeter", help="folder of the PNG files")
+    fd.set_defaults(fn=_figures_demeter)
     ca = sub.add_parser("campaign", help="Monte Carlo campaigns on Dask (results in Parquet, resumable)")
     kinds = ca.add_subparsers(dest="kind", required=True)
     cd = kinds.add_parser("demeter", help="seed 004: closed-loop poles, exact H-infinity and i2p of sampled "

@@ -25,7 +25,7 @@ from scipy.linalg import matrix_balance
 
 from fmus import demeter
 from synthesis import robust_lmi as rl
-from synthesis.demeter_variants import RATE_WORST, THETA_WORST, DesignModel, Variant, design_model
+from synthesis.demeter_variants import RATE_WORST, SEED_TABLE1, THETA_WORST, DesignModel, Variant, design_model
 
 ALPHA = 1e-4
 """Pole region: Re s < -ALPHA, 1/s (seed: region('plane', -1e-4))."""
@@ -197,6 +197,30 @@ def uncertainty_kind(variant: Variant) -> str:
     return "vertex" if variant.uncertainty_type == 2 else "norm"
 
 
+@dataclass
+class Analysis:
+    """Deterministic analysis of one gain over the whole box (:func:`analyse`)."""
+
+    hinf: rl.PDLFResult
+    hinf_common: rl.PDLFResult
+    i2p: rl.RobustDesign
+    seconds: float
+
+
+def analyse(dm: DesignModel, K: np.ndarray, T: np.ndarray | None = None) -> Analysis:
+    """H-infinity bounds with a parameter-dependent and with a common Lyapunov function (on the
+    LFT's descriptor) and the impulse-to-peak bound of ``u = K x`` (physical units), in the
+    coordinates ``x = T x_s`` (default :func:`state_scale`)."""
+    t0 = time.perf_counter()
+    T = state_scale(dm) if T is None else T
+    plant = scaled_lft(dm, T)
+    Ks = np.asarray(K, float) * T
+    desc = rl.AffineDescriptor.from_lft(plant)
+    return Analysis(rl.pdlf_hinf(desc, Ks), rl.pdlf_hinf(desc, Ks, common=True),
+                    rl.i2p_bound(plant, Ks, alpha=0.0, uncertainty=uncertainty_kind(dm.variant)),
+                    time.perf_counter() - t0)
+
+
 def deterministic(variant: Variant, *, n_samples: int = 100, seed: int = 0, analysis: bool = True
                   ) -> DeterministicResult:
     """Design, analyse and check one variant (see the module docstring)."""
@@ -210,33 +234,15 @@ def deterministic(variant: Variant, *, n_samples: int = 100, seed: int = 0, anal
     if out.K is None:
         return out
     if analysis:
-        t0 = time.perf_counter()
         if des.state_scaling is not None:  # the design's own well-conditioned coordinates
             T = T * des.state_scaling
-        plant = scaled_lft(dm, T)
-        Ks = out.K * T
-        desc = rl.AffineDescriptor.from_lft(plant)
-        out.analysis_hinf = rl.pdlf_hinf(desc, Ks)
-        out.analysis_hinf_common = rl.pdlf_hinf(desc, Ks, common=True)
-        out.analysis_i2p = rl.i2p_bound(plant, Ks, alpha=0.0, uncertainty=kind)
-        out.seconds["analysis"] = time.perf_counter() - t0
+        a = analyse(dm, out.K, T)
+        out.analysis_hinf, out.analysis_hinf_common, out.analysis_i2p = a.hinf, a.hinf_common, a.i2p
+        out.seconds["analysis"] = a.seconds
     t0 = time.perf_counter()
     out.check = sampled_check(dm, out.K, n_samples, seed)
     out.seconds["sampled check"] = time.perf_counter() - t0
     return out
-
-
-SEED_DET_ROWS: dict[Variant, tuple[float, float, float, float, float] | None] = {
-    Variant((1,), (1,), 1, 1): (22.3, 4.7, 0.41, 1.5, 1.0),
-    Variant((1,), (1, 2), 1, 1): None,
-    Variant((1,), (1, 2, 3, 4), 2, 1): (22.5, 3.0, 0.43, 1.3, 1.3),
-    Variant((1, 2), (1, 2, 3, 4), 2, 1): None,
-    Variant((1, 2), (1, 2), 2, 1): (22.7, 5.0, np.inf, np.inf, 142.0),
-    Variant((1, 2), (1, 2), 2, 2): (22.6, 4.24, 0.75, 1.03, 46.0),
-    Variant((1, 2, 3), (1, 2), 2, 2): (22.7, 8.1, np.inf, np.inf, 14111.0),
-}
-"""The Det rows of the seed's Table 1: (design i2p, design H-infinity, analysis i2p, analysis
-H-infinity, seconds), None where the seed reports the variant infeasible."""
 
 
 def _fmt(v: float | None, spec: str = ".4g") -> str:
@@ -249,9 +255,9 @@ def table(results: list[DeterministicResult]) -> str:
             f"{'sampled i2p':>11} {'Hinf':>8} {'max Re':>9} | {'s':>6} | seed: design i2p, Hinf; anal. i2p, Hinf; s")
     lines = [head, "-" * len(head)]
     for r in results:
-        seed = SEED_DET_ROWS.get(r.variant, "not in Table 1")
+        seed = SEED_TABLE1.get((r.variant, "Det"), "not in Table 1")
         seed_txt = "infeasible" if seed is None else seed if isinstance(seed, str) else \
-            "{:g}, {:g}; {:g}, {:g}; {:g}".format(*seed)
+            "{:g}, {:g}; {:g}, {:g}; {:g}".format(*seed[:4], seed[6])
         if not r.feasible:
             why = "infeasible (proved: coincident modes)" if r.obstruction is not None and \
                 r.obstruction.proves_infeasible else f"no design ({r.design.status}: {r.design.solver_status[:40]})"

@@ -52,6 +52,11 @@ LFT_ROUNDING = 1e-13
 """Entries of an LFT matrix below this times its largest entry are rounding residue, set to 0."""
 
 
+SEED_TABLE1_COLUMNS = ("design_i2p", "design_hinf", "det_i2p", "det_hinf", "prob_i2p", "prob_hinf", "seconds")
+"""Columns of the seed's Table 1: design bounds, deterministic analysis, probabilistic analysis
+(i2p then H-infinity each), seconds."""
+
+
 class VariantError(ValueError):
     """A variant selects axes, appendages or types that do not exist."""
 
@@ -215,7 +220,7 @@ class DesignModel:
         """``n`` parameter vectors delta, uniform in the box (shape (n, N))."""
         return rng.uniform(-1.0, 1.0, (n, len(self.parameters)))
 
-    def fmu_parameters(self, delta: np.ndarray) -> dict[str, float]:
+    def fmu_parameters(self, delta: np.ndarray) -> dict[str, float | bool]:
         """Parameters of the plant FMU that make it this variant at ``delta``: unselected axes
         decoupled (their products of inertia and rows of L zero), unselected appendages
         removed (their columns of L zero)."""
@@ -229,7 +234,7 @@ class DesignModel:
             for a in {c // 2 for c in cols}:
                 zeta[a], omega[a] = v["zeta"][g], v["omega"][g]
         out = demeter.parameter_values(J, self.L, zeta, omega)
-        out["wheels_on"] = float(self.variant.wheels)
+        out["wheels_on"] = bool(self.variant.wheels)
         return out
 
 
@@ -483,3 +488,24 @@ def _assemble(variant: Variant, params: list[UncertainParameter], groups: list[l
     C2 = np.zeros((na, n))
     C2[:, xw] = np.eye(na)
     return DesignModel(variant, params, names, groups, L_used, Q, L_r, mode_group, N0, Nk, n, n_v, C1, B2, C2)
+
+
+_INF = float("inf")
+SEED_TABLE1: dict[tuple[Variant, str], tuple[float, ...] | None] = {
+    (Variant((1,), (1,), 1, 1), "Prob"): (22.3, 2.9, 0.36, 1.5, 0.13, 1.01, 160.0),
+    (Variant((1,), (1,), 1, 1), "Det"): (22.3, 4.7, 0.41, 1.5, 0.16, 1.16, 1.0),
+    (Variant((1,), (1, 2), 1, 1), "Prob"): None,
+    (Variant((1,), (1, 2), 1, 1), "Det"): None,
+    (Variant((1,), (1, 2, 3, 4), 2, 1), "Prob"): (22.5, 3.0, 0.42, 1.3, 0.14, 0.84, 520.0),
+    (Variant((1,), (1, 2, 3, 4), 2, 1), "Det"): (22.5, 3.0, 0.43, 1.3, 0.13, 0.99, 1.3),
+    (Variant((1, 2), (1, 2, 3, 4), 2, 1), "Prob"): None,
+    (Variant((1, 2), (1, 2, 3, 4), 2, 1), "Det"): None,
+    (Variant((1, 2), (1, 2), 2, 1), "Prob"): (22.4, 2.8, 0.67, _INF, 0.2, 0.06, 2215.0),
+    (Variant((1, 2), (1, 2), 2, 1), "Det"): (22.7, 5.0, _INF, _INF, 0.16, 0.5, 142.0),
+    (Variant((1, 2), (1, 2), 2, 2), "Prob"): (22.46, 2.69, 0.7, 1.38, 0.19, 0.08, 1750.0),
+    (Variant((1, 2), (1, 2), 2, 2), "Det"): (22.6, 4.24, 0.75, 1.03, 0.19, 0.14, 46.0),
+    (Variant((1, 2, 3), (1, 2), 2, 2), "Prob"): (22.5, 3.3, _INF, _INF, 0.23, 0.66, 16387.0),
+    (Variant((1, 2, 3), (1, 2), 2, 2), "Det"): (22.7, 8.1, _INF, _INF, 0.2, 1.34, 14111.0),
+}
+"""The seed's Table 1 in its order, (variant, method) -> the values of
+:data:`SEED_TABLE1_COLUMNS`, None where the seed reports the variant infeasible."""

@@ -14,7 +14,8 @@ for every specification and every ``delta`` (quadratic stability), minimizing
 
 - H-infinity: ``||w1 -> z1||_inf < gamma`` for every ``delta``;
 - impulse-to-peak: ``sup_t ||z2(t)|| <= nu`` after ``w2 = w0 delta_Dirac(t)``, ``||w0|| <= 1``;
-- pole region: every closed-loop eigenvalue in ``-beta < Re s < -alpha``.
+- pole region: every closed-loop eigenvalue in ``-beta < Re s < -alpha`` and, optionally, in
+  the sector ``|Im s| < tan(theta) (-Re s)`` (damping above ``cos(theta)``).
 
 Each robust specification is a Lyapunov inequality for an uncertain loop written as
 ``[x'; q; z] = G [x; p; w]`` (the closed loop ``A_cl = A + Bu K``, ``Cq_cl = Cq + Dqu K``,
@@ -541,10 +542,12 @@ class Multiplier:
 
 @dataclass(frozen=True)
 class _Spec:
-    """One robust LMI: the loop ``x' = A x + Bu u + Bp p + Bw w`` with the plant's q channel and
-    ``z = Cz x + Dzu u + Dzp p + Dzw w`` (no w, z: a Lyapunov/region condition)."""
+    """One robust LMI: the loop ``x' = A x + Bu u + Bp p + Bw w`` with the q channel of
+    ``plant`` and ``z = Cz x + Dzu u + Dzp p + Dzw w`` (no w, z: a Lyapunov/region condition),
+    in ``copies`` copies of the state (``Y``, ``W`` enter as ``I_copies (x) Y``, ``(x) W``)."""
 
     name: str
+    plant: LFTPlant
     A: np.ndarray
     Bu: np.ndarray
     Bp: np.ndarray
@@ -554,30 +557,61 @@ class _Spec:
     Dzu: np.ndarray
     Dzp: np.ndarray
     Dzw: np.ndarray
+    copies: int = 1
 
 
-def _specs(plant: LFTPlant, alpha: float, beta: float | None, hinf: bool) -> list[_Spec]:
-    """The robust LMIs: "hinf" (if asked), "alpha" (``Re s < -alpha``), "beta" (``Re s > -beta``, if given)."""
-    n, nq = plant.A.shape[0], plant.Cq.shape[0]
-    none_w, none_z = np.zeros((n, 0)), np.zeros((0, n))
-    region = {"Bw": none_w, "Dqw": np.zeros((nq, 0)), "Cz": none_z, "Dzu": np.zeros((0, plant.Bu.shape[1])),
-              "Dzp": np.zeros((0, nq)), "Dzw": np.zeros((0, 0))}
+def _region_spec(name: str, plant: LFTPlant, A, Bu, Bp, copies: int = 1) -> _Spec:
+    n, nq, m = A.shape[0], plant.Cq.shape[0], Bu.shape[1]
+    return _Spec(name, plant, A, Bu, Bp, np.zeros((n, 0)), np.zeros((nq, 0)), np.zeros((0, n)), np.zeros((0, m)),
+                 np.zeros((0, nq)), np.zeros((0, 0)), copies)
+
+
+def _sector_plant(plant: LFTPlant, theta: float) -> LFTPlant:
+    """The LFT of ``M (x) A_cl(Delta)``, ``M = [[sin t, cos t], [-cos t, sin t]]``: the q channel
+    doubled (``I_2 (x) Delta``), reordered so that each parameter's ``2 r_k`` channels are
+    contiguous (one D-G block or vertex value per parameter); w, z unused (zeros)."""
+    M = np.array([[np.sin(theta), np.cos(theta)], [-np.cos(theta), np.sin(theta)]])
+    I2 = np.eye(2)
+    nq, n, m = plant.Cq.shape[0], plant.A.shape[0], plant.Bu.shape[1]
+    start = _block_starts(plant.repetitions)
+    perm = np.concatenate([np.r_[a:b, nq + a:nq + b] for a, b in itertools.pairwise(start)]).astype(int) \
+        if nq else np.zeros(0, int)
+    z = np.zeros
+    return LFTPlant(np.kron(M, plant.A), np.kron(M, plant.Bp)[:, perm], np.kron(M, plant.Bu), z((2 * n, 1)),
+                    z((2 * n, 1)), np.kron(I2, plant.Cq)[perm], np.kron(I2, plant.Dqp)[np.ix_(perm, perm)],
+                    np.kron(I2, plant.Dqu)[perm], z((2 * nq, 1)), z((1, 2 * n)), z((1, 2 * nq)), z((1, 2 * m)),
+                    z((1, 1)), z((1, 2 * n)), tuple((name, 2 * r) for name, r in plant.blocks))
+
+
+def _specs(plant: LFTPlant, alpha: float, beta: float | None, hinf: bool, sector: float | None = None
+           ) -> list[_Spec]:
+    """The robust LMIs: "hinf" (if asked), "alpha" (``Re s < -alpha``), "beta" (``Re s > -beta``,
+    if given), "sector" (``|Im s| < tan(sector) (-Re s)``, if given; Chilali & Gahinet, IEEE TAC
+    41, 1996: ``He(M (x) A_cl Y) < 0``)."""
+    n = plant.A.shape[0]
     out = []
     if hinf:
-        out.append(_Spec("hinf", plant.A, plant.Bu, plant.Bp, plant.B1, plant.Dq1, plant.C1, plant.D1u,
+        out.append(_Spec("hinf", plant, plant.A, plant.Bu, plant.Bp, plant.B1, plant.Dq1, plant.C1, plant.D1u,
                          plant.D1p, plant.D11))
-    out.append(_Spec("alpha", plant.A + alpha * np.eye(n), plant.Bu, plant.Bp, **region))
+    out.append(_region_spec("alpha", plant, plant.A + alpha * np.eye(n), plant.Bu, plant.Bp))
     if beta is not None:
-        out.append(_Spec("beta", -plant.A - beta * np.eye(n), -plant.Bu, -plant.Bp, **region))
+        out.append(_region_spec("beta", plant, -plant.A - beta * np.eye(n), -plant.Bu, -plant.Bp))
+    if sector is not None:
+        sp = _sector_plant(plant, sector)
+        out.append(_region_spec("sector", sp, sp.A, sp.Bu, sp.Bp, copies=2))
     return out
 
 
-def _dual_lmi(s: _Spec, plant: LFTPlant, Y, W, mult, gamma, stack, bmat):
+def _dual_lmi(s: _Spec, Y, W, mult, gamma, stack, bmat):
     """The dual robust LMI of spec ``s`` (must be < 0), rows ``(x', q, z, w)``, built with the
     array functions given: numpy's (``np.vstack, np.block``) for a check, cvxpy's for the program.
 
     ``mult = (Qt, St, Rt)`` (ignored when ``n_q = 0``); ``gamma`` is unused without w, z.
     """
+    plant = s.plant
+    if s.copies == 2:
+        Y = bmat([[Y, np.zeros(Y.shape)], [np.zeros(Y.shape), Y]])
+        W = bmat([[W, np.zeros(W.shape)], [np.zeros(W.shape), W]])
     n, nq, nz, nw = s.A.shape[0], plant.Cq.shape[0], s.Cz.shape[0], s.Bw.shape[1]
     rows, gp, gw = [s.A @ Y + s.Bu @ W], [s.Bp], [s.Bw]
     if nq:
@@ -663,7 +697,7 @@ def _dg_structure_error(mult: Multiplier, reps: np.ndarray) -> float:
 
 
 def verify(plant: LFTPlant, K, Y, gamma: float | None, nu: float, multipliers: dict[str, Multiplier], *,
-           alpha: float, beta: float | None) -> RobustCheck:
+           alpha: float, beta: float | None, sector: float | None = None) -> RobustCheck:
     """Check the dual robust LMIs of :func:`design` / :func:`i2p_bound` with numpy only.
 
     Rebuilds, from the returned ``K, Y`` (``W = K Y``), ``gamma``, ``nu`` and multipliers: every
@@ -684,6 +718,8 @@ def verify(plant: LFTPlant, K, Y, gamma: float | None, nu: float, multipliers: d
         :class:`Multiplier` per robust LMI name (empty when the plant has no blocks).
     alpha, beta : float
         The pole region (beta None: no ``Re s > -beta`` LMI).
+    sector : float, optional
+        Half-angle (rad) of the sector ``|Im s| < tan(sector) (-Re s)`` (None: no sector LMI).
     """
     n = plant.A.shape[0]
     K = _check_gain(K, plant.Bu.shape[1], n)
@@ -695,7 +731,7 @@ def verify(plant: LFTPlant, K, Y, gamma: float | None, nu: float, multipliers: d
     neg: dict[str, list[np.ndarray]] = {}
     pos: dict[str, list[np.ndarray]] = {"Y": [Y]}
     structure = 0.0
-    for s in _specs(plant, alpha, beta, gamma is not None):
+    for s in _specs(plant, alpha, beta, gamma is not None, sector):
         triple = None
         if plant.n_params:
             if s.name not in multipliers:
@@ -703,14 +739,14 @@ def verify(plant: LFTPlant, K, Y, gamma: float | None, nu: float, multipliers: d
             mu = multipliers[s.name]
             triple = (mu.Q, mu.S, mu.R)
             if mu.kind == "norm":
-                structure = max(structure, _dg_structure_error(mu, plant.repetitions))
-                start = _block_starts(plant.repetitions)
+                structure = max(structure, _dg_structure_error(mu, s.plant.repetitions))
+                start = _block_starts(s.plant.repetitions)
                 pos[f"{s.name}/S"] = [mu.Q[a:b, a:b] for a, b in itertools.pairwise(start)]
             else:
                 pos[f"{s.name}/Q"] = [mu.Q]
                 neg[f"{s.name}/vertices"] = [_vertex_condition(mu.Q, mu.S, mu.R, D)
-                                             for D in _vertex_deltas(plant)]
-        neg[s.name] = [_dual_lmi(s, plant, Y, W, triple, gamma, np.vstack, np.block)]
+                                             for D in _vertex_deltas(s.plant)]
+        neg[s.name] = [_dual_lmi(s, Y, W, triple, gamma, np.vstack, np.block)]
     upper, lower = _i2p_blocks(plant, Y, nu, np.block)
     pos["i2p/B2"] = [upper]
     neg["i2p/C2"] = [lower]
@@ -825,14 +861,14 @@ def _robust_constraints(plants: tuple[LFTPlant, ...], K: np.ndarray | None, spec
     cons = [Y >> margin * np.eye(n)]
     values = {}
     for i, (plant, plant_specs) in enumerate(zip(plants, specs)):
-        deltas = _vertex_deltas(plant) if uncertainty == "vertex" else []
         for s in plant_specs:
             triple = None
             if plant.n_params:
+                deltas = _vertex_deltas(s.plant) if uncertainty == "vertex" else []
                 mcons, triple, values[_key(i, s.name, len(plants))] = _multiplier_program(
-                    plant, uncertainty, deltas, margin)
+                    s.plant, uncertainty, deltas, margin)
                 cons += mcons
-            L = _dual_lmi(s, plant, Y, W, triple, gamma, cp.vstack, cp.bmat)
+            L = _dual_lmi(s, Y, W, triple, gamma, cp.vstack, cp.bmat)
             cons.append(L << -margin * np.eye(L.shape[0]))
     for plant in _distinct_i2p(plants):
         upper, lower = _i2p_blocks(plant, Y, nu, cp.bmat)
@@ -841,14 +877,14 @@ def _robust_constraints(plants: tuple[LFTPlant, ...], K: np.ndarray | None, spec
 
 
 def _verify_plants(plants: tuple[LFTPlant, ...], K, Y, gamma, nu, multipliers: dict[str, Multiplier], *,
-                   alpha: float, beta: float | None) -> RobustCheck:
+                   alpha: float, beta: float | None, sector: float | None) -> RobustCheck:
     """:func:`verify` at every plant, merged: the smallest margin, names prefixed as :func:`_key`."""
     if len(plants) == 1:
-        return verify(plants[0], K, Y, gamma, nu, multipliers, alpha=alpha, beta=beta)
+        return verify(plants[0], K, Y, gamma, nu, multipliers, alpha=alpha, beta=beta, sector=sector)
     checks = []
     for i, plant in enumerate(plants):
         own = {k.split("/", 1)[1]: v for k, v in multipliers.items() if k.startswith(f"{i}/")}
-        checks.append(verify(plant, K, Y, gamma, nu, own, alpha=alpha, beta=beta))
+        checks.append(verify(plant, K, Y, gamma, nu, own, alpha=alpha, beta=beta, sector=sector))
     worst = min(range(len(checks)), key=lambda i: checks[i].margin)
     return RobustCheck({f"{i}/{k}": v for i, c in enumerate(checks) for k, v in c.max_eig.items()},
                        {f"{i}/{k}": v for i, c in enumerate(checks) for k, v in c.min_eig.items()},
@@ -888,11 +924,12 @@ def _rescaled_program(plants: tuple[LFTPlant, ...], K: np.ndarray | None, rescal
 def _robust_program(plants: tuple[LFTPlant, ...], K: np.ndarray | None, *, hinf: bool, w_hinf: float,
                     w_i2p: float,
                     alpha: float, beta: float | None, uncertainty: str, eps: float,
-                    backoffs: tuple[float, ...] = BACKOFFS) -> tuple[RobustDesign, np.ndarray | None]:
+                    backoffs: tuple[float, ...] = BACKOFFS, sector: float | None = None
+                    ) -> tuple[RobustDesign, np.ndarray | None]:
     """Solve (minimize the objective), back off (levels x (1 + b), b in BACKOFFS, largest common margin)
     and verify the common-Lyapunov program (options already checked); also the first solve's Y."""
     t0 = time.perf_counter()
-    specs = [_specs(p, alpha, beta, hinf) for p in plants]
+    specs = [_specs(p, alpha, beta, hinf, sector) for p in plants]
     gamma = cp.Variable() if hinf else None
     nu = cp.Variable()
     Y, W, _, cons = _robust_constraints(plants, K, specs, uncertainty, eps, gamma, nu)
@@ -926,7 +963,7 @@ def _robust_program(plants: tuple[LFTPlant, ...], K: np.ndarray | None, *, hinf:
         Yv = _sym(Yb.value)
         Kv = np.linalg.solve(Yv, np.asarray(Wb.value).T).T if K is None else K
         mults = {k: f() for k, f in values.items()}
-        check = _verify_plants(plants, Kv, Yv, g, nv, mults, alpha=alpha, beta=beta)
+        check = _verify_plants(plants, Kv, Yv, g, nv, mults, alpha=alpha, beta=beta, sector=sector)
         if check.ok:
             return RobustDesign("optimal", Kv, g, nv, Yv, mults, check, optimum, **info, **times, backoff=b), Y1
     return RobustDesign("unverified", None, None, None, None, mults, check, optimum, **info, **times), Y1
@@ -948,14 +985,15 @@ def _plant_list(plant: LFTPlant | Sequence[LFTPlant], uncertainty: str, max_vert
     return plants
 
 
-def design(plant: LFTPlant | Sequence[LFTPlant], K=None, *, w_hinf: float = 1.0, w_i2p: float = 100.0, alpha: float = 1e-4,
-           beta: float = 10.0, uncertainty: str = "norm", max_vertices: int = MAX_VERTICES,
-           eps: float = EPS, rescale: bool = True) -> RobustDesign:
+def design(plant: LFTPlant | Sequence[LFTPlant], K=None, *, w_hinf: float = 1.0, w_i2p: float = 100.0,
+           alpha: float = 1e-4, beta: float = 10.0, sector: float | None = None, uncertainty: str = "norm",
+           max_vertices: int = MAX_VERTICES, eps: float = EPS, rescale: bool = True) -> RobustDesign:
     """Robust multi-objective state feedback ``u = K x`` with one Lyapunov matrix (module docstring).
 
     Minimizes ``w_hinf gamma + w_i2p nu`` (the seed's "+1*hinfty +100*i2p") subject to, for
     every delta in ``[-1, 1]^N``: ``||w1 -> z1||_inf < gamma``; ``sup_t |z2(t)| <= nu`` after a
-    unit impulse on w2; closed-loop eigenvalues in ``-beta < Re s < -alpha``. The
+    unit impulse on w2; closed-loop eigenvalues in ``-beta < Re s < -alpha`` and, with ``sector``,
+    in ``|Im s| < tan(sector) (-Re s)`` (damping ratio above ``cos(sector)``). The
     ``A_cl Y + Y A_cl^T < 0`` that the i2p bound needs is the alpha LMI (alpha >= 0).
 
     Parameters
@@ -971,6 +1009,8 @@ def design(plant: LFTPlant | Sequence[LFTPlant], K=None, *, w_hinf: float = 1.0,
         Objective weights (>= 0, not both 0).
     alpha, beta : float
         Pole region, 1/s: ``0 <= alpha < beta``.
+    sector : float, optional
+        Half-angle of the pole sector, rad, in (0, pi/2) (None: no sector).
     uncertainty : {"norm", "vertex"}
         D-G scalings (dual form) or full-block multipliers at the box vertices.
     max_vertices : int
@@ -995,11 +1035,13 @@ def design(plant: LFTPlant | Sequence[LFTPlant], K=None, *, w_hinf: float = 1.0,
         With ``"vertex"`` when ``2^N > max_vertices`` (before anything is built).
     """
     _check_options(w_hinf, w_i2p, alpha, beta, uncertainty, eps)
+    if sector is not None and not (np.isfinite(sector) and 0 < sector < np.pi / 2):
+        raise OptionError(f"sector must be a half-angle in (0, pi/2) rad, got {sector!r}")
     plants = _plant_list(plant, uncertainty, max_vertices)
     if K is not None:
         K = _check_gain(K, plants[0].Bu.shape[1], plants[0].A.shape[0])
     return _rescaled_program(plants, K, rescale, hinf=True, w_hinf=w_hinf, w_i2p=w_i2p, alpha=alpha, beta=beta,
-                             uncertainty=uncertainty, eps=eps)
+                             uncertainty=uncertainty, eps=eps, sector=sector)
 
 
 def i2p_bound(plant: LFTPlant | Sequence[LFTPlant], K, *, alpha: float = 0.0, uncertainty: str = "norm",

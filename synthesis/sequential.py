@@ -78,7 +78,7 @@ class _LMIs:
         self.specs = rl._specs(plant, alpha, beta, True)
 
     def __call__(self, Y: np.ndarray, W: np.ndarray) -> list[np.ndarray]:
-        out = [rl._dual_lmi(s, self.plant, Y, W, None, self.gamma, np.vstack, np.block) for s in self.specs]
+        out = [rl._dual_lmi(s, Y, W, None, self.gamma, np.vstack, np.block) for s in self.specs]
         upper, lower = rl._i2p_blocks(self.plant, Y, self.nu, np.block)
         return out + [-upper, lower]
 

@@ -1,0 +1,139 @@
+"""Table 1 of seed 004: every row's variant by both methods, the seed's numbers beside ours.
+
+For each (variant, method) of :data:`synthesis.demeter_variants.SEED_TABLE1`:
+
+- ``"Det"``: :func:`synthesis.demeter_design.deterministic` (D-G scalings or vertex separators);
+- ``"Prob"``: :func:`synthesis.demeter_random.scenario` (Campi-Garatti sample count);
+
+then, for the gain found, the seed's two analyses: deterministic (H-infinity with a
+parameter-dependent Lyapunov function, impulse-to-peak with a common one:
+:func:`synthesis.demeter_design.analyse`) and probabilistic (worst cases over the log-over-log
+number of samples: :func:`synthesis.demeter_random.analyse`). Units: i2p in N m s per unit
+impulse of w2, H-infinity in rad/(N m); seconds are the design's wall time on this machine.
+"""
+from __future__ import annotations
+
+import csv
+import math
+import time
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+from synthesis import demeter_design as dd
+from synthesis import demeter_random as dr
+from synthesis.demeter_variants import SEED_TABLE1, SEED_TABLE1_COLUMNS, Variant, design_model
+
+METHODS = ("Prob", "Det")
+
+
+@dataclass
+class Row:
+    """One row of Table 1 (ours), with the seed's values (``seed``, None if it reports infeasible)."""
+
+    variant: Variant
+    method: str
+    status: str
+    design_i2p: float = math.nan
+    design_hinf: float = math.nan
+    det_i2p: float = math.nan
+    det_hinf: float = math.nan
+    prob_i2p: float = math.nan
+    prob_hinf: float = math.nan
+    seconds: float = math.nan
+    total_seconds: float = math.nan
+    note: str = ""
+    seed: tuple[float, ...] | None = None
+
+
+def _value(res, attr: str) -> float:
+    return getattr(res, attr) if res is not None and res.status == "optimal" else math.inf
+
+
+def run_row(variant: Variant, method: str, *, n_scenarios: int | None = None, seed: int = 0) -> Row:
+    """Design and analyse one row (module docstring). ``n_scenarios`` overrides the scenario count."""
+    if method not in METHODS:
+        raise ValueError(f"method must be one of {METHODS}, got {method!r}")
+    t0 = time.perf_counter()
+    row = Row(variant, method, "", seed=SEED_TABLE1.get((variant, method)))
+    if method == "Det":
+        res = dd.deterministic(variant, n_samples=0, seed=seed)
+        design, K = res.design, res.K
+        if K is not None:
+            row.det_hinf, row.det_i2p = _value(res.analysis_hinf, "gamma"), _value(res.analysis_i2p, "nu")
+        obstruction = res.obstruction
+    else:
+        res = dr.scenario(variant, n=n_scenarios, seed=seed, analysis=False)
+        design, K = res.design, res.K
+        if K is not None:
+            a = dd.analyse(design_model(variant), K, dr.design_scale(design_model(variant)))
+            row.det_hinf, row.det_i2p = _value(a.hinf, "gamma"), _value(a.i2p, "nu")
+        obstruction = dd.coincident_modes(variant)
+        row.note = f"{res.n_samples} scenarios"
+    row.seconds = res.seconds["design"]
+    if K is None:
+        blocked = obstruction is not None and obstruction.proves_infeasible
+        # the proof covers the whole box (Det); scenarios only come near the coincident set
+        row.status = "infeasible (proved)" if blocked and method == "Det" else f"no design ({design.status})"
+        if blocked:
+            row.note = (f"{row.note}; " if row.note else "") + (
+                f"coincident modes: {obstruction.n_free} free oscillator(s), need zeta > "
+                f"{obstruction.required_zeta:.3g}")
+    else:
+        row.status = "feasible"
+        row.design_i2p, row.design_hinf = design.nu, design.gamma
+        p = dr.analyse(variant, K, seed=seed + 1)
+        row.prob_i2p, row.prob_hinf = p.i2p.estimate, p.hinf.estimate
+        if not p.in_region:
+            row.note = (row.note + "; " if row.note else "") + f"sampled max Re {p.max_real_pole:.2e} 1/s"
+    row.total_seconds = time.perf_counter() - t0
+    return row
+
+
+def run(selection: list[tuple[Variant, str]] | None = None, *, n_scenarios: int | None = None, seed: int = 0,
+        progress=None) -> list[Row]:
+    """Every row of the seed's table (or ``selection``), in its order."""
+    keys = list(SEED_TABLE1) if selection is None else selection
+    out = []
+    for i, (variant, method) in enumerate(keys):
+        out.append(run_row(variant, method, n_scenarios=n_scenarios, seed=seed))
+        if progress is not None:
+            progress(i + 1, len(keys), f"{variant.label} {method}")
+    return out
+
+
+def _cell(v: float) -> str:
+    return "Inf" if v == math.inf else "-" if math.isnan(v) else f"{v:.4g}"
+
+
+def markdown(rows: list[Row]) -> str:
+    """The table, ours then the seed's value in each cell ("ours / seed")."""
+    head = ("| axes | appendages | model | unc | method | status | design i2p | design Hinf | det i2p | det Hinf | "
+            "prob i2p | prob Hinf | seconds | note |")
+    lines = [head, "|" + "---|" * 14]
+    for r in rows:
+        seed = r.seed if r.seed is not None else (None,) * len(SEED_TABLE1_COLUMNS)
+        cells = [f"{_cell(getattr(r, c))} / {'infeasible' if s is None else _cell(s)}"
+                 for c, s in zip(SEED_TABLE1_COLUMNS, seed)]
+        v = r.variant
+        lines.append(f"| {','.join(map(str, v.axes))} | {','.join(map(str, v.appendages))} | {v.model_type} | "
+                     f"{v.uncertainty_type} | {r.method} | {r.status} | " + " | ".join(cells) + f" | {r.note} |")
+    return "\n".join(lines)
+
+
+def write(rows: list[Row], out_dir: Path) -> list[Path]:
+    """``table1.md`` and ``table1.csv`` (one line per row, our columns then the seed's)."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    md, path_csv = out_dir / "table1.md", out_dir / "table1.csv"
+    md.write_text("Seed 004 Table 1, ours / seed's (i2p N m s, H-infinity rad/(N m), seconds of the design)\n\n"
+                  + markdown(rows) + "\n")
+    with path_csv.open("w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["axes", "appendages", "model_type", "uncertainty_type", "method", "status",
+                    *SEED_TABLE1_COLUMNS, "total_seconds", "note", *[f"seed_{c}" for c in SEED_TABLE1_COLUMNS]])
+        for r in rows:
+            d = asdict(r)
+            seed = r.seed if r.seed is not None else ("infeasible",) * len(SEED_TABLE1_COLUMNS)
+            w.writerow([" ".join(map(str, r.variant.axes)), " ".join(map(str, r.variant.appendages)),
+                        r.variant.model_type, r.variant.uncertainty_type, r.method, r.status,
+                        *[d[c] for c in SEED_TABLE1_COLUMNS], r.total_seconds, r.note, *seed])
+    return [md, path_csv]
