@@ -25,6 +25,7 @@ from timing import best_of
 from controllers import artifact as artifacts
 from controllers import polynomial
 from sims import campaign
+from synthesis import demeter_design as dd
 from synthesis import demeter_random as dr
 from synthesis import robust_lmi as rl
 from synthesis.demeter_variants import Variant
@@ -41,7 +42,7 @@ def _per_sample(task: dr.ClosedLoopSamples, deltas: np.ndarray) -> dict[str, np.
         Acl = A + Bu @ task.K
         out["max_real_pole"].append(np.linalg.eigvals(Acl).real.max())
         out["hinf"].append(rl.hinf_norm(Acl, B1, dm.C1, np.zeros((1, 1))))
-        out["i2p"].append(rl.impulse_to_peak(Acl, dm.B2, dm.C2, dr.I2P_HORIZON, dr.I2P_POINTS))
+        out["i2p"].append(rl.impulse_to_peak(Acl, dm.B2, dm.C2, dd.I2P_HORIZON, dd.I2P_POINTS))
     return {k: np.array(v) for k, v in out.items()}
 
 

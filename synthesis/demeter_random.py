@@ -31,9 +31,6 @@ SCENARIO_EPSILON, SCENARIO_DELTA = 0.1, 1e-9
 """The scenario design's violation level and confidence (MODELS.md: N = 962 for row 1)."""
 ANALYSIS_EPSILON, ANALYSIS_DELTA = 0.1, 1e-6
 """The seed's ``randsettings`` for the analysis."""
-I2P_HORIZON, I2P_POINTS = 2000.0, 4001
-"""Impulse-to-peak grid: 2000 s (the slowest closed-loop modes are near -3e-4 1/s, but the
-pseudo-integrator peaks within the first few hundred seconds), 0.5 s apart."""
 
 
 def design_scale(dm: DesignModel) -> np.ndarray:
@@ -94,18 +91,7 @@ class ClosedLoopSamples:
         return self._dm
 
     def __call__(self, deltas: np.ndarray) -> dict[str, np.ndarray]:
-        dm = self.design_model()
-        A, Bu, B1 = dm.state_space(deltas)
-        Acl = A + Bu @ self.K
-        re = np.linalg.eigvals(Acl).real
-        stable = re.max(axis=1) < 0
-        hinf = np.full(len(Acl), np.inf)
-        i2p = np.full(len(Acl), np.inf)
-        if stable.any():
-            D = np.zeros((dm.C1.shape[0], B1.shape[-1]))
-            hinf[stable] = pr.hinf_norms(Acl[stable], B1[stable], dm.C1, D)
-            i2p[stable] = rl.impulse_to_peak(Acl[stable], dm.B2, dm.C2, I2P_HORIZON, I2P_POINTS)
-        return {"max_real_pole": re.max(axis=1), "min_real_pole": re.min(axis=1), "hinf": hinf, "i2p": i2p}
+        return dd.closed_loop_values(self.design_model(), self.K, deltas)
 
     def __getstate__(self) -> dict:
         return {"variant": self.variant, "K": self.K, "_dm": None}  # rebuilt in the worker
