@@ -61,32 +61,8 @@ def state_scale(dm: DesignModel) -> np.ndarray:
 
 def scaled_lft(dm: DesignModel, T: np.ndarray) -> rl.LFTPlant:
     """The design model's LFT in the coordinates ``x_s = T^-1 x``, each uncertainty channel
-    balanced: ``p_i = delta q_i`` holds for ``p_i / c_i``, ``q_i / c_i`` too, and
-    ``c_i = sqrt(|Cq_i| / |Bp_i|)`` gives its input and output columns the same size."""
-    L = dm.lft()
-    out = dict(L)
-    out["A"] = L["A"] * T[None, :] / T[:, None]
-    for k in ("Bp", "Bu", "B1", "B2"):
-        out[k] = L[k] / T[:, None]
-    for k in ("Cq", "C1", "C2"):
-        out[k] = L[k] * T[None, :]
-    bp, cq = np.linalg.norm(out["Bp"], axis=0), np.linalg.norm(out["Cq"], axis=1)
-    c = np.sqrt(np.where((bp > 0) & (cq > 0), cq / np.where(bp > 0, bp, 1.0), 1.0))
-    out["Bp"], out["D1p"] = out["Bp"] * c, out["D1p"] * c
-    out["Dqp"] = out["Dqp"] * c[None, :] / c[:, None]
-    for k in ("Cq", "Dqu", "Dq1"):
-        out[k] = out[k] / c[:, None]
-    return rl.LFTPlant(**out)
-
-
-def scaled_descriptor(dm: DesignModel, T: np.ndarray) -> rl.AffineDescriptor:
-    """The design model's affine descriptor in the coordinates ``x_s = T^-1 x``."""
-    n = dm.n
-    S = np.ones(dm.N0.shape[1])
-    S[:n] = S[n:2 * n] = T
-    m = dm.na
-    return rl.AffineDescriptor(N0=dm.N0 * S, Nk=dm.Nk * S, n=n, n_v=dm.n_v, m_u=m, m_w=m, C1=dm.C1 * T,
-                               D1u=np.zeros((m, m)), D11=np.zeros((m, m)), names=tuple(dm.names))
+    balanced (:meth:`synthesis.robust_lmi.LFTPlant.balance_channels`)."""
+    return rl.LFTPlant(**dm.lft()).scale_states(T).balance_channels()
 
 
 @dataclass

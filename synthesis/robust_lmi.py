@@ -366,6 +366,19 @@ class LFTPlant:
             out[k] = out[k] * T[None, :]
         return LFTPlant(**out, blocks=self.blocks)
 
+    def balance_channels(self) -> LFTPlant:
+        """The same plant with each uncertainty channel i scaled, ``p_i / c_i = delta (q_i / c_i)``,
+        ``c_i = sqrt(|Cq_i| / |Bp_i|)``: its input and output columns get the same size (exact: a
+        common factor on ``p_i`` and ``q_i`` keeps ``p = Delta q``)."""
+        bp, cq = np.linalg.norm(self.Bp, axis=0), np.linalg.norm(self.Cq, axis=1)
+        c = np.sqrt(np.where((bp > 0) & (cq > 0), cq / np.where(bp > 0, bp, 1.0), 1.0))
+        out = {k: getattr(self, k) for k in _LFT_FIELDS}
+        out["Bp"], out["D1p"] = self.Bp * c, self.D1p * c
+        out["Dqp"] = self.Dqp * c[None, :] / c[:, None]
+        for k in ("Cq", "Dqu", "Dq1"):
+            out[k] = out[k] / c[:, None]
+        return LFTPlant(**out, blocks=self.blocks)
+
 
 @dataclass(frozen=True)
 class AffineDescriptor:
@@ -892,33 +905,69 @@ def _verify_plants(plants: tuple[LFTPlant, ...], K, Y, gamma, nu, multipliers: d
                        max(c.structure_error for c in checks), [f"plant {worst}: {d}" for d in checks[worst].details])
 
 
-def _rescaled_program(plants: tuple[LFTPlant, ...], K: np.ndarray | None, rescale: bool, **options
-                      ) -> RobustDesign:
+RESCALE_DEPTH = 2
+"""Rescalings :func:`_rescaled_program` may chain (each from the last solve's Lyapunov matrix)."""
+
+
+def _rescaled_program(plants: tuple[LFTPlant, ...], K: np.ndarray | None, rescale: bool, depth: int = RESCALE_DEPTH,
+                      **options) -> RobustDesign:
     """:func:`_robust_program` at the first back-off; if its certificate fails :func:`verify`,
-    once more in the coordinates where the first solve's Y has a unit diagonal
-    (``x = diag(sqrt(Y_ii)) x_s``) with every back-off; failing that, the caller's coordinates
-    with the larger back-offs.
+    the same again (up to ``depth`` times) in the coordinates where that solve's Y has a unit
+    diagonal (``x = diag(sqrt(Y_ii)) x_s``); failing that, the caller's coordinates with the
+    larger back-offs.
 
     A Lyapunov matrix with eigenvalues 10^7 apart (slow modes next to stiff ones) leaves the
     solver's answer just outside the feasible set whatever the back-off; the diagonal scaling
     from its own first answer brings Y's condition number to about 10 (DEMETER row 1: 10^7 to
-    13). The returned K, Y are in the caller's coordinates; ``state_scaling`` holds the scale,
-    ``check`` the verification in the scaled coordinates (:meth:`LFTPlant.scale_states`).
+    13). When a solve gives no answer at all, the scaling comes from :func:`_phase_one`
+    (DEMETER, one axis, four identical appendages: phase one, then one more rescaling). The
+    returned K, Y are in the caller's coordinates; ``state_scaling`` holds the total scale,
+    ``check`` and the multipliers in the last coordinates (:meth:`LFTPlant.scale_states`, then
+    :meth:`LFTPlant.balance_channels`).
     """
     out, Y1 = _robust_program(plants, K, backoffs=BACKOFFS[:1], **options)
-    if out.status != "unverified" or Y1 is None:
+    if out.status != "unverified":
         return out
+    if Y1 is None and rescale:  # no answer at all: coordinates from a bounded region-only problem
+        Y1 = _phase_one(plants, K, **options)
     scaled = None
-    if rescale and np.all(np.diag(Y1) > 0):
+    if rescale and depth > 0 and Y1 is not None and np.all(np.diag(Y1) > 0):
         T = np.sqrt(np.diag(Y1))
-        scaled, _ = _robust_program(tuple(p.scale_states(T) for p in plants), None if K is None else K * T,
-                                    backoffs=BACKOFFS, **options)
+        scaled = _rescaled_program(tuple(p.scale_states(T).balance_channels() for p in plants),
+                                   None if K is None else K * T, rescale, depth - 1, **options)
     if scaled is None or scaled.status != "optimal":
         return _robust_program(plants, K, backoffs=BACKOFFS[1:], **options)[0]
-    return replace(scaled, K=scaled.K / T, Y=T[:, None] * scaled.Y * T[None, :], state_scaling=T,
+    inner = np.ones_like(T) if scaled.state_scaling is None else scaled.state_scaling
+    return replace(scaled, K=scaled.K / T, Y=T[:, None] * scaled.Y * T[None, :], state_scaling=T * inner,
                    solve_seconds=scaled.solve_seconds + out.solve_seconds,
                    build_seconds=scaled.build_seconds + out.build_seconds,
                    solver_status=f"{out.solver_status}; rescaled: {scaled.solver_status}")
+
+
+def _phase_one(plants: tuple[LFTPlant, ...], K: np.ndarray | None, *, alpha: float, beta: float | None,
+               uncertainty: str, sector: float | None = None, **_) -> np.ndarray | None:
+    """Y of the region LMIs alone (no H-infinity, no i2p), normalized ``t I <= Y <= I`` with the
+    common margin t maximized (at most 1): a bounded problem that the solver answers where the
+    full minimization fails; its Y's diagonal gives the coordinates of the retry."""
+    n, m = plants[0].A.shape[0], plants[0].Bu.shape[1]
+    t = cp.Variable()
+    Y = cp.Variable((n, n), symmetric=True)
+    W = cp.Variable((m, n)) if K is None else K @ Y
+    cons = [Y >> t * np.eye(n), Y << np.eye(n), t <= 1]
+    for plant in plants:
+        for s in _specs(plant, alpha, beta, False, sector):
+            triple = None
+            if plant.n_params:
+                deltas = _vertex_deltas(s.plant) if uncertainty == "vertex" else []
+                mcons, triple, _ = _multiplier_program(s.plant, uncertainty, deltas, t)
+                cons += mcons
+            L = _dual_lmi(s, Y, W, triple, None, cp.vstack, cp.bmat)
+            cons.append(L << -t * np.eye(L.shape[0]))
+    prob = cp.Problem(cp.Maximize(t), cons)
+    status, _ = _solve(prob)
+    if status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE) or Y.value is None:
+        return None
+    return _sym(Y.value)
 
 
 def _robust_program(plants: tuple[LFTPlant, ...], K: np.ndarray | None, *, hinf: bool, w_hinf: float,
