@@ -250,10 +250,9 @@ def _table1(args: argparse.Namespace) -> int:
         if bad:
             raise ValueError(f"rows must be in 1..{len(keys)} (the seed's order), got {bad}")
         keys = [keys[r - 1] for r in args.rows]
-    rows = demeter_table.run(keys, n_scenarios=args.scenarios, progress=_progress)
+    rows = demeter_table.run(keys, n_scenarios=args.scenarios, progress=_progress, out_dir=Path(args.out))
     print(demeter_table.markdown(rows))
-    for path in demeter_table.write(rows, Path(args.out)):
-        print(f"wrote {path}")
+    print(f"wrote {Path(args.out) / 'table1.md'}, {Path(args.out) / 'table1.csv'}")
     return 0
 
 
