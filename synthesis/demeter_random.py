@@ -13,6 +13,9 @@
   worst-case statement (N = 132 at the seed's epsilon 0.1, delta 1e-6).
 - :class:`ClosedLoopSamples`: the same per-sample values as a pure, picklable task for
   :mod:`sims.campaign` (Chernoff campaigns of 1e5 samples on Dask).
+- :func:`sequential_design`: the sequential randomized method
+  (:func:`synthesis.sequential.sequential`) started from the deterministic design, at levels
+  below its own.
 """
 from __future__ import annotations
 
