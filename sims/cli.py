@@ -192,13 +192,21 @@ def _synth_cubesat(args: argparse.Namespace) -> int:
 
 def _synth_demeter(args: argparse.Namespace) -> int:
     from synthesis import demeter_design as dd
+    from synthesis import demeter_table
     from synthesis.demeter_variants import Variant
 
     variant = Variant(tuple(args.axes), tuple(args.appendages), args.model_type, args.uncertainty_type,
                       not args.no_wheels)
-    r = dd.deterministic(variant, n_samples=args.samples)
-    print(dd.table([r]))
-    if not r.feasible:
+    row = demeter_table.run_row(variant, "Det", n_samples=args.samples)
+    print(demeter_table.markdown([row]))
+    r = row.result
+    if r.feasible:
+        c = r.check
+        common = getattr(r.analysis_hinf_common, "gamma", None)
+        print(f"{c.n} sampled plants (seed {c.seed}): Re s in [{c.min_real_pole:.3g}, {c.max_real_pole:.3g}] 1/s, "
+              f"largest exact H-infinity {c.hinf.max():.4g}, i2p {c.i2p.max():.4g}; H-infinity bound with one "
+              f"Lyapunov matrix: {'none' if common is None else format(common, '.4g')}")
+    else:
         if r.obstruction is not None and r.obstruction.proves_infeasible:
             o = r.obstruction
             print(f"infeasible for any common-Lyapunov design: at coincident omega, {o.n_free} combination(s) of "
@@ -213,19 +221,11 @@ def _synth_demeter(args: argparse.Namespace) -> int:
 def _campaign_demeter(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from controllers import artifact as artifacts
-    from controllers import polynomial
-    from sims import campaign
+    from sims import campaign, demeter_loops
     from synthesis import demeter_design as dd
     from synthesis import demeter_random as dr
-    from synthesis.demeter_variants import Variant
 
-    path = Path(args.artifact)
-    art = artifacts.load(path if path.suffix == ".json" else polynomial.ARTIFACTS / f"{args.artifact}.json")
-    if not isinstance(art, artifacts.GainArtifact) or "variant" not in art.design:
-        raise ValueError(f"{args.artifact}: not a DEMETER state-feedback design artifact")
-    v = art.design["variant"]
-    variant = Variant(tuple(v["axes"]), tuple(v["appendages"]), v["model_type"], v["uncertainty_type"], v["wheels"])
+    art, variant = demeter_loops.load_design(args.artifact)
     task = dr.ClosedLoopSamples(variant, np.array(art.design["K"]))
     camp = campaign.Campaign(name=args.name or f"{art.name}-n{args.n}-s{args.seed}", task=task, n=args.n,
                              seed=args.seed, chunk=args.chunk,
@@ -259,11 +259,9 @@ def _table1(args: argparse.Namespace) -> int:
 def _figures_demeter(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from controllers import polynomial
     from sims import demeter_loops
 
-    path = Path(args.artifact)
-    art = path if path.suffix == ".json" else polynomial.ARTIFACTS / f"{args.artifact}.json"
+    art = args.artifact
     out = Path(args.out)
     for limits in ("wheels", "linear"):
         loops = demeter_loops.run(Path(args.fmu_dir), art, n=args.n, seed=args.seed, stop_time=args.stop,

@@ -31,6 +31,7 @@ import numpy as np
 from scipy.linalg import expm
 
 from controllers import artifact as artifacts
+from controllers import polynomial
 from sims.master import CoSimulation
 from synthesis.demeter_variants import RATE_WORST, THETA_WORST, DesignModel, Variant, design_model
 
@@ -62,9 +63,6 @@ class RandomLoops:
     source: str = "fmu"
 
 
-def _variant(art: artifacts.GainArtifact) -> Variant:
-    v = art.design["variant"]
-    return Variant(tuple(v["axes"]), tuple(v["appendages"]), v["model_type"], v["uncertainty_type"], v["wheels"])
 
 
 def _free_response(dm: DesignModel, K: np.ndarray, delta: np.ndarray, X0: np.ndarray, t: np.ndarray) -> np.ndarray:
@@ -79,17 +77,26 @@ def _free_response(dm: DesignModel, K: np.ndarray, delta: np.ndarray, X0: np.nda
     return out
 
 
-def _design(artifact: Path) -> tuple[artifacts.GainArtifact, Variant]:
-    art = artifacts.load(artifact)
+def load_design(artifact: str | Path) -> tuple[artifacts.GainArtifact, Variant]:
+    """A DEMETER design artifact (a shipped name such as ``"demeter_row1_det"`` or a .json path)
+    and its variant.
+
+    Raises
+    ------
+    ValueError
+        If the artifact is not a DEMETER state-feedback design.
+    """
+    path = Path(artifact)
+    art = artifacts.load(path if path.suffix == ".json" else polynomial.ARTIFACTS / f"{artifact}.json")
     if not isinstance(art, artifacts.GainArtifact) or "variant" not in art.design:
         raise ValueError(f"{artifact}: not a DEMETER state-feedback design artifact")
-    return art, _variant(art)
+    return art, Variant.from_dict(art.design["variant"])
 
 
-def linear(artifact: Path, *, n: int = 100, seed: int = 0, stop_time: float = 10000.0, points: int = 2001
+def linear(artifact: str | Path, *, n: int = 100, seed: int = 0, stop_time: float = 10000.0, points: int = 2001
            ) -> RandomLoops:
     """The same loops as :func:`run` on the design model, exactly, over the whole horizon."""
-    art, variant = _design(artifact)
+    art, variant = load_design(artifact)
     dm, K = design_model(variant), np.array(art.design["K"])
     deltas = dm.sample(n, np.random.default_rng(seed))
     t = np.linspace(0.0, stop_time, points)
@@ -104,7 +111,7 @@ def linear(artifact: Path, *, n: int = 100, seed: int = 0, stop_time: float = 10
                        variant.axes[0], "design model")
 
 
-def run(fmu_dir: Path, artifact: Path, *, n: int = 100, seed: int = 0, stop_time: float = 60.0,
+def run(fmu_dir: Path, artifact: str | Path, *, n: int = 100, seed: int = 0, stop_time: float = 60.0,
         step_size: float = 1e-3, limits: str = "wheels") -> RandomLoops:
     """Run the 3 n co-simulations of Figs 4-5 (module docstring).
 
@@ -115,7 +122,7 @@ def run(fmu_dir: Path, artifact: Path, *, n: int = 100, seed: int = 0, stop_time
     """
     if limits not in ("linear", "wheels"):
         raise ValueError(f"limits must be 'linear' or 'wheels', got {limits!r}")
-    art, variant = _design(artifact)
+    art, variant = load_design(artifact)
     dm, K, axis = design_model(variant), np.array(art.design["K"]), variant.axes[0]
     deltas = dm.sample(n, np.random.default_rng(seed))
     starts = [{f"theta_0[{axis}]": THETA_WORST}, {f"theta_dot_0[{axis}]": RATE_WORST},

@@ -26,7 +26,7 @@ from scipy.linalg import matrix_balance
 from fmus import demeter
 from synthesis import probabilistic as pr
 from synthesis import robust_lmi as rl
-from synthesis.demeter_variants import RATE_WORST, SEED_TABLE1, THETA_WORST, DesignModel, Variant, design_model
+from synthesis.demeter_variants import RATE_WORST, THETA_WORST, DesignModel, Variant, design_model
 
 ALPHA = 1e-4
 """Pole region: Re s < -ALPHA, 1/s (seed: region('plane', -1e-4))."""
@@ -234,35 +234,6 @@ def deterministic(variant: Variant, *, n_samples: int = 100, seed: int = 0, anal
     return out
 
 
-def _fmt(v: float | None, spec: str = ".4g") -> str:
-    return "-" if v is None else format(v, spec)
-
-
-def table(results: list[DeterministicResult]) -> str:
-    """Table 1 (Det rows) for ``results``, the seed's row beside each (text)."""
-    head = (f"{'variant':<52} {'design i2p':>10} {'Hinf':>8} | {'anal. i2p':>9} {'Hinf PDLF':>9} {'common':>8} | "
-            f"{'sampled i2p':>11} {'Hinf':>8} {'max Re':>9} | {'s':>6} | seed: design i2p, Hinf; anal. i2p, Hinf; s")
-    lines = [head, "-" * len(head)]
-    for r in results:
-        seed = SEED_TABLE1.get((r.variant, "Det"), "not in Table 1")
-        seed_txt = "infeasible" if seed is None else seed if isinstance(seed, str) else \
-            "{:g}, {:g}; {:g}, {:g}; {:g}".format(*seed[:4], seed[6])
-        if not r.feasible:
-            why = "infeasible (proved: coincident modes)" if r.obstruction is not None and \
-                r.obstruction.proves_infeasible else f"no design ({r.design.status}: {r.design.solver_status[:40]})"
-            lines.append(f"{r.variant.label:<52} {why:<80} | {seed_txt}")
-            continue
-        d, c = r.design, r.check
-        a_i2p = r.analysis_i2p.nu if r.analysis_i2p and r.analysis_i2p.status == "optimal" else None
-        a_h = r.analysis_hinf.gamma if r.analysis_hinf else None
-        a_hc = r.analysis_hinf_common.gamma if r.analysis_hinf_common else None
-        secs = sum(r.seconds.get(k, 0.0) for k in ("design", "analysis"))
-        lines.append(f"{r.variant.label:<52} {d.nu:>10.4g} {d.gamma:>8.4g} | {_fmt(a_i2p):>9} {_fmt(a_h):>9} "
-                     f"{_fmt(a_hc):>8} | {c.i2p.max():>11.4g} {c.hinf.max():>8.4g} {c.max_real_pole:>9.2e} | "
-                     f"{secs:>6.1f} | {seed_txt}")
-    return "\n".join(lines)
-
-
 def artifact_data(result: DeterministicResult, name: str) -> dict:
     """The controller artifact (kind ``linear_state_feedback``) of a feasible design: the FMU
     gains, what was proved and on which box, the measured checks."""
@@ -294,9 +265,6 @@ def artifact_data(result: DeterministicResult, name: str) -> dict:
             "certificate": {"status": "certified", "proved": proved, "region": box, "numbers": numbers},
             "provenance": {"source": "satfmu synth demeter (synthesis.demeter_design.deterministic)",
                            "seed": "004, Table 1 Det", "coupling_L": "substitute (MODELS.md)"},
-            "design": {"variant": {"axes": list(result.variant.axes), "appendages": list(result.variant.appendages),
-                                   "model_type": result.variant.model_type,
-                                   "uncertainty_type": result.variant.uncertainty_type,
-                                   "wheels": result.variant.wheels},
+            "design": {"variant": result.variant.to_dict(),
                        "states": dm.state_names, "K": result.K.tolist(),
                        "weights": {"hinf": W_HINF, "i2p": W_I2P}}}

@@ -16,7 +16,7 @@ from __future__ import annotations
 import csv
 import math
 import time
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from synthesis import demeter_design as dd
@@ -43,20 +43,24 @@ class Row:
     total_seconds: float = math.nan
     note: str = ""
     seed: tuple[float, ...] | None = None
+    result: dd.DeterministicResult | dr.ScenarioResult | None = field(default=None, repr=False, compare=False)
+    """The design behind the row (gain, certificates)."""
 
 
 def _value(res, attr: str) -> float:
     return getattr(res, attr) if res is not None and res.status == "optimal" else math.inf
 
 
-def run_row(variant: Variant, method: str, *, n_scenarios: int | None = None, seed: int = 0) -> Row:
-    """Design and analyse one row (module docstring). ``n_scenarios`` overrides the scenario count."""
+def run_row(variant: Variant, method: str, *, n_scenarios: int | None = None, seed: int = 0, n_samples: int = 0
+            ) -> Row:
+    """Design and analyse one row (module docstring). ``n_scenarios`` overrides the scenario count;
+    ``n_samples`` plants are checked after a Det design (``result.check``)."""
     if method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")
     t0 = time.perf_counter()
     row = Row(variant, method, "", seed=SEED_TABLE1.get((variant, method)))
     if method == "Det":
-        res = dd.deterministic(variant, n_samples=0, seed=seed)
+        res = dd.deterministic(variant, n_samples=n_samples, seed=seed)
         design, K = res.design, res.K
         if K is not None:
             row.det_hinf, row.det_i2p = _value(res.analysis_hinf, "gamma"), _value(res.analysis_i2p, "nu")
@@ -65,11 +69,12 @@ def run_row(variant: Variant, method: str, *, n_scenarios: int | None = None, se
         res = dr.scenario(variant, n=n_scenarios, seed=seed, analysis=False)
         design, K = res.design, res.K
         if K is not None:
-            a = dd.analyse(design_model(variant), K, dr.design_scale(design_model(variant)))
+            dm = design_model(variant)
+            a = dd.analyse(dm, K, dr.design_scale(dm))
             row.det_hinf, row.det_i2p = _value(a.hinf, "gamma"), _value(a.i2p, "nu")
         obstruction = dd.coincident_modes(variant)
         row.note = f"{res.n_samples} scenarios"
-    row.seconds = res.seconds["design"]
+    row.seconds, row.result = res.seconds["design"], res
     if K is None:
         blocked = obstruction is not None and obstruction.proves_infeasible
         # the proof covers the whole box (Det); scenarios only come near the coincident set
@@ -134,9 +139,8 @@ def write(rows: list[Row], out_dir: Path) -> list[Path]:
         w.writerow(["axes", "appendages", "model_type", "uncertainty_type", "method", "status",
                     *SEED_TABLE1_COLUMNS, "total_seconds", "note", *[f"seed_{c}" for c in SEED_TABLE1_COLUMNS]])
         for r in rows:
-            d = asdict(r)
             seed = r.seed if r.seed is not None else ("infeasible",) * len(SEED_TABLE1_COLUMNS)
             w.writerow([" ".join(map(str, r.variant.axes)), " ".join(map(str, r.variant.appendages)),
                         r.variant.model_type, r.variant.uncertainty_type, r.method, r.status,
-                        *[d[c] for c in SEED_TABLE1_COLUMNS], r.total_seconds, r.note, *seed])
+                        *[getattr(r, c) for c in SEED_TABLE1_COLUMNS], r.total_seconds, r.note, *seed])
     return [md, path_csv]

@@ -96,6 +96,19 @@ class Variant:
         if self.uncertainty_type not in (1, 2, 3):
             raise VariantError(f"uncertainty_type must be 1, 2 or 3, got {self.uncertainty_type!r}")
 
+    def to_dict(self) -> dict:
+        """JSON form (a design artifact's ``design.variant``); :meth:`from_dict` reads it back."""
+        return {"axes": list(self.axes), "appendages": list(self.appendages), "model_type": self.model_type,
+                "uncertainty_type": self.uncertainty_type, "wheels": self.wheels}
+
+    @classmethod
+    def from_dict(cls, data: dict) -> Variant:
+        try:
+            return cls(tuple(data["axes"]), tuple(data["appendages"]), data["model_type"], data["uncertainty_type"],
+                       bool(data["wheels"]))
+        except (KeyError, TypeError) as exc:
+            raise VariantError(f"not a variant: {data!r}") from exc
+
     @property
     def label(self) -> str:
         return (f"axes {','.join(map(str, self.axes))} | appendages {','.join(map(str, self.appendages))} | "

@@ -867,7 +867,7 @@ def _robust_constraints(plants: tuple[LFTPlant, ...], K: np.ndarray | None, spec
                         uncertainty: str, margin, gamma, nu) -> tuple[cp.Variable, object, dict, list]:
     """``(Y, W, multiplier values, constraints)`` of the common-Lyapunov program over every plant
     (``specs[i]`` of plant i), every LMI strict by ``margin`` (eps, or the variable the back-off
-    maximizes); gamma, nu variables or constants."""
+    maximizes); gamma, nu variables or constants (nu None: no impulse-to-peak LMIs)."""
     n, m = plants[0].A.shape[0], plants[0].Bu.shape[1]
     Y = cp.Variable((n, n), symmetric=True)
     W = cp.Variable((m, n)) if K is None else K @ Y
@@ -883,7 +883,7 @@ def _robust_constraints(plants: tuple[LFTPlant, ...], K: np.ndarray | None, spec
                 cons += mcons
             L = _dual_lmi(s, Y, W, triple, gamma, cp.vstack, cp.bmat)
             cons.append(L << -margin * np.eye(L.shape[0]))
-    for plant in _distinct_i2p(plants):
+    for plant in _distinct_i2p(plants) if nu is not None else ():
         upper, lower = _i2p_blocks(plant, Y, nu, cp.bmat)
         cons += [upper >> margin * np.eye(upper.shape[0]), lower << -margin * np.eye(lower.shape[0])]
     return Y, W, values, cons
@@ -949,20 +949,10 @@ def _phase_one(plants: tuple[LFTPlant, ...], K: np.ndarray | None, *, alpha: flo
     """Y of the region LMIs alone (no H-infinity, no i2p), normalized ``t I <= Y <= I`` with the
     common margin t maximized (at most 1): a bounded problem that the solver answers where the
     full minimization fails; its Y's diagonal gives the coordinates of the retry."""
-    n, m = plants[0].A.shape[0], plants[0].Bu.shape[1]
     t = cp.Variable()
-    Y = cp.Variable((n, n), symmetric=True)
-    W = cp.Variable((m, n)) if K is None else K @ Y
-    cons = [Y >> t * np.eye(n), Y << np.eye(n), t <= 1]
-    for plant in plants:
-        for s in _specs(plant, alpha, beta, False, sector):
-            triple = None
-            if plant.n_params:
-                deltas = _vertex_deltas(s.plant) if uncertainty == "vertex" else []
-                mcons, triple, _ = _multiplier_program(s.plant, uncertainty, deltas, t)
-                cons += mcons
-            L = _dual_lmi(s, Y, W, triple, None, cp.vstack, cp.bmat)
-            cons.append(L << -t * np.eye(L.shape[0]))
+    specs = [_specs(p, alpha, beta, False, sector) for p in plants]
+    Y, _, _, cons = _robust_constraints(plants, K, specs, uncertainty, t, None, None)
+    cons[1:1] = [Y << np.eye(Y.shape[0]), t <= 1]  # next to t I <= Y (the solver's path depends on the order)
     prob = cp.Problem(cp.Maximize(t), cons)
     status, _ = _solve(prob)
     if status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE) or Y.value is None:
