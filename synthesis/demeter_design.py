@@ -171,6 +171,7 @@ class DeterministicResult:
     analysis_hinf: rl.PDLFResult | None = None
     analysis_hinf_common: rl.PDLFResult | None = None
     analysis_i2p: rl.RobustDesign | None = None
+    analysis_skipped: str = ""
     check: SampledCheck | None = None
     seconds: dict[str, float] = field(default_factory=dict)
     obstruction: CoincidentModes | None = None
@@ -188,26 +189,32 @@ def uncertainty_kind(variant: Variant) -> str:
 
 @dataclass
 class Analysis:
-    """Deterministic analysis of one gain over the whole box (:func:`analyse`)."""
+    """Deterministic analysis of one gain over the whole box (:func:`analyse`); the H-infinity
+    bounds are None when their program is too large (``skipped`` says why)."""
 
-    hinf: rl.PDLFResult
-    hinf_common: rl.PDLFResult
+    hinf: rl.PDLFResult | None
+    hinf_common: rl.PDLFResult | None
     i2p: rl.RobustDesign
     seconds: float
+    skipped: str = ""
 
 
 def analyse(dm: DesignModel, K: np.ndarray, T: np.ndarray | None = None) -> Analysis:
     """H-infinity bounds with a parameter-dependent and with a common Lyapunov function (on the
-    LFT's descriptor) and the impulse-to-peak bound of ``u = K x`` (physical units), in the
-    coordinates ``x = T x_s`` (default :func:`state_scale`)."""
+    LFT's descriptor; skipped above :data:`synthesis.robust_lmi.PDLF_MAX_ENTRIES`) and the
+    impulse-to-peak bound of ``u = K x`` (physical units), in the coordinates ``x = T x_s``
+    (default :func:`state_scale`)."""
     t0 = time.perf_counter()
     T = state_scale(dm) if T is None else T
     plant = scaled_lft(dm, T)
     Ks = np.asarray(K, float) * T
     desc = rl.AffineDescriptor.from_lft(plant)
-    return Analysis(rl.pdlf_hinf(desc, Ks), rl.pdlf_hinf(desc, Ks, common=True),
-                    rl.i2p_bound(plant, Ks, alpha=0.0, uncertainty=uncertainty_kind(dm.variant)),
-                    time.perf_counter() - t0)
+    i2p = rl.i2p_bound(plant, Ks, alpha=0.0, uncertainty=uncertainty_kind(dm.variant))
+    try:
+        hinf, common, skipped = rl.pdlf_hinf(desc, Ks), rl.pdlf_hinf(desc, Ks, common=True), ""
+    except rl.ProgramTooLargeError as exc:
+        hinf, common, skipped = None, None, f"H-infinity analysis skipped: {exc}"
+    return Analysis(hinf, common, i2p, time.perf_counter() - t0, skipped)
 
 
 def deterministic(variant: Variant, *, n_samples: int = 100, seed: int = 0, analysis: bool = True
@@ -227,6 +234,7 @@ def deterministic(variant: Variant, *, n_samples: int = 100, seed: int = 0, anal
             T = T * des.state_scaling
         a = analyse(dm, out.K, T)
         out.analysis_hinf, out.analysis_hinf_common, out.analysis_i2p = a.hinf, a.hinf_common, a.i2p
+        out.analysis_skipped = a.skipped
         out.seconds["analysis"] = a.seconds
     t0 = time.perf_counter()
     out.check = sampled_check(dm, out.K, n_samples, seed)
@@ -254,8 +262,10 @@ def artifact_data(result: DeterministicResult, name: str) -> dict:
               f"for the Fig. 3 design model of {result.variant.label}: closed-loop poles in "
               f"{-BETA:g} < Re s < {-ALPHA:g} 1/s, ||w1 -> z1||_inf < {d.gamma:.6g} rad/(N m), "
               f"impulse-to-peak w2 -> z2 < {d.nu:.6g} N m s, for every parameter in the box (also "
-              f"time-varying). Parameter-dependent analysis: ||w1 -> z1||_inf < "
-              f"{numbers.get('analysis_hinf_pdlf', float('nan')):.6g}. Sampled: {c.n} plants, seed {c.seed}.")
+              f"time-varying). " + (f"Parameter-dependent analysis: ||w1 -> z1||_inf < "
+                                    f"{numbers['analysis_hinf_pdlf']:.6g}. " if "analysis_hinf_pdlf" in numbers
+                                    else f"{result.analysis_skipped}. ")
+              + f"Sampled: {c.n} plants, seed {c.seed}.")
     return {"format": "satfmu-controller", "format_version": 1, "kind": "linear_state_feedback", "name": name,
             "description": f"Seed 004 deterministic robust state feedback, {result.variant.label}",
             "plant": demeter.MODEL.name,

@@ -48,7 +48,10 @@ class Row:
 
 
 def _value(res, attr: str) -> float:
-    return getattr(res, attr) if res is not None and res.status == "optimal" else math.inf
+    """The bound, inf if its program gave none, nan if it was not run."""
+    if res is None:
+        return math.nan
+    return getattr(res, attr) if res.status == "optimal" else math.inf
 
 
 def run_row(variant: Variant, method: str, *, n_scenarios: int | None = None, seed: int = 0, n_samples: int = 0
@@ -64,6 +67,7 @@ def run_row(variant: Variant, method: str, *, n_scenarios: int | None = None, se
         design, K = res.design, res.K
         if K is not None:
             row.det_hinf, row.det_i2p = _value(res.analysis_hinf, "gamma"), _value(res.analysis_i2p, "nu")
+            row.note = res.analysis_skipped
         obstruction = res.obstruction
     else:
         res = dr.scenario(variant, n=n_scenarios, seed=seed, analysis=False)
@@ -73,7 +77,7 @@ def run_row(variant: Variant, method: str, *, n_scenarios: int | None = None, se
             a = dd.analyse(dm, K, dr.design_scale(dm))
             row.det_hinf, row.det_i2p = _value(a.hinf, "gamma"), _value(a.i2p, "nu")
         obstruction = dd.coincident_modes(variant)
-        row.note = f"{res.n_samples} scenarios"
+        row.note = f"{res.n_samples} scenarios" + (f"; {a.skipped}" if K is not None and a.skipped else "")
     row.seconds, row.result = res.seconds["design"], res
     if K is None:
         blocked = obstruction is not None and obstruction.proves_infeasible

@@ -133,6 +133,10 @@ below the true one, and no strictly feasible point exists at 1e-4 above it."""
 
 MAX_VERTICES = 4096
 """Default largest number of box vertices (2^N) a vertex program may enumerate."""
+PDLF_MAX_ENTRIES = 10_000_000
+"""Default largest :func:`pdlf_size` accepted by :func:`pdlf_hinf`. Measured on this machine
+(Clarabel 0.11): DEMETER 1 axis, 2 appendages (8 vertices, LMIs of size 30) 6.9e6, seconds;
+2 axes (32 vertices, size 48) 4.4e7, over 8 minutes and 13 GB without converging."""
 
 EPS = 1e-7
 """Default strictness of the LMIs in the solver."""
@@ -153,6 +157,10 @@ class DeltaError(RobustLMIError):
 
 class TooManyVerticesError(RobustLMIError):
     """The box has more vertices than ``max_vertices``."""
+
+
+class ProgramTooLargeError(RobustLMIError):
+    """A program's estimated size exceeds its limit (checked before anything is built)."""
 
 
 class NotHurwitzError(RobustLMIError):
@@ -812,11 +820,21 @@ RELAXED_TOLERANCES = {"tol_gap_abs": 1e-6, "tol_gap_rel": 1e-6, "tol_feas": 1e-7
 poorly conditioned program (a fixed slow mode, as DEMETER's momentum at -1e-3 1/s) often stalls
 just short of 1e-8; the answer is verified by :func:`verify` either way."""
 
+REGULARIZED = {**RELAXED_TOLERANCES, "static_regularization_constant": 1e-7}
+"""Settings of the last retry: Clarabel's static KKT regularization raised from 1e-8 to 1e-7.
+Some programs fail at the first iteration with the default (the two-axis DEMETER design model,
+whose KKT system is singular to working precision after chordal decomposition); the
+regularization only perturbs the Newton steps, not the problem, and :func:`verify` judges the
+answer."""
+
+SOLVER_SETTINGS = ({}, RELAXED_TOLERANCES, REGULARIZED)
+"""Clarabel settings tried in turn until one returns without a solver error."""
+
 
 def _solve(prob: cp.Problem) -> tuple[str, float]:
     t0 = time.perf_counter()
     status = ""
-    for settings in ({}, RELAXED_TOLERANCES):
+    for settings in SOLVER_SETTINGS:
         try:
             with warnings.catch_warnings():  # an inaccurate solution is judged by the check
                 warnings.simplefilter("ignore", UserWarning)
@@ -1165,8 +1183,18 @@ def verify_pdlf(desc: AffineDescriptor, K, P0, Pk, F, gamma: float) -> RobustChe
     return _finish_check(neg, pos)
 
 
+def pdlf_size(desc: AffineDescriptor) -> int:
+    """Size of the :func:`pdlf_hinf` program of ``desc``: the sum over its LMIs of the squared
+    number of their distinct entries, ``2^N ((s (s + 1) / 2)^2 + (n (n + 1) / 2)^2)``, ``s = 2 n +
+    n_v + m_w + p``. Clarabel's KKT system holds a dense block of that many entries per PSD cone,
+    and the slack F couples every cone, so this is the memory and time the solve needs."""
+    n = desc.n
+    s = 2 * n + desc.n_v + desc.m_w + desc.C1.shape[0]
+    return 2**desc.n_params * ((s * (s + 1) // 2) ** 2 + (n * (n + 1) // 2) ** 2)
+
+
 def pdlf_hinf(desc: AffineDescriptor, K, *, common: bool = False, max_vertices: int = MAX_VERTICES,
-              eps: float = EPS) -> PDLFResult:
+              max_entries: int = PDLF_MAX_ENTRIES, eps: float = EPS) -> PDLFResult:
     """Upper bound of the closed-loop H-infinity norm w1 -> z1 over the box, ``u = K x``, with a
     parameter-dependent Lyapunov function ``V = x^T P(delta) x``, ``P = P0 + sum delta_k Pk``.
 
@@ -1196,9 +1224,15 @@ def pdlf_hinf(desc: AffineDescriptor, K, *, common: bool = False, max_vertices: 
     ------
     PlantDataError, OptionError, TooManyVerticesError
         Wrong gain shape, bad eps, or ``2^N > max_vertices`` (checked before building).
+    ProgramTooLargeError
+        ``pdlf_size(desc) > max_entries`` (checked before building).
     """
     _check_eps(eps)
     _check_vertices(desc.n_params, max_vertices)
+    if pdlf_size(desc) > max_entries:
+        side = 2 * desc.n + desc.n_v + desc.m_w + desc.C1.shape[0]
+        raise ProgramTooLargeError(f"the PDLF program has {2**desc.n_params} vertex LMIs of size {side}: size "
+                                   f"{pdlf_size(desc):.3g} > max_entries = {max_entries:.3g} (pdlf_size)")
     K = _check_gain(K, desc.m_u, desc.n)
     t0 = time.perf_counter()
     g = cp.Variable()

@@ -414,6 +414,12 @@ def test_too_many_vertices_is_raised_before_building(plant, monkeypatch) -> None
         rl.i2p_bound(plant, np.zeros((1, 5)), uncertainty="vertex", max_vertices=3)
     with pytest.raises(rl.TooManyVerticesError, match=r"2\^2 = 4"):
         rl.pdlf_hinf(descriptor_plant(), np.zeros((1, 5)), max_vertices=3)
+    desc = descriptor_plant()
+    s = 2 * desc.n + desc.n_v + desc.m_w + desc.C1.shape[0]  # entries of the dilated LMI's side
+    size = 2**desc.n_params * ((s * (s + 1) // 2) ** 2 + (desc.n * (desc.n + 1) // 2) ** 2)
+    assert rl.pdlf_size(desc) == size
+    with pytest.raises(rl.ProgramTooLargeError, match=f"4 vertex LMIs of size {s}: size .* > max_entries"):
+        rl.pdlf_hinf(desc, np.zeros((1, desc.n)), max_entries=size - 1)
     # 13 parameters: 8192 vertices > 4096 (the default)
     n = 1
     one, z = np.ones((1, 1)), np.zeros
