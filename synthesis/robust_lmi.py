@@ -813,6 +813,8 @@ class RobustDesign:
     build_seconds: float
     backoff: float | None = None
     state_scaling: np.ndarray | None = None
+    active_plants: int | None = None
+    """Plants in the last program of the constraint generation over many plants (None: all)."""
 
 
 RELAXED_TOLERANCES = {"tol_gap_abs": 1e-6, "tol_gap_rel": 1e-6, "tol_feas": 1e-7, "tol_ktratio": 1e-5}
@@ -916,6 +918,11 @@ def _verify_plants(plants: tuple[LFTPlant, ...], K, Y, gamma, nu, multipliers: d
     for i, plant in enumerate(plants):
         own = {k.split("/", 1)[1]: v for k, v in multipliers.items() if k.startswith(f"{i}/")}
         checks.append(verify(plant, K, Y, gamma, nu, own, alpha=alpha, beta=beta, sector=sector))
+    return _merge_checks(checks)
+
+
+def _merge_checks(checks: list[RobustCheck]) -> RobustCheck:
+    """One check of several plants' (names prefixed by the plant's index)."""
     worst = min(range(len(checks)), key=lambda i: checks[i].margin)
     return RobustCheck({f"{i}/{k}": v for i, c in enumerate(checks) for k, v in c.max_eig.items()},
                        {f"{i}/{k}": v for i, c in enumerate(checks) for k, v in c.min_eig.items()},
@@ -1097,8 +1104,52 @@ def design(plant: LFTPlant | Sequence[LFTPlant], K=None, *, w_hinf: float = 1.0,
     plants = _plant_list(plant, uncertainty, max_vertices)
     if K is not None:
         K = _check_gain(K, plants[0].Bu.shape[1], plants[0].A.shape[0])
-    return _rescaled_program(plants, K, rescale, hinf=True, w_hinf=w_hinf, w_i2p=w_i2p, alpha=alpha, beta=beta,
-                             uncertainty=uncertainty, eps=eps, sector=sector)
+    options = {"hinf": True, "w_hinf": w_hinf, "w_i2p": w_i2p, "alpha": alpha, "beta": beta,
+               "uncertainty": uncertainty, "eps": eps, "sector": sector}
+    if len(plants) > SCENARIO_BATCH and not any(p.n_params for p in plants):
+        return _constraint_generation(plants, K, rescale, **options)
+    return _rescaled_program(plants, K, rescale, **options)
+
+
+SCENARIO_BATCH = 100
+"""Plants in the first program of :func:`_constraint_generation`, and the most plants it adds
+per round."""
+
+
+def _constraint_generation(plants: tuple[LFTPlant, ...], K: np.ndarray | None, rescale: bool, **options
+                           ) -> RobustDesign:
+    """The program over many certain plants (scenarios), solved on a growing subset.
+
+    Solve with the first :data:`SCENARIO_BATCH` plants; :func:`verify` every plant at the
+    answer; add the most violated (at most SCENARIO_BATCH) and solve again, until the answer
+    holds for every plant. The whole program has the same optimum up to the back-off: the last
+    subset's optimum is a lower bound of the whole program's (fewer constraints), and the
+    returned certificate, verified on every plant, is feasible for it, at the subset's optimum
+    times ``1 + backoff``. An infeasible subset proves the whole program infeasible. A scenario
+    program has at most as many support constraints as decision variables, so the last subset
+    stays small (DEMETER one axis, 962 scenarios: see ``active_plants``), and the solver never
+    sees the thousands of LMIs at once.
+    """
+    active = list(range(SCENARIO_BATCH))
+    solve_seconds = build_seconds = 0.0
+    while True:
+        res = _rescaled_program(tuple(plants[i] for i in active), K, rescale, **options)
+        solve_seconds, build_seconds = solve_seconds + res.solve_seconds, build_seconds + res.build_seconds
+        res = replace(res, solve_seconds=solve_seconds, build_seconds=build_seconds, active_plants=len(active))
+        if res.status != "optimal":
+            return res
+        T = np.ones(res.K.shape[1]) if res.state_scaling is None else res.state_scaling
+        Ks, Ys = res.K * T, res.Y / T[:, None] / T[None, :]  # the coordinates of res.check
+        checks = [verify(p.scale_states(T), Ks, Ys, res.gamma, res.nu, {}, alpha=options["alpha"],
+                         beta=options["beta"], sector=options["sector"]) for p in plants]
+        violated = sorted((c.margin, i) for i, c in enumerate(checks) if not c.ok)
+        if not violated:
+            return replace(res, check=_merge_checks(checks))
+        new = [i for _, i in violated if i not in active][:SCENARIO_BATCH]
+        if not new:  # an active plant fails in the total coordinates (rounding): no certificate
+            return replace(res, status="unverified", K=None, gamma=None, nu=None, Y=None,
+                           check=_merge_checks(checks))
+        active += new
 
 
 def i2p_bound(plant: LFTPlant | Sequence[LFTPlant], K, *, alpha: float = 0.0, uncertainty: str = "norm",

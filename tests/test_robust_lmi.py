@@ -495,3 +495,31 @@ def test_sector_region_bounds_the_damping(plant, designs) -> None:
         assert objective(d) > objective(designs[u])
     with pytest.raises(rl.OptionError, match="sector"):
         rl.design(plant, sector=np.pi / 2)
+
+
+def test_many_scenarios_are_solved_by_constraint_generation(plant, monkeypatch) -> None:
+    rng = np.random.default_rng(5)
+    plants = [plant.at(d) for d in rng.uniform(-1, 1, (260, plant.n_params))]
+    gen = rl.design(plants, alpha=ALPHA, beta=BETA)
+    assert gen.status == "optimal" and gen.active_plants < len(plants)
+    # the certificate is checked on every plant, not only the active ones
+    assert {k.split("/")[0] for k in gen.check.max_eig} == {str(i) for i in range(len(plants))} and gen.check.ok
+    monkeypatch.setattr(rl, "SCENARIO_BATCH", len(plants))  # the whole program in one solve
+    full = rl.design(plants, alpha=ALPHA, beta=BETA)
+    assert full.status == "optimal" and full.active_plants is None
+    # same optimum: the subset's is a lower bound of the whole program's, and both are reported at
+    # optimum x (1 + back-off); the solver's 1e-8 gap leaves ~1e-6 relative on either
+    assert gen.solver_objective == pytest.approx(full.solver_objective, rel=1e-5)
+    assert gen.gamma == pytest.approx(full.gamma, rel=2e-3) and gen.nu == pytest.approx(full.nu, rel=2e-3)
+
+
+def test_an_infeasible_scenario_subset_ends_the_generation(monkeypatch) -> None:
+    monkeypatch.setattr(rl, "SCENARIO_BATCH", 3)
+    Bu = np.array([[0.0], [1.0]])
+    c = np.array([[1.0, 1.0]])
+    # the first mode is fixed at a: infeasible with alpha = 0.5 as soon as one plant has a > -0.5
+    plants = [rl.LFTPlant.without_uncertainty(np.diag([a, -1.0]), Bu, Bu, Bu, c, np.zeros((1, 1)),
+                                              np.zeros((1, 1)), c) for a in np.linspace(-3.0, -0.2, 8)]
+    res = rl.design(plants[::-1], alpha=0.5, beta=10.0)
+    assert res.status == "infeasible" and res.active_plants == 3 and res.K is None
+    assert rl.design(plants[:5], alpha=0.5, beta=10.0).status == "optimal"  # a < -0.5 for these five
