@@ -7,7 +7,9 @@
   decision variables (:func:`synthesis.probabilistic.scenario_samples`): with confidence
   ``1 - delta`` the design violates the specs on a set of plants of probability at most epsilon.
   The program is solved in the coordinates where the nominal design's Lyapunov matrix has a unit
-  diagonal (without that, Clarabel fails on this stiff loop; see the README).
+  diagonal (without that, Clarabel fails on this stiff loop; see the README), by constraint
+  generation over the plants (:func:`synthesis.robust_lmi.design`: the same optimum, with a
+  few hundred plants in the solver instead of thousands).
 - :func:`analyse`: the probabilistic analysis of a gain: closed-loop poles, exact H-infinity
   norms and impulse-to-peak values of N sampled plants, all vectorized, with the log-over-log
   worst-case statement (N = 132 at the seed's epsilon 0.1, delta 1e-6).
