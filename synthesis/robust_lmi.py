@@ -1065,7 +1065,8 @@ def design(plant: LFTPlant | Sequence[LFTPlant], K=None, *, w_hinf: float = 1.0,
     plant : LFTPlant or sequence of LFTPlant
         Several plants: the same Lyapunov matrix, gain and levels for all (each with its own
         multipliers, named ``"i/hinf"`` etc.); a list of certain plants (:meth:`LFTPlant.at`)
-        is the scenario program of a randomized design.
+        is the scenario program of a randomized design, solved by constraint generation when
+        there are more than :data:`SCENARIO_BATCH` (see ``active_plants`` of the result).
     K : ndarray, shape (m, n), optional
         A fixed gain: the same LMIs with ``W = K Y`` (linear in Y), i.e. the common-Lyapunov
         analysis of that gain (``gamma``, ``nu`` minimized for it). None: synthesis.
@@ -1239,9 +1240,13 @@ def pdlf_size(desc: AffineDescriptor) -> int:
     number of their distinct entries, ``2^N ((s (s + 1) / 2)^2 + (n (n + 1) / 2)^2)``, ``s = 2 n +
     n_v + m_w + p``. Clarabel's KKT system holds a dense block of that many entries per PSD cone,
     and the slack F couples every cone, so this is the memory and time the solve needs."""
-    n = desc.n
-    s = 2 * n + desc.n_v + desc.m_w + desc.C1.shape[0]
+    n, s = desc.n, _pdlf_side(desc)
     return 2**desc.n_params * ((s * (s + 1) // 2) ** 2 + (n * (n + 1) // 2) ** 2)
+
+
+def _pdlf_side(desc: AffineDescriptor) -> int:
+    """Size of the dilated H-infinity LMI of :func:`pdlf_hinf`: ``(x', x, v, w1)`` and ``z1``."""
+    return 2 * desc.n + desc.n_v + desc.m_w + desc.C1.shape[0]
 
 
 def pdlf_hinf(desc: AffineDescriptor, K, *, common: bool = False, max_vertices: int = MAX_VERTICES,
@@ -1281,9 +1286,9 @@ def pdlf_hinf(desc: AffineDescriptor, K, *, common: bool = False, max_vertices: 
     _check_eps(eps)
     _check_vertices(desc.n_params, max_vertices)
     if pdlf_size(desc) > max_entries:
-        side = 2 * desc.n + desc.n_v + desc.m_w + desc.C1.shape[0]
-        raise ProgramTooLargeError(f"the PDLF program has {2**desc.n_params} vertex LMIs of size {side}: size "
-                                   f"{pdlf_size(desc):.3g} > max_entries = {max_entries:.3g} (pdlf_size)")
+        raise ProgramTooLargeError(f"the PDLF program has {2**desc.n_params} vertex LMIs of size "
+                                   f"{_pdlf_side(desc)}: size {pdlf_size(desc):.3g} > max_entries = "
+                                   f"{max_entries:.3g} (pdlf_size)")
     K = _check_gain(K, desc.m_u, desc.n)
     t0 = time.perf_counter()
     g = cp.Variable()
