@@ -4,6 +4,7 @@
     satfmu validate [--fmu-dir build/fmus]
     satfmu run SCENARIO [SCENARIO ...] [--backend native|python] [--fmu-dir DIR] [--out results]
     satfmu list
+    satfmu export-ssp SCENARIO [SCENARIO ...] [--backend native|python] [--fmu-dir DIR] [--out DIR]
     satfmu synth mrp-hinf [--name mrp_hinf_satfmu] [--out controllers/artifacts] [--fmu-dir DIR] ...
     satfmu synth mrp-h2hinf --gamma G [--variant slack|common] [--region 0.45] [--name ...] ...
     satfmu synth vscmg-sdre [--grid 23 25] [--max-degree 8] [--cv-tol TOL] [--out ...] [--fmu-dir DIR]
@@ -77,6 +78,19 @@ def _run(args: argparse.Namespace) -> int:
         path.parent.mkdir(parents=True, exist_ok=True)
         path.write_text(json.dumps(summaries, indent=1) + "\n")
         path.with_suffix(".md").write_text(_markdown(summaries))
+    return 1 if failed else 0
+
+
+def _export_ssp(args: argparse.Namespace) -> int:
+    from sims import ssp
+
+    failed = 0
+    for name in args.scenarios:
+        try:
+            print(f"wrote {ssp.export(name, Path(args.fmu_dir), Path(args.out), args.backend)}")
+        except ssp.SspError as exc:
+            print(f"error: {exc}", file=sys.stderr)
+            failed += 1
     return 1 if failed else 0
 
 
@@ -422,6 +436,12 @@ def main(argv: list[str] | None = None) -> int:
     r.add_argument("--out", default="results")
     r.add_argument("--summary", help="also write all summaries to this JSON file")
     r.set_defaults(fn=_run)
+    ex = sub.add_parser("export-ssp", help="write scenarios as SSP 1.0 files (FMUs, connections, parameters)")
+    ex.add_argument("scenarios", nargs="+")
+    ex.add_argument("--backend", choices=sorted(scenario.BACKENDS), default="native")
+    ex.add_argument("--fmu-dir", default=str(catalog.DEFAULT_FMU_DIR))
+    ex.add_argument("--out", default="results/ssp", help="folder (or .ssp path for one scenario)")
+    ex.set_defaults(fn=_export_ssp)
     ls = sub.add_parser("list", help="list the shipped scenarios")
     ls.set_defaults(fn=_list)
     sy = sub.add_parser("synth", help="synthesize a controller, write its artifact, build its FMUs")

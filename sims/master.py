@@ -57,6 +57,32 @@ class FmuCallError(MasterError):
     """An FMU returned fmi2Error/fmi2Fatal; the message holds the FMU's own log lines."""
 
 
+def start_value(comp: "Component", name: str, value: Any) -> tuple[Any, float | int | bool]:
+    """The variable ``name`` of ``comp`` and ``value`` checked against its causality (parameter
+    or input) and type (Real, Integer, Boolean), converted to that type.
+
+    Raises
+    ------
+    UnknownVariableError, WiringError
+    """
+    var = comp.variable(name)
+    if var.causality not in ("parameter", "input"):
+        raise WiringError(f"{comp.name}.{name} is a {var.causality}; only parameters and inputs can be set")
+    if var.type == "Real":
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise WiringError(f"{comp.name}.{name} is Real; got {value!r}")
+        return var, float(value)
+    if var.type == "Integer":
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise WiringError(f"{comp.name}.{name} is Integer; got {value!r}")
+        return var, value
+    if var.type == "Boolean":
+        if not isinstance(value, bool):
+            raise WiringError(f"{comp.name}.{name} is Boolean; got {value!r} (use true/false)")
+        return var, value
+    raise WiringError(f"{comp.name}.{name}: type {var.type} is not supported")
+
+
 @dataclass
 class Component:
     """One FMU instance in the co-simulation."""
@@ -255,24 +281,8 @@ class CoSimulation:
 
     def _set_parameters(self, comp: Component, values: dict[str, Any]) -> None:
         for name, value in values.items():
-            var = comp.variable(name)
-            if var.causality not in ("parameter", "input"):
-                raise WiringError(f"{comp.name}.{name} is a {var.causality}; only parameters and inputs can be set")
-            vr = [var.valueReference]
-            if var.type == "Real":
-                if isinstance(value, bool) or not isinstance(value, (int, float)):
-                    raise WiringError(f"{comp.name}.{name} is Real; got {value!r}")
-                self._call(comp, "setReal", vr, [float(value)])
-            elif var.type == "Integer":
-                if isinstance(value, bool) or not isinstance(value, int):
-                    raise WiringError(f"{comp.name}.{name} is Integer; got {value!r}")
-                self._call(comp, "setInteger", vr, [value])
-            elif var.type == "Boolean":
-                if not isinstance(value, bool):
-                    raise WiringError(f"{comp.name}.{name} is Boolean; got {value!r} (use true/false)")
-                self._call(comp, "setBoolean", vr, [value])
-            else:
-                raise WiringError(f"{comp.name}.{name}: type {var.type} is not supported")
+            var, value = start_value(comp, name, value)
+            self._call(comp, f"set{var.type}", [var.valueReference], [value])
 
     def _transfers(self) -> list[_Transfer]:
         """Connections batched per (level, source FMU, target FMU), in level order."""

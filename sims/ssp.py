@@ -1,0 +1,159 @@
+"""SSP 1.0 export of a scenario: its FMUs, connections and parameter values in one ``.ssp`` file.
+
+An ``.ssp`` is a zip holding ``SystemStructure.ssd`` (the system: one ``ssd:Component`` per FMU
+instance with the connectors it uses, the instance's parameter values inline as an
+``ssv:ParameterSet``, one ``ssd:Connection`` per connected scalar pair, the default experiment)
+and the FMUs under ``resources/``. Any SSP tool loads it; for libcosim (Open Simulation
+Platform) the default experiment carries the fixed communication step as an
+``com.opensimulationplatform`` annotation (``osp:FixedStepAlgorithm baseStepSize``, s), which
+libcosim needs and other tools ignore.
+
+Everything is resolved as the master resolves it (:class:`sims.master.CoSimulation`: base
+names expanded index by index, causality and type checked, parameter values checked and
+converted by :func:`sims.master.start_value`), so an exported file is the scenario the master
+runs. The file is validated against the SSP 1.0 schemas that fmpy ships
+(``SystemStructureDescription.xsd``, and each parameter set against
+``SystemStructureParameterValues.xsd``, which the SSD schema leaves unchecked) before it is
+written. Scenarios with disturbance profiles are refused: a profile is a signal of the master,
+not an FMU, so the file would not be the scenario.
+"""
+from __future__ import annotations
+
+import zipfile
+from pathlib import Path
+
+from fmpy.ssp import ssd as fmpy_ssd
+from lxml import etree
+
+from sims.master import CoSimulation, start_value
+from sims.scenario import Scenario, ScenarioError, fmu_paths, load
+
+NS = {"ssd": "http://ssp-standard.org/SSP1/SystemStructureDescription",
+      "ssc": "http://ssp-standard.org/SSP1/SystemStructureCommon",
+      "ssv": "http://ssp-standard.org/SSP1/SystemStructureParameterValues",
+      "osp": "http://opensimulationplatform.com/SSP/OSPAnnotations"}
+"""Namespaces with the prefixes libcosim requires literally (it reads the XML without namespaces)."""
+OSP_ANNOTATION = "com.opensimulationplatform"
+SCHEMA_DIR = Path(fmpy_ssd.__file__).parent / "schema"
+
+
+class SspError(ScenarioError):
+    """The scenario cannot be written as an SSP file, or the file fails the SSP schema."""
+
+
+def _q(name: str) -> str:
+    prefix, local = name.split(":")
+    return f"{{{NS[prefix]}}}{local}"
+
+
+def _el(parent, tag: str, **attrib: str):
+    return etree.SubElement(parent, _q(tag), attrib)
+
+
+def _text(value: float | int | bool) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    return repr(value)  # shortest text that reads back as the same double
+
+
+def system_structure(scenario: Scenario, fmu_dir: Path, backend: str = "native") -> tuple[bytes, dict[str, Path]]:
+    """``SystemStructure.ssd`` of ``scenario`` (validated) and the FMU files by resource path.
+
+    Raises
+    ------
+    SspError
+        Profiles in the scenario, two different FMU files with one name, or a schema failure.
+    FileNotFoundError, sims.master.MasterError
+        A missing FMU, an unknown variable, a wrong connection or parameter (as the master).
+    """
+    d = scenario.data
+    if d.get("profiles"):
+        targets = ", ".join(p["to"] for p in d["profiles"])
+        raise SspError(f"{scenario.name}: disturbance profiles ({targets}) are signals of the master, not FMUs; "
+                       "an SSP file of this scenario would leave those inputs undriven")
+    paths = fmu_paths(scenario, fmu_dir, backend)
+    resources: dict[str, Path] = {}
+    for inst, path in paths.items():
+        key = f"resources/{path.name}"
+        if resources.setdefault(key, path).resolve() != path.resolve():
+            raise SspError(f"{scenario.name}: two different FMU files are named {path.name}")
+    root = etree.Element(_q("ssd:SystemStructureDescription"), {"version": "1.0", "name": scenario.name},
+                         nsmap=NS)
+    system = _el(root, "ssd:System", name=scenario.name)
+    if d.get("description"):
+        system.set("description", d["description"])
+    elements = _el(system, "ssd:Elements")
+    with CoSimulation(paths) as sim:
+        for c in d.get("connections", []):
+            sim.connect(c["from"], c["to"])
+        used: dict[str, list[str]] = {inst: [] for inst in paths}
+        for src, dst in sim.connections:
+            for q in (src, dst):
+                inst, var = q.split(".", 1)
+                if var not in used[inst]:
+                    used[inst].append(var)
+        for inst, path in paths.items():
+            comp = sim.components[inst]
+            el = _el(elements, "ssd:Component", name=inst, source=f"resources/{path.name}",
+                     type="application/x-fmu-sharedlibrary")
+            connectors = _el(el, "ssd:Connectors")
+            for var in used[inst]:
+                con = _el(connectors, "ssd:Connector", name=var, kind=comp.variable(var).causality)
+                _el(con, "ssc:Real")
+            values = d["fmus"][inst].get("parameters", {})
+            if values:
+                pset = _el(_el(_el(_el(el, "ssd:ParameterBindings"), "ssd:ParameterBinding"),
+                               "ssd:ParameterValues"), "ssv:ParameterSet", version="1.0", name=f"{inst}_parameters")
+                params = _el(pset, "ssv:Parameters")
+                for name, value in values.items():
+                    var, value = start_value(comp, name, value)
+                    _el(_el(params, "ssv:Parameter", name=name), f"ssv:{var.type}", value=_text(value))
+        connections = _el(system, "ssd:Connections")
+        for src, dst in sim.connections:
+            (si, sv), (di, dv) = src.split(".", 1), dst.split(".", 1)
+            _el(connections, "ssd:Connection", startElement=si, startConnector=sv, endElement=di, endConnector=dv)
+    experiment = _el(root, "ssd:DefaultExperiment", startTime=_text(float(d.get("start_time", 0.0))),
+                     stopTime=_text(float(d["stop_time"])))
+    annotation = _el(_el(experiment, "ssd:Annotations"), "ssc:Annotation", type=OSP_ANNOTATION)
+    _el(_el(annotation, "osp:Algorithm"), "osp:FixedStepAlgorithm", baseStepSize=_text(float(d["step_size"])))
+    validate(root)
+    return etree.tostring(root, xml_declaration=True, encoding="UTF-8", pretty_print=True), resources
+
+
+def validate(root) -> None:
+    """Check an SSD tree against the SSP 1.0 schemas (the description, and each inline parameter set).
+
+    Raises
+    ------
+    SspError
+        With every schema message.
+    """
+    checks = [("SystemStructureDescription.xsd", root)]
+    checks += [("SystemStructureParameterValues.xsd", p) for p in root.iter(_q("ssv:ParameterSet"))]
+    errors = []
+    for xsd, el in checks:
+        schema = etree.XMLSchema(file=str(SCHEMA_DIR / xsd))
+        if not schema.validate(el):
+            errors += [f"{xsd}: line {e.line}: {e.message}" for e in schema.error_log]
+    if errors:
+        raise SspError("the SSD fails the SSP 1.0 schema:\n" + "\n".join(errors))
+
+
+def export(name_or_path: str | Path, fmu_dir: Path, out: Path, backend: str = "native") -> Path:
+    """Write the scenario as ``out`` (a ``.ssp`` file; a directory gets ``<scenario>.ssp``).
+
+    The file is written to a temporary name and renamed, so a failed export leaves nothing.
+    """
+    scenario = load(name_or_path)
+    ssd, resources = system_structure(scenario, Path(fmu_dir), backend)
+    out = Path(out)
+    if out.suffix != ".ssp":
+        out = out / f"{scenario.name}.ssp"
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = out.with_name(out.name + ".part")
+    with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as zf:
+        zf.writestr("SystemStructure.ssd", ssd)
+        for arcname, path in resources.items():
+            zf.write(path, arcname)
+    tmp.replace(out)
+    return out
