@@ -34,7 +34,9 @@ class Capabilities:
     generation_tool: str = f"satfmu {__version__}"
 
 
-def _fmt(value: float, vtype: str) -> str:
+def xml_value(value: float | int | bool, vtype: str) -> str:
+    """``value`` as the XML text of an FMI/SSP attribute of type ``vtype`` (Real, Integer,
+    Boolean); Reals as the shortest text that reads back as the same double."""
     if vtype == "Boolean":
         return "true" if value else "false"
     if vtype == "Integer":
@@ -77,10 +79,10 @@ def model_description(model: Model, caps: Capabilities) -> Element:
         typed: dict[str, str] = {}
         if row["kind"] == KIND_PARAMETER:
             attrs.update(causality="parameter", variability="fixed", initial="exact")
-            typed["start"] = _fmt(v.start, v.type)
+            typed["start"] = xml_value(v.start, v.type)
         elif row["kind"] == KIND_INPUT:
             attrs.update(causality="input", variability="continuous" if v.type == "Real" else "discrete")
-            typed["start"] = _fmt(v.start, v.type)
+            typed["start"] = xml_value(v.start, v.type)
         else:
             attrs.update(causality="output", variability="continuous" if v.type == "Real" else "discrete",
                          initial="calculated")
@@ -88,9 +90,9 @@ def model_description(model: Model, caps: Capabilities) -> Element:
             typed["unit"] = v.unit
         if v.type in ("Real", "Integer"):
             if v.min is not None:
-                typed["min"] = _fmt(v.min, v.type)
+                typed["min"] = xml_value(v.min, v.type)
             if v.max is not None:
-                typed["max"] = _fmt(v.max, v.type)
+                typed["max"] = xml_value(v.max, v.type)
         sv = SubElement(mvars, "ScalarVariable", attrs)
         SubElement(sv, v.type, typed)
 

@@ -25,6 +25,7 @@ from pathlib import Path
 from fmpy.ssp import ssd as fmpy_ssd
 from lxml import etree
 
+from fmus.description import xml_value
 from sims.master import CoSimulation, start_value
 from sims.scenario import Scenario, ScenarioError, fmu_paths, load
 
@@ -48,12 +49,6 @@ def _q(name: str) -> str:
 
 def _el(parent, tag: str, **attrib: str):
     return etree.SubElement(parent, _q(tag), attrib)
-
-
-def _text(value: float | int | bool) -> str:
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    return repr(value)  # shortest text that reads back as the same double
 
 
 def system_structure(scenario: Scenario, fmu_dir: Path, backend: str = "native") -> tuple[bytes, dict[str, Path]]:
@@ -107,15 +102,15 @@ def system_structure(scenario: Scenario, fmu_dir: Path, backend: str = "native")
                 params = _el(pset, "ssv:Parameters")
                 for name, value in values.items():
                     var, value = start_value(comp, name, value)
-                    _el(_el(params, "ssv:Parameter", name=name), f"ssv:{var.type}", value=_text(value))
+                    _el(_el(params, "ssv:Parameter", name=name), f"ssv:{var.type}", value=xml_value(value, var.type))
         connections = _el(system, "ssd:Connections")
         for src, dst in sim.connections:
             (si, sv), (di, dv) = src.split(".", 1), dst.split(".", 1)
             _el(connections, "ssd:Connection", startElement=si, startConnector=sv, endElement=di, endConnector=dv)
-    experiment = _el(root, "ssd:DefaultExperiment", startTime=_text(float(d.get("start_time", 0.0))),
-                     stopTime=_text(float(d["stop_time"])))
+    experiment = _el(root, "ssd:DefaultExperiment", startTime=xml_value(d.get("start_time", 0.0), "Real"),
+                     stopTime=xml_value(d["stop_time"], "Real"))
     annotation = _el(_el(experiment, "ssd:Annotations"), "ssc:Annotation", type=OSP_ANNOTATION)
-    _el(_el(annotation, "osp:Algorithm"), "osp:FixedStepAlgorithm", baseStepSize=_text(float(d["step_size"])))
+    _el(_el(annotation, "osp:Algorithm"), "osp:FixedStepAlgorithm", baseStepSize=xml_value(d["step_size"], "Real"))
     validate(root)
     return etree.tostring(root, xml_declaration=True, encoding="UTF-8", pretty_print=True), resources
 

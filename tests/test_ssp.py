@@ -42,8 +42,8 @@ def test_export_holds_the_scenario(fmu_dir: Path, tmp_path: Path) -> None:
     algo = root.find("ssd:DefaultExperiment/ssd:Annotations/ssc:Annotation/osp:Algorithm/osp:FixedStepAlgorithm", ns)
     assert algo.get("baseStepSize") == "0.05" and root.find("ssd:DefaultExperiment", ns).get("stopTime") == "120.0"
     # an independent reader with schema validation (fmpy's)
-    sys = read_ssd(str(path), validate=True)
-    assert sys.name == "mrp_200deg" and len(sys.system.connections) == 9
+    desc = read_ssd(str(path), validate=True)
+    assert desc.name == "mrp_200deg" and len(desc.system.connections) == 9
 
 
 def test_python_backend_and_cli(fmu_dir: Path, tmp_path: Path, capsys) -> None:
