@@ -40,6 +40,7 @@ demo: build
 	$(SATFMU) run $(SCENARIOS) --fmu-dir $(FMU_DIR) --out results --summary results/summary.json
 	$(SATFMU) run mrp_200deg --backend python --fmu-dir $(FMU_DIR) --out results
 	$(SATFMU) detumble --fmu-dir $(FMU_DIR) --out results/cubesat
+	$(SATFMU) verify --fmu-dir $(FMU_DIR) --out results/verify
 	$(PY) bench/cosim_speed.py
 	@echo "plots, CSV and summaries (results/summary.md, results/summary.json) are in results/"
 

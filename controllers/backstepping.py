@@ -29,11 +29,12 @@ GAINS = {"c1": 5.0, "c2": 5.0}
 
 def build(name: str = "vscmg_backstepping") -> Model:
     """Symbolic model of the backstepping controller (native and pythonfmu FMUs)."""
-    q2, q4 = (Variable(n, "rad", f"Measured {n}") for n in ("q2", "q4"))
-    rates = [Variable(f"w{a}", "rad/s", f"Measured w{a}") for a in vscmg.AXES]
+    start = vscmg.measured_defaults()
+    q2, q4 = (Variable(n, "rad", f"Measured {n}", start[n]) for n in ("q2", "q4"))
+    rates = [Variable(f"w{a}", "rad/s", f"Measured w{a}", start[f"w{a}"]) for a in vscmg.AXES]
     refs = {}
     for q in (q2, q4):
-        refs[q.name] = [Variable(f"{q.name}_ref", "rad", f"Reference of {q.name}"),
+        refs[q.name] = [Variable(f"{q.name}_ref", "rad", f"Reference of {q.name}", start[q.name]),
                         Variable(f"{q.name}_ref_dot", "rad/s", f"Time derivative of {q.name}_ref"),
                         Variable(f"{q.name}_ref_ddot", "1/s", f"Second time derivative of {q.name}_ref, rad/s^2")]
     gains = {q.name: [Variable(f"{c}_{q.name}", "1/s", f"Backstepping gain {c} of {q.name}", v, min=1e-6)

@@ -41,9 +41,11 @@ def servo_model(name: str, description: str, plant: str, tracked: list[dict], ra
     ``gain`` may use the tracked and rate symbols (by name), ``parameters`` and the
     sampler's held values.
     """
-    tracked_v = [Variable(t["name"], t["unit"], f"Measured {t['name']}") for t in tracked]
-    refs = [Variable(t["reference"], t["unit"], f"Reference of {t['name']}") for t in tracked]
-    rates_v = [Variable(r["name"], r["unit"], f"Measured {r['name']}") for r in rates]
+    start = vscmg.measured_defaults() if plant == vscmg.MODEL.name else {}
+    tracked_v = [Variable(t["name"], t["unit"], f"Measured {t['name']}", start.get(t["name"], 0.0)) for t in tracked]
+    refs = [Variable(t["reference"], t["unit"], f"Reference of {t['name']}", start.get(t["name"], 0.0))
+            for t in tracked]
+    rates_v = [Variable(r["name"], r["unit"], f"Measured {r['name']}", start.get(r["name"], 0.0)) for r in rates]
     integrals = [State(Variable(f"int_e_{t['name']}", "rad.s", f"Integral of the {t['name']} tracking error"),
                        Variable(f"int_e_{t['name']}_0", "rad.s", f"Initial integral of the {t['name']} error"))
                  for t in tracked]

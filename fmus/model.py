@@ -194,6 +194,71 @@ class Sampler:
         return functools.partial(getattr(mod, self.function), **self.options)
 
 
+TIME_TOL = 1e-9
+"""Relative time tolerance (times ``max(1, |t|)``): two times closer than this are one instant.
+Generated C and Python use it for sample instants, table breakpoints and switching times, so an
+FMU driven at ``t0 + k h`` and a master sampling ``t0 + h k`` agree at every jump."""
+
+
+def time_tolerance(t: sp.Expr) -> sp.Expr:
+    """:data:`TIME_TOL` at time ``t`` (a sympy expression): ``TIME_TOL max(1, |t|)``."""
+    return TIME_TOL * sp.Max(1, sp.Abs(t))
+
+
+class TableLookup(sp.Function):
+    """``TableLookup(k, t)``: the model's table ``k`` (:attr:`Model.tables`) at ``t``."""
+
+    nargs = 2
+
+
+@dataclass(frozen=True)
+class Table:
+    """Breakpoints and values of a function of one variable (a time table), s and any unit.
+
+    Before the first breakpoint the first value holds, after the last the last value.
+    ``"previous"`` holds each value from its breakpoint on (a breakpoint within
+    :data:`TIME_TOL` ahead counts as reached); ``"linear"`` interpolates between breakpoints.
+    The numpy :meth:`evaluate`, the generated Python and the generated C use one formula.
+
+    Raises
+    ------
+    ModelDefinitionError
+        Unequal or empty arrays, non-finite entries, breakpoints not strictly increasing,
+        unknown interpolation.
+    """
+
+    times: tuple[float, ...]
+    values: tuple[float, ...]
+    interpolation: Literal["previous", "linear"] = "linear"
+
+    def __post_init__(self) -> None:
+        t, v = np.asarray(self.times, float), np.asarray(self.values, float)
+        if t.ndim != 1 or t.shape != v.shape or t.size == 0:
+            raise ModelDefinitionError("times and values must be 1-D of equal non-zero length")
+        if not (np.all(np.isfinite(t)) and np.all(np.isfinite(v))):
+            raise ModelDefinitionError("times and values must be finite")
+        if np.any(np.diff(t) <= 0):
+            raise ModelDefinitionError("times must be strictly increasing")
+        if self.interpolation not in ("previous", "linear"):
+            raise ModelDefinitionError(f"interpolation must be 'linear' or 'previous', got {self.interpolation!r}")
+        object.__setattr__(self, "times", tuple(map(float, t)))
+        object.__setattr__(self, "values", tuple(map(float, v)))
+
+    def evaluate(self, t: np.ndarray | float) -> np.ndarray:
+        """Values at ``t`` (any shape)."""
+        tt, v = np.asarray(self.times), np.asarray(self.values)
+        t = np.asarray(t, float)
+        if self.interpolation == "previous":
+            i = np.searchsorted(tt, t + TIME_TOL * np.maximum(1.0, np.abs(t)), side="right") - 1
+            return v[np.clip(i, 0, None)]
+        i = np.clip(np.searchsorted(tt, t, side="right") - 1, 0, max(tt.size - 2, 0))
+        if tt.size == 1:
+            return np.full_like(t, v[0])
+        j = i + 1
+        inner = v[i] + (v[j] - v[i]) * ((t - tt[i]) / (tt[j] - tt[i]))
+        return np.where(t <= tt[0], v[0], np.where(t >= tt[-1], v[-1], inner))
+
+
 #: Parameters every model with states gets, read by the integrators of both FMU backends.
 INTEGRATOR_PARAMETERS = (
     Variable("n_substeps", "1", "Minimum number of RK4 substeps per communication step",
@@ -250,6 +315,9 @@ class Model:
         over the substep (no ``t``), and every step is the exact flow
         ``x(h) = e^{A h} x + (integral_0^h e^{A s} ds) b`` (a linear plant with inputs held
         over a communication step is then exact for any step size).
+    tables : list of Table
+        Time tables the expressions read as ``TableLookup(k, t)`` (``k`` indexes this list);
+        the data is compiled into the FMU.
     switch_time : sympy.Expr, optional
         With ``integrator="exact"``: the time, s, from the substep start (state ``x``,
         inputs held) at which the frozen piecewise law stops being valid (a momentum
@@ -273,6 +341,7 @@ class Model:
     sampler: Sampler | None = None
     integrator: Literal["rk4", "exact"] = "rk4"
     switch_time: sp.Expr | None = None
+    tables: list[Table] = field(default_factory=list)
 
     t = sp.Symbol("t", real=True)
 
@@ -334,11 +403,19 @@ class Model:
             allowed.add(sym)
         post = list(self.post_step) if self.post_step is not None else []
         switch = [self.switch_time] if self.switch_time is not None else []
+        smp_args = list(self.sampler.arguments) if self.sampler is not None else []
         for e in list(self.rhs) + [o.expression for o in self.outputs] + post + switch:
             extra = sp.sympify(e).free_symbols - allowed
             if extra:
                 raise ModelDefinitionError(
                     f"{self.name}: expression uses undeclared symbols {sorted(map(str, extra))}")
+        for e in list(self.rhs) + [o.expression for o in self.outputs] + post + switch + smp_args + [
+                d for _, d in self.definitions]:
+            for call in sp.sympify(e).atoms(TableLookup):
+                k = call.args[0]
+                if not (k.is_Integer and 0 <= int(k) < len(self.tables)):
+                    raise ModelDefinitionError(f"{self.name}: {call} reads no table of the model "
+                                               f"({len(self.tables)} tables)")
         self._validate_integrator()
 
     def _validate_integrator(self) -> None:
@@ -472,7 +549,8 @@ class Model:
             raise ModelDefinitionError(f"model {self.name!r} has definitions; evaluate it with the "
                                        "generated code (fmus.codegen.load_python)")
         args = (self.t, self.state_symbols, self.input_symbols, self.parameter_symbols)
-        return sp.lambdify(args, sp.Matrix(exprs), modules="numpy", cse=True)
+        tables = {"TableLookup": lambda k, t: self.tables[int(k)].evaluate(t)}
+        return sp.lambdify(args, sp.Matrix(exprs), modules=[tables, "numpy"], cse=True)
 
     def sdc_functions(self, sdc: SDCForm | None = None
                       ) -> tuple[Callable[..., np.ndarray], Callable[..., np.ndarray]]:

@@ -36,8 +36,6 @@ from pythonfmu.enums import Fmi2Status
 KIND_PARAMETER, KIND_INPUT, KIND_OUTPUT = 0, 1, 2
 DESCRIPTION_FILE = "satfmu_description.xml"
 MAX_SUBSTEPS = 10_000_000
-TIME_TOL = 1e-9
-"""Relative tolerance (times max(1, |t|)) under which two times are the same instant, as in C."""
 
 
 def substep_count(h: float, n_substeps: float, h_max: float) -> int:
@@ -113,7 +111,7 @@ class ExactFlow:
         t_start = t
         for _ in range(MAX_SWITCHES):
             ts = self.gen.switch_time(t, x, u, p)[0]
-            if not ts > TIME_TOL * max(1.0, abs(t_end)) or ts >= t_end - t:
+            if not ts > self.gen.TIME_TOL * max(1.0, abs(t_end)) or ts >= t_end - t:
                 break
             x = self.segment(t, x, u, p, ts)
             t += ts
@@ -341,7 +339,7 @@ class SatfmuSlave(Fmi2Slave):
         i_phase = self._sampler["phase_index"]
         phase = -self.start_time if i_phase is None else self.p[i_phase]
         k = math.floor((t + phase) / period) + 1
-        if k * period - phase <= t + TIME_TOL * max(1.0, abs(t)):
+        if k * period - phase <= t + self.generated.TIME_TOL * max(1.0, abs(t)):
             k += 1
         return k * period - phase
 
@@ -351,7 +349,7 @@ class SatfmuSlave(Fmi2Slave):
 
     def _step_sampled(self, t: float, t_end: float) -> None:
         """Integrate to ``t_end`` in segments between sample instants, sampling at each."""
-        tol = TIME_TOL * max(1.0, abs(t_end))
+        tol = self.generated.TIME_TOL * max(1.0, abs(t_end))
         if self.sample_due:
             self._sample()
         while True:

@@ -330,6 +330,14 @@ def model_sdc(model: Model, factorization: str) -> SDCForm:
 MODEL = build()
 
 
+def measured_defaults() -> dict[str, float]:
+    """Default initial value of each plant state by name (rad, rad/s): the start values of a
+    controller's measured inputs and references, so that a host reading the controller before
+    it sets the inputs (libcosim's initialization) evaluates the law at the plant's start
+    (zero error, q2 = pi/18, away from the sin(q2) = 0 singularity of the backstepping law)."""
+    return {s.variable.name: s.initial.start for s in MODEL.states}
+
+
 def friction_compensation(measured: dict[str, sp.Symbol], errors: dict[str, sp.Expr],
                           command: list[sp.Expr]) -> tuple[list[sp.Expr], list[Variable]]:
     """Coulomb friction compensation torques [dT1, dT2] for a servo of this plant, N m.

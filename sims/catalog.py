@@ -8,7 +8,7 @@ from pathlib import Path
 
 from controllers import artifact as artifacts
 from controllers import backstepping, magnetic, polynomial, servo, state_feedback
-from fmus import cubesat, demeter, export, mrp_satellite, vscmg
+from fmus import cubesat, demeter, export, mrp_satellite, signals, vscmg
 from fmus.model import Model
 
 DEFAULT_FMU_DIR = Path("build/fmus")
@@ -27,12 +27,14 @@ class FmuSource:
 def sources() -> list[FmuSource]:
     """Plants first, then the controllers of the shipped artifacts (the DEMETER state feedback
     of Table 1 row 1 among them, every gain a parameter), then the designs without an artifact
-    (online SDRE, backstepping, B-dot)."""
+    (online SDRE, backstepping, B-dot), then the generic signal generators (native only: a
+    scenario's profiles as FMUs, :mod:`fmus.signals`)."""
     out = [FmuSource(mrp_satellite.MODEL, {}), FmuSource(vscmg.MODEL, {}), FmuSource(cubesat.MODEL, {}),
            FmuSource(demeter.MODEL, {})]
     out += [controller_source(artifacts.load(path)) for path in polynomial.shipped_artifacts()]
     out += [FmuSource(servo.build_online(name), {}, ("python",)) for name in servo.ONLINE_VARIANTS]
-    return out + [FmuSource(backstepping.build(), {}), FmuSource(magnetic.build_bdot(), {})]
+    out += [FmuSource(backstepping.build(), {}), FmuSource(magnetic.build_bdot(), {})]
+    return out + [FmuSource(build(), {}, ("native",)) for build in signals.GENERIC.values()]
 
 
 def controller_source(art: artifacts.Artifact) -> FmuSource:

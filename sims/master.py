@@ -14,6 +14,13 @@ profiles to inputs, and steps all FMUs at one communication step:
    new time, then record.
 
 Inputs are therefore held constant over each communication step (zero-order hold).
+
+``exchange_order="jacobi"`` instead reads every connected output first and then sets every
+input after each step, as libcosim and ecos do: a direct-feedthrough output (a static
+controller) then passes on a value computed from the inputs of the previous communication
+point, a delay of one step. The default order has no such delay; the Jacobi order reproduces
+another engine's run (:mod:`sims.verify`). The recorded value of such an output is the one
+computed from the new inputs, in either order.
 Value references and ctypes buffers are prepared once; each step makes one
 ``fmi2GetReal``/``fmi2SetReal`` call per FMU and direction.
 """
@@ -81,6 +88,17 @@ def start_value(comp: "Component", name: str, value: Any) -> tuple[Any, float | 
             raise WiringError(f"{comp.name}.{name} is Boolean; got {value!r} (use true/false)")
         return var, value
     raise WiringError(f"{comp.name}.{name}: type {var.type} is not supported")
+
+
+def communication_times(start_time: float, step_size: float, n_steps: int) -> np.ndarray:
+    """``t_k = t0 + k h``, k = 0..n_steps, s: when t0 and h are whole nanoseconds, the correctly
+    rounded ``(t0_ns + k h_ns) / 1e9``, the times libcosim passes to the FMUs (it counts integer
+    nanoseconds), so a time-dependent FMU sees the same times in both engines; otherwise
+    ``t0 + h k`` in floating point."""
+    ns = [start_time * 1e9, step_size * 1e9]
+    if all(abs(v - round(v)) <= 1e-6 * max(1.0, abs(v)) for v in ns):
+        return (round(ns[0]) + round(ns[1]) * np.arange(n_steps + 1, dtype=np.int64)) / 1e9
+    return start_time + step_size * np.arange(n_steps + 1)
 
 
 @dataclass
@@ -304,7 +322,7 @@ class CoSimulation:
     # ------------------------------------------------------------------ run
     def run(self, stop_time: float, step_size: float, start_time: float = 0.0,
             parameters: dict[str, dict[str, Any]] | None = None,
-            record: Sequence[str] = ()) -> np.ndarray:
+            record: Sequence[str] = (), exchange_order: str = "feedthrough") -> np.ndarray:
         """Run the co-simulation and return the recorded variables.
 
         Parameters
@@ -315,6 +333,10 @@ class CoSimulation:
             Instance name -> {variable name: value} set before initialization.
         record : sequence of str
             Qualified names (base names expand) to record at every communication point.
+        exchange_order : {"feedthrough", "jacobi"}
+            Propagation order after each step: in feedthrough order (default), or every
+            output read before any input is set (see the module docstring). Initialization
+            propagates in feedthrough order either way (as libcosim's does).
 
         Returns
         -------
@@ -330,6 +352,8 @@ class CoSimulation:
                 raise ValueError(f"{label} must be a finite number, got {v!r}")
         if step_size <= 0:
             raise ValueError(f"step_size must be > 0 s, got {step_size}")
+        if exchange_order not in ("feedthrough", "jacobi"):
+            raise ValueError(f"exchange_order must be 'feedthrough' or 'jacobi', got {exchange_order!r}")
         if stop_time <= start_time:
             raise ValueError(f"stop_time {stop_time} must exceed start_time {start_time}")
         n_float = (stop_time - start_time) / step_size
@@ -360,7 +384,7 @@ class CoSimulation:
         rec_bufs = {c: ((ctypes.c_uint * len(g))(*[p[0] for p in g]), (ctypes.c_double * len(g))(),
                         np.array([p[1] for p in g])) for c, g in rec_groups.items()}
 
-        times = start_time + step_size * np.arange(n_steps + 1)
+        times = communication_times(start_time, step_size, n_steps)
         prof_groups: dict[str, list[tuple[int, np.ndarray]]] = defaultdict(list)
         for target, prof in self.profiles:
             c, v = target.split(".", 1)
@@ -379,13 +403,24 @@ class CoSimulation:
                 self._call(comp, "setupExperiment", None, start_time, stop_time)
                 self._call(comp, "enterInitializationMode")
 
-            def exchange(k: int) -> None:
+            def set_profiles(k: int) -> None:
                 for c, (vr, buf, values) in prof_bufs.items():
                     buf[:] = values[k]
                     self._call(self.components[c], "fmi2SetReal", self.components[c].slave.component,
                                vr, len(buf), buf)
+
+            def exchange(k: int, jacobi: bool) -> None:
+                """Profiles and connections at t_k; in Jacobi order a profile counts as an output
+                (a signal generator's), so it is set with the inputs, after every read."""
+                if not jacobi:
+                    set_profiles(k)
                 for tr in transfers:
                     self._call(tr.src, "fmi2GetReal", tr.src.slave.component, tr.src_vr, tr.n, tr.buf)
+                    if not jacobi:
+                        self._call(tr.dst, "fmi2SetReal", tr.dst.slave.component, tr.dst_vr, tr.n, tr.buf)
+                if jacobi:
+                    set_profiles(k)
+                for tr in transfers if jacobi else ():
                     self._call(tr.dst, "fmi2SetReal", tr.dst.slave.component, tr.dst_vr, tr.n, tr.buf)
 
             def sample(k: int) -> None:
@@ -394,7 +429,7 @@ class CoSimulation:
                                vr, len(buf), buf)
                     data[k, cols] = buf[:]
 
-            exchange(0)
+            exchange(0, False)
             for comp in self.components.values():
                 self._call(comp, "exitInitializationMode")
             sample(0)
@@ -402,7 +437,7 @@ class CoSimulation:
             for k in range(n_steps):
                 for comp in comps:
                     self._call(comp, "doStep", float(times[k]), step_size)
-                exchange(k + 1)
+                exchange(k + 1, exchange_order == "jacobi")
                 sample(k + 1)
             for comp in comps:
                 self._call(comp, "terminate")

@@ -37,6 +37,12 @@ from typing import Any, Callable
 
 import numpy as np
 
+from fmus import signals
+from fmus.model import Model, ModelDefinitionError, Table
+
+Generator = Callable[[np.ndarray], tuple[Model, dict[str, float]]]
+"""Communication grid (s) -> the signal-generator model and its parameter values."""
+
 
 class ProfileError(ValueError):
     """A profile declaration is invalid; the message names the profile and the field."""
@@ -44,16 +50,27 @@ class ProfileError(ValueError):
 
 @dataclass(frozen=True)
 class Profile:
-    """A validated profile: ``kind``, its fields, and the sampling function."""
+    """A validated profile: ``kind``, its fields, the sampling function and its generator."""
 
     kind: str
     spec: dict[str, Any]
     _fn: Callable[[np.ndarray], np.ndarray] = field(repr=False, compare=False)
+    _generator: Generator = field(repr=False, compare=False)
 
     def sample(self, t: np.ndarray) -> np.ndarray:
         """Values at the times ``t`` (1-D array, s)."""
         v = np.asarray(self._fn(np.asarray(t, float)), float)
         return np.broadcast_to(v, np.shape(t)).copy()
+
+    def generator(self, times: np.ndarray) -> tuple[Model, dict[str, float]]:
+        """The signal-generator model (:mod:`fmus.signals`) and its parameter values that give
+        this profile's values at ``times``, the communication grid (s).
+
+        The analytic kinds are the generic generators and do not depend on ``times``; the
+        sampled ones are tables: ``table`` and ``csv`` their data, ``random`` its held draws over
+        the hold instants up to the last time, ``igrf`` the field on ``times`` (linear).
+        """
+        return self._generator(np.asarray(times, float))
 
 
 def _num(spec: dict, key: str, where: str, default: float | None = None) -> float:
@@ -67,18 +84,17 @@ def _num(spec: dict, key: str, where: str, default: float | None = None) -> floa
     return float(v)
 
 
-def _interp(times: np.ndarray, values: np.ndarray, mode: str, where: str) -> Callable[[np.ndarray], np.ndarray]:
-    if times.ndim != 1 or times.shape != values.shape or times.size == 0:
-        raise ProfileError(f"{where}: times and values must be 1-D of equal non-zero length")
-    if not (np.all(np.isfinite(times)) and np.all(np.isfinite(values))):
-        raise ProfileError(f"{where}: times and values must be finite")
-    if np.any(np.diff(times) <= 0):
-        raise ProfileError(f"{where}: times must be strictly increasing")
-    if mode == "linear":
-        return lambda t: np.interp(t, times, values)
-    if mode == "previous":
-        return lambda t: values[np.clip(np.searchsorted(times, t, side="right") - 1, 0, None)]
-    raise ProfileError(f"{where}: interpolation must be 'linear' or 'previous', got {mode!r}")
+def _table(times: Any, values: Any, mode: Any, where: str) -> tuple[Callable[[np.ndarray], np.ndarray], Generator]:
+    try:
+        tb = Table(times, values, mode)
+    except (ModelDefinitionError, TypeError, ValueError) as exc:
+        raise ProfileError(f"{where}: {exc}") from None
+    return tb.evaluate, lambda grid: (signals.table(tb), {})
+
+
+def _generic(kind: str, params: dict[str, float]) -> tuple[Callable[[np.ndarray], np.ndarray], Generator]:
+    model = signals.GENERIC[kind]()
+    return (lambda t: signals.evaluate(model, params, t)), (lambda grid: (model, dict(params)))
 
 
 def make(spec: dict[str, Any], where: str = "profile", base_dir: Path | None = None,
@@ -103,33 +119,31 @@ def make(spec: dict[str, Any], where: str = "profile", base_dir: Path | None = N
     kind = spec.get("kind")
     where = f"{where} ({kind})"
     if kind == "constant":
-        c = _num(spec, "value", where)
-        fn: Callable[[np.ndarray], np.ndarray] = lambda t: np.full_like(t, c)
+        fns = _generic("constant", {"value": _num(spec, "value", where)})
     elif kind == "step":
-        t0, a, b = _num(spec, "time", where), _num(spec, "before", where), _num(spec, "after", where)
-        fn = lambda t: np.where(t >= t0, b, a)
+        fns = _generic("step", {k: _num(spec, k, where) for k in ("time", "before", "after")})
     elif kind == "table":
-        fn = _interp(np.asarray(spec.get("times", []), float), np.asarray(spec.get("values", []), float),
-                     spec.get("interpolation", "previous"), where)
+        fns = _table(spec.get("times", []), spec.get("values", []), spec.get("interpolation", "previous"), where)
     elif kind == "sinusoid":
-        amp, f = _num(spec, "amplitude", where), _num(spec, "frequency_Hz", where)
-        ph, off = _num(spec, "phase_rad", where, 0.0), _num(spec, "offset", where, 0.0)
-        fn = lambda t: off + amp * np.sin(2 * np.pi * f * t + ph)
+        fns = _generic("sinusoid", {"amplitude": _num(spec, "amplitude", where),
+                                    "frequency_Hz": _num(spec, "frequency_Hz", where),
+                                    "phase_rad": _num(spec, "phase_rad", where, 0.0),
+                                    "offset": _num(spec, "offset", where, 0.0)})
     elif kind == "random":
-        fn = _random(spec, where, step_size)
+        fns = _random(spec, where, step_size)
     elif kind == "csv":
-        fn = _csv(spec, where, base_dir)
+        fns = _csv(spec, where, base_dir)
     elif kind == "cosine_ramp":
-        fn = _cosine_ramp(spec, where)
+        fns = _cosine_ramp(spec, where)
     elif kind == "igrf":
-        fn = _igrf(spec, where)
+        fns = _igrf(spec, where)
     else:
         raise ProfileError(f"{where}: unknown kind; use constant, step, table, sinusoid, random, csv, "
                            "cosine_ramp or igrf")
-    return Profile(str(kind), dict(spec), fn)
+    return Profile(str(kind), dict(spec), *fns)
 
 
-def _cosine_ramp(spec: dict, where: str) -> Callable[[np.ndarray], np.ndarray]:
+def _cosine_ramp(spec: dict, where: str) -> tuple[Callable[[np.ndarray], np.ndarray], Generator]:
     t0, t1 = _num(spec, "start", where), _num(spec, "stop", where)
     a, b = _num(spec, "before", where), _num(spec, "after", where)
     order = spec.get("derivative", 0)
@@ -137,24 +151,14 @@ def _cosine_ramp(spec: dict, where: str) -> Callable[[np.ndarray], np.ndarray]:
         raise ProfileError(f"{where}: 'stop' must be after 'start'")
     if order not in (0, 1, 2) or isinstance(order, bool):
         raise ProfileError(f"{where}: 'derivative' must be 0, 1 or 2, got {order!r}")
-    w = np.pi / (t1 - t0)
-
-    def fn(t: np.ndarray) -> np.ndarray:
-        inside = (t >= t0) & (t <= t1)
-        x = w * (np.clip(t, t0, t1) - t0)
-        if order == 0:
-            return a + (b - a) * (1 - np.cos(x)) / 2
-        if order == 1:
-            return np.where(inside, (b - a) * w * np.sin(x) / 2, 0.0)
-        return np.where(inside, (b - a) * w**2 * np.cos(x) / 2, 0.0)
-    return fn
+    return _generic("cosine_ramp", {"start": t0, "stop": t1, "before": a, "after": b, "derivative": order})
 
 
 _IGRF_ORBIT = ("orbit_period", "orbit_time_0", "orbit_altitude", "orbit_inclination", "orbit_raan",
                "orbit_arg_latitude_0", "earth_rotation_angle_0")
 
 
-def _igrf(spec: dict, where: str) -> Callable[[np.ndarray], np.ndarray]:
+def _igrf(spec: dict, where: str) -> tuple[Callable[[np.ndarray], np.ndarray], Generator]:
     # fmus.geomagnetic imports ppigrf and pandas: only when this kind is used
     from fmus import geomagnetic
 
@@ -193,7 +197,7 @@ def _igrf(spec: dict, where: str) -> Callable[[np.ndarray], np.ndarray]:
         tt = np.atleast_1d(t)
         b = _igrf_field(key, tt.astype(float).ravel().tobytes())
         return b[:, comp - 1].reshape(tt.shape) if np.ndim(t) else b[0, comp - 1]
-    return fn
+    return fn, lambda grid: _table(grid, fn(grid), "linear", where)[1](grid)
 
 
 @lru_cache(maxsize=4)
@@ -208,7 +212,8 @@ def _igrf_field(key: tuple, t_bytes: bytes) -> np.ndarray:
     return b
 
 
-def _random(spec: dict, where: str, step_size: float | None) -> Callable[[np.ndarray], np.ndarray]:
+def _random(spec: dict, where: str, step_size: float | None
+            ) -> tuple[Callable[[np.ndarray], np.ndarray], Generator]:
     seed = spec.get("seed")
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise ProfileError(f"{where}: 'seed' must be a non-negative integer (runs must be reproducible)")
@@ -219,12 +224,12 @@ def _random(spec: dict, where: str, step_size: float | None) -> Callable[[np.nda
     if hold <= 0:
         raise ProfileError(f"{where}: 'hold' must be > 0 s")
 
-    def fn(t: np.ndarray) -> np.ndarray:
-        k = np.floor(t / hold + 1e-9).astype(np.int64)
-        k = np.clip(k, 0, None)
-        draws = np.random.default_rng(seed).normal(mean, std, int(k.max()) + 1 if k.size else 1)
-        return draws[k]
-    return fn
+    def draws(t: np.ndarray) -> tuple[Callable[[np.ndarray], np.ndarray], Generator]:
+        """The held draws over the hold instants up to the last of ``t`` (a prefix of one stream)."""
+        n = int(np.floor(max(float(np.max(t, initial=0.0)), 0.0) / hold + 1e-9)) + 1
+        return _table(hold * np.arange(n), np.random.default_rng(seed).normal(mean, std, n), "previous", where)
+
+    return (lambda t: draws(t)[0](t)), (lambda grid: draws(grid)[1](grid))
 
 
 def _csv(spec: dict, where: str, base_dir: Path | None) -> Callable[[np.ndarray], np.ndarray]:
@@ -247,4 +252,4 @@ def _csv(spec: dict, where: str, base_dir: Path | None) -> Callable[[np.ndarray]
         values = np.array([float(r[col]) for r in rows])
     except ValueError as exc:
         raise ProfileError(f"{where}: {path} has a non-numeric entry ({exc})") from None
-    return _interp(times, values, spec.get("interpolation", "linear"), where)
+    return _table(times, values, spec.get("interpolation", "linear"), where)

@@ -59,13 +59,14 @@ from typing import Any
 import numpy as np
 
 from sims import metrics as M
-from sims.master import CoSimulation
+from sims.master import CoSimulation, communication_times
+from sims.profiles import Profile
 from sims.profiles import make as make_profile
 
 SCENARIOS = Path(__file__).resolve().parent / "scenarios"
 BACKENDS = {"native": "", "python": "_py"}
 _TOP = {"name", "description", "stop_time", "step_size", "start_time", "fmus", "connections",
-        "profiles", "record", "metrics", "plot", "reference"}
+        "profiles", "record", "metrics", "plot", "reference", "verify"}
 _FMU = {"model", "path", "backend", "parameters"}
 _METRIC = {"name", "kind", "signals", "scale", "unit", "min", "max", "tolerance", "limit",
            "disturbances", "versus", "description"}
@@ -148,6 +149,11 @@ def load(name_or_path: str | Path) -> Scenario:
     for i, p in enumerate(data.get("profiles", [])):
         if "to" not in p:
             raise ScenarioError(f"{where}: profiles[{i}] needs a 'to' target")
+    ver = data.get("verify", {})
+    if not isinstance(ver, dict) or set(ver) - {"rtol", "atol", "reason"} or ver and not ver.get("reason") or any(
+            isinstance(ver.get(k, 0.0), bool) or not isinstance(ver.get(k, 0.0), (int, float))
+            or not 0 <= ver.get(k, 0.0) < 1 for k in ("rtol", "atol")):
+        raise ScenarioError(f"{where}: [verify] takes rtol and atol in [0, 1) and needs a 'reason' for them")
     for i, m in enumerate(data.get("metrics", [])):
         w = f"{where}: metrics[{i}]"
         if set(m) - _METRIC:
@@ -177,6 +183,38 @@ def fmu_paths(scenario: Scenario, fmu_dir: Path, backend: str) -> dict[str, Path
     return out
 
 
+def profiles(scenario: Scenario) -> list[tuple[str, Profile]]:
+    """The scenario's disturbance profiles, built: (target ``instance.variable``, profile).
+
+    Raises
+    ------
+    sims.profiles.ProfileError
+    """
+    d = scenario.data
+    out = []
+    for i, p in enumerate(d.get("profiles", [])):
+        spec = {k: v for k, v in p.items() if k != "to"}
+        out.append((p["to"], make_profile(spec, f"{scenario.path.name}: profiles[{i}]", scenario.path.parent,
+                                          d["step_size"])))
+    return out
+
+
+def grid(scenario: Scenario) -> np.ndarray:
+    """The communication times of the scenario, s (as the master steps them)."""
+    d = scenario.data
+    t0 = d.get("start_time", 0.0)
+    return communication_times(t0, d["step_size"], round((d["stop_time"] - t0) / d["step_size"]))
+
+
+def recorded(scenario: Scenario, sim: CoSimulation) -> list[str]:
+    """The qualified variables a run of ``scenario`` records: its ``record`` list and every
+    signal its metrics read, base names expanded, each once."""
+    record = list(scenario.data.get("record", []))
+    for m in scenario.data.get("metrics", []):
+        record += m["signals"] + m.get("disturbances", []) + m.get("versus", [])
+    return list(dict.fromkeys(_columns(sim, record)))
+
+
 def _columns(sim: CoSimulation, names: list[str]) -> list[str]:
     cols = []
     for n in names:
@@ -192,14 +230,9 @@ def simulate(scenario: Scenario, fmu_dir: Path, backend: str = "native") -> tupl
     try:
         for c in d.get("connections", []):
             sim.connect(c["from"], c["to"])
-        for i, p in enumerate(d.get("profiles", [])):
-            spec = {k: v for k, v in p.items() if k != "to"}
-            sim.add_profile(p["to"], make_profile(spec, f"{scenario.path.name}: profiles[{i}]",
-                                                  scenario.path.parent, d["step_size"]))
-        record = list(d.get("record", []))
-        for m in d.get("metrics", []):
-            record += m["signals"] + m.get("disturbances", []) + m.get("versus", [])
-        record = list(dict.fromkeys(_columns(sim, record)))
+        for target, prof in profiles(scenario):
+            sim.add_profile(target, prof)
+        record = recorded(scenario, sim)
         params = {inst: spec.get("parameters", {}) for inst, spec in d["fmus"].items()}
         res = sim.run(d["stop_time"], d["step_size"], d.get("start_time", 0.0), params, record)
     finally:

@@ -14,20 +14,28 @@ converted by :func:`sims.master.start_value`), so an exported file is the scenar
 runs. The file is validated against the SSP 1.0 schemas that fmpy ships
 (``SystemStructureDescription.xsd``, and each parameter set against
 ``SystemStructureParameterValues.xsd``, which the SSD schema leaves unchecked) before it is
-written. Scenarios with disturbance profiles are refused: a profile is a signal of the master,
-not an FMU, so the file would not be the scenario.
+written.
+
+Each disturbance profile becomes a signal-generator component (:mod:`fmus.signals`, native)
+named ``signal_<instance>_<variable>`` and connected to the input it drives: the generic ones
+(constant, step, sinusoid, cosine ramp) are taken from the FMU folder with the profile's
+constants as parameter values, the sampled ones (table, csv, random, igrf) are compiled from
+their tables into the file. The file is then the whole scenario: FMUs plus connections.
 """
 from __future__ import annotations
 
+import re
 import zipfile
 from pathlib import Path
 
 from fmpy.ssp import ssd as fmpy_ssd
 from lxml import etree
 
+from fmus import export as fmu_export
+from fmus import signals
 from fmus.description import xml_value
 from sims.master import CoSimulation, start_value
-from sims.scenario import Scenario, ScenarioError, fmu_paths, load
+from sims.scenario import Scenario, ScenarioError, fmu_paths, grid, load, profiles
 
 NS = {"ssd": "http://ssp-standard.org/SSP1/SystemStructureDescription",
       "ssc": "http://ssp-standard.org/SSP1/SystemStructureCommon",
@@ -36,6 +44,9 @@ NS = {"ssd": "http://ssp-standard.org/SSP1/SystemStructureDescription",
 """Namespaces with the prefixes libcosim requires literally (it reads the XML without namespaces)."""
 OSP_ANNOTATION = "com.opensimulationplatform"
 SCHEMA_DIR = Path(fmpy_ssd.__file__).parent / "schema"
+PARAMETER_SET = "scenario"
+"""Name of every component's parameter set: ecos applies the sets of one name
+(``--parameterSet scenario``); libcosim applies each component's inline set."""
 
 
 class SspError(ScenarioError):
@@ -51,22 +62,62 @@ def _el(parent, tag: str, **attrib: str):
     return etree.SubElement(parent, _q(tag), attrib)
 
 
-def system_structure(scenario: Scenario, fmu_dir: Path, backend: str = "native") -> tuple[bytes, dict[str, Path]]:
+def signal_components(scenario: Scenario, fmu_dir: Path, table_dir: Path
+                      ) -> tuple[dict[str, Path], dict[str, dict], list[dict[str, str]]]:
+    """The scenario's profiles as signal-generator instances: FMU paths, parameter values and
+    connections (``from``/``to``), by instance name ``signal_<instance>_<variable>``.
+
+    Generic generators come from ``fmu_dir`` (``satfmu build`` puts them there); table
+    generators are compiled into ``table_dir``.
+
+    Raises
+    ------
+    sims.profiles.ProfileError
+        An invalid profile.
+    """
+    paths: dict[str, Path] = {}
+    params: dict[str, dict] = {}
+    conns: list[dict[str, str]] = []
+    times = grid(scenario)
+    for target, prof in profiles(scenario):
+        model, values = prof.generator(times)
+        inst = "signal_" + re.sub(r"[^A-Za-z0-9]+", "_", target).strip("_")
+        if model.tables:
+            path = table_dir / f"{model.name}.fmu"
+            if not path.exists():
+                fmu_export.build_native(model, table_dir)
+        else:
+            path = Path(fmu_dir) / f"{model.name}.fmu"
+        paths[inst], params[inst] = path, values
+        conns.append({"from": f"{inst}.{signals.OUTPUT}", "to": target})
+    return paths, params, conns
+
+
+def system_structure(scenario: Scenario, fmu_dir: Path, backend: str = "native",
+                     table_dir: Path | None = None) -> tuple[bytes, dict[str, Path]]:
     """``SystemStructure.ssd`` of ``scenario`` (validated) and the FMU files by resource path.
+
+    ``table_dir`` receives the compiled table generators of sampled profiles (default: a
+    ``signal_tables`` folder in ``fmu_dir``).
 
     Raises
     ------
     SspError
-        Profiles in the scenario, two different FMU files with one name, or a schema failure.
-    FileNotFoundError, sims.master.MasterError
-        A missing FMU, an unknown variable, a wrong connection or parameter (as the master).
+        Two different FMU files with one name, an instance name taken twice, or a schema failure.
+    FileNotFoundError, sims.master.MasterError, sims.profiles.ProfileError
+        A missing FMU, an unknown variable, a wrong connection, parameter or profile (as the master).
     """
     d = scenario.data
-    if d.get("profiles"):
-        targets = ", ".join(p["to"] for p in d["profiles"])
-        raise SspError(f"{scenario.name}: disturbance profiles ({targets}) are signals of the master, not FMUs; "
-                       "an SSP file of this scenario would leave those inputs undriven")
     paths = fmu_paths(scenario, fmu_dir, backend)
+    table_dir = Path(table_dir) if table_dir is not None else Path(fmu_dir) / "signal_tables"
+    table_dir.mkdir(parents=True, exist_ok=True)
+    sig_paths, sig_params, sig_conns = signal_components(scenario, fmu_dir, table_dir)
+    taken = sorted(set(paths) & set(sig_paths))
+    if taken:
+        raise SspError(f"{scenario.name}: instance name(s) {taken} are taken by the scenario; the profiles' "
+                       "signal generators need them")
+    paths.update(sig_paths)
+    instance_parameters = {inst: spec.get("parameters", {}) for inst, spec in d["fmus"].items()} | sig_params
     resources: dict[str, Path] = {}
     for inst, path in paths.items():
         key = f"resources/{path.name}"
@@ -79,7 +130,7 @@ def system_structure(scenario: Scenario, fmu_dir: Path, backend: str = "native")
         system.set("description", d["description"])
     elements = _el(system, "ssd:Elements")
     with CoSimulation(paths) as sim:
-        for c in d.get("connections", []):
+        for c in list(d.get("connections", [])) + sig_conns:
             sim.connect(c["from"], c["to"])
         used: dict[str, list[str]] = {inst: [] for inst in paths}
         for src, dst in sim.connections:
@@ -95,10 +146,10 @@ def system_structure(scenario: Scenario, fmu_dir: Path, backend: str = "native")
             for var in used[inst]:
                 con = _el(connectors, "ssd:Connector", name=var, kind=comp.variable(var).causality)
                 _el(con, "ssc:Real")
-            values = d["fmus"][inst].get("parameters", {})
+            values = instance_parameters[inst]
             if values:
                 pset = _el(_el(_el(_el(el, "ssd:ParameterBindings"), "ssd:ParameterBinding"),
-                               "ssd:ParameterValues"), "ssv:ParameterSet", version="1.0", name=f"{inst}_parameters")
+                               "ssd:ParameterValues"), "ssv:ParameterSet", version="1.0", name=PARAMETER_SET)
                 params = _el(pset, "ssv:Parameters")
                 for name, value in values.items():
                     var, value = start_value(comp, name, value)

@@ -52,11 +52,36 @@ def test_python_backend_and_cli(fmu_dir: Path, tmp_path: Path, capsys) -> None:
                  "--out", str(out)]) == 0
     assert "wrote" in capsys.readouterr().out
     assert "resources/mrp_satellite_py.fmu" in _ssd(out)[0]
-    # a scenario with profiles is refused by name, and nothing is written for it
-    assert main(["export-ssp", "mrp_eq44", "--fmu-dir", str(fmu_dir), "--out", str(tmp_path)]) == 1
-    err = capsys.readouterr().err
-    assert "disturbance profiles (plant.w_d[1], plant.w_d[2], plant.w_d[3])" in err
-    assert not (tmp_path / "mrp_eq44.ssp").exists()
+
+
+def test_profiles_become_signal_generator_components(fmu_dir: Path, tmp_path: Path) -> None:
+    # mrp_eq44: two steps and a constant on plant.w_d, as generic generators with the profile's
+    # constants as parameter values, each connected to the input it drives
+    path = ssp.export("mrp_eq44", fmu_dir, tmp_path)
+    names, root = _ssd(path)
+    assert {"resources/signal_step.fmu", "resources/signal_constant.fmu"} <= set(names)
+    ns = ssp.NS
+    comp = root.find("ssd:System/ssd:Elements/ssd:Component[@name='signal_plant_w_d_1']", ns)
+    assert comp.get("source") == "resources/signal_step.fmu"
+    p = {e.get("name"): float(e[0].get("value")) for e in comp.iter(f"{{{ns['ssv']}}}Parameter")}
+    assert p == {"time": 5.0, "before": 2.0, "after": 0.0}
+    cons = {(c.get("startElement"), c.get("startConnector"), c.get("endElement"), c.get("endConnector"))
+            for c in root.findall("ssd:System/ssd:Connections/ssd:Connection", ns)}
+    assert ("signal_plant_w_d_3", "y", "plant", "w_d[3]") in cons
+    assert read_ssd(str(path), validate=True).name == "mrp_eq44"
+
+
+def test_sampled_profiles_are_compiled_into_the_file(fmu_dir: Path, tmp_path: Path) -> None:
+    f = _scenario(tmp_path, '[fmus.plant]\nmodel = "mrp_satellite"\n'
+                            '[[profiles]]\nto = "plant.u[1]"\nkind = "random"\nseed = 1\nstd = 0.1\n')
+    names, root = _ssd(ssp.export(f, fmu_dir, tmp_path / "out", ))
+    tables = [n for n in names if n.startswith("resources/signal_table_")]
+    assert len(tables) == 1
+    # an instance name the generators need is refused
+    f2 = _scenario(tmp_path, '[fmus.plant]\nmodel = "mrp_satellite"\n[fmus.signal_plant_u_1]\n'
+                             'model = "mrp_satellite"\n[[profiles]]\nto = "plant.u[1]"\nkind = "constant"\nvalue = 1.0\n')
+    with pytest.raises(ssp.SspError, match="taken"):
+        ssp.export(f2, fmu_dir, tmp_path / "out")
 
 
 def _scenario(tmp_path: Path, text: str) -> Path:

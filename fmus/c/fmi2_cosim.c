@@ -56,7 +56,6 @@ enum { TYPE_REAL = 0, TYPE_INTEGER = 1, TYPE_BOOLEAN = 2 };
 #define DIM(n) ((n) > 0 ? (n) : 1)
 #define MAX_SUBSTEPS 10000000.0
 #define STATE_MAGIC 0x5a7f3d02u
-#define TIME_TOL 1e-9 /* relative (times max(1, |t|)): two times closer than this are one instant */
 
 typedef enum {
     ST_INSTANTIATED = 1 << 0,

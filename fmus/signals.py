@@ -1,0 +1,131 @@
+"""Signal generators: the disturbance profiles of a scenario as stateless models (and FMUs).
+
+Each generator has one output ``y``, a function of time and of its parameters, and no inputs.
+The analytic kinds are generic models, built once, with the signal's constants as FMU
+parameters; a sampled signal (a table, a CSV column, a random sequence, a field sampled along
+an orbit) is a :class:`fmus.model.Table` compiled into its own model. The same expressions give
+the master's in-process profile (:func:`evaluate`, used by :mod:`sims.profiles`), the generated
+Python and the C of the native FMU, so a scenario run with its profiles as FMUs (an SSP file in
+another tool) sees the very values the master sets.
+
+Kinds (times in s; ``y`` in the unit of the input it drives, declared ``"1"``):
+
+``signal_constant``     y = value
+``signal_step``         y = before until ``time``, then after (a jump at ``time``, to the
+                        time tolerance :data:`fmus.model.TIME_TOL`)
+``signal_sinusoid``     y = offset + amplitude sin(2 pi frequency_Hz t + phase_rad)
+``signal_cosine_ramp``  from ``before`` at ``start`` to ``after`` at ``stop`` along
+                        (1 - cos(pi (t - start)/(stop - start)))/2 (seed 002 eq. 24-25), or
+                        its first or second time derivative (``derivative`` = 1, 2)
+``signal_table_<hash>`` the table (:class:`fmus.model.Table`), ``"previous"`` or ``"linear"``
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+from functools import lru_cache
+from typing import Callable
+
+import numpy as np
+import sympy as sp
+
+from fmus.model import Model, Output, Table, TableLookup, Variable, time_tolerance
+
+OUTPUT = "y"
+"""Name of every generator's output."""
+
+t = Model.t
+
+
+def _at_or_after(t0: sp.Expr) -> sp.Basic:
+    """``t`` has reached ``t0`` (within the time tolerance)."""
+    return t >= t0 - time_tolerance(t)
+
+
+def _model(name: str, description: str, parameters: list[Variable], y: sp.Expr, stop: float = 10.0) -> Model:
+    out = Output(Variable(OUTPUT, "1", "Signal value (in the unit of the input it drives)"), y)
+    return Model(name, description, states=[], inputs=[], parameters=parameters, outputs=[out],
+                 default_stop_time=stop)
+
+
+@lru_cache(maxsize=None)
+def constant() -> Model:
+    """``y = value``."""
+    value = Variable("value", "1", "Signal value")
+    return _model("signal_constant", "Constant signal", [value], value.symbol)
+
+
+@lru_cache(maxsize=None)
+def step() -> Model:
+    """``y = before`` for ``t < time``, ``after`` from ``time`` on."""
+    time = Variable("time", "s", "Time of the step", 1.0)
+    before = Variable("before", "1", "Value before the step", 0.0)
+    after = Variable("after", "1", "Value from the step time on", 1.0)
+    y = sp.Piecewise((after.symbol, _at_or_after(time.symbol)), (before.symbol, True))
+    return _model("signal_step", "Step signal", [time, before, after], y)
+
+
+@lru_cache(maxsize=None)
+def sinusoid() -> Model:
+    """``y = offset + amplitude sin(2 pi frequency_Hz t + phase_rad)``."""
+    amp = Variable("amplitude", "1", "Amplitude", 1.0)
+    freq = Variable("frequency_Hz", "1/s", "Frequency, Hz", 1.0)
+    phase = Variable("phase_rad", "rad", "Phase at t = 0", 0.0)
+    offset = Variable("offset", "1", "Offset", 0.0)
+    y = offset.symbol + amp.symbol * sp.sin(2 * sp.pi * freq.symbol * t + phase.symbol)
+    return _model("signal_sinusoid", "Sinusoidal signal", [amp, freq, phase, offset], y)
+
+
+@lru_cache(maxsize=None)
+def cosine_ramp() -> Model:
+    """Seed 002 eq. (24)-(25): a cosine ramp from ``before`` to ``after`` over [start, stop],
+    or its first or second derivative (per s, per s^2), zero outside the ramp."""
+    start = Variable("start", "s", "Start of the ramp", 0.0)
+    stop = Variable("stop", "s", "End of the ramp (must exceed start)", 1.0)
+    before = Variable("before", "1", "Value until start", 0.0)
+    after = Variable("after", "1", "Value from stop on", 1.0)
+    order = Variable("derivative", "1", "0: the ramp; 1, 2: its first, second time derivative",
+                     0, "Integer", min=0, max=2)
+    t0, t1, a, b, n = (v.symbol for v in (start, stop, before, after, order))
+    w = sp.pi / (t1 - t0)
+    x = w * (sp.Min(sp.Max(t, t0), t1) - t0)
+    inside = sp.And(_at_or_after(t0), t <= t1 + time_tolerance(t))
+    y = sp.Piecewise((a + (b - a) * (1 - sp.cos(x)) / 2, n < sp.Rational(1, 2)),
+                     (0, sp.Not(inside)),
+                     ((b - a) * w * sp.sin(x) / 2, n < sp.Rational(3, 2)),
+                     ((b - a) * w**2 * sp.cos(x) / 2, True))
+    return _model("signal_cosine_ramp", "Cosine ramp (seed 002 eq. 24-25) or its derivatives",
+                  [start, stop, before, after, order], y)
+
+
+def table(tb: Table) -> Model:
+    """The table ``tb`` as a generator; its name carries a hash of the data
+    (``signal_table_<12 hex>``), so equal tables give one FMU."""
+    key = json.dumps([tb.times, tb.values, tb.interpolation]).encode()
+    name = f"signal_table_{hashlib.sha256(key).hexdigest()[:12]}"
+    span = tb.times[-1] - tb.times[0]
+    return Model(name, f"Table of {len(tb.times)} breakpoints, {tb.interpolation} interpolation",
+                 states=[], inputs=[], parameters=[],
+                 outputs=[Output(Variable(OUTPUT, "1", "Signal value (in the unit of the input it drives)"),
+                                 TableLookup(0, t))],
+                 default_stop_time=span if span > 0 else 10.0, tables=[tb])
+
+
+GENERIC: dict[str, Callable[[], Model]] = {"constant": constant, "step": step, "sinusoid": sinusoid,
+                                           "cosine_ramp": cosine_ramp}
+"""The generic generators by profile kind (built once into ``build/fmus``)."""
+
+
+def evaluate(model: Model, parameters: dict[str, float], times: np.ndarray) -> np.ndarray:
+    """The output ``y`` of a generator at ``times`` (s), the parameters overriding the defaults."""
+    fn = _output_function(model)
+    t = np.asarray(times, float)
+    y = np.asarray(fn(t, [], [], model.parameter_vector(parameters)), float)[0, 0]
+    return np.broadcast_to(y, t.shape).copy()
+
+
+def _output_function(model: Model) -> Callable[..., np.ndarray]:
+    cached = model.__dict__.get("_signal_function")
+    if cached is None:
+        cached = model.__dict__["_signal_function"] = model.lambdify([model.outputs[0].expression])
+    return cached

@@ -1,0 +1,335 @@
+"""Tool-agnostic verification: a scenario run by our master is checked against other engines.
+
+For one scenario :func:`verify`
+
+1. writes its SSP file (:mod:`sims.ssp`: the FMUs, the profiles as signal-generator FMUs,
+   connections, parameter values);
+2. runs it in our master twice: in its own feedthrough order (the scenario's metrics are
+   evaluated on this run) and in Jacobi order (every output read before any input is set);
+3. runs the SSP file in libcosim (:mod:`sims.libcosim`, Open Simulation Platform) and in the
+   ecos command-line host (a C++ program, no Python in the loop);
+4. compares every Real output of every FMU with the master's Jacobi run, the exchange order
+   both other engines use (measured: they agree with it to rounding).
+
+Tolerances (:data:`TOLERANCES`), per variable ``v`` over the communication points:
+``max_k |a_k - b_k| <= atol + rtol * max_k |a_k|``.
+
+- libcosim: ``rtol`` 1e-9, ``atol`` 1e-12. The FMU binaries, the step and the exchange order
+  are the same; the only difference is the time: libcosim counts integer nanoseconds and
+  passes ``k h`` converted from them, our master ``t0 + h k`` in floating point, which differ
+  by about 1e-16 s. A time-dependent FMU (a signal generator) sees that difference, and a long
+  nonlinear run may amplify rounding; 1e-9 leaves room for that and fails any real
+  difference (a delayed or missing exchange, a parameter not applied: 1e-3 or more). The
+  absolute 1e-12 is for signals that are zero but for rounding (a friction term of 1e-16).
+  libcosim's observer shows a direct-feedthrough output only as passed on, from the previous
+  point's inputs, which the master never records: those outputs are checked through the
+  states they drive.
+- ecos: ``atol`` 1e-6. ecos writes its results with 6 decimals (rounding error 5e-7), as
+  its CSV is the only way to read them; 1e-6 covers the rounding of the value (5e-7) plus
+  the same 1e-9 relative margin as libcosim for values up to a few hundred. ecos 0.7.2
+  cannot load pythonfmu FMUs (their ``fmi2Instantiate`` fails in it and it then crashes in
+  ``fmi2_freeInstance``); a scenario with one is checked in ecos FMU by FMU instead: each
+  native FMU alone, at its default parameters and inputs, against the master running it alone.
+
+A scenario may widen both in a ``[verify]`` table (``rtol``, ``atol``, and a ``reason``), where
+its model amplifies rounding (a stick-slip friction mode that flips on a 1e-17 difference).
+
+The master's own feedthrough run differs from the others by the one-step delay of a
+direct-feedthrough controller in Jacobi order; that deviation is reported, not gated (it is
+a property of the exchange order, shrinking with the step).
+"""
+from __future__ import annotations
+
+import csv
+import json
+import math
+import os
+import subprocess
+import tempfile
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from sims import libcosim, ssp
+from sims.master import CoSimulation
+from sims.scenario import Scenario, evaluate, fmu_paths, load, recorded
+
+
+@dataclass(frozen=True)
+class Tolerance:
+    """``|a - b| <= atol + rtol * max|a|`` per variable, and why."""
+
+    atol: float
+    rtol: float
+    reason: str
+
+
+TOLERANCES = {
+    "libcosim": Tolerance(1e-12, 1e-8, "same FMU binaries, steps and exchange order; time in integer ns "
+                                       "(differs by ~1e-16 s), rounding growth over the run, and 1e-12 for "
+                                       "signals that are zero but for rounding"),
+    "ecos": Tolerance(1e-6, 1e-9, "ecos writes 6 decimals (rounding 5e-7), plus the libcosim margin"),
+}
+
+
+@dataclass
+class Comparison:
+    """One engine against the master's Jacobi run."""
+
+    engine: str
+    seconds: float
+    max_deviation: float
+    worst_variable: str
+    tolerance: Tolerance | None
+    passed: bool
+    error: str = ""
+
+
+@dataclass
+class ScenarioReport:
+    """Verification of one scenario."""
+
+    scenario: str
+    ssp: str
+    n_variables: int
+    n_points: int
+    master_seconds: float
+    metrics_passed: bool
+    order_deviation: float
+    """Largest deviation, relative to the signal's magnitude, of the master's feedthrough run
+    from its Jacobi run (information: the one-step delay of feedthrough loops)."""
+    comparisons: list[Comparison] = field(default_factory=list)
+
+    @property
+    def passed(self) -> bool:
+        return self.metrics_passed and all(c.passed for c in self.comparisons)
+
+
+def ecos_binary() -> Path:
+    """Path of the ecos command-line host (wheel ``ecospy``).
+
+    Raises
+    ------
+    FileNotFoundError
+        If ecospy is not installed or its binary is not executable.
+    """
+    import importlib.util
+
+    spec = importlib.util.find_spec("ecospy")
+    if spec is None or spec.origin is None:
+        raise FileNotFoundError("ecospy is not installed (pip install ecospy)")
+    path = Path(spec.origin).parent / "binaries" / "ecos"
+    if not os.access(path, os.X_OK):
+        raise FileNotFoundError(f"{path} is missing or not executable (chmod +x; `make` does it)")
+    return path
+
+
+def run_ecos(ssp_path: Path, stop_time: float, step_size: float, timeout: float = 3600.0,
+             alone: bool = False) -> dict[str, np.ndarray]:
+    """Run an SSP file (or, ``alone``, one FMU: instance ``instance``) in ecos; returns every
+    column of its CSV by ``instance.variable`` (and ``time``) at t_0 ... t_n.
+
+    ecos adds up its time in floating point and may stop one step short of ``stop_time``: it
+    is asked for half a step more, and the rows beyond t_n are dropped.
+
+    Raises
+    ------
+    libcosim.EngineError
+        ecos failed (exit code and output), timed out, or wrote no CSV.
+    """
+    with tempfile.TemporaryDirectory(prefix="satfmu_ecos_") as tmp:
+        cmd = [str(ecos_binary()), "simulate", "--path", str(Path(ssp_path).resolve()), "--stopTime", repr(stop_time + step_size / 2),
+               "--stepSize", repr(step_size), "--noParallel", "-l", "warn"]
+        cmd += [] if alone else ["--parameterSet", ssp.PARAMETER_SET]
+        try:
+            proc = subprocess.run(cmd, cwd=tmp, capture_output=True, text=True, timeout=timeout)
+        except subprocess.TimeoutExpired:
+            raise libcosim.EngineError(f"ecos did not finish {ssp_path.name} within {timeout:g} s") from None
+        files = list(Path(tmp).glob("*.csv"))
+        if proc.returncode != 0 or len(files) != 1:
+            text = (proc.stdout + proc.stderr).strip()[-2000:]
+            raise libcosim.EngineError(f"ecos failed on {ssp_path.name} (exit code {proc.returncode}):\n{text}")
+        with open(files[0], newline="") as fh:
+            rows = list(csv.reader(fh, skipinitialspace=True))
+    header, body = rows[0], np.array(rows[1:], dtype=float)
+    body = body[:round(stop_time / step_size) + 1]
+    expected = step_size * np.arange(len(body))
+    if len(body) != round(stop_time / step_size) + 1 or np.max(np.abs(body[:, header.index("time")] - expected)) > 1e-6:
+        raise libcosim.EngineError(f"ecos wrote {len(body)} rows not on the grid of {step_size:g} s to {stop_time:g} s")
+    out = {"time": body[:, header.index("time")]}
+    for j, col in enumerate(header):
+        if col.endswith("[REAL]"):
+            inst, var = col[:-len("[REAL]")].split("::", 1)
+            out[f"{inst}.{var}"] = body[:, j]
+    return out
+
+
+def _deviation(ref: dict[str, np.ndarray], other: dict[str, np.ndarray], tol: Tolerance
+               ) -> tuple[float, str, bool]:
+    """Largest ratio of deviation to allowance, the variable, and whether all are within
+    (``ref`` and ``other`` aligned sample by sample)."""
+    worst, worst_name, ok = 0.0, "", True
+    for q in ref:
+        a, b = np.asarray(ref[q]), np.asarray(other[q])
+        if a.shape != b.shape:
+            return math.inf, f"{q}: {b.size} samples, expected {a.size}", False
+        allow = tol.atol + tol.rtol * float(np.max(np.abs(a), initial=0.0))
+        dev = float(np.max(np.abs(a - b), initial=0.0)) if np.all(np.isfinite(b)) else math.inf
+        ok &= dev <= allow
+        ratio = dev / allow if allow > 0 else (0.0 if dev == 0 else math.inf)
+        if ratio >= worst:
+            worst, worst_name = ratio, f"{q} ({dev:.3g})"
+    return worst, worst_name, ok
+
+
+def _ecos_alone(paths: dict[str, Path], stop_time: float, step_size: float
+                ) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
+    """Each native FMU of ``paths`` alone in ecos and in the master (default parameters and
+    inputs): the master's outputs and ecos's, by ``file.variable``."""
+    ref, got = {}, {}
+    for path in sorted({p for p in paths.values() if not p.name.endswith("_py.fmu")}):
+        with CoSimulation({"alone": path}) as sim:
+            outs = [v.name for v in sim.components["alone"].model_description.modelVariables
+                    if v.causality == "output" and v.type == "Real"]
+            res = sim.run(stop_time, step_size, record=[f"alone.{v}" for v in outs])
+        with tempfile.TemporaryDirectory(prefix="satfmu_ecos_ssp_") as tmp:
+            one = Path(tmp) / path.name
+            one.write_bytes(path.read_bytes())
+            cols = run_ecos(one, stop_time, step_size, alone=True)
+        for v in outs:
+            ref[f"{path.stem}.{v}"], got[f"{path.stem}.{v}"] = res[f"alone.{v}"], cols.get(f"instance.{v}")
+    return ref, got
+
+
+def feedthrough_outputs(sim: CoSimulation) -> set[str]:
+    """Qualified Real outputs that depend directly on an input of their FMU (modelDescription
+    ``ModelStructure``)."""
+    out = set()
+    for c in sim.components.values():
+        for unknown in c.model_description.outputs:
+            if any(dep.causality == "input" for dep in unknown.dependencies or []):
+                out.add(f"{c.name}.{unknown.variable.name}")
+    return out
+
+
+def _master(scenario: Scenario, fmu_dir: Path, backend: str, exchange: str
+            ) -> tuple[np.ndarray, list[str], CoSimulation]:
+    """A master run of the scenario as its SSP file has it (profiles as signal-generator FMUs)
+    recording the scenario's variables and every Real output; returns the run, the outputs'
+    names and the (closed) master."""
+    d = scenario.data
+    paths = fmu_paths(scenario, fmu_dir, backend)
+    sig_paths, sig_params, sig_conns = ssp.signal_components(scenario, fmu_dir, Path(fmu_dir) / "signal_tables")
+    sim = CoSimulation(paths | sig_paths)
+    try:
+        for c in list(d.get("connections", [])) + sig_conns:
+            sim.connect(c["from"], c["to"])
+        record = [f"{c.name}.{v.name}" for c in sim.components.values()
+                  for v in c.model_description.modelVariables if v.causality == "output" and v.type == "Real"]
+        params = {inst: spec.get("parameters", {}) for inst, spec in d["fmus"].items()} | sig_params
+        res = sim.run(d["stop_time"], d["step_size"], d.get("start_time", 0.0), params,
+                      list(dict.fromkeys(recorded(scenario, sim) + record)), exchange_order=exchange)
+    finally:
+        sim.close()
+    return res, record, sim
+
+
+def verify(name_or_path: str | Path, fmu_dir: Path, out_dir: Path, backend: str = "native",
+           engines: tuple[str, ...] = ("libcosim", "ecos")) -> ScenarioReport:
+    """Verify one scenario against the other engines (see the module docstring).
+
+    Parameters
+    ----------
+    name_or_path : str or Path
+        Scenario.
+    fmu_dir : Path
+        The built FMUs (``satfmu build``).
+    out_dir : Path
+        Receives ``<scenario>.ssp``.
+    backend : {"native", "python"}
+        Default FMU backend of the scenario's instances.
+    engines : tuple of str
+        Subset of ``("libcosim", "ecos")``.
+    """
+    scenario = load(name_or_path)
+    d = scenario.data
+    ssp_path = ssp.export(scenario.path, fmu_dir, out_dir, backend)
+    paths = fmu_paths(scenario, fmu_dir, backend)
+    t0 = time.perf_counter()
+    res_ft, record, sim = _master(scenario, fmu_dir, backend, "feedthrough")
+    master_seconds = time.perf_counter() - t0
+    metrics, _ = evaluate(scenario, res_ft, sim)
+    res_j, _, _ = _master(scenario, fmu_dir, backend, "jacobi")
+    direct = feedthrough_outputs(sim)
+    order_dev = max((float(np.max(np.abs(res_ft[q] - res_j[q])) / max(1e-300, float(np.max(np.abs(res_j[q])))))
+                     for q in record if np.any(res_j[q] != 0)), default=0.0)
+    report = ScenarioReport(scenario.name, str(ssp_path), len(record), len(res_j), master_seconds,
+                            all(m.passed for m in metrics), order_dev)
+    own = d.get("verify")
+    for engine in engines:
+        tol = TOLERANCES[engine]
+        if own:  # the scenario's own, wider tolerance (its TOML says why)
+            tol = Tolerance(max(tol.atol, own.get("atol", 0.0)), max(tol.rtol, own.get("rtol", 0.0)),
+                            f"scenario [verify]: {own['reason']}")
+        t0 = time.perf_counter()
+        try:
+            if engine == "libcosim":
+                other = libcosim.run(ssp_path, record, d["stop_time"], d["step_size"], d.get("start_time", 0.0))
+                got = {q: other[q] for q in record}
+                # libcosim samples t_1 ... t_n, and a feedthrough output only as passed on (from
+                # the previous point's inputs), which the master never records: those are
+                # checked through what they drive
+                ref = {q: res_j[q][1:] for q in record if q not in direct}
+            elif engine == "ecos" and any(p.name.endswith("_py.fmu") for p in paths.values()):
+                ref, got = _ecos_alone(paths, d["stop_time"], d["step_size"])
+                engine = "ecos (each native FMU alone)"
+            elif engine == "ecos":
+                got = run_ecos(ssp_path, d["stop_time"], d["step_size"])
+                ref = {q: res_j[q] for q in record}
+            else:
+                raise ValueError(f"unknown engine {engine!r}; use libcosim or ecos")
+        except libcosim.EngineError as exc:
+            report.comparisons.append(Comparison(engine, time.perf_counter() - t0, math.inf, "", tol, False, str(exc)))
+            continue
+        missing = [q for q in ref if got.get(q) is None]
+        if missing:
+            report.comparisons.append(Comparison(engine, time.perf_counter() - t0, math.inf, "", tol, False,
+                                                 f"{engine} did not report {missing[:5]}"))
+            continue
+        worst, name, ok = _deviation(ref, got, tol)
+        report.comparisons.append(Comparison(engine, time.perf_counter() - t0, worst, name, tol, ok))
+    return report
+
+
+def markdown(reports: list[ScenarioReport]) -> str:
+    """The reports as a Markdown table (one row per scenario and engine)."""
+    lines = ["| scenario | engine | variables x points | max deviation / allowance (worst variable) | "
+             "time, s | result |", "|---|---|---|---|---|---|"]
+    for r in reports:
+        lines.append(f"| {r.scenario} | satfmu master (feedthrough order) | {r.n_variables} x {r.n_points} | "
+                     f"{r.order_deviation:.2g} relative to Jacobi order (not gated) | {r.master_seconds:.2f} | "
+                     f"metrics {'pass' if r.metrics_passed else 'FAIL'} |")
+        for c in r.comparisons:
+            what = c.error.splitlines()[0] if c.error else f"{c.max_deviation:.3g} ({c.worst_variable})"
+            lines.append(f"| {r.scenario} | {c.engine} vs master (Jacobi order) | {r.n_variables} x {r.n_points} | "
+                         f"{what} | {c.seconds:.2f} | {'pass' if c.passed else 'FAIL'} |")
+    lines += ["", "Tolerances (per variable, |a - b| <= atol + rtol max|a|):"]
+    lines += [f"- {e}: atol {t.atol:g}, rtol {t.rtol:g}: {t.reason}" for e, t in TOLERANCES.items()]
+    lines += [f"- {r.scenario}: atol {c.tolerance.atol:g}, rtol {c.tolerance.rtol:g} ({c.engine}): "
+              f"{c.tolerance.reason}" for r in reports for c in r.comparisons
+              if c.tolerance and c.tolerance.reason.startswith("scenario")]
+    return "\n".join(lines) + "\n"
+
+
+def write(reports: list[ScenarioReport], out_dir: Path) -> tuple[Path, Path]:
+    """Write ``verify.md`` and ``verify.json`` into ``out_dir`` (atomically)."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    md, js = out_dir / "verify.md", out_dir / "verify.json"
+    payload = [dict(asdict(r), passed=r.passed) for r in reports]
+    for path, text in ((md, markdown(reports)), (js, json.dumps(payload, indent=2, default=str))):
+        tmp = path.with_name(path.name + ".part")
+        tmp.write_text(text)
+        tmp.replace(path)
+    return md, js

@@ -1,0 +1,97 @@
+"""Signal-generator FMUs (fmus/signals.py) against the master's profiles (sims/profiles.py).
+
+Every profile kind is built as its generator FMU (native), stepped by the master alone, and
+its output compared with :meth:`Profile.sample` on the communication grid. Both come from one
+definition (the generator's expression or table), so the tolerance is rounding: 1e-12
+relative to the signal's magnitude covers the C library's sin/cos against numpy's (1 ulp) and
+the linear interpolation's one rounding.
+"""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from fmus import export, signals
+from fmus.model import ModelDefinitionError, Table
+from sims.master import CoSimulation, communication_times
+from sims.profiles import ProfileError, make
+
+STOP, STEP = 10.0, 0.05
+GRID = communication_times(0.0, STEP, round(STOP / STEP))
+
+CASES = {
+    "constant": {"kind": "constant", "value": -1.5},
+    "step": {"kind": "step", "time": 5.0, "before": 2.0, "after": -1.0},
+    "step_between_points": {"kind": "step", "time": 3.33, "before": 0.0, "after": 1.0},
+    "table_previous": {"kind": "table", "times": [0.0, 2.5, 7.0], "values": [1.0, -2.0, 3.0]},
+    "table_linear": {"kind": "table", "times": [1.0, 2.5, 7.0], "values": [1.0, -2.0, 3.0],
+                     "interpolation": "linear"},
+    "sinusoid": {"kind": "sinusoid", "amplitude": 0.3, "frequency_Hz": 0.7, "phase_rad": 0.2, "offset": 0.1},
+    "random": {"kind": "random", "seed": 7, "std": 0.5, "mean": 0.1, "hold": 0.2},
+    "cosine_ramp": {"kind": "cosine_ramp", "start": 4.0, "stop": 8.0, "before": 0.1, "after": 1.1},
+    "cosine_ramp_d1": {"kind": "cosine_ramp", "start": 4.0, "stop": 8.0, "before": 0.1, "after": 1.1,
+                       "derivative": 1},
+    "cosine_ramp_d2": {"kind": "cosine_ramp", "start": 4.0, "stop": 8.0, "before": 0.1, "after": 1.1,
+                       "derivative": 2},
+}
+
+
+@pytest.mark.parametrize("case", list(CASES))
+def test_generator_fmu_reproduces_the_profile_on_the_grid(case: str, tmp_path: Path, fmu_dir: Path) -> None:
+    prof = make(dict(CASES[case]), case, step_size=STEP)
+    model, params = prof.generator(GRID)
+    path = export.build_native(model, tmp_path) if model.tables else fmu_dir / f"{model.name}.fmu"
+    with CoSimulation({"g": path}) as sim:
+        res = sim.run(STOP, STEP, parameters={"g": params}, record=["g.y"])
+    want = prof.sample(GRID)
+    scale = max(1.0, float(np.max(np.abs(want))))
+    np.testing.assert_allclose(res["g.y"], want, rtol=0, atol=1e-12 * scale)
+    assert np.ptp(want) > 0 or case == "constant"  # the case really varies
+
+
+def test_step_at_a_communication_point_jumps_there_despite_rounding() -> None:
+    # 0.1 * 3 = 0.30000000000000004 and 3 * 0.1 vs 0.3: the jump must land on the point whose
+    # time rounds either side of 0.3 (time tolerance 1e-9)
+    prof = make({"kind": "step", "time": 0.3, "before": 0.0, "after": 1.0})
+    assert prof.sample(np.array([0.1 * 3, 0.3 - 1e-15, 0.3 - 1e-6]))[:2].tolist() == [1.0, 1.0]
+    assert prof.sample(np.array([0.3 - 1e-6]))[0] == 0.0
+
+
+def test_random_table_is_a_prefix_of_one_stream() -> None:
+    # the generator's table over a short horizon equals the profile's values on a longer one
+    prof = make({"kind": "random", "seed": 3, "std": 1.0, "hold": 0.5})
+    long = prof.sample(np.arange(0.0, 20.0, 0.5))
+    model, _ = prof.generator(np.arange(0.0, 5.0, 0.5))
+    assert model.tables[0].values == tuple(long[:10])
+
+
+def test_table_generator_name_is_a_hash_of_its_data() -> None:
+    a = signals.table(Table((0.0, 1.0), (1.0, 2.0), "linear"))
+    b = signals.table(Table((0.0, 1.0), (1.0, 2.0), "linear"))
+    c = signals.table(Table((0.0, 1.0), (1.0, 2.0), "previous"))
+    assert a.name == b.name != c.name and a.name.startswith("signal_table_")
+
+
+@pytest.mark.parametrize("times,values,mode,message", [
+    ([], [], "linear", "non-zero length"),
+    ([0.0, 1.0], [1.0], "linear", "equal"),
+    ([0.0, 0.0], [1.0, 2.0], "linear", "strictly increasing"),
+    ([0.0, math.nan], [1.0, 2.0], "linear", "finite"),
+    ([0.0, 1.0], [1.0, 2.0], "cubic", "interpolation"),
+])
+def test_bad_tables_are_refused(times: list, values: list, mode: str, message: str) -> None:
+    with pytest.raises(ModelDefinitionError, match=message):
+        Table(tuple(times), tuple(values), mode)
+    with pytest.raises(ProfileError, match=message):
+        make({"kind": "table", "times": times, "values": values, "interpolation": mode}, "p")
+
+
+def test_table_lookup_index_is_checked() -> None:
+    from fmus.model import Model, Output, TableLookup, Variable
+
+    with pytest.raises(ModelDefinitionError, match="reads no table"):
+        Model("bad", "", [], [], [], [Output(Variable("y"), TableLookup(1, Model.t))],
+              tables=[Table((0.0,), (1.0,))])
