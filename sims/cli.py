@@ -5,6 +5,8 @@
     satfmu run SCENARIO [SCENARIO ...] [--backend native|python] [--fmu-dir DIR] [--out results]
     satfmu list
     satfmu export-ssp SCENARIO [SCENARIO ...] [--backend native|python] [--fmu-dir DIR] [--out DIR]
+    satfmu verify [SCENARIO ...] [--engines libcosim ecos] [--fmu-dir DIR] [--out results/verify]
+    satfmu robustness [--fmu NAME ...] [--cycles 1000] [--fmu-dir DIR] [--out results/robustness]
     satfmu synth mrp-hinf [--name mrp_hinf_satfmu] [--out controllers/artifacts] [--fmu-dir DIR] ...
     satfmu synth mrp-h2hinf --gamma G [--variant slack|common] [--region 0.45] [--name ...] ...
     satfmu synth vscmg-sdre [--grid 23 25] [--max-degree 8] [--cv-tol TOL] [--out ...] [--fmu-dir DIR]
@@ -19,7 +21,10 @@
     satfmu l2 CONTROLLER [--rate-max 0.2] [--sigma-max 0.9] [--samples 200000]
     satfmu region vscmg-sdre [--artifact NAME] [--box-q2 LO HI] [--box-w4 LO HI] [--cells 7 6] [--out DIR]
 
-``run`` exits with status 1 when a metric misses its bound, 2 on an error. ``synth``
+``run`` exits with status 1 when a metric misses its bound, 2 on an error. ``verify`` runs
+scenarios (default: every shipped one) in our master, libcosim and ecos and compares them
+(:mod:`sims.verify`); ``robustness`` drives every FMU through misuse cases
+(:mod:`sims.robustness`); both exit with status 1 on a failure. ``synth``
 runs a design (seed 000's two-step iteration, or seed 001's Theorem 8 with its alpha/beta
 search and closed-loop check), writes the controller's artifact and builds its FMUs.
 ``sweep`` writes the gamma-lambda trade-off of both Theorem 8 variants (CSV and PNG). ``l2`` reports the three L2-gain estimates of a controller (name of a shipped
@@ -92,6 +97,32 @@ def _export_ssp(args: argparse.Namespace) -> int:
             print(f"error: {exc}", file=sys.stderr)
             failed += 1
     return 1 if failed else 0
+
+
+def _verify(args: argparse.Namespace) -> int:
+    from sims import verify
+
+    names = args.scenarios or sorted(p.stem for p in scenario.SCENARIOS.glob("*.toml"))
+    reports = []
+    for name in names:
+        print(f"verifying {name} ...", file=sys.stderr, flush=True)
+        reports.append(verify.verify(name, Path(args.fmu_dir), Path(args.out), args.backend, tuple(args.engines)))
+        print(verify.markdown(reports[-1:]).split("\n\n")[0], flush=True)
+    md, js = verify.write(reports, Path(args.out))
+    failed = [r.scenario for r in reports if not r.passed]
+    print(f"{len(reports) - len(failed)}/{len(reports)} scenarios pass; report: {md}, {js}")
+    if failed:
+        print(f"failed: {', '.join(failed)}", file=sys.stderr)
+    return 1 if failed else 0
+
+
+def _robustness(args: argparse.Namespace) -> int:
+    from sims import robustness
+
+    argv = ["--fmu-dir", args.fmu_dir, "--cycles", str(args.cycles), "--out", args.out]
+    for name in args.fmu or []:
+        argv += ["--fmu", name]
+    return robustness.main(argv)
 
 
 def _markdown(summaries: list[dict]) -> str:
@@ -442,6 +473,19 @@ def main(argv: list[str] | None = None) -> int:
     ex.add_argument("--fmu-dir", default=str(catalog.DEFAULT_FMU_DIR))
     ex.add_argument("--out", default="results/ssp", help="folder (or .ssp path for one scenario)")
     ex.set_defaults(fn=_export_ssp)
+    ve = sub.add_parser("verify", help="run scenarios in our master, libcosim and ecos and compare them")
+    ve.add_argument("scenarios", nargs="*", help="default: every shipped scenario")
+    ve.add_argument("--backend", choices=sorted(scenario.BACKENDS), default="native")
+    ve.add_argument("--engines", nargs="+", choices=["libcosim", "ecos"], default=["libcosim", "ecos"])
+    ve.add_argument("--fmu-dir", default=str(catalog.DEFAULT_FMU_DIR))
+    ve.add_argument("--out", default="results/verify", help="folder of the SSP files and the report")
+    ve.set_defaults(fn=_verify)
+    rb = sub.add_parser("robustness", help="drive every FMU through misuse cases (table of cases x FMUs)")
+    rb.add_argument("--fmu", action="append", help="FMU file name in --fmu-dir (repeatable; default: all)")
+    rb.add_argument("--cycles", type=int, default=1000, help="instantiate/free cycles per FMU")
+    rb.add_argument("--fmu-dir", default=str(catalog.DEFAULT_FMU_DIR))
+    rb.add_argument("--out", default="results/robustness")
+    rb.set_defaults(fn=_robustness)
     ls = sub.add_parser("list", help="list the shipped scenarios")
     ls.set_defaults(fn=_list)
     sy = sub.add_parser("synth", help="synthesize a controller, write its artifact, build its FMUs")
