@@ -1,0 +1,122 @@
+"""The robustness suite of ``sims.robustness`` over every built FMU, and that it reports failures.
+
+The suite runs each FMU's cases in child processes; these tests check its verdicts (0 failures
+and 0 crashes on the FMUs built from the current tree) and that a broken FMU, an FMU that
+violates its own model description, and a worker that dies are reported as such.
+"""
+from __future__ import annotations
+
+import re
+import shutil
+import zipfile
+from pathlib import Path
+
+import pytest
+
+from sims import robustness
+from sims.robustness import CASES, CYCLES_CASE, NATIVE, PYTHONFMU, Report, rss_bound_kib
+
+FAST_CYCLES = 100
+"""Instantiate/free cycles of the fast run (1000 take ~2 min more, mostly demeter_flexible_py at
+48 ms per cycle); the RSS bound scales with them (rss_bound_kib)."""
+PLANT = "mrp_satellite.fmu"
+
+
+def _check_clean(report: Report, fmu_dir: Path, cycles: int) -> None:
+    """Every FMU of ``fmu_dir`` ran every case, with no failure, no crash and RSS within bound."""
+    bad = [f"{r.fmu} / {r.case}: {r.verdict} {r.detail}" for r in report.failures + report.crashes]
+    assert not bad, "\n".join(bad)
+    # discovery: every *.fmu of the folder is covered, each with one row per case
+    assert sorted(report.fmus) == sorted(p.stem for p in fmu_dir.glob("*.fmu"))
+    assert len(report.rows) == len(report.fmus) * len(CASES)
+    for backend in (NATIVE, PYTHONFMU):
+        growth = report.rss_growth_kib(backend)
+        # the cycles case ran on every FMU of the backend (it is never n/a) ...
+        assert set(growth) == {r.fmu for r in report.rows if r.backend == backend}
+        # ... and the suite's verdict already includes the bound; checked here explicitly too
+        assert max(growth.values()) <= rss_bound_kib(backend, cycles)
+    # cases that need no particular variable are never n/a (n/a only means "no such variable")
+    unconditional = {c.name for c in CASES if c.applies is robustness.always_applies}
+    assert not [r for r in report.rows if r.verdict == "n/a" and r.case in unconditional]
+
+
+def test_suite_over_every_fmu(fmu_dir: Path, tmp_path: Path) -> None:
+    """All cases on all FMUs of the session's build, 100 cycles: no failure, no crash (~35 s on
+    2 cores, after the session's build of the FMUs)."""
+    report = robustness.run(fmu_dir, cycles=FAST_CYCLES, out=tmp_path / "robustness")
+    _check_clean(report, fmu_dir, FAST_CYCLES)
+    table = (tmp_path / "robustness.md").read_text()
+    assert "| case |" in table and "FAIL" not in table and "CRASH" not in table
+    # one CSV line per row plus the header
+    assert len((tmp_path / "robustness.csv").read_text().splitlines()) == len(report.rows) + 1
+
+
+@pytest.mark.slow
+def test_suite_over_every_fmu_full(fmu_dir: Path, tmp_path: Path) -> None:
+    """The issue's run: 1,000 instantiate/free cycles per FMU (~2.5 min)."""
+    report = robustness.run(fmu_dir, cycles=1000, out=tmp_path / "robustness")
+    _check_clean(report, fmu_dir, 1000)
+
+
+def _copy_fmu(src: Path, dest: Path, edit: dict[str, bytes]) -> Path:
+    """A copy of the FMU ``src`` at ``dest`` with the archive members of ``edit`` replaced."""
+    with zipfile.ZipFile(src) as zin, zipfile.ZipFile(dest, "w", zipfile.ZIP_DEFLATED) as zout:
+        for item in zin.infolist():
+            zout.writestr(item, edit.get(item.filename, zin.read(item.filename)))
+    return dest
+
+
+def test_broken_binary_fails_every_case(fmu_dir: Path, tmp_path: Path) -> None:
+    """A native FMU whose shared library is garbage cannot be loaded: every case that applies FAILs
+    (none passes, none is a crash: loading fails with an exception, caught per case)."""
+    src = fmu_dir / PLANT
+    with zipfile.ZipFile(src) as z:
+        binary = next(n for n in z.namelist() if n.startswith("binaries/linux64/"))
+    broken = _copy_fmu(src, tmp_path / "broken_plant.fmu", {binary: b"\x7fELF garbage" * 100})
+    # 5 cycles and a far step of 1 default step: these tests are about the verdicts, not the sizes
+    report = robustness.run(tmp_path, cycles=5, far_factor=1.0)
+    assert report.fmus == ["broken_plant"]  # discovered by its file name alone
+    verdicts = {r.verdict for r in report.rows}
+    assert verdicts == {"fail"}  # mrp_satellite has an input and ranged parameters: no case is n/a
+    assert all("cannot instantiate" in r.detail for r in report.rows)
+    assert robustness.main(["--fmu-dir", str(tmp_path), "--cycles", "5", "--far-factor", "1"]) == 1
+    assert broken.exists()
+
+
+def test_fmu_violating_its_description_fails(fmu_dir: Path, tmp_path: Path) -> None:
+    """An FMU whose modelDescription.xml declares a maximum its binary does not enforce: the
+    binary accepts the out-of-range value, so "parameter > max" FAILs (status OK, not Error)."""
+    src = fmu_dir / PLANT
+    with zipfile.ZipFile(src) as z:
+        xml = z.read("modelDescription.xml").decode()
+    # I_x (the first parameter, start 15) gets max = 20 kg m^2; the C code still allows up to +inf
+    edited, n = re.subn(r'(name="I_x".*?<Real\b)', r'\1 max="20.0"', xml, count=1, flags=re.DOTALL)
+    assert n == 1
+    _copy_fmu(src, tmp_path / "lying_plant.fmu", {"modelDescription.xml": edited.encode()})
+    report = robustness.run(tmp_path, cycles=5, far_factor=1.0)
+    rows = {r.case: r for r in report.rows}
+    assert rows["parameter > max"].verdict == "fail"
+    assert rows["parameter > max"].got == "OK" and "expected Error" in rows["parameter > max"].detail
+    # everything else still passes: the failure is that one case, not a broken run
+    assert [r.case for r in report.failures] == ["parameter > max"] and not report.crashes
+
+
+def test_worker_crash_is_reported_and_the_rest_runs(fmu_dir: Path, tmp_path: Path,
+                                                    monkeypatch: pytest.MonkeyPatch) -> None:
+    """A worker that dies (os.abort through the test hook) in one case: that case is a CRASH with the
+    signal, and every other case still runs, in a new worker, and passes."""
+    victim = "doStep h < 0"  # in the middle of the list: cases before and after it must run
+    monkeypatch.setenv(robustness.ABORT_ENV, victim)
+    fmus = tmp_path / "fmus"
+    fmus.mkdir()
+    shutil.copy(fmu_dir / PLANT, fmus)
+    report = robustness.run(fmus, cycles=5, out=tmp_path / "rob", far_factor=1.0)
+    rows = {r.case: r for r in report.rows}
+    assert rows[victim].verdict == "crash" and rows[victim].got == "CRASH"
+    assert "SIGABRT" in rows[victim].detail and "during this case" in rows[victim].detail
+    assert [r.case for r in report.crashes] == [victim] and not report.failures
+    assert {r.verdict for c, r in rows.items() if c != victim} == {"pass"}
+    assert rows[CYCLES_CASE].metrics["rss_growth_kib"] <= rss_bound_kib(NATIVE, 5)  # the last case ran
+    assert "| doStep h < 0 | CRASH |" in (tmp_path / "rob.md").read_text()
+    assert not list(tmp_path.glob("*.tmp"))  # written atomically: no temporary file left
+    assert robustness.main(["--fmu-dir", str(fmus), "--cycles", "5", "--far-factor", "1"]) == 1
