@@ -194,10 +194,7 @@ def _ecos_alone(paths: dict[str, Path], stop_time: float, step_size: float
             outs = [v.name for v in sim.components["alone"].model_description.modelVariables
                     if v.causality == "output" and v.type == "Real"]
             res = sim.run(stop_time, step_size, record=[f"alone.{v}" for v in outs])
-        with tempfile.TemporaryDirectory(prefix="satfmu_ecos_ssp_") as tmp:
-            one = Path(tmp) / path.name
-            one.write_bytes(path.read_bytes())
-            cols = run_ecos(one, stop_time, step_size, alone=True)
+        cols = run_ecos(path, stop_time, step_size, alone=True)
         for v in outs:
             ref[f"{path.stem}.{v}"], got[f"{path.stem}.{v}"] = res[f"alone.{v}"], cols.get(f"instance.{v}")
     return ref, got
