@@ -1,12 +1,17 @@
 # satfmu: `make demo` and `make test` do all set-up on a fresh Python 3.11 machine.
+# Each stage prints one line (wall and CPU time, last line of its output); its full output is
+# in build/logs/ (scripts/stage.sh). `make verify` runs every scenario in every engine.
 PYTHON ?= python3.11
 VENV := .venv
 PY := $(VENV)/bin/python
 SATFMU := $(VENV)/bin/satfmu
+STAGE := scripts/stage.sh
 FMU_DIR := build/fmus
 SCENARIOS := mrp_200deg mrp_200deg_sat mrp_320deg_sat mrp_eq44 mrp_200deg_synth mrp_320deg_sat_synth mrp_eq44_synth mrp_90deg_h2 mrp_200deg_h2hinf mrp_320deg_sat_h2hinf mrp_eq44_h2hinf vscmg_seed vscmg_seed_friction cubesat_detumble
+# the demo's verification: one scenario per plant family, native FMUs only (seconds each)
+VERIFY_SHORT := mrp_200deg mrp_90deg_h2 cubesat_detumble
 
-.PHONY: demo test test-all build validate bench clean system-deps
+.PHONY: demo test test-all build validate verify bench clean system-deps
 
 # Debian's libtbb12 is needed by the ecos co-simulation host (ecospy); installed once, guarded.
 system-deps: $(VENV)/.system-deps
@@ -14,7 +19,7 @@ $(VENV)/.system-deps:
 	@mkdir -p $(VENV)
 	@if ldconfig -p 2>/dev/null | grep -q 'libtbb.so.12'; then :; \
 	elif command -v apt-get >/dev/null 2>&1 && [ "$$(id -u)" = 0 ]; then \
-	  (apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq libtbb12 >/dev/null) \
+	  (apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq libtbb12 >/dev/null 2>&1) \
 	  || { echo "error: apt-get could not install libtbb12 (needed by the ecos FMU host)"; exit 1; }; \
 	else echo "error: libtbb12 is missing; install Debian's libtbb12 (needed by the ecos FMU host)"; exit 1; fi
 	@command -v gcc >/dev/null || { echo "error: gcc is needed to compile the native FMUs"; exit 1; }
@@ -22,37 +27,46 @@ $(VENV)/.system-deps:
 
 $(VENV)/.installed: pyproject.toml | system-deps
 	@command -v $(PYTHON) >/dev/null || { echo "error: $(PYTHON) not found (Python 3.11 is required)"; exit 1; }
-	test -x $(PY) || $(PYTHON) -m venv $(VENV)
-	$(PY) -m pip install -q --upgrade pip
-	$(PY) -m pip install -q -e '.[test]'
-	@# ecospy's wheel ships its host binary without the executable bit
-	chmod +x $$($(PY) -c "import importlib.util, pathlib; print(pathlib.Path(importlib.util.find_spec('ecospy').origin).parent / 'binaries' / 'ecos')")
+	@$(STAGE) install sh -c 'set -e; test -x $(PY) || $(PYTHON) -m venv $(VENV); \
+	  $(PY) -m pip install -q --upgrade pip; $(PY) -m pip install -q -e ".[test]"; \
+	  chmod +x "$$($(PY) -c "import importlib.util, pathlib; print(pathlib.Path(importlib.util.find_spec(\"ecospy\").origin).parent / \"binaries\" / \"ecos\")")"; \
+	  echo "satfmu and its dependencies installed in $(VENV)"'
+	@# (ecospy's wheel ships its host binary without the executable bit: chmod above)
 	@touch $@
 
 build: $(VENV)/.installed
-	$(SATFMU) build --dest $(FMU_DIR)
+	@$(STAGE) "build FMUs" $(SATFMU) build --dest $(FMU_DIR)
 
 validate: build
-	$(SATFMU) validate --fmu-dir $(FMU_DIR)
+	@$(STAGE) validate $(SATFMU) validate --fmu-dir $(FMU_DIR)
 
 demo: build
-	$(SATFMU) validate --fmu-dir $(FMU_DIR)
-	$(SATFMU) run $(SCENARIOS) --fmu-dir $(FMU_DIR) --out results --summary results/summary.json
-	$(SATFMU) run mrp_200deg --backend python --fmu-dir $(FMU_DIR) --out results
-	$(SATFMU) detumble --fmu-dir $(FMU_DIR) --out results/cubesat
-	$(SATFMU) verify --fmu-dir $(FMU_DIR) --out results/verify
-	$(PY) bench/cosim_speed.py
-	@echo "plots, CSV and summaries (results/summary.md, results/summary.json) are in results/"
+	@$(STAGE) validate $(SATFMU) validate --fmu-dir $(FMU_DIR)
+	@$(STAGE) scenarios $(SATFMU) run $(SCENARIOS) --fmu-dir $(FMU_DIR) --out results --summary results/summary.json
+	@$(STAGE) "pythonfmu run" $(SATFMU) run mrp_200deg --backend python --fmu-dir $(FMU_DIR) --out results
+	@$(STAGE) detumble $(SATFMU) detumble --fmu-dir $(FMU_DIR) --out results/cubesat
+	@$(STAGE) "verify (short)" $(SATFMU) verify $(VERIFY_SHORT) --fmu-dir $(FMU_DIR) --out results/verify
+	@$(STAGE) "co-sim speed" $(PY) bench/cosim_speed.py --fmu-dir $(FMU_DIR)
+	@echo
+	@cat results/summary.md
+	@echo
+	@sed -n '/steps\/s/,$$p' build/logs/co-sim_speed.log
+	@echo "plots, CSV and summaries (results/summary.md, results/summary.json) are in results/; logs in build/logs/"
+
+verify: build
+	@$(STAGE) --show verify $(SATFMU) verify --fmu-dir $(FMU_DIR) --out results/verify
 
 test: build
-	$(PY) -m pytest -q
+	@$(STAGE) --show tests $(PY) -m pytest -q
 
 test-all: build
-	$(PY) -m pytest -q -m "slow or not slow"
+	@$(STAGE) --show "tests (all)" $(PY) -m pytest -q -m "slow or not slow"
 
 bench: build
-	$(PY) -m pip install -q -e '.[bench]'
-	$(PY) bench/cosim_speed.py
+	@$(PY) -m pip install -q -e '.[bench]' >build/logs/bench-install.log 2>&1 || { cat build/logs/bench-install.log; exit 1; }
+	$(PY) bench/build_speed.py
+	$(PY) bench/fresh_clone.py
+	$(PY) bench/cosim_speed.py --fmu-dir $(FMU_DIR)
 	$(PY) bench/sos_speed.py
 	$(PY) bench/sdre_speed.py
 

@@ -9,8 +9,6 @@ the pythonfmu FMU; the C file is included by the generic FMI wrapper
 """
 from __future__ import annotations
 
-import hashlib
-import json
 import math
 import uuid
 from dataclasses import dataclass
@@ -22,6 +20,7 @@ import sympy as sp
 from sympy.printing.c import C99CodePrinter
 from sympy.printing.pycode import PythonCodePrinter
 
+from fmus.digest import model_digest
 from fmus.model import TIME_TOL, Model, TableLookup
 
 KIND_PARAMETER, KIND_INPUT, KIND_OUTPUT = 0, 1, 2
@@ -98,10 +97,25 @@ def _dependency_order(assignments: list[tuple[sp.Symbol, sp.Expr]]) -> list[tupl
     return ordered
 
 
+_LOWERED: dict[str, tuple[LoweredFunction, ...]] = {}
+"""Lowered functions by model digest: a model is lowered once per process."""
+
+
 def functions(model: Model) -> list[LoweredFunction]:
     """The generated functions: derivatives, outputs, post_step (identity if absent),
     sample_arguments for a model with a :class:`fmus.model.Sampler`, and for the exact
-    integrator jacobian (``d rhs / d x`` row-major) and switch_time (``oo`` if not given)."""
+    integrator jacobian (``d rhs / d x`` row-major) and switch_time (``oo`` if not given).
+
+    Lowering (common subexpression elimination) is the expensive part of code generation;
+    its result is kept per :func:`fmus.digest.model_digest`, so the C, the Python and the
+    GUID of one model share one lowering."""
+    key = model_digest(model)
+    if key not in _LOWERED:
+        _LOWERED[key] = tuple(_lower_all(model))
+    return list(_LOWERED[key])
+
+
+def _lower_all(model: Model) -> list[LoweredFunction]:
     post = model.post_step if model.post_step is not None else sp.Matrix(model.state_symbols)
     out = [
         lower(model, "derivatives", list(model.rhs)),
@@ -146,12 +160,9 @@ def variable_table(model: Model) -> list[dict]:
 
 
 def model_guid(model: Model) -> str:
-    """Deterministic GUID: a hash of everything that defines the model's interface and equations."""
-    payload = json.dumps({"name": model.name, "variables": variable_table(model),
-                          "functions": [str(f) for f in functions(model)], "sampler": sampler_table(model),
-                          "tables": [[t.times, t.values, t.interpolation] for t in model.tables]},
-                         sort_keys=True)
-    return "{" + str(uuid.UUID(hashlib.sha256(payload.encode()).hexdigest()[:32])) + "}"
+    """Deterministic GUID: the model's digest (:func:`fmus.digest.model_digest`, everything that
+    defines its interface and equations) as a UUID."""
+    return "{" + str(uuid.UUID(model_digest(model)[:32])) + "}"
 
 
 # ----------------------------------------------------------------------------- Python
@@ -282,6 +293,13 @@ def _c_double(v: float | None, default: str) -> str:
     return repr(float(v))
 
 
+def require_c_form(model: Model) -> None:
+    """Raise ``ValueError`` if the model has no C form (it samples a Python function)."""
+    if model.sampler is not None and not model.sampler.is_expression:
+        raise ValueError(f"model {model.name!r} samples a Python function ({model.sampler.function}); "
+                         "it has no native FMU, build its pythonfmu FMU")
+
+
 def c_source(model: Model) -> str:
     """The model-specific C file included by the generic wrapper ``fmi2_cosim.c``.
 
@@ -290,9 +308,7 @@ def c_source(model: Model) -> str:
     ValueError
         If the model has a Python sampler (pythonfmu FMUs only).
     """
-    if model.sampler is not None and not model.sampler.is_expression:
-        raise ValueError(f"model {model.name!r} samples a Python function ({model.sampler.function}); "
-                         "it has no native FMU, build its pythonfmu FMU")
+    require_c_form(model)
     pr = _C()
     table = variable_table(model)
     n = {"NX": len(model.states), "NU": len(model.inputs), "NP": len(model.parameters),
@@ -340,7 +356,7 @@ def c_source(model: Model) -> str:
     sig["jacobian"] = sig["derivatives"]
     generated = functions(model)
     if model.sampler is None:  # the wrapper calls it only when NH > 0
-        generated.append(LoweredFunction("sample_arguments", [], []))
+        generated = generated + [LoweredFunction("sample_arguments", [], [])]
     for f in generated:
         lines.append(f"static void model_{f.name}({sig[f.name]}) {{")
         unused = "t x u p out" if f.name in ("outputs", "sample_arguments", "switch_time") else "t x xp u p out"

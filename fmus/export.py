@@ -4,19 +4,29 @@ The native FMU carries ``sources/`` (the generic wrapper and the generated model
 file) so other platforms can rebuild it (``fmpy compile``), and a Linux x86-64
 binary compiled here with gcc against the FMI headers that fmpy ships. The
 pythonfmu FMU embeds the generated Python module and :mod:`fmus.pyslave`.
+
+Builds are incremental: every FMU records, as its zip archive's comment, the digest of what
+its build read (:func:`fmus.digest.build_digest`: the model, the resources, the generators,
+the compiler), and a build whose destination already carries that digest does nothing. An
+FMU is written under a temporary name and renamed into place, so an interrupted build never
+leaves a partial file under the FMU's name.
 """
 from __future__ import annotations
 
+import os
 import shutil
 import subprocess
 import sys
 import tempfile
 import zipfile
+import zlib
+from functools import lru_cache
 from pathlib import Path
 from xml.etree.ElementTree import SubElement
 
 from fmus import codegen
 from fmus.description import Capabilities, model_description, to_xml_bytes
+from fmus.digest import build_digest
 from fmus.model import Model
 
 HERE = Path(__file__).resolve().parent
@@ -24,6 +34,7 @@ WRAPPER = HERE / "c" / "fmi2_cosim.c"
 PYSLAVE = HERE / "pyslave.py"
 PYTHON_SUFFIX = "_py"
 _ZIP_DATE = (2020, 1, 1, 0, 0, 0)
+_COMMENT_PREFIX = b"satfmu-build sha256:"
 
 
 class FmuBuildError(RuntimeError):
@@ -40,15 +51,56 @@ def fmi_headers() -> Path:
     return path
 
 
-def _zip_dir(src: Path, dest: Path) -> None:
-    """Deterministic zip of a directory tree (sorted entries, fixed timestamps)."""
+def _zip_dir(src: Path, dest: Path, digest: str) -> None:
+    """Deterministic zip of a directory tree (sorted entries, fixed timestamps), with the build
+    digest as the archive comment, written to a temporary name and renamed onto ``dest``."""
     dest.parent.mkdir(parents=True, exist_ok=True)
-    with zipfile.ZipFile(dest, "w", zipfile.ZIP_DEFLATED) as z:
-        for f in sorted(p for p in src.rglob("*") if p.is_file()):
-            info = zipfile.ZipInfo(str(f.relative_to(src)), _ZIP_DATE)
-            info.compress_type = zipfile.ZIP_DEFLATED
-            info.external_attr = 0o644 << 16
-            z.writestr(info, f.read_bytes())
+    partial = dest.with_name(f".{dest.name}.{os.getpid()}.partial")
+    try:
+        with zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as z:
+            for f in sorted(p for p in src.rglob("*") if p.is_file()):
+                info = zipfile.ZipInfo(str(f.relative_to(src)), _ZIP_DATE)
+                info.compress_type = zipfile.ZIP_DEFLATED
+                info.external_attr = 0o644 << 16
+                z.writestr(info, f.read_bytes())
+            z.comment = _COMMENT_PREFIX + digest.encode()
+        os.replace(partial, dest)
+    finally:
+        partial.unlink(missing_ok=True)
+
+
+def built_digest(fmu: Path) -> str | None:
+    """The build digest an FMU built here records, or None (no file, not a zip archive, built
+    elsewhere)."""
+    try:
+        with zipfile.ZipFile(fmu) as z:
+            comment = z.comment
+            if z.testzip() is not None:  # a member fails its CRC
+                return None
+    except (OSError, EOFError, zipfile.BadZipFile, zlib.error):  # unreadable or corrupt
+        return None
+    return comment[len(_COMMENT_PREFIX):].decode() if comment.startswith(_COMMENT_PREFIX) else None
+
+
+@lru_cache(maxsize=None)
+def toolchain(cc: str) -> str:
+    """The C compiler's identification (``cc --version``'s first line), part of a native build's
+    digest.
+
+    Raises
+    ------
+    FmuBuildError
+        If the compiler is not found.
+    """
+    if shutil.which(cc) is None:
+        raise FmuBuildError(f"C compiler {cc!r} not found (install gcc)")
+    proc = subprocess.run([cc, "--version"], capture_output=True, text=True)
+    return f"{cc}: {proc.stdout.splitlines()[0] if proc.stdout else proc.returncode}"
+
+
+def digest_of(model: Model, backend: str, resources: dict[str, bytes] | None = None, cc: str = "gcc") -> str:
+    """The build digest of ``model``'s FMU on ``backend`` (``"native"`` or ``"python"``)."""
+    return build_digest(model, backend, resources, toolchain(cc) if backend == "native" else "")
 
 
 def build_native(model: Model, dest_dir: Path, resources: dict[str, bytes] | None = None,
@@ -64,6 +116,11 @@ def build_native(model: Model, dest_dir: Path, resources: dict[str, bytes] | Non
     cc : str
         C compiler.
 
+    Returns
+    -------
+    Path
+        The FMU. Nothing is built when it already records this build's digest.
+
     Raises
     ------
     FmuBuildError
@@ -71,11 +128,14 @@ def build_native(model: Model, dest_dir: Path, resources: dict[str, bytes] | Non
         an error or a warning.
     """
     try:
-        model_c = codegen.c_source(model)
+        codegen.require_c_form(model)
     except ValueError as exc:  # a model the C code cannot express (a Python sampler)
         raise FmuBuildError(str(exc)) from None
-    if shutil.which(cc) is None:
-        raise FmuBuildError(f"C compiler {cc!r} not found (install gcc)")
+    dest = Path(dest_dir) / f"{model.name}.fmu"
+    digest = digest_of(model, "native", resources, cc)
+    if built_digest(dest) == digest:
+        return dest
+    model_c = codegen.c_source(model)
     with tempfile.TemporaryDirectory(prefix="satfmu_") as tmp:
         root = Path(tmp)
         src = root / "sources"
@@ -95,8 +155,7 @@ def build_native(model: Model, dest_dir: Path, resources: dict[str, bytes] | Non
         if proc.returncode != 0:
             raise FmuBuildError(f"compiling {model.name} failed:\n{proc.stderr}")
         _write_resources(root, resources)
-        dest = Path(dest_dir) / f"{model.name}.fmu"
-        _zip_dir(root, dest)
+        _zip_dir(root, dest, digest)
     return dest
 
 
@@ -129,11 +188,16 @@ def build_python(model: Model, dest_dir: Path, resources: dict[str, bytes] | Non
 
     The FMU needs, in the importing tool's Python, only pythonfmu's runtime (which
     it embeds) and the standard library; a model with a Python sampler also needs what its
-    module imports (numpy and scipy for the online SDRE).
+    module imports (numpy and scipy for the online SDRE). Nothing is built when the FMU
+    already records this build's digest.
     """
     from pythonfmu.builder import FmuBuilder
 
     cls = model.name + PYTHON_SUFFIX
+    dest = Path(dest_dir) / f"{cls}.fmu"
+    digest = digest_of(model, "python", resources)
+    if built_digest(dest) == digest:
+        return dest
     generated = f"satfmu_gen_{model.name}"
     with tempfile.TemporaryDirectory(prefix="satfmu_py_") as tmp:
         root = Path(tmp)
@@ -160,15 +224,13 @@ def build_python(model: Model, dest_dir: Path, resources: dict[str, bytes] | Non
             sampler = [codegen.sampler_module_name(model)] if python_sampler else []
             for mod in [cls, generated, "satfmu_pyslave"] + sampler:
                 sys.modules.pop(mod, None)
-        dest = Path(dest_dir) / f"{cls}.fmu"
-        dest.parent.mkdir(parents=True, exist_ok=True)
-        _repack(Path(fmu), dest)
+        _repack(Path(fmu), dest, digest)
     return dest
 
 
-def _repack(src: Path, dest: Path) -> None:
+def _repack(src: Path, dest: Path, digest: str) -> None:
     """Rewrite pythonfmu's zip deterministically (stable timestamps and order)."""
     with tempfile.TemporaryDirectory() as tmp:
         with zipfile.ZipFile(src) as z:
             z.extractall(tmp)
-        _zip_dir(Path(tmp), dest)
+        _zip_dir(Path(tmp), dest, digest)

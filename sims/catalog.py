@@ -1,8 +1,11 @@
 """Every FMU the project builds: the plant models and one controller per shipped artifact."""
 from __future__ import annotations
 
+import multiprocessing
+import os
 import subprocess
 import sys
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -50,15 +53,63 @@ def controller_source(art: artifacts.Artifact) -> FmuSource:
     return FmuSource(model, artifacts.resource(art))
 
 
-def build_all(dest: Path = DEFAULT_FMU_DIR, backends: tuple[str, ...] = ("native", "python")) -> list[Path]:
-    """Build every FMU into ``dest``; returns the FMU paths."""
-    built = []
-    for src in sources():
-        if "native" in backends and "native" in src.backends:
-            built.append(export.build_native(src.model, dest, src.resources))
-        if "python" in backends and "python" in src.backends:
-            built.append(export.build_python(src.model, dest, src.resources))
-    return built
+_BUILDERS = {"native": export.build_native, "python": export.build_python}
+_PENDING: list[tuple[FmuSource, str]] = []
+"""The builds the worker processes of :func:`build_all` take by index (inherited on fork)."""
+
+
+@dataclass(frozen=True)
+class BuildReport:
+    """What :func:`build_all` did."""
+
+    paths: list[Path]
+    """Every FMU of the catalog, in catalog order."""
+    built: list[Path]
+    """The FMUs built by this call (the others already recorded their build's digest)."""
+
+
+def _build_one(index: int, dest: Path) -> Path:
+    src, backend = _PENDING[index]
+    return _BUILDERS[backend](src.model, dest, src.resources)
+
+
+def build_all(dest: Path = DEFAULT_FMU_DIR, backends: tuple[str, ...] = ("native", "python"),
+              jobs: int | None = None) -> BuildReport:
+    """Build every FMU into ``dest``, in parallel processes.
+
+    An FMU whose file already records its build's digest is not rebuilt
+    (:func:`fmus.export.built_digest`), so a second call on unchanged models only reads digests.
+
+    Parameters
+    ----------
+    dest : Path
+        Folder of the FMUs.
+    backends : tuple of {"native", "python"}
+    jobs : int, optional
+        Worker processes (default: the number of CPUs); 1, or a platform without ``fork``,
+        builds in this process.
+    """
+    plan = [(src, b) for src in sources() for b in ("native", "python") if b in backends and b in src.backends]
+    paths = [_fmu_path(dest, src, b) for src, b in plan]
+    todo = [i for i, ((src, b), path) in enumerate(zip(plan, paths))
+            if export.built_digest(path) != export.digest_of(src.model, b, src.resources)]
+    jobs = min(jobs or os.cpu_count() or 1, len(todo))
+    _PENDING[:] = plan
+    try:
+        if jobs <= 1 or "fork" not in multiprocessing.get_all_start_methods():
+            for i in todo:
+                _build_one(i, Path(dest))
+        else:
+            with ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("fork")) as pool:
+                list(pool.map(_build_one, todo, [Path(dest)] * len(todo)))
+    finally:
+        _PENDING.clear()
+    return BuildReport(paths, [paths[i] for i in todo])
+
+
+def _fmu_path(dest: Path, src: FmuSource, backend: str) -> Path:
+    suffix = export.PYTHON_SUFFIX if backend == "python" else ""
+    return Path(dest) / f"{src.model.name}{suffix}.fmu"
 
 
 def validate(fmu: Path) -> list[str]:

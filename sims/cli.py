@@ -1,6 +1,6 @@
 """The ``satfmu`` command line: build, validate and run.
 
-    satfmu build [--dest build/fmus] [--backend native|python|all]
+    satfmu build [--dest build/fmus] [--backend native|python|all] [--jobs N]
     satfmu validate [--fmu-dir build/fmus]
     satfmu run SCENARIO [SCENARIO ...] [--backend native|python] [--fmu-dir DIR] [--out results]
     satfmu list
@@ -37,15 +37,27 @@ import argparse
 import json
 import math
 import sys
+import time
 from pathlib import Path
 
 from sims import catalog, scenario
 
 
+def _positive_int(text: str) -> int:
+    value = int(text)
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be a positive integer, got {text}")
+    return value
+
+
 def _build(args: argparse.Namespace) -> int:
     backends = ("native", "python") if args.backend == "all" else (args.backend,)
-    for p in catalog.build_all(Path(args.dest), backends):
+    start = time.perf_counter()
+    report = catalog.build_all(Path(args.dest), backends, jobs=args.jobs)
+    for p in report.built:
         print(f"built {p}")
+    print(f"{len(report.paths)} FMUs in {args.dest}: {len(report.built)} built, "
+          f"{len(report.paths) - len(report.built)} up to date ({time.perf_counter() - start:.1f} s)")
     return 0
 
 
@@ -78,6 +90,7 @@ def _run(args: argparse.Namespace) -> int:
         for k, f in res.files.items():
             print(f"     {k}: {f}")
         failed += not res.passed
+    print(f"{len(args.scenarios) - failed} of {len(args.scenarios)} scenarios pass ({args.backend} FMUs)")
     if args.summary:
         path = Path(args.summary)
         path.parent.mkdir(parents=True, exist_ok=True)
@@ -456,6 +469,8 @@ def main(argv: list[str] | None = None) -> int:
     b = sub.add_parser("build", help="build every FMU")
     b.add_argument("--dest", default=str(catalog.DEFAULT_FMU_DIR))
     b.add_argument("--backend", choices=["native", "python", "all"], default="all")
+    b.add_argument("--jobs", type=_positive_int, default=None,
+                   help="parallel build processes (default: one per CPU)")
     b.set_defaults(fn=_build)
     v = sub.add_parser("validate", help="fmpy validate + fmutool -check on every built FMU")
     v.add_argument("--fmu-dir", default=str(catalog.DEFAULT_FMU_DIR))

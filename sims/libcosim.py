@@ -4,13 +4,15 @@
 communication point. libcosim runs in a child process (:func:`run`): it is C++ behind ctypes,
 and an error inside a pythonfmu FMU's step, or a malformed file, ends the whole process, which
 must not be ours. The child is this module (``python -m sims.libcosim``), which writes the
-samples to an ``.npz`` file.
+samples to an ``.npz`` file. The child drives libcosim as libcosim's own tools do: all steps in
+one ``step(n)`` call, the variables recorded by a time-series observer inside libcosim, so
+no Python runs between two steps.
 
 Times in libcosim are integer nanoseconds: the step size is rounded to 1 ns, and a step that
 is not a whole number of nanoseconds is refused. libcosim's fixed-step algorithm exchanges
 data after each step in Jacobi order (every output is read, then every input set), so
 :meth:`sims.master.CoSimulation.run` with ``exchange="jacobi"`` is the run to compare with.
-Its observer samples each point right after the step, before the exchange: an input shows the
+The observer samples each point right after the step, before the exchange: an input shows the
 value used over the step that ended (:func:`run` shifts inputs back to the master's
 convention), and a direct-feedthrough output the value it passes on, computed from the
 previous point's inputs (the master records it from the new inputs; :mod:`sims.verify`
@@ -51,8 +53,13 @@ def nanoseconds(seconds: float, what: str) -> int:
 
 def _simulate(ssp: Path, record: Sequence[str], stop_time: float, step_size: float, start_time: float
               ) -> dict[str, np.ndarray]:
-    """Run in this process (the child): samples at t_1 ... t_n, by qualified name."""
-    from libcosimpy.CosimEnums import CosimVariableCausality
+    """Run in this process (the child): samples at t_1 ... t_n, by qualified name.
+
+    libcosim runs every step in one call (``step(n)``) and a time-series observer records the
+    variables inside libcosim, so no Python runs between steps; the samples are read at the end,
+    one call per variable.
+    """
+    from libcosimpy.CosimEnums import CosimVariableCausality, CosimVariableType
     from libcosimpy.CosimExecution import CosimExecution
     from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
     from libcosimpy.CosimObserver import CosimObserver
@@ -60,12 +67,13 @@ def _simulate(ssp: Path, record: Sequence[str], stop_time: float, step_size: flo
     log_output_level(CosimLogLevel.WARNING)
     step_ns = nanoseconds(step_size, "step_size")
     n_steps = round((stop_time - start_time) / step_size)
-    ex = CosimExecution.from_ssp_file(str(ssp), step_size=step_ns)
     if start_time != 0.0:
         raise EngineError("the SSP default experiment starts at 0 s in libcosim; start_time must be 0")
-    obs = CosimObserver.create_last_value()
+    ex = CosimExecution.from_ssp_file(str(ssp), step_size=step_ns)
+    obs = CosimObserver.create_time_series()
     ex.add_observer(obs)
-    reads: dict[int, list[tuple[str, int, bool]]] = {}
+    refs: dict[str, tuple[int, int]] = {}
+    inputs = []
     for q in record:
         inst, var = q.split(".", 1)
         idx = ex.slave_index_from_instance_name(inst)
@@ -74,18 +82,23 @@ def _simulate(ssp: Path, record: Sequence[str], stop_time: float, step_size: flo
         found = {v.name.decode(): v for v in ex.slave_variables(idx)}
         if var not in found:
             raise EngineError(f"libcosim: instance {inst!r} has no variable {var!r}")
-        is_input = found[var].causality == CosimVariableCausality.INPUT.value
-        reads.setdefault(idx, []).append((q, found[var].reference, is_input))
-    data = {q: np.empty(n_steps) for q in record}
-    inputs = [q for rows in reads.values() for q, _, is_in in rows if is_in]
-    for k in range(n_steps):
-        if not ex.step(1):
-            raise EngineError(f"libcosim: step {k + 1} failed")
-        for idx, rows in reads.items():
-            values = obs.last_real_values(idx, [r[1] for r in rows])
-            for (q, _, _), v in zip(rows, values):
-                data[q][k] = v
-    data["time"] = start_time + step_size * np.arange(1, n_steps + 1)
+        if found[var].causality == CosimVariableCausality.INPUT.value:
+            inputs.append(q)
+        refs[q] = (idx, found[var].reference)
+        if not obs.start_time_series(idx, found[var].reference, CosimVariableType.REAL):
+            raise EngineError(f"libcosim cannot observe {q!r}")
+    if not ex.step(n_steps):
+        raise EngineError(f"libcosim: a step of {n_steps} failed")
+    data: dict[str, np.ndarray] = {}
+    for q, (idx, vr) in refs.items():
+        times, steps, values = obs.time_series_real_samples(idx, vr, from_step=1, sample_count=n_steps)
+        if list(steps) != list(range(1, n_steps + 1)):
+            raise EngineError(f"libcosim recorded steps {steps[:3]}...{steps[-3:]} of {q!r}, "
+                              f"expected 1 ... {n_steps}")
+        data[q] = np.asarray(values, float)
+        data.setdefault("time", np.asarray(times, np.int64) / NS_PER_S)
+    if not refs:
+        data["time"] = step_size * np.arange(1, n_steps + 1)
     data["__inputs__"] = np.array(inputs, dtype=object)
     return data
 

@@ -93,13 +93,17 @@ def theorem1(model: Model = mrp_satellite.MODEL, k_degree: int = 2, rate_margin:
     ------
     synthesis.sos.SOSError
         If the program is infeasible (e.g. a strict margin globally).
+    ValueError
+        Bad arguments (checked before any program is built).
     """
+    m = 3
+    _check_arguments(len(model.states), m, k_degree, region, decay_rate, strict_margin, q_min,
+                     coefficient_bounds, coefficient_limit)
     t0 = time.perf_counter()
     xs = [s.symbol for s in model.states]
     n = len(xs)
     subs = {v.symbol: v.start for v in model.parameters}
     A = PolyMatrix.from_sympy(model.sdc.A.subs(subs), xs)  # type: ignore[union-attr]
-    m = 3
     Bf = PolyMatrix.from_sympy(sp.Matrix(sp.BlockMatrix([[sp.eye(m)], [sp.zeros(n - m, m)]])), xs)
     prog = SOSProgram(n)
     Qe = prog.new_symmetric(n)
@@ -108,16 +112,12 @@ def theorem1(model: Model = mrp_satellite.MODEL, k_degree: int = 2, rate_margin:
     M = A @ Q + (A @ Q).T + Bf @ K + (Bf @ K).T
     negM = PolyMatrix([[e.scale(-1.0) for e in row] for row in M.entries])
     if coefficient_limit is not None:
-        if not coefficient_limit > 0:
-            raise ValueError(f"coefficient limit must be > 0, got {coefficient_limit}")
         allk = sps.vstack([e.with_decision_size(prog.n_decision).C for row in K.entries for e in row],
                           format="csr")
         lim = np.full(allk.shape[0], float(coefficient_limit))
         prog.add_linear(allk, lim, kind="ge")
         prog.add_linear(-allk, lim, kind="ge")
     for (i, j), (lower, upper) in (coefficient_bounds or {}).items():
-        if not (0 <= i < m and 0 <= j < n):
-            raise ValueError(f"coefficient bound on K[{i}][{j}]: K is {m} x {n}")
         entry = K.entries[i][j]
         row = entry.C[np.flatnonzero(~entry.exps.any(axis=1))]
         if lower is not None:
@@ -130,10 +130,6 @@ def theorem1(model: Model = mrp_satellite.MODEL, k_degree: int = 2, rate_margin:
         label, proved = "global", f"global, semi-definite + LaSalle: dV/dt <= -{rate_margin:g} |P_w x|^2"
         prog.add_sos_matrix(_minus_const(negM, E), "-M - E", label=label)
     else:
-        if not 0 < region < 1:
-            raise ValueError(f"region radius must be in (0, 1), got {region}")
-        if decay_rate < 0:
-            raise ValueError(f"decay rate must be >= 0, got {decay_rate}")
         E = strict_margin * np.eye(n)
         label = f"|sigma| <= {region:g}"
         proved = f"strict on |sigma| <= {region:g}: dV/dt <= -{strict_margin:g} |P x|^2"
@@ -157,6 +153,28 @@ def theorem1(model: Model = mrp_satellite.MODEL, k_degree: int = 2, rate_margin:
     inertia = np.array([subs[sp.Symbol(f"I_{a}", real=True)] for a in "xyz"])
     Kt = [[K.entries[i][j].value(sol.y).scale(inertia[i]) for j in range(n)] for i in range(m)]
     return Theorem1Result(Qv, Kt, checks, proved, label, sol, timings)
+
+
+def _check_arguments(n: int, m: int, k_degree: int, region: float | None, decay_rate: float,
+                     strict_margin: float, q_min: float,
+                     coefficient_bounds: Mapping[tuple[int, int], tuple[float | None, float | None]] | None,
+                     coefficient_limit: float | None) -> None:
+    """Theorem 1's arguments, refused with ``ValueError`` before a program is built."""
+    if not (isinstance(k_degree, int) and k_degree >= 0):
+        raise ValueError(f"k_degree must be an integer >= 0, got {k_degree!r}")
+    if region is not None and not 0 < region < 1:
+        raise ValueError(f"region radius must be in (0, 1), got {region}")
+    if not decay_rate >= 0:
+        raise ValueError(f"decay rate must be >= 0, got {decay_rate}")
+    if region is not None and not strict_margin > 0:
+        raise ValueError(f"strict margin must be > 0, got {strict_margin}")
+    if not q_min > 0:
+        raise ValueError(f"q_min must be > 0, got {q_min}")
+    if coefficient_limit is not None and not coefficient_limit > 0:
+        raise ValueError(f"coefficient limit must be > 0, got {coefficient_limit}")
+    for (i, j) in coefficient_bounds or {}:
+        if not (0 <= i < m and 0 <= j < n):
+            raise ValueError(f"coefficient bound on K[{i}][{j}]: K is {m} x {n}")
 
 
 def _minus_const(M: PolyMatrix, E: np.ndarray) -> PolyMatrix:

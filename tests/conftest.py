@@ -1,4 +1,4 @@
-"""Shared fixtures: every FMU built once per session from the current source tree."""
+"""Shared fixtures: every FMU, up to date with the current source tree, built at most once."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -14,8 +14,12 @@ SIGMA_200 = {"sigma_0[1]": 0.5992, "sigma_0[2]": -0.7976, "sigma_0[3]": 0.6517}
 
 
 @pytest.fixture(scope="session")
-def fmu_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """Folder with all four FMUs (plant and published controller, native and pythonfmu)."""
-    dest = tmp_path_factory.mktemp("fmus")
+def fmu_dir() -> Path:
+    """``build/fmus`` with every FMU of the catalog (:func:`sims.catalog.build_all`).
+
+    The FMUs ``make build`` wrote are reused: an FMU is rebuilt only when it does not record
+    the digest of its model, resources and generators (:mod:`fmus.digest`), so the tests
+    always run the FMUs of the current source tree. Tests only read this folder."""
+    dest = ROOT / "build" / "fmus"
     catalog.build_all(dest)
     return dest

@@ -40,9 +40,20 @@ def test_regional_strict_design_is_certified_on_its_ball() -> None:
     assert r.certified and r.region == "|sigma| <= 0.9" and "strict" in r.proved
 
 
-def test_bad_region_is_refused() -> None:
-    with pytest.raises(ValueError, match="region radius"):
-        theorem1(region=1.2)
+@pytest.mark.parametrize("kwargs,message", [
+    ({"region": 1.2}, "region radius"), ({"region": float("nan")}, "region radius"),
+    ({"region": 0.9, "decay_rate": -1.0}, "decay rate"), ({"coefficient_limit": 0.0}, "coefficient limit"),
+    ({"q_min": -1.0}, "q_min"), ({"k_degree": 1.5}, "k_degree"),
+    ({"region": 0.9, "strict_margin": 0.0}, "strict margin"),
+    ({"coefficient_bounds": {(3, 0): (None, -1.0)}}, r"K\[3\]\[0\]"),
+])
+def test_bad_arguments_are_refused_before_a_program_is_built(kwargs: dict, message: str, monkeypatch) -> None:
+    def no_program(*args, **kw):
+        raise AssertionError("a program was built before the arguments were checked")
+
+    monkeypatch.setattr("synthesis.hinf_sos.SOSProgram", no_program)
+    with pytest.raises(ValueError, match=message):
+        theorem1(**kwargs)
 
 
 def test_decay_rate_and_coefficient_limit_are_honoured() -> None:
@@ -64,10 +75,3 @@ def test_decay_rate_and_coefficient_limit_are_honoured() -> None:
         dx = np.ravel(f(0.0, xi, np.r_[u, 0.0, 0.0, 0.0], p))
         vdot, v = 2 * xi @ P @ dx, xi @ P @ xi
         assert vdot <= -0.02 * v + 1e-9 * v  # rounding of the Gram identity, relative
-
-
-def test_coefficient_bounds_are_checked() -> None:
-    with pytest.raises(ValueError, match=r"K\[3\]\[0\]"):
-        theorem1(coefficient_bounds={(3, 0): (None, -1.0)})
-    with pytest.raises(ValueError, match="decay rate"):
-        theorem1(region=0.9, decay_rate=-1.0)
