@@ -56,11 +56,15 @@ demo: build
 verify: build
 	@$(STAGE) --show verify $(SATFMU) verify --fmu-dir $(FMU_DIR) --out results/verify
 
+# one pytest worker per CPU, a test file per worker (its module fixtures are solved once), one BLAS
+# thread per worker (spinning BLAS pools of two workers oversubscribe the CPUs)
+PYTEST := env OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 $(PY) -m pytest -q -n auto --dist loadfile
+
 test: build
-	@$(STAGE) --show tests $(PY) -m pytest -q
+	@$(STAGE) --show tests $(PYTEST)
 
 test-all: build
-	@$(STAGE) --show "tests (all)" $(PY) -m pytest -q -m "slow or not slow"
+	@$(STAGE) --show "tests (all)" $(PYTEST) -m "slow or not slow"
 
 bench: build
 	@$(PY) -m pip install -q -e '.[bench]' >build/logs/bench-install.log 2>&1 || { cat build/logs/bench-install.log; exit 1; }

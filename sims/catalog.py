@@ -128,3 +128,13 @@ def validate(fmu: Path) -> list[str]:
     if "No semantic error" not in text:
         problems.append("fmutool: semantic check did not report 'No semantic error'")
     return problems
+
+
+def validate_all(fmus: list[Path], jobs: int | None = None) -> list[list[str]]:
+    """:func:`validate` of each FMU, in parallel processes (default: one per CPU); the problems
+    in the order of ``fmus``."""
+    jobs = min(jobs or os.cpu_count() or 1, len(fmus))
+    if jobs <= 1 or "fork" not in multiprocessing.get_all_start_methods():
+        return [validate(f) for f in fmus]
+    with ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("fork")) as pool:
+        return list(pool.map(validate, fmus))

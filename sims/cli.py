@@ -67,8 +67,7 @@ def _validate(args: argparse.Namespace) -> int:
         print(f"no FMUs in {args.fmu_dir}; run `satfmu build` first", file=sys.stderr)
         return 2
     bad = 0
-    for f in fmus:
-        problems = catalog.validate(f)
+    for f, problems in zip(fmus, catalog.validate_all(fmus)):
         print(f"{'OK  ' if not problems else 'FAIL'} {f}")
         for p in problems:
             print(f"     {p}")

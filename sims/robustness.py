@@ -1100,6 +1100,12 @@ def _read_events(path: Path, seen: int) -> list[dict[str, Any]]:
     return [json.loads(line) for line in lines[seen:]]
 
 
+ONE_BLAS_THREAD = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+"""Workers run one BLAS thread each: a worker's spinning BLAS thread pool beside other processes
+(a parallel test run, say) oversubscribes the CPUs (measured: two online SDRE workers side by
+side 5x slower with OpenBLAS's default threads than with one each)."""
+
+
 def _start_worker(target: Target, names: list[str], settings: Settings, results: Path, output: Path
                   ) -> subprocess.Popen:
     """``python -m sims.robustness --worker`` on ``names``: events to ``results``, its stdout and
@@ -1110,7 +1116,7 @@ def _start_worker(target: Target, names: list[str], settings: Settings, results:
             "--cycles", str(settings.cycles), "--far-factor", repr(settings.far_factor), *names]
     with output.open("w") as log:
         return subprocess.Popen(argv, stdout=log, stderr=subprocess.STDOUT,
-                                env={**os.environ, "TMPDIR": str(results.parent)})
+                                env={**os.environ, **ONE_BLAS_THREAD, "TMPDIR": str(results.parent)})
 
 
 def _child(target: Target, names: list[str], settings: Settings, workdir: Path
@@ -1271,17 +1277,21 @@ def run(fmu_dir: Path, fmus: list[str] | None = None, cycles: int = 1000, out: P
     rows: list[Row] = []
     with tempfile.TemporaryDirectory(prefix="satfmu_robustness_") as tmp:
         for path in discover(Path(fmu_dir), fmus):
-            try:
-                target = describe(path)
-            except Exception as exc:  # noqa: BLE001 - an unreadable FMU fails every case
-                rows += [Row(path.stem, "?", c.name, "-", "-", None, "fail",
-                             f"cannot read the FMU: {type(exc).__name__}: {exc}") for c in CASES]
-                continue
-            rows += run_fmu(target, settings, Path(tmp))
+            rows += _run_path(path, settings, Path(tmp))
     report = Report(rows, settings, time.monotonic() - started)
     if out is not None:
         write(report, Path(out))
     return report
+
+
+def _run_path(path: Path, settings: Settings, workdir: Path) -> list[Row]:
+    """:func:`run_fmu` on the FMU file ``path``; an unreadable FMU fails every case."""
+    try:
+        target = describe(path)
+    except Exception as exc:  # noqa: BLE001 - an unreadable FMU fails every case
+        return [Row(path.stem, "?", c.name, "-", "-", None, "fail",
+                    f"cannot read the FMU: {type(exc).__name__}: {exc}") for c in CASES]
+    return run_fmu(target, settings, workdir)
 
 
 # ----------------------------------------------------------------------------- output

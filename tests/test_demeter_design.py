@@ -47,6 +47,7 @@ def row1() -> dd.DeterministicResult:
     return dd.deterministic(ROW1, n_samples=100, seed=0)
 
 
+@pytest.mark.slow
 def test_row1_robust_design_is_verified(row1) -> None:
     des = row1.design
     assert des.status == "optimal" and des.check.ok and row1.obstruction is None
@@ -58,6 +59,7 @@ def test_row1_robust_design_is_verified(row1) -> None:
     assert K.shape == (1, 8) and np.all(np.isfinite(K))
 
 
+@pytest.mark.slow
 def test_row1_analysis_bounds_the_sampled_loops(row1) -> None:
     ck = row1.check
     assert ck.n == 100 and ck.in_region  # measured Re in [-4.88, -3.2e-4]
@@ -72,6 +74,7 @@ def test_row1_analysis_bounds_the_sampled_loops(row1) -> None:
     assert h.gamma <= 1.1 * ck.hinf.max()
 
 
+@pytest.mark.slow
 def test_row1_design_gains_drive_the_controller_fmu_parameters(row1) -> None:
     dm = dv.design_model(ROW1)
     gains = dm.fmu_gains(row1.K)
@@ -121,6 +124,7 @@ def test_row3_design_program_does_not_claim_a_design() -> None:
     assert res.obstruction is not None and res.obstruction.proves_infeasible
 
 
+@pytest.mark.slow
 def test_shipped_row1_artifact_is_this_design(row1) -> None:
     art = artifacts.load(polynomial.ARTIFACTS / "demeter_row1_det.json")
     assert isinstance(art, artifacts.GainArtifact) and art.plant == "demeter_flexible"

@@ -20,6 +20,7 @@ def test_seed_table_is_complete() -> None:
     assert all(v is None or len(v) == len(SEED_TABLE1_COLUMNS) for v in SEED_TABLE1.values())
 
 
+@pytest.mark.slow
 def test_infeasible_rows_and_files(tmp_path: Path) -> None:
     rows = t1.run([(ROW3, "Det"), (ROW3, "Prob")], n_scenarios=30)
     det, prob = rows
@@ -43,6 +44,7 @@ def test_table1_command(tmp_path: Path, capsys) -> None:
     assert main(["table1", "--rows", "15", "--out", str(tmp_path)]) == 2  # rows are 1..14
 
 
+@pytest.mark.slow
 def test_two_axis_det_row_designs_and_says_why_the_pdlf_is_skipped() -> None:
     # Row 10 (axes 1, 2; appendages 1, 2; identical appendages; norm-bounded): Clarabel fails at
     # its first iteration with the default regularization, the retry (REGULARIZED) designs it.

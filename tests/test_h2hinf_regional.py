@@ -31,6 +31,7 @@ def _lam(gamma: float, variant: str) -> float:
     return r.lam if r.certified else float("inf")
 
 
+@pytest.mark.slow
 def test_three_gammas_certified_monotone_and_slack_no_worse(designs) -> None:
     # at fixed alpha, beta the feasible set grows with gamma and contains the common variant's
     lam = {(1.0, v): designs[v].lam for v in T.VARIANTS}
@@ -90,6 +91,7 @@ def test_split_plant_cancels_the_actuated_rows() -> None:
     assert np.allclose(A[3:, :3], expected, atol=1e-14)
 
 
+@pytest.mark.slow
 def test_region_beyond_one_is_never_certified() -> None:
     # constant Lyapunov matrices cannot hold past |sigma| = 1 (module notes: the sigma-sigma
     # block of the projected condition is G(sigma) X_ws + (.)^T whatever F and Y are)
@@ -109,6 +111,7 @@ def test_model_without_sdc_form_is_refused() -> None:
         T.theorem8(1.0, A_B, A_B, model=model)
 
 
+@pytest.mark.slow
 def test_frozen_search_and_sweep_are_consistent(tmp_path) -> None:
     # frozen LMIs solve in ~0.1 s: the line search and sweep logic on a cheap program
     kw = {"frozen": True, "y_degree": 0, "margin": 1e-7, "x0": T.X0_200}

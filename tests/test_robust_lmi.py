@@ -497,6 +497,7 @@ def test_sector_region_bounds_the_damping(plant, designs) -> None:
         rl.design(plant, sector=np.pi / 2)
 
 
+@pytest.mark.slow
 def test_many_scenarios_are_solved_by_constraint_generation(plant, monkeypatch) -> None:
     rng = np.random.default_rng(5)
     plants = [plant.at(d) for d in rng.uniform(-1, 1, (260, plant.n_params))]

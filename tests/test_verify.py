@@ -89,6 +89,7 @@ def test_cli_writes_the_report(fmu_dir: Path, tmp_path: Path, capsys) -> None:
     assert (tmp_path / "mrp_200deg.ssp").exists() and "libcosim vs master" in (tmp_path / "verify.md").read_text()
 
 
+@pytest.mark.slow
 def test_every_scenario_passes_verify(fmu_dir: Path, tmp_path: Path) -> None:
     # 14 scenarios, about 30 s in all: in `make test`
     from sims.scenario import SCENARIOS

@@ -37,6 +37,7 @@ def test_polynomial_closed_loop_is_the_trigonometric_one(loop: vr.ClosedLoop) ->
         assert np.max(np.abs(loop.momentum_at(q2) @ loop.matrix(q2, w4))) < 1e-12
 
 
+@pytest.mark.slow
 def test_operating_box_is_certified_and_re_verified(loop: vr.ClosedLoop, box: vr.BoxCertificate) -> None:
     assert box.certified, box.message
     assert all(c.certified for c in box.checks)
@@ -62,6 +63,7 @@ def test_cos_enclosure_and_the_seed_approximation_error() -> None:
         assert lo(np.sin(q)) <= np.cos(q) + 1e-15 <= hi(np.sin(q)) + 2e-15
 
 
+@pytest.mark.slow
 def test_a_wrong_certificate_does_not_certify_the_artifact(loop: vr.ClosedLoop, box: vr.BoxCertificate) -> None:
     fit_cert = {"status": "sampled", "proved": "fit checks", "region": "grid", "numbers": {"x": 1.0}}
     good = vr.artifact_certificate(fit_cert, box, vr.trig_check(loop, box, n=20))
