@@ -28,7 +28,7 @@ $(VENV)/.system-deps:
 $(VENV)/.installed: pyproject.toml | system-deps
 	@command -v $(PYTHON) >/dev/null || { echo "error: $(PYTHON) not found (Python 3.11 is required)"; exit 1; }
 	@$(STAGE) install sh -c 'set -e; test -x $(PY) || $(PYTHON) -m venv $(VENV); \
-	  $(PY) -m pip install -q --upgrade pip; $(PY) -m pip install -q -e ".[test]"; \
+	  $(PY) -m pip install -q -e ".[test]"; \
 	  chmod +x "$$($(PY) -c "import importlib.util, pathlib; print(pathlib.Path(importlib.util.find_spec(\"ecospy\").origin).parent / \"binaries\" / \"ecos\")")"; \
 	  echo "satfmu and its dependencies installed in $(VENV)"'
 	@# (ecospy's wheel ships its host binary without the executable bit: chmod above)

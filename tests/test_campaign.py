@@ -138,6 +138,7 @@ def test_an_interrupted_campaign_resumes_with_the_missing_chunks_only(tmp_path: 
     assert {f: (folder / f).stat().st_mtime_ns for f in written} == written  # and the 3 not rewritten
 
 
+@pytest.mark.slow
 def test_killing_a_worker_loses_and_duplicates_no_sample(tmp_path: Path, reference) -> None:
     # 10 chunks of 0.4 s on 2 workers: about 2 s; after 2 chunks one busy worker is SIGKILLed.
     killed: list[str] = []

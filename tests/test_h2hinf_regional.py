@@ -44,6 +44,7 @@ def test_three_gammas_certified_monotone_and_slack_no_worse(designs) -> None:
             assert lam[(g, "slack")] <= lam[(g, "common")] * (1 + 1e-6)
 
 
+@pytest.mark.slow
 def test_both_variants_are_certified_and_slack_is_no_worse(designs) -> None:
     for r in designs.values():
         assert r.certified, [(c.name, c.min_eig, c.residual) for c in r.checks]
@@ -53,6 +54,7 @@ def test_both_variants_are_certified_and_slack_is_no_worse(designs) -> None:
     assert designs["slack"].lam == pytest.approx(3.610, rel=2e-3)  # solver-version drift
 
 
+@pytest.mark.slow
 def test_h2_bound_holds_in_simulation_and_linearization_is_stable(designs) -> None:
     r = designs["slack"]
     c = T.closed_loop_check(r)
@@ -64,6 +66,7 @@ def test_h2_bound_holds_in_simulation_and_linearization_is_stable(designs) -> No
     assert c.max_real_eig < 0
 
 
+@pytest.mark.slow
 def test_law_cancels_the_gyroscopic_torque_and_matches_its_artifact(designs) -> None:
     r = designs["slack"]
     w = np.array([0.05, -0.03, 0.02])

@@ -86,6 +86,7 @@ def scen() -> dr.ScenarioResult:
     return dr.scenario(ROW1, n=60, seed=0)
 
 
+@pytest.mark.slow
 def test_scenario_design_row1(scen) -> None:
     des = scen.design
     assert des.status == "optimal" and des.check.ok and scen.n_samples == 60
@@ -106,6 +107,7 @@ def test_scenario_design_row1(scen) -> None:
     assert a.i2p.estimate <= des.nu and a.hinf.estimate <= des.gamma
 
 
+@pytest.mark.slow
 def test_closed_loop_task_is_pure_and_picklable(scen) -> None:
     task = dr.ClosedLoopSamples(ROW1, scen.K)
     deltas = design_model(ROW1).sample(20, np.random.default_rng(4))
