@@ -70,7 +70,7 @@ def _simulate(ssp: Path, record: Sequence[str], stop_time: float, step_size: flo
     if start_time != 0.0:
         raise EngineError("the SSP default experiment starts at 0 s in libcosim; start_time must be 0")
     ex = CosimExecution.from_ssp_file(str(ssp), step_size=step_ns)
-    obs = CosimObserver.create_time_series()
+    obs = CosimObserver.create_time_series(buffer_size=n_steps + 1)  # the default keeps 10,000 samples
     ex.add_observer(obs)
     refs: dict[str, tuple[int, int]] = {}
     inputs = []

@@ -54,6 +54,22 @@ def test_scenario_with_profiles_passes_in_libcosim_and_ecos(fmu_dir: Path, tmp_p
     assert report.order_deviation > 1e-2
 
 
+def test_libcosim_returns_every_point_of_a_long_run(fmu_dir: Path, tmp_path: Path) -> None:
+    # libcosim's time-series observer keeps 10,000 samples unless told otherwise: 12,000 steps
+    ssp = verify.ssp.export("mrp_200deg", fmu_dir, tmp_path)
+    res = libcosim.run(ssp, ["plant.sigma[1]"], 60.0, 0.005)
+    assert len(res) == 12_000 and res["time"][0] == 0.005 and res["time"][-1] == 60.0
+    # the same values as the master's Jacobi run at the same step (rounding only)
+    with CoSimulation({"plant": fmu_dir / "mrp_satellite.fmu", "controller": fmu_dir / "mrp_hinf_published.fmu"}
+                      ) as sim:
+        sc = load("mrp_200deg").data
+        for c in sc["connections"]:
+            sim.connect(c["from"], c["to"])
+        params = {i: s.get("parameters", {}) for i, s in sc["fmus"].items()}
+        ours = sim.run(60.0, 0.005, parameters=params, record=["plant.sigma[1]"], exchange_order="jacobi")
+    np.testing.assert_allclose(res["plant.sigma[1]"], ours["plant.sigma[1]"][1:], rtol=0, atol=1e-12)
+
+
 def test_deviation_catches_an_exchange_order_difference(fmu_dir: Path) -> None:
     sc = load("mrp_eq44")
     ft, record, _ = verify._master(sc, fmu_dir, "native", "feedthrough")
