@@ -9,7 +9,6 @@ import zipfile
 from pathlib import Path
 
 import pytest
-import sympy as sp
 
 from fmus import codegen, digest, export, signals
 from fmus.model import Model, Output, Variable

@@ -38,6 +38,7 @@ def test_errors_exit_2_with_a_message(fmu_dir: Path, tmp_path: Path, capsys: pyt
 
 
 def test_validate_reports_every_fmu(fmu_dir: Path, capsys: pytest.CaptureFixture) -> None:
+    # the suite's validation gate: fmpy validate and fmutool -check clean on every FMU of the build
     assert main(["validate", "--fmu-dir", str(fmu_dir)]) == 0
     present = {p.name for p in fmu_dir.glob("*.fmu")}
     catalog_fmus = {p.name for p in catalog.build_all(fmu_dir).paths}  # up to date: reads digests only

@@ -13,7 +13,6 @@ from controllers import state_feedback
 from fmus import demeter
 from fmus.model import Model, ModelDefinitionError, Variable, states, symbols
 from fmus.pyslave import affine_flow
-from sims import catalog
 from sims.master import CoSimulation
 from synthesis import demeter_variants as dv
 
@@ -80,13 +79,6 @@ def test_exact_integrator_rejects_non_affine_models() -> None:
         Model("bad", "x' = t", x, [], [], [], rhs=symbols(x) * Model.t, integrator="exact")
     with pytest.raises(ModelDefinitionError, match="switch_time"):
         Model("bad", "rk4 with a switch", x, [], [Variable("k")], [], rhs=-symbols(x), switch_time=Variable("k").symbol)
-
-
-@pytest.mark.parametrize("backend", ["native", "python"])
-def test_fmus_validate_cleanly(plant: dict[str, Path], fmu_dir: Path, backend: str) -> None:
-    assert catalog.validate(plant[backend]) == []
-    suffix = "" if backend == "native" else "_py"
-    assert catalog.validate(fmu_dir / f"demeter_row1_det{suffix}.fmu") == []
 
 
 @pytest.mark.parametrize("backend, step, stop", [("native", 0.5, 120.0), ("python", 2.0, 40.0)])
