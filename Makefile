@@ -11,6 +11,11 @@ SCENARIOS := mrp_200deg mrp_200deg_sat mrp_320deg_sat mrp_eq44 mrp_200deg_synth 
 # the demo's verification: one scenario per plant family, native FMUs only (seconds each)
 VERIFY_SHORT := mrp_200deg mrp_90deg_h2 cubesat_detumble
 
+# pip installs without byte-compiling the ~9,000 modules of the dependencies (half of the install
+# time); Python compiles a module on its first import and keeps it, which PYTHONDONTWRITEBYTECODE
+# (set on some machines) would forbid, so make's commands run without it.
+unexport PYTHONDONTWRITEBYTECODE
+
 .PHONY: demo test test-all build validate verify bench clean system-deps
 
 # Debian's libtbb12 is needed by the ecos co-simulation host (ecospy); installed once, guarded.
@@ -28,7 +33,7 @@ $(VENV)/.system-deps:
 $(VENV)/.installed: pyproject.toml | system-deps
 	@command -v $(PYTHON) >/dev/null || { echo "error: $(PYTHON) not found (Python 3.11 is required)"; exit 1; }
 	@$(STAGE) install sh -c 'set -e; test -x $(PY) || $(PYTHON) -m venv $(VENV); \
-	  $(PY) -m pip install -q -e ".[test]"; \
+	  $(PY) -m pip install -q --no-compile -e ".[test]"; \
 	  chmod +x "$$($(PY) -c "import importlib.util, pathlib; print(pathlib.Path(importlib.util.find_spec(\"ecospy\").origin).parent / \"binaries\" / \"ecos\")")"; \
 	  echo "satfmu and its dependencies installed in $(VENV)"'
 	@# (ecospy's wheel ships its host binary without the executable bit: chmod above)
