@@ -55,7 +55,7 @@ demo: build
 	@echo
 	@cat results/summary.md
 	@echo
-	@sed -n '/steps\/s/,$$p' build/logs/co-sim_speed.log
+	@sed -n '/^closed loop/,$$p' build/logs/co-sim_speed.log
 	@echo "plots, CSV and summaries (results/summary.md, results/summary.json) are in results/; logs in build/logs/"
 
 verify: build
