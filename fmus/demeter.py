@@ -30,6 +30,7 @@ compare with the FMU.
 from __future__ import annotations
 
 import itertools
+from functools import lru_cache
 
 import numpy as np
 import sympy as sp
@@ -274,4 +275,15 @@ def build() -> Model:
         switch_time=switch)
 
 
-MODEL = build()
+
+@lru_cache(maxsize=None)
+def model() -> Model:
+    """The DEMETER plant model, built on first use (about 4 s of sympy), then shared."""
+    return build()
+
+
+def __getattr__(name: str) -> Model:
+    """``fmus.demeter.MODEL``: :func:`model` (so importing this module costs nothing)."""
+    if name == "MODEL":
+        return model()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
