@@ -2,6 +2,8 @@
 from __future__ import annotations
 
 import json
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -52,6 +54,16 @@ def test_list_shows_shipped_scenarios(capsys: pytest.CaptureFixture) -> None:
     out = capsys.readouterr().out
     for name in ("mrp_200deg", "mrp_200deg_sat", "mrp_320deg_sat", "mrp_eq44"):
         assert name in out
+
+
+def test_commands_without_the_demeter_plant_do_not_build_its_model() -> None:
+    # a fresh process: `satfmu list` imports the whole CLI, and the DEMETER model (about 4 s of
+    # sympy) is built only on first use of fmus.demeter.MODEL
+    code = ("import sys; from sims.cli import main; from fmus import demeter; "
+            "rc = main(['list']); print(rc, demeter.model.cache_info().currsize)")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
+                          cwd=Path(__file__).resolve().parents[1])
+    assert proc.stdout.split()[-2:] == ["0", "0"]
 
 
 def test_l2_reports_the_three_estimates_for_the_published_controller(capsys: pytest.CaptureFixture) -> None:
