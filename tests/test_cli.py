@@ -130,3 +130,9 @@ def test_synth_and_sweep_refuse_bad_arguments(argv: list[str], message: str,
     with pytest.raises(SystemExit) as exc:
         main(argv)
     assert exc.value.code == 2 and message in capsys.readouterr().err
+
+
+def test_build_refuses_a_jobs_count_below_one(capsys: pytest.CaptureFixture) -> None:
+    with pytest.raises(SystemExit) as exc:
+        main(["build", "--jobs", "0"])
+    assert exc.value.code == 2 and "must be a positive integer" in capsys.readouterr().err
