@@ -1,6 +1,6 @@
 """SOS engine speed: seed 000 Theorem 1 through satfmu vs through SumOfSquares.py, same run.
 
-The program (shared/MODELS.md, seed 000, "global, semi-definite + LaSalle"): constant
+The program (docs/models.md, seed 000, "global, semi-definite + LaSalle"): constant
 ``Q >= I``, ``K(x)`` 3 x 6 of degree 2, ``-(A(x) Q + Q A(x)^T + B K + K^T B^T) - diag(eps I3, 0)``
 an SOS matrix, minimize trace(Q). End to end = build + solve + verify (Gram minimum
 eigenvalue and coefficient residual of the SOS-matrix constraint):

@@ -1,6 +1,6 @@
 """Plant "magnetorquer cubesat": rigid body, quaternion attitude, magnetic torquers (seed 003).
 
-Seed: shared/seeds/003_7497905750c6be5c.txt, eq. (5)-(6); cleaned up in shared/MODELS.md,
+Seed: the seed 003 paper, eq. (5)-(6); cleaned up in docs/models.md,
 "Seed 003". State x = [omega (rad/s), q (1), q_norm_drift (1)]:
 
     I omega' = -omega x (I omega) + m_applied x b_body + T_d

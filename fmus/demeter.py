@@ -1,7 +1,7 @@
 """Plant "flexible DEMETER": rigid body with flexible appendages and reaction wheels (seed 004).
 
-Seed: shared/seeds/004_ac9cfa39d627d1f1.txt, eq. (4) and section 3; cleaned up in
-shared/MODELS.md, "Seed 004". Linearized attitude theta (3 axes, rad) and 2 nf flexible
+Seed: the seed 004 paper, eq. (4) and section 3; cleaned up in
+docs/models.md, "Seed 004". Linearized attitude theta (3 axes, rad) and 2 nf flexible
 coordinates eta (nf = 4 appendages x bending, torsion; appendage-major)::
 
     [ J        S L ] [theta'']   [ 0  0       ] [theta']   [ 0  0   ] [theta]   [ I ]
@@ -49,7 +49,7 @@ L_SUBSTITUTE = np.array([[0.30, -0.06, 0.26, 0.05, 0.10, 0.04, 0.08, -0.03],
                          [0.14, 0.04, 0.12, -0.04, 0.06, 0.12, 0.05, 0.10]])
 """Coupling matrix L (3 x 8), a **substitute** (the seed's reference value is not published):
 columns [a1 bending, a1 torsion, a2 bending, ..., a4 torsion], every appendage coupled to every
-axis; sigma_max = 0.51 (shared/MODELS.md)."""
+axis; sigma_max = 0.51 (docs/models.md)."""
 
 OMEGA_RANGE = (0.2 * 2 * np.pi, 0.6 * 2 * np.pi)
 """Interval of the appendages' natural frequencies, rad/s."""

@@ -1,7 +1,7 @@
 """Plant "MRP satellite": rigid body with modified Rodrigues parameters (seed 000).
 
-Seed: shared/seeds/000_5179ecf13c1ccfb7.txt, eq. (31)-(37); cleaned up in
-shared/MODELS.md, "Seed 000". State x = [omega (rad/s), sigma (MRP, 1)]:
+Seed: the seed 000 paper, eq. (31)-(37); cleaned up in
+docs/models.md, "Seed 000". State x = [omega (rad/s), sigma (MRP, 1)]:
 
     I omega' = -omega x (I omega) + sat(u) + w_d
     sigma'   = (1/4) B(sigma) omega,

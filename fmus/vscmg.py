@@ -1,7 +1,7 @@
 """Plant "VSCMG": the ECP Model 750 control moment gyroscope with gimbal 3 locked (seed 002).
 
-Seed: shared/seeds/002_1f8cc4d5158d4f1e.txt; its equation of motion is missing from the
-text, this is the public Abbas et al. model cleaned up in shared/MODELS.md, "Seed 002".
+Seed: the seed 002 paper; its equation of motion is missing from the
+text, this is the public Abbas et al. model cleaned up in docs/models.md, "Seed 002".
 Rotor 1 spins (angle q1, torque T1), gimbal 2 is driven (q2, torque T2), gimbal 4 is
 unactuated and moves by the rotor's gyroscopic and reaction torques (q4):
 

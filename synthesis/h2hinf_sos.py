@@ -1,7 +1,7 @@
 """Seed 001, Theorem 8: mixed H2/H-infinity state feedback with slack variables, by SOS.
 
-Seed: shared/seeds/001_c293a0e070ac305a.txt (Chinese); restated in clean notation in
-shared/MODELS.md, "Seed 001". For ``x' = A(x) x + Bu u + Bw w``, ``z = C x`` (the MRPs),
+Seed: the seed 001 paper (Chinese); restated in clean notation in
+docs/models.md, "Seed 001". For ``x' = A(x) x + Bu u + Bw w``, ``z = C x`` (the MRPs),
 find symmetric ``X2``, ``Xinf`` > 0, a slack matrix ``F`` and a polynomial ``Y(x)`` with
 
     -[ G11 + e I   *              *        *      ]

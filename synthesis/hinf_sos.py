@@ -1,7 +1,7 @@
 """Seed 000, Theorem 1: polynomial state feedback for the MRP satellite by SOS.
 
-Seed: shared/seeds/000_5179ecf13c1ccfb7.txt, eq. (23) and section 5.2; restated in
-shared/MODELS.md, "Seed 000". Find a constant ``Q = Q^T > 0`` and a polynomial ``K(x)``
+Seed: the seed 000 paper, eq. (23) and section 5.2; restated in
+docs/models.md, "Seed 000". Find a constant ``Q = Q^T > 0`` and a polynomial ``K(x)``
 (3 x 6) with
 
     M(x) = A(x) Q + Q A(x)^T + B K(x) + K(x)^T B^T  <= -E        (E >= 0, an SOS-matrix condition)

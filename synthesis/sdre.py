@@ -33,7 +33,7 @@ R_SEED = np.diag([10.2, 0.3])
 """Seed 002 eq. (10) input weight Re."""
 
 EPS = 1e-6
-"""Riccati shift, 1/s (shared/MODELS.md: the gain converges to 4 digits as eps -> 0)."""
+"""Riccati shift, 1/s (docs/models.md: the gain converges to 4 digits as eps -> 0)."""
 
 PLANT_STATES = ("q1", "q2", "q4", "w1", "w2", "w4")
 

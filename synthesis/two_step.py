@@ -1,6 +1,6 @@
 """Seed 000's two-step iteration: state feedback by SOS, then the closed loop's L2 gain, repeat.
 
-Seed 000 section 4 (shared/MODELS.md, "Two-step iteration"): step 1 solves Theorem 1
+Seed 000 section 4 (docs/models.md, "Two-step iteration"): step 1 solves Theorem 1
 with bounds on the gain coefficients; step 2 computes the L2 gain ``c`` of the closed loop
 from the Hamilton-Jacobi inequality; the gains are raised while ``c`` decreases and the
 response stays acceptable ("the decision to increase or decrease can be made based on the

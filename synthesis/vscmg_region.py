@@ -5,7 +5,7 @@ w1-free SDC at w2 := 0 (:func:`synthesis.sdre.servo_matrices`, the SDC the gain 
 ``K`` the artifact's polynomials. The seed's conditions (13)-(20) ask for ``P > 0`` and
 ``Acl P + P Acl^T < 0`` on a box, with ``cos q2 ~ 1 - sin^2 q2 / 2``. As printed they cannot
 hold: the conserved gimbal-4 momentum ``p4 = m(a) . w`` (``m`` the gimbal-4 row of the mass
-matrix, ``a = sin q2``) is a left null vector of ``Acl`` for every gain (shared/MODELS.md).
+matrix, ``a = sin q2``) is a left null vector of ``Acl`` for every gain (docs/models.md).
 Posed here so that it can hold, and without approximating the trigonometry:
 
 - Variables ``a = sin q2`` in ``[a_lo, a_hi]`` (``a_lo > 0``) and ``w4``, scaled to
@@ -53,7 +53,7 @@ from synthesis.sdre import Servo, servo_matrices
 from synthesis.sos import Check, SOSError, SOSProgram, verify
 
 OPERATING_BOX = ((0.17, 1.24), (-0.6, 0.6))
-"""(q2 rad, w4 rad/s) box of the seed's manoeuvre (shared/MODELS.md **substitute** bounds)."""
+"""(q2 rad, w4 rad/s) box of the seed's manoeuvre (docs/models.md **substitute** bounds)."""
 
 SCALE_SHIFT = 0.1
 """Riccati shift of the coordinate scaling, 1/s (any value giving a well-conditioned P works)."""

@@ -1,6 +1,6 @@
 """Seed 001 Theorem 8 (mixed H2/H-infinity with slack variables), frozen at the origin.
 
-The frozen design (A(x) at x = 0, constant Y) is the linear reference of shared/MODELS.md
+The frozen design (A(x) at x = 0, constant Y) is the linear reference of docs/models.md
 ("Checked numerically before building"): lambda(gamma) = 16.396 (gamma >= 1), 16.630 (0.8),
 18.695 (0.6), 25.433 (0.52); LQR optimum 16.3954; infeasible near gamma = 0.50.
 """

@@ -48,7 +48,7 @@ def test_factorizations_differ_only_in_the_gimbal_4_row_and_name_their_variables
 
 
 def test_mass_matrix_and_momenta_are_the_public_model() -> None:
-    # J1 = JC + JD - KC - ID = 0.0135, J2 = KA + KB + KC + ID = 0.1335 (shared/MODELS.md).
+    # J1 = JC + JD - KC - ID = 0.0135, J2 = KA + KB + KC + ID = 0.1335 (docs/models.md).
     I = vscmg.Inertias(*INERTIA.values())
     assert I.J1 == pytest.approx(0.0135, abs=1e-12) and I.J2 == pytest.approx(0.1335, abs=1e-12)
     M = np.array(vscmg.mass_matrix(sp.pi / 6, vscmg.Inertias(*(sp.Float(v) for v in INERTIA.values()))), float)
