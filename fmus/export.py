@@ -98,6 +98,11 @@ def toolchain(cc: str) -> str:
     return f"{cc}: {proc.stdout.splitlines()[0] if proc.stdout else proc.returncode}"
 
 
+def fmu_path(model: Model, dest_dir: Path, backend: str) -> Path:
+    """Where the FMU of ``model`` on ``backend`` (``"native"`` or ``"python"``) goes in ``dest_dir``."""
+    return Path(dest_dir) / f"{model.name}{PYTHON_SUFFIX if backend == 'python' else ''}.fmu"
+
+
 def digest_of(model: Model, backend: str, resources: dict[str, bytes] | None = None, cc: str = "gcc") -> str:
     """The build digest of ``model``'s FMU on ``backend`` (``"native"`` or ``"python"``)."""
     return build_digest(model, backend, resources, toolchain(cc) if backend == "native" else "")
@@ -131,7 +136,7 @@ def build_native(model: Model, dest_dir: Path, resources: dict[str, bytes] | Non
         codegen.require_c_form(model)
     except ValueError as exc:  # a model the C code cannot express (a Python sampler)
         raise FmuBuildError(str(exc)) from None
-    dest = Path(dest_dir) / f"{model.name}.fmu"
+    dest = fmu_path(model, dest_dir, "native")
     digest = digest_of(model, "native", resources, cc)
     if built_digest(dest) == digest:
         return dest
@@ -194,7 +199,7 @@ def build_python(model: Model, dest_dir: Path, resources: dict[str, bytes] | Non
     from pythonfmu.builder import FmuBuilder
 
     cls = model.name + PYTHON_SUFFIX
-    dest = Path(dest_dir) / f"{cls}.fmu"
+    dest = fmu_path(model, dest_dir, "python")
     digest = digest_of(model, "python", resources)
     if built_digest(dest) == digest:
         return dest

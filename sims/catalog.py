@@ -1,12 +1,14 @@
 """Every FMU the project builds: the plant models and one controller per shipped artifact."""
 from __future__ import annotations
 
+import functools
 import multiprocessing
 import os
 import subprocess
 import sys
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
+from typing import Callable, TypeVar
 from pathlib import Path
 
 from controllers import artifact as artifacts
@@ -15,6 +17,8 @@ from fmus import cubesat, demeter, export, mrp_satellite, signals, vscmg
 from fmus.model import Model
 
 DEFAULT_FMU_DIR = Path("build/fmus")
+T = TypeVar("T")
+R = TypeVar("R")
 
 
 @dataclass(frozen=True)
@@ -73,6 +77,16 @@ def _build_one(index: int, dest: Path) -> Path:
     return _BUILDERS[backend](src.model, dest, src.resources)
 
 
+def _fork_map(fn: Callable[[T], R], items: list[T], jobs: int | None) -> list[R]:
+    """``[fn(x) for x in items]`` in ``jobs`` forked worker processes (default: one per CPU);
+    in this process for one job or on a platform without ``fork``."""
+    jobs = min(jobs or os.cpu_count() or 1, len(items))
+    if jobs <= 1 or "fork" not in multiprocessing.get_all_start_methods():
+        return [fn(x) for x in items]
+    with ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("fork")) as pool:
+        return list(pool.map(fn, items))
+
+
 def build_all(dest: Path = DEFAULT_FMU_DIR, backends: tuple[str, ...] = ("native", "python"),
               jobs: int | None = None) -> BuildReport:
     """Build every FMU into ``dest``, in parallel processes.
@@ -90,26 +104,15 @@ def build_all(dest: Path = DEFAULT_FMU_DIR, backends: tuple[str, ...] = ("native
         builds in this process.
     """
     plan = [(src, b) for src in sources() for b in ("native", "python") if b in backends and b in src.backends]
-    paths = [_fmu_path(dest, src, b) for src, b in plan]
+    paths = [export.fmu_path(src.model, dest, b) for src, b in plan]
     todo = [i for i, ((src, b), path) in enumerate(zip(plan, paths))
             if export.built_digest(path) != export.digest_of(src.model, b, src.resources)]
-    jobs = min(jobs or os.cpu_count() or 1, len(todo))
-    _PENDING[:] = plan
+    _PENDING[:] = plan  # the workers, forked from here, read it by index
     try:
-        if jobs <= 1 or "fork" not in multiprocessing.get_all_start_methods():
-            for i in todo:
-                _build_one(i, Path(dest))
-        else:
-            with ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("fork")) as pool:
-                list(pool.map(_build_one, todo, [Path(dest)] * len(todo)))
+        _fork_map(functools.partial(_build_one, dest=Path(dest)), todo, jobs)
     finally:
         _PENDING.clear()
     return BuildReport(paths, [paths[i] for i in todo])
-
-
-def _fmu_path(dest: Path, src: FmuSource, backend: str) -> Path:
-    suffix = export.PYTHON_SUFFIX if backend == "python" else ""
-    return Path(dest) / f"{src.model.name}{suffix}.fmu"
 
 
 def validate(fmu: Path) -> list[str]:
@@ -133,8 +136,4 @@ def validate(fmu: Path) -> list[str]:
 def validate_all(fmus: list[Path], jobs: int | None = None) -> list[list[str]]:
     """:func:`validate` of each FMU, in parallel processes (default: one per CPU); the problems
     in the order of ``fmus``."""
-    jobs = min(jobs or os.cpu_count() or 1, len(fmus))
-    if jobs <= 1 or "fork" not in multiprocessing.get_all_start_methods():
-        return [validate(f) for f in fmus]
-    with ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("fork")) as pool:
-        return list(pool.map(validate, fmus))
+    return _fork_map(validate, list(fmus), jobs)
