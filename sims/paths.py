@@ -1,0 +1,79 @@
+"""Where satfmu reads and writes: shipped data, the user's folder, the FMU cache.
+
+Nothing here depends on the working directory. The user's folder holds the artifacts
+that ``satfmu synth`` writes (``<home>/artifacts``) and the FMUs built on demand
+(``<home>/fmus``); ``<home>`` is ``$SATFMU_HOME`` when set, else the platform's user
+data folder (``~/.local/share/satfmu`` on Linux, ``%LOCALAPPDATA%\\satfmu`` on Windows).
+This module imports nothing heavy: the command line reads it before anything else.
+"""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+SHIPPED_SCENARIOS = Path(__file__).resolve().parent / "scenarios"
+"""Folder of the scenarios shipped with satfmu (``*.toml``)."""
+SHIPPED_ARTIFACTS = Path(__file__).resolve().parent.parent / "controllers" / "artifacts"
+"""Folder of the controller artifacts shipped with satfmu (``*.json``); never written by synthesis."""
+BACKENDS = {"native": "", "python": "_py"}
+"""FMU backend -> file-name suffix (``mrp_satellite.fmu``, ``mrp_satellite_py.fmu``)."""
+HOME_ENV = "SATFMU_HOME"
+
+
+def home() -> Path:
+    """The user's satfmu folder (absolute): ``$SATFMU_HOME`` or the platform's user data folder."""
+    env = os.environ.get(HOME_ENV)
+    if env:
+        return Path(env).expanduser().resolve()
+    import platformdirs
+
+    return Path(platformdirs.user_data_dir("satfmu", appauthor=False)).resolve()
+
+
+def user_artifacts() -> Path:
+    """Folder where ``satfmu synth`` writes artifacts by default (``<home>/artifacts``)."""
+    return home() / "artifacts"
+
+
+def fmu_cache() -> Path:
+    """Folder of the FMUs built on demand (``<home>/fmus``), the default ``--fmu-dir``."""
+    return home() / "fmus"
+
+
+def artifact_folders() -> list[Path]:
+    """Where an artifact is looked up by name, first match wins: the user's, then the shipped."""
+    return [user_artifacts(), SHIPPED_ARTIFACTS]
+
+
+def find_artifact(name_or_path: str | Path) -> Path:
+    """The file of an artifact given by path (``.json``) or by name (user folder, then shipped).
+
+    Raises
+    ------
+    FileNotFoundError
+        If no such file exists; the message lists the folders searched and the names found.
+    """
+    p = Path(name_or_path)
+    if p.suffix == ".json":
+        if p.is_file():
+            return p.resolve()
+        raise FileNotFoundError(f"no artifact file {str(p)!r}")
+    for folder in artifact_folders():
+        if (folder / f"{p.name}.json").is_file():
+            return folder / f"{p.name}.json"
+    names = sorted({f.stem for d in artifact_folders() if d.is_dir() for f in d.glob("*.json")})
+    raise FileNotFoundError(f"no artifact named {str(name_or_path)!r} in {', '.join(map(str, artifact_folders()))} "
+                            f"(known: {', '.join(names)})" + did_you_mean(str(name_or_path), names))
+
+
+def did_you_mean(word: str, choices: list[str]) -> str:
+    """``"; did you mean 'x'?"`` for the closest of ``choices`` to ``word``, or ``""``."""
+    import difflib
+
+    close = difflib.get_close_matches(word, choices, n=1)
+    return f"; did you mean {close[0]!r}?" if close else ""
+
+
+def shipped_scenarios() -> list[Path]:
+    """The shipped scenario files, sorted by name."""
+    return sorted(SHIPPED_SCENARIOS.glob("*.toml"))
