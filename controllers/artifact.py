@@ -27,7 +27,12 @@ Schema (format_version 1)::
      "lyapunov": {"Q": [[...]]}            (optional),
      "certificate": {"status": "certified" | "sampled" | "not_verified", "proved": str, "region": str,
                      "numbers": {str: float}},
-     "provenance": {"source": str, ...}}
+     "provenance": {"source": str, "design_plant": {...} (see below), ...}}
+
+Every kind records in ``provenance.design_plant`` the plant it was designed for
+(:func:`design_plant_record`): ``{"model": str, "digest": "sha256:...", "parameters":
+{name: value}}`` with the physical parameters the design used (a scenario that pairs the
+controller with a plant whose values differ is warned about, :func:`plant_mismatches`).
 """
 from __future__ import annotations
 
@@ -130,16 +135,98 @@ class ControllerArtifact:
 def new_data(plant: "Model", name: str, description: str, law: dict[str, Any], certificate: dict[str, Any],
              provenance: dict[str, Any], lyapunov: dict[str, Any] | None = None) -> dict[str, Any]:
     """JSON data of a new artifact for a state feedback of ``plant``: its states are the
-    controller's inputs and its command inputs ``u[i]`` the controller's outputs."""
+    controller's inputs and its command inputs ``u[i]`` the controller's outputs; the
+    provenance records ``plant`` (:func:`design_plant_record`)."""
     states = [{"name": s.variable.name, "unit": s.variable.unit} for s in plant.states]
     outputs = [{"name": v.name, "unit": v.unit, "description": v.description}
                for v in plant.inputs if v.base_name == "u"]
     data = {"format": FORMAT, "format_version": FORMAT_VERSION, "kind": KIND, "name": name, "plant": plant.name,
             "description": description, "states": states, "outputs": outputs, "law": law,
-            "certificate": certificate, "provenance": provenance}
+            "certificate": certificate, "provenance": {**provenance, "design_plant": design_plant_record(plant)}}
     if lyapunov:
         data["lyapunov"] = lyapunov
     return data
+
+
+DESIGN_RTOL = 1e-3
+"""Relative difference of a plant parameter from its design value beyond which a pairing is a mismatch."""
+
+
+def design_plant_record(plant: "Model", names: list[str] | None = None, values: dict[str, float] | None = None,
+                        ranges: dict[str, tuple[float, float]] | None = None) -> dict[str, Any]:
+    """``provenance.design_plant`` of a design for ``plant``.
+
+    Parameters
+    ----------
+    plant : fmus.model.Model
+        The plant the design was made for.
+    names : list of str, optional
+        Parameters the design depends on. Default: those of the plant's SDC form when it
+        has one, else every Real parameter that is not a state's initial value or an
+        integrator setting (switches and initial conditions are not part of a design).
+    values : dict, optional
+        Design values that differ from the plant's defaults (``start``).
+    ranges : dict, optional
+        ``{name: (low, high)}``: a robust design covers these intervals; a value inside is
+        no mismatch.
+    """
+    from fmus.digest import model_digest
+    from fmus.model import INTEGRATOR_PARAMETERS
+
+    by_name = {v.name: v for v in plant.parameters}
+    if names is None:
+        if plant.sdc is not None:
+            used = {str(s) for s in plant.sdc.A.free_symbols | plant.sdc.B.free_symbols}
+            names = [v.name for v in plant.parameters if v.name in used]
+        else:
+            skip = {s.initial.name for s in plant.states} | {v.name for v in INTEGRATOR_PARAMETERS}
+            names = [v.name for v in plant.parameters if v.type == "Real" and v.name not in skip]
+    values, ranges = values or {}, ranges or {}
+    unknown = [n for n in [*names, *values, *ranges] if n not in by_name]
+    if unknown:
+        raise ValueError(f"plant {plant.name!r} has no parameters {unknown}")
+    record = {"model": plant.name, "digest": model_digest(plant),
+              "parameters": {n: float(values.get(n, by_name[n].start)) for n in names}}
+    if ranges:
+        record["ranges"] = {n: [float(lo), float(hi)] for n, (lo, hi) in ranges.items()}
+    return record
+
+
+def plant_mismatches(artifact: "Artifact", model: str, values: dict[str, float],
+                     rtol: float = DESIGN_RTOL) -> list[str]:
+    """How a plant differs from the one ``artifact`` was designed for (empty: it matches).
+
+    Parameters
+    ----------
+    artifact : Artifact
+        A controller artifact; one without ``provenance.design_plant`` never mismatches.
+    model : str
+        Model name of the plant it is paired with.
+    values : dict
+        That plant's parameter values (its defaults with the scenario's settings applied).
+    rtol : float
+        Relative tolerance: ``|value - design| > rtol max(|value|, |design|)`` is a mismatch.
+
+    Returns
+    -------
+    list of str
+        One line per differing parameter, e.g. ``"I_x = 100 (designed for 15)"``.
+    """
+    record = artifact.provenance.get("design_plant")
+    if record is None or record["model"] != model:
+        return []
+    out = []
+    for name, design in record["parameters"].items():
+        v = values.get(name)
+        if v is None:
+            continue
+        if name in record.get("ranges", {}):
+            lo, hi = record["ranges"][name]
+            if not lo - rtol * abs(lo) <= v <= hi + rtol * abs(hi):
+                out.append(f"{name} = {v:g} (designed for [{lo:g}, {hi:g}])")
+        elif abs(v - design) > rtol * max(abs(v), abs(design)):
+            out.append(f"{name} = {v:g} (designed for {design:g})")
+    return out
 
 
 def _fail(where: str, msg: str) -> ArtifactError:
@@ -519,6 +606,16 @@ def _certificate(data: dict, where: str) -> dict[str, Any]:
 def _provenance(data: dict, where: str) -> dict[str, Any]:
     prov = _get(data, "provenance", dict, where)
     _get(prov, "source", str, where + ".provenance")
+    if "design_plant" in prov:
+        w = where + ".provenance.design_plant"
+        rec = _get(prov, "design_plant", dict, where + ".provenance")
+        for key in ("model", "digest"):
+            _get(rec, key, str, w)
+        for k, v in _get(rec, "parameters", dict, w).items():
+            _finite(v, f"{w}.parameters.{k}")
+        for k, v in rec.get("ranges", {}).items():
+            if not (isinstance(v, list) and len(v) == 2 and _finite(v[0], f"{w}.ranges.{k}") <= _finite(v[1], f"{w}.ranges.{k}")):
+                raise _fail(f"{w}.ranges.{k}", "must be [low, high] with low <= high")
     return prov
 
 

@@ -13,7 +13,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Sequence
 
@@ -109,7 +109,7 @@ def sweep(fmu_dir: Path, rates: Sequence[float], backend: str = "native",
             params = dict(data["fmus"][plant].get("parameters", {}))
             params.update({f"omega_0[{i + 1}]": float(rate * d) for i, d in enumerate(direction)})
             data["fmus"][plant]["parameters"] = params
-        res, _ = scenarios.simulate(replace(base, data=data), fmu_dir, backend)
+        res, _ = scenarios.simulate(scenarios.Scenario.from_dict(data, base.folder, base.name), fmu_dir, backend)
         dt = np.diff(res["time"])
         for label, (plant, ctrl) in CONTROLLERS.items():
             w = res[f"{plant}.rate_norm"]

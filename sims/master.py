@@ -40,6 +40,7 @@ from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
                        fmi2CallbackFunctions, fmi2CallbackLoggerTYPE)
 
+from sims.paths import did_you_mean
 from sims.profiles import Profile
 
 _STATUS = {0: "OK", 1: "Warning", 2: "Discard", 3: "Error", 4: "Fatal", 5: "Pending"}
@@ -122,7 +123,7 @@ class Component:
             bases = sorted({n.split("[")[0] for n in self.variables})
             raise UnknownVariableError(
                 f"FMU instance {self.name!r} ({self.path.name}) has no variable {name!r}; "
-                f"its variables are {', '.join(bases)}") from None
+                f"its variables are {', '.join(bases)}{did_you_mean(name.split('[')[0], bases)}") from None
 
     def expand(self, name: str) -> list[str]:
         """``name`` itself, or every ``name[i]`` if ``name`` is a base name."""
@@ -173,11 +174,13 @@ class CoSimulation:
         self.components: dict[str, Component] = {}
         self.connections: list[tuple[str, str]] = []
         self.profiles: list[tuple[str, Profile]] = []
+        self.mismatches: list[str] = []
+        """Design mismatches of its controllers, as found by :func:`sims.scenario.design_mismatches`."""
         self._callbacks = self._make_callbacks()
         for name, path in fmus.items():
             path = Path(path)
             if not path.is_file():
-                raise FileNotFoundError(f"FMU for instance {name!r} not found: {path} (run `satfmu build`?)")
+                raise FileNotFoundError(f"FMU for instance {name!r} not found: {path}")
             md = read_model_description(str(path))
             unzip = extract(str(path))
             slave = FMU2Slave(guid=md.guid, unzipDirectory=unzip,

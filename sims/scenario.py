@@ -52,45 +52,231 @@ import csv
 import json
 import math
 import tomllib
-from dataclasses import dataclass, field
+import warnings
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Mapping
 
 import numpy as np
 
 from sims import metrics as M
-from sims.master import CoSimulation, communication_times
+from sims.master import CoSimulation, UnknownVariableError, communication_times
+from sims.paths import BACKENDS, SHIPPED_SCENARIOS, did_you_mean
 from sims.profiles import Profile
 from sims.profiles import make as make_profile
 
-SCENARIOS = Path(__file__).resolve().parent / "scenarios"
-BACKENDS = {"native": "", "python": "_py"}
-_TOP = {"name", "description", "stop_time", "step_size", "start_time", "fmus", "connections",
-        "profiles", "record", "metrics", "plot", "reference", "verify"}
-_FMU = {"model", "path", "backend", "parameters"}
-_METRIC = {"name", "kind", "signals", "scale", "unit", "min", "max", "tolerance", "limit",
-           "disturbances", "versus", "description"}
+SCENARIOS = SHIPPED_SCENARIOS
+_TOP = ("name", "description", "stop_time", "step_size", "start_time", "fmus", "connections",
+        "profiles", "record", "metrics", "plot", "reference", "verify")
+_FMU = ("model", "path", "backend", "parameters")
+_METRIC = ("name", "kind", "signals", "scale", "unit", "min", "max", "tolerance", "limit",
+           "disturbances", "versus", "description")
+_NEEDS = {"settling_time": "tolerance", "time_in_saturation": "limit", "l2_ratio": "disturbances",
+          "max_difference": "versus"}
 
 
 class ScenarioError(ValueError):
-    """A scenario file is missing, malformed, or refers to something that does not exist."""
+    """A scenario is missing, malformed, or refers to something that does not exist; the message
+    names the key path (``mine.toml: connections[2].from: ...``)."""
+
+
+class DesignMismatchWarning(UserWarning):
+    """A scenario pairs a controller with a plant whose parameters differ from its design plant."""
+
+
+@dataclass
+class FmuSpec:
+    """One FMU instance of a scenario: a built model by name, or an FMU file.
+
+    Parameters
+    ----------
+    model : str, optional
+        Model or controller-artifact name (``"mrp_satellite"``, ``"mrp_hinf_published"``);
+        the FMU comes from the FMU folder (built on demand).
+    path : str, optional
+        An FMU file, relative to the scenario's folder (exactly one of ``model``, ``path``).
+    backend : {"native", "python"}, optional
+        This instance's backend (default: the run's).
+    parameters : dict
+        Start values, by variable name (Real: float, Integer: int, Boolean: bool).
+    """
+
+    model: str | None = None
+    path: str | None = None
+    backend: str | None = None
+    parameters: dict[str, Any] = field(default_factory=dict)
+
+
+@dataclass
+class Connection:
+    """``source`` output(s) of one FMU to ``target`` input(s) of another (``"instance.variable"``,
+    a base name such as ``plant.omega`` connects index by index)."""
+
+    source: str
+    target: str
+
+
+@dataclass
+class Metric:
+    """A pass/fail figure of a run (see the module docstring for the kinds and their fields)."""
+
+    name: str
+    kind: str
+    signals: list[str]
+    scale: float = 1.0
+    unit: str = ""
+    min: float | None = None
+    max: float | None = None
+    tolerance: float | None = None
+    limit: float | None = None
+    disturbances: list[str] = field(default_factory=list)
+    versus: list[str] = field(default_factory=list)
+    description: str = ""
 
 
 @dataclass
 class Scenario:
-    """A parsed, validated scenario declaration."""
+    """A validated co-simulation declaration: FMUs, connections, profiles, records, metrics.
 
-    path: Path
-    data: dict[str, Any]
+    Build one with :meth:`from_toml`, :meth:`from_dict` or directly; every construction is
+    validated (:class:`ScenarioError` names the key path and suggests near misses).
+    Variable names are checked against the FMUs when it runs.
+
+    Parameters
+    ----------
+    name : str
+        Identifier (the output folder's name).
+    stop_time, step_size : float
+        Stop time and communication step, s.
+    fmus : dict of str to FmuSpec
+        Instance name -> FMU.
+    connections : list of Connection
+    profiles : list of dict
+        Signals of time fed to inputs: ``{"to": "plant.w_d[1]", "kind": "step", ...}``
+        (kinds of :mod:`sims.profiles`).
+    record : list of str
+        Variables to record (``"instance.variable"``, base names expand).
+    metrics : list of Metric
+    start_time : float
+        s.
+    description, reference : str
+        What the run shows and where its expected figures come from.
+    plot : dict
+        ``{"panels": [[signals of panel 1], ...]}`` (default: one panel per record entry).
+    verify : dict
+        ``{"rtol": ..., "atol": ..., "reason": ...}`` for the cross-engine comparison.
+    base_dir : Path, optional
+        Folder that relative FMU and CSV paths resolve against (a TOML file's folder).
+    path : Path, optional
+        The TOML file it was read from.
+    """
+
+    name: str
+    stop_time: float
+    step_size: float
+    fmus: dict[str, FmuSpec]
+    connections: list[Connection] = field(default_factory=list)
+    profiles: list[dict[str, Any]] = field(default_factory=list)
+    record: list[str] = field(default_factory=list)
+    metrics: list[Metric] = field(default_factory=list)
+    start_time: float = 0.0
+    description: str = ""
+    reference: str = ""
+    plot: dict[str, Any] = field(default_factory=dict)
+    verify: dict[str, Any] = field(default_factory=dict)
+    base_dir: Path | None = None
+    path: Path | None = None
+
+    def __post_init__(self) -> None:
+        self.fmus = {k: v if isinstance(v, FmuSpec) else FmuSpec(**v) for k, v in self.fmus.items()}
+        self.connections = [c if isinstance(c, Connection) else Connection(*c) for c in self.connections]
+        self.metrics = [m if isinstance(m, Metric) else Metric(**m) for m in self.metrics]
+        validate(self.to_dict(), str(self.path) if self.path else f"scenario {self.name!r}")
 
     @property
-    def name(self) -> str:
-        return self.data["name"]
+    def data(self) -> dict[str, Any]:
+        """The declaration as plain data (the TOML file's keys)."""
+        return self.to_dict()
+
+    @property
+    def folder(self) -> Path:
+        """Folder that relative paths resolve against (``base_dir``, the file's, or the working one)."""
+        if self.base_dir is not None:
+            return Path(self.base_dir)
+        return self.path.parent if self.path is not None else Path.cwd()
+
+    def to_dict(self) -> dict[str, Any]:
+        """The declaration as plain data with the TOML file's keys (defaults left out)."""
+        out: dict[str, Any] = {"name": self.name, "stop_time": self.stop_time, "step_size": self.step_size}
+        for key in ("start_time", "description", "reference", "plot", "verify", "record", "profiles"):
+            value = getattr(self, key)
+            if value not in (0.0, "", {}, []):
+                out[key] = value
+        out["fmus"] = {k: {f: v for f, v in asdict(spec).items() if v not in (None, {})}
+                       for k, spec in self.fmus.items()}
+        if self.connections:
+            out["connections"] = [{"from": c.source, "to": c.target} for c in self.connections]
+        if self.metrics:
+            defaults = asdict(Metric("", "", []))
+            out["metrics"] = [{k: v for k, v in asdict(m).items() if k in ("name", "kind", "signals") or v != defaults[k]}
+                              for m in self.metrics]
+        return out
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any], base_dir: str | Path | None = None, where: str = "scenario",
+                  path: Path | None = None) -> "Scenario":
+        """A scenario from plain data with the TOML file's keys.
+
+        Raises
+        ------
+        ScenarioError
+            Naming the key path, e.g. ``"scenario: connections[2].from: ..."``.
+        """
+        validate(data, where)
+        d = dict(data)
+        return cls(
+            name=d["name"], stop_time=float(d["stop_time"]), step_size=float(d["step_size"]),
+            fmus={k: FmuSpec(**v) for k, v in d["fmus"].items()},
+            connections=[Connection(c["from"], c["to"]) for c in d.get("connections", [])],
+            profiles=[dict(p) for p in d.get("profiles", [])], record=list(d.get("record", [])),
+            metrics=[Metric(**m) for m in d.get("metrics", [])], start_time=float(d.get("start_time", 0.0)),
+            description=d.get("description", ""), reference=d.get("reference", ""), plot=dict(d.get("plot", {})),
+            verify=dict(d.get("verify", {})), base_dir=None if base_dir is None else Path(base_dir).resolve(),
+            path=path)
+
+    @classmethod
+    def from_toml(cls, path: str | Path) -> "Scenario":
+        """Read a scenario file (relative paths in it resolve against its folder).
+
+        Raises
+        ------
+        ScenarioError
+            If the file is missing, not TOML, or its declaration is invalid.
+        """
+        path = Path(path).resolve()
+        try:
+            data = tomllib.loads(path.read_text())
+        except OSError as exc:
+            raise ScenarioError(f"{path}: cannot read scenario file ({exc.strerror})") from None
+        except tomllib.TOMLDecodeError as exc:
+            raise ScenarioError(f"{path}: invalid TOML ({exc})") from None
+        return cls.from_dict(data, path.parent, str(path), path)
 
 
 @dataclass
-class ScenarioResult:
-    """Outcome of one scenario run."""
+class Result:
+    """Outcome of one scenario run: the recorded signals, the metrics, pass/fail.
+
+    Attributes
+    ----------
+    results : numpy structured array
+        One row per communication time: ``time`` (s) and every recorded
+        ``instance.variable`` (its unit: :attr:`units`).
+    metrics : list of sims.metrics.MetricResult
+        Name, value, unit, bounds and pass/fail of each metric.
+    warnings : list of str
+        Design mismatches found (a controller paired with a plant it was not designed for).
+    """
 
     name: str
     backend: str
@@ -98,88 +284,237 @@ class ScenarioResult:
     metrics: list[M.MetricResult]
     files: dict[str, Path] = field(default_factory=dict)
     l2_curves: dict[str, np.ndarray] = field(default_factory=dict)
+    units: dict[str, str] = field(default_factory=dict)
+    panels: list[list[str]] = field(default_factory=list)
+    title: str = ""
+    warnings: list[str] = field(default_factory=list)
 
     @property
     def passed(self) -> bool:
+        """Whether every metric is within its bounds."""
         return all(m.passed for m in self.metrics)
 
+    def metric(self, name: str) -> M.MetricResult:
+        """The metric of that name.
+
+        Raises
+        ------
+        KeyError
+            With the names there are and the closest one.
+        """
+        for m in self.metrics:
+            if m.name == name:
+                return m
+        names = [m.name for m in self.metrics]
+        raise KeyError(f"{self.name}: no metric {name!r} (metrics: {names}){did_you_mean(name, names)}")
+
     def summary(self) -> dict[str, Any]:
+        """Scenario, backend, pass/fail, every metric and the files written, as plain data."""
         return {"scenario": self.name, "backend": self.backend, "passed": self.passed,
                 "metrics": [m.to_json() for m in self.metrics],
-                "files": {k: str(v) for k, v in self.files.items()}}
+                "files": {k: str(v) for k, v in self.files.items()}, "warnings": self.warnings}
+
+    def plot(self, path: str | Path) -> Path:
+        """Plot the recorded signals (the scenario's panels) to a PNG file; returns its path."""
+        from sims import plots
+
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        plots.time_series(self.results, self.panels, path, title=self.title, units=self.units)
+        return path
+
+    def write(self, folder: str | Path) -> dict[str, Path]:
+        """Write ``<name>_<backend>.csv``, the plot(s) and ``summary_<backend>.json`` into
+        ``folder``; returns (and records in :attr:`files`) what was written."""
+        from sims import plots
+
+        folder = Path(folder)
+        folder.mkdir(parents=True, exist_ok=True)
+        stem = f"{self.name}_{self.backend}"
+        self.files["csv"] = folder / f"{stem}.csv"
+        write_csv(self.results, self.files["csv"])
+        self.files["plot"] = self.plot(folder / f"{stem}.png")
+        if self.l2_curves:
+            f = folder / f"{stem}_l2_ratio.png"
+            bounds = {m.name: m.max for m in self.metrics}
+            plots.l2_ratio(self.results["time"], {n: (c, bounds[n]) for n, c in self.l2_curves.items()}, f,
+                           title=f"{self.name}: truncated L2 ratio over T")
+            self.files["l2_ratio_plot"] = f
+        self.files["summary"] = folder / f"summary_{self.backend}.json"
+        self.files["summary"].write_text(json.dumps(self.summary(), indent=1) + "\n")
+        return dict(self.files)
 
 
-def resolve_path(name_or_path: str | Path) -> Path:
-    """A scenario file path, or the shipped scenario of that name."""
-    p = Path(name_or_path)
-    if p.suffix == ".toml" and p.is_file():
-        return p
-    shipped = SCENARIOS / f"{name_or_path}.toml"
-    if shipped.is_file():
-        return shipped
-    names = ", ".join(sorted(s.stem for s in SCENARIOS.glob("*.toml")))
-    raise ScenarioError(f"no scenario file {name_or_path!r} (shipped scenarios: {names})")
+ScenarioResult = Result
 
 
-def load(name_or_path: str | Path) -> Scenario:
-    """Read and check a scenario's structure (names are checked against the FMUs at run time)."""
-    path = resolve_path(name_or_path)
-    try:
-        data = tomllib.loads(path.read_text())
-    except tomllib.TOMLDecodeError as exc:
-        raise ScenarioError(f"{path}: invalid TOML ({exc})") from None
-    where = str(path)
-    unknown = set(data) - _TOP
-    if unknown:
-        raise ScenarioError(f"{where}: unknown keys {sorted(unknown)} (allowed: {sorted(_TOP)})")
+def _known_keys(data: Mapping[str, Any], keys: tuple[str, ...], where: str) -> None:
+    for k in data:
+        if k not in keys:
+            hint = did_you_mean(k, list(keys)) or f" (allowed: {', '.join(keys)})"
+            raise ScenarioError(f"{where}: unknown key {k!r}{hint}")
+
+
+def _number(v: Any, where: str, positive: bool = False) -> float:
+    """``v`` as a float; ``where`` is its key path."""
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or (positive and v <= 0):
+        raise ScenarioError(f"{where}: must be a finite number{' > 0' if positive else ''}, got {v!r}")
+    return float(v)
+
+
+def _signal(name: Any, instances: list[str], where: str) -> None:
+    """``"instance.variable"`` with a declared instance."""
+    if not isinstance(name, str) or "." not in name:
+        raise ScenarioError(f"{where}: must be 'instance.variable', got {name!r}")
+    inst = name.split(".", 1)[0]
+    if inst not in instances:
+        raise ScenarioError(f"{where}: {name!r} names no FMU instance {inst!r} (instances: "
+                            f"{', '.join(instances)}){did_you_mean(inst, instances)}")
+
+
+def _strings(data: Mapping[str, Any], key: str, where: str, instances: list[str]) -> None:
+    value = data.get(key, [])
+    if not isinstance(value, list):
+        raise ScenarioError(f"{where}.{key}: must be a list of 'instance.variable' names")
+    for i, n in enumerate(value):
+        _signal(n, instances, f"{where}.{key}[{i}]")
+
+
+def validate(data: Any, where: str = "scenario") -> None:
+    """Check a scenario declaration (plain data); names are checked against the FMUs at run time.
+
+    Raises
+    ------
+    ScenarioError
+        Naming the key path (``where: metrics[0].kind: ...``) and, for unknown keys and
+        instance names, the closest known one.
+    """
+    if not isinstance(data, Mapping):
+        raise ScenarioError(f"{where}: expected a table of keys, got {type(data).__name__}")
+    _known_keys(data, _TOP, where)
     for key in ("name", "stop_time", "step_size", "fmus"):
         if key not in data:
             raise ScenarioError(f"{where}: missing key {key!r}")
-    if not isinstance(data["fmus"], dict) or not data["fmus"]:
-        raise ScenarioError(f"{where}: [fmus] must declare at least one FMU instance")
-    for inst, spec in data["fmus"].items():
-        if not isinstance(spec, dict) or set(spec) - _FMU or ("model" in spec) == ("path" in spec):
-            raise ScenarioError(f"{where}: [fmus.{inst}] needs exactly one of 'model' or 'path', "
-                                f"and only the keys {sorted(_FMU)}")
+    if not isinstance(data["name"], str) or not data["name"]:
+        raise ScenarioError(f"{where}: name: must be a non-empty string, got {data['name']!r}")
+    w = f"{where}: "
+    stop, step = (_number(data[k], w + k, True) for k in ("stop_time", "step_size"))
+    start = _number(data["start_time"], w + "start_time") if "start_time" in data else 0.0
+    if step > stop - start:
+        raise ScenarioError(f"{w}step_size {step:g} s exceeds the run length stop_time - start_time = "
+                            f"{stop - start:g} s")
+    fmus = data["fmus"]
+    if not isinstance(fmus, Mapping) or not fmus:
+        raise ScenarioError(f"{w}fmus: must declare at least one FMU instance")
+    instances = list(fmus)
+    for inst, spec in fmus.items():
+        ws = f"{w}fmus.{inst}"
+        if not isinstance(spec, Mapping):
+            raise ScenarioError(f"{ws}: must be a table with 'model' or 'path'")
+        _known_keys(spec, _FMU, ws)
+        if ("model" in spec) == ("path" in spec):
+            raise ScenarioError(f"{ws}: needs exactly one of 'model' or 'path'")
+        for key in ("model", "path"):
+            if key in spec and (not isinstance(spec[key], str) or not spec[key]):
+                raise ScenarioError(f"{ws}.{key}: must be a non-empty string, got {spec[key]!r}")
         if spec.get("backend", "native") not in BACKENDS:
-            raise ScenarioError(f"{where}: [fmus.{inst}] backend must be one of {sorted(BACKENDS)}")
+            raise ScenarioError(f"{ws}.backend: must be one of {sorted(BACKENDS)}, got {spec['backend']!r}"
+                                f"{did_you_mean(str(spec['backend']), sorted(BACKENDS))}")
+        params = spec.get("parameters", {})
+        if not isinstance(params, Mapping):
+            raise ScenarioError(f"{ws}.parameters: must be a table of start values")
+        for k, v in params.items():
+            if isinstance(v, float) and not math.isfinite(v):
+                raise ScenarioError(f"{ws}.parameters.{k}: must be finite, got {v!r}")
+            if not isinstance(v, (bool, int, float, str)):
+                raise ScenarioError(f"{ws}.parameters.{k}: must be a number, boolean or string, got {v!r}")
     for i, c in enumerate(data.get("connections", [])):
-        if set(c) != {"from", "to"}:
-            raise ScenarioError(f"{where}: connections[{i}] needs exactly 'from' and 'to'")
+        wc = f"{w}connections[{i}]"
+        if not isinstance(c, Mapping):
+            raise ScenarioError(f"{wc}: must be a table with 'from' and 'to'")
+        _known_keys(c, ("from", "to"), wc)
+        for key in ("from", "to"):
+            if key not in c:
+                raise ScenarioError(f"{wc}: missing key {key!r}")
+            _signal(c[key], instances, f"{wc}.{key}")
     for i, p in enumerate(data.get("profiles", [])):
-        if "to" not in p:
-            raise ScenarioError(f"{where}: profiles[{i}] needs a 'to' target")
+        if not isinstance(p, Mapping) or "to" not in p:
+            raise ScenarioError(f"{w}profiles[{i}]: needs a 'to' target")
+        _signal(p["to"], instances, f"{w}profiles[{i}].to")
+    for i, n in enumerate(data.get("record", [])):
+        _signal(n, instances, f"{w}record[{i}]")
     ver = data.get("verify", {})
-    if not isinstance(ver, dict) or set(ver) - {"rtol", "atol", "reason"} or ver and not ver.get("reason") or any(
+    if not isinstance(ver, Mapping) or set(ver) - {"rtol", "atol", "reason"} or ver and not ver.get("reason") or any(
             isinstance(ver.get(k, 0.0), bool) or not isinstance(ver.get(k, 0.0), (int, float))
             or not 0 <= ver.get(k, 0.0) < 1 for k in ("rtol", "atol")):
-        raise ScenarioError(f"{where}: [verify] takes rtol and atol in [0, 1) and needs a 'reason' for them")
+        raise ScenarioError(f"{w}verify: takes rtol and atol in [0, 1) and needs a 'reason' for them")
     for i, m in enumerate(data.get("metrics", [])):
-        w = f"{where}: metrics[{i}]"
-        if set(m) - _METRIC:
-            raise ScenarioError(f"{w}: unknown keys {sorted(set(m) - _METRIC)}")
+        wm = f"{w}metrics[{i}]"
+        if not isinstance(m, Mapping):
+            raise ScenarioError(f"{wm}: must be a table")
+        _known_keys(m, _METRIC, wm)
         if m.get("kind") not in M.KINDS:
-            raise ScenarioError(f"{w}: kind must be one of {M.KINDS}, got {m.get('kind')!r}")
+            raise ScenarioError(f"{wm}.kind: must be one of {M.KINDS}, got {m.get('kind')!r}"
+                                f"{did_you_mean(str(m.get('kind')), list(M.KINDS))}")
         if not m.get("name") or not m.get("signals"):
-            raise ScenarioError(f"{w}: needs 'name' and 'signals'")
-        need = {"settling_time": "tolerance", "time_in_saturation": "limit", "l2_ratio": "disturbances",
-                "max_difference": "versus"}
-        if m["kind"] in need and need[m["kind"]] not in m:
-            raise ScenarioError(f"{w}: kind {m['kind']} needs {need[m['kind']]!r}")
-    return Scenario(path, data)
+            raise ScenarioError(f"{wm}: needs 'name' and 'signals'")
+        if m["kind"] in _NEEDS and _NEEDS[m["kind"]] not in m:
+            raise ScenarioError(f"{wm}: kind {m['kind']} needs {_NEEDS[m['kind']]!r}")
+        for key in ("signals", "disturbances", "versus"):
+            _strings(m, key, wm, instances)
+        for key in ("scale", "min", "max", "tolerance", "limit"):
+            if key in m:
+                _number(m[key], f"{wm}.{key}")
+
+
+def resolve_path(name_or_path: str | Path) -> Path:
+    """A scenario file path, or the shipped scenario of that name.
+
+    Raises
+    ------
+    ScenarioError
+        If neither exists (with the shipped names and the closest one).
+    """
+    p = Path(name_or_path)
+    if p.suffix == ".toml":
+        if p.is_file():
+            return p.resolve()
+        raise ScenarioError(f"no scenario file {str(p)!r} (resolved to {p.resolve()})")
+    shipped = SCENARIOS / f"{name_or_path}.toml"
+    if shipped.is_file():
+        return shipped
+    names = sorted(s.stem for s in SCENARIOS.glob("*.toml"))
+    raise ScenarioError(f"no scenario named {str(name_or_path)!r} (shipped scenarios: {', '.join(names)})"
+                        f"{did_you_mean(str(name_or_path), names)}")
+
+
+def load(scenario: "str | Path | Mapping[str, Any] | Scenario") -> Scenario:
+    """A :class:`Scenario` from a shipped name, a TOML path, plain data, or itself.
+
+    Raises
+    ------
+    ScenarioError
+    """
+    if isinstance(scenario, Scenario):
+        return scenario
+    if isinstance(scenario, Mapping):
+        return Scenario.from_dict(scenario)
+    return Scenario.from_toml(resolve_path(scenario))
 
 
 def fmu_paths(scenario: Scenario, fmu_dir: Path, backend: str) -> dict[str, Path]:
-    """Instance name -> FMU file, for the chosen default backend."""
+    """Instance name -> FMU file, for the chosen default backend (``path`` entries resolve
+    against the scenario's folder, ``model`` entries name files in ``fmu_dir``)."""
     if backend not in BACKENDS:
-        raise ScenarioError(f"backend must be one of {sorted(BACKENDS)}, got {backend!r}")
+        raise ScenarioError(f"backend must be one of {sorted(BACKENDS)}, got {backend!r}"
+                            f"{did_you_mean(str(backend), sorted(BACKENDS))}")
     out = {}
-    for inst, spec in scenario.data["fmus"].items():
-        if "path" in spec:
-            p = Path(spec["path"])
-            out[inst] = p if p.is_absolute() else scenario.path.parent / p
+    for inst, spec in scenario.fmus.items():
+        if spec.path is not None:
+            p = Path(spec.path)
+            out[inst] = p if p.is_absolute() else scenario.folder / p
         else:
-            out[inst] = Path(fmu_dir) / f"{spec['model']}{BACKENDS[spec.get('backend', backend)]}.fmu"
+            out[inst] = Path(fmu_dir) / f"{spec.model}{BACKENDS[spec.backend or backend]}.fmu"
     return out
 
 
@@ -190,28 +525,24 @@ def profiles(scenario: Scenario) -> list[tuple[str, Profile]]:
     ------
     sims.profiles.ProfileError
     """
-    d = scenario.data
-    out = []
-    for i, p in enumerate(d.get("profiles", [])):
-        spec = {k: v for k, v in p.items() if k != "to"}
-        out.append((p["to"], make_profile(spec, f"{scenario.path.name}: profiles[{i}]", scenario.path.parent,
-                                          d["step_size"])))
-    return out
+    where = scenario.path.name if scenario.path else scenario.name
+    return [(p["to"], make_profile({k: v for k, v in p.items() if k != "to"}, f"{where}: profiles[{i}]",
+                                   scenario.folder, scenario.step_size))
+            for i, p in enumerate(scenario.profiles)]
 
 
 def grid(scenario: Scenario) -> np.ndarray:
     """The communication times of the scenario, s (as the master steps them)."""
-    d = scenario.data
-    t0 = d.get("start_time", 0.0)
-    return communication_times(t0, d["step_size"], round((d["stop_time"] - t0) / d["step_size"]))
+    t0 = scenario.start_time
+    return communication_times(t0, scenario.step_size, round((scenario.stop_time - t0) / scenario.step_size))
 
 
 def recorded(scenario: Scenario, sim: CoSimulation) -> list[str]:
     """The qualified variables a run of ``scenario`` records: its ``record`` list and every
     signal its metrics read, base names expanded, each once."""
-    record = list(scenario.data.get("record", []))
-    for m in scenario.data.get("metrics", []):
-        record += m["signals"] + m.get("disturbances", []) + m.get("versus", [])
+    record = list(scenario.record)
+    for m in scenario.metrics:
+        record += m.signals + m.disturbances + m.versus
     return list(dict.fromkeys(_columns(sim, record)))
 
 
@@ -223,21 +554,88 @@ def _columns(sim: CoSimulation, names: list[str]) -> list[str]:
     return cols
 
 
-def simulate(scenario: Scenario, fmu_dir: Path, backend: str = "native") -> tuple[np.ndarray, CoSimulation]:
-    """Run the scenario's co-simulation; returns the recorded array and the (closed) master."""
-    d = scenario.data
+def design_mismatches(scenario: Scenario, sim: CoSimulation, rtol: float | None = None) -> list[str]:
+    """Controllers of the scenario paired with a plant whose parameters differ from the plant
+    they were designed for (the artifact each controller FMU carries in its resources).
+
+    Parameters
+    ----------
+    rtol : float, optional
+        Relative tolerance (default :data:`controllers.artifact.DESIGN_RTOL`).
+
+    Returns
+    -------
+    list of str
+        One line per controller and plant instance, e.g. ``"controller (mrp_hinf_published)
+        on plant: I_x = 100 (designed for 15), ..."``.
+    """
+    from controllers import artifact as artifacts
+
+    out = []
+    for cname, comp in sim.components.items():
+        f = Path(comp.unzip_dir) / "resources" / "artifact.json"
+        if not f.is_file():
+            continue
+        art = artifacts.load(f)
+        for pname, plant in sim.components.items():
+            if pname == cname:
+                continue
+            values = {v.name: float(v.start) for v in plant.model_description.modelVariables
+                      if v.causality == "parameter" and v.type == "Real" and v.start is not None}
+            values.update({k: float(v) for k, v in scenario.fmus[pname].parameters.items()
+                           if isinstance(v, (int, float)) and not isinstance(v, bool)})
+            lines = artifacts.plant_mismatches(art, plant.model_description.modelName, values,
+                                               artifacts.DESIGN_RTOL if rtol is None else rtol)
+            if lines:
+                out.append(f"{cname} ({art.name}) on {pname}: {', '.join(lines)}")
+    return out
+
+
+def simulate(scenario: Scenario, fmu_dir: Path, backend: str = "native", strict: bool = False,
+             design_rtol: float | None = None) -> tuple[np.ndarray, CoSimulation]:
+    """Run the scenario's co-simulation; returns the recorded array and the (closed) master.
+
+    A controller paired with a plant other than its design plant is reported by a
+    :class:`DesignMismatchWarning` (the lines are in ``sim.mismatches``), or refused with
+    ``strict``.
+
+    Raises
+    ------
+    ScenarioError
+        A connection, profile or record entry that names no variable of its FMU (with the
+        key path), or a design mismatch with ``strict``.
+    """
+    where = str(scenario.path) if scenario.path else f"scenario {scenario.name!r}"
     sim = CoSimulation(fmu_paths(scenario, fmu_dir, backend))
     try:
-        for c in d.get("connections", []):
-            sim.connect(c["from"], c["to"])
-        for target, prof in profiles(scenario):
+        sim.mismatches = design_mismatches(scenario, sim, design_rtol)
+        for line in sim.mismatches:
+            if strict:
+                raise ScenarioError(f"{where}: design mismatch (strict): {line}")
+            warnings.warn(f"{where}: {line}", DesignMismatchWarning, stacklevel=3)
+        for i, c in enumerate(scenario.connections):
+            for key, name in (("from", c.source), ("to", c.target)):
+                _checked(sim, name, f"{where}: connections[{i}].{key}")
+            sim.connect(c.source, c.target)
+        for i, (target, prof) in enumerate(profiles(scenario)):
+            _checked(sim, target, f"{where}: profiles[{i}].to")
             sim.add_profile(target, prof)
+        for i, name in enumerate(scenario.record):
+            _checked(sim, name, f"{where}: record[{i}]")
         record = recorded(scenario, sim)
-        params = {inst: spec.get("parameters", {}) for inst, spec in d["fmus"].items()}
-        res = sim.run(d["stop_time"], d["step_size"], d.get("start_time", 0.0), params, record)
+        params = {inst: spec.parameters for inst, spec in scenario.fmus.items()}
+        res = sim.run(scenario.stop_time, scenario.step_size, scenario.start_time, params, record)
     finally:
         sim.close()
     return res, sim
+
+
+def _checked(sim: CoSimulation, name: str, where: str) -> None:
+    """Resolve ``name`` in ``sim`` or raise a ScenarioError naming the key path."""
+    try:
+        sim.resolve(name)
+    except UnknownVariableError as exc:
+        raise ScenarioError(f"{where}: {exc}") from None
 
 
 def evaluate(scenario: Scenario, res: np.ndarray, sim: CoSimulation
@@ -246,12 +644,12 @@ def evaluate(scenario: Scenario, res: np.ndarray, sim: CoSimulation
     t = res["time"]
     held = sim.held_signals()
     out, curves = [], {}
-    for m in scenario.data.get("metrics", []):
-        scale = float(m.get("scale", 1.0))
-        cols = _columns(sim, m["signals"])
+    for m in scenario.metrics:
+        scale = m.scale
+        cols = _columns(sim, m.signals)
         y = np.stack([res[c] for c in cols], axis=1) * scale
         is_held = all(c in held for c in cols)
-        kind = m["kind"]
+        kind = m.kind
         if kind == "final":
             value = float(np.max(np.abs(y[-1])))
         elif kind == "peak":
@@ -259,23 +657,23 @@ def evaluate(scenario: Scenario, res: np.ndarray, sim: CoSimulation
         elif kind == "rms":
             value = M.rms(t, y, held=is_held)
         elif kind == "settling_time":
-            value = M.settling_time(t, y, float(m["tolerance"]))
+            value = M.settling_time(t, y, float(m.tolerance))
         elif kind == "time_in_saturation":
-            value = M.time_in_saturation(t, y, float(m["limit"]), held=is_held)
+            value = M.time_in_saturation(t, y, float(m.limit), held=is_held)
         elif kind == "integral_square":
             value = M.integral_square(t, y, [c in sim.input_signals() for c in cols])
         elif kind == "max_difference":
-            vcols = _columns(sim, m["versus"])
+            vcols = _columns(sim, m.versus)
             if len(vcols) != len(cols):
-                raise ScenarioError(f"metric {m['name']!r}: {len(cols)} signals but {len(vcols)} 'versus' signals")
+                raise ScenarioError(f"metric {m.name!r}: {len(cols)} signals but {len(vcols)} 'versus' signals")
             value = M.peak(y - np.stack([res[c] for c in vcols], axis=1) * scale)
         else:
-            wcols = _columns(sim, m["disturbances"])
+            wcols = _columns(sim, m.disturbances)
             w = np.stack([res[c] for c in wcols], axis=1)
             curve = M.l2_ratio_curve(t, y, w, w_held=all(c in held for c in wcols))
-            curves[m["name"]] = curve
+            curves[m.name] = curve
             value = float(np.nanmax(curve)) if np.any(np.isfinite(curve)) else math.nan
-        out.append(M.MetricResult(m["name"], kind, value, m.get("min"), m.get("max"), m.get("unit", "")))
+        out.append(M.MetricResult(m.name, kind, value, m.min, m.max, m.unit))
     return out, curves
 
 
@@ -288,32 +686,70 @@ def write_csv(res: np.ndarray, path: Path) -> None:
             w.writerow([repr(float(v)) for v in row])
 
 
-def run(name_or_path: str | Path, fmu_dir: Path, backend: str = "native",
-        out_dir: Path | None = None) -> ScenarioResult:
-    """Load, simulate, evaluate and (if ``out_dir``) write CSV, PNG plots and summary.json."""
-    from sims import plots
+def run(scenario: "str | Path | Mapping[str, Any] | Scenario", fmu_dir: str | Path | None = None,
+        backend: str = "native", out_dir: str | Path | None = None, strict: bool = False,
+        design_rtol: float | None = None) -> Result:
+    """Run a scenario and evaluate its metrics.
 
-    scenario = load(name_or_path)
-    res, sim = simulate(scenario, fmu_dir, backend)
-    mres, curves = evaluate(scenario, res, sim)
-    result = ScenarioResult(scenario.name, backend, res, mres, l2_curves=curves)
+    Parameters
+    ----------
+    scenario : Scenario, dict, str or Path
+        A scenario, its plain data, a TOML file or a shipped scenario's name.
+    fmu_dir : path, optional
+        Folder of the FMUs named by ``model`` (default :func:`sims.paths.fmu_cache`); FMUs
+        missing there are built into it first.
+    backend : {"native", "python"}
+        Default backend of the instances.
+    out_dir : path, optional
+        Write the CSV, plots and summary into ``out_dir/<name>/`` (:meth:`Result.write`).
+    strict : bool
+        Refuse (``ScenarioError``) a controller paired with a plant other than its design
+        plant, instead of a :class:`DesignMismatchWarning`.
+    design_rtol : float, optional
+        Relative tolerance of that comparison (default 1e-3).
+
+    Returns
+    -------
+    Result
+
+    Raises
+    ------
+    ScenarioError
+        An invalid scenario (key path named), a name no FMU has, a strict mismatch.
+    sims.master.MasterError
+        An FMU call failed (its log lines in the message).
+    """
+    sc = load(scenario)
+    folder = ensure_fmus(sc, fmu_dir, backend)
+    res, sim = simulate(sc, folder, backend, strict, design_rtol)
+    mres, curves = evaluate(sc, res, sim)
+    panels = sc.plot.get("panels") or [[r] for r in sc.record]
+    cols = [_columns(sim, p) for p in panels]
+    result = Result(sc.name, backend, res, mres, l2_curves=curves,
+                    units={c: sim.unit(c) for group in cols for c in group}, panels=cols,
+                    title=f"{sc.name}: {sc.description}", warnings=list(sim.mismatches))
     if out_dir is not None:
-        folder = Path(out_dir) / scenario.name
-        folder.mkdir(parents=True, exist_ok=True)
-        result.files["csv"] = folder / f"{scenario.name}_{backend}.csv"
-        write_csv(res, result.files["csv"])
-        panels = scenario.data.get("plot", {}).get("panels") or [[r] for r in scenario.data.get("record", [])]
-        result.files["plot"] = folder / f"{scenario.name}_{backend}.png"
-        cols = [_columns(sim, p) for p in panels]
-        units = {c: sim.unit(c) for group in cols for c in group}
-        plots.time_series(res, cols, result.files["plot"],
-                          title=f"{scenario.name}: {scenario.data.get('description', '')}", units=units)
-        if curves:
-            f = folder / f"{scenario.name}_{backend}_l2_ratio.png"
-            bounds = {m.name: m.max for m in mres}
-            plots.l2_ratio(res["time"], {n: (c, bounds[n]) for n, c in curves.items()}, f,
-                           title=f"{scenario.name}: truncated L2 ratio over T")
-            result.files["l2_ratio_plot"] = f
-        result.files["summary"] = folder / f"summary_{backend}.json"
-        result.files["summary"].write_text(json.dumps(result.summary(), indent=1) + "\n")
+        result.write(Path(out_dir) / sc.name)
     return result
+
+
+def ensure_fmus(scenario: Scenario, fmu_dir: str | Path | None, backend: str) -> Path:
+    """The FMU folder of a run, with every FMU the scenario names by ``model`` present.
+
+    Raises
+    ------
+    ScenarioError
+        If an FMU is missing and cannot be built (unknown model name, with the closest one).
+    """
+    from sims.paths import fmu_cache
+
+    folder = fmu_cache() if fmu_dir is None else Path(fmu_dir).resolve()
+    paths = fmu_paths(scenario, folder, backend)
+    missing = [(inst, p) for inst, p in paths.items() if not p.is_file()]
+    for inst, p in missing:
+        spec = scenario.fmus[inst]
+        if spec.path is not None:
+            raise ScenarioError(f"{scenario.name}: fmus.{inst}.path: no FMU file {str(p)!r}")
+        raise ScenarioError(f"{scenario.name}: fmus.{inst}: no FMU {p.name} in {folder}; build it with "
+                            f"`satfmu build --fmu-dir {folder}` or pass the folder that has it (--fmu-dir)")
+    return folder

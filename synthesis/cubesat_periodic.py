@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 import sympy as sp
 
-from controllers.artifact import FORMAT, FORMAT_VERSION, PERIODIC_KIND
+from controllers.artifact import FORMAT, FORMAT_VERSION, PERIODIC_KIND, design_plant_record
 from fmus import cubesat
 from synthesis.periodic_hinf import (LMICheck, PeriodicDesign, PeriodicSystem, analyze, bisect_gamma, design,
                                      gamma_min, ms_spectral_radius)
@@ -150,7 +150,8 @@ class Synthesis:
                                             "max_block_eig": float(check.block_max_eig.max()),
                                             "min_y_eig": float(check.y_min_eig.min())}},
                 "provenance": {"source": source, "sigma": list(SIGMA_SEED), "W1": W1_SEED, "W2": W2_SEED,
-                               "disturbance_scale": DISTURBANCE_SCALE}}
+                               "disturbance_scale": DISTURBANCE_SCALE,
+                               "design_plant": design_plant_record(cubesat.MODEL)}}
 
 
 def synthesize(gamma: float | None = None, bisect: bool = True) -> Synthesis:

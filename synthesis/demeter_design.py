@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.linalg import matrix_balance
 
+from controllers.artifact import design_plant_record
 from fmus import demeter
 from synthesis import probabilistic as pr
 from synthesis import robust_lmi as rl
@@ -242,6 +243,16 @@ def deterministic(variant: Variant, *, n_samples: int = 100, seed: int = 0, anal
     return out
 
 
+def design_record(dm: DesignModel) -> dict:
+    """``provenance.design_plant`` of a design over ``dm``'s box: the DEMETER FMU's parameters at
+    the box centre, with the interval each uncertain one spans over the box."""
+    n = len(dm.parameters)
+    centre, lows, highs = (dm.fmu_parameters(np.full(n, d)) for d in (0.0, -1.0, 1.0))
+    real = {k: float(v) for k, v in centre.items() if not isinstance(v, bool)}
+    ranges = {k: (min(lows[k], highs[k]), max(lows[k], highs[k])) for k in real if lows[k] != highs[k]}
+    return design_plant_record(demeter.model(), list(real), real, ranges)
+
+
 def artifact_data(result: DeterministicResult, name: str) -> dict:
     """The controller artifact (kind ``linear_state_feedback``) of a feasible design: the FMU
     gains, what was proved and on which box, the measured checks."""
@@ -274,7 +285,8 @@ def artifact_data(result: DeterministicResult, name: str) -> dict:
             "gains": dm.fmu_gains(result.K),
             "certificate": {"status": "certified", "proved": proved, "region": box, "numbers": numbers},
             "provenance": {"source": "satfmu synth demeter (synthesis.demeter_design.deterministic)",
-                           "seed": "004, Table 1 Det", "coupling_L": "substitute (MODELS.md)"},
+                           "seed": "004, Table 1 Det", "coupling_L": "substitute (docs/models.md)",
+                           "design_plant": design_record(dm)},
             "design": {"variant": result.variant.to_dict(),
                        "states": dm.state_names, "K": result.K.tolist(),
                        "weights": {"hinf": W_HINF, "i2p": W_I2P}}}

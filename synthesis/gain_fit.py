@@ -21,7 +21,8 @@ from itertools import combinations_with_replacement
 
 import numpy as np
 
-from controllers.artifact import SERVO_KIND, FORMAT, FORMAT_VERSION
+from controllers.artifact import SERVO_KIND, FORMAT, FORMAT_VERSION, design_plant_record
+from fmus import vscmg
 from synthesis.sdre import Servo
 
 Q2_RANGE = (0.15, 1.25)
@@ -153,7 +154,7 @@ def _servo_data(name: str, description: str, gain: list, certificate: dict, prov
     data = {"format": FORMAT, "format_version": FORMAT_VERSION, "kind": SERVO_KIND, "name": name,
             "description": description, "plant": "vscmg", "tracked": TRACKED, "rates": RATES,
             "scheduling": SCHEDULING, "outputs": OUTPUTS, "gain": gain, "certificate": certificate,
-            "provenance": provenance}
+            "provenance": {**provenance, "design_plant": design_plant_record(vscmg.MODEL)}}
     if fit_info:
         data["fit"] = fit_info
     return data

@@ -230,7 +230,7 @@ def _psd_margin(r: Theorem8Result) -> float:
 def theorem8(gamma: float, alpha: float, beta: float, variant: str = "slack", region: float = 0.45,
              y_degree: int = 1, Qh: np.ndarray | None = None, Rh: np.ndarray | None = None,
              x0: np.ndarray = X0_90, margin: float = 1e-6, multiplier_degree: int = 0,
-             frozen: bool = False, model: Model = mrp_satellite.MODEL) -> Theorem8Result:
+             frozen: bool = False, model: Model | None = None) -> Theorem8Result:
     """Solve Theorem 8 at fixed ``gamma``, ``alpha``, ``beta`` (minimize lambda).
 
     Parameters
@@ -264,6 +264,7 @@ def theorem8(gamma: float, alpha: float, beta: float, variant: str = "slack", re
     synthesis.sos.SOSError
         If the program is infeasible at these values.
     """
+    model = mrp_satellite.MODEL if model is None else model
     if variant not in VARIANTS:
         raise ValueError(f"variant must be one of {VARIANTS}, got {variant!r}")
     for name, v in (("gamma", gamma), ("alpha", alpha), ("beta", beta), ("region", region)):
@@ -483,9 +484,10 @@ class ClosedLoopCheck:
 
 
 def closed_loop_check(result: Theorem8Result, stop_time: float = 300.0,
-                      model: Model = mrp_satellite.MODEL) -> ClosedLoopCheck:
+                      model: Model | None = None) -> ClosedLoopCheck:
     """Simulate ``x' = f(x, u(x))`` from x0 (scipy DOP853, rtol 1e-10) with the cost (the
     design's weights) as an extra state, and linearize the closed loop at the origin."""
+    model = mrp_satellite.MODEL if model is None else model
     xs = result.plant.symbols
     n, m = result.plant.n, result.plant.m
     Qh, Rh = result.Qh, result.Rh
@@ -515,11 +517,12 @@ def closed_loop_check(result: Theorem8Result, stop_time: float = 300.0,
 
 
 def artifact_data(result: Theorem8Result, name: str, check: ClosedLoopCheck,
-                  model: Model = mrp_satellite.MODEL) -> dict[str, Any]:
+                  model: Model | None = None) -> dict[str, Any]:
     """Controller artifact (format of :mod:`controllers.artifact`, form "polynomial").
 
     Status "certified" needs the SOS checks and the closed-loop check to pass.
     """
+    model = mrp_satellite.MODEL if model is None else model
     ok = result.certified and check.passed
     return artifacts.new_data(
         model, name,

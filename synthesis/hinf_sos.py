@@ -8,8 +8,10 @@ docs/models.md, "Seed 000". Find a constant ``Q = Q^T > 0`` and a polynomial ``K
 
 then ``u = K(x) P x``, ``P = Q^-1``, and ``V = x^T P x`` satisfies
 ``dV/dt = (P x)^T M(x) (P x) <= -(P x)^T E (P x)``. Following the paper's numerical
-advice, ``B = [I3; 0]`` in the program (B's diagonal folded into K) and the torque law is
-``u = diag(I) K(x) P x``.
+advice, ``B = [I3; 0]`` in the program (the plant's constant input block ``G`` of
+``B_u = [G; 0]`` folded into K) and the torque law is ``u = G^-1 K(x) P x``: for the MRP
+satellite ``G = J^-1`` and ``u = J K(x) P x`` (seed 000: ``diag(I) K(x) P x``), with the
+plant's inertia tensor, products of inertia included.
 
 What can be proved (MODELS.md, "What a certificate can prove"):
 
@@ -21,6 +23,8 @@ What can be proved (MODELS.md, "What a certificate can prove"):
 """
 from __future__ import annotations
 
+import functools
+import operator
 import time
 from dataclasses import dataclass, field
 from typing import Any, Mapping
@@ -42,7 +46,7 @@ class Theorem1Result:
 
     Q: np.ndarray
     K: list[list[Poly]]
-    """Torque gains ``diag(I) K(x)`` as numeric polynomials in x (3 x 6)."""
+    """Torque gains ``G^-1 K(x)`` (MRP satellite: ``J K(x)``) as numeric polynomials in x (3 x 6)."""
     checks: list[Check]
     proved: str
     region: str
@@ -59,16 +63,20 @@ class Theorem1Result:
                  for p in row] for row in self.K]
 
 
-def theorem1(model: Model = mrp_satellite.MODEL, k_degree: int = 2, rate_margin: float = 1e-2,
+def theorem1(model: Model | None = None, k_degree: int = 2, rate_margin: float = 1e-2,
              region: float | None = None, strict_margin: float = 1e-3, decay_rate: float = 0.0,
              multiplier_degree: int = 0,
              q_min: float = 1.0,
              coefficient_bounds: Mapping[tuple[int, int], tuple[float | None, float | None]] | None = None,
              coefficient_limit: float | None = None) -> Theorem1Result:
-    """Solve Theorem 1 for ``model``'s SDC form at its default inertia.
+    """Solve Theorem 1 for ``model``'s SDC form at its parameters' values (``start``).
 
     Parameters
     ----------
+    model : fmus.model.Model, optional
+        The plant (default: seed 000's MRP satellite). Design for your own spacecraft with
+        ``fmus.mrp_satellite.build(spacecraft)``. Its SDC input matrix must be
+        ``B_u = [G; 0]`` with a constant invertible ``G`` (3 x 3).
     k_degree : int
         Degree of every entry of K(x).
     rate_margin : float
@@ -96,6 +104,7 @@ def theorem1(model: Model = mrp_satellite.MODEL, k_degree: int = 2, rate_margin:
     ValueError
         Bad arguments (checked before any program is built).
     """
+    model = mrp_satellite.MODEL if model is None else model
     m = 3
     _check_arguments(len(model.states), m, k_degree, region, decay_rate, strict_margin, q_min,
                      coefficient_bounds, coefficient_limit)
@@ -104,6 +113,7 @@ def theorem1(model: Model = mrp_satellite.MODEL, k_degree: int = 2, rate_margin:
     n = len(xs)
     subs = {v.symbol: v.start for v in model.parameters}
     A = PolyMatrix.from_sympy(model.sdc.A.subs(subs), xs)  # type: ignore[union-attr]
+    G_inv = _input_gain_inverse(model, subs, m)
     Bf = PolyMatrix.from_sympy(sp.Matrix(sp.BlockMatrix([[sp.eye(m)], [sp.zeros(n - m, m)]])), xs)
     prog = SOSProgram(n)
     Qe = prog.new_symmetric(n)
@@ -150,9 +160,30 @@ def theorem1(model: Model = mrp_satellite.MODEL, k_degree: int = 2, rate_margin:
     timings = {"build": t1 - t0 + sol.timings["build"] - prog.build_seconds, "solve": sol.timings["solve"],
                "verify": time.perf_counter() - t2}
     Qv = np.array([[float(e.value(sol.y).c0[0]) for e in row] for row in Qe])
-    inertia = np.array([subs[sp.Symbol(f"I_{a}", real=True)] for a in "xyz"])
-    Kt = [[K.entries[i][j].value(sol.y).scale(inertia[i]) for j in range(n)] for i in range(m)]
+    Kv = [[K.entries[i][j].value(sol.y) for j in range(n)] for i in range(m)]
+    Kt = [[functools.reduce(operator.add, [Kv[l][j].scale(float(G_inv[i, l])) for l in range(m) if G_inv[i, l]])
+           for j in range(n)] for i in range(m)]
     return Theorem1Result(Qv, Kt, checks, proved, label, sol, timings)
+
+
+def _input_gain_inverse(model: Model, subs: dict, m: int) -> np.ndarray:
+    """``G^-1`` of the SDC input block ``B_u = [G; 0]`` (the first ``m`` columns of B).
+
+    Raises
+    ------
+    ValueError
+        If ``B_u`` depends on the state, has non-zero rows below ``G``, or ``G`` is singular.
+    """
+    Bu = model.sdc.B[:, :m].subs(subs)  # type: ignore[union-attr]
+    if Bu.free_symbols:
+        raise ValueError(f"{model.name}: the SDC input matrix depends on {sorted(map(str, Bu.free_symbols))}; "
+                         f"Theorem 1 needs a constant one")
+    Bu = np.array(Bu, dtype=float)
+    if np.any(Bu[m:] != 0.0):
+        raise ValueError(f"{model.name}: the SDC input matrix must be [G; 0] (inputs act on the first {m} states)")
+    if np.linalg.cond(Bu[:m]) > 1e12:
+        raise ValueError(f"{model.name}: the input block G of the SDC form is singular")
+    return np.linalg.inv(Bu[:m])
 
 
 def _check_arguments(n: int, m: int, k_degree: int, region: float | None, decay_rate: float,
@@ -183,15 +214,17 @@ def _minus_const(M: PolyMatrix, E: np.ndarray) -> PolyMatrix:
                        for i, row in enumerate(M.entries)])
 
 
-def artifact_data(result: Theorem1Result, name: str, model: Model = mrp_satellite.MODEL) -> dict[str, Any]:
-    """Controller artifact (JSON data, format of :mod:`controllers.artifact`) of a design.
+def artifact_data(result: Theorem1Result, name: str, model: Model | None = None) -> dict[str, Any]:
+    """Controller artifact (JSON data, format of :mod:`controllers.artifact`) of a design for
+    ``model`` (the plant it was designed for; default seed 000's MRP satellite), which the
+    artifact records (model, parameter values, digest).
 
     The certificate status is "certified" only when every SOS constraint passed the
     independent verification; the numbers of each check are recorded.
     """
     return artifacts.new_data(
-        model, name,
-        f"Seed 000 Theorem 1 state feedback u = diag(I) K(x) P x, synthesized by satfmu ({result.region})",
+        mrp_satellite.MODEL if model is None else model, name,
+        f"Seed 000 Theorem 1 state feedback u = J K(x) P x, synthesized by satfmu ({result.region})",
         law={"form": "gain_times_lyapunov", "K": result.law_terms(), "P": np.linalg.inv(result.Q).tolist()},
         lyapunov={"Q": result.Q.tolist(), "note": "V = x^T Q^-1 x"},
         certificate={"status": "certified" if result.certified else "not_verified",

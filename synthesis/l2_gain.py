@@ -143,7 +143,7 @@ def _c_from(a: np.ndarray, b: np.ndarray, z: np.ndarray, kv: float) -> np.ndarra
     return np.where(b > 0, c, np.where(num >= 0, 0.0, np.inf))
 
 
-def hji_form(artifact: ControllerArtifact, plant: Model = mrp_satellite.MODEL, q2: float = 1.0,
+def hji_form(artifact: ControllerArtifact, plant: Model | None = None, q2: float = 1.0,
              lyapunov_P: np.ndarray | None = None) -> HJIForm:
     """Build ``a``, ``b``, ``z`` for ``plant`` closed by ``artifact``'s law (saturation off).
 
@@ -155,6 +155,7 @@ def hji_form(artifact: ControllerArtifact, plant: Model = mrp_satellite.MODEL, q
         If the artifact has no Lyapunov matrix, its states differ from the plant's, or the
         disturbance does not enter affinely with a constant input matrix.
     """
+    plant = mrp_satellite.MODEL if plant is None else plant
     names = [s.variable.name for s in plant.states]
     if [s["name"] for s in artifact.states] != names:
         raise ValueError(f"controller {artifact.name!r} measures {[s['name'] for s in artifact.states]}, "

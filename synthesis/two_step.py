@@ -13,9 +13,13 @@ finite). Each iterate is judged by
 
 - ``c``: the smallest L2 gain with an SOS certificate of ``H <= 0`` on the L2 region
   (:func:`synthesis.l2_gain.sos_gain`), beside the sampled and diagonal estimates;
-- the response: the 200 deg rest-to-rest manoeuvre of seed 000 (reference loop of the
-  FMUs' sampled-data RK4), whose peak torque must stay within ``torque_budget`` and whose
-  attitude error must be below ``final_tolerance_deg`` at 120 s.
+- the response: a rest-to-rest manoeuvre (default seed 000's 200 deg start; reference loop
+  of the FMUs' sampled-data RK4), whose peak torque must stay within ``torque_budget`` and
+  whose attitude error must be below ``final_tolerance_deg`` at the horizon (120 s).
+
+Every step is made for the plant passed in (default seed 000's satellite; your own with
+``fmus.mrp_satellite.build(spacecraft)``): Theorem 1 on its SDC form, the L2 gain and the
+response of its closed loop, and the artifact records it.
 
 An iterate is accepted when its design and its ``c`` are certified, its response passes
 and ``c`` improves. Before the first accepted iterate a too slow response or an
@@ -28,13 +32,14 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
-from typing import Any, Callable, Sequence
+from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
 from controllers import polynomial
 from controllers.artifact import parse
 from fmus import mrp_satellite
+from fmus.model import Model
 from sims import reference
 from synthesis import hinf_sos, l2_gain
 from synthesis.sos import SOSError, check_numbers
@@ -88,6 +93,8 @@ class TwoStepResult:
 
     iterates: list[Iterate]
     best: Iterate
+    plant: Model
+    """The plant the iteration designed for."""
     settings: dict[str, Any] = field(default_factory=dict)
 
     def table(self) -> str:
@@ -112,7 +119,7 @@ class TwoStepResult:
         iteration history."""
         best = self.best
         assert best.design is not None and best.sos is not None and best.sampled is not None
-        data = hinf_sos.artifact_data(best.design, name)
+        data = hinf_sos.artifact_data(best.design, name, self.plant)
         region = self.settings["l2_region"]
         data["description"] = (f"Seed 000 nonlinear H-infinity state feedback by the two-step iteration "
                                f"(satfmu): certified decay {2 * best.decay_rate:g} V on {best.design.region}, "
@@ -138,24 +145,31 @@ def _json_value(v: Any) -> Any:
     return None if isinstance(v, float) and not np.isfinite(v) else v
 
 
-def _response(design: hinf_sos.Theorem1Result) -> tuple[float, float]:
-    """Peak |u| (N m) and attitude error at 120 s (deg) of the 200 deg manoeuvre, no saturation."""
-    ctrl = polynomial.build(parse(hinf_sos.artifact_data(design, "two_step_candidate")))
-    res = reference.closed_loop_rk4(mrp_satellite.MODEL, ctrl, 120.0, 0.05, SIGMA_200)
+def _response(design: hinf_sos.Theorem1Result, plant: Model, start: Mapping[str, float],
+              horizon: float) -> tuple[float, float]:
+    """Peak |u| (N m) and attitude error at ``horizon`` (deg) of the manoeuvre from ``start``
+    (plant parameters, e.g. ``sigma_0[i]``), no saturation, communication step 0.05 s."""
+    ctrl = polynomial.build(parse(hinf_sos.artifact_data(design, "two_step_candidate", plant)))
+    res = reference.closed_loop_rk4(plant, ctrl, horizon, 0.05, dict(start))
     if not np.all(np.isfinite(res.x)):
         return float("inf"), float("inf")
     err = float(np.degrees(4 * np.arctan(np.linalg.norm(res.x[-1, 3:]))))
     return float(np.max(np.abs(res.u))), err
 
 
-def two_step(region: float = 0.9, l2_region: l2_gain.Region = l2_gain.Region(0.2, 0.9),
+def two_step(plant: Model | None = None, region: float = 0.9,
+             l2_region: l2_gain.Region = l2_gain.Region(0.2, 0.9),
              coefficient_limit: float = 1.0, decay_rates: Sequence[float] = DECAY_RATES,
              torque_budget: float = 6.5, final_tolerance_deg: float = 0.1, n_samples: int = 20_000,
+             start: Mapping[str, float] | None = None, horizon: float = 120.0,
              progress: Progress | None = None) -> TwoStepResult:
     """Run the iteration over ``decay_rates`` (increasing) and return every iterate and the best.
 
     Parameters
     ----------
+    plant : fmus.model.Model, optional
+        The MRP satellite to design for (default seed 000's; yours:
+        ``fmus.mrp_satellite.build(spacecraft)``).
     region : float
         Theorem 1 certificate region ``|sigma| <= region`` (< 1).
     l2_region : synthesis.l2_gain.Region
@@ -163,10 +177,18 @@ def two_step(region: float = 0.9, l2_region: l2_gain.Region = l2_gain.Region(0.2
     coefficient_limit : float
         Bound on every coefficient of K (program units).
     torque_budget : float
-        Largest acceptable peak |u_i| on the 200 deg manoeuvre, N m (the published
-        controller needs 6.22 N m there).
+        Largest acceptable peak |u_i| on the manoeuvre, N m (on seed 000's 200 deg
+        manoeuvre the published controller needs 6.22 N m).
+    final_tolerance_deg : float
+        Largest acceptable attitude error at ``horizon``, deg.
     n_samples : int
         Random samples of the sampled L2 estimate per iterate.
+    start : mapping, optional
+        Initial state of the judged manoeuvre as plant parameters (``sigma_0[i]``,
+        ``omega_0[i]``; :func:`manoeuvre` builds one from an axis and an angle). Default
+        :data:`SIGMA_200`, seed 000's 200 deg start.
+    horizon : float
+        Length of the judged manoeuvre, s.
 
     Raises
     ------
@@ -176,9 +198,19 @@ def two_step(region: float = 0.9, l2_region: l2_gain.Region = l2_gain.Region(0.2
     decay_rates = [float(v) for v in decay_rates]
     if not decay_rates or any(b <= a for a, b in zip(decay_rates, decay_rates[1:])) or decay_rates[0] < 0:
         raise ValueError(f"decay_rates must be a non-empty increasing sequence of rates >= 0, got {decay_rates}")
+    if not (np.isfinite(torque_budget) and torque_budget > 0):
+        raise ValueError(f"torque_budget must be finite and > 0 (N m), got {torque_budget}")
+    if not (np.isfinite(horizon) and horizon > 0):
+        raise ValueError(f"horizon must be finite and > 0 (s), got {horizon}")
+    plant = mrp_satellite.MODEL if plant is None else plant
+    start = dict(SIGMA_200 if start is None else start)
+    known = {v.name for v in plant.parameters}
+    unknown = sorted(set(start) - known)
+    if unknown:
+        raise ValueError(f"start sets {unknown}, which plant {plant.name!r} does not have")
     settings = {"region": region, "l2_region": l2_region, "coefficient_limit": coefficient_limit,
                 "torque_budget_N_m": torque_budget, "final_tolerance_deg": final_tolerance_deg,
-                "n_samples": n_samples, "decay_rates": decay_rates}
+                "n_samples": n_samples, "decay_rates": decay_rates, "start": start, "horizon_s": horizon}
     total = len(decay_rates)
     iterates: list[Iterate] = []
     best: Iterate | None = None
@@ -193,14 +225,14 @@ def two_step(region: float = 0.9, l2_region: l2_gain.Region = l2_gain.Region(0.2
         design, sos, sampled, diagonal = None, None, None, None
         peak, err, reason = float("nan"), float("nan"), ""
         try:
-            design = hinf_sos.theorem1(region=region, decay_rate=lam, coefficient_limit=coefficient_limit)
+            design = hinf_sos.theorem1(plant, region=region, decay_rate=lam, coefficient_limit=coefficient_limit)
         except SOSError as exc:
             reason = f"state feedback infeasible ({exc})"
         if design is not None and not design.certified:
             reason = "state feedback not certified"
         if design is not None and not reason:
             report("step 2, L2 gain (SOS, sampled, diagonal)")
-            form = l2_gain.hji_form(parse(hinf_sos.artifact_data(design, "two_step_candidate")))
+            form = l2_gain.hji_form(parse(hinf_sos.artifact_data(design, "two_step_candidate", plant)), plant)
             try:
                 sos = l2_gain.sos_gain(form, l2_region)
             except SOSError as exc:
@@ -209,12 +241,12 @@ def two_step(region: float = 0.9, l2_region: l2_gain.Region = l2_gain.Region(0.2
             diagonal = l2_gain.diagonal_gain(form)
             if sos is not None and not sos.certified:
                 reason = "L2 certificate failed verification"
-            report("response, 200 deg manoeuvre")
-            peak, err = _response(design)
+            report("response, manoeuvre")
+            peak, err = _response(design, plant, start, horizon)
             if not reason and peak > torque_budget:
                 reason = f"peak torque {peak:.2f} N m over the budget {torque_budget:g}"
             elif not reason and not err < final_tolerance_deg:
-                reason = f"attitude error {err:.3g} deg at 120 s (>= {final_tolerance_deg:g})"
+                reason = f"attitude error {err:.3g} deg at {horizon:g} s (>= {final_tolerance_deg:g})"
             elif not reason and best is not None and sos is not None and sos.c >= best.c:
                 reason = f"c = {sos.c:.4f} does not improve on {best.c:.4f}"
         it = Iterate(k, lam, design, sos, sampled, diagonal, peak, err, not reason, reason,
@@ -229,4 +261,20 @@ def two_step(region: float = 0.9, l2_region: l2_gain.Region = l2_gain.Region(0.2
     if best is None:
         raise SOSError("two-step iteration: no iterate accepted; " + "; ".join(
             f"lambda {it.decay_rate:g}: {it.reason}" for it in iterates))
-    return TwoStepResult(iterates, best, settings)
+    return TwoStepResult(iterates, best, plant, settings)
+
+
+def manoeuvre(angle_deg: float, axis: Sequence[float] = (1.0, 1.0, 1.0)) -> dict[str, float]:
+    """The start of a rest-to-rest manoeuvre by ``angle_deg`` about ``axis`` (body frame), as
+    the MRP plant's ``sigma_0[i]`` parameters (``omega_0 = 0``), for ``two_step(start=...)``
+    and a scenario's plant parameters.
+
+    Raises
+    ------
+    ValueError
+        If the angle is not finite or the axis is not a finite non-zero 3-vector.
+    """
+    if not np.isfinite(angle_deg):
+        raise ValueError(f"angle must be finite (deg), got {angle_deg}")
+    s = mrp_satellite.mrp_from_axis_angle(np.asarray(axis, float), np.radians(angle_deg))
+    return {f"sigma_0[{i + 1}]": float(v) for i, v in enumerate(s)}

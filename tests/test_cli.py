@@ -34,7 +34,7 @@ def test_run_fails_with_exit_1_when_a_bound_is_missed(fmu_dir: Path, tmp_path: P
 
 def test_errors_exit_2_with_a_message(fmu_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
     assert main(["run", "no_such_scenario", "--fmu-dir", str(fmu_dir)]) == 2
-    assert "no scenario file 'no_such_scenario'" in capsys.readouterr().err
+    assert "no scenario named 'no_such_scenario'" in capsys.readouterr().err
     assert main(["validate", "--fmu-dir", str(tmp_path)]) == 2
     assert "run `satfmu build` first" in capsys.readouterr().err
 

@@ -32,12 +32,15 @@ def _run(tmp_path: Path, fmu_dir: Path, extra: str):
 
 
 def test_unknown_variable_in_connection_names_it(tmp_path: Path, fmu_dir: Path) -> None:
-    with pytest.raises(UnknownVariableError, match="has no variable 'omegaa'.*omega"):
+    # the key path of the scenario, the FMU's variables and the closest one
+    with pytest.raises(scenario.ScenarioError,
+                       match=r"connections\[0\]\.from: .*has no variable 'omegaa'.*did you mean 'omega'\?"):
         _run(tmp_path, fmu_dir, '[[connections]]\nfrom = "plant.omegaa"\nto = "controller.omega"\n')
 
 
 def test_unknown_instance_and_parameter_named(tmp_path: Path, fmu_dir: Path) -> None:
-    with pytest.raises(UnknownVariableError, match="no FMU instance 'plnt'"):
+    with pytest.raises(scenario.ScenarioError, match=r"record\[0\]: 'plnt.omega' names no FMU instance 'plnt'.*"
+                                                     r"did you mean 'plant'\?"):
         _run(tmp_path, fmu_dir, 'record = ["plnt.omega"]\n')
     with pytest.raises(UnknownVariableError, match="no variable 'I_q'"):
         scenario.run(_write(tmp_path, BASE.replace(PLANT, '{ model = "mrp_satellite", parameters = { I_q = 1.0 } }')),
@@ -75,13 +78,15 @@ def test_causality_and_double_drive(tmp_path: Path, fmu_dir: Path) -> None:
 
 
 def test_scenario_file_errors(tmp_path: Path) -> None:
+    with pytest.raises(scenario.ScenarioError, match="no scenario named 'mrp_200dge'.*did you mean 'mrp_200deg'"):
+        scenario.load("mrp_200dge")
     with pytest.raises(scenario.ScenarioError, match="no scenario file"):
-        scenario.load("does_not_exist")
-    with pytest.raises(scenario.ScenarioError, match="unknown keys"):
+        scenario.load(tmp_path / "none.toml")
+    with pytest.raises(scenario.ScenarioError, match="unknown key 'stoptime'; did you mean 'stop_time'"):
         scenario.load(_write(tmp_path, BASE + "stoptime = 3\n"))
     with pytest.raises(scenario.ScenarioError, match="invalid TOML"):
         scenario.load(_write(tmp_path, "name = \n"))
-    with pytest.raises(scenario.ScenarioError, match="kind must be one of"):
+    with pytest.raises(scenario.ScenarioError, match=r"metrics\[0\]\.kind: must be one of"):
         scenario.load(_write(tmp_path, BASE + '[[metrics]]\nname = "x"\nkind = "maximum"\nsignals = ["plant.phi"]\n'))
     with pytest.raises(scenario.ScenarioError, match="needs 'tolerance'"):
         scenario.load(_write(tmp_path, BASE + '[[metrics]]\nname = "x"\nkind = "settling_time"\nsignals = ["plant.phi"]\n'))
@@ -90,7 +95,8 @@ def test_scenario_file_errors(tmp_path: Path) -> None:
 
 
 def test_missing_fmu_file(tmp_path: Path) -> None:
-    with pytest.raises(FileNotFoundError, match="satfmu build"):
+    with pytest.raises(scenario.ScenarioError, match=r"fmus.plant: no FMU mrp_satellite.fmu in .*empty; build it "
+                                                     r"with `satfmu build --fmu-dir .*empty` or pass"):
         scenario.run(_write(tmp_path, BASE), tmp_path / "empty")
 
 

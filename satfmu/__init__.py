@@ -1,0 +1,157 @@
+"""satfmu: spacecraft attitude control plants and controllers as FMI 2.0 co-simulation FMUs.
+
+The public API, for scripts and tests (the implementation lives in the packages
+``fmus`` <- ``controllers`` <- ``synthesis`` <- ``sims``; these are its stable names):
+
+Your spacecraft and its plant
+    :class:`Spacecraft` (name, inertia tensor, torque limit; ``Spacecraft.from_toml``),
+    :data:`SEED_000` (the seed 000 paper's satellite), :func:`mrp_plant` (the MRP satellite
+    model of a spacecraft), :func:`manoeuvre` (a rest-to-rest start by axis and angle).
+Scenarios
+    :class:`Scenario` (``from_toml``, ``from_dict``, or built from :class:`FmuSpec`,
+    :class:`Connection`, :class:`Metric`), :func:`run` -> :class:`Result` (metrics,
+    pass/fail, the recorded array, ``.plot()``, ``.write()``), :class:`ScenarioError`,
+    :class:`DesignMismatchWarning`.
+FMUs
+    :func:`build` (every FMU, or some by name, into a folder; no-op when up to date),
+    :func:`fmu_cache` (the default FMU folder).
+Designs (one per method of the five seed papers; each returns a :class:`Design` whose
+``.write()`` saves the artifact into :func:`user_artifacts` and can build its FMUs)
+    :func:`design_hinf` (seed 000), :func:`design_h2hinf` (seed 001),
+    :func:`design_vscmg_sdre` (seed 002), :func:`design_cubesat_periodic` (seed 003),
+    :func:`design_demeter` (seed 004); :class:`DesignError`.
+Artifacts
+    :func:`load_artifact`, :func:`find_artifact`, :func:`user_artifacts`.
+
+Names are imported on first use, so ``import satfmu`` is fast.
+"""
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+_EXPORTS = {
+    "Spacecraft": "fmus.spacecraft", "SpacecraftError": "fmus.spacecraft", "SEED_000": "fmus.spacecraft",
+    "Scenario": "sims.scenario", "FmuSpec": "sims.scenario", "Connection": "sims.scenario",
+    "Metric": "sims.scenario", "Result": "sims.scenario", "ScenarioError": "sims.scenario",
+    "DesignMismatchWarning": "sims.scenario",
+    "Design": "sims.designs", "DesignError": "sims.designs", "design_hinf": "sims.designs",
+    "design_h2hinf": "sims.designs", "design_vscmg_sdre": "sims.designs",
+    "design_cubesat_periodic": "sims.designs", "design_demeter": "sims.designs",
+    "fmu_cache": "sims.paths", "user_artifacts": "sims.paths", "find_artifact": "sims.paths",
+    "manoeuvre": "synthesis.two_step",
+}
+_FUNCTIONS = {"run", "build", "mrp_plant", "load_artifact"}
+__all__ = sorted([*_EXPORTS, *_FUNCTIONS, "__version__"])
+
+
+def run(scenario: Any, fmu_dir: Any = None, backend: str = "native", out_dir: Any = None,
+        strict: bool = False, design_rtol: float | None = None) -> Any:
+    """Run a scenario and evaluate its metrics (:func:`sims.scenario.run`).
+
+    Parameters
+    ----------
+    scenario : Scenario, dict, str or Path
+        A scenario, its plain data, a TOML file, or a shipped scenario's name.
+    fmu_dir : path, optional
+        FMU folder (default :func:`fmu_cache`); FMUs it lacks are built into it first.
+    backend : {"native", "python"}
+        Default FMU backend of the instances.
+    out_dir : path, optional
+        Also write CSV, plots and summary into ``out_dir/<name>/``.
+    strict : bool
+        A controller paired with a plant other than its design plant is an error
+        (default: a :class:`DesignMismatchWarning`).
+    design_rtol : float, optional
+        Relative tolerance of that comparison (default 1e-3).
+
+    Returns
+    -------
+    Result
+        ``.passed``, ``.metrics``, ``.results`` (structured array), ``.plot(path)``,
+        ``.write(folder)``.
+    """
+    from sims import scenario as _scenario
+
+    return _scenario.run(scenario, fmu_dir, backend, out_dir, strict, design_rtol)
+
+
+def build(names: Any = None, fmu_dir: Any = None, backends: tuple[str, ...] = ("native", "python"),
+          jobs: int | None = None) -> list[Any]:
+    """Build FMUs (no-op for those whose build digest matches).
+
+    Parameters
+    ----------
+    names : list of str, optional
+        Model or artifact names (``"mrp_satellite"``, ``"mrp_hinf_published"``, your own
+        artifact's name); default every FMU satfmu ships.
+    fmu_dir : path, optional
+        Destination (default :func:`fmu_cache`).
+    backends : tuple of str
+        ``"native"`` (C, compiled here) and/or ``"python"`` (pythonfmu).
+    jobs : int, optional
+        Parallel build processes when building everything (default one per CPU).
+
+    Returns
+    -------
+    list of Path
+        The FMU files.
+    """
+    from pathlib import Path
+
+    from sims import catalog, paths
+
+    folder = paths.fmu_cache() if fmu_dir is None else Path(fmu_dir)
+    if names is None:
+        return catalog.build_all(folder, tuple(backends), jobs=jobs).paths
+    out = []
+    for b in backends:
+        out += list(catalog.ensure(folder, list(names), b).values())
+    return out
+
+
+def mrp_plant(spacecraft: Any = None) -> Any:
+    """The MRP satellite model (seed 000's plant) of ``spacecraft`` (default :data:`SEED_000`):
+    its inertia tensor (products included) and torque limit become the parameters' defaults.
+
+    Returns
+    -------
+    fmus.model.Model
+        The symbolic model that designs take and FMUs are generated from.
+    """
+    from fmus import mrp_satellite
+
+    return mrp_satellite.MODEL if spacecraft is None else mrp_satellite.build(spacecraft)
+
+
+def load_artifact(name_or_path: Any) -> Any:
+    """A controller artifact, validated, by name (the user's folder, then the shipped ones) or
+    by ``.json`` path.
+
+    Raises
+    ------
+    FileNotFoundError
+        Unknown name (with the closest one) or missing file.
+    controllers.artifact.ArtifactError
+        Not JSON or not a valid artifact (the message names the key).
+    """
+    from controllers import artifact
+    from sims import paths
+
+    return artifact.load(paths.find_artifact(name_or_path))
+
+
+def __getattr__(name: str) -> Any:
+    if name == "__version__":
+        from importlib.metadata import version
+
+        return version("satfmu")
+    if name in _EXPORTS:
+        value = getattr(importlib.import_module(_EXPORTS[name]), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'satfmu' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return __all__

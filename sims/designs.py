@@ -1,0 +1,312 @@
+"""One function per design method of the five seed papers, each returning a :class:`Design`.
+
+A design is made for a plant (seed 000 and 001: any spacecraft, via
+:class:`fmus.spacecraft.Spacecraft`), re-verified independently of its solver by the
+synthesis module, and returned with its artifacts (JSON data, validated) and a text
+report. :meth:`Design.write` saves the artifacts, by default into the user's folder
+(:func:`sims.paths.user_artifacts`, never the shipped artifacts), and optionally builds
+their controller FMUs. ``satfmu synth NAME`` is a thin layer over :data:`DESIGNS`.
+"""
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Sequence
+
+from fmus.model import Model
+from fmus.spacecraft import Spacecraft
+
+Progress = Callable[[int, int, str], None]
+"""``progress(done, total, message)``."""
+
+
+class DesignError(RuntimeError):
+    """A design could not be made or failed its independent check; nothing is saved."""
+
+
+@dataclass
+class Design:
+    """A verified design: its artifacts and what the method reported.
+
+    Attributes
+    ----------
+    method : str
+        Registry name (``"mrp-hinf"``, ...).
+    artifacts : list of dict
+        Controller artifacts (format of :mod:`controllers.artifact`), validated.
+    report : str
+        The method's summary (tables, certificate, checks), as the CLI prints it.
+    result : object
+        The synthesis module's full result (iterates, solver data, checks).
+    """
+
+    method: str
+    artifacts: list[dict[str, Any]]
+    report: str
+    result: Any = field(repr=False, default=None)
+
+    @property
+    def artifact(self) -> dict[str, Any]:
+        """The (first) artifact's data."""
+        return self.artifacts[0]
+
+    @property
+    def names(self) -> list[str]:
+        """Artifact (and controller FMU) names."""
+        return [a["name"] for a in self.artifacts]
+
+    def write(self, folder: str | Path | None = None, fmu_dir: str | Path | None = None,
+              backends: Sequence[str] = ("native", "python")) -> list[Path]:
+        """Save the artifacts as ``<folder>/<name>.json`` and, with ``fmu_dir``, build their FMUs.
+
+        Parameters
+        ----------
+        folder : path, optional
+            Default :func:`sims.paths.user_artifacts` (scenarios find artifacts there by
+            name before the shipped ones).
+        fmu_dir : path, optional
+            Build the controller FMUs (``backends``) here.
+
+        Returns
+        -------
+        list of Path
+            The artifact files, then the FMUs built.
+        """
+        from controllers import artifact as artifacts
+        from fmus import export
+        from sims import catalog, paths
+
+        out_dir = paths.user_artifacts() if folder is None else Path(folder)
+        out_dir.mkdir(parents=True, exist_ok=True)
+        written = []
+        for data in self.artifacts:
+            art = artifacts.parse(json.loads(json.dumps(data)), where=data["name"])
+            f = out_dir / f"{art.name}.json"
+            artifacts.save(art, f)
+            written.append(f)
+            if fmu_dir is not None:
+                src = catalog.controller_source(art)
+                builders = {"native": export.build_native, "python": export.build_python}
+                written += [builders[b](src.model, Path(fmu_dir), src.resources) for b in backends]
+        return written
+
+
+def _mrp_plant(plant: Model | Spacecraft | None) -> Model:
+    from fmus import mrp_satellite
+
+    if plant is None:
+        return mrp_satellite.MODEL
+    return mrp_satellite.build(plant) if isinstance(plant, Spacecraft) else plant
+
+
+def design_hinf(plant: Model | Spacecraft | None = None, *, name: str = "mrp_hinf_satfmu",
+                start: dict[str, float] | None = None, torque_budget: float = 6.5, horizon: float = 120.0,
+                region: float = 0.9, rate_max: float = 0.2, sigma_max: float = 0.9,
+                coefficient_limit: float = 1.0, decay_rates: Sequence[float] | None = None,
+                n_samples: int = 20_000, progress: Progress | None = None) -> Design:
+    """Seed 000: nonlinear H-infinity state feedback by the two-step iteration (SOS, then L2 gain).
+
+    Parameters
+    ----------
+    plant : Spacecraft or fmus.model.Model, optional
+        Your spacecraft (its inertia tensor, products included) or an MRP satellite model;
+        default seed 000's satellite.
+    name : str
+        Artifact and controller FMU name.
+    start : dict, optional
+        Start of the manoeuvre each iterate is judged on, as plant parameters
+        (:func:`synthesis.two_step.manoeuvre` builds one from an axis and an angle); default
+        seed 000's 200 deg start.
+    torque_budget : float
+        Largest acceptable peak |u_i| on that manoeuvre, N m.
+    horizon : float
+        Length of the manoeuvre; the attitude error must be < 0.1 deg at its end, s.
+    region : float
+        Theorem 1's certificate region ``|sigma| <= region`` (< 1).
+    rate_max, sigma_max : float
+        L2-gain region ``|omega_i| <= rate_max`` (rad/s), ``|sigma| <= sigma_max``.
+    coefficient_limit : float
+        Bound on every gain coefficient (program units).
+    decay_rates : sequence of float, optional
+        The iteration's schedule of certified decay rates, 1/s (default
+        :data:`synthesis.two_step.DECAY_RATES`; fewer rates are faster).
+    n_samples : int
+        Random points of the sampled L2 estimate per iterate.
+
+    Raises
+    ------
+    synthesis.sos.SOSError
+        If no iterate is accepted.
+    """
+    from synthesis import l2_gain, two_step
+
+    model = _mrp_plant(plant)
+    result = two_step.two_step(model, region=region, l2_region=l2_gain.Region(rate_max, sigma_max),
+                               coefficient_limit=coefficient_limit, torque_budget=torque_budget,
+                               decay_rates=two_step.DECAY_RATES if decay_rates is None else decay_rates,
+                               n_samples=n_samples, start=start, horizon=horizon, progress=progress)
+    return Design("mrp-hinf", [result.artifact_data(name)], result.table(), result)
+
+
+def design_h2hinf(gamma: float, plant: Model | Spacecraft | None = None, *, name: str = "mrp_h2hinf_satfmu",
+                  variant: str = "slack", region: float = 0.45, alpha_range: tuple[float, float] = (0.05, 2.0),
+                  evaluations: int = 12, progress: Progress | None = None) -> Design:
+    """Seed 001: mixed H2/H-infinity state feedback (Theorem 8) at one L2-gain bound ``gamma``.
+
+    Parameters
+    ----------
+    gamma : float
+        L2-gain bound w -> sigma to certify (N m -> 1).
+    plant : Spacecraft or fmus.model.Model, optional
+        Default seed 000's satellite (seed 001 uses the same plant).
+    variant : {"slack", "common"}
+        Separate Lyapunov matrices and slack (the seed's design) or one common matrix.
+    region : float
+        Certificate region ``|sigma| <= region`` (< 1), any rate.
+    alpha_range : (float, float)
+        Line-search interval of the seed's scalars alpha and beta.
+    evaluations : int
+        SDPs per line search.
+
+    Raises
+    ------
+    DesignError
+        If no design is certified at ``gamma`` or the closed-loop check fails.
+    """
+    from synthesis import h2hinf_sos
+
+    model = _mrp_plant(plant)
+    found = h2hinf_sos.search(gamma, variant, bounds=tuple(alpha_range), max_evaluations=evaluations,
+                              progress=progress, region=region, model=model)
+    r = found.best
+    if r is None:
+        raise DesignError(f"no certified {variant} design at gamma = {gamma:g} on |sigma| <= {region:g} "
+                          f"({len(found.evaluations)} SDPs; try a larger gamma or region)")
+    check = h2hinf_sos.closed_loop_check(r, model=model)
+    report = (f"{r.proved}\n  alpha = {r.alpha:.4g}, beta = {r.beta:.4g}, {len(found.evaluations)} SDPs; "
+              f"simulated J2 = {check.j2:.4f} over {check.stop_time:g} s (bound {r.lam:.4f}), max |sigma| "
+              f"{check.max_tilde:.4f}, linearization max Re eig {check.max_real_eig:.4f} 1/s")
+    if not check.passed:
+        raise DesignError(f"{report}\nthe closed-loop check failed: the design is not saved")
+    return Design("mrp-h2hinf", [h2hinf_sos.artifact_data(r, name, check, model)], report, r)
+
+
+def design_vscmg_sdre(grid: tuple[int, int] = (23, 25), max_degree: int = 8, cv_tol: float | None = None,
+                      region: bool = True) -> Design:
+    """Seed 002: the approximated SDRE servo (polynomial gain fit, SOS stability region) and the
+    LQ servo, for seed 002's VSCMG plant (its parameters as published).
+
+    Parameters
+    ----------
+    grid : (int, int)
+        SDRE grid points over q2 and w4.
+    max_degree : int
+        Largest polynomial degree of the fit tried.
+    cv_tol : float, optional
+        Choose the smallest degree with this cross-validated relative error (default
+        :data:`synthesis.gain_fit.CV_TOL`; 0: the smallest error).
+    region : bool
+        Solve the SOS stability region (without it the artifact stays "sampled").
+
+    Raises
+    ------
+    synthesis.gain_fit.FitVerificationError
+        If the fit fails its check against the plant's own factorization.
+    """
+    from synthesis import gain_fit
+
+    tol = {} if cv_tol is None else {"cv_tol": cv_tol if cv_tol > 0 else None}
+    result, approx, lq = gain_fit.synthesize(*grid, degrees=range(1, max_degree + 1), region=region, **tol)
+    cert = approx["certificate"]
+    report = (f"certificate: {cert['status']}: {cert['proved']}\n"
+              + gain_fit.table(result, {k: v for k, v in cert["numbers"].items() if not k.startswith("fit_")}))
+    return Design("vscmg-sdre", [approx, lq], report, result)
+
+
+def design_cubesat_periodic(gamma: float | None = None, *, name: str = "cubesat_periodic_satfmu",
+                            published_name: str = "cubesat_periodic_published") -> Design:
+    """Seed 003: periodic stochastic H-infinity magnetorquer gains (Theorem 2), and the
+    analysis of the published gains, for seed 003's cubesat.
+
+    Parameters
+    ----------
+    gamma : float, optional
+        Design level (default ``gamma_min (1 + GAMMA_MARGIN)``).
+
+    Raises
+    ------
+    synthesis.periodic_hinf.PeriodicDesignError
+        If Theorem 2 is infeasible at ``gamma``.
+    """
+    from synthesis import cubesat_periodic as cp
+
+    r = cp.synthesize(gamma)
+    lo, hi, n = r.bracket
+    lines = [f"seed 003 Theorem 2: gamma_min {r.gamma_min:.4f} (minimized); bisection bracket [{lo:.4f}, "
+             f"{hi:.4f}] in {n} solves; the seed's gamma {cp.GAMMA_SEED:g} is "
+             f"{'feasible' if r.numbers['seed_gamma_feasible'] else 'infeasible'}"]
+    lines += [f"  {k}: {v:.6g}" for k, v in r.numbers.items()]
+    lines.append("  gains F(k) (rows m_x, m_y, m_z; columns omega_x, omega_y, omega_z), ours | published:")
+    for k, (f, p) in enumerate(zip(r.design.F, cp.PUBLISHED_GAINS)):
+        lines += [f"    k={k} " + " ".join(f"{v:8.4f}" for v in f[i]) + "  | " + " ".join(f"{v:8.4f}" for v in p[i])
+                  for i in range(3)]
+    data = [r.artifact_data(name, r.design.F, r.design.gamma, r.design.check, "satfmu")]
+    if r.published is not None:
+        data.append(r.artifact_data(published_name, cp.PUBLISHED_GAINS, r.published.gamma, r.published.check,
+                                    "published (seed 003, gains as printed)"))
+    return Design("cubesat-periodic", data, "\n".join(lines), r)
+
+
+def design_demeter(axes: Sequence[int] = (1,), appendages: Sequence[int] = (1,), model_type: int = 1,
+                   uncertainty_type: int = 1, wheels: bool = True, *, name: str = "demeter_row1_det",
+                   n_samples: int = 100) -> Design:
+    """Seed 004: deterministic robust state feedback of a DEMETER variant (Table 1, Det).
+
+    Parameters
+    ----------
+    axes, appendages : sequence of int
+        The variant's axes and appendages, 1-based.
+    model_type : {1, 2}
+        1: independent appendages, 2: identical.
+    uncertainty_type : {1, 2, 3}
+        1: norm-bounded (D-G), 2: intervals (vertices), 3: inertia norm-bounded.
+    wheels : bool
+        Design with the wheel dynamics H(s).
+    n_samples : int
+        Sampled plants of the independent check.
+
+    Raises
+    ------
+    DesignError
+        If the variant is infeasible (with the obstruction when one is proved).
+    """
+    from synthesis import demeter_design as dd
+    from synthesis import demeter_table
+    from synthesis.demeter_variants import Variant
+
+    variant = Variant(tuple(axes), tuple(appendages), model_type, uncertainty_type, wheels)
+    row = demeter_table.run_row(variant, "Det", n_samples=n_samples)
+    lines = [demeter_table.markdown([row])]
+    r = row.result
+    if not r.feasible:
+        if r.obstruction is not None and r.obstruction.proves_infeasible:
+            o = r.obstruction
+            lines.append(f"infeasible for any common-Lyapunov design: at coincident omega, {o.n_free} combination(s) "
+                         f"of the modes are free oscillators; over omega in [{o.omega[0]:.4g}, {o.omega[1]:.4g}] "
+                         f"rad/s they need zeta > {o.required_zeta:.4g} (the box has zeta <= {o.zeta:g}); "
+                         f"eig(A_lo A_hi) = {', '.join(f'{v.real:.4g}' for v in o.eigenvalues)}")
+        raise DesignError("\n".join(lines))
+    c = r.check
+    common = getattr(r.analysis_hinf_common, "gamma", None)
+    lines.append(f"{c.n} sampled plants (seed {c.seed}): Re s in [{c.min_real_pole:.3g}, {c.max_real_pole:.3g}] 1/s, "
+                 f"largest exact H-infinity {c.hinf.max():.4g}, i2p {c.i2p.max():.4g}; H-infinity bound with one "
+                 f"Lyapunov matrix: {'none' if common is None else format(common, '.4g')}")
+    return Design("demeter", [dd.artifact_data(r, name)], "\n".join(lines), r)
+
+
+DESIGNS: dict[str, Callable[..., Design]] = {
+    "mrp-hinf": design_hinf, "mrp-h2hinf": design_h2hinf, "vscmg-sdre": design_vscmg_sdre,
+    "cubesat-periodic": design_cubesat_periodic, "demeter": design_demeter,
+}
+"""``satfmu synth NAME`` -> its design function."""
