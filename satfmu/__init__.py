@@ -111,8 +111,13 @@ def build(names: Any = None, fmu_dir: Any = None, backends: tuple[str, ...] = ("
 
 
 def mrp_plant(spacecraft: Any = None) -> Any:
-    """The MRP satellite model (seed 000's plant) of ``spacecraft`` (default :data:`SEED_000`):
-    its inertia tensor (products included) and torque limit become the parameters' defaults.
+    """The MRP satellite model (seed 000's plant) of a spacecraft.
+
+    Parameters
+    ----------
+    spacecraft : Spacecraft, optional
+        Default :data:`SEED_000`. Its inertia tensor (products included) and torque limit
+        become the defaults of the parameters ``I_x ... I_yz`` and ``u_max``.
 
     Returns
     -------
@@ -125,8 +130,13 @@ def mrp_plant(spacecraft: Any = None) -> Any:
 
 
 def load_artifact(name_or_path: Any) -> Any:
-    """A controller artifact, validated, by name (the user's folder, then the shipped ones) or
-    by ``.json`` path.
+    """A controller artifact, validated.
+
+    Parameters
+    ----------
+    name_or_path : str or Path
+        An artifact name (looked up in :func:`user_artifacts`, then the shipped ones) or a
+        ``.json`` file.
 
     Raises
     ------

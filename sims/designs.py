@@ -133,6 +133,8 @@ def design_hinf(plant: Model | Spacecraft | None = None, *, name: str = "mrp_hin
         :data:`synthesis.two_step.DECAY_RATES`; fewer rates are faster).
     n_samples : int
         Random points of the sampled L2 estimate per iterate.
+    progress : callable, optional
+        ``progress(done, total, message)`` after each step.
 
     Raises
     ------
@@ -160,6 +162,8 @@ def design_h2hinf(gamma: float, plant: Model | Spacecraft | None = None, *, name
         L2-gain bound w -> sigma to certify (N m -> 1).
     plant : Spacecraft or fmus.model.Model, optional
         Default seed 000's satellite (seed 001 uses the same plant).
+    name : str
+        Artifact and controller FMU name.
     variant : {"slack", "common"}
         Separate Lyapunov matrices and slack (the seed's design) or one common matrix.
     region : float
@@ -168,6 +172,8 @@ def design_h2hinf(gamma: float, plant: Model | Spacecraft | None = None, *, name
         Line-search interval of the seed's scalars alpha and beta.
     evaluations : int
         SDPs per line search.
+    progress : callable, optional
+        ``progress(done, total, message)`` after each step.
 
     Raises
     ------
@@ -233,10 +239,12 @@ def design_cubesat_periodic(gamma: float | None = None, *, name: str = "cubesat_
     ----------
     gamma : float, optional
         Design level (default ``gamma_min (1 + GAMMA_MARGIN)``).
+    name, published_name : str
+        Artifact names of the design and of the published gains.
 
     Raises
     ------
-    synthesis.periodic_hinf.PeriodicDesignError
+    synthesis.sos.SOSError
         If Theorem 2 is infeasible at ``gamma``.
     """
     from synthesis import cubesat_periodic as cp
@@ -273,6 +281,8 @@ def design_demeter(axes: Sequence[int] = (1,), appendages: Sequence[int] = (1,),
         1: norm-bounded (D-G), 2: intervals (vertices), 3: inertia norm-bounded.
     wheels : bool
         Design with the wheel dynamics H(s).
+    name : str
+        Artifact and controller FMU name.
     n_samples : int
         Sampled plants of the independent check.
 

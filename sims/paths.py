@@ -48,6 +48,11 @@ def artifact_folders() -> list[Path]:
 def find_artifact(name_or_path: str | Path) -> Path:
     """The file of an artifact given by path (``.json``) or by name (user folder, then shipped).
 
+    Parameters
+    ----------
+    name_or_path : str or Path
+        An artifact name (``"mrp_hinf_published"``) or a ``.json`` file.
+
     Raises
     ------
     FileNotFoundError

@@ -109,8 +109,16 @@ class FmuSpec:
 
 @dataclass
 class Connection:
-    """``source`` output(s) of one FMU to ``target`` input(s) of another (``"instance.variable"``,
-    a base name such as ``plant.omega`` connects index by index)."""
+    """An output of one FMU instance feeding an input of another.
+
+    Parameters
+    ----------
+    source : str
+        ``"instance.variable"`` output (TOML key ``from``); a base name such as
+        ``plant.omega`` connects index by index.
+    target : str
+        ``"instance.variable"`` input (TOML key ``to``).
+    """
 
     source: str
     target: str
@@ -118,7 +126,35 @@ class Connection:
 
 @dataclass
 class Metric:
-    """A pass/fail figure of a run (see the module docstring for the kinds and their fields)."""
+    """A pass/fail figure of a run (the kinds and their fields: the module docstring).
+
+    Parameters
+    ----------
+    name : str
+        Label (unique within the scenario).
+    kind : str
+        One of ``final``, ``peak``, ``rms``, ``settling_time``, ``l2_ratio``,
+        ``time_in_saturation``, ``integral_square``, ``max_difference``.
+    signals : list of str
+        ``"instance.variable"`` names (base names expand).
+    scale : float
+        Factor applied to the signals (rad -> deg: 57.2958); bounds, ``tolerance`` and
+        ``limit`` are in scaled units.
+    unit : str
+        Unit of the scaled value.
+    min, max : float, optional
+        Pass/fail bounds.
+    tolerance : float, optional
+        Band of ``settling_time``.
+    limit : float, optional
+        Saturation level of ``time_in_saturation``.
+    disturbances : list of str
+        Denominator signals of ``l2_ratio``.
+    versus : list of str
+        Reference signals of ``max_difference``.
+    description : str
+        Free text.
+    """
 
     name: str
     kind: str
@@ -269,11 +305,25 @@ class Result:
 
     Attributes
     ----------
+    name : str
+        The scenario's name.
+    backend : str
+        Default FMU backend of the run.
     results : numpy structured array
         One row per communication time: ``time`` (s) and every recorded
         ``instance.variable`` (its unit: :attr:`units`).
     metrics : list of sims.metrics.MetricResult
         Name, value, unit, bounds and pass/fail of each metric.
+    files : dict of str to Path
+        What :meth:`write` wrote (csv, plot, summary, l2_ratio_plot).
+    l2_curves : dict of str to ndarray
+        The truncated L2 ratio over T of each ``l2_ratio`` metric.
+    units : dict of str to str
+        Unit of each plotted column.
+    panels : list of list of str
+        Columns of each plot panel.
+    title : str
+        Plot title.
     warnings : list of str
         Design mismatches found (a controller paired with a plant it was not designed for).
     """

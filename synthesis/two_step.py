@@ -265,9 +265,16 @@ def two_step(plant: Model | None = None, region: float = 0.9,
 
 
 def manoeuvre(angle_deg: float, axis: Sequence[float] = (1.0, 1.0, 1.0)) -> dict[str, float]:
-    """The start of a rest-to-rest manoeuvre by ``angle_deg`` about ``axis`` (body frame), as
-    the MRP plant's ``sigma_0[i]`` parameters (``omega_0 = 0``), for ``two_step(start=...)``
-    and a scenario's plant parameters.
+    """The start of a rest-to-rest manoeuvre as the MRP plant's ``sigma_0[i]`` parameters.
+
+    For ``two_step(start=...)`` and a scenario's plant parameters (``omega_0`` stays 0).
+
+    Parameters
+    ----------
+    angle_deg : float
+        Rotation angle to the target attitude, deg.
+    axis : 3 floats
+        Rotation axis in body axes (normalized here).
 
     Raises
     ------
