@@ -41,7 +41,7 @@ $(VENV)/.installed: pyproject.toml | system-deps
 	@touch $@
 
 build: $(VENV)/.installed
-	@$(STAGE) "build FMUs" $(SATFMU) build --dest $(FMU_DIR)
+	@$(STAGE) "build FMUs" $(SATFMU) build --fmu-dir $(FMU_DIR)
 
 validate: build
 	@$(STAGE) validate $(SATFMU) validate --fmu-dir $(FMU_DIR)
