@@ -74,6 +74,7 @@ test-all: build
 
 bench: build
 	@$(PY) -m pip install -q -e '.[bench]' >build/logs/bench-install.log 2>&1 || { cat build/logs/bench-install.log; exit 1; }
+	$(PY) bench/cli_startup.py
 	$(PY) bench/build_speed.py
 	$(PY) bench/fresh_clone.py
 	$(PY) bench/cosim_speed.py --fmu-dir $(FMU_DIR)
