@@ -245,15 +245,15 @@ def build_all(dest: Path | None = None, backends: tuple[str, ...] = ("native", "
 
     dest = paths.fmu_cache() if dest is None else Path(dest)
     plan = [(src, b) for src in sources() for b in ("native", "python") if b in backends and b in src.backends]
-    paths = [export.fmu_path(src.model, dest, b) for src, b in plan]
-    todo = [i for i, ((src, b), path) in enumerate(zip(plan, paths))
+    files = [export.fmu_path(src.model, dest, b) for src, b in plan]
+    todo = [i for i, ((src, b), path) in enumerate(zip(plan, files))
             if export.built_digest(path) != export.digest_of(src.model, b, src.resources)]
     _PENDING[:] = plan  # the workers, forked from here, read it by index
     try:
         _fork_map(functools.partial(_build_one, dest=dest), todo, jobs)
     finally:
         _PENDING.clear()
-    return BuildReport(paths, [paths[i] for i in todo])
+    return BuildReport(files, [files[i] for i in todo])
 
 
 def validate(fmu: Path) -> list[str]:

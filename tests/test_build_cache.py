@@ -151,3 +151,10 @@ def test_ensure_builds_only_the_missing_fmus(tmp_path: Path) -> None:
         catalog.ensure(tmp_path / "fmus", ["signal_sinusoid"], "python")
     with pytest.raises(ValueError, match="backend must be one of"):
         catalog.ensure(tmp_path / "fmus", ["signal_step"], "java")
+
+
+def test_build_all_defaults_to_the_fmu_cache(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv(paths.HOME_ENV, str(tmp_path))
+    monkeypatch.setattr(catalog, "sources", lambda: [catalog.source("signal_constant")])
+    report = catalog.build_all(jobs=1)
+    assert report.paths == report.built == [tmp_path / "fmus" / "signal_constant.fmu"]
