@@ -353,12 +353,14 @@ def _fmu_dir(parser: argparse.ArgumentParser, help: str = "folder of the FMUs") 
 def parser() -> argparse.ArgumentParser:
     """The ``satfmu`` argument parser: every command, every option with its help and default."""
     top = argparse.ArgumentParser(prog="satfmu", description="Spacecraft attitude control FMUs",
-                                  formatter_class=_Formatter)
+                                  formatter_class=_Formatter, allow_abbrev=False)
     top.add_argument("--version", action="version", version=f"satfmu {metadata.version('satfmu')}")
     sub = top.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     def command(parent: argparse._SubParsersAction, name: str, help: str, **kw) -> argparse.ArgumentParser:
-        return parent.add_parser(name, help=help, description=help, formatter_class=_Formatter, **kw)
+        # no abbreviations: a retired option (--n, --runs) must fail, not match another (--name)
+        return parent.add_parser(name, help=help, description=help, formatter_class=_Formatter, allow_abbrev=False,
+                                 **kw)
 
     backends = sorted(paths.BACKENDS)
     b = command(sub, "build", "build every FMU (only those whose model changed)")

@@ -107,6 +107,8 @@ def test_one_name_per_meaning() -> None:
     names = {opt for _, action in _options(cli.parser()) for opt in action.option_strings}
     assert "--fmu-dir" in names and "--samples" in names
     assert not names & {"--dest", "--n", "--runs"}
+    with pytest.raises(SystemExit):  # no abbreviation: the old --n does not become --name
+        main(["campaign", "demeter", "--n", "300"])
     fmu_dirs = [a for _, a in _options(cli.parser()) if "--fmu-dir" in a.option_strings]
     assert {a.default for a in fmu_dirs} == {str(paths.fmu_cache())} and Path(fmu_dirs[0].default).is_absolute()
 
