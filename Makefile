@@ -41,7 +41,7 @@ $(VENV)/.installed: pyproject.toml | system-deps
 	@touch $@
 
 build: $(VENV)/.installed
-	@$(STAGE) "build FMUs" $(SATFMU) build --dest $(FMU_DIR)
+	@$(STAGE) "build FMUs" $(SATFMU) build --fmu-dir $(FMU_DIR)
 
 validate: build
 	@$(STAGE) validate $(SATFMU) validate --fmu-dir $(FMU_DIR)
@@ -74,6 +74,7 @@ test-all: build
 
 bench: build
 	@$(PY) -m pip install -q -e '.[bench]' >build/logs/bench-install.log 2>&1 || { cat build/logs/bench-install.log; exit 1; }
+	$(PY) bench/cli_startup.py
 	$(PY) bench/build_speed.py
 	$(PY) bench/fresh_clone.py
 	$(PY) bench/cosim_speed.py --fmu-dir $(FMU_DIR)

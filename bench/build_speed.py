@@ -50,9 +50,9 @@ def main() -> None:
     for _ in range(args.repeat):
         with tempfile.TemporaryDirectory(prefix="satfmu_bench_build_") as a, \
                 tempfile.TemporaryDirectory(prefix="satfmu_bench_build_") as b:
-            runs = [(kinds[0], [str(SATFMU), "build", "--dest", a, "--jobs", str(args.jobs)]),
-                    (kinds[1], [str(SATFMU), "build", "--dest", b, "--jobs", "1"]),
-                    (kinds[2], [str(SATFMU), "build", "--dest", a])]
+            runs = [(kinds[0], [str(SATFMU), "build", "--fmu-dir", a, "--jobs", str(args.jobs)]),
+                    (kinds[1], [str(SATFMU), "build", "--fmu-dir", b, "--jobs", "1"]),
+                    (kinds[2], [str(SATFMU), "build", "--fmu-dir", a])]
             for kind, argv in runs:
                 wall, cpu, line = _timed(argv)
                 walls[kind].append(wall)

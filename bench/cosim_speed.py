@@ -18,7 +18,7 @@ from timing import best_of
 
 from controllers import polynomial
 from fmus import mrp_satellite
-from sims import catalog, reference
+from sims import catalog, paths, reference
 from sims.master import CoSimulation
 
 STOP, STEP = 120.0, 0.05
@@ -39,8 +39,8 @@ def _fmu_loop(fmu_dir: Path, suffix: str) -> CoSimulation:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=3)
-    ap.add_argument("--fmu-dir", type=Path, default=catalog.DEFAULT_FMU_DIR,
-                    help="FMU folder, brought up to date first (default: build/fmus)")
+    ap.add_argument("--fmu-dir", type=Path, default=paths.fmu_cache(),
+                    help="FMU folder, brought up to date first (default: the user's FMU cache, sims.paths.fmu_cache())")
     args = ap.parse_args()
     fmu_dir = args.fmu_dir
     catalog.build_all(fmu_dir)  # nothing to do when `satfmu build` ran on this tree

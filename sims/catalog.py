@@ -1,22 +1,28 @@
-"""Every FMU the project builds: the plant models and one controller per shipped artifact."""
+"""Every FMU the project builds: the plant models and one controller per shipped artifact.
+
+Importing this module is cheap: the model modules (sympy, each building its model at import)
+are imported by the function that needs them. :func:`source` builds one model by name,
+:func:`ensure` builds only the FMUs missing from a folder, :func:`build_all` the whole catalog.
+"""
 from __future__ import annotations
 
 import functools
+import importlib
 import multiprocessing
 import os
 import subprocess
 import sys
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
-from typing import Callable, TypeVar
+from typing import TYPE_CHECKING, Any, Callable, Iterable, Mapping, TypeVar
 from pathlib import Path
 
-from controllers import artifact as artifacts
-from controllers import backstepping, magnetic, polynomial, servo, state_feedback
-from fmus import cubesat, demeter, export, mrp_satellite, signals, vscmg
-from fmus.model import Model
+from sims import paths
 
-DEFAULT_FMU_DIR = Path("build/fmus")
+if TYPE_CHECKING:
+    from controllers.artifact import Artifact
+    from fmus.model import Model
+
 T = TypeVar("T")
 R = TypeVar("R")
 
@@ -31,21 +37,147 @@ class FmuSource:
     """FMU backends the model supports (a model with a Python sampler: pythonfmu only)."""
 
 
+def _plant(module: str) -> Callable[[], FmuSource]:
+    """The source of the plant ``module.MODEL`` (the module builds it when first imported)."""
+    return lambda: FmuSource(importlib.import_module(module).MODEL, {})
+
+
+def _online_sdre(name: str) -> FmuSource:
+    from controllers import servo
+
+    return FmuSource(servo.build_online(name), {}, ("python",))
+
+
+def _backstepping() -> FmuSource:
+    from controllers import backstepping
+
+    return FmuSource(backstepping.build(), {})
+
+
+def _bdot() -> FmuSource:
+    from controllers import magnetic
+
+    return FmuSource(magnetic.build_bdot(), {})
+
+
+def _signal(kind: str) -> FmuSource:
+    from fmus import signals
+
+    return FmuSource(signals.GENERIC[kind](), {}, ("native",))
+
+
+PLANTS: dict[str, Callable[[], FmuSource]] = {
+    "mrp_satellite": _plant("fmus.mrp_satellite"), "vscmg": _plant("fmus.vscmg"),
+    "magnetorquer_cubesat": _plant("fmus.cubesat"), "demeter_flexible": _plant("fmus.demeter")}
+"""Plant model name -> its source (built on call)."""
+SIGNALS = ("signal_constant", "signal_step", "signal_sinusoid", "signal_cosine_ramp")
+"""Model names of the generic signal generators (:data:`fmus.signals.GENERIC`, ``signal_<kind>``)."""
+GENERIC: dict[str, Callable[[], FmuSource]] = {
+    "vscmg_sdre_online": functools.partial(_online_sdre, "vscmg_sdre_online"),
+    "vscmg_sdre_online_w1free": functools.partial(_online_sdre, "vscmg_sdre_online_w1free"),
+    "vscmg_backstepping": _backstepping, "cubesat_bdot": _bdot,
+    **{name: functools.partial(_signal, name.removeprefix("signal_")) for name in SIGNALS}}
+"""Model name -> source of the designs without an artifact (online SDRE, backstepping, B-dot)
+and of the generic signal generators (native only: a scenario's profiles as FMUs)."""
+
+
 def sources() -> list[FmuSource]:
     """Plants first, then the controllers of the shipped artifacts (the DEMETER state feedback
-    of Table 1 row 1 among them, every gain a parameter), then the designs without an artifact
-    (online SDRE, backstepping, B-dot), then the generic signal generators (native only: a
-    scenario's profiles as FMUs, :mod:`fmus.signals`)."""
-    out = [FmuSource(mrp_satellite.MODEL, {}), FmuSource(vscmg.MODEL, {}), FmuSource(cubesat.MODEL, {}),
-           FmuSource(demeter.MODEL, {})]
+    of Table 1 row 1 among them, every gain a parameter), then :data:`GENERIC`."""
+    from controllers import artifact as artifacts
+    from controllers import polynomial
+
+    out = [make() for make in PLANTS.values()]
     out += [controller_source(artifacts.load(path)) for path in polynomial.shipped_artifacts()]
-    out += [FmuSource(servo.build_online(name), {}, ("python",)) for name in servo.ONLINE_VARIANTS]
-    out += [FmuSource(backstepping.build(), {}), FmuSource(magnetic.build_bdot(), {})]
-    return out + [FmuSource(build(), {}, ("native",)) for build in signals.GENERIC.values()]
+    return out + [make() for make in GENERIC.values()]
 
 
-def controller_source(art: artifacts.Artifact) -> FmuSource:
+def source(name: str) -> FmuSource:
+    """The source of one model by name, building only that model.
+
+    Parameters
+    ----------
+    name : str
+        A plant or generic model name (:data:`PLANTS`, :data:`GENERIC`), or the name of a
+        controller artifact, looked up by :func:`sims.paths.find_artifact` (the user's
+        artifacts first, then the shipped ones).
+
+    Raises
+    ------
+    ValueError
+        If no model or artifact has that name (the message suggests the closest name).
+    """
+    make = PLANTS.get(name) or GENERIC.get(name)
+    if make is not None:
+        return make()
+    try:
+        path = paths.find_artifact(name)
+    except FileNotFoundError:
+        models = sorted({*PLANTS, *GENERIC})
+        raise ValueError(f"no model or artifact named {name!r} (models: {', '.join(models)}; artifacts in "
+                         f"{', '.join(map(str, paths.artifact_folders()))})"
+                         + paths.did_you_mean(name, models + paths.artifact_names())) from None
+    from controllers import artifact as artifacts
+
+    return controller_source(artifacts.load(path))
+
+
+def ensure(fmu_dir: Path, names: Iterable[str], backend: str = "native") -> dict[str, Path]:
+    """The FMU of each model name in ``fmu_dir``, building only those missing there.
+
+    An FMU already in the folder is taken as it is (``satfmu build --fmu-dir DIR`` rebuilds
+    the stale ones); a missing one is built from :func:`source` into the folder.
+
+    Parameters
+    ----------
+    fmu_dir : Path
+        Folder of the FMUs (created when needed).
+    names : iterable of str
+        Model names (see :func:`source`).
+    backend : {"native", "python"}
+        FMU kind.
+
+    Returns
+    -------
+    dict of str to Path
+        Model name -> FMU file, in the order of ``names`` (duplicates once).
+
+    Raises
+    ------
+    ValueError
+        If a name is unknown, the backend is unknown, or the model has no FMU of that backend.
+    """
+    if backend not in paths.BACKENDS:
+        raise ValueError(f"backend must be one of {sorted(paths.BACKENDS)}, got {backend!r}")
+    out = {}
+    for name in dict.fromkeys(names):
+        path = Path(fmu_dir) / f"{name}{paths.BACKENDS[backend]}.fmu"
+        if not path.is_file():
+            src = source(name)
+            if backend not in src.backends:
+                raise ValueError(f"{name} has no {backend} FMU (it has: {', '.join(src.backends)})")
+            path = _builder(backend)(src.model, Path(fmu_dir), src.resources)
+        out[name] = path
+    return out
+
+
+def ensure_instances(fmu_dir: Path, instances: Mapping[str, Mapping[str, Any]], backend: str = "native"
+                     ) -> dict[str, Path]:
+    """:func:`ensure` for the instances of a scenario's ``[fmus]`` table that name a ``model``
+    (an instance's own ``backend`` wins over ``backend``; instances given by ``path`` are left
+    out); instance name -> FMU file."""
+    out = {}
+    for inst, spec in instances.items():
+        if "model" in spec:
+            out[inst] = ensure(fmu_dir, [spec["model"]], spec.get("backend", backend))[spec["model"]]
+    return out
+
+
+def controller_source(art: Artifact) -> FmuSource:
     """The controller model of an artifact (by its kind) and the artifact as its resource."""
+    from controllers import artifact as artifacts
+    from controllers import magnetic, polynomial, servo, state_feedback
+
     if isinstance(art, artifacts.ServoArtifact):
         model = servo.build(art)
     elif isinstance(art, artifacts.PeriodicArtifact):
@@ -57,7 +189,13 @@ def controller_source(art: artifacts.Artifact) -> FmuSource:
     return FmuSource(model, artifacts.resource(art))
 
 
-_BUILDERS = {"native": export.build_native, "python": export.build_python}
+def _builder(backend: str) -> Callable[..., Path]:
+    """``fmus.export.build_native`` or ``build_python``."""
+    from fmus import export
+
+    return {"native": export.build_native, "python": export.build_python}[backend]
+
+
 _PENDING: list[tuple[FmuSource, str]] = []
 """The builds the worker processes of :func:`build_all` take by index (inherited on fork)."""
 
@@ -74,7 +212,7 @@ class BuildReport:
 
 def _build_one(index: int, dest: Path) -> Path:
     src, backend = _PENDING[index]
-    return _BUILDERS[backend](src.model, dest, src.resources)
+    return _builder(backend)(src.model, dest, src.resources)
 
 
 def _fork_map(fn: Callable[[T], R], items: list[T], jobs: int | None) -> list[R]:
@@ -87,7 +225,7 @@ def _fork_map(fn: Callable[[T], R], items: list[T], jobs: int | None) -> list[R]
         return list(pool.map(fn, items))
 
 
-def build_all(dest: Path = DEFAULT_FMU_DIR, backends: tuple[str, ...] = ("native", "python"),
+def build_all(dest: Path | None = None, backends: tuple[str, ...] = ("native", "python"),
               jobs: int | None = None) -> BuildReport:
     """Build every FMU into ``dest``, in parallel processes.
 
@@ -96,23 +234,26 @@ def build_all(dest: Path = DEFAULT_FMU_DIR, backends: tuple[str, ...] = ("native
 
     Parameters
     ----------
-    dest : Path
-        Folder of the FMUs.
+    dest : Path, optional
+        Folder of the FMUs (default: :func:`sims.paths.fmu_cache`).
     backends : tuple of {"native", "python"}
     jobs : int, optional
         Worker processes (default: the number of CPUs); 1, or a platform without ``fork``,
         builds in this process.
     """
+    from fmus import export
+
+    dest = paths.fmu_cache() if dest is None else Path(dest)
     plan = [(src, b) for src in sources() for b in ("native", "python") if b in backends and b in src.backends]
-    paths = [export.fmu_path(src.model, dest, b) for src, b in plan]
-    todo = [i for i, ((src, b), path) in enumerate(zip(plan, paths))
+    files = [export.fmu_path(src.model, dest, b) for src, b in plan]
+    todo = [i for i, ((src, b), path) in enumerate(zip(plan, files))
             if export.built_digest(path) != export.digest_of(src.model, b, src.resources)]
     _PENDING[:] = plan  # the workers, forked from here, read it by index
     try:
-        _fork_map(functools.partial(_build_one, dest=Path(dest)), todo, jobs)
+        _fork_map(functools.partial(_build_one, dest=dest), todo, jobs)
     finally:
         _PENDING.clear()
-    return BuildReport(paths, [paths[i] for i in todo])
+    return BuildReport(files, [files[i] for i in todo])
 
 
 def validate(fmu: Path) -> list[str]:

@@ -31,7 +31,7 @@ import numpy as np
 from scipy.linalg import expm
 
 from controllers import artifact as artifacts
-from controllers import polynomial
+from sims import paths
 from sims.master import CoSimulation
 from synthesis.demeter_variants import RATE_WORST, THETA_WORST, DesignModel, Variant, design_model
 
@@ -78,16 +78,15 @@ def _free_response(dm: DesignModel, K: np.ndarray, delta: np.ndarray, X0: np.nda
 
 
 def load_design(artifact: str | Path) -> tuple[artifacts.GainArtifact, Variant]:
-    """A DEMETER design artifact (a shipped name such as ``"demeter_row1_det"`` or a .json path)
-    and its variant.
+    """A DEMETER design artifact (a name such as ``"demeter_row1_det"``, looked up by
+    :func:`sims.paths.find_artifact`, or a .json path) and its variant.
 
     Raises
     ------
     ValueError
         If the artifact is not a DEMETER state-feedback design.
     """
-    path = Path(artifact)
-    art = artifacts.load(path if path.suffix == ".json" else polynomial.ARTIFACTS / f"{artifact}.json")
+    art = artifacts.load(paths.find_artifact(artifact))
     if not isinstance(art, artifacts.GainArtifact) or "variant" not in art.design:
         raise ValueError(f"{artifact}: not a DEMETER state-feedback design artifact")
     return art, Variant.from_dict(art.design["variant"])

@@ -7,8 +7,10 @@ FMU outputs of continuous states use the trapezoidal rule.
 """
 from __future__ import annotations
 
+import json
 import math
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any, Sequence
 
 import numpy as np
@@ -95,3 +97,30 @@ class MetricResult:
     def to_json(self) -> dict[str, Any]:
         return {"name": self.name, "kind": self.kind, "value": self.value, "unit": self.unit,
                 "min": self.min, "max": self.max, "passed": self.passed}
+
+
+def summaries_markdown(summaries: Sequence[dict[str, Any]]) -> str:
+    """Scenario run summaries (``ScenarioResult.summary()``) as a Markdown table, one row per metric."""
+    lines = ["| scenario | backend | metric | value | unit | bounds | result |", "|---|---|---|---|---|---|---|"]
+    for s in summaries:
+        for m in s["metrics"]:
+            bounds = " ".join(f"{k} {m[k]:g}" for k in ("min", "max") if m[k] is not None)
+            lines.append(f"| {s['scenario']} | {s['backend']} | {m['name']} | {m['value']:.6g} | {m['unit']} | "
+                         f"{bounds} | {'pass' if m['passed'] else 'FAIL'} |")
+    return "\n".join(lines) + "\n"
+
+
+def write_summaries(summaries: Sequence[dict[str, Any]], path: Path) -> tuple[Path, Path]:
+    """Write the run summaries to ``path`` (JSON) and beside it as Markdown (``.md``, :func:`summaries_markdown`).
+
+    Returns
+    -------
+    (Path, Path)
+        The JSON and the Markdown file.
+    """
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(list(summaries), indent=1) + "\n")
+    md = path.with_suffix(".md")
+    md.write_text(summaries_markdown(summaries))
+    return path, md

@@ -66,9 +66,14 @@ def find_artifact(name_or_path: str | Path) -> Path:
     for folder in artifact_folders():
         if (folder / f"{p.name}.json").is_file():
             return folder / f"{p.name}.json"
-    names = sorted({f.stem for d in artifact_folders() if d.is_dir() for f in d.glob("*.json")})
+    names = artifact_names()
     raise FileNotFoundError(f"no artifact named {str(name_or_path)!r} in {', '.join(map(str, artifact_folders()))} "
                             f"(known: {', '.join(names)})" + did_you_mean(str(name_or_path), names))
+
+
+def artifact_names() -> list[str]:
+    """The names of every artifact in :func:`artifact_folders`, sorted, each once."""
+    return sorted({f.stem for d in artifact_folders() if d.is_dir() for f in d.glob("*.json")})
 
 
 def did_you_mean(word: str, choices: list[str]) -> str:

@@ -49,10 +49,11 @@ import tempfile
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
+from typing import Callable, Sequence
 
 import numpy as np
 
-from sims import libcosim, ssp
+from sims import catalog, libcosim, paths, ssp
 from sims.master import CoSimulation
 from sims.scenario import Scenario, evaluate, fmu_paths, load, recorded
 
@@ -330,3 +331,58 @@ def write(reports: list[ScenarioReport], out_dir: Path) -> tuple[Path, Path]:
         tmp.write_text(text)
         tmp.replace(path)
     return md, js
+
+
+@dataclass
+class VerifyRun:
+    """The reports of :func:`verify_all` and the files they were written to."""
+
+    reports: list[ScenarioReport]
+    md_path: Path
+    json_path: Path
+
+    @property
+    def failed(self) -> list[str]:
+        """The scenarios that did not pass."""
+        return [r.scenario for r in self.reports if not r.passed]
+
+    def text(self) -> str:
+        """The table of every scenario and engine, and the tally."""
+        return (markdown(self.reports).split("\n\n")[0] + f"\n{len(self.reports) - len(self.failed)}/"
+                f"{len(self.reports)} scenarios pass; report: {self.md_path}, {self.json_path}")
+
+
+def verify_all(fmu_dir: Path, out_dir: Path, names: Sequence[str | Path] = (), backend: str = "native",
+               engines: tuple[str, ...] = ("libcosim", "ecos"),
+               progress: Callable[[int, int, str], None] | None = None) -> VerifyRun:
+    """:func:`verify` of each scenario, then :func:`write` of all the reports.
+
+    The FMUs a scenario names (and the generic signal generators of its profiles) that are
+    missing from ``fmu_dir`` are built first (:func:`sims.catalog.ensure`).
+
+    Parameters
+    ----------
+    fmu_dir : Path
+        Folder of the FMUs.
+    out_dir : Path
+        Receives the SSP files, ``verify.md`` and ``verify.json``.
+    names : sequence of str or Path
+        Scenarios (default: every shipped one).
+    backend : {"native", "python"}
+        Default FMU backend of the scenarios' instances.
+    engines : tuple of str
+        Subset of ``("libcosim", "ecos")``.
+    progress : callable, optional
+        ``progress(done, total, message)`` before each scenario and at the end.
+    """
+    names = list(names) or [p.stem for p in paths.shipped_scenarios()]
+    reports = []
+    for i, name in enumerate(names):
+        if progress is not None:
+            progress(i, len(names), f"verifying {name}")
+        catalog.ensure_instances(fmu_dir, load(name).data["fmus"], backend)
+        catalog.ensure(fmu_dir, catalog.SIGNALS)
+        reports.append(verify(name, Path(fmu_dir), Path(out_dir), backend, tuple(engines)))
+    if progress is not None:
+        progress(len(names), len(names), "verified")
+    return VerifyRun(reports, *write(reports, Path(out_dir)))

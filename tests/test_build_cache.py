@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import dataclasses
+import json
 import os
 import subprocess
 import sys
@@ -12,7 +13,7 @@ import pytest
 
 from fmus import codegen, digest, export, signals
 from fmus.model import Model, Output, Variable
-from sims import catalog
+from sims import catalog, paths
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -113,3 +114,47 @@ def test_build_all_builds_in_parallel_then_does_nothing(tmp_path: Path, monkeypa
     assert again.built == [] and again.paths == report.paths
     (tmp_path / "signal_step.fmu").unlink()
     assert [p.name for p in catalog.build_all(tmp_path, jobs=1).built] == ["signal_step.fmu"]
+
+
+def test_importing_the_catalog_builds_no_model() -> None:
+    code = "import sys; from sims import catalog; print([m for m in ('sympy', 'fmus.vscmg') if m in sys.modules])"
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
+                          cwd=Path(__file__).resolve().parents[1])
+    assert proc.stdout.strip() == "[]"
+
+
+def test_source_by_name_and_its_errors(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    assert catalog.source("signal_step").model.name == "signal_step"
+    for name in (*catalog.PLANTS, *catalog.GENERIC):  # the names are the models' own
+        assert catalog.source(name).model.name == name
+    with pytest.raises(ValueError, match="did you mean 'mrp_satellite'"):
+        catalog.source("mrp_satelite")
+    # a controller by artifact name: the user's artifact first, then the shipped one
+    monkeypatch.setenv(paths.HOME_ENV, str(tmp_path))
+    shipped = paths.SHIPPED_ARTIFACTS / "cubesat_periodic_published.json"
+    assert catalog.source("cubesat_periodic_published").model.description != "the user's own copy"
+    data = json.loads(shipped.read_text())
+    data["description"] = "the user's own copy"
+    paths.user_artifacts().mkdir(parents=True)
+    (paths.user_artifacts() / shipped.name).write_text(json.dumps(data))
+    assert catalog.source("cubesat_periodic_published").model.description == "the user's own copy"
+
+
+def test_ensure_builds_only_the_missing_fmus(tmp_path: Path) -> None:
+    built = catalog.ensure(tmp_path / "fmus", ["signal_step", "signal_constant", "signal_step"])
+    assert list(built) == ["signal_step", "signal_constant"]
+    assert all(p.is_file() and p.parent == tmp_path / "fmus" for p in built.values())
+    stamp = built["signal_step"].stat().st_mtime_ns
+    again = catalog.ensure(tmp_path / "fmus", ["signal_step"])
+    assert again == {"signal_step": built["signal_step"]} and built["signal_step"].stat().st_mtime_ns == stamp
+    with pytest.raises(ValueError, match="no python FMU"):
+        catalog.ensure(tmp_path / "fmus", ["signal_sinusoid"], "python")
+    with pytest.raises(ValueError, match="backend must be one of"):
+        catalog.ensure(tmp_path / "fmus", ["signal_step"], "java")
+
+
+def test_build_all_defaults_to_the_fmu_cache(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv(paths.HOME_ENV, str(tmp_path))
+    monkeypatch.setattr(catalog, "sources", lambda: [catalog.source("signal_constant")])
+    report = catalog.build_all(jobs=1)
+    assert report.paths == report.built == [tmp_path / "fmus" / "signal_constant.fmu"]

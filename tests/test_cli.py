@@ -1,14 +1,16 @@
 """The satfmu command line: exit codes and messages a user sees."""
 from __future__ import annotations
 
+import argparse
 import json
 import subprocess
 import sys
+from importlib import metadata
 from pathlib import Path
 
 import pytest
 
-from sims import catalog
+from sims import catalog, cli, paths
 from sims.cli import main
 
 
@@ -36,7 +38,7 @@ def test_errors_exit_2_with_a_message(fmu_dir: Path, tmp_path: Path, capsys: pyt
     assert main(["run", "no_such_scenario", "--fmu-dir", str(fmu_dir)]) == 2
     assert "no scenario named 'no_such_scenario'" in capsys.readouterr().err
     assert main(["validate", "--fmu-dir", str(tmp_path)]) == 2
-    assert "run `satfmu build` first" in capsys.readouterr().err
+    assert f"run `satfmu build --fmu-dir {tmp_path}` first" in capsys.readouterr().err
 
 
 def test_validate_reports_every_fmu(fmu_dir: Path, capsys: pytest.CaptureFixture) -> None:
@@ -51,9 +53,75 @@ def test_validate_reports_every_fmu(fmu_dir: Path, capsys: pytest.CaptureFixture
 
 def test_list_shows_shipped_scenarios(capsys: pytest.CaptureFixture) -> None:
     assert main(["list"]) == 0
-    out = capsys.readouterr().out
+    lines = capsys.readouterr().out.splitlines()
+    assert [line.split()[0] for line in lines] == [p.stem for p in paths.shipped_scenarios()]
+    by_name = {line.split()[0]: line for line in lines}
+    assert "Seed 000 Figs 1-3: 200 deg rest-to-rest" in by_name["mrp_200deg"]  # name, then description
     for name in ("mrp_200deg", "mrp_200deg_sat", "mrp_320deg_sat", "mrp_eq44"):
-        assert name in out
+        assert name in by_name
+
+
+@pytest.mark.parametrize("argv", [["--help"], ["list"]])
+def test_help_and_list_import_no_numerical_library(argv: list[str]) -> None:
+    # `satfmu --help` and `satfmu list` start fast: only the standard library and sims.paths
+    code = ("import sys\nfrom sims import cli\ntry:\n    cli.main(sys.argv[1:])\nexcept SystemExit:\n    pass\n"
+            "print([m for m in ('sympy', 'numpy', 'fmpy', 'scipy') if m in sys.modules])")
+    proc = subprocess.run([sys.executable, "-c", code, *argv], capture_output=True, text=True, check=True,
+                          cwd=Path(__file__).resolve().parents[1])
+    assert proc.stdout.splitlines()[-1] == "[]"
+
+
+def test_version_is_the_installed_one(capsys: pytest.CaptureFixture) -> None:
+    with pytest.raises(SystemExit) as exc:
+        main(["--version"])
+    assert exc.value.code == 0 and capsys.readouterr().out.strip() == f"satfmu {metadata.version('satfmu')}"
+
+
+def _options(parser: argparse.ArgumentParser, where: str = "satfmu") -> list[tuple[str, argparse.Action]]:
+    """Every optional argument of ``parser`` and its subcommands, with the command it belongs to."""
+    out = []
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for name, child in action.choices.items():
+                out += _options(child, f"{where} {name}")
+        elif action.option_strings and action.dest not in ("help", "version"):
+            out.append((where, action))
+    return out
+
+
+def test_every_option_has_help_that_states_its_default(capsys: pytest.CaptureFixture) -> None:
+    options = _options(cli.parser())
+    assert len(options) > 60
+    for where, action in options:
+        assert action.help, f"{where} {action.option_strings[0]} has no help"
+    for argv, shown in ((["run", "--help"], "(default: results)"), (["detumble", "--help"], "(default: 2000)"),
+                        (["analyze", "l2", "--help"], "(default: 200000)"),
+                        (["build", "--help"], "one per CPU"), (["figures", "demeter", "--help"], "(default: 100)")):
+        with pytest.raises(SystemExit):
+            main(argv)
+        assert shown in " ".join(capsys.readouterr().out.split()), argv
+
+
+def test_one_name_per_meaning() -> None:
+    # the FMU folder is --fmu-dir, a sample count --samples, in every command
+    names = {opt for _, action in _options(cli.parser()) for opt in action.option_strings}
+    assert "--fmu-dir" in names and "--samples" in names
+    assert not names & {"--dest", "--n", "--runs"}
+    with pytest.raises(SystemExit):  # no abbreviation: the old --n does not become --name
+        main(["campaign", "demeter", "--n", "300"])
+    fmu_dirs = [a for _, a in _options(cli.parser()) if "--fmu-dir" in a.option_strings]
+    assert {a.default for a in fmu_dirs} == {str(paths.fmu_cache())} and Path(fmu_dirs[0].default).is_absolute()
+
+
+def test_analyze_groups_the_analyses(capsys: pytest.CaptureFixture) -> None:
+    with pytest.raises(SystemExit):
+        main(["analyze", "--help"])
+    out = capsys.readouterr().out
+    assert all(name in out for name in ("sweep", "region", "l2"))
+    for old in (["sweep", "mrp-h2hinf"], ["region", "vscmg-sdre"], ["l2", "mrp_hinf_published"]):
+        with pytest.raises(SystemExit) as exc:
+            main(old)
+        assert exc.value.code == 2 and "invalid choice" in capsys.readouterr().err
 
 
 def test_commands_without_the_demeter_plant_do_not_build_its_model() -> None:
@@ -67,7 +135,7 @@ def test_commands_without_the_demeter_plant_do_not_build_its_model() -> None:
 
 
 def test_l2_reports_the_three_estimates_for_the_published_controller(capsys: pytest.CaptureFixture) -> None:
-    assert main(["l2", "mrp_hinf_published", "--samples", "20000"]) == 0
+    assert main(["analyze", "l2", "mrp_hinf_published", "--samples", "20000"]) == 0
     out = capsys.readouterr().out
     assert "c = 0.4200 at kv = 10000" in out  # the seed's c_min = 0.42 at kv = 1e4, 4 digits
     assert "no finite c for any kv" in out and "only semi-definite" in out
@@ -123,9 +191,9 @@ def test_synth_vscmg_certifies_the_chosen_fit(tmp_path: Path, capsys: pytest.Cap
 @pytest.mark.parametrize("argv,message", [
     (["synth", "mrp-h2hinf"], "--gamma"),
     (["synth", "mrp-h2hinf", "--gamma", "1", "--variant", "other"], "invalid choice"),
-    (["sweep", "mrp-h2hinf", "--gammas"], "--gammas"),
+    (["analyze", "sweep", "--gammas"], "--gammas"),
 ])
-def test_synth_and_sweep_refuse_bad_arguments(argv: list[str], message: str,
+def test_synth_and_analyze_refuse_bad_arguments(argv: list[str], message: str,
                                               capsys: pytest.CaptureFixture) -> None:
     with pytest.raises(SystemExit) as exc:
         main(argv)

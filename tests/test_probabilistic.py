@@ -124,7 +124,7 @@ def test_closed_loop_task_is_pure_and_picklable(scen) -> None:
 def test_campaign_command_states_the_chernoff_bounds(tmp_path, capsys) -> None:
     from sims.cli import main
 
-    args = ["campaign", "demeter", "--n", "300", "--chunk", "150", "--workers", "1", "--out", str(tmp_path)]
+    args = ["campaign", "demeter", "--samples", "300", "--chunk", "150", "--workers", "1", "--out", str(tmp_path)]
     assert main(args) == 0
     out = capsys.readouterr().out
     assert "hinf: N = 300 samples (0 NaN)" in out and "i2p: N = 300" in out and "max_real_pole: N = 300" in out
