@@ -14,7 +14,7 @@ import subprocess
 import sys
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Callable, Iterable, Mapping, TypeVar
+from typing import TYPE_CHECKING, Callable, Iterable, TypeVar
 from pathlib import Path
 
 from sims import paths
@@ -122,11 +122,14 @@ def source(name: str) -> FmuSource:
     return controller_source(artifacts.load(path))
 
 
-def ensure(fmu_dir: Path, names: Iterable[str], backend: str = "native") -> dict[str, Path]:
+def ensure(fmu_dir: Path, names: Iterable[str], backend: str = "native", rebuild_stale: bool = False
+           ) -> dict[str, Path]:
     """The FMU of each model name in ``fmu_dir``, building only those missing there.
 
     An FMU already in the folder is taken as it is (``satfmu build --fmu-dir DIR`` rebuilds
-    the stale ones); a missing one is built from :func:`source` into the folder.
+    the stale ones), unless ``rebuild_stale``: then it is rebuilt when its build digest
+    differs from its model's (a changed artifact, say); a missing one is built from
+    :func:`source` into the folder.
 
     Parameters
     ----------
@@ -136,6 +139,8 @@ def ensure(fmu_dir: Path, names: Iterable[str], backend: str = "native") -> dict
         Model names (see :func:`source`).
     backend : {"native", "python"}
         FMU kind.
+    rebuild_stale : bool
+        Compare the build digest of FMUs present (costs building each model).
 
     Returns
     -------
@@ -152,24 +157,12 @@ def ensure(fmu_dir: Path, names: Iterable[str], backend: str = "native") -> dict
     out = {}
     for name in dict.fromkeys(names):
         path = Path(fmu_dir) / f"{name}{paths.BACKENDS[backend]}.fmu"
-        if not path.is_file():
+        if rebuild_stale or not path.is_file():
             src = source(name)
             if backend not in src.backends:
                 raise ValueError(f"{name} has no {backend} FMU (it has: {', '.join(src.backends)})")
             path = _builder(backend)(src.model, Path(fmu_dir), src.resources)
         out[name] = path
-    return out
-
-
-def ensure_instances(fmu_dir: Path, instances: Mapping[str, Mapping[str, Any]], backend: str = "native"
-                     ) -> dict[str, Path]:
-    """:func:`ensure` for the instances of a scenario's ``[fmus]`` table that name a ``model``
-    (an instance's own ``backend`` wins over ``backend``; instances given by ``path`` are left
-    out); instance name -> FMU file."""
-    out = {}
-    for inst, spec in instances.items():
-        if "model" in spec:
-            out[inst] = ensure(fmu_dir, [spec["model"]], spec.get("backend", backend))[spec["model"]]
     return out
 
 

@@ -102,14 +102,19 @@ def _validate(args: argparse.Namespace) -> int:
 
 
 def _run(args: argparse.Namespace) -> int:
+    import warnings
+
     from sims import metrics, scenario
 
     failed = 0
     summaries = []
+    warnings.simplefilter("ignore", scenario.DesignMismatchWarning)  # printed below, with the run
     for name in args.scenarios:
-        res = scenario.run(name, Path(args.fmu_dir), args.backend, Path(args.out))
+        res = scenario.run(name, Path(args.fmu_dir), args.backend, Path(args.out), strict=args.strict)
         summaries.append(res.summary())
         print(f"{'PASS' if res.passed else 'FAIL'} {res.name} ({args.backend})")
+        for line in res.warnings:
+            print(f"     warning: design mismatch: {line}")
         for m in res.metrics:
             bounds = " ".join(f"{k} {v:g}" for k, v in (("min", m.min), ("max", m.max)) if v is not None)
             print(f"     {'ok  ' if m.passed else 'FAIL'} {m.name}: {m.value:.6g} {m.unit}  [{bounds}]")
@@ -172,116 +177,64 @@ def _progress(done: int, total: int, message: str) -> None:
           file=sys.stderr, flush=True)
 
 
-def _save_and_build(data: dict, args: argparse.Namespace) -> None:
-    """Validate and write an artifact, then build its native and pythonfmu FMUs."""
-    from controllers import artifact as artifacts
-    from fmus import export
-    from sims import catalog
-
-    art = artifacts.parse(data, where=args.name)
-    out = Path(args.out) / f"{args.name}.json"
-    out.parent.mkdir(parents=True, exist_ok=True)
-    artifacts.save(art, out)
-    print(f"wrote {out}")
-    if args.fmu_dir:
-        src = catalog.controller_source(art)
-        for build in (export.build_native, export.build_python):
-            print(f"built {build(src.model, Path(args.fmu_dir), src.resources)}")
-
-
-def _synth(args: argparse.Namespace) -> int:
-    from synthesis import l2_gain, two_step
-
-    result = two_step.two_step(region=args.region, l2_region=l2_gain.Region(args.rate_max, args.sigma_max),
-                               coefficient_limit=args.coefficient_limit, torque_budget=args.torque_budget,
-                               n_samples=args.samples, progress=_progress)
-    print(result.table())
-    _save_and_build(result.artifact_data(args.name), args)
+def _write_design(design, args: argparse.Namespace) -> int:
+    """Print a design's report, write its artifacts (and build their FMUs unless ``--fmu-dir ''``)."""
+    print(design.report)
+    for f in design.write(args.out, args.fmu_dir or None):
+        print(f"{'wrote' if f.suffix == '.json' else 'built'} {f}")
     return 0
+
+
+def _spacecraft(args: argparse.Namespace):
+    """The ``--spacecraft FILE`` description, or None (the seed's satellite)."""
+    from fmus.spacecraft import Spacecraft
+
+    return Spacecraft.from_toml(args.spacecraft) if args.spacecraft else None
+
+
+def _synth_hinf(args: argparse.Namespace) -> int:
+    from sims import designs
+    from synthesis import two_step
+
+    start = two_step.manoeuvre(args.angle, args.axis) if args.angle is not None else None
+    return _write_design(designs.design_hinf(
+        _spacecraft(args), name=args.name, start=start, torque_budget=args.torque_budget, horizon=args.horizon,
+        region=args.region, rate_max=args.rate_max, sigma_max=args.sigma_max,
+        coefficient_limit=args.coefficient_limit, n_samples=args.samples, progress=_progress), args)
 
 
 def _synth_h2hinf(args: argparse.Namespace) -> int:
-    from synthesis import h2hinf_sos
+    from sims import designs
 
-    found = h2hinf_sos.search(args.gamma, args.variant, bounds=tuple(args.alpha_range),
-                              max_evaluations=args.evaluations, progress=_progress, region=args.region)
-    r = found.best
-    if r is None:
-        raise RuntimeError(f"no certified {args.variant} design at gamma = {args.gamma:g} on |sigma| <= "
-                           f"{args.region:g} ({len(found.evaluations)} SDPs; try a larger gamma or region)")
-    check = h2hinf_sos.closed_loop_check(r)
-    print(f"{r.proved}\n  alpha = {r.alpha:.4g}, beta = {r.beta:.4g}, {len(found.evaluations)} SDPs; "
-          f"simulated J2 = {check.j2:.4f} over {check.stop_time:g} s (bound {r.lam:.4f}), max |sigma| "
-          f"{check.max_tilde:.4f}, linearization max Re eig {check.max_real_eig:.4f} 1/s")
-    if not check.passed:
-        raise RuntimeError("the closed-loop check failed: the design is not saved")
-    _save_and_build(h2hinf_sos.artifact_data(r, args.name, check), args)
-    return 0
+    return _write_design(designs.design_h2hinf(
+        args.gamma, _spacecraft(args), name=args.name, variant=args.variant, region=args.region,
+        alpha_range=tuple(args.alpha_range), evaluations=args.evaluations, progress=_progress), args)
 
 
 def _synth_vscmg(args: argparse.Namespace) -> int:
-    from synthesis import gain_fit
+    from sims import designs
 
-    tol = {} if args.cv_tol is None else {"cv_tol": args.cv_tol if args.cv_tol > 0 else None}
-    result, approx, lq = gain_fit.synthesize(*args.grid, degrees=range(1, args.max_degree + 1),
-                                             region=not args.skip_region, **tol)
-    print(f"certificate: {approx['certificate']['status']}: {approx['certificate']['proved']}")
-    print(gain_fit.table(result, {k: v for k, v in approx["certificate"]["numbers"].items()
-                                  if not k.startswith("fit_")}))
-    for data in (approx, lq):
-        _save_and_build(data, argparse.Namespace(**{**vars(args), "name": data["name"]}))
-    return 0
+    return _write_design(designs.design_vscmg_sdre(tuple(args.grid), args.max_degree, args.cv_tol,
+                                                   not args.skip_region), args)
 
 
 def _synth_cubesat(args: argparse.Namespace) -> int:
-    from synthesis import cubesat_periodic
+    from sims import designs
 
-    r = cubesat_periodic.synthesize(args.gamma)
-    lo, hi, n = r.bracket
-    print(f"seed 003 Theorem 2: gamma_min {r.gamma_min:.4f} (minimized); bisection bracket [{lo:.4f}, {hi:.4f}] "
-          f"in {n} solves; the seed's gamma {cubesat_periodic.GAMMA_SEED:g} is "
-          f"{'feasible' if r.numbers['seed_gamma_feasible'] else 'infeasible'}")
-    for k, v in r.numbers.items():
-        print(f"  {k}: {v:.6g}")
-    print("  gains F(k) (rows m_x, m_y, m_z; columns omega_x, omega_y, omega_z), ours | published:")
-    for k, (f, p) in enumerate(zip(r.design.F, cubesat_periodic.PUBLISHED_GAINS)):
-        for i in range(3):
-            print(f"    k={k} " + " ".join(f"{v:8.4f}" for v in f[i]) + "  | " + " ".join(f"{v:8.4f}" for v in p[i]))
-    _save_and_build(r.artifact_data(args.name, r.design.F, r.design.gamma, r.design.check, "satfmu"),
-                    argparse.Namespace(**vars(args)))
-    if r.published is not None:
-        data = r.artifact_data(args.published_name, cubesat_periodic.PUBLISHED_GAINS, r.published.gamma,
-                               r.published.check, "published (seed 003, gains as printed)")
-        _save_and_build(data, argparse.Namespace(**{**vars(args), "name": args.published_name}))
-    return 0
+    return _write_design(designs.design_cubesat_periodic(args.gamma, name=args.name,
+                                                         published_name=args.published_name), args)
 
 
 def _synth_demeter(args: argparse.Namespace) -> int:
-    from synthesis import demeter_design as dd
-    from synthesis import demeter_table
-    from synthesis.demeter_variants import Variant
+    from sims import designs
 
-    variant = Variant(tuple(args.axes), tuple(args.appendages), args.model_type, args.uncertainty_type,
-                      not args.no_wheels)
-    row = demeter_table.run_row(variant, "Det", n_samples=args.samples)
-    print(demeter_table.markdown([row]))
-    r = row.result
-    if r.feasible:
-        c = r.check
-        common = getattr(r.analysis_hinf_common, "gamma", None)
-        print(f"{c.n} sampled plants (seed {c.seed}): Re s in [{c.min_real_pole:.3g}, {c.max_real_pole:.3g}] 1/s, "
-              f"largest exact H-infinity {c.hinf.max():.4g}, i2p {c.i2p.max():.4g}; H-infinity bound with one "
-              f"Lyapunov matrix: {'none' if common is None else format(common, '.4g')}")
-    else:
-        if r.obstruction is not None and r.obstruction.proves_infeasible:
-            o = r.obstruction
-            print(f"infeasible for any common-Lyapunov design: at coincident omega, {o.n_free} combination(s) of "
-                  f"the modes are free oscillators; over omega in [{o.omega[0]:.4g}, {o.omega[1]:.4g}] rad/s they "
-                  f"need zeta > {o.required_zeta:.4g} (the box has zeta <= {o.zeta:g}); eig(A_lo A_hi) = "
-                  f"{', '.join(f'{v.real:.4g}' for v in o.eigenvalues)}")
+    try:
+        design = designs.design_demeter(args.axes, args.appendages, args.model_type, args.uncertainty_type,
+                                        not args.no_wheels, name=args.name, n_samples=args.samples)
+    except designs.DesignError as exc:
+        print(exc)
         return 1
-    _save_and_build(dd.artifact_data(r, args.name), args)
-    return 0
+    return _write_design(design, args)
 
 
 def _table1(args: argparse.Namespace) -> int:
@@ -378,7 +331,9 @@ def parser() -> argparse.ArgumentParser:
     scenarios.add_argument("--backend", choices=backends, default="native", help="FMU kind of the instances")
     _fmu_dir(scenarios)
     r = command(sub, "run", "run scenarios (name of a shipped scenario or a .toml path)", parents=[scenarios])
-    r.add_argument("--out", default="results", help="folder of the CSV and PNG files")
+    r.add_argument("--out", default="results", help="folder of the CSV and PNG files (relative: to the working folder)")
+    r.add_argument("--strict", action="store_true",
+                   help="a controller paired with a plant other than its design plant is an error, not a warning")
     r.add_argument("--summary", default=None,
                    help="also write all summaries to this JSON file and beside it as .md (default: none)")
     r.set_defaults(fn=_run)
@@ -403,25 +358,36 @@ def parser() -> argparse.ArgumentParser:
     sy = command(sub, "synth", "synthesize a controller, write its artifact, build its FMUs")
     designs = sy.add_subparsers(dest="design", required=True, metavar="NAME")
     out = argparse.ArgumentParser(add_help=False)
-    out.add_argument("--out", default="controllers/artifacts", help="directory of the artifact")
+    out.add_argument("--out", default=str(paths.user_artifacts()),
+                     help="folder of the artifact (default: the user's artifact folder, $SATFMU_HOME/artifacts or "
+                          f"{paths.user_artifacts()}; scenarios find artifacts there by name)")
     _fmu_dir(out, "build the controller FMUs here ('' to skip)")
-    hi = command(designs, "mrp-hinf", "seed 000: two-step nonlinear H-infinity iteration", parents=[out])
+    craft = argparse.ArgumentParser(add_help=False)
+    craft.add_argument("--spacecraft", metavar="FILE", default=None,
+                       help="spacecraft TOML file (name, inertia tensor, [actuators] torque_limit) to design for "
+                            "(default: seed 000's satellite)")
+    hi = command(designs, "mrp-hinf", "seed 000: two-step nonlinear H-infinity iteration", parents=[out, craft])
     hi.add_argument("--name", default="mrp_hinf_satfmu", help="artifact and FMU name")
+    hi.add_argument("--angle", type=float, default=None,
+                    help="angle of the rest-to-rest manoeuvre each iterate is judged on, deg "
+                         "(default: seed 000's 200 deg start)")
+    hi.add_argument("--axis", type=float, nargs=3, default=(1.0, 1.0, 1.0), metavar=("X", "Y", "Z"),
+                    help="axis of that manoeuvre, body axes (with --angle)")
+    hi.add_argument("--horizon", type=float, default=120.0, help="length of the manoeuvre, s")
     hi.add_argument("--region", type=float, default=0.9, help="Theorem 1 region |sigma| <= r (< 1)")
     hi.add_argument("--rate-max", type=float, default=0.2, help="L2 region |omega_i| <= rate-max, rad/s")
     hi.add_argument("--sigma-max", type=float, default=0.9, help="L2 region |sigma| <= sigma-max")
     hi.add_argument("--coefficient-limit", type=float, default=1.0, help="bound on every K coefficient")
-    hi.add_argument("--torque-budget", type=float, default=6.5,
-                    help="largest peak |u_i| on the 200 deg manoeuvre, N m")
+    hi.add_argument("--torque-budget", type=float, default=6.5, help="largest peak |u_i| on the manoeuvre, N m")
     hi.add_argument("--samples", type=int, default=20_000, help="random points of the sampled L2 check")
-    hi.set_defaults(fn=_synth)
+    hi.set_defaults(fn=_synth_hinf)
     mixed = argparse.ArgumentParser(add_help=False)
     mixed.add_argument("--region", type=float, default=0.45, help="certificate region |sigma| <= r (< 1), any rate")
     mixed.add_argument("--alpha-range", type=float, nargs=2, default=(0.05, 2.0), metavar=("LOW", "HIGH"),
                        help="line-search interval of alpha and beta")
     mixed.add_argument("--evaluations", type=int, default=12, help="SDPs per line search (alpha, then beta)")
     h2 = command(designs, "mrp-h2hinf", "seed 001: mixed H2/H-infinity (Theorem 8) at one gamma",
-                 parents=[out, mixed])
+                 parents=[out, craft, mixed])
     h2.add_argument("--gamma", type=float, required=True, help="L2-gain bound w -> sigma (required)")
     h2.add_argument("--variant", choices=["slack", "common"], default="slack", help="Theorem 8 variant")
     h2.add_argument("--name", default="mrp_h2hinf_satfmu", help="artifact and FMU name")

@@ -195,7 +195,7 @@ def run(fmu_dir: Path, out_dir: Path, *, samples: int = 2000, seed: int = 0,
         ) -> DetumbleReport:
     """Seed 003 Fig. 2 on the linear model (:func:`linear_campaign`) and the nonlinear sweep (:func:`sweep`).
 
-    The scenario's FMUs missing from ``fmu_dir`` are built first (:func:`sims.catalog.ensure`).
+    The scenario's FMUs missing from ``fmu_dir`` are built first (:func:`sims.scenario.ensure_fmus`).
 
     Parameters
     ----------
@@ -213,7 +213,7 @@ def run(fmu_dir: Path, out_dir: Path, *, samples: int = 2000, seed: int = 0,
         Called after each rate of the sweep.
     """
     from controllers import artifact as artifacts
-    from sims import catalog, paths, plots
+    from sims import paths, plots
 
     gains = {label: artifacts.load(paths.find_artifact(name)).gains for label, name in GAIN_SETS.items()}
     out_dir = Path(out_dir)
@@ -223,7 +223,7 @@ def run(fmu_dir: Path, out_dir: Path, *, samples: int = 2000, seed: int = 0,
     runs = linear_campaign(gains, samples, seed)
     plots.detumble_linear(runs, files["linear_fig2"], "Seed 003 Fig. 2 analogue: linear periodic model with "
                           "multiplicative noises, rates and held dipoles at the 15-min samples")
-    catalog.ensure_instances(fmu_dir, scenarios.load(SCENARIO).data["fmus"])
+    scenarios.ensure_fmus(scenarios.load(SCENARIO), fmu_dir, "native")
     rows = sweep(Path(fmu_dir), rates, progress=progress)
     files["sweep_md"].write_text(sweep_table(rows))
     with open(files["sweep_csv"], "w") as fh:

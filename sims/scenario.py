@@ -784,22 +784,29 @@ def run(scenario: "str | Path | Mapping[str, Any] | Scenario", fmu_dir: str | Pa
 
 
 def ensure_fmus(scenario: Scenario, fmu_dir: str | Path | None, backend: str) -> Path:
-    """The FMU folder of a run, with every FMU the scenario names by ``model`` present.
+    """The FMU folder of a run, with every FMU the scenario names by ``model`` present: those
+    missing are built into it (plants by model name, controllers from their artifact, found
+    in the user's folder before the shipped ones).
 
     Raises
     ------
     ScenarioError
-        If an FMU is missing and cannot be built (unknown model name, with the closest one).
+        An FMU file named by ``path`` is missing, or a model name is unknown (with the
+        closest one).
     """
+    from sims import catalog
     from sims.paths import fmu_cache
 
     folder = fmu_cache() if fmu_dir is None else Path(fmu_dir).resolve()
-    paths = fmu_paths(scenario, folder, backend)
-    missing = [(inst, p) for inst, p in paths.items() if not p.is_file()]
-    for inst, p in missing:
+    for inst, p in fmu_paths(scenario, folder, backend).items():
         spec = scenario.fmus[inst]
+        if p.is_file():
+            continue
         if spec.path is not None:
             raise ScenarioError(f"{scenario.name}: fmus.{inst}.path: no FMU file {str(p)!r}")
-        raise ScenarioError(f"{scenario.name}: fmus.{inst}: no FMU {p.name} in {folder}; build it with "
-                            f"`satfmu build --fmu-dir {folder}` or pass the folder that has it (--fmu-dir)")
+        try:
+            catalog.ensure(folder, [spec.model], spec.backend or backend)
+        except (ValueError, FileNotFoundError) as exc:
+            raise ScenarioError(f"{scenario.name}: fmus.{inst}.model: no FMU {p.name} in {folder}, and it cannot "
+                                f"be built: {exc}") from None
     return folder

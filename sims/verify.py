@@ -55,7 +55,7 @@ import numpy as np
 
 from sims import catalog, libcosim, paths, ssp
 from sims.master import CoSimulation
-from sims.scenario import Scenario, evaluate, fmu_paths, load, recorded
+from sims.scenario import Scenario, ensure_fmus, evaluate, fmu_paths, load, recorded
 
 
 @dataclass(frozen=True)
@@ -380,7 +380,7 @@ def verify_all(fmu_dir: Path, out_dir: Path, names: Sequence[str | Path] = (), b
     for i, name in enumerate(names):
         if progress is not None:
             progress(i, len(names), f"verifying {name}")
-        catalog.ensure_instances(fmu_dir, load(name).data["fmus"], backend)
+        ensure_fmus(load(name), fmu_dir, backend)
         catalog.ensure(fmu_dir, catalog.SIGNALS)
         reports.append(verify(name, Path(fmu_dir), Path(out_dir), backend, tuple(engines)))
     if progress is not None:

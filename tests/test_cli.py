@@ -204,3 +204,54 @@ def test_build_refuses_a_jobs_count_below_one(capsys: pytest.CaptureFixture) -> 
     with pytest.raises(SystemExit) as exc:
         main(["build", "--jobs", "0"])
     assert exc.value.code == 2 and "must be a positive integer" in capsys.readouterr().err
+
+
+def _shipped_digest() -> dict[str, str]:
+    import hashlib
+
+    from sims.paths import SHIPPED_ARTIFACTS
+
+    return {f.name: hashlib.sha256(f.read_bytes()).hexdigest() for f in sorted(SHIPPED_ARTIFACTS.glob("*.json"))}
+
+
+SYNTH_DEFAULT_RUNS = [["cubesat-periodic"], ["mrp-hinf"], ["mrp-h2hinf", "--gamma", "1.0"], ["vscmg-sdre"],
+                      ["demeter"]]
+
+
+def test_synth_writes_to_the_user_folder_by_default(tmp_path, monkeypatch):
+    """Every synth command's default --out is the user's artifact folder, never the shipped one."""
+    from sims import cli, paths
+
+    monkeypatch.setenv("SATFMU_HOME", str(tmp_path))
+    for argv in SYNTH_DEFAULT_RUNS:
+        args = cli.parser().parse_args(["synth", *argv])
+        assert Path(args.out) == tmp_path / "artifacts" and Path(args.out) != paths.SHIPPED_ARTIFACTS, argv
+
+
+def _synth_with_defaults(argv: list[str], home: Path) -> None:
+    import os
+    import subprocess
+
+    env = {**os.environ, "SATFMU_HOME": str(home), "OPENBLAS_NUM_THREADS": "1"}
+    done = subprocess.run([sys.executable, "-m", "sims.cli", "synth", *argv, "--fmu-dir", ""], env=env,
+                          capture_output=True, text=True, timeout=3600)
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert list((home / "artifacts").glob("*.json")), "no artifact written to the user folder"
+
+
+def test_synth_with_defaults_leaves_the_shipped_artifacts_unchanged(tmp_path):
+    """The quickest design, run with its defaults: its artifacts land in SATFMU_HOME, the shipped
+    ones are byte for byte as before (the slow test runs every design)."""
+    before = _shipped_digest()
+    _synth_with_defaults(["cubesat-periodic"], tmp_path)
+    assert {f.name for f in (tmp_path / "artifacts").glob("*.json")} == {
+        "cubesat_periodic_satfmu.json", "cubesat_periodic_published.json"}
+    assert _shipped_digest() == before
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("argv", SYNTH_DEFAULT_RUNS[1:], ids=lambda a: a[0])
+def test_every_synth_with_defaults_leaves_the_shipped_artifacts_unchanged(argv, tmp_path):
+    before = _shipped_digest()
+    _synth_with_defaults(argv, tmp_path)
+    assert _shipped_digest() == before

@@ -95,9 +95,14 @@ def test_scenario_file_errors(tmp_path: Path) -> None:
 
 
 def test_missing_fmu_file(tmp_path: Path) -> None:
-    with pytest.raises(scenario.ScenarioError, match=r"fmus.plant: no FMU mrp_satellite.fmu in .*empty; build it "
-                                                     r"with `satfmu build --fmu-dir .*empty` or pass"):
-        scenario.run(_write(tmp_path, BASE), tmp_path / "empty")
+    """A model no FMU folder has and satfmu cannot build, and an FMU file that is not there."""
+    body = BASE.replace(PLANT, '{ model = "mrp_satelite" }')
+    with pytest.raises(scenario.ScenarioError, match=r"fmus.plant.model: no FMU mrp_satelite.fmu in .*empty, and it "
+                                                     r"cannot be built: .*did you mean 'mrp_satellite'"):
+        scenario.run(_write(tmp_path, body), tmp_path / "empty")
+    body = BASE.replace(PLANT, '{ path = "nowhere/plant.fmu" }')
+    with pytest.raises(scenario.ScenarioError, match=r"fmus.plant.path: no FMU file .*nowhere/plant.fmu"):
+        scenario.run(_write(tmp_path, body), tmp_path / "empty")
 
 
 def test_time_grid_checks(fmu_dir: Path) -> None:
