@@ -18,19 +18,20 @@ triangle inequality ``I_1 + I_2 >= I_3`` of every rigid body.
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping
 
 import numpy as np
 
+from fmus.declared import check_keys, read_toml
+
 SYMMETRY_RTOL = 1e-9
 """Largest ``|J - J^T|`` relative to ``max |J|`` accepted as symmetric (rounding of a CAD export)."""
 PARAMETERS = {"I_x": (0, 0), "I_y": (1, 1), "I_z": (2, 2), "I_xy": (0, 1), "I_xz": (0, 2), "I_yz": (1, 2)}
 """Plant parameter name -> entry of the inertia tensor it holds."""
-_KEYS = {"name", "description", "inertia", "actuators"}
-_ACTUATOR_KEYS = {"torque_limit"}
+_KEYS = ("name", "description", "inertia", "actuators")
+_ACTUATOR_KEYS = ("torque_limit",)
 
 
 class SpacecraftError(ValueError):
@@ -114,14 +115,14 @@ class Spacecraft:
         """
         if not isinstance(data, Mapping):
             raise SpacecraftError(f"{where}: expected a table of keys, got {type(data).__name__}")
-        _known(data, _KEYS, where)
+        check_keys(data, _KEYS, where, SpacecraftError)
         for key in ("name", "inertia"):
             if key not in data:
                 raise SpacecraftError(f"{where}: missing key {key!r}")
         act = data.get("actuators", {})
         if not isinstance(act, Mapping):
             raise SpacecraftError(f"{where}: actuators: expected a table, got {type(act).__name__}")
-        _known(act, _ACTUATOR_KEYS, f"{where}: actuators")
+        check_keys(act, _ACTUATOR_KEYS, f"{where}: actuators", SpacecraftError)
         try:
             return cls(data["name"], data["inertia"], act.get("torque_limit"), data.get("description", ""))
         except SpacecraftError as exc:
@@ -136,24 +137,7 @@ class Spacecraft:
         SpacecraftError
             If the file is missing, not TOML, or its description is invalid.
         """
-        path = Path(path)
-        try:
-            data = tomllib.loads(path.read_text())
-        except OSError as exc:
-            raise SpacecraftError(f"{path}: cannot read spacecraft file ({exc.strerror})") from None
-        except tomllib.TOMLDecodeError as exc:
-            raise SpacecraftError(f"{path}: invalid TOML ({exc})") from None
-        return cls.from_dict(data, where=str(path))
-
-
-def _known(data: Mapping[str, Any], keys: set[str], where: str) -> None:
-    import difflib
-
-    for k in data:
-        if k not in keys:
-            close = difflib.get_close_matches(k, sorted(keys), n=1)
-            hint = f"; did you mean {close[0]!r}?" if close else f" (known: {', '.join(sorted(keys))})"
-            raise SpacecraftError(f"{where}: unknown key {k!r}{hint}")
+        return cls.from_dict(read_toml(Path(path), "spacecraft", SpacecraftError), where=str(path))
 
 
 def _tensor(raw: Any, where: str) -> tuple[tuple[float, float, float], ...]:

@@ -167,7 +167,8 @@ def ensure(fmu_dir: Path, names: Iterable[str], backend: str = "native", rebuild
 
 
 def controller_source(art: Artifact) -> FmuSource:
-    """The controller model of an artifact (by its kind) and the artifact as its resource."""
+    """The controller model of an artifact (by its kind) and the artifact as its resource; the
+    model's description (the FMU's) ends with the plant it was designed for."""
     from controllers import artifact as artifacts
     from controllers import magnetic, polynomial, servo, state_feedback
 
@@ -179,6 +180,12 @@ def controller_source(art: Artifact) -> FmuSource:
         model = state_feedback.build(art.gains, name=art.name, description=art.description)
     else:
         model = polynomial.build(art)
+    record = art.provenance.get("design_plant")
+    if record is not None:
+        values = ", ".join(f"{k} = {v:g}" for k, v in list(record["parameters"].items())[:8])
+        more = "" if len(record["parameters"]) <= 8 else f" and {len(record['parameters']) - 8} more"
+        model.description = (f"{model.description}. Designed for {record['model']} ({values}{more}; "
+                             f"resources/artifact.json: provenance.design_plant)")
     return FmuSource(model, artifacts.resource(art))
 
 

@@ -11,6 +11,8 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
+from fmus.declared import did_you_mean
+
 SHIPPED_SCENARIOS = Path(__file__).resolve().parent / "scenarios"
 """Folder of the scenarios shipped with satfmu (``*.toml``)."""
 SHIPPED_ARTIFACTS = Path(__file__).resolve().parent.parent / "controllers" / "artifacts"
@@ -74,14 +76,6 @@ def find_artifact(name_or_path: str | Path) -> Path:
 def artifact_names() -> list[str]:
     """The names of every artifact in :func:`artifact_folders`, sorted, each once."""
     return sorted({f.stem for d in artifact_folders() if d.is_dir() for f in d.glob("*.json")})
-
-
-def did_you_mean(word: str, choices: list[str]) -> str:
-    """``"; did you mean 'x'?"`` for the closest of ``choices`` to ``word``, or ``""``."""
-    import difflib
-
-    close = difflib.get_close_matches(word, choices, n=1)
-    return f"; did you mean {close[0]!r}?" if close else ""
 
 
 def shipped_scenarios() -> list[Path]:

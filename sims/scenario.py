@@ -51,7 +51,6 @@ from __future__ import annotations
 import csv
 import json
 import math
-import tomllib
 import warnings
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -59,9 +58,11 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from fmus.declared import check_keys, read_toml
 from sims import metrics as M
 from sims.master import CoSimulation, UnknownVariableError, communication_times
-from sims.paths import BACKENDS, SHIPPED_SCENARIOS, did_you_mean
+from fmus.declared import did_you_mean
+from sims.paths import BACKENDS, SHIPPED_SCENARIOS
 from sims.profiles import Profile
 from sims.profiles import make as make_profile
 
@@ -290,13 +291,7 @@ class Scenario:
             If the file is missing, not TOML, or its declaration is invalid.
         """
         path = Path(path).resolve()
-        try:
-            data = tomllib.loads(path.read_text())
-        except OSError as exc:
-            raise ScenarioError(f"{path}: cannot read scenario file ({exc.strerror})") from None
-        except tomllib.TOMLDecodeError as exc:
-            raise ScenarioError(f"{path}: invalid TOML ({exc})") from None
-        return cls.from_dict(data, path.parent, str(path), path)
+        return cls.from_dict(read_toml(path, "scenario", ScenarioError), path.parent, str(path), path)
 
 
 @dataclass
@@ -398,13 +393,6 @@ class Result:
 ScenarioResult = Result
 
 
-def _known_keys(data: Mapping[str, Any], keys: tuple[str, ...], where: str) -> None:
-    for k in data:
-        if k not in keys:
-            hint = did_you_mean(k, list(keys)) or f" (allowed: {', '.join(keys)})"
-            raise ScenarioError(f"{where}: unknown key {k!r}{hint}")
-
-
 def _number(v: Any, where: str, positive: bool = False) -> float:
     """``v`` as a float; ``where`` is its key path."""
     if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or (positive and v <= 0):
@@ -441,7 +429,7 @@ def validate(data: Any, where: str = "scenario") -> None:
     """
     if not isinstance(data, Mapping):
         raise ScenarioError(f"{where}: expected a table of keys, got {type(data).__name__}")
-    _known_keys(data, _TOP, where)
+    check_keys(data, _TOP, where, ScenarioError)
     for key in ("name", "stop_time", "step_size", "fmus"):
         if key not in data:
             raise ScenarioError(f"{where}: missing key {key!r}")
@@ -461,7 +449,7 @@ def validate(data: Any, where: str = "scenario") -> None:
         ws = f"{w}fmus.{inst}"
         if not isinstance(spec, Mapping):
             raise ScenarioError(f"{ws}: must be a table with 'model' or 'path'")
-        _known_keys(spec, _FMU, ws)
+        check_keys(spec, _FMU, ws, ScenarioError)
         if ("model" in spec) == ("path" in spec):
             raise ScenarioError(f"{ws}: needs exactly one of 'model' or 'path'")
         for key in ("model", "path"):
@@ -482,7 +470,7 @@ def validate(data: Any, where: str = "scenario") -> None:
         wc = f"{w}connections[{i}]"
         if not isinstance(c, Mapping):
             raise ScenarioError(f"{wc}: must be a table with 'from' and 'to'")
-        _known_keys(c, ("from", "to"), wc)
+        check_keys(c, ("from", "to"), wc, ScenarioError)
         for key in ("from", "to"):
             if key not in c:
                 raise ScenarioError(f"{wc}: missing key {key!r}")
@@ -502,7 +490,7 @@ def validate(data: Any, where: str = "scenario") -> None:
         wm = f"{w}metrics[{i}]"
         if not isinstance(m, Mapping):
             raise ScenarioError(f"{wm}: must be a table")
-        _known_keys(m, _METRIC, wm)
+        check_keys(m, _METRIC, wm, ScenarioError)
         if m.get("kind") not in M.KINDS:
             raise ScenarioError(f"{wm}.kind: must be one of {M.KINDS}, got {m.get('kind')!r}"
                                 f"{did_you_mean(str(m.get('kind')), list(M.KINDS))}")

@@ -132,12 +132,12 @@ def test_source_by_name_and_its_errors(tmp_path: Path, monkeypatch: pytest.Monke
     # a controller by artifact name: the user's artifact first, then the shipped one
     monkeypatch.setenv(paths.HOME_ENV, str(tmp_path))
     shipped = paths.SHIPPED_ARTIFACTS / "cubesat_periodic_published.json"
-    assert catalog.source("cubesat_periodic_published").model.description != "the user's own copy"
+    assert not catalog.source("cubesat_periodic_published").model.description.startswith("the user's own copy")
     data = json.loads(shipped.read_text())
     data["description"] = "the user's own copy"
     paths.user_artifacts().mkdir(parents=True)
     (paths.user_artifacts() / shipped.name).write_text(json.dumps(data))
-    assert catalog.source("cubesat_periodic_published").model.description == "the user's own copy"
+    assert catalog.source("cubesat_periodic_published").model.description.startswith("the user's own copy. Designed")
 
 
 def test_ensure_builds_only_the_missing_fmus(tmp_path: Path) -> None:

@@ -155,3 +155,17 @@ def test_bad_design_plant_record_is_refused():
     data["provenance"]["design_plant"]["parameters"]["I_x"] = "heavy"
     with pytest.raises(artifacts.ArtifactError, match=r"design_plant.parameters.I_x"):
         artifacts.parse(data)
+
+
+def test_controller_fmu_carries_its_design_plant(fmu_dir):
+    """In its description and, whole, in resources/artifact.json."""
+    import json
+    import zipfile
+
+    from fmpy import read_model_description
+
+    fmu = fmu_dir / "mrp_hinf_published.fmu"
+    assert "Designed for mrp_satellite (I_x = 15, I_y = 16, I_z = 12.5" in read_model_description(str(fmu)).description
+    with zipfile.ZipFile(fmu) as z:
+        rec = json.loads(z.read("resources/artifact.json"))["provenance"]["design_plant"]
+    assert rec["parameters"]["I_z"] == 12.5 and rec["model"] == "mrp_satellite"

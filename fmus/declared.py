@@ -1,0 +1,32 @@
+"""Declarations read from TOML or plain data (spacecraft, scenarios): reading a file and
+checking its keys, with the closest known name for a near miss."""
+from __future__ import annotations
+
+import difflib
+import tomllib
+from pathlib import Path
+from typing import Any, Iterable, Mapping
+
+
+def did_you_mean(word: str, choices: Iterable[str]) -> str:
+    """``"; did you mean 'x'?"`` for the closest of ``choices`` to ``word``, or ``""``."""
+    close = difflib.get_close_matches(word, list(choices), n=1)
+    return f"; did you mean {close[0]!r}?" if close else ""
+
+
+def check_keys(data: Mapping[str, Any], keys: Iterable[str], where: str, error: type[Exception]) -> None:
+    """Raise ``error`` naming the first key of ``data`` not in ``keys`` (with the closest one, or the list)."""
+    keys = list(keys)
+    for k in data:
+        if k not in keys:
+            raise error(f"{where}: unknown key {k!r}" + (did_you_mean(k, keys) or f" (allowed: {', '.join(keys)})"))
+
+
+def read_toml(path: Path, what: str, error: type[Exception]) -> dict[str, Any]:
+    """The data of a TOML file; ``error`` says why it cannot be read (``what``: "scenario", ...)."""
+    try:
+        return tomllib.loads(Path(path).read_text())
+    except OSError as exc:
+        raise error(f"{path}: cannot read {what} file ({exc.strerror})") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise error(f"{path}: invalid TOML ({exc})") from None
