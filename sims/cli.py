@@ -398,10 +398,10 @@ def _region(args: argparse.Namespace) -> int:
 
     from controllers import artifact as artifacts
     from controllers.polynomial import ARTIFACTS
+    from fmus.profiles import make
     from sims import plots
     from synthesis import vscmg_region
     from synthesis.sdre import SEED_REFERENCE_PROFILES, simulate_servo
-    from sims.profiles import make
 
     path = Path(args.artifact) if args.artifact.endswith(".json") else ARTIFACTS / f"{args.artifact}.json"
     art = artifacts.load(path)

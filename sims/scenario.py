@@ -58,10 +58,10 @@ from typing import Any
 
 import numpy as np
 
+from fmus.profiles import Profile
+from fmus.profiles import make as make_profile
 from sims import metrics as M
 from sims.master import CoSimulation, communication_times
-from sims.profiles import Profile
-from sims.profiles import make as make_profile
 
 SCENARIOS = Path(__file__).resolve().parent / "scenarios"
 BACKENDS = {"native": "", "python": "_py"}
@@ -188,7 +188,7 @@ def profiles(scenario: Scenario) -> list[tuple[str, Profile]]:
 
     Raises
     ------
-    sims.profiles.ProfileError
+    fmus.profiles.ProfileError
     """
     d = scenario.data
     out = []

@@ -187,7 +187,7 @@ def verify(result: GainFit, servo: Servo, max_re_tol: float = 1e-6) -> dict[str,
     FitVerificationError
         Naming every bound that failed.
     """
-    from sims.profiles import make
+    from fmus.profiles import make
     from synthesis.sdre import SEED_REFERENCE_PROFILES, simulate_servo
 
     sq = np.unique(result.grid[:, 0])

@@ -130,7 +130,7 @@ SEED_REFERENCE_PROFILES = {
                "after": float(1 + np.pi / 18)},
     "q4_ref": {"kind": "cosine_ramp", "start": 4.0, "stop": 8.0, "before": 0.0, "after": 1.0},
 }
-"""Seed 002 eq. (24)-(25) as profile declarations (:func:`sims.profiles.make`; the scenarios
+"""Seed 002 eq. (24)-(25) as profile declarations (:func:`fmus.profiles.make`; the scenarios
 declare the same)."""
 
 

@@ -34,8 +34,7 @@ import numpy as np
 
 from controllers import polynomial
 from controllers.artifact import parse
-from fmus import mrp_satellite
-from sims import reference
+from fmus import mrp_satellite, reference
 from synthesis import hinf_sos, l2_gain
 from synthesis.sos import SOSError, check_numbers
 

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from controllers.riccati import RiccatiCheckError, riccati_gain
-from sims.profiles import make
+from fmus.profiles import make
 from synthesis import sdre
 
 
