@@ -17,8 +17,8 @@ import numpy as np
 from timing import best_of
 
 from controllers import polynomial
-from fmus import mrp_satellite
-from sims import catalog, paths, reference
+from fmus import mrp_satellite, reference
+from sims import catalog, paths
 from sims.master import CoSimulation
 
 STOP, STEP = 120.0, 0.05

@@ -11,7 +11,7 @@ e = reference - tracked. The servo state is xe = [int e, e, rates].
   seed 002 a fitted polynomial gain). Native and pythonfmu FMUs.
 - :func:`build_online`: the online SDRE of seed 002. The gain is solved and checked
   (:func:`controllers.riccati.sampled_gain`) at every control instant from the servo's
-  SDC matrices (:func:`synthesis.sdre.servo_matrices`, the plant's own factorization) and
+  SDC matrices (:func:`controllers.servo_sdc.servo_matrices`, the plant's own factorization) and
   held in between; a rejected solution stops the FMU with the check's message. pythonfmu
   FMU only (it needs numpy and scipy at run time).
 
@@ -26,7 +26,7 @@ from typing import Sequence
 
 import sympy as sp
 
-from controllers import riccati
+from controllers import riccati, servo_sdc
 from controllers.artifact import ServoArtifact, scheduling_signal
 from controllers.polynomial import sympy_polynomial
 from fmus import vscmg
@@ -94,18 +94,16 @@ def build_online(name: str = "vscmg_sdre_online") -> Model:
     seed's) and ``riccati_eps`` (1/s). Extra outputs: the relative residual and the largest
     closed-loop real part (1/s) of the solution in use.
     """
-    from synthesis import gain_fit, sdre  # synthesis imports this package
-
     factorization, freeze_w2 = ONLINE_VARIANTS[name]
-    Ae, Be = sdre.servo_matrices(vscmg.MODEL, factorization, freeze_w2)
+    Ae, Be = servo_sdc.servo_matrices(vscmg.MODEL, factorization, freeze_w2)
     n, m = Be.shape
     used = set().union(*(sp.sympify(e).free_symbols for e in list(Ae) + list(Be)))
     inertias = [v for v in vscmg.MODEL.parameters if v.symbol in used]
     q = vector("Q", n, "1", "Diagonal entry {i} of the servo state weight Qe (seed 002 eq. 10)",
-               [float(v) for v in sdre.Q_SEED.diagonal()], min=0.0)
+               [float(v) for v in servo_sdc.Q_SEED.diagonal()], min=0.0)
     r = vector("R", m, "1", "Diagonal entry {i} of the input weight Re (seed 002 eq. 10)",
-               [float(v) for v in sdre.R_SEED.diagonal()], min=1e-12)
-    eps = Variable("riccati_eps", "1/s", "Shift of the Riccati pair (Ae - eps I, Be)", sdre.EPS, min=0.0)
+               [float(v) for v in servo_sdc.R_SEED.diagonal()], min=1e-12)
+    eps = Variable("riccati_eps", "1/s", "Shift of the Riccati pair (Ae - eps I, Be)", servo_sdc.EPS, min=0.0)
     period = Variable("control_period", "s", "Gain update period (the gain is held in between)", 0.01,
                       min=1e-6)
     held = [Variable(f"K_{i + 1}_{j + 1}", "1", f"SDRE gain entry ({i + 1}, {j + 1})") for i in range(m)
@@ -121,5 +119,5 @@ def build_online(name: str = "vscmg_sdre_online") -> Model:
                                 "of the SDC pair in use"), held[-1].symbol)]
     sdc = factorization + (" at w2 = 0" if freeze_w2 else "")
     return servo_model(name, f"Online SDRE servo of the VSCMG (seed 002, {sdc} SDC): checked "
-                       "Riccati gain every control period", vscmg.MODEL.name, gain_fit.TRACKED, gain_fit.RATES,
-                       gain_fit.OUTPUTS, K, inertias + q + r + [eps, period], sampler, monitors)
+                       "Riccati gain every control period", vscmg.MODEL.name, servo_sdc.TRACKED,
+                       servo_sdc.RATES, servo_sdc.OUTPUTS, K, inertias + q + r + [eps, period], sampler, monitors)

@@ -15,7 +15,7 @@ epoch for a real ground track).
 
 A least-squares fit of one orbit of field (:func:`fourier_fit`) gives the cubesat's
 ``field_x/y/z[1..5]`` parameters (``field_model = 0``); the profile kind ``igrf`` of
-:mod:`sims.profiles` feeds the field itself to the ``b_ext`` inputs (``field_model = 2``).
+:mod:`fmus.profiles` feeds the field itself to the ``b_ext`` inputs (``field_model = 2``).
 """
 from __future__ import annotations
 

@@ -4,7 +4,7 @@ Each generator has one output ``y``, a function of time and of its parameters, a
 The analytic kinds are generic models, built once, with the signal's constants as FMU
 parameters; a sampled signal (a table, a CSV column, a random sequence, a field sampled along
 an orbit) is a :class:`fmus.model.Table` compiled into its own model. The same expressions give
-the master's in-process profile (:func:`evaluate`, used by :mod:`sims.profiles`), the generated
+the master's in-process profile (:func:`evaluate`, used by :mod:`fmus.profiles`), the generated
 Python and the C of the native FMU, so a scenario run with its profiles as FMUs (an SSP file in
 another tool) sees the very values the master sets.
 

@@ -1,1 +1,1 @@
-"""Co-simulation master, disturbance profiles, scenarios, metrics, plots and the CLI."""
+"""Co-simulation master, scenarios, metrics, plots and the CLI."""

@@ -121,7 +121,7 @@ def vscmg_region(out_dir: Path, artifact: str | Path = "vscmg_sdre_approx", *,
     """
     from controllers import artifact as artifacts
     from sims import plots
-    from sims.profiles import make
+    from fmus.profiles import make
     from synthesis import vscmg_region as vr
     from synthesis.sdre import SEED_REFERENCE_PROFILES, simulate_servo
 

@@ -58,13 +58,12 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from fmus.declared import check_keys, read_toml
+from fmus.declared import check_keys, did_you_mean, read_toml
+from fmus.profiles import Profile
+from fmus.profiles import make as make_profile
 from sims import metrics as M
 from sims.master import CoSimulation, UnknownVariableError, communication_times
-from fmus.declared import did_you_mean
 from sims.paths import BACKENDS, SHIPPED_SCENARIOS
-from sims.profiles import Profile
-from sims.profiles import make as make_profile
 
 SCENARIOS = SHIPPED_SCENARIOS
 _TOP = ("name", "description", "stop_time", "step_size", "start_time", "fmus", "connections",
@@ -190,7 +189,7 @@ class Scenario:
     connections : list of Connection
     profiles : list of dict
         Signals of time fed to inputs: ``{"to": "plant.w_d[1]", "kind": "step", ...}``
-        (kinds of :mod:`sims.profiles`).
+        (kinds of :mod:`fmus.profiles`).
     record : list of str
         Variables to record (``"instance.variable"``, base names expand).
     metrics : list of Metric
@@ -561,7 +560,7 @@ def profiles(scenario: Scenario) -> list[tuple[str, Profile]]:
 
     Raises
     ------
-    sims.profiles.ProfileError
+    fmus.profiles.ProfileError
     """
     where = scenario.path.name if scenario.path else scenario.name
     return [(p["to"], make_profile({k: v for k, v in p.items() if k != "to"}, f"{where}: profiles[{i}]",

@@ -72,7 +72,7 @@ def signal_components(scenario: Scenario, fmu_dir: Path, table_dir: Path
 
     Raises
     ------
-    sims.profiles.ProfileError
+    fmus.profiles.ProfileError
         An invalid profile.
     """
     paths: dict[str, Path] = {}
@@ -104,7 +104,7 @@ def system_structure(scenario: Scenario, fmu_dir: Path, backend: str = "native",
     ------
     SspError
         Two different FMU files with one name, an instance name taken twice, or a schema failure.
-    FileNotFoundError, sims.master.MasterError, sims.profiles.ProfileError
+    FileNotFoundError, sims.master.MasterError, fmus.profiles.ProfileError
         A missing FMU, an unknown variable, a wrong connection, parameter or profile (as the master).
     """
     d = scenario.data

@@ -22,6 +22,7 @@ from itertools import combinations_with_replacement
 import numpy as np
 
 from controllers.artifact import SERVO_KIND, FORMAT, FORMAT_VERSION, design_plant_record
+from controllers.servo_sdc import OUTPUTS, RATES, TRACKED
 from fmus import vscmg
 from synthesis.sdre import Servo
 
@@ -36,11 +37,6 @@ SCHEDULING = ["sin(q2)", "w4"]
 
 CV_TOL = 2e-3
 """Cross-validated RMS error (relative to the largest gain entry) the chosen degree must reach."""
-
-TRACKED = [{"name": "q2", "reference": "q2_ref", "unit": "rad"}, {"name": "q4", "reference": "q4_ref", "unit": "rad"}]
-RATES = [{"name": n, "unit": "rad/s"} for n in ("w1", "w2", "w4")]
-OUTPUTS = [{"name": "T1", "unit": "N.m", "description": "Rotor-1 motor torque command"},
-           {"name": "T2", "unit": "N.m", "description": "Gimbal-2 motor torque command"}]
 
 
 def exponents(degree: int) -> list[tuple[int, int]]:
@@ -188,7 +184,7 @@ def verify(result: GainFit, servo: Servo, max_re_tol: float = 1e-6) -> dict[str,
     FitVerificationError
         Naming every bound that failed.
     """
-    from sims.profiles import make
+    from fmus.profiles import make
     from synthesis.sdre import SEED_REFERENCE_PROFILES, simulate_servo
 
     sq = np.unique(result.grid[:, 0])

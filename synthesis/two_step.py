@@ -38,9 +38,8 @@ import numpy as np
 
 from controllers import polynomial
 from controllers.artifact import parse
-from fmus import mrp_satellite
+from fmus import mrp_satellite, reference
 from fmus.model import Model
-from sims import reference
 from synthesis import hinf_sos, l2_gain
 from synthesis.sos import SOSError, check_numbers
 

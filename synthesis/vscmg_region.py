@@ -1,8 +1,8 @@
 """SOS stability region of the approximated SDRE servo's closed loop (seed 002, section 4), re-posed.
 
 The closed loop is ``Acl(x) = Ae(x) - Be(x) K(sin q2, w4)``: ``Ae``, ``Be`` the servo's
-w1-free SDC at w2 := 0 (:func:`synthesis.sdre.servo_matrices`, the SDC the gain fits) and
-``K`` the artifact's polynomials. The seed's conditions (13)-(20) ask for ``P > 0`` and
+w1-free SDC at w2 := 0 (:func:`controllers.servo_sdc.servo_matrices`, the SDC the gain fits)
+and ``K`` the artifact's polynomials. The seed's conditions (13)-(20) ask for ``P > 0`` and
 ``Acl P + P Acl^T < 0`` on a box, with ``cos q2 ~ 1 - sin^2 q2 / 2``. As printed they cannot
 hold: the conserved gimbal-4 momentum ``p4 = m(a) . w`` (``m`` the gimbal-4 row of the mass
 matrix, ``a = sin q2``) is a left null vector of ``Acl`` for every gain (docs/models.md).
@@ -46,10 +46,11 @@ import sympy as sp
 
 from controllers.artifact import ServoArtifact
 from controllers.polynomial import sympy_polynomial
+from controllers.servo_sdc import servo_matrices
 from fmus import vscmg
 from fmus.model import Model
 from synthesis.polynomial import Poly, PolyMatrix, monomials
-from synthesis.sdre import Servo, servo_matrices
+from synthesis.sdre import Servo
 from synthesis.sos import Check, SOSError, SOSProgram, verify
 
 OPERATING_BOX = ((0.17, 1.24), (-0.6, 0.6))

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from controllers import polynomial
-from fmus import export, mrp_satellite
-from sims import reference, scenario
+from fmus import export, mrp_satellite, reference
+from sims import scenario
 from sims.master import CoSimulation
 from tests.conftest import PUBLISHED, SIGMA_200
 

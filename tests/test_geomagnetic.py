@@ -22,7 +22,7 @@ from fmus.geomagnetic import (
     orbit_geometry,
     seed_fourier_coefficients,
 )
-from sims.profiles import ProfileError, make
+from fmus.profiles import ProfileError, make
 
 EPOCH = dt.datetime(2020, 1, 1)
 T = cubesat.ORBIT_PERIOD_SEED
@@ -271,7 +271,7 @@ def test_igrf_profile_rejects_bad_fields(change: dict, field: str) -> None:
 
 
 def test_profile_kinds_do_not_import_pandas_until_igrf_is_used() -> None:
-    code = "import sys, sims.profiles; print('pandas' in sys.modules or 'ppigrf' in sys.modules)"
+    code = "import sys, fmus.profiles; print('pandas' in sys.modules or 'ppigrf' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
 

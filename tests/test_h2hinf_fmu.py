@@ -13,8 +13,8 @@ import pytest
 
 from controllers import artifact as artifacts
 from controllers import polynomial
-from fmus import mrp_satellite
-from sims import reference, scenario
+from fmus import mrp_satellite, reference
+from sims import scenario
 
 ARTIFACT = artifacts.load(polynomial.ARTIFACTS / "mrp_h2hinf_satfmu.json")
 NUMBERS = ARTIFACT.certificate["numbers"]

@@ -5,8 +5,7 @@ import numpy as np
 import pytest
 
 from controllers import artifact, polynomial
-from fmus import mrp_satellite
-from sims import reference
+from fmus import mrp_satellite, reference
 from synthesis.hinf_sos import artifact_data, theorem1
 from tests.conftest import SIGMA_200
 

@@ -6,9 +6,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from fmus.profiles import make
 from sims import scenario
 from sims.master import WiringError, CoSimulation, FmuCallError, MasterError, UnknownVariableError
-from sims.profiles import make
 
 
 def _write(tmp: Path, body: str) -> Path:

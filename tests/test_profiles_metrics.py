@@ -7,8 +7,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from fmus.profiles import ProfileError, make
 from sims import metrics as M
-from sims.profiles import ProfileError, make
 
 T = np.arange(0.0, 10.0001, 0.5)
 

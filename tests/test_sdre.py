@@ -5,7 +5,8 @@ import numpy as np
 import pytest
 
 from controllers.riccati import RiccatiCheckError, riccati_gain
-from sims.profiles import make
+from controllers.servo_sdc import Q_SEED, R_SEED
+from fmus.profiles import make
 from synthesis import sdre
 
 
@@ -19,11 +20,11 @@ def test_unshifted_riccati_of_the_start_state_is_not_solvable_and_the_shift_is()
     x0 = np.array([0.0, np.pi / 18, 0.0, 0.0, 0.0, 0.0])
     A, B = servo.matrices(x0)
     with pytest.raises(RiccatiCheckError):
-        riccati_gain(A, B, sdre.Q_SEED, sdre.R_SEED, eps=0.0)
-    K, check = riccati_gain(A, B, sdre.Q_SEED, sdre.R_SEED, eps=1e-6)
+        riccati_gain(A, B, Q_SEED, R_SEED, eps=0.0)
+    K, check = riccati_gain(A, B, Q_SEED, R_SEED, eps=1e-6)
     assert check.residual < 1e-8 and check.max_re_shifted < 0
     assert abs(check.max_re) < 1e-6  # the uncontrollable mode stays at 0, nothing unstable
-    K2, _ = riccati_gain(A, B, sdre.Q_SEED, sdre.R_SEED, eps=1e-5)  # (1e-7: residual 1.5e-8, ill-conditioned)
+    K2, _ = riccati_gain(A, B, Q_SEED, R_SEED, eps=1e-5)  # (1e-7: residual 1.5e-8, ill-conditioned)
     assert np.max(np.abs(K - K2)) < 1e-4 * np.max(np.abs(K))  # converged to 4 digits as eps -> 0
 
 

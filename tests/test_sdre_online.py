@@ -10,8 +10,8 @@ import pytest
 from controllers import servo
 from fmus import export
 from fmus.model import Model, ModelDefinitionError, Sampler, Variable
+from fmus.profiles import make
 from sims.master import CoSimulation, FmuCallError, WiringError
-from sims.profiles import make
 from synthesis import sdre
 
 ONLINE = "vscmg_sdre_online_py.fmu"

@@ -1,4 +1,4 @@
-"""Signal-generator FMUs (fmus/signals.py) against the master's profiles (sims/profiles.py).
+"""Signal-generator FMUs (fmus/signals.py) against the master's profiles (fmus/profiles.py).
 
 Every profile kind is built as its generator FMU (native), stepped by the master alone, and
 its output compared with :meth:`Profile.sample` on the communication grid. Both come from one
@@ -16,8 +16,8 @@ import pytest
 
 from fmus import export, signals
 from fmus.model import ModelDefinitionError, Table
+from fmus.profiles import ProfileError, make
 from sims.master import CoSimulation, communication_times
-from sims.profiles import ProfileError, make
 
 STOP, STEP = 10.0, 0.05
 GRID = communication_times(0.0, STEP, round(STOP / STEP))
