@@ -119,6 +119,10 @@ def _base(s: sp.Symbol) -> str:
     return str(s).split("[", 1)[0]
 
 
+CANCEL_TOL = 1e-12
+"""Relative size of a coefficient of ``A + Bu Kg`` taken as round-off of the cancellation."""
+
+
 def _split(model: Model, frozen: bool) -> SplitPlant:
     xs = [s.symbol for s in model.states]
     subs = {v.symbol: v.start for v in model.parameters}
@@ -134,7 +138,10 @@ def _split(model: Model, frozen: bool) -> SplitPlant:
     tilde = tuple(i for i in range(len(xs)) if all(B[i, j] == 0 for j in range(B.shape[1])))
     actuated = tuple(i for i in range(len(xs)) if i not in tilde)
     Kg = sp.simplify(-(Bu.T * Bu).inv() * Bu.T * A)
-    A_tilde = sp.simplify(A + Bu * Kg)
+    # with products of inertia the cancellation leaves round-off (1e-17 omega): drop it
+    scale = max([abs(float(f)) for f in A.atoms(sp.Float)] + [1.0])
+    A_tilde = sp.expand(A + Bu * Kg).applyfunc(
+        lambda e: e.xreplace({f: 0 for f in e.atoms(sp.Float) if abs(f) < CANCEL_TOL * scale}))
     xt = [xs[i] for i in tilde]
     if not A_tilde.free_symbols <= set(xt):
         raise ValueError(f"model {model.name!r}: A + Bu Kg depends on "

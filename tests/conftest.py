@@ -1,6 +1,9 @@
 """Shared fixtures: every FMU, up to date with the current source tree, built at most once."""
 from __future__ import annotations
 
+import os
+import shutil
+import tempfile
 from pathlib import Path
 
 import pytest
@@ -11,6 +14,16 @@ ROOT = Path(__file__).resolve().parents[1]
 PUBLISHED = ROOT / "controllers" / "artifacts" / "mrp_hinf_published.json"
 # Seed 000, 200 deg case: s(0) = k tan(50 deg), as printed in the seed.
 SIGMA_200 = {"sigma_0[1]": 0.5992, "sigma_0[2]": -0.7976, "sigma_0[3]": 0.6517}
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    """The suite never writes into the user's satfmu folder: ``SATFMU_HOME`` is a temporary
+    folder of this process (designs written with defaults, on-demand FMU builds land there)."""
+    os.environ["SATFMU_HOME"] = tempfile.mkdtemp(prefix="satfmu_home_")
+
+
+def pytest_unconfigure(config: pytest.Config) -> None:
+    shutil.rmtree(os.environ["SATFMU_HOME"], ignore_errors=True)
 
 
 @pytest.fixture(scope="session")

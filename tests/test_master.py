@@ -47,6 +47,7 @@ def test_unknown_instance_and_parameter_named(tmp_path: Path, fmu_dir: Path) -> 
                      fmu_dir)
 
 
+@pytest.mark.filterwarnings("ignore::sims.scenario.DesignMismatchWarning")  # I_x = -3 is also a mismatch
 def test_wrong_parameter_type_and_bad_value(tmp_path: Path, fmu_dir: Path) -> None:
     body = BASE.replace(CONTROLLER, '{ model = "mrp_hinf_published", parameters = { saturation_on = 1.5 } }')
     with pytest.raises(WiringError, match="saturation_on is Boolean"):
