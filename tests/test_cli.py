@@ -255,3 +255,43 @@ def test_every_synth_with_defaults_leaves_the_shipped_artifacts_unchanged(argv, 
     before = _shipped_digest()
     _synth_with_defaults(argv, tmp_path)
     assert _shipped_digest() == before
+
+
+@pytest.mark.parametrize("body, message", [
+    ('name = "x"\ninertia = [[1, 2, 0], [2, 1, 0], [0, 0, 1]]\n', "not positive definite"),
+    ('name = "x"\ninerta = [1, 1, 1]\n', "did you mean 'inertia'"),
+    ("name = [", "invalid TOML"),
+])
+def test_synth_refuses_a_bad_spacecraft_file(body: str, message: str, tmp_path: Path,
+                                             capsys: pytest.CaptureFixture) -> None:
+    """Before any program is built: exit 2 with the file and the key in the message."""
+    f = tmp_path / "sat.toml"
+    f.write_text(body)
+    for design in (["mrp-hinf"], ["mrp-h2hinf", "--gamma", "1"]):
+        assert main(["synth", *design, "--spacecraft", str(f), "--out", str(tmp_path), "--fmu-dir", ""]) == 2
+        err = capsys.readouterr().err
+        assert str(f) in err and message in err
+    assert main(["synth", "mrp-hinf", "--spacecraft", str(tmp_path / "none.toml"), "--fmu-dir", ""]) == 2
+    assert "cannot read spacecraft file" in capsys.readouterr().err
+
+
+def test_synth_mrp_hinf_designs_for_the_spacecraft_file(tmp_path: Path, capsys: pytest.CaptureFixture,
+                                                         monkeypatch: pytest.MonkeyPatch) -> None:
+    """The CLI passes the spacecraft, the manoeuvre (angle, axis) and the budget to the design;
+    the design itself is replaced by a recorder (the real one runs in the examples' tests)."""
+    from sims import designs
+
+    seen = {}
+
+    def fake(plant, **kw):
+        seen.update(plant=plant, **kw)
+        return designs.Design("mrp-hinf", [], "report of the fake design")
+
+    monkeypatch.setattr(designs, "design_hinf", fake)
+    f = tmp_path / "sat.toml"
+    f.write_text('name = "own"\ninertia = [[100, 2, -1], [2, 120, 0.5], [-1, 0.5, 80]]\n')
+    assert main(["synth", "mrp-hinf", "--spacecraft", str(f), "--angle", "90", "--axis", "0", "0", "2",
+                 "--torque-budget", "20", "--name", "own_hinf", "--out", str(tmp_path), "--fmu-dir", ""]) == 0
+    assert seen["plant"].tensor[0, 1] == 2.0 and seen["name"] == "own_hinf" and seen["torque_budget"] == 20.0
+    assert seen["start"] == pytest.approx({"sigma_0[1]": 0.0, "sigma_0[2]": 0.0, "sigma_0[3]": 0.41421356237})
+    assert "report of the fake design" in capsys.readouterr().out
