@@ -28,7 +28,14 @@ Names are imported on first use, so ``import satfmu`` is fast.
 from __future__ import annotations
 
 import importlib
-from typing import Any
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Iterable, Mapping
+
+if TYPE_CHECKING:
+    from controllers.artifact import Artifact
+    from fmus.model import Model
+    from fmus.spacecraft import Spacecraft
+    from sims.scenario import Result, Scenario
 
 _EXPORTS = {
     "Spacecraft": "fmus.spacecraft", "SpacecraftError": "fmus.spacecraft", "SEED_000": "fmus.spacecraft",
@@ -45,8 +52,9 @@ _FUNCTIONS = {"run", "build", "mrp_plant", "load_artifact"}
 __all__ = sorted([*_EXPORTS, *_FUNCTIONS, "__version__"])
 
 
-def run(scenario: Any, fmu_dir: Any = None, backend: str = "native", out_dir: Any = None,
-        strict: bool = False, design_rtol: float | None = None) -> Any:
+def run(scenario: "Scenario | Mapping[str, Any] | str | Path", fmu_dir: str | Path | None = None,
+        backend: str = "native", out_dir: str | Path | None = None, strict: bool = False,
+        design_rtol: float | None = None) -> "Result":
     """Run a scenario and evaluate its metrics (:func:`sims.scenario.run`).
 
     Parameters
@@ -76,8 +84,8 @@ def run(scenario: Any, fmu_dir: Any = None, backend: str = "native", out_dir: An
     return _scenario.run(scenario, fmu_dir, backend, out_dir, strict, design_rtol)
 
 
-def build(names: Any = None, fmu_dir: Any = None, backends: tuple[str, ...] = ("native", "python"),
-          jobs: int | None = None) -> list[Any]:
+def build(names: Iterable[str] | None = None, fmu_dir: str | Path | None = None,
+          backends: tuple[str, ...] = ("native", "python"), jobs: int | None = None) -> list[Path]:
     """Build FMUs (no-op for those whose build digest matches).
 
     Parameters
@@ -97,8 +105,6 @@ def build(names: Any = None, fmu_dir: Any = None, backends: tuple[str, ...] = ("
     list of Path
         The FMU files.
     """
-    from pathlib import Path
-
     from sims import catalog, paths
 
     folder = paths.fmu_cache() if fmu_dir is None else Path(fmu_dir)
@@ -110,7 +116,7 @@ def build(names: Any = None, fmu_dir: Any = None, backends: tuple[str, ...] = ("
     return out
 
 
-def mrp_plant(spacecraft: Any = None) -> Any:
+def mrp_plant(spacecraft: "Spacecraft | None" = None) -> "Model":
     """The MRP satellite model (seed 000's plant) of a spacecraft.
 
     Parameters
@@ -129,7 +135,7 @@ def mrp_plant(spacecraft: Any = None) -> Any:
     return mrp_satellite.MODEL if spacecraft is None else mrp_satellite.build(spacecraft)
 
 
-def load_artifact(name_or_path: Any) -> Any:
+def load_artifact(name_or_path: str | Path) -> "Artifact":
     """A controller artifact, validated.
 
     Parameters
