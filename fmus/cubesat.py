@@ -37,7 +37,12 @@ from __future__ import annotations
 
 import sympy as sp
 
+from typing import TYPE_CHECKING
+
 from fmus.model import Model, Output, State, Variable, saturate, states, symbols, vector
+
+if TYPE_CHECKING:
+    from fmus.spacecraft import Spacecraft
 
 INERTIA_SEED_003 = (0.005, 0.005, 0.002)
 """Principal moments of inertia of seed 003, kg m^2."""
@@ -133,7 +138,25 @@ def dipole_field_orbit(tau: sp.Expr, p: dict[str, sp.Expr]) -> sp.Matrix:
     return C_oi * b_eci
 
 
-def build(omega_0: tuple[float, float, float] = (0.05, -0.04, 0.03)) -> Model:
+def principal_moments(spacecraft: "Spacecraft | None") -> tuple[float, float, float]:
+    """``(I_x, I_y, I_z)`` of a spacecraft whose body axes are principal (default seed 003's), kg m^2.
+
+    Raises
+    ------
+    ValueError
+        If the spacecraft has products of inertia: this model is written in principal axes.
+    """
+    if spacecraft is None:
+        return INERTIA_SEED_003
+    J = spacecraft.inertia
+    if any(J[i][j] != 0.0 for i in range(3) for j in range(3) if i != j):
+        raise ValueError(f"{spacecraft.name}: the magnetorquer cubesat model is written in principal axes; "
+                         f"give the inertia as three principal moments (no products of inertia)")
+    return (J[0][0], J[1][1], J[2][2])
+
+
+def build(omega_0: tuple[float, float, float] = (0.05, -0.04, 0.03), spacecraft: "Spacecraft | None" = None
+          ) -> Model:
     """The symbolic magnetorquer cubesat model.
 
     Parameters
@@ -141,9 +164,13 @@ def build(omega_0: tuple[float, float, float] = (0.05, -0.04, 0.03)) -> Model:
     omega_0 : 3 floats
         Default initial body rate, rad/s (the issue's **substitute** tumbling rate; the seed
         gives none).
+    spacecraft : fmus.spacecraft.Spacecraft, optional
+        Its principal moments (no products of inertia) give the defaults of ``I_x, I_y,
+        I_z`` (default seed 003's); its torque limit does not apply (the actuators are
+        magnetorquers, limited by ``m_max``).
     """
     inertia = [Variable(f"I_{a}", "kg.m2", f"Principal moment of inertia about body axis {a}", start=v, min=1e-9)
-               for a, v in zip("xyz", INERTIA_SEED_003)]
+               for a, v in zip("xyz", principal_moments(spacecraft))]
     field_model = Variable("field_model", "1", "Field model: 0 Fourier fit (field_x/y/z), 1 tilted dipole, "
                            "2 external inputs b_ext", 0, "Integer", min=0, max=2)
     fourier = {a: vector(f"field_{a}", 5, "T", f"Fourier coefficient {{i}} of b_orbit {a} (terms "

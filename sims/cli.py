@@ -221,7 +221,7 @@ def _synth_vscmg(args: argparse.Namespace) -> int:
 def _synth_cubesat(args: argparse.Namespace) -> int:
     from sims import designs
 
-    return _write_design(designs.design_cubesat_periodic(args.gamma, name=args.name,
+    return _write_design(designs.design_cubesat_periodic(args.gamma, _spacecraft(args), name=args.name,
                                                          published_name=args.published_name), args)
 
 
@@ -365,7 +365,7 @@ def parser() -> argparse.ArgumentParser:
     craft = argparse.ArgumentParser(add_help=False)
     craft.add_argument("--spacecraft", metavar="FILE", default=None,
                        help="spacecraft TOML file (name, inertia tensor, [actuators] torque_limit) to design for "
-                            "(default: seed 000's satellite)")
+                            "(default: the seed's own spacecraft; cubesat-periodic: principal moments only)")
     hi = command(designs, "mrp-hinf", "seed 000: two-step nonlinear H-infinity iteration", parents=[out, craft])
     hi.add_argument("--name", default="mrp_hinf_satfmu", help="artifact and FMU name")
     hi.add_argument("--angle", type=float, default=None,
@@ -404,7 +404,7 @@ def parser() -> argparse.ArgumentParser:
                     help="do not solve the SOS stability region (the artifact stays 'sampled')")
     vs.set_defaults(fn=_synth_vscmg)
     cs = command(designs, "cubesat-periodic",
-                 "seed 003: periodic stochastic H-infinity gains (Theorem 2) + published gains", parents=[out])
+                 "seed 003: periodic stochastic H-infinity gains (Theorem 2) + published gains", parents=[out, craft])
     cs.add_argument("--gamma", type=float, default=None,
                     help="design level (default gamma_min (1 + synthesis.cubesat_periodic.GAMMA_MARGIN))")
     cs.add_argument("--name", default="cubesat_periodic_satfmu", help="artifact and FMU name")

@@ -230,26 +230,33 @@ def design_vscmg_sdre(grid: tuple[int, int] = (23, 25), max_degree: int = 8, cv_
     return Design("vscmg-sdre", [approx, lq], report, result)
 
 
-def design_cubesat_periodic(gamma: float | None = None, *, name: str = "cubesat_periodic_satfmu",
+def design_cubesat_periodic(gamma: float | None = None, plant: Spacecraft | None = None, *,
+                            name: str = "cubesat_periodic_satfmu",
                             published_name: str = "cubesat_periodic_published") -> Design:
     """Seed 003: periodic stochastic H-infinity magnetorquer gains (Theorem 2), and the
-    analysis of the published gains, for seed 003's cubesat.
+    analysis of the published gains.
 
     Parameters
     ----------
     gamma : float, optional
         Design level (default ``gamma_min (1 + GAMMA_MARGIN)``).
+    plant : Spacecraft, optional
+        Your cubesat, in principal axes (three moments; default seed 003's). The published
+        gains are then only analysed on it (their artifact is seed 003's alone).
     name, published_name : str
         Artifact names of the design and of the published gains.
 
     Raises
     ------
-    synthesis.sos.SOSError
+    RuntimeError
         If Theorem 2 is infeasible at ``gamma``.
+    ValueError
+        If the spacecraft has products of inertia.
     """
+    from fmus import cubesat
     from synthesis import cubesat_periodic as cp
 
-    r = cp.synthesize(gamma)
+    r = cp.synthesize(gamma, inertia=None if plant is None else cubesat.principal_moments(plant))
     lo, hi, n = r.bracket
     lines = [f"seed 003 Theorem 2: gamma_min {r.gamma_min:.4f} (minimized); bisection bracket [{lo:.4f}, "
              f"{hi:.4f}] in {n} solves; the seed's gamma {cp.GAMMA_SEED:g} is "
@@ -260,7 +267,7 @@ def design_cubesat_periodic(gamma: float | None = None, *, name: str = "cubesat_
         lines += [f"    k={k} " + " ".join(f"{v:8.4f}" for v in f[i]) + "  | " + " ".join(f"{v:8.4f}" for v in p[i])
                   for i in range(3)]
     data = [r.artifact_data(name, r.design.F, r.design.gamma, r.design.check, "satfmu")]
-    if r.published is not None:
+    if r.published is not None and plant is None:
         data.append(r.artifact_data(published_name, cp.PUBLISHED_GAINS, r.published.gamma, r.published.check,
                                     "published (seed 003, gains as printed)"))
     return Design("cubesat-periodic", data, "\n".join(lines), r)

@@ -14,7 +14,7 @@ through ``B1_l = 1e-2 B2_l`` for every l = 0..3. Quality output ``z = [W1 omega;
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import sympy as sp
@@ -132,6 +132,10 @@ class Synthesis:
     design: PeriodicDesign
     published: PeriodicDesign | None
     numbers: dict[str, float]
+    parameters: dict[str, float] = field(default_factory=dict)
+    """Plant parameters of the design that differ from seed 003's cubesat (its own inertia)."""
+    sigma: tuple[float, float, float] = SIGMA_SEED
+    """Standard deviations of the noises on 1/I_x, 1/I_y, 1/I_z, 1/(kg m^2)."""
 
     def artifact_data(self, name: str, F: np.ndarray, gamma: float, check: LMICheck, source: str) -> dict:
         """Artifact (kind periodic_gain_schedule) of the gains ``F`` proved at ``gamma``."""
@@ -149,14 +153,25 @@ class Synthesis:
                                 "numbers": {"gamma": gamma, "ms_spectral_radius": rho,
                                             "max_block_eig": float(check.block_max_eig.max()),
                                             "min_y_eig": float(check.y_min_eig.min())}},
-                "provenance": {"source": source, "sigma": list(SIGMA_SEED), "W1": W1_SEED, "W2": W2_SEED,
+                "provenance": {"source": source, "sigma": list(self.sigma), "W1": W1_SEED, "W2": W2_SEED,
                                "disturbance_scale": DISTURBANCE_SCALE,
-                               "design_plant": design_plant_record(cubesat.MODEL)}}
+                               "design_plant": design_plant_record(cubesat.MODEL, values=self.parameters)}}
 
 
-def synthesize(gamma: float | None = None, bisect: bool = True) -> Synthesis:
+def synthesize(gamma: float | None = None, bisect: bool = True,
+               inertia: tuple[float, float, float] | None = None) -> Synthesis:
     """gamma_min (direct and, with ``bisect``, by bisection), the design at ``gamma`` (default
     gamma_min (1 + GAMMA_MARGIN)) and the analysis of the published gains.
+
+    Parameters
+    ----------
+    gamma : float, optional
+        Design level.
+    bisect : bool
+        Also bracket gamma_min by bisection (a check of the direct minimization).
+    inertia : 3 floats, optional
+        Principal moments of your cubesat, kg m^2 (default seed 003's). The noises keep the
+        seed's relative size: ``sigma_l = SIGMA_SEED_l I_seed_l / I_l`` on ``1/I_l``.
 
     Raises
     ------
@@ -164,17 +179,24 @@ def synthesize(gamma: float | None = None, bisect: bool = True) -> Synthesis:
         If no level is found, or the design at ``gamma`` is infeasible (the message gives
         gamma_min).
     """
-    sys_ = system()
+    parameters: dict[str, float] = {}
+    sigma = SIGMA_SEED
+    if inertia is not None:
+        if len(inertia) != 3 or not all(np.isfinite(v) and v > 0 for v in inertia):
+            raise ValueError(f"inertia must be three finite moments > 0 (kg m^2), got {inertia}")
+        parameters = {f"I_{a}": float(v) for a, v in zip("xyz", inertia)}
+        sigma = tuple(float(s * i0 / i) for s, i0, i in zip(SIGMA_SEED, cubesat.INERTIA_SEED_003, inertia))
+    sys_ = system(sigma=sigma, parameters=parameters)
     best = gamma_min(sys_)
     if best is None:
-        raise RuntimeError("Theorem 2 has no verified solution at any gamma for the seed's system")
+        raise RuntimeError("Theorem 2 has no verified solution at any gamma for this system")
     bracket = bisect_gamma(sys_, best.gamma / 2, best.gamma * 1.05) if bisect else (np.nan, np.nan, 0)
     level = best.gamma * (1 + GAMMA_MARGIN) if gamma is None else gamma
     found = design(sys_, level)
     if found is None:
         raise RuntimeError(f"Theorem 2 is infeasible at gamma = {level:g} (gamma_min = {best.gamma:.4g})")
     pub = analyze(sys_, PUBLISHED_GAINS)
-    minutes = gamma_min(system(time_unit=60.0))
+    minutes = gamma_min(system(sigma=sigma, parameters=parameters, time_unit=60.0))
     numbers = {
         "gamma_min": best.gamma, "gamma_design": level, "seed_gamma_feasible": float(design(sys_, GAMMA_SEED) is not None),
         "gamma_min_t_in_minutes": minutes.gamma if minutes else np.nan,
@@ -184,4 +206,4 @@ def synthesize(gamma: float | None = None, bisect: bool = True) -> Synthesis:
         "published_ms_spectral_radius": ms_spectral_radius(sys_, PUBLISHED_GAINS),
         "published_gamma": pub.gamma if pub else np.nan,
         "published_max_abs_gain": float(np.abs(PUBLISHED_GAINS).max()), "solve_seconds": found.solve_seconds}
-    return Synthesis(sys_, best.gamma, bracket, found, pub, numbers)
+    return Synthesis(sys_, best.gamma, bracket, found, pub, numbers, parameters, sigma)

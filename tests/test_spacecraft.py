@@ -169,3 +169,21 @@ def test_controller_fmu_carries_its_design_plant(fmu_dir):
     with zipfile.ZipFile(fmu) as z:
         rec = json.loads(z.read("resources/artifact.json"))["provenance"]["design_plant"]
     assert rec["parameters"]["I_z"] == 12.5 and rec["model"] == "mrp_satellite"
+
+
+def test_seed_003_design_for_your_own_cubesat():
+    """Theorem 2 for a cubesat of other principal moments: certified (the LMIs re-checked in
+    numpy), the noises at the seed's relative size, the artifact records that plant; the
+    published gains get no artifact for it. Products of inertia are refused (principal axes)."""
+    from sims import designs
+
+    d = designs.design_cubesat_periodic(plant=Spacecraft("cube6u", [0.01, 0.012, 0.004]))
+    assert [a["name"] for a in d.artifacts] == ["cubesat_periodic_satfmu"]
+    art = artifacts.parse(d.artifact)
+    assert art.certificate["status"] == "certified"
+    rec = art.provenance["design_plant"]["parameters"]
+    assert (rec["I_x"], rec["I_y"], rec["I_z"]) == (0.01, 0.012, 0.004)
+    # 6.67 on 1/0.005 = 200: the same 3.3 % of 1/0.01 = 100 is 3.335
+    assert art.provenance["sigma"][0] == pytest.approx(3.335)
+    with pytest.raises(ValueError, match="principal axes"):
+        designs.design_cubesat_periodic(plant=Spacecraft("skewed", [[0.01, 0.001, 0], [0.001, 0.012, 0], [0, 0, 0.004]]))
