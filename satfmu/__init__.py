@@ -6,7 +6,8 @@ The public API, for scripts and tests (the implementation lives in the packages
 Your spacecraft and its plant
     :class:`Spacecraft` (name, inertia tensor, torque limit; ``Spacecraft.from_toml``),
     :data:`SEED_000` (the seed 000 paper's satellite), :func:`mrp_plant` (the MRP satellite
-    model of a spacecraft), :func:`manoeuvre` (a rest-to-rest start by axis and angle).
+    model of a spacecraft), :func:`cubesat_plant` (the magnetorquer cubesat of seed 003, in
+    principal axes), :func:`manoeuvre` (a rest-to-rest start by axis and angle).
 Scenarios
     :class:`Scenario` (``from_toml``, ``from_dict``, or built from :class:`FmuSpec`,
     :class:`Connection`, :class:`Metric`), :func:`run` -> :class:`Result` (metrics,
@@ -48,7 +49,7 @@ _EXPORTS = {
     "fmu_cache": "sims.paths", "user_artifacts": "sims.paths", "find_artifact": "sims.paths",
     "manoeuvre": "synthesis.two_step",
 }
-_FUNCTIONS = {"run", "build", "mrp_plant", "load_artifact"}
+_FUNCTIONS = {"run", "build", "mrp_plant", "cubesat_plant", "load_artifact"}
 __all__ = sorted([*_EXPORTS, *_FUNCTIONS, "__version__"])
 
 
@@ -133,6 +134,25 @@ def mrp_plant(spacecraft: "Spacecraft | None" = None) -> "Model":
     from fmus import mrp_satellite
 
     return mrp_satellite.MODEL if spacecraft is None else mrp_satellite.build(spacecraft)
+
+
+def cubesat_plant(spacecraft: "Spacecraft | None" = None) -> "Model":
+    """The magnetorquer cubesat model (seed 003's plant) of a spacecraft in principal axes.
+
+    Parameters
+    ----------
+    spacecraft : Spacecraft, optional
+        Default seed 003's cubesat, diag(0.005, 0.005, 0.002) kg m^2. Its three principal
+        moments become the defaults of ``I_x, I_y, I_z``.
+
+    Raises
+    ------
+    ValueError
+        If the spacecraft has products of inertia.
+    """
+    from fmus import cubesat
+
+    return cubesat.MODEL if spacecraft is None else cubesat.build(spacecraft=spacecraft)
 
 
 def load_artifact(name_or_path: str | Path) -> "Artifact":
