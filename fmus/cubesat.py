@@ -23,7 +23,7 @@ Field ``b_orbit`` (T, orbit frame), by the Integer parameter ``field_model``:
 0. the seed's Fourier fit in orbit time (period ``orbit_period``), coefficients
    ``field_x[1..5]`` etc. for [1, sin, cos, sin 2, cos 2] of ``2 pi tau / orbit_period``,
    defaulting to the seed's values with the by constant read as -3.4927 uT (the seed prints
-   -34927: a misplaced decimal, an inference; MODELS.md). A Fourier fit of another field
+   -34927: a misplaced decimal, an inference; docs/models.md). A Fourier fit of another field
    (IGRF, :func:`fmus.geomagnetic.fourier_fit`) loads into the same parameters.
 1. a tilted dipole, ``b = (M / r^3) (3 (m.r) r - m)``, on a circular orbit of the given
    altitude, inclination, RAAN and initial argument of latitude, with the Earth rotating
@@ -67,7 +67,7 @@ EARTH_RATE = 7.2921159e-5
 """Earth's sidereal rotation rate, rad/s."""
 
 DIPOLE_MOMENT = 7.69e15
-"""Dipole constant M of b = (M/r^3)(3 (m.r) r - m), T m^3 (**substitute**, MODELS.md)."""
+"""Dipole constant M of b = (M/r^3)(3 (m.r) r - m), T m^3 (**substitute**, docs/models.md)."""
 
 DIPOLE_POLE = (0.1641, -1.2686)
 """Colatitude and longitude of the north geomagnetic pole, rad (IGRF-13 at 2020: 80.6 N,

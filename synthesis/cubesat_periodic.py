@@ -7,7 +7,7 @@ off (seed eq. 7: rows ``[0, 200 bz, -200 by]``, ...). With a dipole held over ea
 
     omega(k+1) = omega(k) + (integral of B over the hold) m(k).
 
-Noises (MODELS.md, "Checked numerically"): the coefficients ``1/I_l`` (200, 200, 500) are
+Noises (docs/models.md, "Checked numerically"): the coefficients ``1/I_l`` (200, 200, 500) are
 perturbed by ``sigma_l xi_l`` (seed: 6.67, 6.67, 11.67): ``B2_l = sigma_l`` times the
 integral of the unit-coefficient pattern ``e_l e_l^T I B(t)``; the disturbance enters
 through ``B1_l = 1e-2 B2_l`` for every l = 0..3. Quality output ``z = [W1 omega; W2 m]``.
@@ -86,7 +86,7 @@ def system(Ts: float = TS_SEED, N: int = N_SEED, sigma: tuple[float, float, floa
     """The seed's periodic system (rate subsystem), r = 3 noises.
 
     ``time_unit`` (s) divides the hold integrals: 60 integrates B(t) with t in minutes (the
-    seed's field is printed with t in minutes; MODELS.md suspects its design did so).
+    seed's field is printed with t in minutes; docs/models.md suspects its design did so).
 
     Raises
     ------

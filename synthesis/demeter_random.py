@@ -33,7 +33,7 @@ from synthesis import sequential as sq
 from synthesis.demeter_variants import DesignModel, Variant, design_model
 
 SCENARIO_EPSILON, SCENARIO_DELTA = 0.1, 1e-9
-"""The scenario design's violation level and confidence (MODELS.md: N = 962 for row 1)."""
+"""The scenario design's violation level and confidence (docs/models.md: N = 962 for row 1)."""
 ANALYSIS_EPSILON, ANALYSIS_DELTA = 0.1, 1e-6
 """The seed's ``randsettings`` for the analysis."""
 

@@ -21,7 +21,7 @@ with ``G11 = G13 = A F + Bu Y + (A F + Bu Y)^T`` and ``G12 = X2 - F + a (A F + B
 ``u = Y(x) F^-1 x``. The closed loop then has H2 cost ``J2 <= lambda`` from ``x0`` and L2 gain
 ``w -> z`` below ``gamma`` where the conditions hold.
 
-Choices (MODELS.md, "Checked numerically before building", and what we measured):
+Choices (docs/models.md, "Checked numerically before building", and what we measured):
 
 - ``Y = Y~(x~) + Kg(x) F``: ``Kg`` cancels the actuated rows of ``A(x)`` (the gyroscopic
   torque; :class:`SplitPlant`), so the conditions involve ``A~(x~)`` only and hold for
@@ -66,7 +66,7 @@ from synthesis.polynomial import Poly, PolyMatrix, monomials
 from synthesis.sos import Check, SOSError, SOSProgram, SOSSolution, check_numbers, verify
 
 X0_200 = np.array([0.0, 0.0, 0.0, 0.5992, -0.7976, 0.6517])
-"""Seed 000's 200 deg rest-to-rest start (MODELS.md's x(0), outside every certifiable region)."""
+"""Seed 000's 200 deg rest-to-rest start (docs/models.md's x(0), outside every certifiable region)."""
 X0_90 = np.concatenate([np.zeros(3), X0_200[3:] / np.linalg.norm(X0_200[3:]) * np.tan(np.pi / 8)])
 """Default x(0) of the H2 bound: 90 deg rest-to-rest about the 200 deg case's axis."""
 VARIANTS = ("slack", "common")
@@ -261,7 +261,7 @@ def theorem8(gamma: float, alpha: float, beta: float, variant: str = "slack", re
     multiplier_degree : int
         Degree of the S-procedure multipliers of the region (even).
     frozen : bool
-        Freeze A(x) at x = 0 (the linearization; LMIs): the reference design of MODELS.md.
+        Freeze A(x) at x = 0 (the linearization; LMIs): the reference design of docs/models.md.
 
     Raises
     ------

@@ -13,7 +13,7 @@ advice, ``B = [I3; 0]`` in the program (the plant's constant input block ``G`` o
 satellite ``G = J^-1`` and ``u = J K(x) P x`` (seed 000: ``diag(I) K(x) P x``), with the
 plant's inertia tensor, products of inertia included.
 
-What can be proved (MODELS.md, "What a certificate can prove"):
+What can be proved (docs/models.md, "What a certificate can prove"):
 
 - ``region=None``: ``E = diag(eps I3, 0)``, globally. ``dV/dt <= -eps |P_w x|^2`` and
   LaSalle's invariance principle gives global asymptotic stability ("global,

@@ -19,7 +19,7 @@ def raw() -> dict:
 
 
 def test_published_law_matches_eq_38_at_the_200deg_start() -> None:
-    # MODELS.md: peak |u_i| = 6.216 N m, reached at t = 0 on u2 (omega = 0, s = s(0)).
+    # docs/models.md: peak |u_i| = 6.216 N m, reached at t = 0 on u2 (omega = 0, s = s(0)).
     a = artifact.load(PUBLISHED)
     u = a.evaluate(np.array([0, 0, 0, 0.5992, -0.7976, 0.6517]))
     s2 = 0.5992**2 + 0.7976**2 + 0.6517**2

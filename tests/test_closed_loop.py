@@ -55,10 +55,10 @@ def test_200deg_reproduces_seed_000(run_200: dict) -> None:
     t = res["time"]
     phi = res["plant.phi"] * DEG
     assert phi[0] == pytest.approx(200.0, abs=0.02)  # 200 deg start; the seed prints s(0) to 4 digits (199.986)
-    assert phi[t >= 120.0 - 1e-9][0] < 0.1  # converged: < 0.1 deg by 120 s (MODELS.md: < 0.01 deg)
+    assert phi[t >= 120.0 - 1e-9][0] < 0.1  # converged: < 0.1 deg by 120 s (docs/models.md: < 0.01 deg)
     u = np.stack([res[f"controller.u[{i}]"] for i in (1, 2, 3)], axis=1)
     assert np.max(np.abs(u)) == pytest.approx(6.2, abs=0.05)  # "about 6.2 N m" (6.216 from the equations)
-    assert phi[np.searchsorted(t, 45.0)] == pytest.approx(4.4, abs=0.1)  # MODELS.md: 4.4 deg left at 45 s
+    assert phi[np.searchsorted(t, 45.0)] == pytest.approx(4.4, abs=0.1)  # docs/models.md: 4.4 deg left at 45 s
     assert run_200["native"].passed
 
 
@@ -75,7 +75,7 @@ def test_eq44_truncated_l2_ratio_stays_below_c(fmu_dir: Path) -> None:
     r = scenario.run("mrp_eq44", fmu_dir)
     curve = next(iter(r.l2_curves.values()))
     assert np.nanmax(curve) < 0.42  # the published design's c
-    assert np.nanmax(curve) == pytest.approx(0.277, abs=0.002)  # MODELS.md: peaks at 0.277 over 60 s
+    assert np.nanmax(curve) == pytest.approx(0.277, abs=0.002)  # docs/models.md: peaks at 0.277 over 60 s
 
 
 def test_scenario_writes_csv_plot_and_summary(fmu_dir: Path, tmp_path: Path) -> None:

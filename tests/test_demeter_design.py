@@ -23,7 +23,7 @@ def nominal_plant(dm: dv.DesignModel, T: np.ndarray) -> rl.LFTPlant:
 def test_shared_lyapunov_matrix_bounds_the_product_of_the_two_levels() -> None:
     # With our wiring (w1 a body torque, z1 = theta, z2 the pseudo-integrator xw) one Lyapunov
     # matrix for both specs gives gamma * nu = 1 / (2 a) = 500 at the optimum for both weightings
-    # (MODELS.md's independent model measured gamma 223.6 for the seed's weights): far from the
+    # (docs/models.md's independent model measured gamma 223.6 for the seed's weights): far from the
     # seed's 22.3 * 4.7, so the seed wires or scales w1/z2 differently. Nominal row-1 model:
     dm = dv.design_model(ROW1)
     T = dd.state_scale(dm)

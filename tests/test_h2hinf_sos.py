@@ -14,8 +14,8 @@ from fmus import mrp_satellite
 from synthesis import h2hinf_sos as T
 from synthesis.sos import SOSError
 
-MARGIN = 1e-7  # MODELS.md's "small margins"; 1e-4 would raise lambda by about 1 %
-ALPHA = 1e-4  # MODELS.md: the alpha search drives alpha -> 0; at 1e-4 lambda is within 2e-4 of the limit
+MARGIN = 1e-7  # docs/models.md's "small margins"; 1e-4 would raise lambda by about 1 %
+ALPHA = 1e-4  # docs/models.md: the alpha search drives alpha -> 0; at 1e-4 lambda is within 2e-4 of the limit
 
 
 def _frozen(gamma: float, variant: str) -> T.Theorem8Result:
@@ -39,7 +39,7 @@ def designs() -> dict[tuple[float, str], T.Theorem8Result]:
 def test_frozen_lambda_matches_the_independent_model(designs, gamma: float, expected: float) -> None:
     r = designs[(gamma, "slack")]
     assert r.certified
-    # MODELS.md prints 3 decimals; the margin 1e-7 moves lambda by < 1e-4
+    # docs/models.md prints 3 decimals; the margin 1e-7 moves lambda by < 1e-4
     assert r.lam == pytest.approx(expected, abs=1.5e-3)
 
 
@@ -80,7 +80,7 @@ def test_gain_meets_its_certificate_on_the_linear_plant(designs, gamma: float) -
 
 
 def test_too_small_gamma_is_never_certified() -> None:
-    # MODELS.md: infeasible below gamma ~ 0.50. Clarabel stops without a clean certificate
+    # docs/models.md: infeasible below gamma ~ 0.50. Clarabel stops without a clean certificate
     # there and SCS returns an inaccurate point: either way it must not pass verification.
     try:
         r = _frozen(0.45, "slack")

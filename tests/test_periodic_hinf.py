@@ -58,12 +58,12 @@ def test_noise_terms_are_sigma_times_the_unit_coefficient_patterns(system: ph.Pe
 
 def test_gamma_min_matches_the_independent_model_and_the_bisection(system: ph.PeriodicSystem) -> None:
     best = ph.gamma_min(system)
-    # MODELS.md (independent cvxpy + Clarabel model): gamma_min = 25.6; 1e-3: solver accuracy
+    # docs/models.md (independent cvxpy + Clarabel model): gamma_min = 25.6; 1e-3: solver accuracy
     assert best.gamma == pytest.approx(25.61, rel=1e-3)
     lo, hi, n = ph.bisect_gamma(system, 20.0, 30.0, rel_tol=1e-3)
     assert lo < best.gamma <= hi * (1 + 1e-6) and n < 20
     assert ph.design(system, cp.GAMMA_SEED) is None  # the seed's gamma = 0.5 is infeasible
-    # A solver-free lower bound (MODELS.md): from the first output step, W1 * 1e-2 * ||[B2_0; B2_l]||
+    # A solver-free lower bound (docs/models.md): from the first output step, W1 * 1e-2 * ||[B2_0; B2_l]||
     stacked = np.vstack([system.B2[0, l] for l in range(4)])
     assert best.gamma > cp.W1_SEED * 1e-2 * np.linalg.norm(stacked, 2) * 0.99
 
@@ -77,7 +77,7 @@ def test_minutes_reading_explains_the_seeds_gamma() -> None:
 def test_design_is_verified_and_its_gains_have_the_seeds_structure(system, designed) -> None:
     assert designed.check.ok and designed.check.block_max_eig.max() < -1e-4
     assert designed.F.shape == (6, 3, 3)
-    # MODELS.md: max |F| 0.142 at gamma 26 (published: 0.078)
+    # docs/models.md: max |F| 0.142 at gamma 26 (published: 0.078)
     assert np.abs(designed.F).max() == pytest.approx(0.142, rel=0.02)
     Y, Z = designed.Y, designed.Z
     assert np.abs(np.stack([np.linalg.solve(Y[k], Z[k]).T for k in range(6)]) - designed.F).max() < 1e-12
@@ -91,7 +91,7 @@ def test_verify_rejects_a_wrong_certificate(system, designed) -> None:
 
 def test_mean_square_stability_designed_published_and_perturbed(system, designed) -> None:
     assert ph.ms_spectral_radius(system, designed.F) < 1e-4
-    # MODELS.md: the published gains are ESMS on this model with radius 0.141
+    # docs/models.md: the published gains are ESMS on this model with radius 0.141
     assert ph.ms_spectral_radius(system, cp.PUBLISHED_GAINS) == pytest.approx(0.1408, rel=1e-3)
     assert ph.ms_spectral_radius(system, -designed.F) > 1  # positive feedback
     assert ph.ms_spectral_radius(system, 3 * designed.F) > 1  # over-corrected holds
@@ -100,7 +100,7 @@ def test_mean_square_stability_designed_published_and_perturbed(system, designed
 def test_published_gains_analysis_gives_their_level(system) -> None:
     a = ph.analyze(system, cp.PUBLISHED_GAINS)
     assert a is not None and a.check.ok
-    assert a.gamma == pytest.approx(87.1, rel=2e-3)  # MODELS.md: gamma ~ 87
+    assert a.gamma == pytest.approx(87.1, rel=2e-3)  # docs/models.md: gamma ~ 87
     assert np.abs(a.F - cp.PUBLISHED_GAINS).max() < 1e-12
 
 

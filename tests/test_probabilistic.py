@@ -19,7 +19,7 @@ ROW1 = Variant((1,), (1,), 1, 1)
 
 
 def test_sample_size_bounds() -> None:
-    # MODELS.md's figures: 132 worst case and 726 Chernoff at the seed's (0.1, 1e-6); 962
+    # docs/models.md's figures: 132 worst case and 726 Chernoff at the seed's (0.1, 1e-6); 962
     # scenarios for row 1's 46 decision variables at (0.1, 1e-9)
     assert pr.worst_case_samples(0.1, 1e-6) == 132
     assert pr.chernoff_samples(0.1, 1e-6) == 726

@@ -41,7 +41,7 @@ def test_riccati_rejects_bad_input() -> None:
 
 
 def test_online_sdre_tracks_the_seed_references_without_friction() -> None:
-    # MODELS.md (independent model): e4 = -0.06 mrad at 15 s without friction.
+    # docs/models.md (independent model): e4 = -0.06 mrad at 15 s without friction.
     run = sdre.simulate_servo(sdre.Servo("gyro_on_w2"), seed_references, plant_params={"friction_on": 0})
     e = run.errors[-1]
     assert abs(e[0]) < 1e-3 and abs(e[1]) < 1e-4  # the bounds: 1 mrad, 0.1 mrad
@@ -50,7 +50,7 @@ def test_online_sdre_tracks_the_seed_references_without_friction() -> None:
 
 def test_seeds_w1_free_sdc_with_the_actual_w2_is_caught_by_the_riccati_check() -> None:
     # The frozen model at w2 < 0 has an unstable mode that is barely controllable: the
-    # check rejects the gain (MODELS.md saw the torques go bang-bang from about 8.7 s).
+    # check rejects the gain (docs/models.md saw the torques go bang-bang from about 8.7 s).
     with pytest.raises(RiccatiCheckError, match=r"unstable mode.*w1_free SDC"):
         sdre.simulate_servo(sdre.Servo("w1_free"), seed_references, plant_params={"friction_on": 0})
     # The same SDC with w2 := 0 (the seed's setting for the approximation) is fine.

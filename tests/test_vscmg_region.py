@@ -56,7 +56,7 @@ def test_operating_box_is_certified_and_re_verified(loop: vr.ClosedLoop, box: vr
 
 def test_cos_enclosure_and_the_seed_approximation_error() -> None:
     e = vr.cos_errors(vr.OPERATING_BOX[0])
-    # 1 - sin^2/2 misses cos q2 by 0.228 at q2 = 1.24 (MODELS.md); the enclosure is exact.
+    # 1 - sin^2/2 misses cos q2 by 0.228 at q2 = 1.24 (docs/models.md); the enclosure is exact.
     assert e["seed_cos_approx_max_error"] == pytest.approx(0.228, abs=1e-3)
     lo, hi = (sp.lambdify(sp.Symbol("a", real=True), x) for x in vr.cos_enclosure(np.sin(0.3), np.sin(0.5)))
     for q in np.linspace(0.3, 0.5, 50):
