@@ -140,7 +140,8 @@ def run_chunk(campaign: Campaign, k: int) -> pd.DataFrame:
     ------
     CampaignError
         If ``k`` is out of range, the sampler returns the wrong number of samples, or the task
-        output is not a dict of 1-D real arrays of the chunk's length without infinities.
+        output is not a dict of 1-D real arrays of the chunk's length. Infinite values are
+        results (the H-infinity norm of an unstable closed loop), NaN marks a failed sample.
     """
     indices = chunk_range(campaign, k)
     rng = np.random.default_rng(np.random.SeedSequence(int(campaign.seed), spawn_key=(int(k),)))
@@ -168,10 +169,7 @@ def _checked_columns(name: str, output: Any, count: int) -> dict[str, np.ndarray
             raise CampaignError(f"{where}: expected a 1-D array of {count} values, got shape {arr.shape}")
         if arr.dtype.kind not in "biuf":
             raise CampaignError(f"{where}: expected real numbers, got dtype {arr.dtype}")
-        arr = arr.astype(np.float64)
-        if np.isinf(arr).any():
-            raise CampaignError(f"{where}: {int(np.isinf(arr).sum())} infinite values (use NaN for a failed sample)")
-        columns[col] = arr
+        columns[col] = arr.astype(np.float64)
     return columns
 
 
@@ -323,13 +321,16 @@ def _check_indices(folder: Path, samples: np.ndarray, n: int) -> None:
 class Summary:
     """Statistics of one result column and the probabilistic statements they support.
 
-    ``n`` counts every sample, NaN ones included; mean, minimum and maximum are over the
-    non-NaN samples.  Units are those of the column.
+    ``n`` counts every sample, NaN (failed) and infinite ones included; mean, minimum and
+    maximum are over the non-NaN samples (an infinite sample makes the maximum infinite).
+    Units are those of the column.
     """
 
     column: str
     n: int
     n_nan: int
+    n_inf: int
+    """Infinite samples: results, e.g. the H-infinity norm of an unstable closed loop."""
     mean: float
     min: float
     max: float
@@ -347,17 +348,21 @@ class Summary:
 
     @property
     def worst_case_valid(self) -> bool:
-        """The log-over-log statement holds: enough samples and none NaN."""
-        return self.n >= self.n_worst_case and self.n_nan == 0
+        """The log-over-log statement holds: enough samples, none NaN, the maximum finite."""
+        return self.n >= self.n_worst_case and self.n_nan == 0 and self.n_inf == 0
 
     def text(self) -> str:
         """The statistics and statements as sentences with their numbers."""
-        lines = [(f"{self.column}: N = {self.n} samples ({self.n_nan} NaN), mean {self.mean:.6g}, "
+        inf = f", {self.n_inf} infinite" if self.n_inf else ""
+        lines = [(f"{self.column}: N = {self.n} samples ({self.n_nan} NaN{inf}), mean {self.mean:.6g}, "
                   f"min {self.min:.6g}, max {self.max:.6g}.")]
         need = (f"ln(1/delta)/ln(1/(1-epsilon)) = {self.n_worst_case} samples needed for epsilon = "
                 f"{self.epsilon:g}, delta = {self.delta:g}")
         if self.n_nan:
             lines.append(f"Worst case: not estimated, {self.n_nan} samples are NaN (failed) ({need}).")
+        elif self.n_inf:
+            lines.append(f"Worst case: unbounded, {self.n_inf} of {self.n} samples are infinite "
+                         f"({100 * self.n_inf / self.n:.3g} %; e.g. an unstable closed loop) ({need}).")
         elif self.n < self.n_worst_case:
             lines.append(f"Worst case: N = {self.n} is NOT enough for P(value > {self.max:.6g}) <= "
                          f"{self.epsilon:g} with confidence 1 - {self.delta:g} ({need}).")
@@ -401,9 +406,10 @@ def summarize(df: pd.DataFrame, column: str, *, level: float | None = None, epsi
     if values.size == 0:
         raise CampaignError(f"column {column!r} has no samples")
     ok = values[~np.isnan(values)]
-    stats = (float(ok.mean()), float(ok.min()), float(ok.max())) if ok.size else (math.nan,) * 3
-    summary = Summary(column, int(values.size), int(values.size - ok.size), *stats, epsilon, delta,
-                      pr.worst_case_samples(epsilon, delta))
+    with np.errstate(invalid="ignore"):  # inf - inf in the mean of +-inf samples
+        stats = (float(ok.mean()), float(ok.min()), float(ok.max())) if ok.size else (math.nan,) * 3
+    summary = Summary(column, int(values.size), int(values.size - ok.size), int(np.isinf(ok).sum()), *stats,
+                      epsilon, delta, pr.worst_case_samples(epsilon, delta))
     if level is not None:
         summary.level = float(level)
         summary.p = float(np.mean(values <= level))

@@ -47,6 +47,13 @@ def slow_abscissa(samples: np.ndarray) -> dict[str, np.ndarray]:
     return abscissa(samples)
 
 
+def decay_time(samples: np.ndarray) -> dict[str, np.ndarray]:
+    """1 / |abscissa| of a stable matrix, inf for an unstable one (a result, not a failure)."""
+    alpha = abscissa(samples)["abscissa"]
+    with np.errstate(divide="ignore"):
+        return {"decay_time": np.where(alpha < 0, -1.0 / alpha, np.inf)}
+
+
 def short_column(samples: np.ndarray) -> dict[str, np.ndarray]:
     return {"abscissa": np.zeros(len(samples) - 1)}
 
@@ -190,6 +197,19 @@ def test_bad_campaigns_and_task_outputs_raise_named_errors(tmp_path: Path, clust
         cp.run_chunk(matrices(task=short_column), 0)
     with pytest.raises(CampaignError, match=r"column 'grid': expected a 1-D array of 5 values, got shape \(5, 2\)"):
         cp.run(matrices(task=matrix_column, n=10, chunk=5), tmp_path, client=cluster[1])  # raised by a worker
+
+
+def test_infinite_samples_are_results_counted_and_reported(tmp_path: Path, cluster) -> None:
+    """Unstable samples (inf) neither kill the campaign nor hide: counted, maximum inf, no finite
+    worst-case bound claimed, and they fail any level."""
+    df = cp.run(matrices(name="decay", task=decay_time), tmp_path, client=cluster[1])
+    unstable = int(np.isinf(df["decay_time"]).sum())
+    # random normal 2x2 matrices: about half are unstable; the exact count is the reference's
+    assert unstable == int((serial(matrices())["abscissa"] >= 0).sum()) and 0 < unstable < N
+    s = cp.summarize(df, "decay_time", level=10.0)
+    assert (s.n, s.n_nan, s.n_inf, s.max) == (N, 0, unstable, np.inf)
+    assert not s.worst_case_valid and s.p <= 1 - unstable / N  # inf > level: a failure
+    assert f"({unstable / N * 100:.3g} %" in s.text() and f"unbounded, {unstable} of {N} samples" in s.text()
 
 
 def test_summary_numbers_and_bounds() -> None:

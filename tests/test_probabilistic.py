@@ -136,6 +136,32 @@ def test_campaign_command_states_the_chernoff_bounds(tmp_path, capsys) -> None:
     assert main(["campaign", "demeter", "--artifact", "mrp_hinf_published", "--out", str(tmp_path)]) == 2
 
 
+def test_campaign_of_a_design_unstable_for_some_samples(tmp_path, capsys) -> None:
+    """Row 1's gain times 3 destabilizes part of the box: the campaign completes (exit 0) and
+    states how many samples are unstable instead of dying on the infinite H-infinity norms."""
+    import json
+
+    from sims.cli import main
+    from sims.paths import SHIPPED_ARTIFACTS
+
+    data = json.loads((SHIPPED_ARTIFACTS / "demeter_row1_det.json").read_text())
+    data["name"] = "demeter_row1_k3"
+    data["design"]["K"] = (3 * np.array(data["design"]["K"])).tolist()
+    f = tmp_path / "demeter_row1_k3.json"
+    f.write_text(json.dumps(data))
+    args = ["campaign", "demeter", "--artifact", str(f), "--samples", "200", "--chunk", "100", "--workers", "1",
+            "--out", str(tmp_path)]
+    assert main(args) == 0
+    out = capsys.readouterr().out
+    from sims import campaign
+
+    df = campaign.load(tmp_path / "demeter_row1_k3-n200-s0")
+    n_unstable = int((df["max_real_pole"] >= 0).sum())
+    assert 0 < n_unstable < 200 and int(np.isinf(df["hinf"]).sum()) == n_unstable
+    assert f"hinf: N = 200 samples (0 NaN, {n_unstable} infinite)" in out
+    assert f"Worst case: unbounded, {n_unstable} of 200 samples are infinite" in out
+
+
 def test_sequential_method_lowers_the_deterministic_levels() -> None:
     # ln(pi^2 / (6e-6)) / ln(1 / 0.9) = 135.85: round 1 draws 136 plants; more rounds, more
     assert sq.validation_samples(1, 0.1, 1e-6) == 136 and sq.validation_samples(2, 0.1, 1e-6) == 150
