@@ -3,9 +3,22 @@ checking its keys, with the closest known name for a near miss."""
 from __future__ import annotations
 
 import difflib
+import re
 import tomllib
 from pathlib import Path
 from typing import Any, Iterable, Mapping
+
+
+SAFE_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,99}")
+"""A name that is also a safe file or folder name: no separator, no ``..``, no leading dot."""
+
+
+def check_safe_name(name: Any, where: str, error: type[Exception]) -> str:
+    """``name`` if it is a safe folder name (:data:`SAFE_NAME`), else raise ``error``."""
+    if not isinstance(name, str) or not SAFE_NAME.fullmatch(name) or ".." in name:
+        raise error(f"{where}: {name!r} is not a safe folder name (letters, digits, '.', '_', '-'; first a "
+                    f"letter or digit; no '..'; at most 100 characters)")
+    return name
 
 
 def did_you_mean(word: str, choices: Iterable[str]) -> str:

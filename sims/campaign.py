@@ -23,7 +23,6 @@ import json
 import math
 import os
 import pickle
-import re
 import uuid
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
@@ -35,6 +34,7 @@ import numpy as np
 import pandas as pd
 from distributed import Client, LocalCluster, as_completed
 
+from fmus.declared import check_safe_name
 from sims.master import CoSimulation, FmuCallError
 from synthesis import probabilistic as pr
 
@@ -42,7 +42,6 @@ Task = Callable[[np.ndarray], dict[str, np.ndarray]]
 Sampler = Callable[[np.random.Generator, int], np.ndarray]
 Progress = Callable[[int, int], None]
 
-_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,99}")
 _META = "campaign.json"
 _IDENTITY = ("n", "seed", "chunk", "task", "sampler")
 
@@ -85,9 +84,7 @@ class Campaign:
     sampler: Sampler
 
     def __post_init__(self) -> None:
-        if not isinstance(self.name, str) or not _NAME.fullmatch(self.name):
-            raise CampaignError(f"campaign name {self.name!r} is not a safe folder name "
-                                "(letters, digits, '.', '_', '-'; first a letter or digit; at most 100)")
+        check_safe_name(self.name, "campaign name", CampaignError)
         for label, value, least in (("n", self.n, 1), ("chunk", self.chunk, 1), ("seed", self.seed, 0)):
             if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < least:
                 raise CampaignError(f"campaign {self.name!r}: {label} must be an integer >= {least}, got {value!r}")

@@ -308,12 +308,15 @@ def parser() -> argparse.ArgumentParser:
     top = argparse.ArgumentParser(prog="satfmu", description="Spacecraft attitude control FMUs",
                                   formatter_class=_Formatter, allow_abbrev=False)
     top.add_argument("--version", action="version", version=f"satfmu {metadata.version('satfmu')}")
+    top.add_argument("--debug", action="store_true", default=False, help="show the traceback of an error")
     sub = top.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     def command(parent: argparse._SubParsersAction, name: str, help: str, **kw) -> argparse.ArgumentParser:
         # no abbreviations: a retired option (--n, --runs) must fail, not match another (--name)
-        return parent.add_parser(name, help=help, description=help, formatter_class=_Formatter, allow_abbrev=False,
-                                 **kw)
+        p = parent.add_parser(name, help=help, description=help, formatter_class=_Formatter, allow_abbrev=False,
+                              **kw)
+        p.add_argument("--debug", action="store_true", default=argparse.SUPPRESS, help="show the traceback of an error")
+        return p
 
     backends = sorted(paths.BACKENDS)
     b = command(sub, "build", "build every FMU (only those whose model changed)")
@@ -503,8 +506,13 @@ def main(argv: list[str] | None = None) -> int:
     args = parser().parse_args(argv)
     try:
         return args.fn(args)
-    except (ValueError, KeyError, RuntimeError, FileNotFoundError) as exc:
-        print(f"satfmu {args.command}: error: {exc}", file=sys.stderr)
+    except Exception as exc:  # every user error: one line, exit 2 (1 means a metric missed its bound)
+        if getattr(args, "debug", False):
+            raise
+        expected = isinstance(exc, (ValueError, KeyError, RuntimeError, OSError))
+        detail = "" if expected else f"{type(exc).__name__}: "
+        hint = "" if expected else " (--debug shows the traceback)"
+        print(f"satfmu {args.command}: error: {detail}{exc}{hint}", file=sys.stderr)
         return 2
 
 

@@ -181,8 +181,12 @@ class CoSimulation:
             path = Path(path)
             if not path.is_file():
                 raise FileNotFoundError(f"FMU for instance {name!r} not found: {path}")
-            md = read_model_description(str(path))
-            unzip = extract(str(path))
+            try:
+                md = read_model_description(str(path))
+                unzip = extract(str(path))
+            except Exception as exc:  # fmpy raises BadZipFile, KeyError, XML errors ... for a broken file
+                raise MasterError(f"FMU for instance {name!r} is not a readable FMU: {path} "
+                                  f"({type(exc).__name__}: {exc})") from None
             slave = FMU2Slave(guid=md.guid, unzipDirectory=unzip,
                               modelIdentifier=md.coSimulation.modelIdentifier, instanceName=name)
             self.components[name] = Component(name, path, md, unzip, slave,

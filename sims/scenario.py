@@ -58,7 +58,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from fmus.declared import check_keys, did_you_mean, read_toml
+from fmus.declared import check_keys, check_safe_name, did_you_mean, read_toml
 from fmus.profiles import Profile
 from fmus.profiles import make as make_profile
 from sims import metrics as M
@@ -71,6 +71,8 @@ _TOP = ("name", "description", "stop_time", "step_size", "start_time", "fmus", "
 _FMU = ("model", "path", "backend", "parameters")
 _METRIC = ("name", "kind", "signals", "scale", "unit", "min", "max", "tolerance", "limit",
            "disturbances", "versus", "description")
+MAX_STEPS = 10_000_000
+"""Most communication steps of one run (a typo'd stop time fails here, not in a MemoryError)."""
 _NEEDS = {"settling_time": "tolerance", "time_in_saturation": "limit", "l2_ratio": "disturbances",
           "max_difference": "versus"}
 
@@ -432,14 +434,23 @@ def validate(data: Any, where: str = "scenario") -> None:
     for key in ("name", "stop_time", "step_size", "fmus"):
         if key not in data:
             raise ScenarioError(f"{where}: missing key {key!r}")
-    if not isinstance(data["name"], str) or not data["name"]:
-        raise ScenarioError(f"{where}: name: must be a non-empty string, got {data['name']!r}")
+    check_safe_name(data["name"], f"{where}: name", ScenarioError)  # the name is the output folder's
     w = f"{where}: "
     stop, step = (_number(data[k], w + k, True) for k in ("stop_time", "step_size"))
     start = _number(data["start_time"], w + "start_time") if "start_time" in data else 0.0
     if step > stop - start:
         raise ScenarioError(f"{w}step_size {step:g} s exceeds the run length stop_time - start_time = "
                             f"{stop - start:g} s")
+    n_float = (stop - start) / step
+    if abs(n_float - round(n_float)) > 1e-9 * max(1.0, n_float):
+        raise ScenarioError(f"{w}step_size: (stop_time - start_time) / step_size = {n_float:.12g} is not an integer")
+    if n_float > MAX_STEPS:
+        raise ScenarioError(f"{w}stop_time: {n_float:.3g} communication steps, more than {MAX_STEPS:.0e} "
+                            f"(the recorded signals alone would need {n_float * 8 / 2**30:.3g} GiB per column)")
+    for key in ("connections", "profiles", "metrics", "record"):
+        if key in data and not isinstance(data[key], list):
+            raise ScenarioError(f"{w}{key}: must be a list (TOML array{' of tables' if key != 'record' else ''}), "
+                                f"got {type(data[key]).__name__} {data[key]!r}")
     fmus = data["fmus"]
     if not isinstance(fmus, Mapping) or not fmus:
         raise ScenarioError(f"{w}fmus: must declare at least one FMU instance")

@@ -295,3 +295,53 @@ def test_synth_mrp_hinf_designs_for_the_spacecraft_file(tmp_path: Path, capsys: 
     assert seen["plant"].tensor[0, 1] == 2.0 and seen["name"] == "own_hinf" and seen["torque_budget"] == 20.0
     assert seen["start"] == pytest.approx({"sigma_0[1]": 0.0, "sigma_0[2]": 0.0, "sigma_0[3]": 0.41421356237})
     assert "report of the fake design" in capsys.readouterr().out
+
+
+BAD_SCENARIOS = [  # (body after the header, the message); the header is a valid one-FMU scenario
+    ('name = "../escape"', "name: '../escape' is not a safe folder name"),
+    ('name = "/abs/olute"', "is not a safe folder name"),
+    ("profiles = 5", "profiles: must be a list"),
+    ("connections = 5", "connections: must be a list"),
+    ("record = 5", "record: must be a list"),
+    ("stop_time = 1e9", r"more than 1e\+07"),
+    ("step_size = 0.3", "is not an integer"),
+    ("step_size = -0.1", "step_size: must be a finite number > 0"),
+    ("stop_time = 0.0", "stop_time: must be a finite number > 0"),
+    ('[[metrics]]\nname = "m"\nkind = "peak"\nsignals = ["plant.phi"]\nmax = "200"', r"metrics\[0\]\.max: must be"),
+    ('[fmus.plant]\npath = "zero.fmu"', "not a readable FMU"),
+    ('[fmus.plant]\nmodel = "mrp_satellite"\nparameters = "x"', "parameters: must be a table"),
+]
+
+
+def _bad_scenario(tmp_path: Path, body: str) -> Path:
+    """A scenario whose later keys (TOML: last one wins is an error, so the header is built per case)."""
+    header = {"name": 'name = "bad"', "stop_time": "stop_time = 1.0", "step_size": "step_size = 0.1"}
+    lines = [v for k, v in header.items() if not body.startswith(k)]
+    fmus = "" if "[fmus.plant]" in body else '\n[fmus.plant]\nmodel = "mrp_satellite"\n'
+    (tmp_path / "zero.fmu").write_bytes(b"")
+    f = tmp_path / "bad.toml"
+    f.write_text("\n".join(lines) + "\n" + (body + "\n" + fmus if not body.startswith("[") else fmus + body) + "\n")
+    return f
+
+
+@pytest.mark.parametrize("body, message", BAD_SCENARIOS, ids=[m[:24] for _, m in BAD_SCENARIOS])
+@pytest.mark.parametrize("command", ["run", "export-ssp"])
+def test_malformed_scenarios_exit_2_with_one_line(command: str, body: str, message: str, tmp_path: Path,
+                                                  fmu_dir: Path, capsys: pytest.CaptureFixture) -> None:
+    """Every user error: exit 2 (1 is a missed bound), one line naming the file and key, no traceback,
+    and nothing written."""
+    import re
+
+    f = _bad_scenario(tmp_path, body)
+    out = tmp_path / "out"
+    code = main([command, str(f), "--fmu-dir", str(fmu_dir), "--out", str(out)])
+    err = capsys.readouterr().err
+    assert code == 2, err
+    assert re.search(message, err) and "Traceback" not in err and len(err.strip().splitlines()) == 1, err
+    assert not out.exists() or not any(out.rglob("*.*")), "a refused scenario wrote files"
+
+
+def test_debug_shows_the_traceback(tmp_path: Path, fmu_dir: Path) -> None:
+    f = _bad_scenario(tmp_path, "profiles = 5")
+    with pytest.raises(Exception, match="profiles: must be a list"):
+        main(["run", str(f), "--fmu-dir", str(fmu_dir), "--debug"])
