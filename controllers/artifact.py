@@ -645,7 +645,10 @@ def load(path: str | Path) -> Artifact:
 
 
 def save(artifact: Artifact, path: str | Path) -> None:
-    """Write an artifact (re-validated first, so an invalid one is never written)."""
+    """Write an artifact (re-validated first, so an invalid one is never written), whole or not at
+    all (:func:`fmus.atomic.write_atomically`)."""
+    from fmus.atomic import write_atomically
+
     data = artifact.to_json()
     parse(json.loads(json.dumps(data)), where=str(path))
-    Path(path).write_text(json.dumps(data, indent=1) + "\n")
+    write_atomically(path, lambda tmp: tmp.write_text(json.dumps(data, indent=1) + "\n"))

@@ -13,7 +13,6 @@ leaves a partial file under the FMU's name.
 """
 from __future__ import annotations
 
-import os
 import shutil
 import subprocess
 import sys
@@ -25,6 +24,7 @@ from pathlib import Path
 from xml.etree.ElementTree import SubElement
 
 from fmus import codegen
+from fmus.atomic import write_atomically
 from fmus.description import Capabilities, model_description, to_xml_bytes
 from fmus.digest import build_digest
 from fmus.model import Model
@@ -54,9 +54,7 @@ def fmi_headers() -> Path:
 def _zip_dir(src: Path, dest: Path, digest: str) -> None:
     """Deterministic zip of a directory tree (sorted entries, fixed timestamps), with the build
     digest as the archive comment, written to a temporary name and renamed onto ``dest``."""
-    dest.parent.mkdir(parents=True, exist_ok=True)
-    partial = dest.with_name(f".{dest.name}.{os.getpid()}.partial")
-    try:
+    def write(partial: Path) -> None:
         with zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as z:
             for f in sorted(p for p in src.rglob("*") if p.is_file()):
                 info = zipfile.ZipInfo(str(f.relative_to(src)), _ZIP_DATE)
@@ -64,9 +62,8 @@ def _zip_dir(src: Path, dest: Path, digest: str) -> None:
                 info.external_attr = 0o644 << 16
                 z.writestr(info, f.read_bytes())
             z.comment = _COMMENT_PREFIX + digest.encode()
-        os.replace(partial, dest)
-    finally:
-        partial.unlink(missing_ok=True)
+
+    write_atomically(dest, write)
 
 
 def built_digest(fmu: Path) -> str | None:

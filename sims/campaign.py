@@ -21,7 +21,6 @@ import contextlib
 import hashlib
 import json
 import math
-import os
 import pickle
 import uuid
 from collections.abc import Callable, Iterator
@@ -34,6 +33,7 @@ import numpy as np
 import pandas as pd
 from distributed import Client, LocalCluster, as_completed
 
+from fmus.atomic import write_atomically
 from fmus.declared import check_safe_name
 from sims.master import CoSimulation, FmuCallError
 from synthesis import probabilistic as pr
@@ -229,14 +229,7 @@ def _claim_folder(folder: Path, campaign: Campaign) -> None:
                                 "use another name or out_dir, or delete the folder")
         return
     folder.mkdir(parents=True, exist_ok=True)
-    _write_atomically(meta, lambda tmp: tmp.write_text(json.dumps(record, indent=1) + "\n"))
-
-
-def _write_atomically(path: Path, write: Callable[[Path], Any]) -> None:
-    """``write`` to ``path.tmp``, then rename it to ``path`` (readers never see a partial file)."""
-    tmp = path.with_name(path.name + ".tmp")
-    write(tmp)
-    os.replace(tmp, path)
+    write_atomically(meta, lambda tmp: tmp.write_text(json.dumps(record, indent=1) + "\n"))
 
 
 @contextlib.contextmanager
@@ -266,7 +259,7 @@ def _compute(client: Client, campaign: Campaign, folder: Path, todo: list[int], 
         for future in as_completed(list(futures)):
             k = futures.pop(future)
             frame = future.result()
-            _write_atomically(chunk_path(folder, k), partial(frame.to_parquet, index=False))
+            write_atomically(chunk_path(folder, k), partial(frame.to_parquet, index=False))
             future.release()
             done += 1
             if progress is not None:

@@ -58,6 +58,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from fmus.atomic import write_atomically
 from fmus.declared import check_keys, check_safe_name, did_you_mean, read_toml
 from fmus.profiles import Profile
 from fmus.profiles import make as make_profile
@@ -371,24 +372,38 @@ class Result:
 
     def write(self, folder: str | Path) -> dict[str, Path]:
         """Write ``<name>_<backend>.csv``, the plot(s) and ``summary_<backend>.json`` into
-        ``folder``; returns (and records in :attr:`files`) what was written."""
+        ``folder``; returns (and records in :attr:`files`) what was written.
+
+        The files of an earlier run of the same scenario and backend are removed first, every
+        file is written whole (temporary name, then rename) and the summary comes last: a
+        folder with a summary holds a complete run, one without it no run that looks complete.
+        """
         from sims import plots
 
         folder = Path(folder)
-        folder.mkdir(parents=True, exist_ok=True)
+        clear_outputs(folder, self.name, self.backend)
         stem = f"{self.name}_{self.backend}"
-        self.files["csv"] = folder / f"{stem}.csv"
-        write_csv(self.results, self.files["csv"])
-        self.files["plot"] = self.plot(folder / f"{stem}.png")
+        files = {"csv": folder / f"{stem}.csv"}
+        write_atomically(files["csv"], lambda tmp: write_csv(self.results, tmp))
+        if self.panels:  # a run that records nothing has nothing to plot
+            files["plot"] = write_atomically(folder / f"{stem}.png", self.plot)
         if self.l2_curves:
-            f = folder / f"{stem}_l2_ratio.png"
+            files["l2_ratio_plot"] = folder / f"{stem}_l2_ratio.png"
             bounds = {m.name: m.max for m in self.metrics}
-            plots.l2_ratio(self.results["time"], {n: (c, bounds[n]) for n, c in self.l2_curves.items()}, f,
-                           title=f"{self.name}: truncated L2 ratio over T")
-            self.files["l2_ratio_plot"] = f
-        self.files["summary"] = folder / f"summary_{self.backend}.json"
-        self.files["summary"].write_text(json.dumps(self.summary(), indent=1) + "\n")
+            write_atomically(files["l2_ratio_plot"], lambda tmp: plots.l2_ratio(
+                self.results["time"], {n: (c, bounds[n]) for n, c in self.l2_curves.items()}, tmp,
+                title=f"{self.name}: truncated L2 ratio over T"))
+        files["summary"] = folder / f"summary_{self.backend}.json"
+        self.files.update(files)
+        write_atomically(files["summary"], lambda tmp: tmp.write_text(json.dumps(self.summary(), indent=1) + "\n"))
         return dict(self.files)
+
+
+def clear_outputs(folder: Path, name: str, backend: str) -> None:
+    """Remove the result files of an earlier run of ``name`` with ``backend`` from ``folder``."""
+    for f in (f"{name}_{backend}.csv", f"{name}_{backend}.png", f"{name}_{backend}_l2_ratio.png",
+              f"summary_{backend}.json"):
+        (Path(folder) / f).unlink(missing_ok=True)
 
 
 ScenarioResult = Result
@@ -768,10 +783,12 @@ def run(scenario: "str | Path | Mapping[str, Any] | Scenario", fmu_dir: str | Pa
         An FMU call failed (its log lines in the message).
     """
     sc = load(scenario)
+    if out_dir is not None:  # a failed run must not leave the last run's files looking current
+        clear_outputs(Path(out_dir) / sc.name, sc.name, backend)
     folder = ensure_fmus(sc, fmu_dir, backend)
     res, sim = simulate(sc, folder, backend, strict, design_rtol)
     mres, curves = evaluate(sc, res, sim)
-    panels = sc.plot.get("panels") or [[r] for r in sc.record]
+    panels = sc.plot.get("panels") or [[r] for r in sc.record] or [m.signals for m in sc.metrics]
     cols = [_columns(sim, p) for p in panels]
     result = Result(sc.name, backend, res, mres, l2_curves=curves,
                     units={c: sim.unit(c) for group in cols for c in group}, panels=cols,

@@ -148,3 +148,31 @@ def test_profile_reaches_the_input(fmu_dir: Path) -> None:
         res = sim.run(2.0, 0.1, record=["plant.omega[1]", "plant.w_d[1]"])
     assert res["plant.omega[1]"][-1] == pytest.approx(1.5 * 2.0 / 15.0, rel=1e-13)
     assert np.all(res["plant.w_d[1]"] == 1.5)
+
+
+@pytest.mark.filterwarnings("ignore::sims.scenario.DesignMismatchWarning")  # I_x = -3 is also a mismatch
+def test_a_failed_rerun_leaves_nothing_that_looks_complete(tmp_path: Path, fmu_dir: Path, monkeypatch) -> None:
+    """A passing run writes CSV, plot and summary (summary last); a re-run that fails, in the FMU
+    or in plotting, removes them first: no old summary saying "passed" beside new data."""
+    from sims import plots
+
+    ok = _write(tmp_path, BASE + 'record = ["plant.phi"]\n')
+    out = tmp_path / "out"
+    files = scenario.run(ok, fmu_dir, out_dir=out).files
+    assert all(files[k].is_file() for k in ("csv", "plot", "summary"))
+    folder = files["csv"].parent
+    with pytest.raises(FmuCallError):
+        scenario.run(_write(tmp_path, BASE.replace(PLANT, '{ model = "mrp_satellite", parameters = { I_x = -3.0 } }')
+                            + 'record = ["plant.phi"]\n'), fmu_dir, out_dir=out)
+    ok = _write(tmp_path, BASE + 'record = ["plant.phi"]\n')
+    assert sorted(p.name for p in folder.iterdir()) == []
+    scenario.run(ok, fmu_dir, out_dir=out)
+
+    def broken(*args, **kwargs):
+        raise RuntimeError("no display")
+
+    monkeypatch.setattr(plots, "time_series", broken)
+    with pytest.raises(RuntimeError, match="no display"):
+        scenario.run(ok, fmu_dir, out_dir=out)
+    left = sorted(p.name for p in folder.iterdir())
+    assert left == [files["csv"].name], left  # the new data only: no plot, no summary, no temporary file
