@@ -161,7 +161,7 @@ def ensure(fmu_dir: Path, names: Iterable[str], backend: str = "native", rebuild
             src = source(name)
             if backend not in src.backends:
                 raise ValueError(f"{name} has no {backend} FMU (it has: {', '.join(src.backends)})")
-            path = _builder(backend)(src.model, Path(fmu_dir), src.resources)
+            path = builder(backend)(src.model, Path(fmu_dir), src.resources)
         out[name] = path
     return out
 
@@ -189,7 +189,7 @@ def controller_source(art: Artifact) -> FmuSource:
     return FmuSource(model, artifacts.resource(art))
 
 
-def _builder(backend: str) -> Callable[..., Path]:
+def builder(backend: str) -> Callable[..., Path]:
     """``fmus.export.build_native`` or ``build_python``."""
     from fmus import export
 
@@ -212,7 +212,7 @@ class BuildReport:
 
 def _build_one(index: int, dest: Path) -> Path:
     src, backend = _PENDING[index]
-    return _builder(backend)(src.model, dest, src.resources)
+    return builder(backend)(src.model, dest, src.resources)
 
 
 def _fork_map(fn: Callable[[T], R], items: list[T], jobs: int | None) -> list[R]:

@@ -74,7 +74,6 @@ class Design:
             The artifact files, then the FMUs built.
         """
         from controllers import artifact as artifacts
-        from fmus import export
         from sims import catalog, paths
 
         out_dir = paths.user_artifacts() if folder is None else Path(folder)
@@ -87,8 +86,7 @@ class Design:
             written.append(f)
             if fmu_dir is not None:
                 src = catalog.controller_source(art)
-                builders = {"native": export.build_native, "python": export.build_python}
-                written += [builders[b](src.model, Path(fmu_dir), src.resources) for b in backends]
+                written += [catalog.builder(b)(src.model, Path(fmu_dir), src.resources) for b in backends]
         return written
 
 

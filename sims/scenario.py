@@ -66,7 +66,6 @@ from sims import metrics as M
 from sims.master import CoSimulation, UnknownVariableError, communication_times
 from sims.paths import BACKENDS, SHIPPED_SCENARIOS
 
-SCENARIOS = SHIPPED_SCENARIOS
 _TOP = ("name", "description", "stop_time", "step_size", "start_time", "fmus", "connections",
         "profiles", "record", "metrics", "plot", "reference", "verify")
 _FMU = ("model", "path", "backend", "parameters")
@@ -406,9 +405,6 @@ def clear_outputs(folder: Path, name: str, backend: str) -> None:
         (Path(folder) / f).unlink(missing_ok=True)
 
 
-ScenarioResult = Result
-
-
 def _number(v: Any, where: str, positive: bool = False) -> float:
     """``v`` as a float; ``where`` is its key path."""
     if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or (positive and v <= 0):
@@ -543,10 +539,10 @@ def resolve_path(name_or_path: str | Path) -> Path:
         if p.is_file():
             return p.resolve()
         raise ScenarioError(f"no scenario file {str(p)!r} (resolved to {p.resolve()})")
-    shipped = SCENARIOS / f"{name_or_path}.toml"
+    shipped = SHIPPED_SCENARIOS / f"{name_or_path}.toml"
     if shipped.is_file():
         return shipped
-    names = sorted(s.stem for s in SCENARIOS.glob("*.toml"))
+    names = sorted(s.stem for s in SHIPPED_SCENARIOS.glob("*.toml"))
     raise ScenarioError(f"no scenario named {str(name_or_path)!r} (shipped scenarios: {', '.join(names)})"
                         f"{did_you_mean(str(name_or_path), names)}")
 

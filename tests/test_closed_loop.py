@@ -31,7 +31,7 @@ def test_native_fmu_carries_sources_and_artifact(fmu_dir: Path) -> None:
 
 
 @pytest.fixture(scope="module")
-def run_200(fmu_dir: Path) -> dict[str, scenario.ScenarioResult]:
+def run_200(fmu_dir: Path) -> dict[str, scenario.Result]:
     return {b: scenario.run("mrp_200deg", fmu_dir, backend=b) for b in ("native", "python")}
 
 

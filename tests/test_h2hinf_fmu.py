@@ -22,11 +22,11 @@ STATE = [f"plant.omega[{i}]" for i in (1, 2, 3)] + [f"plant.sigma[{i}]" for i in
 
 
 @pytest.fixture(scope="module")
-def h2_runs(fmu_dir: Path) -> dict[str, scenario.ScenarioResult]:
+def h2_runs(fmu_dir: Path) -> dict[str, scenario.Result]:
     return {b: scenario.run("mrp_90deg_h2", fmu_dir, backend=b) for b in ("native", "python")}
 
 
-def _metric(result: scenario.ScenarioResult, prefix: str) -> float:
+def _metric(result: scenario.Result, prefix: str) -> float:
     return next(m.value for m in result.metrics if m.name.startswith(prefix))
 
 

@@ -108,7 +108,7 @@ def test_cli_writes_the_report(fmu_dir: Path, tmp_path: Path, capsys) -> None:
 @pytest.mark.slow
 def test_every_scenario_passes_verify(fmu_dir: Path, tmp_path: Path) -> None:
     # 14 scenarios, about 30 s in all: in `make test`
-    from sims.scenario import SCENARIOS
+    from sims.paths import SHIPPED_SCENARIOS as SCENARIOS
 
     reports = [verify.verify(p.stem, fmu_dir, tmp_path) for p in sorted(SCENARIOS.glob("*.toml"))]
     assert all(r.passed for r in reports), verify.markdown([r for r in reports if not r.passed])
