@@ -35,15 +35,12 @@ from pathlib import Path
 from typing import Any, Sequence
 
 import numpy as np
-from fmpy import extract, read_model_description
 from fmpy.fmi1 import FMICallException
-from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
-                       fmi2CallbackFunctions, fmi2CallbackLoggerTYPE)
+from fmpy.fmi2 import FMU2Slave
 
 from fmus.declared import did_you_mean
 from fmus.profiles import Profile
-
-_STATUS = {0: "OK", 1: "Warning", 2: "Discard", 3: "Error", 4: "Fatal", 5: "Pending"}
+from sims import fmi_host
 
 
 class MasterError(RuntimeError):
@@ -176,38 +173,26 @@ class CoSimulation:
         self.profiles: list[tuple[str, Profile]] = []
         self.mismatches: list[str] = []
         """Design mismatches of its controllers, as found by :func:`sims.scenario.design_mismatches`."""
-        self._callbacks = self._make_callbacks()
+        self._callbacks = fmi_host.Callbacks(self._receive)
         for name, path in fmus.items():
             path = Path(path)
             if not path.is_file():
                 raise FileNotFoundError(f"FMU for instance {name!r} not found: {path}")
             try:
-                md = read_model_description(str(path))
-                unzip = extract(str(path))
-            except Exception as exc:  # fmpy raises BadZipFile, KeyError, XML errors ... for a broken file
-                raise MasterError(f"FMU for instance {name!r} is not a readable FMU: {path} "
-                                  f"({type(exc).__name__}: {exc})") from None
+                md, unzip = fmi_host.open_fmu(path)
+            except fmi_host.UnreadableFmuError as exc:
+                raise MasterError(f"FMU for instance {name!r}: {exc}") from None
             slave = FMU2Slave(guid=md.guid, unzipDirectory=unzip,
                               modelIdentifier=md.coSimulation.modelIdentifier, instanceName=name)
             self.components[name] = Component(name, path, md, unzip, slave,
                                               {v.name: v for v in md.modelVariables})
 
     # ------------------------------------------------------------------ setup
-    def _make_callbacks(self) -> fmi2CallbackFunctions:
-        from fmpy import calloc, free
-
-        def logger(env: Any, instance: bytes, status: int, category: bytes, message: bytes) -> None:
-            comp = self.components.get(instance.decode(errors="replace") if instance else "")
-            text = f"[{_STATUS.get(status, status)}] {message.decode(errors='replace') if message else ''}"
-            if comp is not None:
-                comp.log.append(text)
-
-        cb = fmi2CallbackFunctions()
-        cb.logger = fmi2CallbackLoggerTYPE(logger)
-        cb.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
-        cb.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
-        self._logger_ref = logger
-        return cb
+    def _receive(self, message: fmi_host.Message) -> None:
+        """Logger sink: each message goes to the log of the component it names."""
+        comp = self.components.get(message.instance)
+        if comp is not None:
+            comp.log.append(message.line())
 
     def resolve(self, qualified: str) -> tuple[Component, list[str]]:
         """Split ``"instance.variable"`` and expand base names.
@@ -300,7 +285,7 @@ class CoSimulation:
         try:
             return getattr(comp.slave, fn)(*args)
         except FMICallException as exc:
-            comp.fatal |= exc.status == 4  # fmi2Fatal
+            comp.fatal |= exc.status == fmi_host.FATAL
             tail = "; ".join(comp.log[-5:]) or "no log message"
             raise FmuCallError(f"{comp.name} ({comp.path.name}): {exc} -- FMU log: {tail}") from None
 
@@ -404,7 +389,7 @@ class CoSimulation:
         try:
             for comp in self.components.values():
                 comp.log.clear()
-                comp.slave.instantiate(callbacks=self._callbacks, loggingOn=True)
+                comp.slave.instantiate(callbacks=self._callbacks.functions, loggingOn=True)
                 instantiated.append(comp)
                 self._set_parameters(comp, parameters.get(comp.name, {}))
                 self._call(comp, "setupExperiment", None, start_time, stop_time)

@@ -39,11 +39,10 @@ from pathlib import Path
 from typing import Any, Iterator
 
 import pytest
-from fmpy import calloc, extract, free, read_model_description
-from fmpy.fmi1 import FMICallException
-from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
-                       fmi2CallbackFunctions, fmi2CallbackLoggerTYPE, fmi2Error, fmi2Fatal, fmi2FMUstate,
-                       fmi2OK)
+from fmpy import extract, read_model_description
+from fmpy.fmi2 import FMU2Slave, fmi2Error, fmi2Fatal, fmi2FMUstate
+
+from sims import fmi_host
 
 
 PLANT, PLANT_PY = "mrp_satellite.fmu", "mrp_satellite_py.fmu"
@@ -56,10 +55,6 @@ IO = {"mrp_satellite": ("u[1]", "omega[1]"), "mrp_hinf_published": ("omega[1]", 
 STATE_MAGIC = 0x5A7F3D02  # fmi2_cosim.c: first field of every native FMU state (layout version)
 ST_STEP_COMPLETE = 1 << 2  # fmi2_cosim.c: ModelState after fmi2ExitInitializationMode
 BLOW_UP = {"h_max": 1e6, "omega_0[1]": 1e3, "omega_0[2]": 1e3, "omega_0[3]": 1e3}
-
-# pythonfmu instances that returned fmi2Fatal: kept referenced (with their callbacks) and never
-# called again, as FMI 2.0 requires
-_ABANDONED: list[Any] = []
 
 
 @dataclass
@@ -92,7 +87,8 @@ class Instance:
                  instantiate: bool = True) -> None:
         self.fmu = fmu
         self.vars = {v.name: v for v in fmu.md.modelVariables}
-        self.log: list[tuple[int, str, str]] = []
+        self.callbacks = fmi_host.Callbacks()
+        self.log = self.callbacks.log
         self.dead = False  # returned fmi2Fatal: no further calls
         self.live = False
         # pythonfmu passes messages on only when logging is on; native FMUs log errors regardless
@@ -100,29 +96,20 @@ class Instance:
         # what a rejected call returns: see the module docstring
         self.err = fmi2Fatal if fmu.is_python else fmi2Error
 
-        def logger(env: Any, name: bytes, status: int, category: bytes, message: bytes) -> None:
-            self.log.append((status, (category or b"").decode(errors="replace"),
-                             (message or b"").decode(errors="replace")))
-
-        self._logger = logger
-        self.callbacks = fmi2CallbackFunctions()
-        self.callbacks.logger = fmi2CallbackLoggerTYPE(logger)
-        self.callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
-        self.callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
         self.slave = FMU2Slave(guid=guid or fmu.md.guid, unzipDirectory=fmu.unzip,
                                modelIdentifier=fmu.md.coSimulation.modelIdentifier, instanceName="robust")
         if instantiate:
             self.instantiate()
 
     def instantiate(self) -> None:
-        self.slave.instantiate(callbacks=self.callbacks, loggingOn=self.logging_on)
+        self.slave.instantiate(callbacks=self.callbacks.functions, loggingOn=self.logging_on)
         self.live = True
 
     def vr(self, name: str) -> int:
         return self.vars[name].valueReference
 
     def text(self, since: int = 0) -> str:
-        return "\n".join(m for _, _, m in self.log[since:])
+        return self.callbacks.text(since)
 
     def ok(self, fn: str, *args: Any) -> Any:
         """Call ``FMU2Slave.<fn>``; it must succeed (fmpy raises on fmi2Error/fmi2Fatal)."""
@@ -131,11 +118,7 @@ class Instance:
     def attempt(self, fn: str, *args: Any) -> tuple[int, str]:
         """Call ``FMU2Slave.<fn>``; return its status and the log lines it produced."""
         n = len(self.log)
-        try:
-            getattr(self.slave, fn)(*args)
-            status = fmi2OK
-        except FMICallException as exc:
-            status = exc.status
+        status, _ = fmi_host.attempt(self.slave, fn, *args)
         if status == fmi2Fatal:
             self.dead = True
         return status, self.text(n)
@@ -182,7 +165,7 @@ class Instance:
         sims.master): unloading pythonfmu's library while other instances exist is not needed here.
         """
         if self.dead:
-            _ABANDONED.append(self)
+            fmi_host.abandon(self)
         elif self.live:
             self.slave.fmi2FreeInstance(self.slave.component)
         self.live = False
@@ -698,7 +681,7 @@ def test_wrong_guid(make, file: str) -> None:
     with pytest.raises(Exception, match="Failed to instantiate"):
         inst.instantiate()
     # one error naming both the GUID given and the FMU's own
-    assert [s for s, _, _ in inst.log] == [fmi2Error]
+    assert [m.status for m in inst.log] == [fmi2Error]
     assert "GUID" in inst.text() and wrong in inst.text() and inst.fmu.md.guid in inst.text()
 
 

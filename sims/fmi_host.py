@@ -1,0 +1,153 @@
+"""The FMI 2.0 host harness over fmpy: status names, log capture, calls that return a status.
+
+One harness for every host in the project (the co-simulation master :mod:`sims.master`, the
+robustness suite :mod:`sims.robustness` and the FMU tests): the logger callback records each
+message an FMU passes with the instance name, status and category (:class:`Callbacks`);
+:func:`attempt` calls one of fmpy's ``FMU2Slave`` methods and returns the FMI status instead of
+raising; :func:`call` makes a raw ``fmi2*`` call with the instance's component; :func:`abandon`
+keeps an instance that returned fmi2Fatal alive, since FMI 2.0 allows no further call to it (not
+even ``fmi2FreeInstance``); :func:`open_fmu` reads and extracts an FMU file or says which file is
+not one.
+"""
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from fmpy import calloc, extract, free, read_model_description
+from fmpy.fmi1 import FMICallException
+from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
+                       fmi2CallbackFunctions, fmi2CallbackLoggerTYPE)
+
+OK, WARNING, DISCARD, ERROR, FATAL, PENDING = 0, 1, 2, 3, 4, 5
+STATUS_NAMES = {OK: "OK", WARNING: "Warning", DISCARD: "Discard", ERROR: "Error", FATAL: "Fatal",
+                PENDING: "Pending"}
+
+
+def status_name(status: int) -> str:
+    """``"OK"``, ``"Warning"``, ... for an fmi2Status (the number itself if it is none of them)."""
+    return STATUS_NAMES.get(status, str(status))
+
+
+@dataclass(frozen=True)
+class Message:
+    """One message an FMU passed to the logger callback.
+
+    Attributes
+    ----------
+    instance : str
+        The instance name the FMU gave.
+    status : int
+        The fmi2Status of the message.
+    category : str
+    text : str
+    """
+
+    instance: str
+    status: int
+    category: str
+    text: str
+
+    def line(self) -> str:
+        """``[Status] text``."""
+        return f"[{status_name(self.status)}] {self.text}"
+
+
+def _decode(raw: bytes | None) -> str:
+    return (raw or b"").decode(errors="replace")
+
+
+class Callbacks:
+    """``fmi2CallbackFunctions`` whose logger records every message; holds the ctypes callbacks
+    alive as long as it lives (an FMU may log until it is freed).
+
+    Parameters
+    ----------
+    sink : callable, optional
+        Receives each :class:`Message`; by default it is appended to :attr:`log`.
+
+    Attributes
+    ----------
+    functions : fmi2CallbackFunctions
+        What ``FMU2Slave.instantiate(callbacks=...)`` takes.
+    log : list of Message
+        The messages, in order (when no ``sink`` is given).
+    """
+
+    def __init__(self, sink: Callable[[Message], None] | None = None) -> None:
+        self.log: list[Message] = []
+        receive = sink or self.log.append
+
+        def logger(env: Any, instance: bytes, status: int, category: bytes, message: bytes) -> None:
+            receive(Message(_decode(instance), int(status), _decode(category), _decode(message)))
+
+        self._logger = logger
+        self.functions = fmi2CallbackFunctions()
+        self.functions.logger = fmi2CallbackLoggerTYPE(logger)
+        self.functions.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+        self.functions.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+
+    def text(self, since: int = 0) -> str:
+        """The texts of the messages from index ``since`` on, one per line."""
+        return "\n".join(m.text for m in self.log[since:])
+
+
+def attempt(slave: FMU2Slave, method: str, *args: Any) -> tuple[int, Any]:
+    """Call fmpy's ``slave.<method>(*args)`` (e.g. ``"doStep"``); returns (status, result).
+
+    fmpy raises ``FMICallException`` for fmi2Error and fmi2Fatal; its status is returned instead
+    (the result is then None).
+    """
+    try:
+        return OK, getattr(slave, method)(*args)
+    except FMICallException as exc:
+        return exc.status, None
+
+
+def call(slave: FMU2Slave, fn: str, *args: Any) -> int:
+    """The raw ``fmi2<fn>(component, *args)`` (e.g. ``"DoStep"``); returns its fmi2Status."""
+    try:
+        return getattr(slave, "fmi2" + fn)(slave.component, *args)
+    except FMICallException as exc:
+        return exc.status
+
+
+_ABANDONED: list[Any] = []
+
+
+def abandon(owner: Any) -> None:
+    """Keep ``owner`` (an instance that returned fmi2Fatal, with its callbacks) alive for the
+    life of the process and never call it again, as FMI 2.0 requires."""
+    _ABANDONED.append(owner)
+
+
+class UnreadableFmuError(ValueError):
+    """A file that is not a readable FMU (not a zip, no or a broken model description, ...)."""
+
+
+def open_fmu(path: str | Path) -> tuple[Any, str]:
+    """Read ``path``'s model description and extract the FMU.
+
+    Returns
+    -------
+    model_description : fmpy.model_description.ModelDescription
+    unzip_dir : str
+        The extracted folder (the caller removes it).
+
+    Raises
+    ------
+    FileNotFoundError
+        If ``path`` does not exist.
+    UnreadableFmuError
+        If it is not a readable FMU; the message names the file and what fmpy found.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"no such FMU: {path}")
+    try:
+        md = read_model_description(str(path))
+        return md, str(extract(str(path)))
+    except Exception as exc:  # fmpy raises BadZipFile, KeyError, XML errors ... for a broken file
+        raise UnreadableFmuError(f"{path} is not a readable FMU ({type(exc).__name__}: {exc})") from None

@@ -1,0 +1,64 @@
+"""Robustness suite over every built FMU: misuse cases x FMUs, each FMU in a child process.
+
+Modules: :mod:`.target` (the FMU and the variables a case abuses), :mod:`.instance` (one FMU
+instance in a worker), :mod:`.cases` and :mod:`.memory` (what each case does), :mod:`.table`
+(the cases and their expectations per backend), :mod:`.worker` (the child process),
+:mod:`.runner` (the parent: workers, crashes, time-outs, :class:`Report`), :mod:`.report`
+(Markdown and CSV), :mod:`.command` (the command line).
+
+Every ``*.fmu`` of a folder is driven through fmpy's low-level FMI 2.0 API
+(``fmpy.fmi2.FMU2Slave``, raw ``fmi2*`` calls so the exact status is seen) with
+non-finite and huge values, bad step sizes, calls outside the co-simulation state
+machine, out-of-range and wrong-type sets, unknown value references, an FMU state
+round trip and many instantiate/free cycles (:data:`.table.CASES`, run by the functions of :mod:`.cases` and :mod:`.memory`). The variables a case
+abuses are chosen from ``modelDescription.xml`` (:func:`.target.describe`); a case whose
+variable does not exist (no input, no ranged parameter, ...) is "n/a".
+
+The cases of one FMU run in a child process (``python -m sims.robustness --worker``, :mod:`.worker`),
+which reports each case as it starts and ends. If the child dies (segfault, abort)
+the case it was running is recorded as CRASH and the remaining cases continue in a
+new child; a case that does not finish within its time limit is killed and FAILs.
+
+Expected behaviour per backend (measured; see ``tests/test_fmu_robustness.py`` for the
+detailed checks of four FMUs):
+
+* native FMUs (``fmus/c/fmi2_cosim.c``) reject a bad call with fmi2Error and a message
+  naming the function or variable (logged whether or not logging is on), store
+  nothing, and stay usable: the suite checks that the abused value is unchanged and
+  that the normal sequence up to a completed ``fmi2DoStep`` still works (after
+  ``fmi2Reset`` when the instance is Terminated or in the error state);
+* pythonfmu FMUs (``fmus/pyslave.py`` in pythonfmu 0.7.0) return **fmi2Fatal** for every
+  rejected call (pythonfmu turns any Python exception into fmi2Fatal), log only with
+  logging on (so the suite instantiates them with ``loggingOn``), and report unknown
+  value references and wrong types with pythonfmu's own exception text. FMI 2.0
+  allows no call after fmi2Fatal, so such an instance is abandoned, never freed.
+
+Measured differences between the backends (``docs/robustness.md``):
+
+* a huge finite value (1e300) is accepted by both (no declared maximum excludes it); where
+  the native model code overflows to inf (and the state check reports it, or an output is
+  +-inf/NaN with fmi2OK), Python may raise OverflowError instead, which pythonfmu reports as
+  fmi2Fatal naming the exception (``cubesat_bdot_py``, ``mrp_hinf_satfmu_py``);
+* the FMU state round trip repeats the outputs bit for bit on both backends (pythonfmu
+  serializes the state as JSON with repr floats, which round-trip exactly).
+
+Memory: pythonfmu 0.7.0's ``fmi2Instantiate`` leaks on every call: its ``findClass``
+(``src/pythonfmu/PySlaveInstance.cpp``) re-executes the slave script, which creates a new
+class object, and never releases the ``PySequence_List`` of that class's ``__mro__`` (so
+the class is never freed) nor the ``repr`` strings it builds; it also inserts the resources
+folder into ``sys.path`` once more. Measured 2.6 to 4.3 KiB per instantiate/free cycle
+(1000 cycles), hence the pythonfmu bound of :func:`.memory.rss_bound_kib`. The slave objects
+themselves are freed (checked exactly, :func:`.memory.live_slaves`). Native FMUs: 0 KiB.
+"""
+from __future__ import annotations
+from __future__ import annotations
+
+from sims.robustness.command import main
+from sims.robustness.memory import rss_bound_kib
+from sims.robustness.runner import Report, Row, run
+from sims.robustness.table import CASES, CYCLES_CASE, FAR_CASE, Case, Settings, always_applies
+from sims.robustness.target import BACKENDS, NATIVE, PYTHONFMU
+from sims.robustness.worker import ABORT_ENV
+
+__all__ = ["ABORT_ENV", "BACKENDS", "CASES", "CYCLES_CASE", "FAR_CASE", "NATIVE", "PYTHONFMU", "Case", "Report", "Row",
+           "Settings", "always_applies", "main", "rss_bound_kib", "run"]

@@ -1,0 +1,45 @@
+"""Command line of the suite (``satfmu robustness``, ``python -m sims.robustness``)."""
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from sims.robustness.cases import FAR_FACTOR
+from sims.robustness.runner import run
+from sims.robustness.report import markdown
+from sims.robustness.table import Settings
+from sims.robustness.target import discover
+from sims.robustness.worker import work
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="python -m sims.robustness", description="Drive every FMU through misuse cases (cases x FMUs, each FMU in a child process).")
+    p.add_argument("--fmu-dir", type=Path, default=Path("build/fmus"), help="folder of the FMUs (every *.fmu)")
+    p.add_argument("--fmu", action="append", help="test only this FMU (repeatable; name with or without .fmu)")
+    p.add_argument("--cycles", type=int, default=1000, help="instantiate/free cycles of the memory case")
+    p.add_argument("--out", type=Path, help="write OUT.md and OUT.csv")
+    p.add_argument("--far-factor", type=float, default=FAR_FACTOR, help="far step in default step sizes")
+    p.add_argument("--worker", type=Path, help=argparse.SUPPRESS)
+    p.add_argument("--results", type=Path, help=argparse.SUPPRESS)
+    p.add_argument("cases", nargs="*", help=argparse.SUPPRESS)
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Command line: run the suite and print the report; exit code 0 if every case passed (or is
+    n/a), 1 on any failure or crash, 2 if there is no FMU to test."""
+    args = _parser().parse_args(argv)
+    if args.worker is not None:
+        work(args.worker, args.cases, Settings(args.cycles, args.far_factor), args.results)
+        return 0
+    try:
+        if not discover(args.fmu_dir, args.fmu):
+            raise FileNotFoundError(f"no *.fmu in {args.fmu_dir}; run `satfmu build` first")
+        report = run(args.fmu_dir, args.fmu, args.cycles, args.out, far_factor=args.far_factor)
+    except FileNotFoundError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    print(markdown(report))
+    return 0 if report.ok else 1
+

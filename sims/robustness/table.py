@@ -1,0 +1,199 @@
+"""The case table: every case, what it does, what each backend must answer, when it is n/a."""
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from sims.robustness import cases as c
+from sims.robustness.cases import FAR_FACTOR, STEPS, UNKNOWN_VR
+from sims.robustness.instance import OK, REJECTED, STATUS_NAMES, Outcome
+from sims.robustness.memory import RSS_PER_CYCLE_KIB, RSS_SLACK_KIB, cycles
+from sims.robustness.target import BACKENDS, NATIVE, PYTHONFMU, Target
+
+CYCLES_CASE = "instantiate/free cycles"
+FAR_CASE = "doStep far beyond default"
+
+
+@dataclass(frozen=True)
+class Expect:
+    """The expected result of a case on one backend.
+
+    Attributes
+    ----------
+    statuses : tuple of int
+        Accepted statuses of the call under test.
+    fragments : tuple of str
+        When the status is not fmi2OK, the log must contain one of these (empty: any text).
+    text : str
+        Human-readable form for the report.
+    """
+
+    statuses: tuple[int, ...]
+    fragments: tuple[str, ...]
+    text: str
+
+
+def rejected(backend: str, *fragments: str) -> Expect:
+    """A rejected call: fmi2Error (native, then still usable) or fmi2Fatal (pythonfmu), with a message."""
+    status = REJECTED[backend]
+    usable = ", usable after" if backend == NATIVE else ""
+    return Expect((status,), fragments, f"{STATUS_NAMES[status]} + '{fragments[0]}'{usable}")
+
+
+def ok_or_clean_error(backend: str, *fragments: str) -> Expect:
+    """Accepted, or rejected with one of ``fragments`` (native: usable afterwards); never a crash."""
+    status = REJECTED[backend]
+    return Expect((OK, status), fragments, f"OK or {STATUS_NAMES[status]} + '{' / '.join(fragments)}'")
+
+
+def _same(fn: Callable[[str], Expect]) -> dict[str, Expect]:
+    return {b: fn(b) for b in BACKENDS}
+
+
+def _needs(attr: str, why: str) -> Callable[[Target], str | None]:
+    """Applicability test: the target must have the variable ``attr`` (else "n/a: why")."""
+    return lambda t: None if getattr(t, attr) else why
+
+
+def always_applies(target: Target) -> str | None:
+    """Applicability test of the cases that need no particular variable: never n/a."""
+    return None
+
+
+def _needs_state(target: Target) -> str | None:
+    return None if target.can_state else "canGetAndSetFMUstate=false"
+
+
+@dataclass(frozen=True)
+class Case:
+    """One robustness case.
+
+    Attributes
+    ----------
+    name : str
+    what : str
+        What the case does.
+    expect : dict of str to Expect
+        Expected result per backend.
+    run : callable
+        The worker's function: ``run(instance, **settings)`` with the :class:`Settings` fields
+        named in ``settings``; returns an :class:`Outcome`.
+    applies : callable
+        ``Target -> None`` or the reason the case is n/a.
+    settings : tuple of str
+        Fields of :class:`Settings` the case takes.
+    """
+
+    name: str
+    what: str
+    expect: dict[str, Expect]
+    run: Callable[..., Outcome]
+    applies: Callable[[Target], str | None] = always_applies
+    settings: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class Settings:
+    """Sizes of a run.
+
+    Attributes
+    ----------
+    cycles : int
+        Instantiate/free cycles of the memory case.
+    far_factor : float
+        The far step in default step sizes.
+    """
+
+    cycles: int = 1000
+    far_factor: float = FAR_FACTOR
+
+
+NON_FINITE = "non-finite"
+HUGE_FRAGMENTS = {NATIVE: ("non-finite", "outside its range", "substeps (limit", "sample at")}
+"""Clean error messages of a huge value or step: overflow, range, substep limit, failed sample.
+pythonfmu also raises Python's OverflowError where C gives inf (``x**2`` of 1e300 in the model
+code), which pythonfmu reports with the exception's name."""
+HUGE_FRAGMENTS[PYTHONFMU] = HUGE_FRAGMENTS[NATIVE] + ("OverflowError",)
+NO_INPUT, NO_PARAMETER = "no Real input", "no Real parameter"
+
+
+def _cases() -> tuple[Case, ...]:
+    cases = []
+    for label, value in (("nan", math.nan), ("+inf", math.inf), ("-inf", -math.inf)):
+        cases.append(Case(f"input = {label}", f"setReal of the first Real input to {label} in StepComplete",
+                          _same(lambda b: rejected(b, NON_FINITE)), c.set_input(value), _needs("input", NO_INPUT)))
+    cases.append(Case("input = 1e300", "setReal of the first Real input to 1e300, then a default step",
+                      _same(lambda b: ok_or_clean_error(b, *HUGE_FRAGMENTS[b])), c.huge_input,
+                      _needs("input", NO_INPUT)))
+    for label, value in (("nan", math.nan), ("+inf", math.inf), ("-inf", -math.inf)):
+        cases.append(Case(f"parameter = {label}", f"setReal of the first Real parameter to {label} in "
+                          "InitializationMode", _same(lambda b: rejected(b, NON_FINITE)), c.set_parameter(value),
+                          _needs("parameter", NO_PARAMETER)))
+    cases.append(Case("parameter = 1e300", "setReal of the first Real parameter to 1e300 in InitializationMode, "
+                      "then a default step", _same(lambda b: ok_or_clean_error(b, *HUGE_FRAGMENTS[b])),
+                      c.huge_parameter, _needs("parameter", NO_PARAMETER)))
+    step_msg = "communicationStepSize must be finite and > 0"
+    cases += [
+        Case("doStep h = 0", "fmi2DoStep with a zero step", _same(lambda b: rejected(b, step_msg)), c.step_size(0.0)),
+        Case("doStep h < 0", "fmi2DoStep with minus the default step", _same(lambda b: rejected(b, step_msg)),
+             c.step_size(-1.0)),
+        Case("doStep h = nan", "fmi2DoStep with a NaN step", _same(lambda b: rejected(b, step_msg)), c.step_nan),
+        Case("doStep at wrong time", "fmi2DoStep from t = 1 s while the FMU is at 0 s",
+             _same(lambda b: rejected(b, "differs from the FMU time")), c.step_wrong_time),
+        Case(FAR_CASE, "one step of `far_factor` (default 1e4) default step sizes from the default start; "
+             "outputs finite if OK", _same(lambda b: ok_or_clean_error(b, *HUGE_FRAGMENTS[b])), c.far_step,
+             settings=("far_factor",)),
+        Case("doStep before init", "fmi2DoStep in Instantiated",
+             _same(lambda b: rejected(b, "must not be called in state Instantiated")), c.step_before_init),
+        Case("getReal before init", "fmi2GetReal of an output in Instantiated",
+             _same(lambda b: rejected(b, "must not be called in state Instantiated")), c.get_before_init,
+             _needs("outputs", "no Real output")),
+        Case("exitInit without enter", "fmi2ExitInitializationMode in Instantiated",
+             _same(lambda b: rejected(b, "must not be called in state Instantiated")), c.exit_without_enter),
+        Case("exitInit twice", "fmi2ExitInitializationMode in StepComplete",
+             _same(lambda b: rejected(b, "must not be called in state StepComplete")), c.exit_twice),
+        Case("enterInit twice", "fmi2EnterInitializationMode in InitializationMode",
+             _same(lambda b: rejected(b, "must not be called in state InitializationMode")), c.enter_twice),
+        Case("setupExperiment start = nan", "fmi2SetupExperiment with a NaN start time",
+             _same(lambda b: rejected(b, "non-finite startTime")), c.setup_nan),
+        Case("fixed parameter after init", "setting a non-tunable parameter (to its own value) in StepComplete",
+             _same(lambda b: rejected(b, "cannot be set in state StepComplete")), c.parameter_after_init,
+             _needs("fixed", "no non-tunable parameter")),
+        Case("set after terminate", "setting an input (else a parameter) to its own value in Terminated",
+             _same(lambda b: rejected(b, "cannot be set in state Terminated")), c.set_after_terminate),
+        Case("doStep after terminate", "fmi2DoStep in Terminated",
+             _same(lambda b: rejected(b, "must not be called in state Terminated")), c.step_after_terminate),
+        Case("parameter < min", "a parameter with a declared min set below it in InitializationMode",
+             _same(lambda b: rejected(b, "outside its range")), c.out_of_range(below=True),
+             _needs("below", "no parameter with a min")),
+        Case("parameter > max", "a parameter with a declared max set above it in InitializationMode",
+             _same(lambda b: rejected(b, "outside its range")), c.out_of_range(below=False),
+             _needs("above", "no parameter with a max")),
+        # pythonfmu checks the type and the value reference itself: only its own exception text
+        Case("setReal on Integer/Boolean", "fmi2SetReal on an Integer or Boolean parameter",
+             {NATIVE: rejected(NATIVE, "has another type"), PYTHONFMU: rejected(PYTHONFMU, "is not of type Real")},
+             c.real_on_non_real, _needs("non_real", "no Integer/Boolean parameter")),
+        Case("setInteger on Real", "fmi2SetInteger on a Real parameter",
+             {NATIVE: rejected(NATIVE, "has another type"), PYTHONFMU: rejected(PYTHONFMU, "is not of type Integer")},
+             c.integer_on_real, _needs("parameter", NO_PARAMETER)),
+        Case("setReal unknown vr", f"fmi2SetReal of value reference {UNKNOWN_VR}",
+             {NATIVE: rejected(NATIVE, f"unknown value reference {UNKNOWN_VR}"),
+              PYTHONFMU: rejected(PYTHONFMU, str(UNKNOWN_VR))}, c.unknown_vr("set")),
+        Case("getReal unknown vr", f"fmi2GetReal of value reference {UNKNOWN_VR}",
+             {NATIVE: rejected(NATIVE, f"unknown value reference {UNKNOWN_VR}"),
+              PYTHONFMU: rejected(PYTHONFMU, str(UNKNOWN_VR))}, c.unknown_vr("get")),
+        Case("FMU state round trip", f"get (and serialize/deserialize) the state after {STEPS} driven steps, "
+             f"step {STEPS} more, restore, repeat: identical outputs",
+             _same(lambda b: Expect((OK,), (), "OK, outputs identical bit for bit")), c.state_round_trip,
+             _needs_state),
+        Case(CYCLES_CASE, "instantiate, initialize, one step, terminate, free; RSS before and after",
+             {b: Expect((OK,), (), f"OK, RSS growth <= {RSS_SLACK_KIB} + {RSS_PER_CYCLE_KIB[b]:g} KiB/cycle")
+              for b in BACKENDS}, cycles, settings=("cycles",)),
+    ]
+    return tuple(cases)
+
+
+CASES = _cases()
+CASE_BY_NAME = {c.name: c for c in CASES}
+

@@ -1,0 +1,143 @@
+"""The FMU under test: its backend and the variables the cases abuse, from ``modelDescription.xml``."""
+from __future__ import annotations
+
+import math
+import zipfile
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from fmpy import read_model_description
+
+NATIVE, PYTHONFMU = "native", "pythonfmu"
+BACKENDS = (NATIVE, PYTHONFMU)
+PYTHONFMU_MARKER = "resources/slavemodule.txt"
+"""File every pythonfmu FMU carries (read by pythonfmu's fmi2Instantiate): tells the backends apart."""
+
+
+@dataclass(frozen=True)
+class Var:
+    """One scalar variable of ``modelDescription.xml``.
+
+    Attributes
+    ----------
+    name, type, causality, variability : str
+    vr : int
+        Value reference.
+    start : float or None
+        Declared start value (in the variable's unit).
+    min, max : float or None
+        Declared range (in the variable's unit), None when not declared.
+    """
+
+    name: str
+    vr: int
+    type: str
+    causality: str
+    variability: str
+    start: float | None
+    min: float | None
+    max: float | None
+
+
+@dataclass(frozen=True)
+class Target:
+    """An FMU under test and the variables the cases use (None: no such variable, case n/a).
+
+    Attributes
+    ----------
+    path : Path
+    name : str
+        File name without ``.fmu``.
+    backend : str
+        :data:`NATIVE` or :data:`PYTHONFMU`.
+    guid, model_identifier : str
+    step : float
+        Default communication step size in s (``DefaultExperiment stepSize``; 0.01 s if absent).
+    can_state, can_serialize : bool
+        Declared ``canGetAndSetFMUstate`` and ``canSerializeFMUstate``.
+    inputs, outputs : tuple of Var
+        The Real inputs and outputs.
+    parameter : Var or None
+        The first Real parameter.
+    fixed : Var or None
+        The first parameter that is not tunable.
+    below, above : Var or None
+        The first parameter with a finite declared minimum (maximum).
+    non_real : Var or None
+        The first Integer or Boolean parameter.
+    """
+
+    path: Path
+    name: str
+    backend: str
+    guid: str
+    model_identifier: str
+    step: float
+    can_state: bool
+    can_serialize: bool
+    inputs: tuple[Var, ...]
+    outputs: tuple[Var, ...]
+    parameter: Var | None
+    fixed: Var | None
+    below: Var | None
+    above: Var | None
+    non_real: Var | None
+
+    @property
+    def input(self) -> Var | None:
+        """The Real input the input cases abuse (the first one)."""
+        return self.inputs[0] if self.inputs else None
+
+
+def _number(text: str | None) -> float | None:
+    return None if text is None else float(text)
+
+
+def _var(v: Any) -> Var:
+    return Var(v.name, int(v.valueReference), v.type, v.causality, v.variability or "",
+               _number(v.start) if v.type in ("Real", "Integer") else None, _number(v.min), _number(v.max))
+
+
+def _first(variables: Sequence[Var], pred: Callable[[Var], bool]) -> Var | None:
+    return next((v for v in variables if pred(v)), None)
+
+
+def backend_of(path: Path) -> str:
+    """:data:`PYTHONFMU` if the FMU carries pythonfmu's slave module file, else :data:`NATIVE`."""
+    with zipfile.ZipFile(path) as z:
+        return PYTHONFMU if PYTHONFMU_MARKER in z.namelist() else NATIVE
+
+
+def describe(path: Path) -> Target:
+    """Read ``path``'s model description and choose the variables of the cases."""
+    md = read_model_description(str(path))
+    variables = [_var(v) for v in md.modelVariables]
+    params = [v for v in variables if v.causality == "parameter"]
+    real_params = [v for v in params if v.type == "Real"]
+    exp = md.defaultExperiment
+    step = float(exp.stepSize) if exp is not None and exp.stepSize is not None else 0.01
+    cs = md.coSimulation
+    return Target(
+        path=path, name=path.stem, backend=backend_of(path), guid=md.guid, model_identifier=cs.modelIdentifier,
+        step=step, can_state=bool(cs.canGetAndSetFMUstate), can_serialize=bool(cs.canSerializeFMUstate),
+        inputs=tuple(v for v in variables if v.causality == "input" and v.type == "Real"),
+        outputs=tuple(v for v in variables if v.causality == "output" and v.type == "Real"),
+        parameter=real_params[0] if real_params else None,
+        fixed=_first(params, lambda v: v.variability != "tunable"),
+        below=_first(params, lambda v: v.type in ("Real", "Integer") and v.min is not None and math.isfinite(v.min)),
+        above=_first(params, lambda v: v.type in ("Real", "Integer") and v.max is not None and math.isfinite(v.max)),
+        non_real=_first(params, lambda v: v.type in ("Integer", "Boolean")))
+
+
+def discover(fmu_dir: Path, names: Sequence[str] | None = None) -> list[Path]:
+    """The FMUs to test: every ``*.fmu`` in ``fmu_dir``, or those named (with or without ``.fmu``)."""
+    if names is None:
+        return sorted(fmu_dir.glob("*.fmu"))
+    paths = [fmu_dir / (n if n.endswith(".fmu") else n + ".fmu") for n in names]
+    missing = [str(p) for p in paths if not p.is_file()]
+    if missing:
+        raise FileNotFoundError(f"no such FMU: {', '.join(missing)}")
+    return paths
+
