@@ -17,15 +17,27 @@ read or the next step), and again if an input changes there.
 pythonfmu 0.7.0 writes parameters without variability and omits the
 ModelStructure's InitialUnknowns; :meth:`SatfmuSlave.to_xml` therefore returns
 satfmu's own model description (the same one the native FMU carries).
+
+What this class guards against in pythonfmu 0.7.0 (``docs/pythonfmu.md`` lists the defects it
+cannot guard, each with a reproduction in ``scripts/upstream/``): an empty instance name is
+refused (pythonfmu passes the name on, but not the GUID or the FMU type, so those cannot be
+checked here); the use after free in pythonfmu's library at process exit is avoided
+(:func:`_guard_exit`); a serialized FMU state carries the model's identity and digest and a
+checksum of its content, and every restored state is checked field by field
+(:meth:`SatfmuSlave._state_problem`).
 """
 from __future__ import annotations
 
+import atexit
 import ctypes
 import functools
 import importlib
+import json
 import math
 import os
 import sys
+import zlib
+from dataclasses import dataclass
 from types import ModuleType
 from typing import Any, Callable, Sequence
 from xml.etree.ElementTree import Element, parse
@@ -35,7 +47,18 @@ from pythonfmu.enums import Fmi2Status
 
 KIND_PARAMETER, KIND_INPUT, KIND_OUTPUT = 0, 1, 2
 DESCRIPTION_FILE = "satfmu_description.xml"
-MAX_SUBSTEPS = 10_000_000
+MAX_STEP_INSTANTS = 1_000_000
+"""Most sample instants one fmi2DoStep may span (as ``fmus/c/fmi2_cosim.c``); a longer step is
+refused before anything changes."""
+MAX_STEP_SUBSTEPS = 1_000_000
+"""Most integration substeps one fmi2DoStep may take (as ``fmus/c/fmi2_cosim.c``)."""
+INDEX_LIMIT = 2 ** 52
+"""Sample counts stay below this: exact integers in a double, as the native FMU keeps them."""
+STATE_FORMAT = 1
+"""Version of the FMU state's layout (:meth:`SatfmuSlave._get_fmu_state`); a state of another
+layout is refused."""
+STATE_MODES = ("Instantiated", "InitializationMode", "StepComplete", "Terminated")
+"""The states of the FMI state machine an FMU state may hold (after fmi2Fatal no call is allowed)."""
 
 
 def substep_count(h: float, n_substeps: float, h_max: float) -> int:
@@ -100,22 +123,27 @@ class ExactFlow:
             self.flow = affine_flow([list(flat[i * n:(i + 1) * n]) for i in range(n)], tau)
             self.key = key
         phi, gamma = self.flow  # type: ignore[misc]
-        xt = [sum(f * v for f, v in zip(phi[i], x)) + sum(g * v for g, v in zip(gamma[i], b)) for i in range(n)]
+        # one sum per row over both products, in the C wrapper's order (the same rounding)
+        xt = [sum(phi[i][j] * x[j] + gamma[i][j] * b[j] for j in range(n)) for i in range(n)]
         return self.gen.post_step(t + tau, xt, x, u, p)
 
-    def step(self, t: float, x: Sequence[float], u: Sequence[float], p: Sequence[float], h: float, t_end: float
-             ) -> list[float]:
-        """Advance ``h`` seconds from ``t`` to ``t_end``, cut at the switch instants of the piecewise
-        law (an uncut step uses ``h`` itself, so a constant step size reuses the cached flow)."""
+    def step(self, t: float, x: Sequence[float], u: Sequence[float], p: Sequence[float], h: float) -> list[float]:
+        """Advance ``h`` seconds from ``t``, cut at the switch instants of the piecewise law.
+
+        The cuts are durations from ``t`` (a switch within ``TIME_TOL max(1 s, h)`` of it is that
+        start's own), so the flow is the same at any absolute time; an uncut step uses ``h``
+        itself, so a constant step size reuses the cached flow.
+        """
         x = list(x)
-        t_start = t
+        elapsed, now = 0.0, t
         for _ in range(MAX_SWITCHES):
-            ts = self.gen.switch_time(t, x, u, p)[0]
-            if not ts > self.gen.TIME_TOL * max(1.0, abs(t_end)) or ts >= t_end - t:
+            ts = self.gen.switch_time(now, x, u, p)[0]
+            if not ts > self.gen.TIME_TOL * max(1.0, h) or ts >= h - elapsed:
                 break
-            x = self.segment(t, x, u, p, ts)
-            t += ts
-        return self.segment(t, x, u, p, h if t == t_start else t_end - t)
+            x = self.segment(now, x, u, p, ts)
+            elapsed += ts
+            now = t + elapsed
+        return self.segment(now, x, u, p, h - elapsed if elapsed > 0.0 else h)
 
 
 def rk4_step(gen: ModuleType, t: float, x: Sequence[float], u: Sequence[float], p: Sequence[float],
@@ -161,8 +189,129 @@ def _compensate_pythonfmu_refcount(module_name: str) -> None:
         ctypes.pythonapi.Py_IncRef(ctypes.py_object(module.__dict__))
 
 
+_EXIT_GUARDED: set[str] = set()
+"""Libraries whose pythonfmu interpreter holder :func:`_guard_exit` resets at exit."""
+
+
+def _guard_exit(resources: str | None, model_identifier: str) -> None:
+    """Have this FMU's pythonfmu library reset its interpreter holder before the process exits.
+
+    pythonfmu 0.7.0's library keeps the interpreter holder in a static ``std::shared_ptr``
+    (``pyState``, src/pythonfmu/PySlaveInstance.cpp) that the first fmi2Instantiate fills. At
+    exit, C++ destroys that pointer (an exit handler), and then the library's
+    ``__attribute__((destructor))`` assigns ``nullptr`` to the destroyed pointer: it releases the
+    freed control block once more (valgrind: invalid read in ``finalizePythonInterpreter``), which
+    corrupts the heap and aborts some processes at exit ("corrupted double-linked list",
+    SIGABRT; ``scripts/upstream/exit_without_reset.py``). Unloading the library does not help:
+    it defines STB_GNU_UNIQUE symbols, so glibc never unloads it and its destructor runs at exit
+    whatever the host did. Python runs its atexit handlers before C's exit handlers, so calling
+    the library's exported ``finalizePythonInterpreter`` from one empties the pointer while it
+    is alive; the two later releases then find it empty. The library is the one already loaded
+    from ``<FMU>/binaries/linux64/<model_identifier>.so`` next to ``resources`` (looked up with
+    ``RTLD_NOLOAD``: nothing is loaded); none is found elsewhere, and nothing happens off Linux.
+
+    Only in a Python executable (``sys.orig_argv`` not empty): where pythonfmu started the
+    interpreter itself (a host without Python), that holder's destructor finalizes Python, and
+    the atexit handlers run inside it.
+    """
+    if not (sys.platform.startswith("linux") and sys.orig_argv and resources):
+        return
+    library = os.path.realpath(os.path.join(resources, os.pardir, "binaries", "linux64", model_identifier + ".so"))
+    if library in _EXIT_GUARDED:
+        return
+    try:
+        handle = ctypes.CDLL(library, mode=os.RTLD_NOLOAD | os.RTLD_LAZY)
+        reset = handle.finalizePythonInterpreter
+    except (OSError, AttributeError):  # loaded from elsewhere, or not pythonfmu 0.7.0's library
+        return
+    reset.restype, reset.argtypes = None, []
+    _EXIT_GUARDED.add(library)
+    atexit.register(reset)
+
+
+def _canonical_json(obj: Any) -> str:
+    """``obj`` as JSON with sorted keys, no spaces and exact (repr) floats; NaN and inf refused."""
+    return json.dumps(obj, sort_keys=True, separators=(",", ":"), allow_nan=False)
+
+
+def _checksum(content: dict[str, Any]) -> int:
+    """CRC-32 (IEEE 802.3, :func:`zlib.crc32`) of the canonical JSON of an FMU state's content, as
+    the native FMU takes of its state record: every error burst of up to 32 bits is detected."""
+    return zlib.crc32(_canonical_json(content).encode())
+
+
+def _refuse_constant(name: str) -> float:
+    raise ValueError(f"non-finite number {name} (never written by this FMU)")
+
+
 class FmuCallError(RuntimeError):
     """An FMI call was rejected (bad value, wrong call order); the message names the variable."""
+
+
+
+
+def time_tolerance(relative: float, t: float, start: float) -> float:
+    """Two times closer than this are one instant at ``t``, s: ``relative max(1 s, |t|, |start|)``
+    (``relative`` is the generated ``TIME_TOL``; ``start`` the experiment's start time, s): the
+    rounding a master's ``t0 + k h`` and an FMU's ``t_{k-1} + h`` may differ by."""
+    return relative * max(1.0, abs(t), abs(start))
+
+
+def _ceil(v: float) -> float:
+    """``ceil`` in floating point, as C's: infinity stays infinite."""
+    return float(math.ceil(v)) if math.isfinite(v) else v
+
+
+@dataclass(frozen=True)
+class Instants:
+    """The sample instants of a sampler: ``t_k = k * period - phase`` (``start + k * period``
+    without a phase parameter), ``k`` an integer count (never an accumulated time).
+
+    Attributes
+    ----------
+    period : float
+        s.
+    phase : float or None
+        s; None when the model has no phase parameter (the instants start at ``start``).
+    start : float
+        The experiment's start time, s.
+    time_tol : float
+        Relative time tolerance (``TIME_TOL`` of the generated module).
+    """
+
+    period: float
+    phase: float | None
+    start: float
+    time_tol: float
+
+    def tol(self, t: float) -> float:
+        """Two times closer than this are one instant at ``t``, s (:func:`time_tolerance`)."""
+        return time_tolerance(self.time_tol, t, self.start)
+
+    def time(self, k: int) -> float:
+        """The instant of index ``k``, s."""
+        return k * self.period - self.phase if self.phase is not None else self.start + k * self.period
+
+    @property
+    def origin(self) -> float:
+        """``t_k - k * period``, s."""
+        return -self.phase if self.phase is not None else self.start
+
+    def first_after(self, t: float) -> int | None:
+        """The index of the first instant later than ``t`` by more than :meth:`tol`; None when the
+        period is not > 0 or the index is not below :data:`INDEX_LIMIT`."""
+        q = (t - self.origin) / self.period if self.period > 0.0 else math.nan
+        if not (math.isfinite(q) and abs(math.floor(q) + 1) < INDEX_LIMIT):
+            return None
+        k = math.floor(q) + 1
+        tol = self.tol(t)
+        for _ in range(4):  # the rounding of the quotient, either way
+            if self.time(k - 1) > t + tol:
+                k -= 1
+        for _ in range(4):
+            if self.time(k) <= t + tol:
+                k += 1
+        return k
 
 
 class SatfmuSlave(Fmi2Slave):
@@ -173,6 +322,9 @@ class SatfmuSlave(Fmi2Slave):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__(**kwargs)
         _compensate_pythonfmu_refcount(type(self).__module__)
+        if not self.instance_name:  # fmi2Instantiate then returns NULL (the log holds this text)
+            raise ValueError("fmi2Instantiate: missing instance name")
+        _guard_exit(self.resources, type(self).__name__)
         gen = self.generated
         self.modelName = type(self).__name__
         self._table = gen.VARIABLES
@@ -185,6 +337,7 @@ class SatfmuSlave(Fmi2Slave):
         self._flow = ExactFlow(gen) if gen.INTEGRATOR == "exact" else None
         smp = gen.SAMPLER
         self._sampler = smp
+        self._nh = smp["n_held"] if smp else 0
         if smp is not None and smp["module"] is not None:
             fn = getattr(importlib.import_module(smp["module"]), smp["function"])
             self._sample_fn = functools.partial(fn, **smp["options"])
@@ -199,10 +352,11 @@ class SatfmuSlave(Fmi2Slave):
         self.mode = "Instantiated"
         self.time = 0.0
         self.p = [float(v["start"]) for v in self._table if v["kind"] == KIND_PARAMETER]
-        self.p += [0.0] * (self._sampler["n_held"] if self._sampler else 0)  # held values follow
+        self.p += [0.0] * self._nh  # held values follow
         self.start_time = 0.0
-        self.next_instant = 0.0  # the first sample instant after the FMU time
-        self.held_prev = [0.0] * (self._sampler["n_held"] if self._sampler else 0)  # previous instant's
+        self.stop_time = math.inf  # no stopTime defined
+        self.next_k = 0  # index of the first sample instant after the FMU time
+        self.held_prev = [0.0] * self._nh  # the held values of the previous instant
         self.at_instant = True  # the FMU time is a sample instant
         self.sample_due = self._sampler is not None  # the held values of that instant are stale
         self.u = [float(v["start"]) for v in self._table if v["kind"] == KIND_INPUT]
@@ -268,37 +422,49 @@ class SatfmuSlave(Fmi2Slave):
             ctypes.pythonapi.Py_IncRef(ctypes.py_object(obj))
         raise FmuCallError(message)
 
+    def _require(self, fn: str, *modes: str) -> None:
+        if self.mode not in modes:
+            self._reject(f"{fn} must not be called in state {self.mode}")
+
+    # ------------------------------------------------------------ sampling
+    @classmethod
+    def _instants(cls, p: Sequence[float], start_time: float) -> Instants:
+        """The sample instants with the parameters ``p`` and the start time ``start_time`` (s)."""
+        smp = cls.generated.SAMPLER
+        phase = None if smp["phase_index"] is None else p[smp["phase_index"]]
+        return Instants(p[smp["period_index"]], phase, start_time, cls.generated.TIME_TOL)
+
     def _sample(self) -> None:
         """Compute the held values at the current time, state, inputs and parameters."""
-        n_held = self._sampler["n_held"]
-        p = self.p[:len(self.p) - n_held] + self.held_prev  # expressions read the previous instant's values
+        p = self.p[:self._np] + self.held_prev  # expressions read the previous instant's values
         args = self.generated.sample_arguments(self.time, self.x, self.u, p)
         try:
             held = [float(v) for v in self._sample_fn(args)]
         except Exception as exc:  # the sampler's own message names what failed
             self.mode = "Error"
             self._reject(f"sample at t = {self.time:g} s failed: {type(exc).__name__}: {exc}")
-        if len(held) != self._sampler["n_held"] or not all(math.isfinite(v) for v in held):
+        if len(held) != self._nh or not all(math.isfinite(v) for v in held):
             self.mode = "Error"
-            self._reject(f"sample at t = {self.time:g} s returned {held!r}, expected "
-                         f"{self._sampler['n_held']} finite values")
-        self.p[len(self.p) - len(held):] = held
+            self._reject(f"sample at t = {self.time:g} s returned {held!r}, expected {self._nh} finite values")
+        self.p[self._np:] = held
         self.sample_due = False
         self.outputs_valid = False
 
-    def _require(self, fn: str, *modes: str) -> None:
-        if self.mode not in modes:
-            self._reject(f"{fn} must not be called in state {self.mode}")
+    def _new_instant(self) -> None:
+        """The FMU time reached a new instant: what is held becomes the previous instant's values."""
+        self.held_prev = self.p[self._np:]
 
     # ------------------------------------------------------------ FMI
     def setup_experiment(self, start_time: float, stop_time: float | None, tolerance: float | None) -> None:
         self._require("fmi2SetupExperiment", "Instantiated")
         if not math.isfinite(start_time):
             self._reject("fmi2SetupExperiment: non-finite startTime")
-        if stop_time is not None and not stop_time >= start_time:
-            self._reject(f"fmi2SetupExperiment: stopTime {stop_time:g} before startTime {start_time:g}")
+        if stop_time is not None and not (math.isfinite(stop_time) and stop_time >= start_time):
+            self._reject(f"fmi2SetupExperiment: stopTime {stop_time:g} is not a finite time from startTime "
+                         f"{start_time:g} on")
         self.time = float(start_time)
         self.start_time = self.time
+        self.stop_time = math.inf if stop_time is None else float(stop_time)
 
     def enter_initialization_mode(self) -> None:
         self._require("fmi2EnterInitializationMode", "Instantiated")
@@ -307,109 +473,263 @@ class SatfmuSlave(Fmi2Slave):
 
     def exit_initialization_mode(self) -> None:
         self._require("fmi2ExitInitializationMode", "InitializationMode")
+        k = 0
+        if self._sampler is not None:
+            instants = self._instants(self.p, self.start_time)
+            first = instants.first_after(self.time)
+            if first is None:
+                self._reject(f"fmi2ExitInitializationMode: the sample instants k * {instants.period:g} s from the "
+                             f"origin {instants.origin:g} s cannot be counted exactly at t = {self.time:g} s")
+            k = first
         self.x = [self.p[i] for i in self.generated.STATE_INITIAL]
         self.mode = "StepComplete"
         self.outputs_valid = False
         self.at_instant = True
         self.sample_due = self._sampler is not None
-        if self._sampler is not None:
-            self.next_instant = self._instant_after(self.time)
+        self.next_k = k
 
     def do_step(self, current_time: float, step_size: float) -> bool:
         self._require("fmi2DoStep", "StepComplete")
-        h = float(step_size)
+        h, t = float(step_size), float(current_time)
         if not (math.isfinite(h) and h > 0.0):
             self._reject(f"fmi2DoStep: communicationStepSize must be finite and > 0, got {h:g}")
-        if not math.isfinite(current_time) or abs(current_time - self.time) > 1e-9 * max(1.0, abs(self.time)):
-            self._reject(f"fmi2DoStep: currentCommunicationPoint {current_time!r} differs from the FMU time {self.time!r}")
-        t_end = current_time + h
+        tol = self._time_tol(max(abs(t), abs(self.time))) if math.isfinite(t) else 0.0
+        if not math.isfinite(t) or abs(t - self.time) > tol:
+            self._reject(f"fmi2DoStep: currentCommunicationPoint {t:.17g} differs from the FMU time "
+                         f"{self.time:.17g} by {t - self.time:g} s (tolerance {tol:g} s)")
+        t_end = t + h
+        if not (math.isfinite(t_end) and t_end > t):
+            self._reject(f"fmi2DoStep: h = {h:g} s from t = {t:.17g} s does not reach a finite later time")
+        if t_end > self.stop_time + self._time_tol(self.stop_time):
+            self._reject(f"fmi2DoStep: the step to t = {t_end:.17g} s passes stopTime {self.stop_time:.17g} s")
+        k_end = self._plan_step(h, t_end)
         if self._sampler is None:
-            self._integrate(current_time, h)
+            self._integrate(h, t_end)
         else:
-            self._step_sampled(current_time, t_end)
-        self.time = t_end
+            self._step_sampled(t_end, k_end)
         self.outputs_valid = False
         return True
 
-    def _instant_after(self, t: float) -> float:
-        """The first sample instant later than ``t`` (by more than the time tolerance)."""
-        period = self.p[self._sampler["period_index"]]
-        if not (math.isfinite(period) and period > 0.0):
-            self._reject(f"sample period {period!r} must be finite and > 0 s")
-        i_phase = self._sampler["phase_index"]
-        phase = -self.start_time if i_phase is None else self.p[i_phase]
-        k = math.floor((t + phase) / period) + 1
-        if k * period - phase <= t + self.generated.TIME_TOL * max(1.0, abs(t)):
-            k += 1
-        return k * period - phase
+    def _time_tol(self, t: float) -> float:
+        """Two times closer than this are one instant at ``t``, s (:func:`time_tolerance`)."""
+        return time_tolerance(self.generated.TIME_TOL, t, self.start_time)
 
-    def _new_instant(self) -> None:
-        """The FMU time reached a new instant: what is held becomes the previous instant's values."""
-        self.held_prev = self.p[len(self.p) - self._sampler["n_held"]:]
+    def _substeps(self, h: float) -> float:
+        """Substeps of an integration over ``h`` s: ``max(n_substeps, ceil(h / h_max))`` (1 without
+        these parameters, 0 without states); may be huge or infinite (:meth:`_plan_step` checks)."""
+        if not self.generated.N_STATES:
+            return 0.0
+        n = self.p[self._i_nsub] if self._i_nsub >= 0 else 1.0
+        if self._i_hmax >= 0:
+            n = max(n, _ceil(h / self.p[self._i_hmax]))
+        return n
 
-    def _step_sampled(self, t: float, t_end: float) -> None:
-        """Integrate to ``t_end`` in segments between sample instants, sampling at each."""
-        tol = self.generated.TIME_TOL * max(1.0, abs(t_end))
+    def _plan_step(self, h: float, t_end: float) -> int:
+        """The work of a step of ``h`` s to ``t_end`` counted before anything changes: the index of
+        the last sample instant it reaches (0 without a sampler), its substeps within
+        :data:`MAX_STEP_SUBSTEPS` and its instants within :data:`MAX_STEP_INSTANTS`, or the step
+        is rejected."""
+        k_end = 0
+        if self._sampler is not None:
+            instants = self._instants(self.p, self.start_time)
+            period, tol = instants.period, instants.tol(t_end)
+            if not period > 4.0 * tol:
+                self._reject(f"fmi2DoStep: the sample period {period:g} s is below the time resolution at "
+                             f"t = {t_end:.17g} s (instants closer than {tol:g} s are one)")
+            k_after = instants.first_after(t_end)
+            if k_after is None:
+                self._reject(f"fmi2DoStep: h = {h:g} s: the sample instants up to t = {t_end:g} s cannot be counted "
+                             "exactly (limit 2^52 periods)")
+            k_end = k_after - 1
+            count = k_end - self.next_k + 1
+            if count > MAX_STEP_INSTANTS:
+                self._reject(f"fmi2DoStep: h = {h:g} s spans {count} sample instants of {period:g} s "
+                             f"(limit {MAX_STEP_INSTANTS}); take shorter communication steps")
+            # each of the count + 1 segments between instants lasts at most min(h, period), one
+            # more substep each for the rounding of its length
+            n_sub = (count + 1) * (self._substeps(min(h, period)) + (1.0 if self.generated.N_STATES else 0.0))
+        else:
+            n_sub = self._substeps(h)
+        if not n_sub <= MAX_STEP_SUBSTEPS:
+            self._reject(f"fmi2DoStep: h = {h:g} s would need {n_sub:g} integration substeps (limit "
+                         f"{MAX_STEP_SUBSTEPS}); take shorter communication steps or raise h_max")
+        return k_end
+
+    def _step_sampled(self, t_end: float, k_end: int) -> None:
+        """Integrate to ``t_end`` in segments between the instants ``next_k .. k_end``, sampling at each."""
+        instants = self._instants(self.p, self.start_time)
+        tol = instants.tol(t_end)
         if self.sample_due:
             self._sample()
-        while True:
-            t_next = self.next_instant
-            if t_next < t_end - tol:
-                self._integrate(t, t_next - t)
-                t = self.time = t_next
-                self.next_instant = self._instant_after(t)
-                self._new_instant()
-                self._sample()
-                continue
-            self._integrate(t, t_end - t)
-            self.at_instant = abs(t_next - t_end) <= tol
-            if self.at_instant:
-                self.next_instant = self._instant_after(t_next)
-                self._new_instant()
-            self.sample_due = self.at_instant
-            return
+        while self.next_k <= k_end:
+            t_k = instants.time(self.next_k)
+            if t_k >= t_end - tol:  # the step ends at this instant
+                break
+            self._integrate(t_k - self.time, t_k)
+            self.next_k += 1
+            self._new_instant()
+            self._sample()
+        self._integrate(t_end - self.time, t_end)
+        self.at_instant = self.next_k <= k_end
+        if self.at_instant:
+            self.next_k = k_end + 1
+            self._new_instant()
+        self.sample_due = self.at_instant
 
-    def _integrate(self, t: float, h: float) -> None:
-        """Advance the state by ``h`` seconds from ``t`` (inputs and held values constant)."""
+    def _integrate(self, h: float, t_end: float) -> None:
+        """Advance the state by ``h`` seconds from the FMU time, which ends at ``t_end`` (inputs and
+        held values constant; the substeps are within bounds, :meth:`_plan_step`)."""
+        t0 = self.time
         if not self.generated.N_STATES:
+            self.time = t_end
             return
-        n_sub = self.p[self._i_nsub] if self._i_nsub >= 0 else 1.0
-        h_max = self.p[self._i_hmax] if self._i_hmax >= 0 else math.inf
-        n = substep_count(h, n_sub, h_max)
-        if n > MAX_SUBSTEPS:
-            self._reject(f"fmi2DoStep: step {h:g} s would need {n} RK4 substeps (limit {MAX_SUBSTEPS}); raise h_max")
+        n = int(self._substeps(h))
         try:
             if self._flow is not None:
-                x = self.x
+                hs, t, x = h / n, t0, self.x
                 for k in range(n):
-                    x = self._flow.step(t + k * h / n, x, self.u, self.p, h / n,
-                                        t + h if k + 1 == n else t + (k + 1) * h / n)
+                    x = self._flow.step(t, x, self.u, self.p, hs)
+                    t = t_end if k + 1 == n else t0 + (k + 1) * hs
             else:
-                x = rk4_step(self.generated, t, self.x, self.u, self.p, h, n)
+                x = rk4_step(self.generated, t0, self.x, self.u, self.p, h, n)
         except ArithmeticError:  # float ** overflows with OverflowError where C gives inf
             x = [math.inf]
         if not all(math.isfinite(v) for v in x):
             self.mode = "Error"
-            self._reject(f"fmi2DoStep: the state became non-finite in the step from t = {t:g} s "
+            self._reject(f"fmi2DoStep: the state became non-finite in the step from t = {t0:g} s "
                          f"with h = {h:g} s ({n} substeps); reduce the step or h_max, or restore an FMU state")
         self.x = x
+        self.time = t_end
 
     def terminate(self) -> None:
-        self._require("fmi2Terminate", "StepComplete", "Error")
+        # FMI 2.0: from stepComplete only (an instance in the error state is reset or freed)
+        self._require("fmi2Terminate", "StepComplete")
         self.mode = "Terminated"
 
+    # ------------------------------------------------------------ FMU state
     def _get_fmu_state(self) -> dict[str, Any]:
-        return {"mode": self.mode, "time": self.time, "x": list(self.x), "u": list(self.u),
-                "p": list(self.p), "y": list(self.y), "outputs_valid": self.outputs_valid,
-                "start_time": self.start_time, "next_instant": self.next_instant, "held_prev": list(self.held_prev),
-                "at_instant": self.at_instant, "sample_due": self.sample_due}
+        """The FMU state: the model's identity (name, GUID: the model digest), the layout version,
+        the content (what a restore sets; the outputs are recomputed from it) and its CRC-32."""
+        content = {"mode": self.mode, "time": self.time, "start_time": self.start_time,
+                   "stop_time": None if math.isinf(self.stop_time) else self.stop_time,
+                   "x": list(self.x), "u": list(self.u), "p": list(self.p), "held_prev": list(self.held_prev),
+                   "next_k": self.next_k, "at_instant": self.at_instant, "sample_due": self.sample_due}
+        return {"model": self.generated.NAME, "guid": self.generated.GUID, "format": STATE_FORMAT,
+                "content": content, "crc32": _checksum(content)}
 
-    def _set_fmu_state(self, state: dict[str, Any]) -> None:
-        for key in ("mode", "time", "outputs_valid", "start_time", "next_instant", "at_instant", "sample_due"):
-            setattr(self, key, state[key])
-        for key in ("x", "u", "p", "y", "held_prev"):
-            setattr(self, key, list(state[key]))
+    def _set_fmu_state(self, state: Any) -> None:
+        problem = self._state_problem(state)
+        if problem is not None:
+            self._reject(f"fmi2SetFMUstate: {problem}")
+        content = state["content"]
+        for key in ("mode", "at_instant", "sample_due", "next_k"):
+            setattr(self, key, content[key])
+        for key in ("time", "start_time"):
+            setattr(self, key, float(content[key]))
+        self.stop_time = math.inf if content["stop_time"] is None else float(content["stop_time"])
+        for key in ("x", "u", "p", "held_prev"):
+            setattr(self, key, [float(v) for v in content[key]])
+        self.outputs_valid = False
+
+    @staticmethod
+    def _fmu_state_to_bytes(state: dict[str, Any]) -> bytes:
+        return _canonical_json(state).encode()
+
+    @classmethod
+    def _fmu_state_from_bytes(cls, data: bytes) -> dict[str, Any]:
+        """Decode and check a serialized FMU state; a buffer that is not a valid state of this
+        model raises (pythonfmu 0.7.0 returns fmi2Fatal with this message)."""
+        try:
+            state = json.loads(data.decode("utf-8"), parse_constant=_refuse_constant)
+        except (UnicodeDecodeError, ValueError, RecursionError) as exc:  # json.JSONDecodeError is a ValueError
+            raise ValueError(f"fmi2DeSerializeFMUstate: not a state of this FMU ({type(exc).__name__}: {exc})"
+                             ) from None
+        problem = cls._state_problem(state)
+        if problem is not None:
+            raise ValueError(f"fmi2DeSerializeFMUstate: {problem}")
+        return state
+
+    @classmethod
+    def _state_problem(cls, state: Any) -> str | None:
+        """What makes ``state`` unfit to restore (as the native FMU checks its records: identity,
+        layout, checksum, then every field's range), or None."""
+        gen = cls.generated
+        if not (isinstance(state, dict) and set(state) == {"model", "guid", "format", "content", "crc32"}):
+            return "not a state of this FMU (not a satfmu FMU state)"
+        if state["guid"] != gen.GUID:
+            return (f"not a state of this FMU (the state of model {state['model']!r} with GUID {state['guid']!r}; "
+                    f"this FMU's GUID is {gen.GUID})")
+        if state["format"] != STATE_FORMAT:
+            return f"not a state of this FMU (format {state['format']!r}, expected {STATE_FORMAT})"
+        content = state["content"]
+        if not (isinstance(content, dict) and set(content) == STATE_FIELDS):
+            return "corrupted state (fields)"
+        try:
+            crc = _checksum(content)
+        except (TypeError, ValueError):  # a value JSON cannot hold, e.g. NaN in a state made in memory
+            return "corrupted state (a value is not finite)"
+        if state["crc32"] != crc:
+            given = state["crc32"]
+            shown = f"0x{given:08x}" if _is_real(given) and isinstance(given, int) else repr(given)
+            return f"corrupted state (checksum {shown}, computed 0x{crc:08x})"
+        return cls._content_problem(content)
+
+    @classmethod
+    def _content_problem(cls, c: dict[str, Any]) -> str | None:
+        """The range checks of a state's content (one with a valid checksum: written by this
+        FMU's code, so they guard against a faulty build of the same model)."""
+        gen = cls.generated
+        nh = gen.SAMPLER["n_held"] if gen.SAMPLER else 0
+        table = gen.VARIABLES
+        n_p = sum(1 for v in table if v["kind"] == KIND_PARAMETER)
+        n_u = sum(1 for v in table if v["kind"] == KIND_INPUT)
+        if c["mode"] not in STATE_MODES:
+            return f"corrupted state (invalid model state {c['mode']!r})"
+        flags = (c["at_instant"], c["sample_due"])
+        if not all(isinstance(f, bool) for f in flags) or (nh == 0 and c["sample_due"]):
+            return f"corrupted state (flags {flags!r})"
+        lengths = {"x": gen.N_STATES, "u": n_u, "p": n_p + nh, "held_prev": nh}
+        for key, n in lengths.items():
+            if not (isinstance(c[key], list) and len(c[key]) == n and all(_is_real(v) for v in c[key])):
+                return f"corrupted state ({key}: expected {n} numbers)"
+        times = (c["time"], c["start_time"]) + (() if c["stop_time"] is None else (c["stop_time"],))
+        if not all(_is_real(v) for v in times):
+            return "corrupted state (times)"
+        start, t = float(c["start_time"]), float(c["time"])
+        stop = math.inf if c["stop_time"] is None else float(c["stop_time"])
+        tol = time_tolerance(gen.TIME_TOL, t, start)
+        if not (math.isfinite(start) and math.isfinite(t) and stop >= start and start - tol <= t <= stop + tol):
+            return f"corrupted state (time {t:g} s outside [start {start:g} s, stop {stop:g} s])"
+        if not all(math.isfinite(v) for v in c["x"]):
+            return "corrupted state (non-finite continuous state)"
+        if not all(math.isfinite(v) for v in c["held_prev"] + c["p"][n_p:]):
+            return "corrupted state (held values)"
+        for row in table:
+            if row["kind"] == KIND_OUTPUT:
+                continue
+            value = float((c["p"] if row["kind"] == KIND_PARAMETER else c["u"])[row["index"]])
+            lo = -math.inf if row["min"] is None else row["min"]
+            hi = math.inf if row["max"] is None else row["max"]
+            if not (math.isfinite(value) and lo <= value <= hi):
+                return f"corrupted state (variable '{row['name']}' = {value:g})"
+        if not (isinstance(c["next_k"], int) and not isinstance(c["next_k"], bool) and abs(c["next_k"]) < INDEX_LIMIT):
+            return f"corrupted state (sample index {c['next_k']!r})"
+        if nh and c["mode"] in ("StepComplete", "Terminated"):
+            expected = cls._instants([float(v) for v in c["p"]], start).first_after(t)
+            if c["next_k"] != expected:
+                return f"corrupted state (sample index {c['next_k']}, the time {t:.17g} s gives {expected})"
+        return None
 
     def to_xml(self, model_options: dict[str, str] | None = None) -> Element:
         """satfmu's model description of this model (written at build time next to this file)."""
         return parse(os.path.join(self.resources, DESCRIPTION_FILE)).getroot()
+
+
+STATE_FIELDS = {"mode", "time", "start_time", "stop_time", "x", "u", "p", "held_prev", "next_k", "at_instant",
+                "sample_due"}
+"""The fields of an FMU state's content (:meth:`SatfmuSlave._get_fmu_state`)."""
+
+
+def _is_real(v: Any) -> bool:
+    """A JSON number (int or float, not a bool)."""
+    return isinstance(v, (int, float)) and not isinstance(v, bool)

@@ -1,0 +1,246 @@
+"""What satfmu's pythonfmu slave (``fmus/pyslave.py``) guards itself: the instance name, the
+use after free at exit, and the integrity of FMU states (issue 26 items 3 and 11).
+
+A refused call of a pythonfmu FMU returns fmi2Fatal (pythonfmu 0.7.0 turns every Python
+exception into it), after which FMI 2.0 allows no call: such instances are abandoned, never
+freed (``sims.fmi_host.abandon``). Every refusal is a Python exception in the slave, so these
+tests drive the FMUs in this process; the exit-time check runs in a child process.
+"""
+from __future__ import annotations
+
+import ctypes
+import json
+import math
+import shutil
+import subprocess
+import sys
+import textwrap
+import zlib
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+from fmpy import extract, read_model_description
+from fmpy.fmi2 import FMU2Slave
+
+from sims import fmi_host
+
+PLANT, CONTROLLER, BDOT = "mrp_satellite_py", "mrp_hinf_published_py", "cubesat_bdot_py"
+
+
+class Fmu:
+    """An extracted FMU: its model description and folder."""
+
+    def __init__(self, path: Path) -> None:
+        self.md = read_model_description(str(path))
+        self.unzip = str(extract(str(path)))
+
+    def slave(self, name: str = "slave") -> tuple[FMU2Slave, fmi_host.Callbacks]:
+        """A new instance (logging on: pythonfmu passes no message otherwise)."""
+        callbacks = fmi_host.Callbacks()
+        slave = FMU2Slave(guid=self.md.guid, unzipDirectory=self.unzip,
+                          modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName=name)
+        slave.instantiate(callbacks=callbacks.functions, loggingOn=True)
+        return slave, callbacks
+
+
+@pytest.fixture(scope="module")
+def fmus(fmu_dir: Path) -> Iterator[dict[str, Fmu]]:
+    out = {name: Fmu(fmu_dir / f"{name}.fmu") for name in (PLANT, CONTROLLER, BDOT)}
+    yield out
+    for fmu in out.values():
+        shutil.rmtree(fmu.unzip, ignore_errors=True)
+
+
+@pytest.fixture
+def stepped(fmus: dict[str, Fmu]) -> Iterator[Callable[..., tuple[FMU2Slave, fmi_host.Callbacks]]]:
+    """Factory: an instance of ``name`` after initialization at ``start`` s and ``steps`` steps of
+    ``h`` s; freed at teardown unless it returned fmi2Fatal (then abandoned)."""
+    made: list[tuple[FMU2Slave, fmi_host.Callbacks]] = []
+
+    def make(name: str, start: float = 0.0, steps: int = 3, h: float = 0.1) -> tuple[FMU2Slave, fmi_host.Callbacks]:
+        slave, callbacks = fmus[name].slave()
+        made.append((slave, callbacks))
+        slave.setupExperiment(startTime=start)
+        slave.enterInitializationMode()
+        slave.exitInitializationMode()
+        t = start
+        for _ in range(steps):
+            slave.doStep(t, h)
+            t += h
+        return slave, callbacks
+
+    yield make
+    for slave, callbacks in made:
+        if any(m.status == fmi_host.FATAL for m in callbacks.log):
+            fmi_host.abandon((slave, callbacks))
+        else:
+            slave.fmi2FreeInstance(slave.component)
+
+
+def serialized(slave: FMU2Slave) -> dict[str, Any]:
+    """The instance's FMU state, serialized and decoded (JSON)."""
+    state = slave.getFMUstate()
+    blob = bytes(slave.serializeFMUstate(state))
+    slave.freeFMUstate(state)
+    return json.loads(blob)
+
+
+def with_checksum(state: dict[str, Any]) -> bytes:
+    """``state`` serialized with its CRC-32 recomputed (what a faulty writer that knows the format
+    would produce): only the range checks can refuse it."""
+    content = json.dumps(state["content"], sort_keys=True, separators=(",", ":"), allow_nan=False)
+    return json.dumps({**state, "crc32": zlib.crc32(content.encode())}).encode()
+
+
+def refused(slave: FMU2Slave, callbacks: fmi_host.Callbacks, blob: bytes) -> str:
+    """Offer ``blob`` to fmi2DeSerializeFMUstate, which must return fmi2Fatal; the log text."""
+    n = len(callbacks.log)
+    status, _ = fmi_host.attempt(slave, "deSerializeFMUstate", blob)
+    # pythonfmu 0.7.0: a refusal in the slave is fmi2Fatal (the only status a Python exception gets)
+    assert status == fmi_host.FATAL, callbacks.text(n)
+    return callbacks.text(n)
+
+
+def test_empty_instance_name_is_refused(fmus: dict[str, Fmu]) -> None:
+    """fmi2Instantiate with "" returns NULL; pythonfmu logs the slave's message with fmi2Fatal."""
+    fmu = fmus[PLANT]
+    callbacks = fmi_host.Callbacks()
+    slave = FMU2Slave(guid=fmu.md.guid, unzipDirectory=fmu.unzip, modelIdentifier=fmu.md.coSimulation.modelIdentifier,
+                      instanceName="")
+    resources = Path(fmu.unzip, "resources").as_uri().encode()
+    component = slave.fmi2Instantiate(b"", 1, fmu.md.guid.encode(), resources, ctypes.byref(callbacks.functions), 0, 1)
+    assert component is None
+    assert [m.status for m in callbacks.log] == [fmi_host.FATAL]
+    assert "fmi2Instantiate: missing instance name" in callbacks.text()
+
+
+def test_exit_guard_is_armed(fmu_dir: Path, tmp_path: Path) -> None:
+    """A process that instantiates a satfmu pythonfmu FMU (never freed, never unloaded) has the
+    library's ``finalizePythonInterpreter`` registered to run at exit, and exits cleanly."""
+    code = textwrap.dedent(f"""
+        import sys
+        from fmpy import extract, read_model_description
+        from fmpy.fmi2 import FMU2Slave
+        path = {str(fmu_dir / (PLANT + '.fmu'))!r}
+        md = read_model_description(path)
+        s = FMU2Slave(guid=md.guid, unzipDirectory=extract(path), modelIdentifier=md.coSimulation.modelIdentifier,
+                      instanceName="x")
+        s.instantiate()
+        print(sorted(sys.modules["satfmu_pyslave"]._EXIT_GUARDED))
+    """)
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120,
+                          env={"TMPDIR": str(tmp_path), "PATH": "/usr/bin:/bin"})
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    guarded = eval(proc.stdout.strip())  # noqa: S307 - the list printed above
+    assert len(guarded) == 1 and guarded[0].endswith(f"/binaries/linux64/{PLANT}.so")
+
+
+def test_round_trip_through_bytes_is_exact(stepped) -> None:
+    """A sampled FMU from a large start time: the state restored from its bytes gives the same
+    outputs bit for bit (JSON writes repr floats, which round-trip exactly; the sample index is an
+    integer)."""
+    slave, _ = stepped(BDOT, start=1e6, steps=3)
+    state = slave.getFMUstate()
+    blob = slave.serializeFMUstate(state)
+    t = 1e6 + 0.1 + 0.1 + 0.1  # the times the fixture stepped to, added in the same order
+    outputs = [v.valueReference for v in read_model_description_outputs(slave)]
+    slave.doStep(t, 0.1)
+    first = slave.getReal(outputs)
+    slave.setFMUstate(slave.deSerializeFMUstate(blob))
+    slave.doStep(t, 0.1)
+    assert slave.getReal(outputs) == first
+    slave.freeFMUstate(state)
+
+
+def read_model_description_outputs(slave: FMU2Slave) -> list[Any]:
+    """The Real outputs of ``slave``'s FMU."""
+    md = read_model_description(str(Path(slave.unzipDirectory, "modelDescription.xml")))
+    return [v for v in md.modelVariables if v.causality == "output" and v.type == "Real"]
+
+
+def test_changed_value_fails_the_checksum(stepped) -> None:
+    """One number changed in the serialized text (the time, 0.3 -> 0.4): the CRC-32 differs."""
+    slave, callbacks = stepped(PLANT)
+    state = serialized(slave)
+    text = json.dumps(state).replace('"time": 0.30000000000000004', '"time": 0.4')
+    assert text != json.dumps(state)  # the fixture's three steps of 0.1 s give this time
+    log = refused(slave, callbacks, text.encode())
+    assert "fmi2DeSerializeFMUstate: corrupted state (checksum 0x" in log
+
+
+@pytest.mark.parametrize("damage, message", [
+    (lambda c: c["p"].__setitem__(0, -1.0), "corrupted state (variable 'I_x' = -1)"),
+    (lambda c: c["u"].__setitem__(0, 1e300), None),  # the inputs have no range: accepted (checked below)
+    (lambda c: c.__setitem__("mode", "Error"), "corrupted state (invalid model state 'Error')"),
+    (lambda c: c.__setitem__("time", -1.0), "corrupted state (time -1 s outside [start 0 s, stop inf s])"),
+    (lambda c: c.__setitem__("x", c["x"][:-1]), "corrupted state (x: expected 6 numbers)"),
+    (lambda c: c.__setitem__("at_instant", 1), "corrupted state (flags (1, False))"),
+    (lambda c: c.pop("held_prev"), "corrupted state (fields)"),
+], ids=["parameter below min", "huge input", "mode", "time before start", "state length", "flag type",
+        "missing field"])
+def test_range_checks(stepped, damage: Callable[[dict], None], message: str | None) -> None:
+    """A state whose checksum is right but whose content is not (a faulty writer): each field is
+    checked as the native FMU checks its record, and the message names the field."""
+    slave, callbacks = stepped(PLANT)
+    state = serialized(slave)
+    damage(state["content"])
+    if message is None:  # a legal value: restored
+        slave.setFMUstate(slave.deSerializeFMUstate(with_checksum(state)))
+        return
+    assert message in refused(slave, callbacks, with_checksum(state))
+
+
+def test_sample_index_must_match_the_time(stepped) -> None:
+    """A sampled FMU's state whose sample index does not belong to its time is refused."""
+    slave, callbacks = stepped(BDOT)
+    state = serialized(slave)
+    state["content"]["next_k"] += 1
+    assert "corrupted state (sample index" in refused(slave, callbacks, with_checksum(state))
+
+
+def test_state_of_another_model_is_refused(stepped) -> None:
+    """The controller's serialized state offered to the plant: refused by the model identity, both
+    from bytes and (the state object itself) by fmi2SetFMUstate."""
+    plant, plant_log = stepped(PLANT)
+    controller, _ = stepped(CONTROLLER)
+    foreign = controller.getFMUstate()
+    blob = bytes(controller.serializeFMUstate(foreign))
+    assert "not a state of this FMU (the state of model 'mrp_hinf_published'" in refused(plant, plant_log, blob)
+    other, other_log = stepped(PLANT)
+    status, _ = fmi_host.attempt(other, "setFMUstate", foreign)
+    assert status == fmi_host.FATAL
+    assert "fmi2SetFMUstate: not a state of this FMU (the state of model 'mrp_hinf_published'" in other_log.text()
+    controller.freeFMUstate(foreign)
+
+
+@pytest.mark.parametrize("blob, message", [
+    (lambda b: b[: len(b) // 2], "JSONDecodeError"),  # what a too small buffer gives (docs/pythonfmu.md)
+    (lambda b: b"\xff" + b[1:], "UnicodeDecodeError"),
+    (lambda b: b.replace(b'"start_time": 0.0', b'"start_time": NaN'), "non-finite number NaN"),
+    (lambda b: b"[" * 100_000, "RecursionError"),
+    (lambda b: b"{}", "not a satfmu FMU state"),
+], ids=["half", "not utf-8", "NaN", "deep nesting", "empty object"])
+def test_undecodable_buffers_are_refused(stepped, blob: Callable[[bytes], bytes], message: str) -> None:
+    """Buffers that are no JSON state at all: refused with the decoder's reason, no crash."""
+    slave, callbacks = stepped(PLANT)
+    good = json.dumps(serialized(slave)).encode()
+    assert "fmi2DeSerializeFMUstate: not a state of this FMU" in (log := refused(slave, callbacks, blob(good)))
+    assert message in log
+
+
+def test_format_version_is_checked(stepped) -> None:
+    """A state of another layout version (a future or an older satfmu) is refused by name."""
+    slave, callbacks = stepped(PLANT)
+    state = serialized(slave)
+    state["format"] = 0
+    assert "not a state of this FMU (format 0, expected 1)" in refused(slave, callbacks, with_checksum(state))
+
+
+def test_state_holds_no_non_finite_number(stepped) -> None:
+    """The serialized state is strict JSON: every number finite (no NaN or Infinity tokens)."""
+    slave, _ = stepped(BDOT)
+    state = serialized(slave)
+    numbers = [v for key in ("x", "u", "p", "held_prev") for v in state["content"][key]]
+    assert numbers and all(math.isfinite(v) for v in numbers)
