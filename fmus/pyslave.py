@@ -3,16 +3,26 @@
 This file is copied verbatim into every pythonfmu FMU (as ``resources/satfmu_pyslave.py``)
 next to the generated model module (:func:`fmus.codegen.python_source`), so at run
 time it may import only the standard library and pythonfmu. It implements the same
-behaviour as the generic C wrapper ``fmus/c/fmi2_cosim.c``: RK4 with held inputs,
+behaviour as the generic C wrapper ``fmus/c/fmi2_cosim.c``, in the same arithmetic order (both
+give the same outputs bit for bit, ``tests/test_pythonfmu_parity.py``): RK4 with held inputs,
 ``max(n_substeps, ceil(h / h_max))`` substeps (or the exact flow of an affine model,
 :class:`ExactFlow`), the post-step map, value checks
 (finite, in range, right causality), the co-simulation call order, and FMU state.
 
 A model with a sampler (:class:`fmus.model.Sampler`) also holds values computed at the
-start and at the instants ``k * period - phase`` (``t0 + k * period`` without a phase): a
-step is integrated in segments between instants. The values of an instant at a communication
-point are computed from the inputs set at that point, when first needed (an output
-read or the next step), and again if an input changes there.
+start and at the instants ``t_k = k * period - phase`` (``t0 + k * period`` without a phase), ``k``
+an integer count, never an accumulated time (:class:`Instants`): a step is integrated in segments
+between instants. The values of an instant at a communication point are computed from the inputs
+set at that point, when first needed (an output read or the next step), and again if an input
+changes there.
+
+Time and work, as the C wrapper: a step ends at ``currentCommunicationPoint + h``; a
+communication point more than 8 ulp (of the larger of 1 s, ``|t|`` and the start time) off the
+FMU time is refused, as is a step that does not advance the time or passes a defined stopTime;
+two times closer than the generated ``time_tolerance(t)`` are one instant; a step is refused
+before anything changes when it spans more than :data:`MAX_STEP_INSTANTS` sample instants
+(:data:`MAX_STEP_PYTHON_SAMPLES` for a Python sampler, which has no native FMU) or needs more
+than :data:`MAX_STEP_SUBSTEPS` substeps; no output is returned non-finite (the call is refused).
 
 pythonfmu 0.7.0 writes parameters without variability and omits the
 ModelStructure's InitialUnknowns; :meth:`SatfmuSlave.to_xml` therefore returns
@@ -22,9 +32,9 @@ What this class guards against in pythonfmu 0.7.0 (``docs/pythonfmu.md`` lists t
 cannot guard, each with a reproduction in ``scripts/upstream/``): an empty instance name is
 refused (pythonfmu passes the name on, but not the GUID or the FMU type, so those cannot be
 checked here); the use after free in pythonfmu's library at process exit is avoided
-(:func:`_guard_exit`); a serialized FMU state carries the model's identity and digest and a
-checksum of its content, and every restored state is checked field by field
-(:meth:`SatfmuSlave._state_problem`).
+(:func:`_guard_exit`); a serialized FMU state carries the model's name and GUID (the model
+digest), a format version and a CRC-32, must be the canonical bytes this class writes, and every
+restored state is checked field by field (:meth:`SatfmuSlave._state_problem`).
 """
 from __future__ import annotations
 
@@ -52,6 +62,11 @@ MAX_STEP_INSTANTS = 1_000_000
 refused before anything changes."""
 MAX_STEP_SUBSTEPS = 1_000_000
 """Most integration substeps one fmi2DoStep may take (as ``fmus/c/fmi2_cosim.c``)."""
+MAX_STEP_PYTHON_SAMPLES = 10_000
+"""Most sample instants one fmi2DoStep may span when the sampler is a Python function (a model
+without a native FMU): the online SDRE solves a Riccati equation per instant (~0.5 to 5 ms, so
+at most ~5 to 50 s per step); the far step of the robustness suite (1e4 default steps, one
+instant each) is the longest the project takes."""
 INDEX_LIMIT = 2 ** 52
 """Sample counts stay below this: exact integers in a double, as the native FMU keeps them."""
 STATE_FORMAT = 1
@@ -71,19 +86,62 @@ MAX_SWITCHES = 64
 
 
 def _matmul(a: list[list[float]], b: list[list[float]]) -> list[list[float]]:
+    """``a b``, each entry summed term by term from 0 as the C wrapper does (not with ``sum``,
+    which Python 3.12 compensates, so both backends round alike on every Python)."""
     bt = list(zip(*b))
-    return [[sum(x * y for x, y in zip(row, col)) for col in bt] for row in a]
+    out = []
+    for row in a:
+        entries = []
+        for col in bt:
+            acc = 0.0
+            for x, y in zip(row, col):
+                acc += x * y
+            entries.append(acc)
+        out.append(entries)
+    return out
+
+
+def _doubling(phi: list[list[float]], gamma: list[list[float]]) -> tuple[list[list[float]], list[list[float]]]:
+    """``(Phi Gamma, Phi Phi)`` in one pass over the rows of ``Phi`` (as :func:`_matmul` each)."""
+    gt, pt = list(zip(*gamma)), list(zip(*phi))
+    w_rows, p_rows = [], []
+    for row in phi:
+        w, q = [], []
+        for gc, pc in zip(gt, pt):
+            s1 = s2 = 0.0
+            for x, g, y in zip(row, gc, pc):
+                s1 += x * g
+                s2 += x * y
+            w.append(s1)
+            q.append(s2)
+        w_rows.append(w)
+        p_rows.append(q)
+    return w_rows, p_rows
+
+
+def _finite(m: list[list[float]]) -> bool:
+    return all(math.isfinite(v) for row in m for v in row)
 
 
 def affine_flow(A: list[list[float]], tau: float) -> tuple[list[list[float]], list[list[float]]]:
     """``Phi = e^{A tau}`` and ``Gamma = integral_0^tau e^{A s} ds`` as the C wrapper computes them.
 
     Taylor series of Gamma at ``tau / 2^s`` with ``|A|_inf tau / 2^s <= 1/2`` (18 terms), then
-    ``s`` doublings ``Gamma <- (I + Phi) Gamma``, ``Phi <- Phi^2``.
+    ``s`` doublings ``Gamma <- (I + Phi) Gamma``, ``Phi <- Phi^2``. Once an entry is not finite
+    the result is returned as it is: further doublings keep it non-finite (the state the caller
+    computes from it is then refused, as in C), and a huge ``tau`` (s up to 1000) would cost
+    seconds of pure Python for nothing.
     """
     n = len(A)
     eye = [[1.0 if i == j else 0.0 for j in range(n)] for i in range(n)]
-    norm = max((sum(abs(v) for v in row) for row in A), default=0.0) * tau
+    norm = 0.0
+    for row in A:
+        acc = 0.0
+        for v in row:
+            acc += abs(v)
+        if acc > norm:  # fmax: a NaN row is ignored
+            norm = acc
+    norm *= tau
     s = 0
     while norm > 0.5 and s < 1000:
         norm *= 0.5
@@ -98,9 +156,10 @@ def affine_flow(A: list[list[float]], tau: float) -> tuple[list[list[float]], li
     for i in range(n):
         phi[i][i] += 1.0
     for _ in range(s):
-        W = _matmul(phi, gamma)
+        if not (_finite(phi) and _finite(gamma)):
+            break
+        W, phi = _doubling(phi, gamma)
         gamma = [[g + w for g, w in zip(rg, rw)] for rg, rw in zip(gamma, W)]
-        phi = _matmul(phi, phi)
     return phi, gamma
 
 
@@ -124,14 +183,19 @@ class ExactFlow:
             self.key = key
         phi, gamma = self.flow  # type: ignore[misc]
         # one sum per row over both products, in the C wrapper's order (the same rounding)
-        xt = [sum(phi[i][j] * x[j] + gamma[i][j] * b[j] for j in range(n)) for i in range(n)]
+        xt = []
+        for i in range(n):
+            acc = 0.0
+            for f, v, g, w in zip(phi[i], x, gamma[i], b):
+                acc += f * v + g * w
+            xt.append(acc)
         return self.gen.post_step(t + tau, xt, x, u, p)
 
     def step(self, t: float, x: Sequence[float], u: Sequence[float], p: Sequence[float], h: float) -> list[float]:
         """Advance ``h`` seconds from ``t``, cut at the switch instants of the piecewise law.
 
-        The cuts are durations from ``t`` (a switch within ``TIME_TOL max(1 s, h)`` of it is that
-        start's own), so the flow is the same at any absolute time; an uncut step uses ``h``
+        The cuts are durations from ``t`` (a switch within ``TIME_TOL max(1 s, h)``, 1e-9 of it, is
+        that start's own), so the flow is the same at any absolute time; an uncut step uses ``h``
         itself, so a constant step size reuses the cached flow.
         """
         x = list(x)
@@ -234,10 +298,11 @@ def _canonical_json(obj: Any) -> str:
     return json.dumps(obj, sort_keys=True, separators=(",", ":"), allow_nan=False)
 
 
-def _checksum(content: dict[str, Any]) -> int:
-    """CRC-32 (IEEE 802.3, :func:`zlib.crc32`) of the canonical JSON of an FMU state's content, as
-    the native FMU takes of its state record: every error burst of up to 32 bits is detected."""
-    return zlib.crc32(_canonical_json(content).encode())
+def _checksum(state: dict[str, Any]) -> int:
+    """CRC-32 (IEEE 802.3, :func:`zlib.crc32`) of the canonical JSON of an FMU state without its
+    ``crc32`` field, as the native FMU takes of its whole record: every error burst of up to 32
+    bits is detected."""
+    return zlib.crc32(_canonical_json({k: v for k, v in state.items() if k != "crc32"}).encode())
 
 
 def _refuse_constant(name: str) -> float:
@@ -250,11 +315,12 @@ class FmuCallError(RuntimeError):
 
 
 
-def time_tolerance(relative: float, t: float, start: float) -> float:
-    """Two times closer than this are one instant at ``t``, s: ``relative max(1 s, |t|, |start|)``
-    (``relative`` is the generated ``TIME_TOL``; ``start`` the experiment's start time, s): the
-    rounding a master's ``t0 + k h`` and an FMU's ``t_{k-1} + h`` may differ by."""
-    return relative * max(1.0, abs(t), abs(start))
+def point_tolerance(ulps: int, t: float, start: float) -> float:
+    """The largest difference of a currentCommunicationPoint from the FMU time ``t``, s:
+    ``ulps`` (the generated ``TIME_ULPS``) units in the last place of the larger of 1 s, ``|t|``
+    and ``|start|`` (the start time, s), what double precision forces when a master computes
+    ``t0 + k h`` and the FMU ``t_{k-1} + h`` (as ``point_tol`` of ``fmus/c/fmi2_cosim.c``)."""
+    return ulps * 2.0 ** -52 * max(1.0, abs(t), abs(start))
 
 
 def _ceil(v: float) -> float:
@@ -275,18 +341,19 @@ class Instants:
         s; None when the model has no phase parameter (the instants start at ``start``).
     start : float
         The experiment's start time, s.
-    time_tol : float
-        Relative time tolerance (``TIME_TOL`` of the generated module).
+    tolerance : callable
+        ``t -> s``: two times closer than this at ``t`` are one instant (the generated module's
+        ``time_tolerance``, :func:`fmus.model.time_tolerance`).
     """
 
     period: float
     phase: float | None
     start: float
-    time_tol: float
+    tolerance: Callable[[float], float]
 
     def tol(self, t: float) -> float:
-        """Two times closer than this are one instant at ``t``, s (:func:`time_tolerance`)."""
-        return time_tolerance(self.time_tol, t, self.start)
+        """Two times closer than this are one instant at ``t``, s."""
+        return self.tolerance(t)
 
     def time(self, k: int) -> float:
         """The instant of index ``k``, s."""
@@ -385,9 +452,23 @@ class SatfmuSlave(Fmi2Slave):
                 self.x = [self.p[i] for i in self.generated.STATE_INITIAL]
             if self.sample_due:
                 self._sample()
-            self.y = self.generated.outputs(self.time, self.x, self.u, self.p)
-            self.outputs_valid = True
+            self._update_outputs(f"fmi2Get{row['type']}")
         return self._slot(row)[row["index"]]
+
+    def _update_outputs(self, fn: str) -> None:
+        """The outputs at the FMU time; a non-finite one is refused and the error state entered (as
+        the native FMU: no non-finite output is ever returned with fmi2OK)."""
+        try:
+            self.y = self.generated.outputs(self.time, self.x, self.u, self.p)
+        except ArithmeticError as exc:  # float ** overflows with OverflowError where C gives inf
+            self.mode = "Error"
+            self._reject(f"{fn}: an output is non-finite ({type(exc).__name__}: {exc}) at t = {self.time:.17g} s")
+        for out in self._table:
+            if out["kind"] == KIND_OUTPUT and not math.isfinite(self.y[out["index"]]):
+                self.mode = "Error"
+                self._reject(f"{fn}: output '{out['name']}' is non-finite ({self.y[out['index']]:g}) at "
+                             f"t = {self.time:.17g} s")
+        self.outputs_valid = True
 
     def _set(self, row: dict, value: Any) -> None:
         name = row["name"]
@@ -432,7 +513,7 @@ class SatfmuSlave(Fmi2Slave):
         """The sample instants with the parameters ``p`` and the start time ``start_time`` (s)."""
         smp = cls.generated.SAMPLER
         phase = None if smp["phase_index"] is None else p[smp["phase_index"]]
-        return Instants(p[smp["period_index"]], phase, start_time, cls.generated.TIME_TOL)
+        return Instants(p[smp["period_index"]], phase, start_time, cls.generated.time_tolerance)
 
     def _sample(self) -> None:
         """Compute the held values at the current time, state, inputs and parameters."""
@@ -493,14 +574,15 @@ class SatfmuSlave(Fmi2Slave):
         h, t = float(step_size), float(current_time)
         if not (math.isfinite(h) and h > 0.0):
             self._reject(f"fmi2DoStep: communicationStepSize must be finite and > 0, got {h:g}")
-        tol = self._time_tol(max(abs(t), abs(self.time))) if math.isfinite(t) else 0.0
+        tol = (point_tolerance(self.generated.TIME_ULPS, max(abs(t), abs(self.time)), self.start_time)
+               if math.isfinite(t) else 0.0)
         if not math.isfinite(t) or abs(t - self.time) > tol:
             self._reject(f"fmi2DoStep: currentCommunicationPoint {t:.17g} differs from the FMU time "
                          f"{self.time:.17g} by {t - self.time:g} s (tolerance {tol:g} s)")
         t_end = t + h
         if not (math.isfinite(t_end) and t_end > t):
             self._reject(f"fmi2DoStep: h = {h:g} s from t = {t:.17g} s does not reach a finite later time")
-        if t_end > self.stop_time + self._time_tol(self.stop_time):
+        if t_end > self.stop_time + self.generated.time_tolerance(self.stop_time):
             self._reject(f"fmi2DoStep: the step to t = {t_end:.17g} s passes stopTime {self.stop_time:.17g} s")
         k_end = self._plan_step(h, t_end)
         if self._sampler is None:
@@ -509,10 +591,6 @@ class SatfmuSlave(Fmi2Slave):
             self._step_sampled(t_end, k_end)
         self.outputs_valid = False
         return True
-
-    def _time_tol(self, t: float) -> float:
-        """Two times closer than this are one instant at ``t``, s (:func:`time_tolerance`)."""
-        return time_tolerance(self.generated.TIME_TOL, t, self.start_time)
 
     def _substeps(self, h: float) -> float:
         """Substeps of an integration over ``h`` s: ``max(n_substeps, ceil(h / h_max))`` (1 without
@@ -533,7 +611,7 @@ class SatfmuSlave(Fmi2Slave):
         if self._sampler is not None:
             instants = self._instants(self.p, self.start_time)
             period, tol = instants.period, instants.tol(t_end)
-            if not period > 4.0 * tol:
+            if not period > 2.0 * tol:
                 self._reject(f"fmi2DoStep: the sample period {period:g} s is below the time resolution at "
                              f"t = {t_end:.17g} s (instants closer than {tol:g} s are one)")
             k_after = instants.first_after(t_end)
@@ -542,9 +620,10 @@ class SatfmuSlave(Fmi2Slave):
                              "exactly (limit 2^52 periods)")
             k_end = k_after - 1
             count = k_end - self.next_k + 1
-            if count > MAX_STEP_INSTANTS:
+            limit = MAX_STEP_INSTANTS if self._sampler["module"] is None else MAX_STEP_PYTHON_SAMPLES
+            if count > limit:
                 self._reject(f"fmi2DoStep: h = {h:g} s spans {count} sample instants of {period:g} s "
-                             f"(limit {MAX_STEP_INSTANTS}); take shorter communication steps")
+                             f"(limit {limit}); take shorter communication steps")
             # each of the count + 1 segments between instants lasts at most min(h, period), one
             # more substep each for the rounding of its length
             n_sub = (count + 1) * (self._substeps(min(h, period)) + (1.0 if self.generated.N_STATES else 0.0))
@@ -609,13 +688,15 @@ class SatfmuSlave(Fmi2Slave):
     # ------------------------------------------------------------ FMU state
     def _get_fmu_state(self) -> dict[str, Any]:
         """The FMU state: the model's identity (name, GUID: the model digest), the layout version,
-        the content (what a restore sets; the outputs are recomputed from it) and its CRC-32."""
+        the content (what a restore sets; the outputs are recomputed from it) and the CRC-32 of
+        all of them."""
         content = {"mode": self.mode, "time": self.time, "start_time": self.start_time,
                    "stop_time": None if math.isinf(self.stop_time) else self.stop_time,
                    "x": list(self.x), "u": list(self.u), "p": list(self.p), "held_prev": list(self.held_prev),
                    "next_k": self.next_k, "at_instant": self.at_instant, "sample_due": self.sample_due}
-        return {"model": self.generated.NAME, "guid": self.generated.GUID, "format": STATE_FORMAT,
-                "content": content, "crc32": _checksum(content)}
+        state = {"model": self.generated.NAME, "guid": self.generated.GUID, "format": STATE_FORMAT,
+                 "content": content}
+        return {**state, "crc32": _checksum(state)}
 
     def _set_fmu_state(self, state: Any) -> None:
         problem = self._state_problem(state)
@@ -645,6 +726,8 @@ class SatfmuSlave(Fmi2Slave):
             raise ValueError(f"fmi2DeSerializeFMUstate: not a state of this FMU ({type(exc).__name__}: {exc})"
                              ) from None
         problem = cls._state_problem(state)
+        if problem is None and cls._fmu_state_to_bytes(state) != data:  # e.g. 1e-05 written 1E-05
+            problem = "corrupted state (not the canonical serialization this FMU writes)"
         if problem is not None:
             raise ValueError(f"fmi2DeSerializeFMUstate: {problem}")
         return state
@@ -656,22 +739,22 @@ class SatfmuSlave(Fmi2Slave):
         gen = cls.generated
         if not (isinstance(state, dict) and set(state) == {"model", "guid", "format", "content", "crc32"}):
             return "not a state of this FMU (not a satfmu FMU state)"
-        if state["guid"] != gen.GUID:
+        if state["guid"] != gen.GUID or state["model"] != gen.NAME:
             return (f"not a state of this FMU (the state of model {state['model']!r} with GUID {state['guid']!r}; "
-                    f"this FMU's GUID is {gen.GUID})")
+                    f"this FMU is {gen.NAME!r} with GUID {gen.GUID})")
         if state["format"] != STATE_FORMAT:
             return f"not a state of this FMU (format {state['format']!r}, expected {STATE_FORMAT})"
-        content = state["content"]
-        if not (isinstance(content, dict) and set(content) == STATE_FIELDS):
-            return "corrupted state (fields)"
         try:
-            crc = _checksum(content)
+            crc = _checksum(state)
         except (TypeError, ValueError):  # a value JSON cannot hold, e.g. NaN in a state made in memory
             return "corrupted state (a value is not finite)"
         if state["crc32"] != crc:
             given = state["crc32"]
             shown = f"0x{given:08x}" if _is_real(given) and isinstance(given, int) else repr(given)
             return f"corrupted state (checksum {shown}, computed 0x{crc:08x})"
+        content = state["content"]
+        if not (isinstance(content, dict) and set(content) == STATE_FIELDS):
+            return "corrupted state (fields)"
         return cls._content_problem(content)
 
     @classmethod
@@ -697,7 +780,7 @@ class SatfmuSlave(Fmi2Slave):
             return "corrupted state (times)"
         start, t = float(c["start_time"]), float(c["time"])
         stop = math.inf if c["stop_time"] is None else float(c["stop_time"])
-        tol = time_tolerance(gen.TIME_TOL, t, start)
+        tol = gen.time_tolerance(t)
         if not (math.isfinite(start) and math.isfinite(t) and stop >= start and start - tol <= t <= stop + tol):
             return f"corrupted state (time {t:g} s outside [start {start:g} s, stop {stop:g} s])"
         if not all(math.isfinite(v) for v in c["x"]):

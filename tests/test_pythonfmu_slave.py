@@ -87,11 +87,16 @@ def serialized(slave: FMU2Slave) -> dict[str, Any]:
     return json.loads(blob)
 
 
+def canonical(obj: Any) -> bytes:
+    """JSON as the slave writes it: sorted keys, no spaces."""
+    return json.dumps(obj, sort_keys=True, separators=(",", ":")).encode()
+
+
 def with_checksum(state: dict[str, Any]) -> bytes:
-    """``state`` serialized with its CRC-32 recomputed (what a faulty writer that knows the format
-    would produce): only the range checks can refuse it."""
-    content = json.dumps(state["content"], sort_keys=True, separators=(",", ":"), allow_nan=False)
-    return json.dumps({**state, "crc32": zlib.crc32(content.encode())}).encode()
+    """``state`` serialized with its CRC-32 (of every field but itself) recomputed, in canonical
+    form (what a faulty writer that knows the format would produce): only the range checks can
+    refuse it."""
+    return canonical({**state, "crc32": zlib.crc32(canonical({k: v for k, v in state.items() if k != "crc32"}))})
 
 
 def refused(slave: FMU2Slave, callbacks: fmi_host.Callbacks, blob: bytes) -> str:
@@ -141,10 +146,10 @@ def test_round_trip_through_bytes_is_exact(stepped) -> None:
     """A sampled FMU from a large start time: the state restored from its bytes gives the same
     outputs bit for bit (JSON writes repr floats, which round-trip exactly; the sample index is an
     integer)."""
-    slave, _ = stepped(BDOT, start=1e6, steps=3)
+    slave, _ = stepped(BDOT, start=1e9, steps=3)
     state = slave.getFMUstate()
     blob = slave.serializeFMUstate(state)
-    t = 1e6 + 0.1 + 0.1 + 0.1  # the times the fixture stepped to, added in the same order
+    t = 1e9 + 0.1 + 0.1 + 0.1  # the times the fixture stepped to, added in the same order
     outputs = [v.valueReference for v in read_model_description_outputs(slave)]
     slave.doStep(t, 0.1)
     first = slave.getReal(outputs)
@@ -163,11 +168,18 @@ def read_model_description_outputs(slave: FMU2Slave) -> list[Any]:
 def test_changed_value_fails_the_checksum(stepped) -> None:
     """One number changed in the serialized text (the time, 0.3 -> 0.4): the CRC-32 differs."""
     slave, callbacks = stepped(PLANT)
-    state = serialized(slave)
-    text = json.dumps(state).replace('"time": 0.30000000000000004', '"time": 0.4')
-    assert text != json.dumps(state)  # the fixture's three steps of 0.1 s give this time
-    log = refused(slave, callbacks, text.encode())
-    assert "fmi2DeSerializeFMUstate: corrupted state (checksum 0x" in log
+    good = canonical(serialized(slave))
+    bad = good.replace(b'"time":0.30000000000000004', b'"time":0.4')
+    assert bad != good  # the fixture's three steps of 0.1 s give this time
+    assert "fmi2DeSerializeFMUstate: corrupted state (checksum 0x" in refused(slave, callbacks, bad)
+
+
+def test_same_values_written_otherwise_are_refused(stepped) -> None:
+    """The same state with spaces after the separators: every value and the checksum agree, but the
+    bytes are not what the slave writes (as a bit flip of 'e' to 'E' in 1e-05), so they are refused."""
+    slave, callbacks = stepped(PLANT)
+    spaced = json.dumps(serialized(slave), sort_keys=True).encode()
+    assert "corrupted state (not the canonical serialization" in refused(slave, callbacks, spaced)
 
 
 @pytest.mark.parametrize("damage, message", [
@@ -218,14 +230,15 @@ def test_state_of_another_model_is_refused(stepped) -> None:
 @pytest.mark.parametrize("blob, message", [
     (lambda b: b[: len(b) // 2], "JSONDecodeError"),  # what a too small buffer gives (docs/pythonfmu.md)
     (lambda b: b"\xff" + b[1:], "UnicodeDecodeError"),
-    (lambda b: b.replace(b'"start_time": 0.0', b'"start_time": NaN'), "non-finite number NaN"),
+    (lambda b: b.replace(b'"start_time":0.0', b'"start_time":NaN'), "non-finite number NaN"),
     (lambda b: b"[" * 100_000, "RecursionError"),
     (lambda b: b"{}", "not a satfmu FMU state"),
 ], ids=["half", "not utf-8", "NaN", "deep nesting", "empty object"])
 def test_undecodable_buffers_are_refused(stepped, blob: Callable[[bytes], bytes], message: str) -> None:
     """Buffers that are no JSON state at all: refused with the decoder's reason, no crash."""
     slave, callbacks = stepped(PLANT)
-    good = json.dumps(serialized(slave)).encode()
+    good = canonical(serialized(slave))
+    assert blob(good) != good  # each damage changes the buffer
     assert "fmi2DeSerializeFMUstate: not a state of this FMU" in (log := refused(slave, callbacks, blob(good)))
     assert message in log
 

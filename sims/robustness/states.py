@@ -9,7 +9,9 @@ instance is abandoned and a new one is made for the next damaged state.
 
 The native layout the forgery of "another model's state" needs (``fmus/c/fmi2_cosim.c``, ``Saved``):
 four little-endian uint32 (magic, format, size, CRC-32 of the record with the CRC field 0), then the
-16 bytes of the model identity (:func:`fmus.codegen.model_identity`).
+16 bytes of the model identity (:func:`fmus.codegen.model_identity`). The pythonfmu one
+(``fmus/pyslave.py``): canonical JSON (sorted keys, no spaces) of ``model``, ``guid``, ``format``,
+``content`` and ``crc32``, the CRC-32 of the canonical JSON of the other four.
 """
 from __future__ import annotations
 
@@ -17,6 +19,7 @@ import hashlib
 import json
 import random
 import struct
+import uuid
 import zlib
 from collections.abc import Callable, Sequence
 
@@ -142,17 +145,24 @@ def resized(inst: Instance, good: bytes) -> list[tuple[str, bytes]]:
 
 
 def another_model(inst: Instance, good: bytes) -> list[tuple[str, bytes]]:
-    """A well-formed state of another model with the same layout. Native: the identity bytes of
-    :data:`ANOTHER_MODEL` with the CRC recomputed (what the same build of another model with the
-    same sizes writes). pythonfmu (JSON of the slave's state): one parameter more."""
+    """A well-formed state of another model with the same layout (what the same build of another
+    model with the same sizes writes): the identity of :data:`ANOTHER_MODEL` with the CRC
+    recomputed. Native: its 16 bytes; pythonfmu: as the GUID, with another model name."""
     if inst.target.backend == NATIVE:
         magic, fmt, size, _, _ = NATIVE_HEADER.unpack_from(good)
         record = NATIVE_HEADER.pack(magic, fmt, size, 0, ANOTHER_MODEL) + good[NATIVE_HEADER.size:]
         forged = NATIVE_HEADER.pack(magic, fmt, size, zlib.crc32(record), ANOTHER_MODEL) + good[NATIVE_HEADER.size:]
         return [("another model's identity", forged)]
     state = json.loads(good.decode())
-    state["p"] = list(state["p"]) + [0.0]
-    return [("one parameter more", json.dumps(state).encode())]
+    state.update(model="another_model", guid="{" + str(uuid.UUID(bytes=ANOTHER_MODEL)) + "}")
+    del state["crc32"]
+    state["crc32"] = zlib.crc32(_canonical_json(state))
+    return [("another model's GUID", _canonical_json(state))]
+
+
+def _canonical_json(obj: object) -> bytes:
+    """JSON as ``fmus/pyslave.py`` writes an FMU state: sorted keys, no spaces."""
+    return json.dumps(obj, sort_keys=True, separators=(",", ":")).encode()
 
 
 bit_flips = _case(flips)

@@ -1,0 +1,153 @@
+"""The pythonfmu runtime (``fmus/pyslave.py``) against the native one (``fmus/c/fmi2_cosim.c``):
+the same outputs, sample instants, limits and messages (issue 26 items 2 and 9).
+
+Both run the same generated expressions in the same arithmetic order, so every comparison is
+exact: the same outputs bit for bit after a mix of tiny, odd and long steps from t0 = 0 and from
+t0 = 1e9 s, and the same refusal (fmi2Error native, fmi2Fatal pythonfmu, which turns every
+exception into it) with the same message for a communication point off the FMU time, a step
+past the work bounds or the stop time, a step that does not advance the time.
+"""
+from __future__ import annotations
+
+import math
+import shutil
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+from fmpy import extract, read_model_description
+from fmpy.fmi2 import FMU2Slave
+
+from sims import fmi_host
+
+MODELS = {"cubesat_bdot": 1.0, "cubesat_periodic_satfmu": 900.0, "demeter_flexible": 0.1, "mrp_satellite": 0.05,
+          "magnetorquer_cubesat": 1.0}
+"""Model -> default step, s: an expression sampler without and with a phase parameter, the exact
+integrator, RK4 with the plant's h_max, RK4 with a field model."""
+STEPS = (1.0, None, 0.5, 3.7, 1e-3, 2.0, 10.0)
+"""A step schedule in default steps (None: :data:`TINY_S`): tiny, half, a non-integer number of
+sample periods, ..."""
+TINY_S = 1e-6
+"""The tiny step, s: 8 units in the last place at 1e9 s (1.2e-7 s), where a smaller one may not
+advance the time at all."""
+DRIVE = 1e-3
+"""Relative amplitude of the inputs' variation (each input's start value, or 1, times this)."""
+
+
+class Pair:
+    """A model's native and pythonfmu FMUs, extracted."""
+
+    def __init__(self, fmu_dir: Path, model: str) -> None:
+        self.fmus = {backend: (read_model_description(str(p)), str(extract(str(p))))
+                     for backend, p in (("native", fmu_dir / f"{model}.fmu"), ("python", fmu_dir / f"{model}_py.fmu"))}
+
+    def instance(self, backend: str) -> tuple[FMU2Slave, fmi_host.Callbacks, Any]:
+        md, unzip = self.fmus[backend]
+        callbacks = fmi_host.Callbacks()
+        slave = FMU2Slave(guid=md.guid, unzipDirectory=unzip, modelIdentifier=md.coSimulation.modelIdentifier,
+                          instanceName="parity")
+        slave.instantiate(callbacks=callbacks.functions, loggingOn=True)
+        return slave, callbacks, md
+
+
+@pytest.fixture(scope="module")
+def pairs(fmu_dir: Path) -> Iterator[dict[str, Pair]]:
+    out = {model: Pair(fmu_dir, model) for model in MODELS}
+    yield out
+    for pair in out.values():
+        for _, unzip in pair.fmus.values():
+            shutil.rmtree(unzip, ignore_errors=True)
+
+
+def _drive(slave: FMU2Slave, md: Any, k: int) -> None:
+    """Every Real input at its start value plus :data:`DRIVE` of it (or of 1) times sin(0.7 k + i)."""
+    inputs = [v for v in md.modelVariables if v.causality == "input" and v.type == "Real"]
+    values = []
+    for i, v in enumerate(inputs):
+        start = float(v.start or 0.0)
+        value = start + DRIVE * (abs(start) or 1.0) * math.sin(0.7 * k + i)
+        lo = float(v.min) if v.min is not None else -math.inf
+        hi = float(v.max) if v.max is not None else math.inf
+        values.append(min(max(value, lo), hi))
+    if inputs:
+        slave.setReal([v.valueReference for v in inputs], values)
+
+
+def _run(pair: Pair, backend: str, t0: float, h: float) -> list[list[float]]:
+    """Initialize at ``t0``, then the :data:`STEPS` schedule (times of default step ``h``) with
+    driven inputs; every Real output at every point."""
+    slave, _, md = pair.instance(backend)
+    outputs = [v.valueReference for v in md.modelVariables if v.causality == "output" and v.type == "Real"]
+    slave.setupExperiment(startTime=t0)
+    slave.enterInitializationMode()
+    slave.exitInitializationMode()
+    t, rows = t0, []
+    for k, steps in enumerate(STEPS):
+        _drive(slave, md, k)
+        rows.append(slave.getReal(outputs))
+        step = TINY_S if steps is None else steps * h
+        slave.doStep(t, step)
+        t += step
+    rows.append(slave.getReal(outputs))
+    slave.fmi2FreeInstance(slave.component)
+    return rows
+
+
+@pytest.mark.parametrize("t0", [0.0, 1e9], ids=["t0=0", "t0=1e9"])
+@pytest.mark.parametrize("model", MODELS)
+def test_outputs_identical(pairs: dict[str, Pair], model: str, t0: float) -> None:
+    """Same outputs bit for bit at every point: same instants (sampled models), same substeps,
+    same arithmetic."""
+    native, python = (_run(pairs[model], b, t0, MODELS[model]) for b in ("native", "python"))
+    assert python == native
+    assert any(y != 0.0 for row in native for y in row)  # the inputs drive the outputs
+
+
+def _refusal(pair: Pair, backend: str, t0: float, stop: float | None, calls: list[tuple[float, float]]
+             ) -> tuple[int, str]:
+    """Initialize at ``t0`` (stop time ``stop``), make the fmi2DoStep ``calls`` (point, h) until
+    one is not fmi2OK: its status and first log message ("" if all were OK)."""
+    slave, callbacks, _ = pair.instance(backend)
+    slave.setupExperiment(startTime=t0, stopTime=stop)
+    slave.enterInitializationMode()
+    slave.exitInitializationMode()
+    for point, h in calls:
+        n = len(callbacks.log)
+        status = fmi_host.call(slave, "DoStep", point, h, 1)
+        if status != fmi_host.OK:
+            if status == fmi_host.FATAL:
+                fmi_host.abandon((slave, callbacks))  # FMI 2.0: no call after fmi2Fatal
+            else:
+                slave.fmi2FreeInstance(slave.component)
+            return status, callbacks.log[n].text
+    slave.fmi2FreeInstance(slave.component)
+    return fmi_host.OK, ""
+
+
+ULP_1E9 = math.ulp(1e9)
+CALLS = {
+    "point 8 ulp off": (1e9, None, [(1e9 + 8 * ULP_1E9, 1.0)]),  # the tolerance itself: accepted
+    "point 16 ulp off": (1e9, None, [(1e9 + 16 * ULP_1E9, 1.0)]),
+    "point 0.1 s off": (1e9, None, [(1e9, 1.0), (1e9 + 1.1, 1.0)]),
+    "no advance": (1e9, None, [(1e9, 1e-9)]),  # 1e9 + 1e-9 == 1e9 in double precision
+    "past stopTime": (0.0, 10.0, [(0.0, 5.0), (5.0, 5.5)]),
+    "huge step": (0.0, None, [(0.0, 1e12)]),
+    "DBL_MAX step": (0.0, None, [(0.0, 1.7976931348623157e308)]),
+}
+
+
+@pytest.mark.parametrize("case", CALLS)
+@pytest.mark.parametrize("model", ["cubesat_bdot", "mrp_satellite"])
+def test_refusals_identical(pairs: dict[str, Pair], model: str, case: str) -> None:
+    """The same calls are accepted or refused by both backends, with the same message."""
+    t0, stop, calls = CALLS[case]
+    native = _refusal(pairs[model], "native", t0, stop, calls)
+    python = _refusal(pairs[model], "python", t0, stop, calls)
+    # pythonfmu 0.7.0 returns fmi2Fatal for every refusal (docs/pythonfmu.md); the native FMU fmi2Error
+    expected_python = {fmi_host.OK: fmi_host.OK, fmi_host.ERROR: fmi_host.FATAL}[native[0]]
+    assert (python[0], python[1]) == (expected_python, native[1])
+    if case == "point 8 ulp off":
+        assert native[0] == fmi_host.OK
+    elif case != "DBL_MAX step":  # B-dot refuses it (sample count), the plant (its substeps)
+        assert native[0] == fmi_host.ERROR
