@@ -50,14 +50,20 @@ native state: ~1 s for the largest, demeter_flexible's 10,368 bits)."""
 
 
 def test_suite_over_one_fmu_of_each_kind(fmu_dir: Path, tmp_path: Path) -> None:
-    """All cases, 100 cycles, 8 bit flips, on :data:`FAST_FMUS` (~35 s, 22 of them the online SDRE's
-    far step and its two known hangs): no failure, no crash."""
+    """All cases, 100 cycles, 8 bit flips, on :data:`FAST_FMUS` (~35 s, most of it the online SDRE's
+    far step): no failure, no crash but pythonfmu 0.7.0's known ones (``known: CRASH`` cells)."""
     report = robustness.run(fmu_dir, FAST_FMUS, cycles=FAST_CYCLES, out=tmp_path / "robustness", flips=FAST_FLIPS)
     _check_clean(report, FAST_FMUS, FAST_CYCLES)
     table = (tmp_path / "robustness.md").read_text()
-    assert "| case |" in table and "FAIL" not in table and "CRASH" not in table
+    assert "| case |" in table and "FAIL" not in table and "| CRASH |" not in table
     # one CSV line per row plus the header
     assert len((tmp_path / "robustness.csv").read_text().splitlines()) == len(report.rows) + 1
+    # pythonfmu 0.7.0 crashes the worker in three host-level cases (docs/pythonfmu.md), known rows;
+    # the native FMUs refuse the same calls and pass
+    crashed = {(r.fmu, r.case) for r in report.rows if r.got == "CRASH"}
+    assert crashed == {(f, c) for f in FAST_FMUS if f.endswith("_py") for c in
+                       ("instantiate: resources no folder", "instantiate: NULL name", "setDebugLogging: NULL category")}
+    assert all(r.verdict == "known" for r in report.rows if (r.fmu, r.case) in crashed)
 
 
 @pytest.mark.slow

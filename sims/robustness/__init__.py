@@ -2,8 +2,9 @@
 
 Modules: :mod:`.target` (the FMU and the variables a case abuses), :mod:`.instance` (one FMU
 instance in a worker), :mod:`.cases`, :mod:`.memory`, :mod:`.states` (corrupted FMU states) and
-:mod:`.limits` (huge steps, large start times, status queries, extreme times) (what each case
-does), :mod:`.table` (the cases and their expectations per backend), :mod:`.worker` (the child
+:mod:`.limits` (huge steps, large start times, status queries, extreme times) and
+:mod:`.host_cases` (invalid fmi2Instantiate, fmi2SetDebugLogging and fmi2SerializeFMUstate
+arguments) (what each case does), :mod:`.table` (the cases and their expectations per backend), :mod:`.worker` (the child
 process), :mod:`.runner` (the parent: workers, crashes, time-outs, :class:`Report`),
 :mod:`.report` (Markdown and CSV), :mod:`.command` (the command line).
 
@@ -21,12 +22,16 @@ state; steps of 1e9, 1e12, 1e30 and DBL_MAX s (also at the minimum sample period
 time and a short time limit; start times of 1e9 and 1.4e9 s against the same run from 0 and
 communication points 1 ms to 1 s off at 1e9 s; the five status functions with each
 ``fmi2StatusKind`` in each FMI state and ``fmi2Terminate`` in the error state (FMI 2.0:
-:func:`.limits.required_status`); outputs at t = DBL_MAX and with equal time parameters.
+:func:`.limits.required_status`); outputs at t = DBL_MAX and with equal time parameters. The
+host-level cases (the last block): fmi2Instantiate with a resource URI that is no folder, a NULL
+or empty instance name, a wrong GUID, fmi2ModelExchange; fmi2SetDebugLogging with a NULL
+category; fmi2SerializeFMUstate into too small a buffer.
 
 Verdicts: ``pass``, ``fail``, ``crash``, ``n/a`` and ``known``: a deviation that the expectation
-lists as today's measured pythonfmu behaviour (:func:`.table.pythonfmu_today`; ``fmus/pyslave.py``
-or pythonfmu 0.7.0's own C++ status functions), reported apart so it can be fixed and the
-allowance removed.
+lists as today's measured pythonfmu behaviour (:func:`.table.pythonfmu_today`: what pythonfmu
+0.7.0's C++ layer answers before ``fmus/pyslave.py`` runs, a crash included; each with its
+reproduction in ``scripts/upstream/`` and its entry in ``docs/pythonfmu.md``), reported apart so
+the allowance can be removed when pythonfmu is fixed.
 
 The cases of one FMU run in a child process (``python -m sims.robustness --worker``, :mod:`.worker`),
 which reports each case as it starts and ends. If the child dies (segfault, abort)

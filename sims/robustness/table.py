@@ -7,6 +7,7 @@ from dataclasses import dataclass
 
 from sims.robustness import cases as c
 from sims.robustness.cases import FAR_FACTOR, STEPS, UNKNOWN_VR
+from sims.robustness.host_cases import host_cases
 from sims.fmi_host import DISCARD
 from sims.robustness.instance import ERROR, FATAL, OK, REJECTED, STATUS_NAMES, Outcome
 from sims.robustness.memory import RSS_PER_CYCLE_KIB, RSS_SLACK_KIB, cycles
@@ -34,7 +35,7 @@ class Expect:
     text : str
         Human-readable form for the report.
     today : tuple of int or str
-        Statuses (or ``"TIMEOUT"``) the backend shows today instead, measured: the row is ``known``,
+        Statuses (or ``"TIMEOUT"``, ``"CRASH"``) the backend shows today instead, measured: the row is ``known``,
         not ``fail``, until the backend is fixed and this is emptied (see :func:`pythonfmu_today`).
     today_problems : tuple of str
         Likewise, beginnings of the problems the backend shows today.
@@ -299,6 +300,6 @@ def _issue26_cases() -> tuple[Case, ...]:
     return tuple(cases)
 
 
-CASES = _cases() + _issue26_cases()
+CASES = _cases() + _issue26_cases() + host_cases()  # host-level cases (item 11): sims/robustness/host_cases.py
 CASE_BY_NAME = {c.name: c for c in CASES}
 

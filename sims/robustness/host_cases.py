@@ -1,0 +1,138 @@
+"""The host-level cases of issue 26 item 11: invalid arguments a host may pass to fmi2Instantiate,
+fmi2SetDebugLogging and fmi2SerializeFMUstate.
+
+A native FMU must refuse each one cleanly (fmi2Instantiate: NULL and a message; the others:
+fmi2Error and a message, usable afterwards). pythonfmu 0.7.0 handles several of them in its C++
+layer before satfmu's slave runs, and crashes the host or accepts them there: those rows are
+"known" (:func:`sims.robustness.table.pythonfmu_today`), each with its reproduction in
+``scripts/upstream/`` and its entry in ``docs/pythonfmu.md``. A crash kills the worker; the
+runner records it as CRASH and carries on in a new worker, so these cases come last.
+
+An fmi2Instantiate case reports fmi2OK when it got an instance (freed at once) and fmi2Error when
+it got NULL.
+"""
+from __future__ import annotations
+
+import ctypes
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from fmpy.fmi2 import fmi2String
+
+from sims import fmi_host
+from sims.robustness.instance import ERROR, FATAL, NATIVE, OK, PYTHONFMU, Instance, Outcome, reject, recover
+
+if TYPE_CHECKING:
+    from sims.robustness.table import Case
+
+FMI2_MODEL_EXCHANGE, FMI2_CO_SIMULATION = 0, 1
+WRONG_GUID = b"{00000000-0000-0000-0000-000000000000}"
+MISSING_RESOURCES = b"file:///nonexistent/resources"
+
+
+def _instantiate(inst: Instance, name: bytes | None = b"host case", fmu_type: int = FMI2_CO_SIMULATION,
+                 guid: bytes | None = None, resources: bytes | None = None) -> Outcome:
+    """A second fmi2Instantiate on the instance's library, the given argument wrong and the others
+    right: fmi2OK with an instance (freed), fmi2Error with NULL."""
+    n = len(inst.log)
+    component = inst.slave.fmi2Instantiate(
+        name, fmu_type, inst.target.guid.encode() if guid is None else guid,
+        Path(inst.slave.unzipDirectory, "resources").as_uri().encode() if resources is None else resources,
+        ctypes.byref(inst.callbacks.functions), 0, inst.target.backend == PYTHONFMU)
+    if component is not None:
+        inst.slave.fmi2FreeInstance(component)
+    status = OK if component is not None else ERROR
+    return Outcome(status=status, log=inst.text(n),
+                   detail=f"fmi2Instantiate returned {'an instance' if component is not None else 'NULL'}")
+
+
+def missing_resources(inst: Instance) -> Outcome:
+    return _instantiate(inst, resources=MISSING_RESOURCES)
+
+
+def null_name(inst: Instance) -> Outcome:
+    return _instantiate(inst, name=None)
+
+
+def empty_name(inst: Instance) -> Outcome:
+    return _instantiate(inst, name=b"")
+
+
+def wrong_guid(inst: Instance) -> Outcome:
+    return _instantiate(inst, guid=WRONG_GUID)
+
+
+def model_exchange(inst: Instance) -> Outcome:
+    return _instantiate(inst, fmu_type=FMI2_MODEL_EXCHANGE)
+
+
+def null_category(inst: Instance) -> Outcome:
+    """fmi2SetDebugLogging(c, true, 1, {NULL}) in Instantiated."""
+    return reject(inst, lambda: inst.call("SetDebugLogging", 1, 1, (fmi2String * 1)(None)))
+
+
+def small_buffer(inst: Instance) -> Outcome:
+    """fmi2SerializeFMUstate into half the buffer fmi2SerializedFMUstateSize asks for; if that is
+    accepted, what it wrote must be refused by fmi2DeSerializeFMUstate (a truncated state)."""
+    inst.initialize()
+    state = inst.slave.getFMUstate()
+    size = ctypes.c_size_t()
+    inst.need("SerializedFMUstateSize", state, ctypes.byref(size))
+    half = size.value // 2
+    buffer = ctypes.create_string_buffer(half)
+    n = len(inst.log)
+    status = inst.call("SerializeFMUstate", state, buffer, half)
+    out = Outcome(status=status, log=inst.text(n), detail=f"{half} of {size.value} bytes: {status}")
+    if status == OK:
+        again, _ = fmi_host.attempt(inst.slave, "deSerializeFMUstate", buffer.raw)
+        inst.dead = again == FATAL
+        out.detail += f"; the {half} bytes written, deserialized: {fmi_host.status_name(again)}"
+        if again == OK:
+            out.problems.append("the truncated state was accepted by fmi2DeSerializeFMUstate")
+    if not inst.dead:
+        inst.slave.freeFMUstate(state)
+    if inst.target.backend == NATIVE and status == ERROR:
+        recover(inst, out)
+    return out
+
+
+def host_cases() -> tuple[Case, ...]:
+    """The cases of this module, with their expectations (the last cases of
+    :data:`sims.robustness.table.CASES`)."""
+    from sims.robustness.table import Case, Expect, pythonfmu_today, rejected
+
+    def refused(fragment: str) -> Expect:
+        return Expect((ERROR,), (fragment,), f"NULL + '{fragment}'")
+
+    def upstream(expect: Expect, script: str, got: str | int) -> Expect:
+        """``expect`` with pythonfmu's measured answer ``got`` (a status or "CRASH") known."""
+        return pythonfmu_today(expect, f"pythonfmu 0.7.0's C++ layer (scripts/upstream/{script}) today", (got,))
+
+    name = refused("missing instance name")
+    return (
+        Case("instantiate: resources no folder", f"fmi2Instantiate with the resource URI {MISSING_RESOURCES.decode()}",
+             {NATIVE: Expect((OK,), (), "OK (the native FMU reads no resources)"),
+              PYTHONFMU: upstream(Expect((ERROR,), (), "NULL"), "instantiate_missing_resources.py", "CRASH")},
+             missing_resources),
+        Case("instantiate: NULL name", "fmi2Instantiate with instanceName NULL",
+             {NATIVE: name, PYTHONFMU: upstream(name, "instantiate_null_name.py", "CRASH")}, null_name),
+        Case("instantiate: empty name", 'fmi2Instantiate with instanceName ""', {NATIVE: name, PYTHONFMU: name},
+             empty_name),
+        Case("instantiate: wrong GUID", f"fmi2Instantiate with the GUID {WRONG_GUID.decode()}",
+             {NATIVE: refused("does not match"),
+              PYTHONFMU: upstream(Expect((ERROR,), (), "NULL"), "instantiate_unchecked_arguments.py", OK)},
+             wrong_guid),
+        Case("instantiate: fmi2ModelExchange", "fmi2Instantiate of this co-simulation FMU as fmi2ModelExchange",
+             {NATIVE: refused("co-simulation only"),
+              PYTHONFMU: upstream(Expect((ERROR,), (), "NULL"), "instantiate_unchecked_arguments.py", OK)},
+             model_exchange),
+        Case("setDebugLogging: NULL category", "fmi2SetDebugLogging(c, fmi2True, 1, {NULL}) in Instantiated",
+             {NATIVE: rejected(NATIVE, "NULL category"),
+              PYTHONFMU: upstream(Expect((ERROR,), (), "Error"), "set_debug_logging_null_category.py", "CRASH")},
+             null_category),
+        Case("serialize: buffer too small", "fmi2SerializeFMUstate into half the size fmi2SerializedFMUstateSize "
+             "gives (if accepted: the bytes written must not deserialize)",
+             {NATIVE: rejected(NATIVE, "too small"),
+              PYTHONFMU: upstream(Expect((ERROR,), (), "Error"), "serialize_buffer_size.py", OK)}, small_buffer,
+             lambda t: None if t.can_serialize else "canSerializeFMUstate=false"),
+    )
