@@ -329,18 +329,16 @@ def _finite_or_error(inst: Instance, what: str) -> Outcome:
 
 
 def start_at_max(inst: Instance) -> Outcome:
-    """Start at t = DBL_MAX s (the largest time): the outputs there are finite or refused. A sampled
-    FMU whose instants have a phase parameter refuses fmi2ExitInitializationMode there (its sample
-    count is no exact integer): that refusal is the outcome (native: recovered through fmi2Reset)."""
+    """Start at t = DBL_MAX s (the largest time): the outputs there are finite or refused (or the
+    start itself is, by fmi2ExitInitializationMode: sample instants that cannot be counted)."""
     inst.enter(DBL_MAX)
     n = len(inst.log)
     status = inst.call("ExitInitializationMode")
     if status != OK:
         out = Outcome(status=status, log=inst.text(n),
-                      detail=f"start at DBL_MAX: fmi2ExitInitializationMode {STATUS_NAMES.get(status)}: "
-                             f"{short(inst.text(n), 160)}")
+                      detail=f"fmi2ExitInitializationMode at DBL_MAX: {STATUS_NAMES.get(status)}: {short(inst.text(n), 160)}")
         if inst.target.backend == NATIVE and status == ERROR:
-            inst.mode = "Error"  # still in InitializationMode at DBL_MAX: carry on after fmi2Reset
+            inst.mode = "Error"  # refused in InitializationMode: carry on from a reset
             recover(inst, out)
         return out
     inst.mode = "StepComplete"
