@@ -77,6 +77,7 @@ _SOS_CHECKS: tuple[Bound, ...] = (
     (": min_eig", ">=", -SOS_EIG_TOL, "a positive semidefinite Gram matrix"),
     (": residual", "<=", SOS_RES_TOL, "the polynomial equal to its Gram form"))
 """Bounds on the numbers of every SOS check (matched by the end of the name)."""
+_FROZEN: Bound = ("frozen_max_re", "<=", MAX_RE_TOL, "no unstable frozen closed loop on the grid")
 _CERTIFIED: dict[str, tuple[Bound, ...]] = {
     "polynomial_state_feedback": (
         ("psd_margin", ">=", -PSD_MARGIN_TOL, "positive definite Lyapunov matrices"),
@@ -85,7 +86,7 @@ _CERTIFIED: dict[str, tuple[Bound, ...]] = {
         ("riccati_residual", "<=", RICCATI_RES_TOL, "a solution of the Riccati equation"),
         ("max_re_shifted", "<", 0.0, "a stable shifted closed loop"),
         ("max_re_closed_loop", "<=", MAX_RE_TOL, "no unstable closed-loop mode"),
-        ("frozen_max_re", "<=", MAX_RE_TOL, "no unstable frozen closed loop on the grid"),
+        _FROZEN,
         ("region_eps", ">", 0.0, "a strict SOS region certificate"),
         ("region_margin", ">", 0.0, "a positive SOS region margin"),
         ("region_decay_bound", ">", 0.0, "a positive decay rate on the region"),
@@ -101,8 +102,7 @@ _CERTIFIED: dict[str, tuple[Bound, ...]] = {
         ("sampled_max_real_pole", "<", 0.0, "stable sampled closed loops")),
 }
 """Bounds on the recorded numbers that status ``certified`` claims, per kind."""
-_SAMPLED: dict[str, tuple[Bound, ...]] = {
-    "servo_gain_schedule": (("frozen_max_re", "<=", MAX_RE_TOL, "no unstable frozen closed loop on the grid"),)}
+_SAMPLED: dict[str, tuple[Bound, ...]] = {"servo_gain_schedule": (_FROZEN,)}
 """Bounds that status ``sampled`` claims, per kind."""
 _PROVED_ABOVE: tuple[tuple[str, tuple[str, ...]], ...] = (
     ("sampled_max_hinf", ("design_hinf_bound", "analysis_hinf_pdlf", "analysis_hinf_common")),
