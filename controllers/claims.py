@@ -127,9 +127,10 @@ def problems(data: dict[str, Any]) -> list[str]:
     kind, cert = data["kind"], data["certificate"]
     status, numbers = cert["status"], cert.get("numbers", {})
     out = []
-    if "l2_gain" in cert:
+    if isinstance(cert.get("l2_gain"), dict):
         out += _l2_gain(cert["l2_gain"])
-    if kind == "linear_state_feedback" and "K" in data.get("design", {}):
+    design = data.get("design")
+    if kind == "linear_state_feedback" and isinstance(design, dict) and "K" in design:
         out += _design_gains(data)
     if status == "not_verified":
         return out
@@ -176,7 +177,7 @@ def _l2_gain(l2: dict[str, Any]) -> list[str]:
         return ["certificate.l2_gain.checks: must map check names to numbers"]
     out = _bounded("certificate.l2_gain.checks", checks, (), _SOS_CHECKS, "certified")
     low = l2.get("sampled_c")
-    if _finite(low) and not low <= l2["c"] * (1 + BOUND_RTOL):
+    if _finite(low) and _finite(l2.get("c")) and not low <= l2["c"] * (1 + BOUND_RTOL):
         out.append(f"certificate.l2_gain.sampled_c = {low:.6g}: a sampled lower bound above the certified "
                    f"c = {l2['c']:.6g}")
     return out
