@@ -345,3 +345,47 @@ def test_debug_shows_the_traceback(tmp_path: Path, fmu_dir: Path) -> None:
     f = _bad_scenario(tmp_path, "profiles = 5")
     with pytest.raises(Exception, match="profiles: must be a list"):
         main(["run", str(f), "--fmu-dir", str(fmu_dir), "--debug"])
+
+
+DOCTORED = [
+    # (command, artifact, doctored key, value, what the one-line message says)
+    (["analyze", "l2", "{file}"], "mrp_hinf_satfmu", ("certificate", "numbers", "-M - E: min_eig"), -1.0,
+     "certificate.numbers['-M - E: min_eig'] = -1: status 'certified' needs >= -1e-06"),
+    (["analyze", "l2", "{file}"], "mrp_hinf_satfmu", ("certificate", "numbers", "-M - E: residual"), 10.0,
+     "certificate.numbers['-M - E: residual'] = 10: status 'certified' needs <= 1e-06"),
+    (["campaign", "demeter", "--artifact", "{file}", "--samples", "10", "--out", "{out}"], "demeter_row1_det",
+     ("design", "K", 0, 2), 5000.0, "design.K and gains disagree (largest difference 1651.74 at K_eta[1,1]"),
+    (["campaign", "demeter", "--artifact", "{file}", "--samples", "10", "--out", "{out}"], "demeter_row1_det",
+     ("certificate", "numbers", "sampled_max_real_pole"), 1.5, "['sampled_max_real_pole'] = 1.5: status 'certified'"),
+    (["build", "--fmu-dir", "{out}", "--backend", "native"], "cubesat_periodic_satfmu",
+     ("certificate", "numbers", "ms_spectral_radius"), 1.5, "['ms_spectral_radius'] = 1.5: status 'certified' needs < 1"),
+    (["build", "--fmu-dir", "{out}", "--backend", "native"], "vscmg_lq_servo",
+     ("certificate", "numbers", "riccati_residual"), 10.0, "['riccati_residual'] = 10: status 'certified' needs <= 1e-08"),
+]
+
+
+@pytest.mark.parametrize("argv,name,key,value,message", DOCTORED,
+                         ids=[f"{d[0][0]} {d[1]} {'.'.join(map(str, d[2][1:]))}" for d in DOCTORED])
+def test_commands_refuse_an_artifact_that_contradicts_its_claims(argv: list[str], name: str, key: tuple,
+                                                                 value: float, message: str, tmp_path: Path,
+                                                                 monkeypatch: pytest.MonkeyPatch,
+                                                                 capsys: pytest.CaptureFixture) -> None:
+    from controllers import polynomial
+
+    data = json.loads((paths.SHIPPED_ARTIFACTS / f"{name}.json").read_text())
+    target = data
+    for k in key[:-1]:
+        target = target[k]
+    target[key[-1]] = value
+    shipped = tmp_path / "shipped"  # `build` builds the shipped artifacts: here, the doctored one
+    shipped.mkdir()
+    f = shipped / f"{name}.json"
+    f.write_text(json.dumps(data))
+    monkeypatch.setattr(polynomial, "ARTIFACTS", shipped)
+    out = tmp_path / "out"
+    code = main([a.format(file=f, out=out) for a in argv])
+    err = capsys.readouterr().err
+    assert code == 2 and "Traceback" not in err
+    assert err.strip().splitlines() == [f"satfmu {argv[0]}: error: {f}: " + err.split(f"{f}: ", 1)[1].strip()]
+    assert message in err
+    assert not list(out.rglob("*.fmu")) and not list(out.rglob("*.parquet"))  # refused before any work
