@@ -109,8 +109,9 @@ def _run(args: argparse.Namespace) -> int:
     failed = 0
     summaries = []
     warnings.simplefilter("ignore", scenario.DesignMismatchWarning)  # printed below, with the run
-    for name in args.scenarios:
-        res = scenario.run(name, Path(args.fmu_dir), args.backend, Path(args.out), strict=args.strict)
+    for sc in [scenario.load(name) for name in args.scenarios]:  # every file read before any run
+        res = scenario.run(sc, Path(args.fmu_dir), args.backend, Path(args.out), strict=args.strict,
+                           allow_stale=args.allow_stale)
         summaries.append(res.summary())
         print(f"{'PASS' if res.passed else 'FAIL'} {res.name} ({args.backend})")
         for line in res.warnings:
@@ -128,23 +129,18 @@ def _run(args: argparse.Namespace) -> int:
 
 
 def _export_ssp(args: argparse.Namespace) -> int:
-    from sims import ssp
+    from sims import scenario, ssp
 
-    failed = 0
-    for name in args.scenarios:
-        try:
-            print(f"wrote {ssp.export(name, Path(args.fmu_dir), Path(args.out), args.backend)}")
-        except ssp.SspError as exc:
-            print(f"error: {exc}", file=sys.stderr)
-            failed += 1
-    return 1 if failed else 0
+    for sc in [scenario.load(name) for name in args.scenarios]:  # every file read before any export
+        print(f"wrote {ssp.export(sc, Path(args.fmu_dir), Path(args.out), args.backend, args.allow_stale)}")
+    return 0
 
 
 def _verify(args: argparse.Namespace) -> int:
     from sims import verify
 
     run = verify.verify_all(Path(args.fmu_dir), Path(args.out), args.scenarios, args.backend, tuple(args.engines),
-                            progress=_progress)
+                            progress=_progress, allow_stale=args.allow_stale)
     print(run.text())
     if run.failed:
         print(f"failed: {', '.join(run.failed)}", file=sys.stderr)
@@ -168,13 +164,17 @@ def _list(args: argparse.Namespace) -> int:
     return 0
 
 
+_PROGRESS = {"open": False}
+"""Whether a progress line is on stderr without its newline (an error message then starts a line)."""
+
+
 def _progress(done: int, total: int, message: str) -> None:
     """A one-line text progress bar on stderr."""
     width = 24
     fill = int(width * done / max(total, 1))
-    end = "\n" if done >= total else ""
-    print(f"\r[{'#' * fill}{'.' * (width - fill)}] {done}/{total} {message[:90]:<90}", end=end,
-          file=sys.stderr, flush=True)
+    _PROGRESS["open"] = done < total
+    print(f"\r[{'#' * fill}{'.' * (width - fill)}] {done}/{total} {message[:90]:<90}",
+          end="" if _PROGRESS["open"] else "\n", file=sys.stderr, flush=True)
 
 
 def _write_design(design, args: argparse.Namespace) -> int:
@@ -298,6 +298,10 @@ def _analyze_l2(args: argparse.Namespace) -> int:
     return 0
 
 
+ALLOW_STALE = ("use a stale controller FMU (one embedding another artifact than the artifact file of its name) "
+               "outside the FMU cache as it is, with a warning; by default it is an error (the cache's are rebuilt)")
+
+
 def _fmu_dir(parser: argparse.ArgumentParser, help: str = "folder of the FMUs") -> None:
     """Add ``--fmu-dir`` (default: the user's FMU cache, an absolute path) to ``parser``."""
     parser.add_argument("--fmu-dir", default=str(paths.fmu_cache()), help=help)
@@ -333,6 +337,7 @@ def parser() -> argparse.ArgumentParser:
     scenarios.add_argument("scenarios", nargs="+", metavar="SCENARIO", help="shipped scenario name or .toml path")
     scenarios.add_argument("--backend", choices=backends, default="native", help="FMU kind of the instances")
     _fmu_dir(scenarios)
+    scenarios.add_argument("--allow-stale", action="store_true", help=ALLOW_STALE)
     r = command(sub, "run", "run scenarios (name of a shipped scenario or a .toml path)", parents=[scenarios])
     r.add_argument("--out", default="results", help="folder of the CSV and PNG files (relative: to the working folder)")
     r.add_argument("--strict", action="store_true",
@@ -350,6 +355,7 @@ def parser() -> argparse.ArgumentParser:
     ve.add_argument("--engines", nargs="+", choices=["libcosim", "ecos"], default=["libcosim", "ecos"],
                     help="engines compared with our master")
     _fmu_dir(ve, "folder of the FMUs (the missing ones are built)")
+    ve.add_argument("--allow-stale", action="store_true", help=ALLOW_STALE)
     ve.add_argument("--out", default="results/verify", help="folder of the SSP files and the report")
     ve.set_defaults(fn=_verify)
     rb = command(sub, "robustness", "drive every FMU through misuse cases (table of cases x FMUs)")
@@ -502,18 +508,28 @@ def parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Entry point of the ``satfmu`` console script."""
+    """Entry point of the ``satfmu`` console script: the command's exit status (0 done, 1 a
+    metric missed its bound or a check failed, 2 an error, each error one line on stderr)."""
+    import warnings
+
     args = parser().parse_args(argv)
-    try:
-        return args.fn(args)
-    except Exception as exc:  # every user error: one line, exit 2 (1 means a metric missed its bound)
-        if getattr(args, "debug", False):
-            raise
-        expected = isinstance(exc, (ValueError, KeyError, RuntimeError, OSError))
-        detail = "" if expected else f"{type(exc).__name__}: "
-        hint = "" if expected else " (--debug shows the traceback)"
-        print(f"satfmu {args.command}: error: {detail}{exc}{hint}", file=sys.stderr)
-        return 2
+
+    def one_line(message, category, filename, lineno, file=None, line=None) -> None:
+        print(f"satfmu {args.command}: warning: {message}", file=sys.stderr)
+
+    with warnings.catch_warnings():
+        warnings.showwarning = one_line
+        try:
+            return args.fn(args)
+        except Exception as exc:  # every user error: one line, exit 2 (1 means a metric missed its bound)
+            if getattr(args, "debug", False):
+                raise
+            expected = isinstance(exc, (ValueError, KeyError, RuntimeError, OSError))
+            detail = "" if expected else f"{type(exc).__name__}: "
+            hint = "" if expected else " (--debug shows the traceback)"
+            newline, _PROGRESS["open"] = "\n" if _PROGRESS["open"] else "", False
+            print(f"{newline}satfmu {args.command}: error: {detail}{exc}{hint}", file=sys.stderr)
+            return 2
 
 
 if __name__ == "__main__":
