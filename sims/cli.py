@@ -4,9 +4,11 @@
     satfmu build [--fmu-dir DIR] [--backend native|python|all] [--jobs N]
     satfmu validate [--fmu-dir DIR]
     satfmu list
-    satfmu run SCENARIO [SCENARIO ...] [--backend native|python] [--fmu-dir DIR] [--out results] [--summary FILE]
-    satfmu export-ssp SCENARIO [SCENARIO ...] [--backend native|python] [--fmu-dir DIR] [--out results/ssp]
-    satfmu verify [SCENARIO ...] [--engines libcosim ecos] [--fmu-dir DIR] [--out results/verify]
+    satfmu run SCENARIO [SCENARIO ...] [--backend native|python] [--fmu-dir DIR] [--strict] [--allow-stale]
+                                       [--out results] [--summary FILE]
+    satfmu export-ssp SCENARIO [SCENARIO ...] [--backend native|python] [--fmu-dir DIR] [--allow-stale]
+                                              [--out results/ssp]
+    satfmu verify [SCENARIO ...] [--engines libcosim ecos] [--fmu-dir DIR] [--allow-stale] [--out results/verify]
     satfmu robustness [--fmu NAME ...] [--cycles 1000] [--fmu-dir DIR] [--out results/robustness]
     satfmu synth mrp-hinf [--name mrp_hinf_satfmu] [--samples 20000] [--out controllers/artifacts] [--fmu-dir DIR] ...
     satfmu synth mrp-h2hinf --gamma G [--variant slack|common] [--region 0.45] [--name ...] ...
@@ -24,12 +26,19 @@
     satfmu analyze l2 CONTROLLER [--rate-max 0.2] [--sigma-max 0.9] [--samples 200000]
 
 ``--fmu-dir`` defaults to the user's FMU cache (:func:`sims.paths.fmu_cache`, under
-``$SATFMU_HOME``); ``figures``, ``detumble`` and ``verify`` build the FMUs missing there
-(:func:`sims.catalog.ensure`), ``satfmu build`` brings every FMU up to date. A controller is
+``$SATFMU_HOME``); ``run``, ``export-ssp``, ``verify``, ``figures`` and ``detumble`` build the
+FMUs missing there (:func:`sims.catalog.ensure`), ``satfmu build`` brings every FMU up to date. A controller is
 named by its artifact (the user's artifacts first, then the shipped ones) or a ``.json`` path.
 
-``run`` exits with status 1 when a metric misses its bound, 2 on an error. ``verify`` runs
-scenarios (default: every shipped one) in our master, libcosim and ecos and compares them
+Exit status: 0 done, 1 a requirement failed (``run``: a metric missed its bound), 2 an error,
+printed as one line ``satfmu COMMAND: error: FILE: KEY: ...`` (``--debug``: the traceback).
+``run``, ``export-ssp`` and ``verify`` check a scenario alike before any work
+(:func:`sims.scenario.check`: its file, its FMU files, its wiring and parameters) and write
+nothing for one they refuse; a stale controller FMU (embedding another artifact than the file
+of its name) is rebuilt in the FMU cache and refused elsewhere unless ``--allow-stale``
+(:func:`sims.scenario.ensure_fmus`).
+
+``verify`` runs scenarios (default: every shipped one) in our master, libcosim and ecos and compares them
 (:mod:`sims.verify`); ``robustness`` drives every FMU through misuse cases
 (:mod:`sims.robustness`); both exit with status 1 on a failure. ``synth`` runs a design,
 writes the controller's artifact and builds its FMUs. ``analyze sweep`` writes the

@@ -192,9 +192,8 @@ def export(name_or_path: "str | Path | Scenario", fmu_dir: str | Path | None, ou
     """Write the scenario as ``out`` (a ``.ssp`` file; a directory gets ``<scenario>.ssp``).
 
     The scenario is checked as a run checks it (:func:`sims.scenario.check`: the FMU files,
-    missing ones built, and the wiring) before anything is written; an earlier file of that
-    name is removed first, and the file is written whole or not at all
-    (:func:`fmus.atomic.write_atomically`), so a refused or failed export leaves no file.
+    missing ones built, and the wiring) before anything is written, and an earlier file of
+    that name is removed first: a refused or failed export leaves no file (:func:`write`).
 
     Raises
     ------
@@ -202,17 +201,31 @@ def export(name_or_path: "str | Path | Scenario", fmu_dir: str | Path | None, ou
         What a run refuses (the key path named), or an :class:`SspError`.
     """
     scenario = load(name_or_path)
-    out = Path(out)
-    if out.suffix != ".ssp":
-        out = out / f"{scenario.name}.ssp"
-    out.unlink(missing_ok=True)
-    folder = check(scenario, fmu_dir, backend, allow_stale)
-    ssd, resources = system_structure(scenario, folder, backend)
+    target(scenario, out).unlink(missing_ok=True)
+    return write(scenario, check(scenario, fmu_dir, backend, allow_stale), out, backend)
 
-    def write(tmp: Path) -> None:
+
+def target(scenario: Scenario, out: Path) -> Path:
+    """The file an export of ``scenario`` to ``out`` writes: ``out`` itself if it is a ``.ssp``
+    path, else ``out/<scenario>.ssp``."""
+    out = Path(out)
+    return out if out.suffix == ".ssp" else out / f"{scenario.name}.ssp"
+
+
+def write(scenario: Scenario, fmu_dir: Path, out: Path, backend: str = "native") -> Path:
+    """Write a scenario :func:`sims.scenario.check` accepted as an SSP file (:func:`target`),
+    whole or not at all (:func:`fmus.atomic.write_atomically`).
+
+    Raises
+    ------
+    SspError
+    """
+    ssd, resources = system_structure(scenario, Path(fmu_dir), backend)
+
+    def zip_ssp(tmp: Path) -> None:
         with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as zf:
             zf.writestr("SystemStructure.ssd", ssd)
             for arcname, path in resources.items():
                 zf.write(path, arcname)
 
-    return write_atomically(out, write)
+    return write_atomically(target(scenario, out), zip_ssp)

@@ -244,8 +244,8 @@ def verify(name_or_path: "str | Path | Scenario", fmu_dir: Path, out_dir: Path, 
     name_or_path : str, Path or Scenario
         Scenario.
     fmu_dir : Path
-        Folder of the FMUs; the missing ones are built, each is checked as a run checks it
-        (:func:`sims.scenario.check`, through :func:`sims.ssp.export`).
+        Folder of the FMUs; the missing ones are built, and the scenario is checked as a run
+        checks it (:func:`sims.scenario.check`) before its SSP file is written.
     out_dir : Path
         Receives ``<scenario>.ssp``.
     backend : {"native", "python"}
@@ -261,8 +261,16 @@ def verify(name_or_path: "str | Path | Scenario", fmu_dir: Path, out_dir: Path, 
         What a run refuses.
     """
     scenario = load(name_or_path)
+    return _verify(scenario, check(scenario, fmu_dir, backend, allow_stale), out_dir, backend, engines)
+
+
+def _verify(scenario: Scenario, fmu_dir: Path, out_dir: Path, backend: str, engines: tuple[str, ...]
+            ) -> ScenarioReport:
+    """:func:`verify` of a scenario :func:`sims.scenario.check` accepted."""
     d = scenario.data
-    ssp_path = ssp.export(scenario, fmu_dir, out_dir, backend, allow_stale)
+    target = ssp.target(scenario, out_dir)
+    target.unlink(missing_ok=True)
+    ssp_path = ssp.write(scenario, fmu_dir, target, backend)
     paths = fmu_paths(scenario, fmu_dir, backend)
     t0 = time.perf_counter()
     res_ft, record, sim = _master(scenario, fmu_dir, backend, "feedthrough")
@@ -398,13 +406,12 @@ def verify_all(fmu_dir: Path, out_dir: Path, names: Sequence[str | Path] = (), b
     scenarios = [load(name) for name in list(names) or [p.stem for p in paths.shipped_scenarios()]]
     for f in report_files(Path(out_dir)):
         f.unlink(missing_ok=True)
-    for scenario in scenarios:  # all refused before any work, as a run refuses them
-        check(scenario, fmu_dir, backend, allow_stale)
+    folders = [check(scenario, fmu_dir, backend, allow_stale) for scenario in scenarios]  # before any work
     reports = []
-    for i, scenario in enumerate(scenarios):
+    for i, (scenario, folder) in enumerate(zip(scenarios, folders)):
         if progress is not None:
             progress(i, len(scenarios), f"verifying {scenario.name}")
-        reports.append(verify(scenario, Path(fmu_dir), Path(out_dir), backend, tuple(engines), allow_stale))
+        reports.append(_verify(scenario, folder, Path(out_dir), backend, tuple(engines)))
     if progress is not None:
         progress(len(scenarios), len(scenarios), "verified")
     return VerifyRun(reports, *write(reports, Path(out_dir)))

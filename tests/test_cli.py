@@ -34,6 +34,21 @@ def test_run_fails_with_exit_1_when_a_bound_is_missed(fmu_dir: Path, tmp_path: P
     assert "FAIL" in capsys.readouterr().out
 
 
+@pytest.mark.parametrize("backend", ["native", "python"])
+def test_design_mismatch_is_found_in_both_backends(backend: str, fmu_dir: Path, tmp_path: Path,
+                                                   capsys: pytest.CaptureFixture) -> None:
+    """The controller FMU of either backend carries its artifact (resources/artifact.json): a
+    plant other than its design plant is refused with --strict."""
+    f = tmp_path / "own.toml"
+    f.write_text('name = "own"\nstop_time = 0.1\nstep_size = 0.1\n'
+                 '[fmus.plant]\nmodel = "mrp_satellite"\nparameters = { I_x = 100.0 }\n'
+                 '[fmus.controller]\nmodel = "mrp_hinf_published"\n')
+    code = main(["run", str(f), "--backend", backend, "--strict", "--fmu-dir", str(fmu_dir), "--out", str(tmp_path)])
+    err = capsys.readouterr().err
+    assert code == 2 and f"{f}: design mismatch (strict): controller (mrp_hinf_published) on plant: I_x = 100 " \
+                         "(designed for 15)" in err, err
+
+
 def test_errors_exit_2_with_a_message(fmu_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
     assert main(["run", "no_such_scenario", "--fmu-dir", str(fmu_dir)]) == 2
     assert "no scenario named 'no_such_scenario'" in capsys.readouterr().err

@@ -153,7 +153,6 @@ def test_profile_reaches_the_input(fmu_dir: Path) -> None:
     assert np.all(res["plant.w_d[1]"] == 1.5)
 
 
-@pytest.mark.filterwarnings("ignore::sims.scenario.DesignMismatchWarning")  # I_x = -3 is also a mismatch
 def test_a_failed_rerun_leaves_nothing_that_looks_complete(tmp_path: Path, fmu_dir: Path, monkeypatch) -> None:
     """A passing run writes CSV, plot and summary (summary last); a re-run that fails, in the FMU
     or in plotting, removes them first: no old summary saying "passed" beside new data."""
