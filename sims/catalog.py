@@ -175,7 +175,10 @@ def artifact_source(path: Path) -> FmuSource:
     """
     from controllers import artifact as artifacts
 
-    data = Path(path).read_bytes() if Path(path).is_file() else None
+    path = Path(path)
+    # the bytes first: a file replaced before it is loaded leaves a recorded digest that is not
+    # the file's, and the next run rebuilds the FMU (a missing file: load's error)
+    data = path.read_bytes() if path.is_file() else None
     return controller_source(artifacts.load(path), data)
 
 

@@ -27,8 +27,9 @@
 
 ``--fmu-dir`` defaults to the user's FMU cache (:func:`sims.paths.fmu_cache`, under
 ``$SATFMU_HOME``); ``run``, ``export-ssp``, ``verify``, ``figures`` and ``detumble`` build the
-FMUs missing there (:func:`sims.catalog.ensure`), ``satfmu build`` brings every FMU up to date. A controller is
-named by its artifact (the user's artifacts first, then the shipped ones) or a ``.json`` path.
+FMUs missing there (:func:`sims.catalog.ensure`), ``satfmu build`` brings every FMU up to date.
+A controller is named by its artifact (the user's artifacts first, then the shipped ones) or a
+``.json`` path.
 
 Exit status: 0 done, 1 a requirement failed (``run``: a metric missed its bound), 2 an error,
 printed as one line ``satfmu COMMAND: error: FILE: KEY: ...`` (``--debug``: the traceback).
@@ -38,8 +39,8 @@ nothing for one they refuse; a stale controller FMU (embedding another artifact 
 of its name) is rebuilt in the FMU cache and refused elsewhere unless ``--allow-stale``
 (:func:`sims.scenario.ensure_fmus`).
 
-``verify`` runs scenarios (default: every shipped one) in our master, libcosim and ecos and compares them
-(:mod:`sims.verify`); ``robustness`` drives every FMU through misuse cases
+``verify`` runs scenarios (default: every shipped one) in our master, libcosim and ecos and
+compares them (:mod:`sims.verify`); ``robustness`` drives every FMU through misuse cases
 (:mod:`sims.robustness`); both exit with status 1 on a failure. ``synth`` runs a design,
 writes the controller's artifact and builds its FMUs. ``analyze sweep`` writes the
 gamma-lambda trade-off of both Theorem 8 variants of seed 001 (CSV and PNG), ``analyze l2``
@@ -59,6 +60,7 @@ import time
 import tomllib
 from importlib import metadata
 from pathlib import Path
+from typing import Any
 
 from sims import paths
 
@@ -93,7 +95,8 @@ def _build(args: argparse.Namespace) -> int:
 
 
 def _validate(args: argparse.Namespace) -> int:
-    fmus = sorted(Path(args.fmu_dir).glob("*.fmu"))
+    # not the hidden temporary file a killed build may leave (fmus.atomic)
+    fmus = sorted(f for f in Path(args.fmu_dir).glob("*.fmu") if not f.name.startswith("."))
     if not fmus:
         print(f"no FMUs in {args.fmu_dir}: run `satfmu build --fmu-dir {args.fmu_dir}` first, or pass "
               f"--fmu-dir with the folder of your FMUs", file=sys.stderr)
@@ -523,7 +526,8 @@ def main(argv: list[str] | None = None) -> int:
 
     args = parser().parse_args(argv)
 
-    def one_line(message, category, filename, lineno, file=None, line=None) -> None:
+    def one_line(message: Warning | str, category: type[Warning], filename: str, lineno: int, file: Any = None,
+                 line: str | None = None) -> None:
         print(f"satfmu {args.command}: warning: {message}", file=sys.stderr)
 
     with warnings.catch_warnings():

@@ -165,3 +165,11 @@ def test_a_killed_build_leaves_whole_fmus(n: int, phase: str, fmu_dir: Path, tmp
     done = _satfmu(tmp_path, *argv)
     assert done.returncode == 0 and f"{len(BUILT) - n + (phase != 'done')} built" in done.stdout, done.stdout
     assert _files(folder) == new
+
+
+def test_validate_skips_the_temporary_file_of_a_killed_build(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    from sims.cli import main
+
+    (tmp_path / ".signal_step.123.0a1b2c3d.partial.fmu").write_bytes(b"half an FMU")
+    assert main(["validate", "--fmu-dir", str(tmp_path)]) == 2
+    assert f"no FMUs in {tmp_path}" in capsys.readouterr().err
