@@ -483,6 +483,8 @@ def validate(data: Any, where: str = "scenario") -> None:
         for key in ("model", "path"):
             if key in spec and (not isinstance(spec[key], str) or not spec[key]):
                 raise ScenarioError(f"{ws}.{key}: must be a non-empty string, got {spec[key]!r}")
+        if "model" in spec:  # the model names a file of the FMU folder
+            check_safe_name(spec["model"], f"{ws}.model", ScenarioError)
         if spec.get("backend", "native") not in BACKENDS:
             raise ScenarioError(f"{ws}.backend: must be one of {sorted(BACKENDS)}, got {spec['backend']!r}"
                                 f"{did_you_mean(str(spec['backend']), sorted(BACKENDS))}")
@@ -724,7 +726,7 @@ def _wire(scenario: Scenario, sim: CoSimulation, where: str) -> None:
             raise ScenarioError(f"{where}: profiles[{i}].to: {exc}") from None
         drive(f"profiles[{i}]", [dst for dst, _ in sim.profiles[n:]])
     try:
-        sim._levels()  # the master's own feedthrough analysis: a cycle is an algebraic loop
+        sim.check_wiring()  # the master's own analysis: an input driven twice, an algebraic loop
     except WiringError as exc:
         raise ScenarioError(f"{where}: connections: {exc}") from None
 

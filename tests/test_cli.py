@@ -326,6 +326,7 @@ BAD_SCENARIOS = [  # (body after the header, the message); the header is a valid
     ('[fmus.plant]\npath = "zero.fmu"', r"fmus\.plant\.path: FMU file .*zero.fmu is empty \(0 bytes\)"),
     ('[fmus.plant]\nmodel = "mrp_satellite"\nparameters = "x"', "parameters: must be a table"),
     ('[fmus.plant]\nmodel = "mrp_satelite"', r"fmus\.plant\.model: no FMU mrp_satelite.fmu .*did you mean 'mrp_satellite'"),
+    ('[fmus.plant]\nmodel = "../mrp_satellite"', r"fmus\.plant\.model: '\.\./mrp_satellite' is not a safe folder name"),
     # refused by the master at run time before, now by the checks of run and export-ssp alike
     ('[fmus.ctrl]\nmodel = "mrp_hinf_published"\n[[connections]]\nfrom = "ctrl.u"\nto = "ctrl.omega"',
      r"connections: algebraic loop through direct feedthrough: ctrl.u\[1\] => ctrl.omega\[1\]"),
