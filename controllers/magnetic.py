@@ -25,14 +25,14 @@ import sympy as sp
 
 from controllers.artifact import INDEX_TOL, PeriodicArtifact
 from fmus import cubesat
-from fmus.model import Model, Output, Sampler, Variable, symbols, vector
+from fmus.model import MIN_SAMPLE_PERIOD as MIN_PERIOD, Model, Output, Sampler, Variable, symbols, vector
 
 
 def build_periodic(artifact: PeriodicArtifact) -> Model:
     """Symbolic model of the periodic gain schedule described by ``artifact``."""
     inputs = [Variable(v["name"], v["unit"], f"Measured {v['name']}") for v in artifact.inputs]
     period = Variable("sample_period", "s", "Sample period of the zero-order hold (the schedule keeps the "
-                      f"design's {artifact.sample_period:g} s per gain)", artifact.sample_period, min=1e-6)
+                      f"design's {artifact.sample_period:g} s per gain)", artifact.sample_period, min=MIN_PERIOD)
     phase = Variable("orbit_time_0", "s", "Orbit time at t = 0 (the schedule's phase; set it as the plant's)",
                      0.0)
     tau = phase.symbol + Model.t
@@ -80,7 +80,7 @@ def build_bdot(name: str = "cubesat_bdot") -> Model:
     gain = Variable("bdot_gain", "N.m.s", "Gain k_w of m = -(k_w/|b|) d(b/|b|)/dt (default: 2 n (1 + sin i) "
                     "J_min of the seed's cubesat and orbit)", bdot_gain(), min=0.0)
     period = Variable("control_period", "s", "Magnetometer sample period; the dipole is held in between", 1.0,
-                      min=1e-6)
+                      min=MIN_PERIOD)
     b_min = Variable("b_min", "T", "Smallest field magnitude taken as a measurement (below it m = 0)", 1e-9,
                      min=0.0)
     b = symbols(b_in)

@@ -30,7 +30,7 @@ from controllers import riccati, servo_sdc
 from controllers.artifact import ServoArtifact, scheduling_signal
 from controllers.polynomial import sympy_polynomial
 from fmus import vscmg
-from fmus.model import Model, Output, Sampler, State, Variable, vector
+from fmus.model import MIN_SAMPLE_PERIOD, Model, Output, Sampler, State, Variable, vector
 
 
 def servo_model(name: str, description: str, plant: str, tracked: list[dict], rates: list[dict],
@@ -105,7 +105,7 @@ def build_online(name: str = "vscmg_sdre_online") -> Model:
                [float(v) for v in servo_sdc.R_SEED.diagonal()], min=1e-12)
     eps = Variable("riccati_eps", "1/s", "Shift of the Riccati pair (Ae - eps I, Be)", servo_sdc.EPS, min=0.0)
     period = Variable("control_period", "s", "Gain update period (the gain is held in between)", 0.01,
-                      min=1e-6)
+                      min=MIN_SAMPLE_PERIOD)
     held = [Variable(f"K_{i + 1}_{j + 1}", "1", f"SDRE gain entry ({i + 1}, {j + 1})") for i in range(m)
             for j in range(n)]
     held += [Variable("held_residual"), Variable("held_max_re", "1/s")]

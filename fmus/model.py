@@ -126,6 +126,13 @@ class SDCForm:
     assumptions: dict[str, float] = field(default_factory=dict)
 
 
+MIN_SAMPLE_PERIOD = 1e-3
+"""The smallest sample period the project's sampled laws declare, s: 1 kHz, ten times faster than
+the fastest period they use (the online SDRE's 0.01 s), and far above the time resolution (the
+instants of one FMU stay 1000 time tolerances apart at any time below 5.6e9 s, see
+:data:`TIME_TOL_MAX`); a 100 s step spans 1e5 instants (a native B-dot FMU takes ~1 ms for them)."""
+
+
 @dataclass(frozen=True)
 class Sampler:
     """Values held between sample instants and computed at them (a zero-order hold).
@@ -195,14 +202,29 @@ class Sampler:
 
 
 TIME_TOL = 1e-9
-"""Relative time tolerance (times ``max(1, |t|)``): two times closer than this are one instant.
-Generated C and Python use it for sample instants, table breakpoints and switching times, so an
-FMU driven at ``t0 + k h`` and a master sampling ``t0 + h k`` agree at every jump."""
+"""Relative time tolerance (times ``max(1, |t|)``, within the bounds of :func:`time_tolerance`): two
+times closer than this are one instant. Generated C and Python use it for sample instants, table
+breakpoints and switching times, so an FMU driven at ``t0 + k h`` and a master sampling
+``t0 + h k`` (or adding ``h`` step by step: ~1e5 steps drift by 1e-9 |t|) agree at every jump."""
+TIME_TOL_MAX = 1e-6
+"""The largest time tolerance, s: at Unix times (1.4e9 s) a relative 1e-9 would merge instants 1.4 s
+apart; 1 us keeps every instant of a sampled FMU (control periods from 1 ms on) distinct and is
+still 4 units in the last place there (double precision resolves 2.4e-7 s at 1.4e9 s)."""
+TIME_ULPS = 8
+"""The smallest time tolerance in units in the last place of ``|t|``: what double precision forces
+(``t_{k-1} + h`` and ``t0 + k h`` differ by ~2 ulp), beyond 5.6e9 s where it exceeds 1 us."""
 
 
 def time_tolerance(t: sp.Expr) -> sp.Expr:
-    """:data:`TIME_TOL` at time ``t`` (a sympy expression): ``TIME_TOL max(1, |t|)``."""
-    return TIME_TOL * sp.Max(1, sp.Abs(t))
+    """The time tolerance at time ``t`` (a sympy expression), s:
+    ``max(min(TIME_TOL max(1, |t|), TIME_TOL_MAX), TIME_ULPS eps |t|)`` with eps = 2^-52."""
+    return sp.Max(sp.Min(TIME_TOL * sp.Max(1, sp.Abs(t)), TIME_TOL_MAX), TIME_ULPS * 2.0**-52 * sp.Abs(t))
+
+
+def time_tolerance_of(t: np.ndarray | float) -> np.ndarray:
+    """:func:`time_tolerance` of numbers (numpy), s."""
+    a = np.abs(np.asarray(t, float))
+    return np.maximum(np.minimum(TIME_TOL * np.maximum(1.0, a), TIME_TOL_MAX), TIME_ULPS * 2.0**-52 * a)
 
 
 class TableLookup(sp.Function):
@@ -217,7 +239,7 @@ class Table:
 
     Before the first breakpoint the first value holds, after the last the last value.
     ``"previous"`` holds each value from its breakpoint on (a breakpoint within
-    :data:`TIME_TOL` ahead counts as reached); ``"linear"`` interpolates between breakpoints.
+    :func:`time_tolerance` ahead counts as reached); ``"linear"`` interpolates between breakpoints.
     The numpy :meth:`evaluate`, the generated Python and the generated C use one formula.
 
     Raises
@@ -249,7 +271,7 @@ class Table:
         tt, v = np.asarray(self.times), np.asarray(self.values)
         t = np.asarray(t, float)
         if self.interpolation == "previous":
-            i = np.searchsorted(tt, t + TIME_TOL * np.maximum(1.0, np.abs(t)), side="right") - 1
+            i = np.searchsorted(tt, t + time_tolerance_of(t), side="right") - 1
             return v[np.clip(i, 0, None)]
         i = np.clip(np.searchsorted(tt, t, side="right") - 1, 0, max(tt.size - 2, 0))
         if tt.size == 1:

@@ -13,10 +13,19 @@ Kinds (times in s; ``y`` in the unit of the input it drives, declared ``"1"``):
 ``signal_constant``     y = value
 ``signal_step``         y = before until ``time``, then after (a jump at ``time``, to the
                         time tolerance :data:`fmus.model.TIME_TOL`)
-``signal_sinusoid``     y = offset + amplitude sin(2 pi frequency_Hz t + phase_rad)
+``signal_sinusoid``     y = offset + amplitude sin(2 pi frequency_Hz t + phase_rad), the
+                        argument reduced to one period (``frequency_Hz t`` modulo 1) where
+                        2 pi frequency_Hz t would overflow, so that it stays finite up to
+                        t = DBL_MAX (1.8e308 s) at 1 Hz
 ``signal_cosine_ramp``  from ``before`` at ``start`` to ``after`` at ``stop`` along
                         (1 - cos(pi (t - start)/(stop - start)))/2 (seed 002 eq. 24-25), or
-                        its first or second time derivative (``derivative`` = 1, 2)
+                        its first or second time derivative (``derivative`` = 1, 2); a ramp
+                        of no duration (``stop <= start``) is a step at ``start`` whose
+                        derivatives are 0 (the impulse at ``start`` has no finite value)
+
+An output that is not finite all the same (an overflow: a ramp so short that its second
+derivative exceeds 1.8e308) is refused by the native FMU with fmi2Error, never returned with
+fmi2OK (``fmus/c/fmi2_cosim.c``).
 ``signal_table_<hash>`` the table (:class:`fmus.model.Table`), ``"previous"`` or ``"linear"``
 """
 from __future__ import annotations
@@ -72,14 +81,20 @@ def sinusoid() -> Model:
     freq = Variable("frequency_Hz", "1/s", "Frequency, Hz", 1.0)
     phase = Variable("phase_rad", "rad", "Phase at t = 0", 0.0)
     offset = Variable("offset", "1", "Offset", 0.0)
-    y = offset.symbol + amp.symbol * sp.sin(2 * sp.pi * freq.symbol * t + phase.symbol)
+    # sin(2 pi (f t mod 1) + phase) = sin(2 pi f t + phase) where 2 pi f t overflows (|f t| beyond
+    # 2^1000 ~ 1e301 s x Hz, up to DBL_MAX: t = DBL_MAX at 1 Hz); below, the direct form, bit for bit
+    ft = freq.symbol * t
+    y = offset.symbol + amp.symbol * sp.Piecewise(
+        (sp.sin(2 * sp.pi * ft + phase.symbol), sp.Abs(ft) < sp.Float(2.0**1000)),
+        (sp.sin(2 * sp.pi * sp.Mod(ft, 1) + phase.symbol), True))
     return _model("signal_sinusoid", "Sinusoidal signal", [amp, freq, phase, offset], y)
 
 
 @lru_cache(maxsize=None)
 def cosine_ramp() -> Model:
     """Seed 002 eq. (24)-(25): a cosine ramp from ``before`` to ``after`` over [start, stop],
-    or its first or second derivative (per s, per s^2), zero outside the ramp."""
+    or its first or second derivative (per s, per s^2), zero outside the ramp; with
+    ``stop <= start`` a step from ``before`` to ``after`` at ``start`` (derivatives 0)."""
     start = Variable("start", "s", "Start of the ramp", 0.0)
     stop = Variable("stop", "s", "End of the ramp (must exceed start)", 1.0)
     before = Variable("before", "1", "Value until start", 0.0)
@@ -90,7 +105,10 @@ def cosine_ramp() -> Model:
     w = sp.pi / (t1 - t0)
     x = w * (sp.Min(sp.Max(t, t0), t1) - t0)
     inside = sp.And(_at_or_after(t0), t <= t1 + time_tolerance(t))
-    y = sp.Piecewise((a + (b - a) * (1 - sp.cos(x)) / 2, n < sp.Rational(1, 2)),
+    no_duration = t1 <= t0  # pi / (t1 - t0) is not finite: only the step branches are evaluated
+    y = sp.Piecewise((sp.Piecewise((b, _at_or_after(t0)), (a, True)), sp.And(no_duration, n < sp.Rational(1, 2))),
+                     (0, no_duration),
+                     (a + (b - a) * (1 - sp.cos(x)) / 2, n < sp.Rational(1, 2)),
                      (0, sp.Not(inside)),
                      ((b - a) * w * sp.sin(x) / 2, n < sp.Rational(3, 2)),
                      ((b - a) * w**2 * sp.cos(x) / 2, True))

@@ -34,6 +34,8 @@ import struct
 import subprocess
 import sys
 import textwrap
+import time
+import zlib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Iterator
@@ -52,8 +54,9 @@ NATIVE = (PLANT, CTRL)
 PYTHON = (PLANT_PY, CTRL_PY)
 # (input to abuse, output to watch) per model
 IO = {"mrp_satellite": ("u[1]", "omega[1]"), "mrp_hinf_published": ("omega[1]", "u[1]")}
-STATE_MAGIC = 0x5A7F3D02  # fmi2_cosim.c: first field of every native FMU state (layout version)
-ST_STEP_COMPLETE = 1 << 2  # fmi2_cosim.c: ModelState after fmi2ExitInitializationMode
+STATE_MAGIC, STATE_FORMAT = 0x73746655, 2  # fmi2_cosim.c: the head of every native FMU state
+HEADER = struct.Struct("<4I16s")  # fmi2_cosim.c Saved: magic, format, size, CRC-32, model identity
+TIME_AT = HEADER.size  # Saved.d.time, the first field of the instance data
 BLOW_UP = {"h_max": 1e6, "omega_0[1]": 1e3, "omega_0[2]": 1e3, "omega_0[3]": 1e3}
 
 
@@ -432,8 +435,13 @@ def test_native_non_finite_state_enters_error_state_until_reset(make) -> None:
     # the wrapper advanced its time to 1000 s before detecting the overflow; any doStep is refused
     inst.rejected("doStep", 1e3, 1.0, contains=("fmi2DoStep must not be called in state Error",))
     inst.rejected("setReal", [inst.vr("u[1]")], [0.0], contains=("'u[1]'", "state Error"))
-    # reading is allowed in the error state for diagnosis; the state is what overflowed
-    assert not all(math.isfinite(v) for v in inst.get(["omega[1]", "omega[2]", "omega[3]"]))
+    # reading is allowed in the error state for diagnosis: the values are delivered, the status is
+    # fmi2Error (no non-finite output comes with fmi2OK); the state is what overflowed
+    omega = (ctypes.c_double * 3)()
+    vrs = (ctypes.c_uint * 3)(*[inst.vr(f"omega[{i}]") for i in (1, 2, 3)])
+    assert fmi_host.call(inst.slave, "GetReal", vrs, 3, omega) == fmi2Error
+    assert not all(math.isfinite(v) for v in omega)
+    assert "output 'omega[1]' is non-finite" in inst.text()
     # recovery 1: the snapshot taken before the step (omega = 1e3 rad/s, h_max = 1e6 s)
     inst.ok("setFMUstate", before)
     # a 1 ms step (4 RK4 substeps of 0.25 ms) stays finite from 1e3 rad/s
@@ -443,8 +451,8 @@ def test_native_non_finite_state_enters_error_state_until_reset(make) -> None:
     inst.ok("freeFMUstate", before)
     # from these rates a 1000 s step (4 substeps of 250 s) overflows again: back in the error state
     inst.rejected("doStep", 1e-3, 1e3, contains=("non-finite",))
-    # terminate is allowed from the error state (FMI 2.0 state machine)
-    inst.ok("terminate")
+    # FMI 2.0: an instance in the error state is reset or freed, not terminated
+    inst.rejected("terminate", contains=("fmi2Terminate must not be called in state Error",))
     # recovery 2: reset goes back to Instantiated with the declared start values
     inst.ok("reset")
     inst.initialize()
@@ -529,6 +537,15 @@ def test_fmu_state_round_trip_is_exact(make, file: str) -> None:
     inst.ok("freeFMUstate", copy)
 
 
+def _resealed(record: bytes) -> bytes:
+    """``record`` with its CRC-32 recomputed (as fmi2_cosim.c computes it: the record with the CRC
+    field 0): a damage the checksum cannot see, so the range checks behind it must."""
+    magic, fmt, size, _, ident = HEADER.unpack_from(record)
+    body = record[HEADER.size:]
+    crc = zlib.crc32(HEADER.pack(magic, fmt, size, 0, ident) + body)
+    return HEADER.pack(magic, fmt, size, crc, ident) + body
+
+
 def _corrupt(kind: str, good: bytes, marker: float) -> tuple[bytes, str]:
     """A damaged copy of the native serialized state ``good`` and the expected log text."""
     if kind == "truncated":
@@ -542,33 +559,47 @@ def _corrupt(kind: str, good: bytes, marker: float) -> tuple[bytes, str]:
     if kind == "random":
         # the magic number matches random bytes with probability 2**-32
         return random.Random(1).randbytes(len(good)), "not a state of this FMU"
-    if kind == "model state":  # Data.state (int at offset 4) = 0: no state; even fmi2Reset refuses it
-        return good[:4] + struct.pack("<i", 0) + good[8:], "invalid model state"
-    if kind == "time":  # Data.time (double at offset 8) = NaN
-        return good[:8] + struct.pack("<d", math.nan) + good[16:], "corrupted state"
-    # kind == "parameter": the parameter set to ``marker`` becomes -1, below its minimum
+    if kind == "half zeroed":
+        return good[:len(good) // 2] + bytes(len(good) - len(good) // 2), "checksum"
+    if kind == "another model":  # another identity, checksum valid: the state of another model
+        magic, fmt, size, _, _ = HEADER.unpack_from(good)
+        return _resealed(HEADER.pack(magic, fmt, size, 0, bytes(16)) + good[HEADER.size:]), "another model"
+    if kind == "time":  # Data.time = NaN behind a valid checksum
+        return _resealed(good[:TIME_AT] + struct.pack("<d", math.nan) + good[TIME_AT + 8:]), "corrupted state (time"
+    if kind == "future":  # Data.time = 1e39 s (the issue's bit flip), start 0 s, no stop: still a time
+        # of this experiment, so the checksum (without resealing) is what refuses it
+        return good[:TIME_AT] + struct.pack("<d", 1e39) + good[TIME_AT + 8:], "checksum"
+    # kind == "parameter": the parameter set to ``marker`` becomes -1, below its minimum, resealed
     old = struct.pack("<d", marker)
     # the marker value occurs once, so exactly that parameter is damaged
     assert good.count(old) == 1
-    return good.replace(old, struct.pack("<d", -1.0)), "corrupted state (variable"
+    return _resealed(good.replace(old, struct.pack("<d", -1.0))), "corrupted state (variable"
 
 
-CORRUPTIONS = ["truncated", "extended", "empty", "zeros", "random", "model state", "time", "parameter"]
+CORRUPTIONS = ["truncated", "extended", "empty", "zeros", "random", "half zeroed", "another model", "time",
+               "future", "parameter"]
 
 
 @pytest.mark.parametrize("kind", CORRUPTIONS)
 @pytest.mark.parametrize("file", NATIVE)
 def test_native_corrupted_serialized_state_is_rejected(make, file: str, kind: str) -> None:
-    """fmi2DeSerializeFMUstate refuses a buffer of the wrong size or with invalid content
-    (magic number, model state, time, parameter range), and the instance keeps working."""
+    """fmi2DeSerializeFMUstate refuses a buffer of the wrong size, of another model or with damaged
+    content (checksum; behind a valid checksum the time and parameter ranges), and the instance
+    keeps working."""
     inst = make(file)
     marker, param = (15.125, "I_x") if inst.fmu.model == "mrp_satellite" else (4.875, "u_max")
     inst.initialize({param: marker})
     inst.ok("doStep", 0.0, 0.1)
     state = inst.ok("getFMUstate")
     good = inst.ok("serializeFMUstate", state)
-    # layout check of fmi2_cosim.c's Data (magic, then the model state) before damaging fields
-    assert struct.unpack_from("<Ii", good) == (STATE_MAGIC, ST_STEP_COMPLETE)
+    # layout check of fmi2_cosim.c's Saved header before damaging fields: the size is the buffer's
+    # and the CRC is zlib's CRC-32 of the record with the CRC field 0
+    magic, fmt, size, crc, ident = HEADER.unpack_from(good)
+    assert (magic, fmt, size) == (STATE_MAGIC, STATE_FORMAT, len(good))
+    assert crc == zlib.crc32(HEADER.pack(magic, fmt, size, 0, ident) + good[HEADER.size:])
+    # the identity is the GUID's bytes (the model digest)
+    assert ident.hex() == inst.fmu.md.guid.strip("{}").replace("-", "")
+    assert struct.unpack_from("<d", good, TIME_AT)[0] == 0.1  # the FMU time after the step
     bad, what = _corrupt(kind, good, marker)
     inst.rejected("deSerializeFMUstate", bad, contains=("fmi2DeSerializeFMUstate", what))
     if kind == "parameter":
@@ -578,6 +609,48 @@ def test_native_corrupted_serialized_state_is_rejected(make, file: str, kind: st
     inst.ok("setFMUstate", state)
     inst.ok("doStep", 0.1, 0.1)
     inst.ok("freeFMUstate", state)
+
+
+def test_native_state_every_single_bit_flip_is_refused(make) -> None:
+    """Every one of the 3,008 single-bit flips of the plant's serialized state is refused (the
+    issue measured 22.5 % accepted): CRC-32 detects every error burst of up to 32 bits. ~0.1 s."""
+    inst = make(PLANT)
+    inst.initialize(PLANT_INIT)
+    _run(inst, 0.0, 5)
+    state = inst.ok("getFMUstate")
+    good = inst.ok("serializeFMUstate", state)
+    accepted = []
+    for bit in range(8 * len(good)):
+        bad = bytearray(good)
+        bad[bit // 8] ^= 1 << (bit % 8)
+        if fmi_host.attempt(inst.slave, "deSerializeFMUstate", bytes(bad))[0] != fmi2Error:
+            accepted.append(bit)
+        inst.log.clear()
+    assert accepted == []
+    inst.ok("setFMUstate", state)  # still usable: the good state restores
+    inst.ok("freeFMUstate", state)
+
+
+def test_native_state_of_another_fmu_of_the_same_layout_is_refused(make, fmu_dir: Path) -> None:
+    """The two H-infinity controllers are one model structure with other gains: their states have
+    one size, so only the model identity tells them apart (one magic number for every FMU let one
+    FMU take the other's state)."""
+    other = Fmu("mrp_hinf_satfmu.fmu", fmu_dir / "mrp_hinf_satfmu.fmu",
+                read_model_description(str(fmu_dir / "mrp_hinf_satfmu.fmu")),
+                extract(str(fmu_dir / "mrp_hinf_satfmu.fmu")), False)
+    try:
+        a, b = make(CTRL), Instance(other)
+        for inst in (a, b):
+            inst.initialize()
+            inst.ok("doStep", 0.0, 0.1)
+        foreign = b.ok("serializeFMUstate", b.ok("getFMUstate"))
+        own = a.ok("serializeFMUstate", a.ok("getFMUstate"))
+        assert len(foreign) == len(own)  # the same layout
+        a.rejected("deSerializeFMUstate", foreign, contains=("not a state of this FMU", "another model"))
+        a.ok("doStep", 0.1, 0.1)  # unchanged and usable
+        b.free()
+    finally:
+        shutil.rmtree(other.unzip, ignore_errors=True)
 
 
 @pytest.mark.parametrize("file", NATIVE)
@@ -716,3 +789,176 @@ def test_pythonfmu_free_after_fatal_does_not_crash(fmus: dict[str, Fmu]) -> None
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     # exit code 0 and the last line printed: all 30 fatal + free cycles ran (SIGSEGV gives -11)
     assert proc.returncode == 0 and "survived" in proc.stdout, (proc.returncode, proc.stderr[-2000:])
+
+
+# ----------------------------------------------------------------------------- 11. limits (issue 26)
+BDOT, RAMP, SINE = "cubesat_bdot.fmu", "signal_cosine_ramp.fmu", "signal_sinusoid.fmu"
+DBL_MAX = sys.float_info.max
+
+
+@pytest.fixture
+def native(fmu_dir: Path):
+    """Factory of native :class:`Instance` objects of any FMU of the build, extracted per test."""
+    made: list[tuple[Instance, str]] = []
+
+    def _make(file: str) -> Instance:
+        path = fmu_dir / file
+        fmu = Fmu(file, path, read_model_description(str(path)), extract(str(path)), False)
+        inst = Instance(fmu)
+        made.append((inst, fmu.unzip))
+        return inst
+
+    yield _make
+    for inst, unzip in made:
+        inst.free()
+        shutil.rmtree(unzip, ignore_errors=True)
+
+
+@pytest.mark.parametrize("file", [PLANT, CTRL, BDOT, SINE])
+def test_native_huge_steps_finish_or_are_refused_at_once(native, file: str) -> None:
+    """h = 1e9, 1e12, 1e30 and DBL_MAX s: each step returns within 0.5 s (B-dot took 30 s at 1e9 and
+    never returned at 1e30), with finite outputs or refused with the bound it would pass."""
+    for h in (1e9, 1e12, 1e30, DBL_MAX):
+        inst = native(file)
+        inst.initialize()
+        started = time.process_time()  # CPU time: other processes on the machine do not count
+        status, text = inst.attempt("doStep", 0.0, h)
+        # the bounds (1e6 instants, 1e6 substeps) cost ~0.7 s at most, these steps < 0.1 s
+        assert time.process_time() - started < 0.5
+        if status == fmi2Error:
+            assert any(w in text for w in ("sample instants", "integration substeps", "time resolution")), text
+            inst.ok("doStep", 0.0, 1.0)  # refused before any change: the FMU steps on from 0 s
+        else:
+            assert status == 0 and all(math.isfinite(v) for v in inst.outputs())
+
+
+def test_native_bdot_step_at_minimum_period_is_bounded(native) -> None:
+    """control_period at its declared minimum (1 ms): a 100 s step spans 1e5 instants and finishes
+    (the issue: > 10 s at 1e-6 s); 2000 s spans 2e6 > 1e6 and is refused naming the count."""
+    inst = native(BDOT)
+    assert float(inst.vars["control_period"].min) == 1e-3  # fmus.model.MIN_SAMPLE_PERIOD
+    inst.initialize({"control_period": 1e-3})
+    started = time.process_time()
+    inst.ok("doStep", 0.0, 100.0)
+    # 1e5 instants at ~12 ns each (measured): ~1 ms of CPU; 0.1 s allows the clock's granularity
+    assert time.process_time() - started < 0.1
+    inst.rejected("doStep", 100.0, 2000.0, contains=("spans 2000000 sample instants", "limit 1000000"))
+
+
+@pytest.mark.parametrize("period", [1.0, 0.1])
+def test_native_bdot_from_unix_time_repeats_the_run_from_zero(native, period: float) -> None:
+    """B-dot from t0 = 1.4e9 s (GPS/Unix seconds) against the same run from 0: the sample instants
+    are counted (t0 + k period), so the outputs are equal (the issue: 100 % different at 1e9)."""
+    runs = {}
+    for t0 in (0.0, 1.4e9):
+        inst = native(BDOT)
+        inst.ok("setupExperiment", None, t0)
+        inst.ok("enterInitializationMode")
+        inst.set_value("control_period", period)
+        inst.ok("exitInitializationMode")
+        rows = []
+        for k in range(20):
+            b = [2e-5 * math.cos(0.3 * k), 2e-5 * math.sin(0.3 * k), 1e-5]
+            inst.ok("setReal", [inst.vr(f"b_body[{i}]") for i in (1, 2, 3)], b)
+            # the dipole of the instant t0 + k s from this field (a master's feedthrough read)
+            rows.append(inst.outputs())
+            inst.ok("doStep", t0 + k * 1.0, 1.0)
+        runs[t0] = rows
+    # the law reads no time: the same instants give the same dipoles; rel 1e-12 only allows for the
+    # rounding of instants t0 + k 0.1 (7 of 10 are inexact at 1.4e9), which do not enter the law
+    flat = {t0: [v for row in rows for v in row] for t0, rows in runs.items()}
+    assert flat[1.4e9] == pytest.approx(flat[0.0], rel=1e-12, abs=0.0)
+    assert max(map(abs, flat[0.0])) > 0  # the dipole really varies
+
+
+@pytest.mark.parametrize("file", [PLANT, BDOT])
+def test_native_communication_point_off_at_unix_time_is_refused(native, file: str) -> None:
+    """At t = 1e9 s a currentCommunicationPoint 1 ms .. 1 s off the FMU time is refused (the issue:
+    up to 1 s accepted and the time jumped); one 8 ulp off (what t0 + k h rounding gives) is not."""
+    inst = native(file)
+    inst.ok("setupExperiment", None, 1e9)
+    inst.ok("enterInitializationMode")
+    inst.ok("exitInitializationMode")
+    h = float(inst.fmu.md.defaultExperiment.stepSize)
+    inst.ok("doStep", 1e9, h)
+    for delta in (1e-3, 1e-2, 0.1, 1.0):
+        inst.rejected("doStep", 1e9 + h + delta, h, contains=("differs from the FMU time",))
+    # 8 ulp of 1e9 s = 1.9e-6 s: a master's t0 + (k + 1) h may differ from the FMU's t0 + k h + h
+    inst.ok("doStep", 1e9 + h + 4 * math.ulp(1e9), h)
+
+
+STATUS_KINDS = range(4)  # fmi2DoStepStatus, fmi2PendingStatus, fmi2LastSuccessfulTime, fmi2Terminated
+STATUS_FUNCTIONS = {"GetStatus": ctypes.c_int, "GetRealStatus": ctypes.c_double, "GetIntegerStatus": ctypes.c_int,
+                    "GetBooleanStatus": ctypes.c_int, "GetStringStatus": ctypes.c_char_p}
+
+
+def _statuses(inst: Instance) -> dict[tuple[str, int], tuple[int, Any]]:
+    out = {}
+    for fn, ctype in STATUS_FUNCTIONS.items():
+        for kind in STATUS_KINDS:
+            value = ctype()
+            out[(fn, kind)] = (fmi_host.call(inst.slave, fn, kind, ctypes.byref(value)), value.value)
+    return out
+
+
+@pytest.mark.parametrize("file", NATIVE)
+def test_native_status_queries_follow_fmi2(make, file: str) -> None:
+    """FMI 2.0: the status functions are for stepComplete and terminated: fmi2Error in Instantiated,
+    InitializationMode and Error (the issue: fmi2OK); there fmi2LastSuccessfulTime is the FMU
+    time, fmi2Terminated false, and every other status fmi2Discard (not Error: "cannot be
+    retrieved"). fmi2Terminate in the error state is refused."""
+    inst = make(file)
+    assert {s for s, _ in _statuses(inst).values()} == {fmi2Error}  # Instantiated
+    inst.initialize(exit_init=False)
+    assert {s for s, _ in _statuses(inst).values()} == {fmi2Error}  # InitializationMode
+    inst.ok("exitInitializationMode")
+    inst.ok("doStep", 0.0, 0.25)
+    for label in ("StepComplete", "Terminated"):
+        got = _statuses(inst)
+        # fmi2OK only for the two provided statuses, with the time of the last step (0.25 s) and false
+        assert got.pop(("GetRealStatus", 2)) == (0, 0.25)
+        assert got.pop(("GetBooleanStatus", 3)) == (0, 0)
+        assert {s for s, _ in got.values()} == {2}, label  # fmi2Discard
+        if label == "StepComplete":
+            inst.ok("terminate")
+    assert "not provided" in inst.text()
+    if inst.fmu.model != "mrp_satellite":  # the published controller's outputs stay finite for any input
+        return
+    inst.ok("reset")
+    inst.initialize(BLOW_UP)
+    inst.rejected("doStep", 0.0, 1e3, contains=("non-finite",))
+    assert {s for s, _ in _statuses(inst).values()} == {fmi2Error}  # Error
+    inst.rejected("terminate", contains=("must not be called in state Error",))
+
+
+@pytest.mark.parametrize("derivative", [0, 1, 2])
+def test_native_cosine_ramp_of_no_duration_is_a_step(native, derivative: int) -> None:
+    """signal_cosine_ramp with start = stop (the issue: NaN with fmi2OK) is a step at start; its
+    derivatives are 0 (the impulse has no finite value). A ramp so short that its second derivative
+    overflows is refused with fmi2Error, never returned as inf with fmi2OK."""
+    inst = native(RAMP)
+    inst.initialize({"start": 0.5, "stop": 0.5, "before": 1.0, "after": 3.0, "derivative": derivative})
+    values = []
+    for k in range(4):
+        values += inst.outputs()
+        inst.ok("doStep", 0.25 * k, 0.25)
+    # t = 0, 0.25 (before), 0.5 (the step), 0.75: exactly the step's values, or 0
+    assert values == ([1.0, 1.0, 3.0, 3.0] if derivative == 0 else [0.0] * 4)
+    if derivative == 2:
+        short = native(RAMP)  # 1e-160 s: (after - before) (pi / 1e-160)^2 / 2 overflows
+        short.initialize({"start": 0.0, "stop": 1e-160, "derivative": 2})
+        short.rejected("getReal", [short.vr("y")], contains=("output 'y' is non-finite",))
+
+
+def test_native_sinusoid_at_the_largest_time_is_finite(native) -> None:
+    """signal_sinusoid at t = DBL_MAX (the issue: NaN with fmi2OK): the argument is reduced to one
+    period where 2 pi f t would overflow; at 1 Hz f t = DBL_MAX is a whole number of periods, so
+    y = offset + amplitude sin(phase) exactly."""
+    inst = native(SINE)
+    inst.ok("setupExperiment", None, DBL_MAX)
+    inst.ok("enterInitializationMode")
+    inst.set_value("phase_rad", 0.5)
+    inst.ok("exitInitializationMode")
+    assert inst.outputs() == [math.sin(0.5)]
+    # no later finite time: a step from DBL_MAX is refused, the FMU stays at its time
+    inst.rejected("doStep", DBL_MAX, 1.0, contains=("does not reach a finite later time",))

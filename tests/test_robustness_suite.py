@@ -44,9 +44,16 @@ FAST_FMUS = ["mrp_satellite", "mrp_satellite_py", "cubesat_bdot", "vscmg_sdre_on
 """The fast run's FMUs: each backend, an expression sampler, a Python sampler, the exact integrator."""
 
 
+FAST_FLIPS = 8
+"""Bit flips per FMU state in the fast run (a seeded sample; the full run flips every bit of each
+native state: ~1 s for the largest, demeter_flexible's 10,368 bits)."""
+
+
 def test_suite_over_one_fmu_of_each_kind(fmu_dir: Path, tmp_path: Path) -> None:
-    """All cases, 100 cycles, on :data:`FAST_FMUS` (~20 s): no failure, no crash."""
-    report = robustness.run(fmu_dir, FAST_FMUS, cycles=FAST_CYCLES, out=tmp_path / "robustness")
+    """All cases, 100 cycles, 8 bit flips, on :data:`FAST_FMUS` (24 s alone, 45 s beside another test
+    process on 2 CPUs; a third of it the online SDRE's far step and its two known hangs): no
+    failure, no crash."""
+    report = robustness.run(fmu_dir, FAST_FMUS, cycles=FAST_CYCLES, out=tmp_path / "robustness", flips=FAST_FLIPS)
     _check_clean(report, FAST_FMUS, FAST_CYCLES)
     table = (tmp_path / "robustness.md").read_text()
     assert "| case |" in table and "FAIL" not in table and "CRASH" not in table
@@ -56,14 +63,16 @@ def test_suite_over_one_fmu_of_each_kind(fmu_dir: Path, tmp_path: Path) -> None:
 
 @pytest.mark.slow
 def test_suite_over_every_fmu(fmu_dir: Path, tmp_path: Path) -> None:
-    """All cases on all FMUs of the session's build, 100 cycles: no failure, no crash (~60 s)."""
+    """All cases on all FMUs of the session's build, 100 cycles, every bit of each native state flipped:
+    no failure, no crash (~7 min on 2 loaded CPUs, most of it the pythonfmu FMUs' known hangs and
+    refused bit flips)."""
     report = robustness.run(fmu_dir, cycles=FAST_CYCLES, out=tmp_path / "robustness")
     _check_clean(report, [p.stem for p in fmu_dir.glob("*.fmu")], FAST_CYCLES)
 
 
 @pytest.mark.slow
 def test_suite_over_every_fmu_full(fmu_dir: Path, tmp_path: Path) -> None:
-    """The issue's run: 1,000 instantiate/free cycles per FMU (~2.5 min)."""
+    """The issue's run: 1,000 instantiate/free cycles per FMU (489 s for docs/robustness.md)."""
     report = robustness.run(fmu_dir, cycles=1000, out=tmp_path / "robustness")
     _check_clean(report, [p.stem for p in fmu_dir.glob("*.fmu")], 1000)
 
@@ -86,9 +95,11 @@ def test_broken_binary_fails_every_case(fmu_dir: Path, tmp_path: Path) -> None:
     # 5 cycles and a far step of 1 default step: these tests are about the verdicts, not the sizes
     report = robustness.run(tmp_path, cycles=5, far_factor=1.0)
     assert report.fmus == ["broken_plant"]  # discovered by its file name alone
-    verdicts = {r.verdict for r in report.rows}
-    assert verdicts == {"fail"}  # mrp_satellite has an input and ranged parameters: no case is n/a
-    assert all("cannot instantiate" in r.detail for r in report.rows)
+    # every case that applies to mrp_satellite fails (n/a: no sample period, fewer than two time
+    # parameters, decided from the model description alone)
+    ran = [r for r in report.rows if r.verdict != "n/a"]
+    assert {r.verdict for r in ran} == {"fail"} and len(ran) >= len(report.rows) - 2
+    assert all("cannot instantiate" in r.detail for r in ran)
     assert robustness.main(["--fmu-dir", str(tmp_path), "--cycles", "5", "--far-factor", "1"]) == 1
     assert broken.exists()
 
@@ -125,7 +136,7 @@ def test_worker_crash_is_reported_and_the_rest_runs(fmu_dir: Path, tmp_path: Pat
     assert rows[victim].verdict == "crash" and rows[victim].got == "CRASH"
     assert "SIGABRT" in rows[victim].detail and "during this case" in rows[victim].detail
     assert [r.case for r in report.crashes] == [victim] and not report.failures
-    assert {r.verdict for c, r in rows.items() if c != victim} == {"pass"}
+    assert {r.verdict for c, r in rows.items() if c != victim} == {"pass", "n/a"}
     assert rows[CYCLES_CASE].metrics["rss_growth_kib"] <= rss_bound_kib(NATIVE, 5)  # the last case ran
     assert "| doStep h < 0 | CRASH |" in (tmp_path / "rob.md").read_text()
     assert not list(tmp_path.glob("*.tmp"))  # written atomically: no temporary file left

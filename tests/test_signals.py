@@ -54,7 +54,7 @@ def test_generator_fmu_reproduces_the_profile_on_the_grid(case: str, tmp_path: P
 
 def test_step_at_a_communication_point_jumps_there_despite_rounding() -> None:
     # 0.1 * 3 = 0.30000000000000004 and 3 * 0.1 vs 0.3: the jump must land on the point whose
-    # time rounds either side of 0.3 (time tolerance 1e-9)
+    # time rounds either side of 0.3 (time tolerance 1e-9 s there, fmus.model.time_tolerance)
     prof = make({"kind": "step", "time": 0.3, "before": 0.0, "after": 1.0})
     assert prof.sample(np.array([0.1 * 3, 0.3 - 1e-15, 0.3 - 1e-6]))[:2].tolist() == [1.0, 1.0]
     assert prof.sample(np.array([0.3 - 1e-6]))[0] == 0.0

@@ -1,8 +1,8 @@
 /*
  * satfmu: generic FMI 2.0 co-simulation wrapper for models generated from a symbolic
- * definition (fmus/model.py). The model-specific part (sizes, variable table and the
- * functions model_derivatives, model_outputs, model_post_step) is generated into
- * model.c, which this file includes. Written for this project.
+ * definition (fmus/model.py). The model-specific part (sizes, variable table, identity and the
+ * functions model_derivatives, model_outputs, model_post_step) is generated into model.c, which
+ * this file includes. Written for this project.
  *
  * Integration: classical RK4 over each communication step, inputs held constant
  * (zero-order hold), n = max(n_substeps, ceil(h / h_max)) substeps, post_step map
@@ -13,27 +13,51 @@
  * e^{A s} ds, A = model_jacobian, b = the derivatives at x = 0. Phi and Gamma come from a
  * Taylor series of Gamma at tau / 2^s (|A| tau / 2^s <= 1/2, 18 terms, truncation below
  * 1e-22) and s doublings Gamma <- (I + Phi) Gamma, Phi <- Phi^2; they are cached for the
- * last (A, tau). A substep ends early at model_switch_time (the frozen law's validity).
+ * last (A, tau). A substep ends early at model_switch_time (the frozen law's validity),
+ * measured as a duration from the substep start, so the result does not depend on the
+ * absolute time.
  *
  * Sampling (NH > 0, an expression sampler of fmus/model.py): NH values are computed by
- * model_sample_arguments at the start and at the instants k * period - phase (start +
- * k * period without a phase parameter) and held in p[NP..NP+NH-1] in between; a step is
- * integrated in segments between instants. The values of an instant at a communication
- * point are computed from the inputs set there, when first needed (an output read or the
- * next step), and again if an input changes there (as fmus/pyslave.py does). The held
- * values the expressions read are always those of the previous instant (held_prev), so a
- * repeated sample at one instant gives the same result as a single one.
+ * model_sample_arguments at the start and at the instants t_k = k * period - phase
+ * (t_k = start + k * period without a phase parameter), k an integer count kept exactly in
+ * a double (|k| < 2^52), and held in p[NP..NP+NH-1] in between; a step is integrated in
+ * segments between instants. The values of an instant at a communication point are computed
+ * from the inputs set there, when first needed (an output read or the next step), and again
+ * if an input changes there (as fmus/pyslave.py does). The held values the expressions read
+ * are always those of the previous instant (held_prev), so a repeated sample at one instant
+ * gives the same result as a single one.
+ *
+ * Time: two times closer than time_tolerance(t) (model.c, fmus.model.time_tolerance: 1e-9 |t|,
+ * at most 1 us, at least 8 ulp of |t|) are one instant (a sample instant and a step end, a
+ * breakpoint). fmi2DoStep refuses a currentCommunicationPoint farther than point_tol (8 ulp of
+ * the larger of 1 s, |t| and |start|: what double precision forces when a master computes
+ * t0 + k h and the FMU t_{k-1} + h) from the FMU time, a step that does not advance the time,
+ * and (stopTime defined) a step past stopTime.
+ *
+ * Bounded work: one fmi2DoStep spans at most MAX_STEP_INSTANTS sample instants and takes at
+ * most MAX_STEP_SUBSTEPS integration substeps (counted before anything changes); a longer step
+ * is refused with fmi2Error, whatever h (up to DBL_MAX) and the sample period.
+ *
+ * FMU states: a snapshot is a Saved record: a magic number, the format version, the size,
+ * the model identity (the first 16 bytes of the model digest, as in the GUID), a CRC-32 over
+ * the whole record, then the instance data. fmi2SetFMUstate, fmi2SerializeFMUstate and
+ * fmi2DeSerializeFMUstate check all of it, then the ranges (model state, finite time within
+ * [start, stop], finite state outside the error state, parameters and inputs within their
+ * declared ranges, the sample count consistent with the time); a failed check names what
+ * failed, returns fmi2Error and leaves the instance as it was.
  *
  * Robustness: every call checks the instance pointer, the call order against the
  * FMI 2.0 co-simulation state machine, value references, types, finiteness and
  * declared ranges; a violation returns fmi2Error with a message naming the
  * variable and never changes the stored values. A step whose state becomes
- * non-finite puts the instance in the error state (fmi2SetFMUstate or fmi2Reset
- * recover it).
+ * non-finite, a sample with a non-finite value and a non-finite output put the instance in
+ * the error state (fmi2SetFMUstate or fmi2Reset recover it): no output is ever non-finite
+ * with fmi2OK.
  */
 #include <float.h>
 #include <math.h>
 #include <stdarg.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -54,8 +78,18 @@ enum { TYPE_REAL = 0, TYPE_INTEGER = 1, TYPE_BOOLEAN = 2 };
 #include "model.c"
 
 #define DIM(n) ((n) > 0 ? (n) : 1)
-#define MAX_SUBSTEPS 10000000.0
-#define STATE_MAGIC 0x5a7f3d02u
+
+/* Work bounds of one fmi2DoStep. Measured (x86-64, gcc -O2, a step of 999,999 instants or
+ * substeps): a sample instant costs 12 ns (cubesat_bdot) to 22 ns (cubesat_periodic_satfmu, its
+ * gain schedule), an RK4 substep 0.16 us (mrp_satellite) to 0.65 us (magnetorquer_cubesat with its
+ * field model), so a step at either bound takes at most ~25 ms and ~0.7 s. The far steps of the
+ * robustness suite (1e4 default steps: 1e4 instants, <= 8e5 substeps) stay below them. */
+#define MAX_STEP_INSTANTS 1000000.0
+#define MAX_STEP_SUBSTEPS 1000000.0
+#define INDEX_LIMIT 4503599627370496.0 /* 2^52: sample counts stay exact integers in a double */
+
+#define STATE_MAGIC 0x73746655u /* "Ufts": a satfmu FMU state */
+#define STATE_FORMAT 2u         /* layout of Saved; 1 was the unchecked Data of satfmu <= 0.x */
 
 typedef enum {
     ST_INSTANTIATED = 1 << 0,
@@ -77,20 +111,30 @@ static const char *state_name(int s) {
 
 /* Everything that an FMU state snapshot must restore. Plain data: serializable by memcpy. */
 typedef struct {
-    unsigned magic;
-    int state;
     double time;
+    double start_time;
+    double stop_time;    /* +inf when the experiment defines none */
     double x[DIM(NX)];
     double u[DIM(NU)];
     double p[DIM(NP + NH)]; /* parameters, then the held values */
     double y[DIM(NY)];
-    int outputs_valid;
-    double start_time;
-    double next_instant; /* the first sample instant after the FMU time */
     double held_prev[DIM(NH)]; /* the held values of the previous instant */
-    int at_instant;      /* the FMU time is a sample instant */
-    int sample_due;      /* the held values of that instant are stale */
+    double next_k;       /* index of the first sample instant after the FMU time (an integer) */
+    int32_t state;
+    int32_t outputs_valid;
+    int32_t at_instant;  /* the FMU time is a sample instant */
+    int32_t sample_due;  /* the held values of that instant are stale */
 } Data;
+
+/* An FMU state (fmi2FMUstate points to one; serialized, it is these bytes). */
+typedef struct {
+    uint32_t magic;      /* STATE_MAGIC */
+    uint32_t format;     /* STATE_FORMAT */
+    uint32_t size;       /* sizeof(Saved) */
+    uint32_t crc;        /* CRC-32 (IEEE 802.3, as zlib.crc32) of the record with this field 0 */
+    unsigned char model_id[16]; /* MODEL_ID */
+    Data d;
+} Saved;
 
 #if EXACT
 /* Phi and Gamma of the last (A, tau): derived data, not part of an FMU state. */
@@ -148,8 +192,8 @@ static int allowed(Instance *inst, const char *fn, int mask) {
 static void set_defaults(Data *d) {
     int i;
     memset(d, 0, sizeof *d);
-    d->magic = STATE_MAGIC;
     d->state = ST_INSTANTIATED;
+    d->stop_time = INFINITY;
     d->at_instant = 1;
     d->sample_due = NH > 0;
     for (i = 0; i < NV; i++) {
@@ -170,13 +214,35 @@ static int all_finite(const double *v, int n) {
     return 1;
 }
 
+/* The largest difference of a currentCommunicationPoint from the FMU time t, s (see the header). */
+static double point_tol(const Data *d, double t) {
+    return TIME_ULPS * DBL_EPSILON * fmax(1.0, fmax(fabs(t), fabs(d->start_time)));
+}
+
 /* ------------------------------------------------------------------ sampling */
-static double instant_after(const Data *d, double t) {
-    const double period = d->p[P_PERIOD > 0 ? P_PERIOD : 0];
-    const double phase = P_PHASE >= 0 ? d->p[P_PHASE > 0 ? P_PHASE : 0] : -d->start_time;
-    double k = floor((t + phase) / period) + 1.0;
-    if (k * period - phase <= t + TIME_TOL * fmax(1.0, fabs(t))) k += 1.0;
-    return k * period - phase;
+static double sample_period(const Data *d) { return d->p[P_PERIOD > 0 ? P_PERIOD : 0]; }
+
+/* t_k - k * period: -phase, or the start time without a phase parameter, s. */
+static double instant_origin(const Data *d) {
+    return P_PHASE >= 0 ? -d->p[P_PHASE > 0 ? P_PHASE : 0] : d->start_time;
+}
+
+/* The sample instant of index k, s: k * period - phase (start + k * period without a phase). */
+static double instant_time(const Data *d, double k) {
+    return P_PHASE >= 0 ? k * sample_period(d) - d->p[P_PHASE > 0 ? P_PHASE : 0]
+                        : d->start_time + k * sample_period(d);
+}
+
+/* The index of the first instant later than t (by more than time_tolerance); -1 when the index is not
+ * an exact integer (|(t - origin) / period| >= INDEX_LIMIT) or the period is not > 0. */
+static double first_instant_after(const Data *d, double t) {
+    const double period = sample_period(d), tol = time_tolerance(t);
+    double k = floor((t - instant_origin(d)) / period) + 1.0;
+    int i;
+    if (!(period > 0.0) || !(fabs(k) < INDEX_LIMIT)) return -1.0;
+    for (i = 0; i < 4 && instant_time(d, k - 1.0) > t + tol; i++) k -= 1.0; /* rounding of the quotient */
+    for (i = 0; i < 4 && instant_time(d, k) <= t + tol; i++) k += 1.0;
+    return k;
 }
 
 /* Held values of the current instant; 0 (and the error state) when one is not finite. */
@@ -208,12 +274,24 @@ static void new_instant(Data *d) {
     for (i = 0; i < NH; i++) d->held_prev[i] = d->p[NP + i];
 }
 
-static int update_outputs(Instance *inst) {
+/* The outputs at the FMU time; 0 (and the error state, entered from any state) when a sample
+ * or an output is not finite: no non-finite output is ever returned with fmi2OK. */
+static int update_outputs(Instance *inst, const char *fn) {
     Data *d = &inst->d;
+    int i;
     if (d->outputs_valid) return 1;
     if (d->state & (ST_INSTANTIATED | ST_INITIALIZATION)) initial_state(d);
     if (d->sample_due && !sample(inst)) return 0;
     if (NY > 0) model_outputs(d->time, d->x, d->u, d->p, d->y);
+    for (i = 0; i < NV; i++) {
+        const VariableInfo *v = &VARIABLES[i];
+        if (v->kind == KIND_OUTPUT && !isfinite(d->y[v->index])) {
+            d->state = ST_ERROR;
+            log_msg(inst, fmi2Error, "logStatusError", "%s: output '%s' is non-finite (%g) at t = %.17g s", fn,
+                    v->name, d->y[v->index], d->time);
+            return 0;
+        }
+    }
     d->outputs_valid = 1;
     return 1;
 }
@@ -305,18 +383,22 @@ static void exact_segment(Instance *inst, double tau) {
 }
 
 /* Exact substep of h seconds ending at t_end, cut at the switch instants of the piecewise law
- * (an uncut substep uses h itself, so a constant step size reuses the cached flow). */
+ * (an uncut substep uses h itself, so a constant step size reuses the cached flow). The cuts
+ * are durations from the substep start (a switch within 1e-9 max(1 s, h) of it is that
+ * start's own), so the flow is the same at any absolute time. */
 static void exact_substep(Instance *inst, double h, double t_end) {
-    int n, cut = 0;
+    const double t0 = inst->d.time;
+    double elapsed = 0.0;
+    int n;
     for (n = 0; n < MAX_SWITCHES; n++) {
-        double ts, remaining = t_end - inst->d.time;
+        double ts;
         model_switch_time(inst->d.time, inst->d.x, inst->d.u, inst->d.p, &ts);
-        if (!(ts > TIME_TOL * fmax(1.0, fabs(t_end))) || ts >= remaining) break;
+        if (!(ts > TIME_TOL * fmax(1.0, h)) || ts >= h - elapsed) break;
         exact_segment(inst, ts);
-        inst->d.time += ts;
-        cut = 1;
+        elapsed += ts;
+        inst->d.time = t0 + elapsed;
     }
-    exact_segment(inst, cut ? t_end - inst->d.time : h);
+    exact_segment(inst, elapsed > 0.0 ? h - elapsed : h);
     inst->d.time = t_end;
 }
 #endif
@@ -344,18 +426,19 @@ static double *slot(Data *d, const VariableInfo *v) {
 static fmi2Status get_values(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, int type,
                              const char *fn, fmi2Real *r, fmi2Integer *n, fmi2Boolean *b) {
     size_t i;
+    int ok;
     CHECK(c, fn, ST_INITIALIZATION | ST_STEP_COMPLETE | ST_TERMINATED | ST_ERROR);
     if (nvr > 0 && (!vr || (!r && !n && !b))) return ERROR(inst, "%s: NULL array argument", fn);
     for (i = 0; i < nvr; i++)
         if (!lookup(inst, vr[i], type, fn)) return fmi2Error;
-    if (!update_outputs(inst)) return fmi2Error;
-    for (i = 0; i < nvr; i++) {
+    ok = update_outputs(inst, fn);
+    for (i = 0; i < nvr; i++) { /* written even on an error: values for diagnosis */
         double v = *slot(&inst->d, &VARIABLES[vr[i]]);
         if (r) r[i] = v;
-        else if (n) n[i] = (fmi2Integer)v;
+        else if (n) n[i] = isfinite(v) ? (fmi2Integer)v : 0;
         else b[i] = v != 0.0 ? fmi2True : fmi2False;
     }
-    return fmi2OK;
+    return ok ? fmi2OK : fmi2Error;
 }
 
 static fmi2Status check_value(Instance *inst, const VariableInfo *v, double value, const char *fn) {
@@ -460,10 +543,12 @@ fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean toleranceDefined, fm
     (void)toleranceDefined;
     (void)tolerance;
     if (!isfinite(startTime)) return ERROR(inst, "fmi2SetupExperiment: non-finite startTime");
-    if (stopTimeDefined && !(stopTime >= startTime))
-        return ERROR(inst, "fmi2SetupExperiment: stopTime %g before startTime %g", stopTime, startTime);
+    if (stopTimeDefined && !(isfinite(stopTime) && stopTime >= startTime))
+        return ERROR(inst, "fmi2SetupExperiment: stopTime %g is not a finite time from startTime %g on", stopTime,
+                     startTime);
     inst->d.time = startTime;
     inst->d.start_time = startTime;
+    inst->d.stop_time = stopTimeDefined ? stopTime : INFINITY;
     return fmi2OK;
 }
 
@@ -475,18 +560,28 @@ fmi2Status fmi2EnterInitializationMode(fmi2Component c) {
 }
 
 fmi2Status fmi2ExitInitializationMode(fmi2Component c) {
+    double k = 0.0;
     CHECK(c, "fmi2ExitInitializationMode", ST_INITIALIZATION);
+    if (NH > 0) {
+        k = first_instant_after(&inst->d, inst->d.time);
+        if (k < 0.0 || !(fabs(k) < INDEX_LIMIT))
+            return ERROR(inst, "fmi2ExitInitializationMode: the sample instants k * %g s from the origin %g s "
+                         "cannot be counted exactly at t = %g s", sample_period(&inst->d), instant_origin(&inst->d),
+                         inst->d.time);
+    }
     initial_state(&inst->d);
     inst->d.state = ST_STEP_COMPLETE;
     inst->d.outputs_valid = 0;
     inst->d.at_instant = 1;
     inst->d.sample_due = NH > 0;
-    if (NH > 0) inst->d.next_instant = instant_after(&inst->d, inst->d.time);
+    inst->d.next_k = k;
     return fmi2OK;
 }
 
+/* FMI 2.0: fmi2Terminate only from stepComplete (or stepFailed, which this FMU never enters):
+ * an instance in the error state is reset or freed, not terminated. */
 fmi2Status fmi2Terminate(fmi2Component c) {
-    CHECK(c, "fmi2Terminate", ST_STEP_COMPLETE | ST_ERROR);
+    CHECK(c, "fmi2Terminate", ST_STEP_COMPLETE);
     inst->d.state = ST_TERMINATED;
     return fmi2OK;
 }
@@ -533,25 +628,85 @@ fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t 
 /* ------------------------------------------------------------------ FMU state */
 #define STATE_MASK (ST_INSTANTIATED | ST_INITIALIZATION | ST_STEP_COMPLETE | ST_TERMINATED | ST_ERROR)
 
-/* A snapshot restores the call-order state too, so a corrupted one (e.g. state 0, which even
- * fmi2Reset refuses) is rejected; its parameters and inputs must pass fmi2SetReal's checks. */
-static fmi2Status check_data(Instance *inst, const Data *d, const char *fn) {
+/* CRC-32 of IEEE 802.3 (reflected polynomial 0xEDB88320, as zlib.crc32), four bits at a time:
+ * it detects every error burst of up to 32 bits, so every single-bit flip of a saved state. */
+static uint32_t crc32_of(const unsigned char *bytes, size_t n) {
+    static const uint32_t T[16] = {
+        0x00000000u, 0x1db71064u, 0x3b6e20c8u, 0x26d930acu, 0x76dc4190u, 0x6b6b51f4u, 0x4db26158u, 0x5005713cu,
+        0xedb88320u, 0xf00f9344u, 0xd6d6a3e8u, 0xcb61b38cu, 0x9b64c2b0u, 0x86d3d2d4u, 0xa00ae278u, 0xbdbdf21cu};
+    uint32_t crc = 0xffffffffu;
+    size_t i;
+    for (i = 0; i < n; i++) {
+        crc = (crc >> 4) ^ T[(crc ^ bytes[i]) & 15u];
+        crc = (crc >> 4) ^ T[(crc ^ (bytes[i] >> 4)) & 15u];
+    }
+    return crc ^ 0xffffffffu;
+}
+
+/* CRC-32 of a record with its crc field taken as 0. */
+static uint32_t saved_crc(const Saved *s) {
+    Saved tmp;
+    memcpy(&tmp, s, sizeof tmp);
+    tmp.crc = 0;
+    return crc32_of((const unsigned char *)&tmp, sizeof tmp);
+}
+
+static void save(const Data *d, Saved *s) {
+    memset(s, 0, sizeof *s);
+    s->magic = STATE_MAGIC;
+    s->format = STATE_FORMAT;
+    s->size = (uint32_t)sizeof(Saved);
+    memcpy(s->model_id, MODEL_ID, sizeof s->model_id);
+    memcpy(&s->d, d, sizeof *d);
+    s->crc = saved_crc(s);
+}
+
+static int valid_flag(int32_t v) { return v == 0 || v == 1; }
+
+/* The checks of a snapshot before it replaces the instance data: identity, integrity, ranges. */
+static fmi2Status check_saved(Instance *inst, const Saved *s, const char *fn) {
+    const Data *d = &s->d;
+    double tol;
     int i;
-    if (d->magic != STATE_MAGIC) return ERROR(inst, "%s: not a state of this FMU", fn);
+    if (s->magic != STATE_MAGIC || s->format != STATE_FORMAT || s->size != sizeof(Saved))
+        return ERROR(inst, "%s: not a state of this FMU (magic 0x%08x, format %u, size %u; expected 0x%08x, %u, %u)",
+                     fn, (unsigned)s->magic, (unsigned)s->format, (unsigned)s->size, (unsigned)STATE_MAGIC,
+                     (unsigned)STATE_FORMAT, (unsigned)sizeof(Saved));
+    if (memcmp(s->model_id, MODEL_ID, sizeof s->model_id) != 0)
+        return ERROR(inst, "%s: not a state of this FMU (the state of another model: its model identity differs "
+                     "from this FMU's GUID %s)", fn, MODEL_GUID);
+    if (s->crc != saved_crc(s))
+        return ERROR(inst, "%s: corrupted state (checksum 0x%08x, computed 0x%08x)", fn, (unsigned)s->crc,
+                     (unsigned)saved_crc(s));
+    /* Below: a record with a valid checksum, so written by this FMU's code; the range checks
+     * guard against a state saved by a faulty build of the same model. */
     if (d->state != ST_INSTANTIATED && d->state != ST_INITIALIZATION && d->state != ST_STEP_COMPLETE &&
         d->state != ST_TERMINATED && d->state != ST_ERROR)
-        return ERROR(inst, "%s: corrupted state (invalid model state %d)", fn, d->state);
-    if (!isfinite(d->time) || (d->outputs_valid != 0 && d->outputs_valid != 1))
-        return ERROR(inst, "%s: corrupted state (time %g, flag %d)", fn, d->time, d->outputs_valid);
-    if (!isfinite(d->start_time) || !isfinite(d->next_instant) || (d->at_instant != 0 && d->at_instant != 1) ||
-        (d->sample_due != 0 && d->sample_due != 1))
-        return ERROR(inst, "%s: corrupted state (sampling record)", fn);
+        return ERROR(inst, "%s: corrupted state (invalid model state %d)", fn, (int)d->state);
+    if (!valid_flag(d->outputs_valid) || !valid_flag(d->at_instant) || !valid_flag(d->sample_due) ||
+        (NH == 0 && d->sample_due))
+        return ERROR(inst, "%s: corrupted state (flags %d %d %d)", fn, (int)d->outputs_valid, (int)d->at_instant,
+                     (int)d->sample_due);
+    tol = time_tolerance(d->time);
+    if (!isfinite(d->start_time) || !isfinite(d->time) || isnan(d->stop_time) || d->stop_time < d->start_time ||
+        d->time < d->start_time - tol || d->time > d->stop_time + tol)
+        return ERROR(inst, "%s: corrupted state (time %g s outside [start %g s, stop %g s])", fn, d->time,
+                     d->start_time, d->stop_time);
+    if (d->state != ST_ERROR && !all_finite(d->x, NX))
+        return ERROR(inst, "%s: corrupted state (non-finite continuous state outside the error state)", fn);
     if (!all_finite(d->held_prev, NH) || !all_finite(d->p + NP, NH))
         return ERROR(inst, "%s: corrupted state (held values)", fn);
+    if (NH > 0 && (d->state & (ST_STEP_COMPLETE | ST_TERMINATED)) && d->next_k != first_instant_after(d, d->time))
+        return ERROR(inst, "%s: corrupted state (sample index %.17g, the time %.17g s gives %.17g)", fn, d->next_k,
+                     d->time, first_instant_after(d, d->time));
     for (i = 0; i < NV; i++) {
         const VariableInfo *v = &VARIABLES[i];
         double value;
-        if (v->kind == KIND_OUTPUT) continue;
+        if (v->kind == KIND_OUTPUT) {
+            if (d->outputs_valid && d->state != ST_ERROR && !isfinite(d->y[v->index]))
+                return ERROR(inst, "%s: corrupted state (output '%s' = %g)", fn, v->name, d->y[v->index]);
+            continue;
+        }
         value = v->kind == KIND_PARAMETER ? d->p[v->index] : d->u[v->index];
         if (!isfinite(value) || value < v->min || value > v->max)
             return ERROR(inst, "%s: corrupted state (variable '%s' = %g)", fn, v->name, value);
@@ -560,21 +715,21 @@ static fmi2Status check_data(Instance *inst, const Data *d, const char *fn) {
 }
 
 fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *FMUstate) {
-    Data *copy;
+    Saved *copy;
     CHECK(c, "fmi2GetFMUstate", STATE_MASK);
     if (!FMUstate) return ERROR(inst, "fmi2GetFMUstate: NULL state pointer");
-    copy = *FMUstate ? (Data *)*FMUstate : (Data *)malloc(sizeof(Data));
+    copy = *FMUstate ? (Saved *)*FMUstate : (Saved *)malloc(sizeof(Saved));
     if (!copy) return ERROR(inst, "fmi2GetFMUstate: out of memory");
-    *copy = inst->d;
+    save(&inst->d, copy);
     *FMUstate = copy;
     return fmi2OK;
 }
 
 fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate FMUstate) {
     CHECK(c, "fmi2SetFMUstate", STATE_MASK);
-    if (!FMUstate) return ERROR(inst, "fmi2SetFMUstate: not a state of this FMU");
-    if (check_data(inst, (const Data *)FMUstate, "fmi2SetFMUstate") != fmi2OK) return fmi2Error;
-    inst->d = *(Data *)FMUstate;
+    if (!FMUstate) return ERROR(inst, "fmi2SetFMUstate: not a state of this FMU (NULL)");
+    if (check_saved(inst, (const Saved *)FMUstate, "fmi2SetFMUstate") != fmi2OK) return fmi2Error;
+    memcpy(&inst->d, &((const Saved *)FMUstate)->d, sizeof(Data));
     return fmi2OK;
 }
 
@@ -590,7 +745,7 @@ fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *FMUstate) {
 fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate FMUstate, size_t *size) {
     CHECK(c, "fmi2SerializedFMUstateSize", STATE_MASK);
     if (!FMUstate || !size) return ERROR(inst, "fmi2SerializedFMUstateSize: NULL argument");
-    *size = sizeof(Data);
+    *size = sizeof(Saved);
     return fmi2OK;
 }
 
@@ -598,22 +753,25 @@ fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate FMUstate, fmi2Byt
                                  size_t size) {
     CHECK(c, "fmi2SerializeFMUstate", STATE_MASK);
     if (!FMUstate || !serializedState) return ERROR(inst, "fmi2SerializeFMUstate: NULL argument");
-    if (size < sizeof(Data)) return ERROR(inst, "fmi2SerializeFMUstate: buffer of %zu bytes is too small", size);
-    memcpy(serializedState, FMUstate, sizeof(Data));
+    if (size < sizeof(Saved)) return ERROR(inst, "fmi2SerializeFMUstate: buffer of %zu bytes is too small", size);
+    if (check_saved(inst, (const Saved *)FMUstate, "fmi2SerializeFMUstate") != fmi2OK) return fmi2Error;
+    memcpy(serializedState, FMUstate, sizeof(Saved));
     return fmi2OK;
 }
 
 fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte serializedState[], size_t size,
                                    fmi2FMUstate *FMUstate) {
-    Data tmp;
+    Saved tmp;
     CHECK(c, "fmi2DeSerializeFMUstate", STATE_MASK);
     if (!serializedState || !FMUstate) return ERROR(inst, "fmi2DeSerializeFMUstate: NULL argument");
-    if (size != sizeof(Data)) return ERROR(inst, "fmi2DeSerializeFMUstate: %zu bytes, expected %zu", size, sizeof(Data));
-    memcpy(&tmp, serializedState, sizeof(Data));
-    if (check_data(inst, &tmp, "fmi2DeSerializeFMUstate") != fmi2OK) return fmi2Error;
-    if (!*FMUstate) *FMUstate = malloc(sizeof(Data));
+    if (size != sizeof(Saved))
+        return ERROR(inst, "fmi2DeSerializeFMUstate: not a state of this FMU (%zu bytes, expected %zu)", size,
+                     sizeof(Saved));
+    memcpy(&tmp, serializedState, sizeof(Saved));
+    if (check_saved(inst, &tmp, "fmi2DeSerializeFMUstate") != fmi2OK) return fmi2Error;
+    if (!*FMUstate) *FMUstate = malloc(sizeof(Saved));
     if (!*FMUstate) return ERROR(inst, "fmi2DeSerializeFMUstate: out of memory");
-    memcpy(*FMUstate, &tmp, sizeof(Data));
+    memcpy(*FMUstate, &tmp, sizeof(Saved));
     return fmi2OK;
 }
 
@@ -640,21 +798,27 @@ fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReferenc
     return ERROR(inst, "fmi2GetRealOutputDerivatives: not provided (maxOutputDerivativeOrder=0)");
 }
 
-/* Integrate h seconds from the FMU time in RK4 substeps; the instance time ends at t_end. */
+/* Substeps of an integration over h seconds: max(n_substeps, ceil(h / h_max)); 1 for the exact
+ * integrator (it has neither parameter), 0 without states. May exceed MAX_STEP_SUBSTEPS (or be
+ * +inf): the caller checks before integrating. */
+static double substeps(const Data *d, double h) {
+    double n = P_N_SUBSTEPS >= 0 ? d->p[P_N_SUBSTEPS > 0 ? P_N_SUBSTEPS : 0] : 1.0;
+    if (NX == 0) return 0.0;
+    if (P_H_MAX >= 0) n = fmax(n, ceil(h / d->p[P_H_MAX > 0 ? P_H_MAX : 0]));
+    return n;
+}
+
+/* Integrate h seconds from the FMU time in substeps (at most MAX_STEP_SUBSTEPS: checked by
+ * fmi2DoStep); the instance time ends at t_end. */
 static fmi2Status integrate(Instance *inst, double h, double t_end) {
     const double t0 = inst->d.time;
-    double n_sub, hs;
-    long k, n;
+    long n, k;
+    double hs;
     if (NX == 0) {
         inst->d.time = t_end;
         return fmi2OK;
     }
-    n_sub = P_N_SUBSTEPS >= 0 ? inst->d.p[P_N_SUBSTEPS] : 1.0;
-    if (P_H_MAX >= 0) n_sub = fmax(n_sub, ceil(h / inst->d.p[P_H_MAX]));
-    if (n_sub > MAX_SUBSTEPS)
-        return ERROR(inst, "fmi2DoStep: step %g s would need %g RK4 substeps (limit %g); raise h_max", h, n_sub,
-                     MAX_SUBSTEPS);
-    n = (long)n_sub;
+    n = (long)substeps(&inst->d, h);
     hs = h / (double)n;
     for (k = 0; k < n; k++) {
 #if EXACT
@@ -672,45 +836,85 @@ static fmi2Status integrate(Instance *inst, double h, double t_end) {
     return fmi2OK;
 }
 
-/* Integrate to t_end in segments between sample instants, sampling at each. */
-static fmi2Status step_sampled(Instance *inst, double t_end) {
-    const double tol = TIME_TOL * fmax(1.0, fabs(t_end));
-    double t_next;
-    if (inst->d.sample_due && !sample(inst)) return fmi2Error;
-    for (;;) {
-        t_next = inst->d.next_instant;
-        if (t_next < t_end - tol) {
-            if (integrate(inst, t_next - inst->d.time, t_next) != fmi2OK) return fmi2Error;
-            inst->d.next_instant = instant_after(&inst->d, t_next);
-            new_instant(&inst->d);
-            if (!sample(inst)) return fmi2Error;
-            continue;
-        }
-        if (integrate(inst, t_end - inst->d.time, t_end) != fmi2OK) return fmi2Error;
-        inst->d.at_instant = fabs(t_next - t_end) <= tol;
-        if (inst->d.at_instant) {
-            inst->d.next_instant = instant_after(&inst->d, t_next);
-            new_instant(&inst->d);
-        }
-        inst->d.sample_due = inst->d.at_instant;
-        return fmi2OK;
+/* The work of a step to t_end (h seconds) counted before anything changes: the index of the
+ * last sample instant it reaches (k_end, NH > 0) and its substeps; fmi2Error past a bound. */
+static fmi2Status plan_step(Instance *inst, double h, double t_end, double *k_end) {
+    const Data *d = &inst->d;
+    double n_sub;
+    if (NH > 0) {
+        const double period = sample_period(d), tol = time_tolerance(t_end);
+        double count, k_after;
+        if (!(period > 2.0 * tol))
+            return ERROR(inst, "fmi2DoStep: the sample period %g s is below the time resolution at t = %.17g s "
+                         "(instants closer than %g s are one)", period, t_end, tol);
+        k_after = first_instant_after(d, t_end);
+        if (k_after < 0.0)
+            return ERROR(inst, "fmi2DoStep: h = %g s: the sample instants up to t = %g s cannot be counted exactly "
+                         "(limit 2^52 periods)", h, t_end);
+        *k_end = k_after - 1.0;
+        count = *k_end - d->next_k + 1.0;
+        if (count > MAX_STEP_INSTANTS)
+            return ERROR(inst, "fmi2DoStep: h = %g s spans %.0f sample instants of %g s (limit %.0f); take shorter "
+                         "communication steps", h, count, period, MAX_STEP_INSTANTS);
+        /* every segment between instants lasts at most min(h, period) (one more substep for the
+         * rounding of its length), and there are count + 1 segments */
+        n_sub = (count + 1.0) * (substeps(d, fmin(h, period)) + (NX > 0 ? 1.0 : 0.0));
+    } else {
+        n_sub = substeps(d, h);
     }
+    if (!(n_sub <= MAX_STEP_SUBSTEPS))
+        return ERROR(inst, "fmi2DoStep: h = %g s would need %g integration substeps (limit %.0f); take shorter "
+                     "communication steps or raise h_max", h, n_sub, MAX_STEP_SUBSTEPS);
+    return fmi2OK;
+}
+
+/* Integrate to t_end in segments between the sample instants next_k .. k_end, sampling at each. */
+static fmi2Status step_sampled(Instance *inst, double t_end, double k_end) {
+    Data *d = &inst->d;
+    const double tol = time_tolerance(t_end);
+    if (d->sample_due && !sample(inst)) return fmi2Error;
+    while (d->next_k <= k_end) {
+        const double t_k = instant_time(d, d->next_k);
+        if (t_k >= t_end - tol) break; /* the step ends at this instant */
+        if (integrate(inst, t_k - d->time, t_k) != fmi2OK) return fmi2Error;
+        d->next_k += 1.0;
+        new_instant(d);
+        if (!sample(inst)) return fmi2Error;
+    }
+    if (integrate(inst, t_end - d->time, t_end) != fmi2OK) return fmi2Error;
+    d->at_instant = d->next_k <= k_end;
+    if (d->at_instant) {
+        d->next_k = k_end + 1.0;
+        new_instant(d);
+    }
+    d->sample_due = d->at_instant;
+    return fmi2OK;
 }
 
 fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint, fmi2Real communicationStepSize,
                       fmi2Boolean noSetFMUStatePriorToCurrentPoint) {
-    double h = communicationStepSize;
+    const double h = communicationStepSize, t = currentCommunicationPoint;
+    double t_end, tol, k_end = 0.0;
     fmi2Status status;
     CHECK(c, "fmi2DoStep", ST_STEP_COMPLETE);
     (void)noSetFMUStatePriorToCurrentPoint;
     if (!isfinite(h) || !(h > 0.0))
         return ERROR(inst, "fmi2DoStep: communicationStepSize must be finite and > 0, got %g", h);
-    if (!isfinite(currentCommunicationPoint) ||
-        fabs(currentCommunicationPoint - inst->d.time) > 1e-9 * fmax(1.0, fabs(inst->d.time)))
-        return ERROR(inst, "fmi2DoStep: currentCommunicationPoint %.17g differs from the FMU time %.17g",
-                     currentCommunicationPoint, inst->d.time);
-    status = NH > 0 ? step_sampled(inst, currentCommunicationPoint + h)
-                    : integrate(inst, h, currentCommunicationPoint + h);
+    tol = isfinite(t) ? point_tol(&inst->d, fmax(fabs(t), fabs(inst->d.time))) : 0.0;
+    if (!isfinite(t) || fabs(t - inst->d.time) > tol)
+        return ERROR(inst, "fmi2DoStep: currentCommunicationPoint %.17g differs from the FMU time %.17g by %g s "
+                     "(tolerance %g s)", t, inst->d.time, t - inst->d.time, tol);
+    t_end = t + h;
+    if (!isfinite(t_end) || !(t_end > t))
+        return ERROR(inst, "fmi2DoStep: h = %g s from t = %.17g s does not reach a finite later time", h, t);
+    if (t_end > inst->d.stop_time + time_tolerance(inst->d.stop_time))
+        return ERROR(inst, "fmi2DoStep: the step to t = %.17g s passes stopTime %.17g s", t_end, inst->d.stop_time);
+    if (plan_step(inst, h, t_end, &k_end) != fmi2OK) return fmi2Error;
+    if (NH > 0) {
+        status = step_sampled(inst, t_end, k_end);
+    } else {
+        status = integrate(inst, h, t_end);
+    }
     inst->d.outputs_valid = 0;
     return status;
 }
@@ -720,31 +924,65 @@ fmi2Status fmi2CancelStep(fmi2Component c) {
     return ERROR(inst, "fmi2CancelStep: fmi2DoStep is synchronous, there is nothing to cancel");
 }
 
-static fmi2Status no_status(fmi2Component c, const char *fn) {
-    CHECK(c, fn, STATE_MASK);
-    return ERROR(inst, "%s: fmi2DoStep is synchronous, no asynchronous status exists", fn);
+/* ------------------------------------------------------------------ status queries */
+/* FMI 2.0 (section 4.2.3 and the co-simulation state table): the status functions may be called
+ * in stepComplete, stepInProgress, stepFailed and terminated; elsewhere (Instantiated,
+ * InitializationMode, Error) they return fmi2Error. This FMU provides
+ *   fmi2GetRealStatus(fmi2LastSuccessfulTime): fmi2OK, the FMU time (the end of the last step),
+ *   fmi2GetBooleanStatus(fmi2Terminated): fmi2OK, fmi2False (this FMU never asks to terminate),
+ * and no other status: fmi2DoStepStatus and fmi2PendingStatus exist only after fmi2DoStep returned
+ * fmi2Pending, which this synchronous FMU never does, so every other (function, kind) pair returns
+ * fmi2Discard ("a status ... which cannot be retrieved by the slave") with a message; a kind that
+ * is no fmi2StatusKind returns fmi2Error. */
+#define STATUS_MASK (ST_STEP_COMPLETE | ST_TERMINATED)
+
+static const char *status_kind_name(fmi2StatusKind s) {
+    switch (s) {
+    case fmi2DoStepStatus: return "fmi2DoStepStatus";
+    case fmi2PendingStatus: return "fmi2PendingStatus";
+    case fmi2LastSuccessfulTime: return "fmi2LastSuccessfulTime";
+    case fmi2Terminated: return "fmi2Terminated";
+    default: return NULL;
+    }
 }
+
+/* The answer for a status this FMU does not provide: fmi2Discard, or fmi2Error for a NULL
+ * value pointer or an unknown kind. */
+static fmi2Status no_status(Instance *inst, const char *fn, fmi2StatusKind s, const void *value) {
+    const char *kind = status_kind_name(s);
+    if (!kind) return ERROR(inst, "%s: %d is no fmi2StatusKind", fn, (int)s);
+    if (!value) return ERROR(inst, "%s: NULL value pointer", fn);
+    log_msg(inst, fmi2Discard, "logStatusDiscard", "%s: %s is not provided (fmi2DoStep is synchronous; this FMU "
+            "provides fmi2GetRealStatus(fmi2LastSuccessfulTime) and fmi2GetBooleanStatus(fmi2Terminated))", fn,
+            kind);
+    return fmi2Discard;
+}
+
 fmi2Status fmi2GetStatus(fmi2Component c, const fmi2StatusKind s, fmi2Status *value) {
-    (void)s; (void)value;
-    return no_status(c, "fmi2GetStatus");
+    CHECK(c, "fmi2GetStatus", STATUS_MASK);
+    return no_status(inst, "fmi2GetStatus", s, value);
 }
 fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind s, fmi2Real *value) {
-    Instance *inst = (Instance *)c;
-    if (inst && s == fmi2LastSuccessfulTime && value) {
+    CHECK(c, "fmi2GetRealStatus", STATUS_MASK);
+    if (s == fmi2LastSuccessfulTime && value) {
         *value = inst->d.time;
         return fmi2OK;
     }
-    return no_status(c, "fmi2GetRealStatus");
+    return no_status(inst, "fmi2GetRealStatus", s, value);
 }
 fmi2Status fmi2GetIntegerStatus(fmi2Component c, const fmi2StatusKind s, fmi2Integer *value) {
-    (void)s; (void)value;
-    return no_status(c, "fmi2GetIntegerStatus");
+    CHECK(c, "fmi2GetIntegerStatus", STATUS_MASK);
+    return no_status(inst, "fmi2GetIntegerStatus", s, value);
 }
 fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind s, fmi2Boolean *value) {
-    (void)s; (void)value;
-    return no_status(c, "fmi2GetBooleanStatus");
+    CHECK(c, "fmi2GetBooleanStatus", STATUS_MASK);
+    if (s == fmi2Terminated && value) {
+        *value = fmi2False;
+        return fmi2OK;
+    }
+    return no_status(inst, "fmi2GetBooleanStatus", s, value);
 }
 fmi2Status fmi2GetStringStatus(fmi2Component c, const fmi2StatusKind s, fmi2String *value) {
-    (void)s; (void)value;
-    return no_status(c, "fmi2GetStringStatus");
+    CHECK(c, "fmi2GetStringStatus", STATUS_MASK);
+    return no_status(inst, "fmi2GetStringStatus", s, value);
 }

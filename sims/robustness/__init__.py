@@ -1,10 +1,11 @@
 """Robustness suite over every built FMU: misuse cases x FMUs, each FMU in a child process.
 
 Modules: :mod:`.target` (the FMU and the variables a case abuses), :mod:`.instance` (one FMU
-instance in a worker), :mod:`.cases` and :mod:`.memory` (what each case does), :mod:`.table`
-(the cases and their expectations per backend), :mod:`.worker` (the child process),
-:mod:`.runner` (the parent: workers, crashes, time-outs, :class:`Report`), :mod:`.report`
-(Markdown and CSV), :mod:`.command` (the command line).
+instance in a worker), :mod:`.cases`, :mod:`.memory`, :mod:`.states` (corrupted FMU states) and
+:mod:`.limits` (huge steps, large start times, status queries, extreme times) (what each case
+does), :mod:`.table` (the cases and their expectations per backend), :mod:`.worker` (the child
+process), :mod:`.runner` (the parent: workers, crashes, time-outs, :class:`Report`),
+:mod:`.report` (Markdown and CSV), :mod:`.command` (the command line).
 
 Every ``*.fmu`` of a folder is driven through fmpy's low-level FMI 2.0 API
 (``fmpy.fmi2.FMU2Slave``, raw ``fmi2*`` calls so the exact status is seen) with
@@ -13,6 +14,19 @@ machine, out-of-range and wrong-type sets, unknown value references, an FMU stat
 round trip and many instantiate/free cycles (:data:`.table.CASES`, run by the functions of :mod:`.cases` and :mod:`.memory`). The variables a case
 abuses are chosen from ``modelDescription.xml`` (:func:`.target.describe`); a case whose
 variable does not exist (no input, no ranged parameter, ...) is "n/a".
+
+The limit cases of issue 26 (the second block of :data:`.table.CASES`): every single-bit flip of
+a serialized native state (``--flips N``: a seeded sample), a half-zeroed, resized or foreign
+state; steps of 1e9, 1e12, 1e30 and DBL_MAX s (also at the minimum sample period) within a CPU
+time and a short time limit; start times of 1e9 and 1.4e9 s against the same run from 0 and
+communication points 1 ms to 1 s off at 1e9 s; the five status functions with each
+``fmi2StatusKind`` in each FMI state and ``fmi2Terminate`` in the error state (FMI 2.0:
+:func:`.limits.required_status`); outputs at t = DBL_MAX and with equal time parameters.
+
+Verdicts: ``pass``, ``fail``, ``crash``, ``n/a`` and ``known``: a deviation that the expectation
+lists as today's measured pythonfmu behaviour (:func:`.table.pythonfmu_today`; ``fmus/pyslave.py``
+or pythonfmu 0.7.0's own C++ status functions), reported apart so it can be fixed and the
+allowance removed.
 
 The cases of one FMU run in a child process (``python -m sims.robustness --worker``, :mod:`.worker`),
 which reports each case as it starts and ends. If the child dies (segfault, abort)

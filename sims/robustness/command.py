@@ -20,6 +20,8 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--cycles", type=int, default=1000, help="instantiate/free cycles of the memory case")
     p.add_argument("--out", type=Path, help="write OUT.md and OUT.csv")
     p.add_argument("--far-factor", type=float, default=FAR_FACTOR, help="far step in default step sizes")
+    p.add_argument("--flips", type=int, help="single-bit flips per native FMU state, a seeded sample "
+                   "(default: every bit)")
     p.add_argument("--worker", type=Path, help=argparse.SUPPRESS)
     p.add_argument("--results", type=Path, help=argparse.SUPPRESS)
     p.add_argument("cases", nargs="*", help=argparse.SUPPRESS)
@@ -31,12 +33,12 @@ def main(argv: list[str] | None = None) -> int:
     n/a), 1 on any failure or crash, 2 if there is no FMU to test."""
     args = _parser().parse_args(argv)
     if args.worker is not None:
-        work(args.worker, args.cases, Settings(args.cycles, args.far_factor), args.results)
+        work(args.worker, args.cases, Settings(args.cycles, args.far_factor, args.flips), args.results)
         return 0
     try:
         if not discover(args.fmu_dir, args.fmu):
             raise FileNotFoundError(f"no *.fmu in {args.fmu_dir}; run `satfmu build` first")
-        report = run(args.fmu_dir, args.fmu, args.cycles, args.out, far_factor=args.far_factor)
+        report = run(args.fmu_dir, args.fmu, args.cycles, args.out, far_factor=args.far_factor, flips=args.flips)
     except FileNotFoundError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2

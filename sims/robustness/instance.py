@@ -105,21 +105,28 @@ class Instance:
         """Every Real output (they must be readable)."""
         return [self.value(v) for v in self.target.outputs]
 
-    def enter(self) -> None:
-        """fmi2SetupExperiment at t = 0 s and fmi2EnterInitializationMode."""
-        self.need("SetupExperiment", 0, 0.0, 0.0, 0, 0.0)
+    def enter(self, start_time: float = 0.0) -> None:
+        """fmi2SetupExperiment at ``start_time`` (s, no stop time) and fmi2EnterInitializationMode."""
+        self.need("SetupExperiment", 0, 0.0, start_time, 0, 0.0)
         self.need("EnterInitializationMode")
-        self.mode = "InitializationMode"
+        self.mode, self.time = "InitializationMode", start_time
 
     def exit(self) -> None:
         """fmi2ExitInitializationMode."""
         self.need("ExitInitializationMode")
         self.mode = "StepComplete"
 
-    def initialize(self) -> None:
-        """From Instantiated to StepComplete with the default values."""
-        self.enter()
+    def initialize(self, start_time: float = 0.0) -> None:
+        """From Instantiated to StepComplete with the default values, from ``start_time`` (s)."""
+        self.enter(start_time)
         self.exit()
+
+    def renew(self) -> None:
+        """A fresh instance in Instantiated: this one freed (abandoned after fmi2Fatal) and
+        instantiated again on the same loaded library."""
+        self.free()
+        self.dead = False
+        self.instantiate()
 
     def step(self, h: float | None = None) -> int:
         """fmi2DoStep of ``h`` s (default: the default step size) from the tracked FMU time."""
@@ -169,6 +176,8 @@ class Outcome:
         Violations found by the case itself (value changed, not usable afterwards, ...).
     metrics : dict of str to float
         Measured quantities, e.g. ``rss_growth_kib``.
+    not_applicable : str
+        Non-empty: the case found it cannot apply to this FMU (the reason; the row is n/a).
     """
 
     status: int = OK
@@ -176,6 +185,7 @@ class Outcome:
     detail: str = ""
     problems: list[str] = field(default_factory=list)
     metrics: dict[str, float] = field(default_factory=dict)
+    not_applicable: str = ""
 
 
 def bits(values: Sequence[float]) -> bytes:

@@ -29,6 +29,8 @@ class Var:
         Declared start value (in the variable's unit).
     min, max : float or None
         Declared range (in the variable's unit), None when not declared.
+    unit : str
+        Declared unit ("" when none).
     """
 
     name: str
@@ -39,6 +41,17 @@ class Var:
     start: float | None
     min: float | None
     max: float | None
+    unit: str = ""
+
+
+SAMPLE_PERIODS = ("control_period", "sample_period")
+"""Names of the sample-period parameters of the project's sampled FMUs (fmus.model.Sampler.period:
+controllers/magnetic.py, controllers/servo.py); the huge-step cases also run at its declared minimum."""
+TIME_ORIGINS = {"time": 1.0, "start": 1.0, "stop": 1.0, "orbit_time_0": -1.0}
+"""Parameters that place an FMU's time-dependent behaviour on the time axis, with the sign of their
+shift when the experiment starts t0 later (a step or ramp time moves by +t0; the orbit time at
+t = 0 of the cubesat plant and of the periodic schedules by -t0, so the orbit time at the start is
+kept): the start-time cases run the same experiment at t0 = 0 and at a large t0."""
 
 
 @dataclass(frozen=True)
@@ -67,6 +80,10 @@ class Target:
         The first parameter with a finite declared minimum (maximum).
     non_real : Var or None
         The first Integer or Boolean parameter.
+    parameters : tuple of Var
+        Every parameter.
+    period : Var or None
+        The sample-period parameter (:data:`SAMPLE_PERIODS`).
     """
 
     path: Path
@@ -84,6 +101,8 @@ class Target:
     below: Var | None
     above: Var | None
     non_real: Var | None
+    parameters: tuple[Var, ...] = ()
+    period: Var | None = None
 
     @property
     def input(self) -> Var | None:
@@ -97,7 +116,8 @@ def _number(text: str | None) -> float | None:
 
 def _var(v: Any) -> Var:
     return Var(v.name, int(v.valueReference), v.type, v.causality, v.variability or "",
-               _number(v.start) if v.type in ("Real", "Integer") else None, _number(v.min), _number(v.max))
+               _number(v.start) if v.type in ("Real", "Integer") else None, _number(v.min), _number(v.max),
+               v.unit or "")
 
 
 def _first(variables: Sequence[Var], pred: Callable[[Var], bool]) -> Var | None:
@@ -128,7 +148,8 @@ def describe(path: Path) -> Target:
         fixed=_first(params, lambda v: v.variability != "tunable"),
         below=_first(params, lambda v: v.type in ("Real", "Integer") and v.min is not None and math.isfinite(v.min)),
         above=_first(params, lambda v: v.type in ("Real", "Integer") and v.max is not None and math.isfinite(v.max)),
-        non_real=_first(params, lambda v: v.type in ("Integer", "Boolean")))
+        non_real=_first(params, lambda v: v.type in ("Integer", "Boolean")),
+        parameters=tuple(params), period=_first(real_params, lambda v: v.name in SAMPLE_PERIODS))
 
 
 def discover(fmu_dir: Path, names: Sequence[str] | None = None) -> list[Path]:

@@ -5,6 +5,7 @@ import io
 import json
 import os
 import shutil
+import time
 from collections.abc import Sequence
 from dataclasses import asdict
 from pathlib import Path
@@ -30,6 +31,7 @@ def _run_case(case: Case, target: Target, unzip: str, settings: Settings) -> Out
         inst = Instance(target, unzip)
     except Exception as exc:  # noqa: BLE001 - loading or instantiating failed: the case fails
         return Outcome(status=NO_RESULT, problems=[f"cannot instantiate: {type(exc).__name__}: {exc}"])
+    started = time.perf_counter()
     try:
         out = case.run(inst, **{name: getattr(settings, name) for name in case.settings})
     except CaseBroken as exc:
@@ -37,6 +39,7 @@ def _run_case(case: Case, target: Target, unzip: str, settings: Settings) -> Out
     except Exception as exc:  # noqa: BLE001 - an unexpected Python error is a FAIL of this case
         out = Outcome(status=NO_RESULT, log=inst.text(), problems=[f"{type(exc).__name__}: {exc}"])
     inst.free()
+    out.metrics["case_s"] = time.perf_counter() - started
     return out
 
 
