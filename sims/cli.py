@@ -9,7 +9,7 @@
     satfmu export-ssp SCENARIO [SCENARIO ...] [--backend native|python] [--fmu-dir DIR] [--allow-stale]
                                               [--out results/ssp]
     satfmu verify [SCENARIO ...] [--engines libcosim ecos] [--fmu-dir DIR] [--allow-stale] [--out results/verify]
-    satfmu robustness [--fmu NAME ...] [--cycles 1000] [--fmu-dir DIR] [--out results/robustness]
+    satfmu robustness [--fmu NAME ...] [--cycles 1000] [--flips N] [--fmu-dir DIR] [--out results/robustness]
     satfmu synth mrp-hinf [--name mrp_hinf_satfmu] [--samples 20000] [--out controllers/artifacts] [--fmu-dir DIR] ...
     satfmu synth mrp-h2hinf --gamma G [--variant slack|common] [--region 0.45] [--name ...] ...
     satfmu synth vscmg-sdre [--grid 23 25] [--max-degree 8] [--cv-tol TOL] [--out ...] [--fmu-dir DIR]
@@ -165,6 +165,8 @@ def _robustness(args: argparse.Namespace) -> int:
     argv = ["--fmu-dir", args.fmu_dir, "--cycles", str(args.cycles), "--out", args.out]
     for name in args.fmu or []:
         argv += ["--fmu", name]
+    if args.flips is not None:
+        argv += ["--flips", str(args.flips)]
     return robustness.main(argv)
 
 
@@ -373,6 +375,8 @@ def parser() -> argparse.ArgumentParser:
     rb = command(sub, "robustness", "drive every FMU through misuse cases (table of cases x FMUs)")
     rb.add_argument("--fmu", action="append", help="FMU file name in --fmu-dir (repeatable; default: all)")
     rb.add_argument("--cycles", type=int, default=1000, help="instantiate/free cycles per FMU")
+    rb.add_argument("--flips", type=int, help="single-bit flips per native FMU state, a seeded sample "
+                    "(default: every bit)")
     _fmu_dir(rb)
     rb.add_argument("--out", default="results/robustness", help="folder of the report")
     rb.set_defaults(fn=_robustness)
