@@ -45,6 +45,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from controllers import claims
+
 if TYPE_CHECKING:
     from fmus.model import Model
 
@@ -311,11 +313,26 @@ def _check_named(items: list, label: str, where: str, keys: tuple[str, ...] = ("
 def parse(data: Any, where: str = "artifact") -> Artifact:
     """Validate JSON data and return the artifact.
 
+    Beyond the schema, what the artifact claims is re-checked (:mod:`controllers.claims`): its
+    certificate status against the numbers it records and the matrices it holds, and a gain
+    held twice (``design.K`` and ``gains``) for agreement.
+
     Raises
     ------
     ArtifactError
-        Naming the offending key, e.g. ``"artifact.law.terms[0][2].e: ..."``.
+        Naming the offending key, e.g. ``"artifact.law.terms[0][2].e: ..."`` or
+        ``"artifact.certificate.numbers['ms_spectral_radius'] = 1.5: status 'certified' needs < 1 ..."``.
     """
+    artifact = _parse(data, where)
+    found = claims.problems(data)
+    if found:
+        more = f" (and {len(found) - 1} more)" if len(found) > 1 else ""
+        raise _fail(where, found[0] + more)
+    return artifact
+
+
+def _parse(data: Any, where: str) -> Artifact:
+    """The artifact of schema-valid JSON data (:func:`parse` without the claims)."""
     if not isinstance(data, dict):
         raise _fail(where, "top level must be a JSON object")
     if data.get("format") != FORMAT:

@@ -14,10 +14,21 @@ design: a design on reduced flexible coordinates ``eta_r = Q eta`` enters as ``K
 (:meth:`synthesis.demeter_variants.DesignModel.fmu_gains`). The inputs carry the names of the
 plant's outputs, so the master connects them by name. The law is affine in its states and the
 FMU steps it exactly (``integrator="exact"``).
+
+A design's gain ``u = K x`` on the design model's states (:func:`design_states`) and the FMU's
+gains are one law: :func:`design_gains` maps the one onto the other, and
+:func:`gains_of_design` does it from an artifact's ``design`` record, so that loading an
+artifact can check that its ``design.K`` and its ``gains`` agree (the campaigns use the first,
+the FMU the second).
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
 import sympy as sp
+from scipy.linalg import sqrtm
 
 from fmus import demeter
 from fmus.model import Model, Output, Variable, states, symbols, vector
@@ -65,3 +76,147 @@ def build(gains: dict[str, float] | None = None, name: str = "demeter_state_feed
     return Model(name=name, description=description, states=x_xi + x_xw,
                  inputs=[v for vs in meas.values() for v in vs], parameters=params + [a], outputs=outputs,
                  rhs=rhs, default_stop_time=600.0, default_step_size=0.1, integrator="exact")
+
+
+def flexible_groups(appendages: Sequence[int], model_type: int) -> list[list[int]]:
+    """Plant flexible coordinates (0-based, of the 8) of each group sharing omega and zeta: one
+    group per appendage (its bending and torsion) for ``model_type`` 1, one group of every
+    selected appendage for ``model_type`` 2 (identical appendages)."""
+    cols = [[2 * (a - 1), 2 * (a - 1) + 1] for a in appendages]
+    return [sum(cols, [])] if model_type == 2 else cols
+
+
+def reduce_coupling(L_g: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Reduced coupling and projection of one group: ``(L_r, Q)`` with ``L_g eta = L_r (Q eta)``,
+    ``L_r = (L_g L_g^T)^(1/2)`` and ``Q = L_r^-1 L_g`` (orthonormal rows) when the group has
+    more coordinates than axes, else ``(L_g, I)``."""
+    na, nc = L_g.shape
+    if nc <= na:
+        return L_g.copy(), np.eye(nc)
+    L_r = np.real(sqrtm(L_g @ L_g.T))
+    return L_r, np.linalg.solve(L_r, L_g)
+
+
+def reduction(axes: Sequence[int], groups: list[list[int]], L: np.ndarray
+              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The reduced flexible coordinates ``eta_r = Q eta`` of a design on ``axes`` (1-based).
+
+    Parameters
+    ----------
+    axes : sequence of int
+        Selected axes, 1-based.
+    groups : list of list of int
+        :func:`flexible_groups`.
+    L : ndarray, shape (3, 8)
+        Coupling of the plant's flexible coordinates to the body, 1 (only the rows of ``axes``
+        and the columns of ``groups`` are used).
+
+    Returns
+    -------
+    L_r : ndarray, shape (n_axes, n_reduced)
+        Reduced coupling.
+    Q : ndarray, shape (n_reduced, 8)
+        Projection onto the reduced coordinates.
+    mode_group : ndarray of int, shape (n_reduced,)
+        Group of each reduced coordinate.
+    """
+    ax = [a - 1 for a in axes]
+    blocks_L, blocks_Q, mode_group = [], [], []
+    for g, cols in enumerate(groups):
+        L_r, Q = reduce_coupling(L[np.ix_(ax, cols)])
+        Qf = np.zeros((Q.shape[0], demeter.N_FLEX))
+        Qf[:, cols] = Q
+        blocks_L.append(L_r)
+        blocks_Q.append(Qf)
+        mode_group += [g] * L_r.shape[1]
+    return np.hstack(blocks_L), np.vstack(blocks_Q), np.array(mode_group, int)
+
+
+def design_states(axes: Sequence[int], n_reduced: int, wheels: bool) -> list[str]:
+    """Names of the design model's states, in order: per axis theta, theta', then the reduced
+    flexible coordinates eta_r and their rates, then per axis xi, xw (and the wheel's y, y')."""
+    names = ([f"theta[{a}]" for a in axes] + [f"theta_dot[{a}]" for a in axes]
+             + [f"eta_r[{j + 1}]" for j in range(n_reduced)] + [f"eta_r_dot[{j + 1}]" for j in range(n_reduced)]
+             + [f"xi[{a}]" for a in axes] + [f"xw[{a}]" for a in axes])
+    if wheels:
+        names += [f"wheel_torque[{a}]" for a in axes] + [f"wheel_torque_rate[{a}]" for a in axes]
+    return names
+
+
+def design_gains(K: np.ndarray, axes: Sequence[int], wheels: bool, Q: np.ndarray) -> dict[str, float]:
+    """The FMU's gains (every name of :data:`GAIN_BLOCKS`) of ``u = K x`` on the design states.
+
+    Parameters
+    ----------
+    K : ndarray, shape (n_axes, n)
+        Gain on :func:`design_states`, in the units of the FMU's gains (N m per state unit).
+    axes : sequence of int
+        Selected axes, 1-based (the other axes get zero command).
+    wheels : bool
+        The design model has the wheel states.
+    Q : ndarray, shape (n_reduced, 8)
+        :func:`reduction`: a gain on ``eta_r`` enters as ``K_eta = K_r Q``.
+
+    Raises
+    ------
+    ValueError
+        If K does not have the shape of the design or is not finite.
+    """
+    K = np.asarray(K, float)
+    na, nr = len(axes), Q.shape[0]
+    n = len(design_states(axes, nr, wheels))
+    if K.shape != (na, n) or not np.all(np.isfinite(K)):
+        raise ValueError(f"K must be a finite {na} x {n} matrix, got shape {K.shape}")
+    ax = [a - 1 for a in axes]
+    base = 2 * na + 2 * nr
+    full = {name: np.zeros((3, size)) for name, (_, size, _) in GAIN_BLOCKS.items()}
+    blocks = {"K_theta": 0, "K_theta_dot": na, "K_xi": base, "K_xw": base + na}
+    if wheels:
+        blocks.update(K_torque=base + 2 * na, K_torque_rate=base + 3 * na)
+    for name, start in blocks.items():
+        full[name][np.ix_(ax, ax)] = K[:, start:start + na]
+    full["K_eta"][ax] = K[:, 2 * na:2 * na + nr] @ Q
+    full["K_eta_dot"][ax] = K[:, 2 * na + nr:base] @ Q
+    return {f"{name}[{i + 1},{j + 1}]": float(G[i, j]) for name, G in full.items()
+            for i in range(G.shape[0]) for j in range(G.shape[1])}
+
+
+def gains_of_design(design: dict[str, Any], L: np.ndarray) -> dict[str, float]:
+    """:func:`design_gains` of an artifact's ``design`` record (``variant``, ``states``, ``K``).
+
+    Parameters
+    ----------
+    design : dict
+        ``{"variant": {"axes": [...], "appendages": [...], "model_type": 1 | 2, "wheels": bool, ...},
+        "states": [...], "K": [[...]], ...}``.
+    L : ndarray, shape (3, 8)
+        The coupling the design used (its design plant's ``L[i,j]``).
+
+    Raises
+    ------
+    ValueError
+        Naming the key of the record that is malformed or does not match the variant
+        (``states`` must be :func:`design_states` of the variant).
+    """
+    variant = design.get("variant")
+    if not isinstance(variant, dict):
+        raise ValueError("variant: missing or not an object")
+    axes, appendages = variant.get("axes"), variant.get("appendages")
+    for key, sel, top in (("axes", axes, demeter.N_AXES), ("appendages", appendages, demeter.N_APPENDAGES)):
+        if (not isinstance(sel, list) or not sel or len(set(sel)) != len(sel)
+                or any(isinstance(i, bool) or not isinstance(i, int) or not 1 <= i <= top for i in sel)):
+            raise ValueError(f"variant.{key}: must be distinct integers in 1..{top}, got {sel!r}")
+    if variant.get("model_type") not in (1, 2) or not isinstance(variant.get("wheels"), bool):
+        raise ValueError(f"variant: model_type must be 1 or 2 and wheels true or false, got {variant!r}")
+    _, Q, _ = reduction(axes, flexible_groups(appendages, variant["model_type"]), L)
+    expected = design_states(axes, Q.shape[0], variant["wheels"])
+    if design.get("states") != expected:
+        raise ValueError(f"states: {design.get('states')!r} are not the variant's design states {expected}")
+    try:
+        K = np.array(design.get("K"), dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"K: not a numeric matrix ({exc})") from None
+    try:
+        return design_gains(K, axes, variant["wheels"], Q)
+    except ValueError as exc:
+        raise ValueError(f"K: {exc}") from None

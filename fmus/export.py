@@ -7,9 +7,13 @@ pythonfmu FMU embeds the generated Python module and :mod:`fmus.pyslave`.
 
 Builds are incremental: every FMU records, as its zip archive's comment, the digest of what
 its build read (:func:`fmus.digest.build_digest`: the model, the resources, the generators,
-the compiler), and a build whose destination already carries that digest does nothing. An
-FMU is written under a temporary name and renamed into place, so an interrupted build never
-leaves a partial file under the FMU's name.
+the compiler), and a build whose destination already carries that digest does nothing. A
+controller FMU also records there the SHA-256 of the artifact it embeds
+(``resources/artifact.json``, :func:`artifact_digest`), which a run compares with the
+artifact file of its name (:mod:`sims.preflight`). The comment reads
+``satfmu-build sha256:<build digest>[ artifact sha256:<artifact digest>]``. An FMU is written
+under a temporary name and renamed into place, so an interrupted build never leaves a partial
+file under the FMU's name.
 """
 from __future__ import annotations
 
@@ -26,7 +30,7 @@ from xml.etree.ElementTree import SubElement
 from fmus import codegen
 from fmus.atomic import write_atomically
 from fmus.description import Capabilities, model_description, to_xml_bytes
-from fmus.digest import build_digest
+from fmus.digest import build_digest, sha256
 from fmus.model import Model
 
 HERE = Path(__file__).resolve().parent
@@ -35,6 +39,9 @@ PYSLAVE = HERE / "pyslave.py"
 PYTHON_SUFFIX = "_py"
 _ZIP_DATE = (2020, 1, 1, 0, 0, 0)
 _COMMENT_PREFIX = b"satfmu-build sha256:"
+_ARTIFACT_FIELD = b" artifact sha256:"
+ARTIFACT = "artifact.json"
+"""Name, in ``resources/``, of the controller artifact a controller FMU embeds."""
 
 
 class FmuBuildError(RuntimeError):
@@ -51,9 +58,18 @@ def fmi_headers() -> Path:
     return path
 
 
-def _zip_dir(src: Path, dest: Path, digest: str) -> None:
-    """Deterministic zip of a directory tree (sorted entries, fixed timestamps), with the build
-    digest as the archive comment, written to a temporary name and renamed onto ``dest``."""
+def _comment(digest: str, resources: dict[str, bytes] | None) -> bytes:
+    """The archive comment of a build: its digest and, for a controller, its artifact's."""
+    comment = _COMMENT_PREFIX + digest.encode()
+    if resources and ARTIFACT in resources:
+        comment += _ARTIFACT_FIELD + sha256(resources[ARTIFACT]).encode()
+    return comment
+
+
+def _zip_dir(src: Path, dest: Path, comment: bytes) -> None:
+    """Deterministic zip of a directory tree (sorted entries, fixed timestamps), with ``comment``
+    (:func:`_comment`) as the archive comment, written to a temporary name and renamed onto
+    ``dest``."""
     def write(partial: Path) -> None:
         with zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as z:
             for f in sorted(p for p in src.rglob("*") if p.is_file()):
@@ -61,14 +77,14 @@ def _zip_dir(src: Path, dest: Path, digest: str) -> None:
                 info.compress_type = zipfile.ZIP_DEFLATED
                 info.external_attr = 0o644 << 16
                 z.writestr(info, f.read_bytes())
-            z.comment = _COMMENT_PREFIX + digest.encode()
+            z.comment = comment
 
     write_atomically(dest, write)
 
 
-def built_digest(fmu: Path) -> str | None:
-    """The build digest an FMU built here records, or None (no file, not a zip archive, built
-    elsewhere)."""
+def _recorded(fmu: Path) -> tuple[str, str | None] | None:
+    """The build digest and the artifact digest (or None) an FMU built here records; None for
+    no file, not a zip archive, a member failing its CRC, or an FMU built elsewhere."""
     try:
         with zipfile.ZipFile(fmu) as z:
             comment = z.comment
@@ -76,7 +92,25 @@ def built_digest(fmu: Path) -> str | None:
                 return None
     except (OSError, EOFError, zipfile.BadZipFile, zlib.error):  # unreadable or corrupt
         return None
-    return comment[len(_COMMENT_PREFIX):].decode() if comment.startswith(_COMMENT_PREFIX) else None
+    if not comment.startswith(_COMMENT_PREFIX):
+        return None
+    build, _, artifact = comment[len(_COMMENT_PREFIX):].partition(_ARTIFACT_FIELD)
+    return build.decode(), artifact.decode() or None
+
+
+def built_digest(fmu: Path) -> str | None:
+    """The build digest an FMU built here records, or None (no file, not a zip archive, built
+    elsewhere)."""
+    recorded = _recorded(fmu)
+    return None if recorded is None else recorded[0]
+
+
+def artifact_digest(fmu: Path) -> str | None:
+    """The SHA-256 (hex) of the artifact a controller FMU built here embeds (the bytes of
+    ``resources/artifact.json``, those of the artifact file it was built from), or None (not a
+    controller, not built here, unreadable)."""
+    recorded = _recorded(fmu)
+    return None if recorded is None else recorded[1]
 
 
 @lru_cache(maxsize=None)
@@ -156,17 +190,17 @@ def build_native(model: Model, dest_dir: Path, resources: dict[str, bytes] | Non
         proc = subprocess.run(cmd, capture_output=True, text=True)
         if proc.returncode != 0:
             raise FmuBuildError(f"compiling {model.name} failed:\n{proc.stderr}")
-        _write_resources(root, resources)
-        _zip_dir(root, dest, digest)
+        _write_resources(root / "resources", resources)
+        _zip_dir(root, dest, _comment(digest, resources))
     return dest
 
 
-def _write_resources(root: Path, resources: dict[str, bytes] | None) -> None:
+def _write_resources(folder: Path, resources: dict[str, bytes] | None) -> None:
+    """Write ``resources`` (file name -> bytes) into ``folder`` (created)."""
     if resources:
-        res = root / "resources"
-        res.mkdir(exist_ok=True)
+        folder.mkdir(exist_ok=True)
         for name, data in resources.items():
-            (res / name).write_bytes(data)
+            (folder / name).write_bytes(data)
 
 
 SLAVE_SCRIPT = '''"""pythonfmu slave of the satfmu model {name!r} (generated; do not edit)."""
@@ -212,7 +246,7 @@ def build_python(model: Model, dest_dir: Path, resources: dict[str, bytes] | Non
             shutil.copy(model.sampler.module, proj / f"{codegen.sampler_module_name(model)}.py")
         desc = model_description(model, Capabilities(cls, needs_execution_tool=True))
         (proj / "satfmu_description.xml").write_bytes(to_xml_bytes(desc))
-        _write_resources(proj, resources)
+        _write_resources(proj, resources)  # pythonfmu puts the project files in resources/
         script = root / f"{cls}.py"
         script.write_text(SLAVE_SCRIPT.format(name=model.name, generated=generated, cls=cls,
                                               description=model.description))
@@ -226,13 +260,13 @@ def build_python(model: Model, dest_dir: Path, resources: dict[str, bytes] | Non
             sampler = [codegen.sampler_module_name(model)] if python_sampler else []
             for mod in [cls, generated, "satfmu_pyslave"] + sampler:
                 sys.modules.pop(mod, None)
-        _repack(Path(fmu), dest, digest)
+        _repack(Path(fmu), dest, _comment(digest, resources))
     return dest
 
 
-def _repack(src: Path, dest: Path, digest: str) -> None:
+def _repack(src: Path, dest: Path, comment: bytes) -> None:
     """Rewrite pythonfmu's zip deterministically (stable timestamps and order)."""
     with tempfile.TemporaryDirectory() as tmp:
         with zipfile.ZipFile(src) as z:
             z.extractall(tmp)
-        _zip_dir(Path(tmp), dest, digest)
+        _zip_dir(Path(tmp), dest, comment)

@@ -12,7 +12,7 @@ Scenarios
     :class:`Scenario` (``from_toml``, ``from_dict``, or built from :class:`FmuSpec`,
     :class:`Connection`, :class:`Metric`), :func:`run` -> :class:`Result` (metrics,
     pass/fail, the recorded array, ``.plot()``, ``.write()``), :class:`ScenarioError`,
-    :class:`DesignMismatchWarning`.
+    :class:`DesignMismatchWarning`, :class:`StaleFmuWarning`.
 FMUs
     :func:`build` (every FMU, or some by name, into a folder; no-op when up to date),
     :func:`fmu_cache` (the default FMU folder).
@@ -42,7 +42,7 @@ _EXPORTS = {
     "Spacecraft": "fmus.spacecraft", "SpacecraftError": "fmus.spacecraft", "SEED_000": "fmus.spacecraft",
     "Scenario": "sims.scenario", "FmuSpec": "sims.scenario", "Connection": "sims.scenario",
     "Metric": "sims.scenario", "Result": "sims.scenario", "ScenarioError": "sims.scenario",
-    "DesignMismatchWarning": "sims.scenario",
+    "DesignMismatchWarning": "sims.scenario", "StaleFmuWarning": "sims.scenario",
     "Design": "sims.designs", "DesignError": "sims.designs", "design_hinf": "sims.designs",
     "design_h2hinf": "sims.designs", "design_vscmg_sdre": "sims.designs",
     "design_cubesat_periodic": "sims.designs", "design_demeter": "sims.designs",
@@ -55,7 +55,7 @@ __all__ = sorted([*_EXPORTS, *_FUNCTIONS, "__version__"])
 
 def run(scenario: "Scenario | Mapping[str, Any] | str | Path", fmu_dir: str | Path | None = None,
         backend: str = "native", out_dir: str | Path | None = None, strict: bool = False,
-        design_rtol: float | None = None) -> "Result":
+        design_rtol: float | None = None, allow_stale: bool = False) -> "Result":
     """Run a scenario and evaluate its metrics (:func:`sims.scenario.run`).
 
     Parameters
@@ -73,6 +73,10 @@ def run(scenario: "Scenario | Mapping[str, Any] | str | Path", fmu_dir: str | Pa
         (default: a :class:`DesignMismatchWarning`).
     design_rtol : float, optional
         Relative tolerance of that comparison (default 1e-3).
+    allow_stale : bool
+        Run a controller FMU outside the FMU cache that embeds another artifact than the file
+        of its name holds now, with a :class:`StaleFmuWarning` (default: refused; in the cache
+        it is rebuilt).
 
     Returns
     -------
@@ -82,7 +86,7 @@ def run(scenario: "Scenario | Mapping[str, Any] | str | Path", fmu_dir: str | Pa
     """
     from sims import scenario as _scenario
 
-    return _scenario.run(scenario, fmu_dir, backend, out_dir, strict, design_rtol)
+    return _scenario.run(scenario, fmu_dir, backend, out_dir, strict, design_rtol, allow_stale)
 
 
 def build(names: Iterable[str] | None = None, fmu_dir: str | Path | None = None,

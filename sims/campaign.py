@@ -7,10 +7,20 @@ A campaign draws its samples chunk by chunk.  Chunk ``k`` covers the sample indi
 complete.  The task is vectorized (one call per chunk) and returns one column per metric.
 
 :func:`run` submits the chunks to a Dask cluster and, in the driver, writes each completed
-chunk to its own Parquet file (``chunk-000042.parquet``, written to a ``.tmp`` file then
-renamed).  An interrupted campaign is resumed by running it again: chunks whose file exists
-are not submitted.  A worker that dies mid-task makes Dask run the task again elsewhere; as
-only the driver writes, and each chunk has one file name, no sample is lost or duplicated.
+chunk to its own Parquet file (``chunk-000042.parquet``, whole or not at all:
+:func:`fmus.atomic.write_atomically`), then its SHA-256 into the campaign record
+``campaign.json`` (also written whole).  The record holds the campaign's identity (n, seed,
+chunk, task, sampler) and a chunk file's Parquet metadata the digest of that identity and its
+chunk index (:mod:`sims.chunk_files`).  An interrupted campaign is resumed by running it again:
+a chunk is used as it is only if the record has its checksum, its file has that checksum and
+its metadata names this campaign and this chunk; any other chunk is computed (again), with a
+:class:`CampaignWarning` naming the chunk and why when a file or a record entry was there
+(missing, empty, truncated, corrupted or rewritten file; a file the record does not know, e.g.
+after ``campaign.json`` was deleted: such a file is never adopted, whatever it holds).  A folder
+whose ``campaign.json`` is missing is a new campaign: every chunk is computed.  One driver at a
+time works in a folder: a second one waits for the first (``.campaign.lock``), then finds the
+chunks done.  A worker that dies mid-task makes Dask run the task again elsewhere; as only the
+driver writes, and each chunk has one file name, no sample is lost or duplicated.
 
 :func:`summarize` turns one result column into the probabilistic statements of the seeds
 (the worst case by the log-over-log bound, a probability by the Chernoff-Hoeffding bound).
@@ -23,9 +33,9 @@ import json
 import math
 import pickle
 import uuid
+import warnings
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
-from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -35,8 +45,7 @@ from distributed import Client, LocalCluster, as_completed
 
 from fmus.atomic import write_atomically
 from fmus.declared import check_safe_name
-from sims.master import CoSimulation, FmuCallError
-from synthesis import probabilistic as pr
+from sims import chunk_files
 
 Task = Callable[[np.ndarray], dict[str, np.ndarray]]
 Sampler = Callable[[np.random.Generator, int], np.ndarray]
@@ -48,6 +57,11 @@ _IDENTITY = ("n", "seed", "chunk", "task", "sampler")
 
 class CampaignError(ValueError):
     """Invalid campaign, task output or result folder; the message says what and where."""
+
+
+class CampaignWarning(UserWarning):
+    """A chunk of a campaign folder is recomputed (the message names it and says why), or the
+    folder is in use by another driver and this one waits."""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -180,6 +194,11 @@ def run(campaign: Campaign, out_dir: Path, *, scheduler: str | None = None, n_wo
         client: Client | None = None) -> pd.DataFrame:
     """Run (or resume) a campaign on Dask and return all its results.
 
+    Resuming uses a chunk as it is only if ``campaign.json`` records its checksum and its file
+    has it (and names this campaign and chunk); every other chunk is computed, with a
+    :class:`CampaignWarning` when its file or record entry was wrong (module docstring). Another
+    driver working in the same folder is waited for (:class:`CampaignWarning`).
+
     Parameters
     ----------
     campaign : Campaign
@@ -204,32 +223,88 @@ def run(campaign: Campaign, out_dir: Path, *, scheduler: str | None = None, n_wo
     Raises
     ------
     CampaignError
-        If the folder holds a different campaign, a task fails its output check, or a sample
-        is missing or duplicated at the end.
+        If the folder holds a different campaign or an unreadable ``campaign.json``, a task
+        fails its output check, or a sample is missing or duplicated at the end.
     """
     folder = Path(out_dir) / campaign.name
-    _claim_folder(folder, campaign)
-    todo = [k for k in range(campaign.n_chunks) if not chunk_path(folder, k).exists()]
-    if todo:
-        with _client(scheduler, client, n_workers, threads_per_worker) as active:
-            _compute(active, campaign, folder, todo, progress)
-    return load(folder)
+    with chunk_files.locked(folder, lambda why: warnings.warn(why, CampaignWarning, stacklevel=5)):
+        record = _claim_folder(folder, campaign)
+        todo = _todo(folder, campaign, record)
+        if todo:
+            with _client(scheduler, client, n_workers, threads_per_worker) as active:
+                _compute(active, campaign, folder, record, todo, progress)
+        return load(folder)
 
 
-def _claim_folder(folder: Path, campaign: Campaign) -> None:
-    """Create the folder and its ``campaign.json``, or check that it holds this campaign."""
+def _claim_folder(folder: Path, campaign: Campaign) -> dict[str, Any]:
+    """The record of the folder (``campaign.json``, created if missing) after checking that it
+    holds this campaign; its ``chunks`` maps each recorded chunk index (str) to its SHA-256."""
     meta = folder / _META
-    record = {"name": campaign.name, **campaign.identity(), "n_chunks": campaign.n_chunks}
-    if meta.exists():
+    record = {"name": campaign.name, **campaign.identity(), "n_chunks": campaign.n_chunks, "chunks": {}}
+    if not meta.exists():
+        _write_record(folder, record)
+        return record
+    stored = _read_record(folder)
+    differ = [key for key in _IDENTITY if stored.get(key) != record[key]]
+    if differ:
+        raise CampaignError(f"{folder} holds another campaign (differs in {', '.join(differ)}: stored "
+                            f"{ {k: stored.get(k) for k in differ} }, now { {k: record[k] for k in differ} }); "
+                            "use another name or out_dir, or delete the folder")
+    return {**record, "chunks": stored["chunks"]}
+
+
+def _read_record(folder: Path) -> dict[str, Any]:
+    """``campaign.json`` of a folder, its ``chunks`` checked (a record without one has none).
+
+    Raises
+    ------
+    CampaignError
+        If it is missing or not a campaign record.
+    """
+    meta = folder / _META
+    if not meta.is_file():
+        raise CampaignError(f"{folder} is not a campaign folder (no {_META})")
+    try:
         stored = json.loads(meta.read_text())
-        differ = [key for key in _IDENTITY if stored.get(key) != record[key]]
-        if differ:
-            raise CampaignError(f"{folder} holds another campaign (differs in {', '.join(differ)}: stored "
-                                f"{ {k: stored.get(k) for k in differ} }, now { {k: record[k] for k in differ} }); "
-                                "use another name or out_dir, or delete the folder")
-        return
-    folder.mkdir(parents=True, exist_ok=True)
-    write_atomically(meta, lambda tmp: tmp.write_text(json.dumps(record, indent=1) + "\n"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise CampaignError(f"{meta}: not a campaign record ({exc}); delete it to compute the campaign "
+                            "again") from None
+    if not isinstance(stored, dict) or any(key not in stored for key in _IDENTITY):
+        raise CampaignError(f"{meta}: not a campaign record (it must hold {', '.join(_IDENTITY)}); delete it "
+                            "to compute the campaign again")
+    chunks = stored.get("chunks", {})  # a record of satfmu 0.1 has none: its chunks are computed again
+    if not isinstance(chunks, dict) or not all(isinstance(k, str) and k.isdigit() and isinstance(v, str)
+                                               for k, v in chunks.items()):
+        raise CampaignError(f"{meta}: not a campaign record ('chunks' must map chunk indices to SHA-256 "
+                            "digests); delete it to compute the campaign again")
+    return {**stored, "chunks": chunks}
+
+
+def _write_record(folder: Path, record: dict[str, Any]) -> None:
+    write_atomically(folder / _META, lambda tmp: tmp.write_text(json.dumps(record, indent=1) + "\n"))
+
+
+def _digest(record: dict[str, Any]) -> str:
+    """Digest of the campaign identity a record holds (what each chunk file's metadata names)."""
+    return chunk_files.identity_digest({key: record[key] for key in _IDENTITY})
+
+
+def _todo(folder: Path, campaign: Campaign, record: dict[str, Any]) -> list[int]:
+    """The chunks to compute: those not computed yet and those whose file or record entry is not
+    right (warned about and dropped from ``record``)."""
+    digest, todo = _digest(record), []
+    for k in range(campaign.n_chunks):
+        path, recorded = chunk_path(folder, k), record["chunks"].get(str(k))
+        if recorded is None and not path.exists():
+            todo.append(k)
+            continue
+        problem = chunk_files.chunk_problem(path, recorded, digest, k)
+        if problem is not None:
+            warnings.warn(f"{folder}: chunk {k} ({path.name}) {problem}: computing it again", CampaignWarning,
+                          stacklevel=3)
+            record["chunks"].pop(str(k), None)
+            todo.append(k)
+    return todo
 
 
 @contextlib.contextmanager
@@ -247,19 +322,22 @@ def _client(scheduler: str | None, client: Client | None, n_workers: int,
             yield local
 
 
-def _compute(client: Client, campaign: Campaign, folder: Path, todo: list[int], progress: Progress | None) -> None:
-    """Submit the chunks ``todo`` and write each result as it completes."""
+def _compute(client: Client, campaign: Campaign, folder: Path, record: dict[str, Any], todo: list[int],
+             progress: Progress | None) -> None:
+    """Submit the chunks ``todo``; write each result as it completes, then its checksum into the record."""
     # One key per chunk and per call: a chunk is never computed twice at once, and the keys of an
     # interrupted call (cancelled below, asynchronously) are never those of its resumption.
     run_id = uuid.uuid4().hex[:12]
     futures = {client.submit(run_chunk, campaign, k, key=f"{campaign.name}-chunk-{k}-{run_id}", retries=2): k
                for k in todo}
-    done = campaign.n_chunks - len(todo)
+    done, digest = campaign.n_chunks - len(todo), _digest(record)
     try:
         for future in as_completed(list(futures)):
             k = futures.pop(future)
-            frame = future.result()
-            write_atomically(chunk_path(folder, k), partial(frame.to_parquet, index=False))
+            data = chunk_files.chunk_bytes(future.result(), digest, k)
+            write_atomically(chunk_path(folder, k), lambda tmp: tmp.write_bytes(data))
+            record["chunks"][str(k)] = chunk_files.sha256(data)
+            _write_record(folder, record)
             future.release()
             done += 1
             if progress is not None:
@@ -269,22 +347,28 @@ def _compute(client: Client, campaign: Campaign, folder: Path, todo: list[int], 
 
 
 def load(path: Path) -> pd.DataFrame:
-    """All chunk files of a campaign folder, concatenated and sorted by ``sample``.
+    """The chunks ``campaign.json`` records, each verified, concatenated and sorted by ``sample``.
+
+    A chunk file the record does not list is not read.
 
     Raises
     ------
     CampaignError
-        If ``campaign.json`` is missing, the chunk files have different columns, or a sample
-        index of ``0 .. n - 1`` is missing or appears more than once.
+        If ``campaign.json`` is missing, a recorded chunk's file is missing or not the one
+        recorded (checksum, campaign identity, chunk index: run the campaign again to compute
+        it again), the chunk files have different columns, or a sample index of ``0 .. n - 1``
+        is missing or appears more than once.
     """
     folder = Path(path)
-    meta = folder / _META
-    if not meta.is_file():
-        raise CampaignError(f"{folder} is not a campaign folder (no {_META})")
-    n = int(json.loads(meta.read_text())["n"])
-    files = sorted(folder.glob("chunk-*.parquet"))
+    record = _read_record(folder)
+    n, digest = int(record["n"]), _digest(record)
+    files = [chunk_path(folder, int(k)) for k in sorted(record["chunks"], key=int)]
     if not files:
-        raise CampaignError(f"{folder}: no chunk files; missing all {n} samples")
+        raise CampaignError(f"{folder}: no chunk recorded in {_META}; missing all {n} samples")
+    for f, k in zip(files, sorted(record["chunks"], key=int)):
+        problem = chunk_files.chunk_problem(f, record["chunks"][k], digest, int(k))
+        if problem is not None:
+            raise CampaignError(f"{folder}: chunk {k} ({f.name}) {problem}; run the campaign again to compute it again")
     frames = [pd.read_parquet(f) for f in files]
     columns = list(frames[0].columns)
     for f, frame in zip(files, frames):
@@ -392,6 +476,8 @@ def summarize(df: pd.DataFrame, column: str, *, level: float | None = None, epsi
     for label, value in (("epsilon", epsilon), ("delta", delta)):
         if not 0.0 < value < 1.0:
             raise CampaignError(f"{label} must be in (0, 1), got {value!r}")
+    from synthesis import probabilistic as pr
+
     values = df[column].to_numpy(dtype=np.float64)
     if values.size == 0:
         raise CampaignError(f"column {column!r} has no samples")
@@ -435,6 +521,8 @@ class FmuTask:
 
     def _simulate(self, row: np.ndarray) -> dict[str, np.ndarray] | None:
         """Recorded signals (plus ``time``, s) of one fresh co-simulation, None if an FMU failed."""
+        from sims.master import CoSimulation, FmuCallError
+
         with CoSimulation(self.fmus) as sim:
             for source, target in self.connections:
                 sim.connect(source, target)

@@ -84,11 +84,10 @@ and of the generic signal generators (native only: a scenario's profiles as FMUs
 def sources() -> list[FmuSource]:
     """Plants first, then the controllers of the shipped artifacts (the DEMETER state feedback
     of Table 1 row 1 among them, every gain a parameter), then :data:`GENERIC`."""
-    from controllers import artifact as artifacts
     from controllers import polynomial
 
     out = [make() for make in PLANTS.values()]
-    out += [controller_source(artifacts.load(path)) for path in polynomial.shipped_artifacts()]
+    out += [artifact_source(path) for path in polynomial.shipped_artifacts()]
     return out + [make() for make in GENERIC.values()]
 
 
@@ -117,9 +116,7 @@ def source(name: str) -> FmuSource:
         raise ValueError(f"no model or artifact named {name!r} (models: {', '.join(models)}; artifacts in "
                          f"{', '.join(map(str, paths.artifact_folders()))})"
                          + paths.did_you_mean(name, models + paths.artifact_names())) from None
-    from controllers import artifact as artifacts
-
-    return controller_source(artifacts.load(path))
+    return artifact_source(path)
 
 
 def ensure(fmu_dir: Path, names: Iterable[str], backend: str = "native", rebuild_stale: bool = False
@@ -166,9 +163,29 @@ def ensure(fmu_dir: Path, names: Iterable[str], backend: str = "native", rebuild
     return out
 
 
-def controller_source(art: Artifact) -> FmuSource:
-    """The controller model of an artifact (by its kind) and the artifact as its resource; the
-    model's description (the FMU's) ends with the plant it was designed for."""
+def artifact_source(path: Path) -> FmuSource:
+    """The controller of the artifact file ``path``: its FMUs embed the file's own bytes as
+    ``resources/artifact.json`` and record their SHA-256 (:func:`fmus.export.artifact_digest`),
+    which a run compares with the file (:mod:`sims.preflight`).
+
+    Raises
+    ------
+    controllers.artifact.ArtifactError
+        If the file is missing, not JSON, or not a valid artifact.
+    """
+    from controllers import artifact as artifacts
+
+    path = Path(path)
+    # the bytes first: a file replaced before it is loaded leaves a recorded digest that is not
+    # the file's, and the next run rebuilds the FMU (a missing file: load's error)
+    data = path.read_bytes() if path.is_file() else None
+    return controller_source(artifacts.load(path), data)
+
+
+def controller_source(art: Artifact, data: bytes | None = None) -> FmuSource:
+    """The controller model of an artifact (by its kind) and the artifact as its resource
+    (``data``, the bytes of its file, or its JSON form); the model's description (the FMU's)
+    ends with the plant it was designed for."""
     from controllers import artifact as artifacts
     from controllers import magnetic, polynomial, servo, state_feedback
 
@@ -186,7 +203,7 @@ def controller_source(art: Artifact) -> FmuSource:
         more = "" if len(record["parameters"]) <= 8 else f" and {len(record['parameters']) - 8} more"
         model.description = (f"{model.description}. Designed for {record['model']} ({values}{more}; "
                              f"resources/artifact.json: provenance.design_plant)")
-    return FmuSource(model, artifacts.resource(art))
+    return FmuSource(model, artifacts.resource(art) if data is None else {"artifact.json": data})
 
 
 def builder(backend: str) -> Callable[..., Path]:

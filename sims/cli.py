@@ -4,10 +4,12 @@
     satfmu build [--fmu-dir DIR] [--backend native|python|all] [--jobs N]
     satfmu validate [--fmu-dir DIR]
     satfmu list
-    satfmu run SCENARIO [SCENARIO ...] [--backend native|python] [--fmu-dir DIR] [--out results] [--summary FILE]
-    satfmu export-ssp SCENARIO [SCENARIO ...] [--backend native|python] [--fmu-dir DIR] [--out results/ssp]
-    satfmu verify [SCENARIO ...] [--engines libcosim ecos] [--fmu-dir DIR] [--out results/verify]
-    satfmu robustness [--fmu NAME ...] [--cycles 1000] [--fmu-dir DIR] [--out results/robustness]
+    satfmu run SCENARIO [SCENARIO ...] [--backend native|python] [--fmu-dir DIR] [--strict] [--allow-stale]
+                                       [--out results] [--summary FILE]
+    satfmu export-ssp SCENARIO [SCENARIO ...] [--backend native|python] [--fmu-dir DIR] [--allow-stale]
+                                              [--out results/ssp]
+    satfmu verify [SCENARIO ...] [--engines libcosim ecos] [--fmu-dir DIR] [--allow-stale] [--out results/verify]
+    satfmu robustness [--fmu NAME ...] [--cycles 1000] [--flips N] [--fmu-dir DIR] [--out results/robustness]
     satfmu synth mrp-hinf [--name mrp_hinf_satfmu] [--samples 20000] [--out controllers/artifacts] [--fmu-dir DIR] ...
     satfmu synth mrp-h2hinf --gamma G [--variant slack|common] [--region 0.45] [--name ...] ...
     satfmu synth vscmg-sdre [--grid 23 25] [--max-degree 8] [--cv-tol TOL] [--out ...] [--fmu-dir DIR]
@@ -24,13 +26,21 @@
     satfmu analyze l2 CONTROLLER [--rate-max 0.2] [--sigma-max 0.9] [--samples 200000]
 
 ``--fmu-dir`` defaults to the user's FMU cache (:func:`sims.paths.fmu_cache`, under
-``$SATFMU_HOME``); ``figures``, ``detumble`` and ``verify`` build the FMUs missing there
-(:func:`sims.catalog.ensure`), ``satfmu build`` brings every FMU up to date. A controller is
-named by its artifact (the user's artifacts first, then the shipped ones) or a ``.json`` path.
+``$SATFMU_HOME``); ``run``, ``export-ssp``, ``verify``, ``figures`` and ``detumble`` build the
+FMUs missing there (:func:`sims.catalog.ensure`), ``satfmu build`` brings every FMU up to date.
+A controller is named by its artifact (the user's artifacts first, then the shipped ones) or a
+``.json`` path.
 
-``run`` exits with status 1 when a metric misses its bound, 2 on an error. ``verify`` runs
-scenarios (default: every shipped one) in our master, libcosim and ecos and compares them
-(:mod:`sims.verify`); ``robustness`` drives every FMU through misuse cases
+Exit status: 0 done, 1 a requirement failed (``run``: a metric missed its bound), 2 an error,
+printed as one line ``satfmu COMMAND: error: FILE: KEY: ...`` (``--debug``: the traceback).
+``run``, ``export-ssp`` and ``verify`` check a scenario alike before any work
+(:func:`sims.scenario.check`: its file, its FMU files, its wiring and parameters) and write
+nothing for one they refuse; a stale controller FMU (embedding another artifact than the file
+of its name) is rebuilt in the FMU cache and refused elsewhere unless ``--allow-stale``
+(:func:`sims.scenario.ensure_fmus`).
+
+``verify`` runs scenarios (default: every shipped one) in our master, libcosim and ecos and
+compares them (:mod:`sims.verify`); ``robustness`` drives every FMU through misuse cases
 (:mod:`sims.robustness`); both exit with status 1 on a failure. ``synth`` runs a design,
 writes the controller's artifact and builds its FMUs. ``analyze sweep`` writes the
 gamma-lambda trade-off of both Theorem 8 variants of seed 001 (CSV and PNG), ``analyze l2``
@@ -50,6 +60,7 @@ import time
 import tomllib
 from importlib import metadata
 from pathlib import Path
+from typing import Any
 
 from sims import paths
 
@@ -84,7 +95,8 @@ def _build(args: argparse.Namespace) -> int:
 
 
 def _validate(args: argparse.Namespace) -> int:
-    fmus = sorted(Path(args.fmu_dir).glob("*.fmu"))
+    # not the hidden temporary file a killed build may leave (fmus.atomic)
+    fmus = sorted(f for f in Path(args.fmu_dir).glob("*.fmu") if not f.name.startswith("."))
     if not fmus:
         print(f"no FMUs in {args.fmu_dir}: run `satfmu build --fmu-dir {args.fmu_dir}` first, or pass "
               f"--fmu-dir with the folder of your FMUs", file=sys.stderr)
@@ -109,8 +121,9 @@ def _run(args: argparse.Namespace) -> int:
     failed = 0
     summaries = []
     warnings.simplefilter("ignore", scenario.DesignMismatchWarning)  # printed below, with the run
-    for name in args.scenarios:
-        res = scenario.run(name, Path(args.fmu_dir), args.backend, Path(args.out), strict=args.strict)
+    for sc in [scenario.load(name) for name in args.scenarios]:  # every file read before any run
+        res = scenario.run(sc, Path(args.fmu_dir), args.backend, Path(args.out), strict=args.strict,
+                           allow_stale=args.allow_stale)
         summaries.append(res.summary())
         print(f"{'PASS' if res.passed else 'FAIL'} {res.name} ({args.backend})")
         for line in res.warnings:
@@ -128,23 +141,18 @@ def _run(args: argparse.Namespace) -> int:
 
 
 def _export_ssp(args: argparse.Namespace) -> int:
-    from sims import ssp
+    from sims import scenario, ssp
 
-    failed = 0
-    for name in args.scenarios:
-        try:
-            print(f"wrote {ssp.export(name, Path(args.fmu_dir), Path(args.out), args.backend)}")
-        except ssp.SspError as exc:
-            print(f"error: {exc}", file=sys.stderr)
-            failed += 1
-    return 1 if failed else 0
+    for sc in [scenario.load(name) for name in args.scenarios]:  # every file read before any export
+        print(f"wrote {ssp.export(sc, Path(args.fmu_dir), Path(args.out), args.backend, args.allow_stale)}")
+    return 0
 
 
 def _verify(args: argparse.Namespace) -> int:
     from sims import verify
 
     run = verify.verify_all(Path(args.fmu_dir), Path(args.out), args.scenarios, args.backend, tuple(args.engines),
-                            progress=_progress)
+                            progress=_progress, allow_stale=args.allow_stale)
     print(run.text())
     if run.failed:
         print(f"failed: {', '.join(run.failed)}", file=sys.stderr)
@@ -157,6 +165,8 @@ def _robustness(args: argparse.Namespace) -> int:
     argv = ["--fmu-dir", args.fmu_dir, "--cycles", str(args.cycles), "--out", args.out]
     for name in args.fmu or []:
         argv += ["--fmu", name]
+    if args.flips is not None:
+        argv += ["--flips", str(args.flips)]
     return robustness.main(argv)
 
 
@@ -168,13 +178,17 @@ def _list(args: argparse.Namespace) -> int:
     return 0
 
 
+_PROGRESS = {"open": False}
+"""Whether a progress line is on stderr without its newline (an error message then starts a line)."""
+
+
 def _progress(done: int, total: int, message: str) -> None:
     """A one-line text progress bar on stderr."""
     width = 24
     fill = int(width * done / max(total, 1))
-    end = "\n" if done >= total else ""
-    print(f"\r[{'#' * fill}{'.' * (width - fill)}] {done}/{total} {message[:90]:<90}", end=end,
-          file=sys.stderr, flush=True)
+    _PROGRESS["open"] = done < total
+    print(f"\r[{'#' * fill}{'.' * (width - fill)}] {done}/{total} {message[:90]:<90}",
+          end="" if _PROGRESS["open"] else "\n", file=sys.stderr, flush=True)
 
 
 def _write_design(design, args: argparse.Namespace) -> int:
@@ -298,6 +312,10 @@ def _analyze_l2(args: argparse.Namespace) -> int:
     return 0
 
 
+ALLOW_STALE = ("use a stale controller FMU (one embedding another artifact than the artifact file of its name) "
+               "outside the FMU cache as it is, with a warning; by default it is an error (the cache's are rebuilt)")
+
+
 def _fmu_dir(parser: argparse.ArgumentParser, help: str = "folder of the FMUs") -> None:
     """Add ``--fmu-dir`` (default: the user's FMU cache, an absolute path) to ``parser``."""
     parser.add_argument("--fmu-dir", default=str(paths.fmu_cache()), help=help)
@@ -333,6 +351,7 @@ def parser() -> argparse.ArgumentParser:
     scenarios.add_argument("scenarios", nargs="+", metavar="SCENARIO", help="shipped scenario name or .toml path")
     scenarios.add_argument("--backend", choices=backends, default="native", help="FMU kind of the instances")
     _fmu_dir(scenarios)
+    scenarios.add_argument("--allow-stale", action="store_true", help=ALLOW_STALE)
     r = command(sub, "run", "run scenarios (name of a shipped scenario or a .toml path)", parents=[scenarios])
     r.add_argument("--out", default="results", help="folder of the CSV and PNG files (relative: to the working folder)")
     r.add_argument("--strict", action="store_true",
@@ -350,11 +369,14 @@ def parser() -> argparse.ArgumentParser:
     ve.add_argument("--engines", nargs="+", choices=["libcosim", "ecos"], default=["libcosim", "ecos"],
                     help="engines compared with our master")
     _fmu_dir(ve, "folder of the FMUs (the missing ones are built)")
+    ve.add_argument("--allow-stale", action="store_true", help=ALLOW_STALE)
     ve.add_argument("--out", default="results/verify", help="folder of the SSP files and the report")
     ve.set_defaults(fn=_verify)
     rb = command(sub, "robustness", "drive every FMU through misuse cases (table of cases x FMUs)")
     rb.add_argument("--fmu", action="append", help="FMU file name in --fmu-dir (repeatable; default: all)")
     rb.add_argument("--cycles", type=int, default=1000, help="instantiate/free cycles per FMU")
+    rb.add_argument("--flips", type=int, help="single-bit flips per native FMU state, a seeded sample "
+                    "(default: every bit)")
     _fmu_dir(rb)
     rb.add_argument("--out", default="results/robustness", help="folder of the report")
     rb.set_defaults(fn=_robustness)
@@ -502,18 +524,29 @@ def parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Entry point of the ``satfmu`` console script."""
+    """Entry point of the ``satfmu`` console script: the command's exit status (0 done, 1 a
+    metric missed its bound or a check failed, 2 an error, each error one line on stderr)."""
+    import warnings
+
     args = parser().parse_args(argv)
-    try:
-        return args.fn(args)
-    except Exception as exc:  # every user error: one line, exit 2 (1 means a metric missed its bound)
-        if getattr(args, "debug", False):
-            raise
-        expected = isinstance(exc, (ValueError, KeyError, RuntimeError, OSError))
-        detail = "" if expected else f"{type(exc).__name__}: "
-        hint = "" if expected else " (--debug shows the traceback)"
-        print(f"satfmu {args.command}: error: {detail}{exc}{hint}", file=sys.stderr)
-        return 2
+
+    def one_line(message: Warning | str, category: type[Warning], filename: str, lineno: int, file: Any = None,
+                 line: str | None = None) -> None:
+        print(f"satfmu {args.command}: warning: {message}", file=sys.stderr)
+
+    with warnings.catch_warnings():
+        warnings.showwarning = one_line
+        try:
+            return args.fn(args)
+        except Exception as exc:  # every user error: one line, exit 2 (1 means a metric missed its bound)
+            if getattr(args, "debug", False):
+                raise
+            expected = isinstance(exc, (ValueError, KeyError, RuntimeError, OSError))
+            detail = "" if expected else f"{type(exc).__name__}: "
+            hint = "" if expected else " (--debug shows the traceback)"
+            newline, _PROGRESS["open"] = "\n" if _PROGRESS["open"] else "", False
+            print(f"{newline}satfmu {args.command}: error: {detail}{exc}{hint}", file=sys.stderr)
+            return 2
 
 
 if __name__ == "__main__":

@@ -84,12 +84,23 @@ def load_design(artifact: str | Path) -> tuple[artifacts.GainArtifact, Variant]:
     Raises
     ------
     ValueError
-        If the artifact is not a DEMETER state-feedback design.
+        If the artifact is not a DEMETER state-feedback design: no valid ``design.variant``, or
+        a ``design.K`` that is not a finite matrix of the variant's shape (inputs x states).
     """
-    art = artifacts.load(paths.find_artifact(artifact))
+    path = paths.find_artifact(artifact)
+    art = artifacts.load(path)
     if not isinstance(art, artifacts.GainArtifact) or "variant" not in art.design:
-        raise ValueError(f"{artifact}: not a DEMETER state-feedback design artifact")
-    return art, Variant.from_dict(art.design["variant"])
+        raise ValueError(f"{path}: not a DEMETER state-feedback design artifact (no design.variant)")
+    try:
+        variant = Variant.from_dict(art.design["variant"])
+        K = np.array(art.design.get("K"), dtype=float)
+    except (ValueError, TypeError) as exc:  # VariantError is a ValueError
+        raise ValueError(f"{path}: design: {exc}") from None
+    dm = design_model(variant)
+    if K.shape != (dm.na, dm.n) or not np.all(np.isfinite(K)):
+        raise ValueError(f"{path}: design.K: must be a finite {dm.na} x {dm.n} matrix (inputs x states of "
+                         f"{variant.label}), got shape {K.shape}{'' if np.all(np.isfinite(K)) else ' with non-finite entries'}")
+    return art, variant
 
 
 def linear(artifact: str | Path, *, n: int = 100, seed: int = 0, stop_time: float = 10000.0, points: int = 2001

@@ -85,7 +85,7 @@ class Design:
             artifacts.save(art, f)
             written.append(f)
             if fmu_dir is not None:
-                src = catalog.controller_source(art)
+                src = catalog.artifact_source(f)
                 written += [catalog.builder(b)(src.model, Path(fmu_dir), src.resources) for b in backends]
         return written
 

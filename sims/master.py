@@ -240,6 +240,17 @@ class CoSimulation:
                 raise WiringError(f"profile target {comp.name}.{n} is not a Real input")
             self.profiles.append((f"{comp.name}.{n}", profile))
 
+    def check_wiring(self) -> None:
+        """Check the wiring without running: no input driven twice, no algebraic loop.
+
+        Raises
+        ------
+        WiringError
+            Naming the input and its two drivers, or the connections of the loop.
+        """
+        self._check_drivers()
+        self._levels()
+
     def _check_drivers(self) -> None:
         driven: dict[str, str] = {}
         for src, dst in self.connections + [(f"profile {p.kind}", t) for t, p in self.profiles]:

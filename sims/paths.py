@@ -74,8 +74,10 @@ def find_artifact(name_or_path: str | Path) -> Path:
 
 
 def artifact_names() -> list[str]:
-    """The names of every artifact in :func:`artifact_folders`, sorted, each once."""
-    return sorted({f.stem for d in artifact_folders() if d.is_dir() for f in d.glob("*.json")})
+    """The names of every artifact in :func:`artifact_folders`, sorted, each once (hidden files,
+    e.g. the temporary file of a killed writer, are none)."""
+    return sorted({f.stem for d in artifact_folders() if d.is_dir() for f in d.glob("*.json")
+                   if not f.name.startswith(".")})
 
 
 def shipped_scenarios() -> list[Path]:

@@ -63,7 +63,8 @@ from fmus.declared import check_keys, check_safe_name, did_you_mean, read_toml
 from fmus.profiles import Profile
 from fmus.profiles import make as make_profile
 from sims import metrics as M
-from sims.master import CoSimulation, UnknownVariableError, communication_times
+from sims import preflight
+from sims.master import CoSimulation, UnknownVariableError, WiringError, communication_times, start_value
 from sims.paths import BACKENDS, SHIPPED_SCENARIOS
 
 _TOP = ("name", "description", "stop_time", "step_size", "start_time", "fmus", "connections",
@@ -84,6 +85,12 @@ class ScenarioError(ValueError):
 
 class DesignMismatchWarning(UserWarning):
     """A scenario pairs a controller with a plant whose parameters differ from its design plant."""
+
+
+class StaleFmuWarning(UserWarning):
+    """A controller FMU embeds another artifact than the file of its name holds now (rebuilt in
+    the FMU cache; run as it is elsewhere with ``allow_stale``), or an unusable FMU in the FMU
+    cache was rebuilt."""
 
 
 @dataclass
@@ -377,8 +384,6 @@ class Result:
         file is written whole (temporary name, then rename) and the summary comes last: a
         folder with a summary holds a complete run, one without it no run that looks complete.
         """
-        from sims import plots
-
         folder = Path(folder)
         clear_outputs(folder, self.name, self.backend)
         stem = f"{self.name}_{self.backend}"
@@ -387,6 +392,8 @@ class Result:
         if self.panels:  # a run that records nothing has nothing to plot
             files["plot"] = write_atomically(folder / f"{stem}.png", self.plot)
         if self.l2_curves:
+            from sims import plots  # matplotlib: only for a run that plots
+
             files["l2_ratio_plot"] = folder / f"{stem}_l2_ratio.png"
             bounds = {m.name: m.max for m in self.metrics}
             write_atomically(files["l2_ratio_plot"], lambda tmp: plots.l2_ratio(
@@ -476,6 +483,8 @@ def validate(data: Any, where: str = "scenario") -> None:
         for key in ("model", "path"):
             if key in spec and (not isinstance(spec[key], str) or not spec[key]):
                 raise ScenarioError(f"{ws}.{key}: must be a non-empty string, got {spec[key]!r}")
+        if "model" in spec:  # the model names a file of the FMU folder
+            check_safe_name(spec["model"], f"{ws}.model", ScenarioError)
         if spec.get("backend", "native") not in BACKENDS:
             raise ScenarioError(f"{ws}.backend: must be one of {sorted(BACKENDS)}, got {spec['backend']!r}"
                                 f"{did_you_mean(str(spec['backend']), sorted(BACKENDS))}")
@@ -650,19 +659,27 @@ def design_mismatches(scenario: Scenario, sim: CoSimulation, rtol: float | None 
     return out
 
 
-def simulate(scenario: Scenario, fmu_dir: Path, backend: str = "native", strict: bool = False,
-             design_rtol: float | None = None) -> tuple[np.ndarray, CoSimulation]:
-    """Run the scenario's co-simulation; returns the recorded array and the (closed) master.
+def wire(scenario: Scenario, fmu_dir: Path, backend: str = "native", strict: bool = False,
+         design_rtol: float | None = None) -> CoSimulation:
+    """The scenario's master with its FMUs loaded and wired, not run: everything the master
+    would refuse at run time is refused here, naming the key path.
 
-    A controller paired with a plant other than its design plant is reported by a
-    :class:`DesignMismatchWarning` (the lines are in ``sim.mismatches``), or refused with
-    ``strict``.
+    That is: a name no FMU has (connections, profiles, record, metrics), a connection from
+    something other than an output or into something other than an input, an input driven
+    twice, an algebraic loop, a parameter of the wrong type or outside its declared range
+    (``n_substeps = 0``), a recorded or measured variable that is not Real, ``max_difference``
+    signals and ``versus`` signals of different lengths. A controller paired with a plant
+    other than its design plant is reported by a :class:`DesignMismatchWarning` (the lines
+    are in ``sim.mismatches``), or refused with ``strict``.
+
+    Returns
+    -------
+    CoSimulation
+        Open: the caller closes it.
 
     Raises
     ------
     ScenarioError
-        A connection, profile or record entry that names no variable of its FMU (with the
-        key path), or a design mismatch with ``strict``.
     """
     where = str(scenario.path) if scenario.path else f"scenario {scenario.name!r}"
     sim = CoSimulation(fmu_paths(scenario, fmu_dir, backend))
@@ -672,21 +689,125 @@ def simulate(scenario: Scenario, fmu_dir: Path, backend: str = "native", strict:
             if strict:
                 raise ScenarioError(f"{where}: design mismatch (strict): {line}")
             warnings.warn(f"{where}: {line}", DesignMismatchWarning, stacklevel=3)
-        for i, c in enumerate(scenario.connections):
-            for key, name in (("from", c.source), ("to", c.target)):
-                _checked(sim, name, f"{where}: connections[{i}].{key}")
+        _wire(scenario, sim, where)
+        _check_parameters(scenario, sim, where)
+        _check_signals(scenario, sim, where)
+    except BaseException:
+        sim.close()
+        raise
+    return sim
+
+
+def _wire(scenario: Scenario, sim: CoSimulation, where: str) -> None:
+    """Connect and feed profiles, each scalar input driven once; refuse algebraic loops."""
+    driven: dict[str, str] = {}
+
+    def drive(key: str, targets: list[str]) -> None:
+        for dst in targets:
+            if dst in driven:
+                raise ScenarioError(f"{where}: {key}: input {dst} is driven twice (by {driven[dst]} and by {key})")
+            driven[dst] = key
+
+    for i, c in enumerate(scenario.connections):
+        for key, name in (("from", c.source), ("to", c.target)):
+            _checked(sim, name, f"{where}: connections[{i}].{key}")
+        n = len(sim.connections)
+        try:
             sim.connect(c.source, c.target)
-        for i, (target, prof) in enumerate(profiles(scenario)):
-            _checked(sim, target, f"{where}: profiles[{i}].to")
+        except WiringError as exc:
+            raise ScenarioError(f"{where}: connections[{i}]: {exc}") from None
+        drive(f"connections[{i}]", [dst for _, dst in sim.connections[n:]])
+    for i, (target, prof) in enumerate(profiles(scenario)):
+        _checked(sim, target, f"{where}: profiles[{i}].to")
+        n = len(sim.profiles)
+        try:
             sim.add_profile(target, prof)
-        for i, name in enumerate(scenario.record):
-            _checked(sim, name, f"{where}: record[{i}]")
-        record = recorded(scenario, sim)
+        except WiringError as exc:
+            raise ScenarioError(f"{where}: profiles[{i}].to: {exc}") from None
+        drive(f"profiles[{i}]", [dst for dst, _ in sim.profiles[n:]])
+    try:
+        sim.check_wiring()  # the master's own analysis: an input driven twice, an algebraic loop
+    except WiringError as exc:
+        raise ScenarioError(f"{where}: connections: {exc}") from None
+
+
+def _check_parameters(scenario: Scenario, sim: CoSimulation, where: str) -> None:
+    """Each start value: a parameter or input of its FMU, of its type, within its declared range."""
+    for inst, spec in scenario.fmus.items():
+        comp = sim.components[inst]
+        for name, value in spec.parameters.items():
+            key = f"{where}: fmus.{inst}.parameters.{name}"
+            try:
+                var, value = start_value(comp, name, value)
+            except (UnknownVariableError, WiringError) as exc:
+                raise ScenarioError(f"{key}: {exc}") from None
+            low, high = (float(b) if b is not None else None for b in (var.min, var.max))
+            if not isinstance(value, bool) and (low is not None and value < low or high is not None and value > high):
+                raise ScenarioError(f"{key}: {value!r} is outside its declared range [{var.min or '-inf'}, "
+                                    f"{var.max or 'inf'}] ({comp.path.name})")
+
+
+def _check_signals(scenario: Scenario, sim: CoSimulation, where: str) -> None:
+    """Record entries and metric signals: names of Real variables; ``versus`` as long as ``signals``."""
+    def real(name: str, key: str) -> list[str]:
+        _checked(sim, name, key)
+        comp, names = sim.resolve(name)
+        for n in names:
+            if comp.variable(n).type != "Real":
+                raise ScenarioError(f"{key}: {comp.name}.{n} is {comp.variable(n).type}; only Real variables "
+                                    "can be recorded")
+        return names
+
+    for i, name in enumerate(scenario.record):
+        real(name, f"{where}: record[{i}]")
+    for i, m in enumerate(scenario.metrics):
+        n = {key: sum(len(real(name, f"{where}: metrics[{i}].{key}[{j}]")) for j, name in enumerate(getattr(m, key)))
+             for key in ("signals", "disturbances", "versus")}
+        if m.kind == "max_difference" and n["versus"] != n["signals"]:
+            raise ScenarioError(f"{where}: metrics[{i}].versus: {n['versus']} variables for {n['signals']} "
+                                "in 'signals'")
+
+
+def simulate(scenario: Scenario, fmu_dir: Path, backend: str = "native", strict: bool = False,
+             design_rtol: float | None = None) -> tuple[np.ndarray, CoSimulation]:
+    """Run the scenario's co-simulation (wired and checked by :func:`wire`); returns the
+    recorded array and the (closed) master.
+
+    Raises
+    ------
+    ScenarioError
+        What :func:`wire` refuses.
+    sims.master.MasterError
+        An FMU call failed (its log lines in the message).
+    """
+    sim = wire(scenario, fmu_dir, backend, strict, design_rtol)
+    try:
         params = {inst: spec.parameters for inst, spec in scenario.fmus.items()}
-        res = sim.run(scenario.stop_time, scenario.step_size, scenario.start_time, params, record)
+        res = sim.run(scenario.stop_time, scenario.step_size, scenario.start_time, params,
+                      recorded(scenario, sim))
     finally:
         sim.close()
     return res, sim
+
+
+def check(scenario: Scenario, fmu_dir: str | Path | None = None, backend: str = "native",
+          allow_stale: bool = False) -> Path:
+    """Everything a run checks before its first step, without running: the FMU files
+    (:func:`ensure_fmus`, which builds the missing ones) and the wiring (:func:`wire`).
+    ``satfmu export-ssp`` and ``verify`` check a scenario with it.
+
+    Returns
+    -------
+    Path
+        The FMU folder.
+
+    Raises
+    ------
+    ScenarioError
+    """
+    folder = ensure_fmus(scenario, fmu_dir, backend, allow_stale)
+    wire(scenario, folder, backend).close()
+    return folder
 
 
 def _checked(sim: CoSimulation, name: str, where: str) -> None:
@@ -721,11 +842,8 @@ def evaluate(scenario: Scenario, res: np.ndarray, sim: CoSimulation
             value = M.time_in_saturation(t, y, float(m.limit), held=is_held)
         elif kind == "integral_square":
             value = M.integral_square(t, y, [c in sim.input_signals() for c in cols])
-        elif kind == "max_difference":
-            vcols = _columns(sim, m.versus)
-            if len(vcols) != len(cols):
-                raise ScenarioError(f"metric {m.name!r}: {len(cols)} signals but {len(vcols)} 'versus' signals")
-            value = M.peak(y - np.stack([res[c] for c in vcols], axis=1) * scale)
+        elif kind == "max_difference":  # as many versus signals as signals: checked by wire()
+            value = M.peak(y - np.stack([res[c] for c in _columns(sim, m.versus)], axis=1) * scale)
         else:
             wcols = _columns(sim, m.disturbances)
             w = np.stack([res[c] for c in wcols], axis=1)
@@ -747,7 +865,7 @@ def write_csv(res: np.ndarray, path: Path) -> None:
 
 def run(scenario: "str | Path | Mapping[str, Any] | Scenario", fmu_dir: str | Path | None = None,
         backend: str = "native", out_dir: str | Path | None = None, strict: bool = False,
-        design_rtol: float | None = None) -> Result:
+        design_rtol: float | None = None, allow_stale: bool = False) -> Result:
     """Run a scenario and evaluate its metrics.
 
     Parameters
@@ -756,7 +874,7 @@ def run(scenario: "str | Path | Mapping[str, Any] | Scenario", fmu_dir: str | Pa
         A scenario, its plain data, a TOML file or a shipped scenario's name.
     fmu_dir : path, optional
         Folder of the FMUs named by ``model`` (default :func:`sims.paths.fmu_cache`); FMUs
-        missing there are built into it first.
+        missing there are built into it first (:func:`ensure_fmus`).
     backend : {"native", "python"}
         Default backend of the instances.
     out_dir : path, optional
@@ -766,6 +884,9 @@ def run(scenario: "str | Path | Mapping[str, Any] | Scenario", fmu_dir: str | Pa
         plant, instead of a :class:`DesignMismatchWarning`.
     design_rtol : float, optional
         Relative tolerance of that comparison (default 1e-3).
+    allow_stale : bool
+        Run a stale controller FMU outside the FMU cache as it is, with a
+        :class:`StaleFmuWarning`, instead of refusing it (:func:`ensure_fmus`).
 
     Returns
     -------
@@ -774,14 +895,15 @@ def run(scenario: "str | Path | Mapping[str, Any] | Scenario", fmu_dir: str | Pa
     Raises
     ------
     ScenarioError
-        An invalid scenario (key path named), a name no FMU has, a strict mismatch.
+        An invalid scenario (key path named), an unusable or stale FMU, a name no FMU has,
+        a wiring the master refuses, a strict mismatch.
     sims.master.MasterError
         An FMU call failed (its log lines in the message).
     """
     sc = load(scenario)
     if out_dir is not None:  # a failed run must not leave the last run's files looking current
         clear_outputs(Path(out_dir) / sc.name, sc.name, backend)
-    folder = ensure_fmus(sc, fmu_dir, backend)
+    folder = ensure_fmus(sc, fmu_dir, backend, allow_stale)
     res, sim = simulate(sc, folder, backend, strict, design_rtol)
     mres, curves = evaluate(sc, res, sim)
     panels = sc.plot.get("panels") or [[r] for r in sc.record] or [m.signals for m in sc.metrics]
@@ -794,30 +916,58 @@ def run(scenario: "str | Path | Mapping[str, Any] | Scenario", fmu_dir: str | Pa
     return result
 
 
-def ensure_fmus(scenario: Scenario, fmu_dir: str | Path | None, backend: str) -> Path:
-    """The FMU folder of a run, with every FMU the scenario names by ``model`` present: those
-    missing are built into it (plants by model name, controllers from their artifact, found
-    in the user's folder before the shipped ones).
+def ensure_fmus(scenario: Scenario, fmu_dir: str | Path | None, backend: str, allow_stale: bool = False) -> Path:
+    """The FMU folder of a run, with every FMU the scenario names present and usable.
+
+    An FMU named by ``model`` and missing is built into the folder (plants by model name,
+    controllers from their artifact, found in the user's folder before the shipped ones).
+    An FMU present is checked (:mod:`sims.preflight`): a readable FMI 2.0 co-simulation FMU
+    of that model with a binary for this platform and, for a controller, embedding the
+    artifact file of its name as that file is now. In the FMU cache
+    (:func:`sims.paths.fmu_cache`, satfmu's own folder) an FMU failing that is rebuilt, with
+    a :class:`StaleFmuWarning`; in any other folder it is an error (files there are the
+    user's, never replaced), or, for a stale controller with ``allow_stale``, a
+    :class:`StaleFmuWarning` and the FMU is used as it is. An FMU named by ``path`` is
+    checked alike (not its model name or artifact), and never rebuilt.
 
     Raises
     ------
     ScenarioError
-        An FMU file named by ``path`` is missing, or a model name is unknown (with the
-        closest one).
+        Naming the key (``fmus.<instance>.model`` or ``.path``) and the file: a missing
+        ``path`` FMU, an unknown model name (with the closest one), an artifact that cannot
+        be built, an unusable or stale FMU outside the cache.
     """
     from sims import catalog
     from sims.paths import fmu_cache
 
     folder = fmu_cache() if fmu_dir is None else Path(fmu_dir).resolve()
+    cache = folder == fmu_cache()
+    where = str(scenario.path) if scenario.path else f"scenario {scenario.name!r}"
     for inst, p in fmu_paths(scenario, folder, backend).items():
         spec = scenario.fmus[inst]
-        if p.is_file():
-            continue
         if spec.path is not None:
-            raise ScenarioError(f"{scenario.name}: fmus.{inst}.path: no FMU file {str(p)!r}")
+            problem = preflight.fmu_problem(p) if p.is_file() else "does not exist"
+            if problem:
+                raise ScenarioError(f"{where}: fmus.{inst}.path: FMU file {p} {problem}")
+            continue
+        key = f"{where}: fmus.{inst}.model"
+        if p.is_file():
+            problem = preflight.fmu_problem(p, spec.model)
+            stale = None if problem else preflight.stale_artifact(p, spec.model)
+            if problem is None and stale is None:
+                continue
+            if stale and allow_stale and not cache:
+                warnings.warn(f"{key}: stale FMU run as it is (allow_stale): {stale}", StaleFmuWarning, stacklevel=2)
+                continue
+            if not cache:
+                raise ScenarioError(f"{key}: stale FMU: {stale} (remove the FMU to have it built from the artifact, "
+                                    "or pass --allow-stale to run it as it is)" if stale else
+                                    f"{key}: FMU file {p} {problem} (remove it to have it built anew)")
+            warnings.warn(f"{key}: rebuilding the FMU in the cache: {stale or f'FMU file {p} {problem}'}",
+                          StaleFmuWarning, stacklevel=2)
+            p.unlink()
         try:
             catalog.ensure(folder, [spec.model], spec.backend or backend)
         except (ValueError, FileNotFoundError) as exc:
-            raise ScenarioError(f"{scenario.name}: fmus.{inst}.model: no FMU {p.name} in {folder}, and it cannot "
-                                f"be built: {exc}") from None
+            raise ScenarioError(f"{key}: no FMU {p.name} in {folder}, and it cannot be built: {exc}") from None
     return folder

@@ -33,9 +33,11 @@ from lxml import etree
 
 from fmus import export as fmu_export
 from fmus import signals
+from fmus.atomic import write_atomically
 from fmus.description import xml_value
 from sims.master import CoSimulation, start_value
-from sims.scenario import Scenario, ScenarioError, fmu_paths, grid, load, profiles
+from sims import catalog
+from sims.scenario import Scenario, ScenarioError, check, fmu_paths, grid, load, profiles
 
 NS = {"ssd": "http://ssp-standard.org/SSP1/SystemStructureDescription",
       "ssc": "http://ssp-standard.org/SSP1/SystemStructureCommon",
@@ -67,8 +69,8 @@ def signal_components(scenario: Scenario, fmu_dir: Path, table_dir: Path
     """The scenario's profiles as signal-generator instances: FMU paths, parameter values and
     connections (``from``/``to``), by instance name ``signal_<instance>_<variable>``.
 
-    Generic generators come from ``fmu_dir`` (``satfmu build`` puts them there); table
-    generators are compiled into ``table_dir``.
+    Generic generators come from ``fmu_dir`` (built there when missing); table generators
+    are compiled into ``table_dir``.
 
     Raises
     ------
@@ -87,7 +89,7 @@ def signal_components(scenario: Scenario, fmu_dir: Path, table_dir: Path
             if not path.exists():
                 fmu_export.build_native(model, table_dir)
         else:
-            path = Path(fmu_dir) / f"{model.name}.fmu"
+            path = catalog.ensure(Path(fmu_dir), [model.name])[model.name]
         paths[inst], params[inst] = path, values
         conns.append({"from": f"{inst}.{signals.OUTPUT}", "to": target})
     return paths, params, conns
@@ -185,21 +187,45 @@ def validate(root) -> None:
         raise SspError("the SSD fails the SSP 1.0 schema:\n" + "\n".join(errors))
 
 
-def export(name_or_path: str | Path, fmu_dir: Path, out: Path, backend: str = "native") -> Path:
+def export(name_or_path: "str | Path | Scenario", fmu_dir: str | Path | None, out: Path, backend: str = "native",
+           allow_stale: bool = False) -> Path:
     """Write the scenario as ``out`` (a ``.ssp`` file; a directory gets ``<scenario>.ssp``).
 
-    The file is written to a temporary name and renamed, so a failed export leaves nothing.
+    The scenario is checked as a run checks it (:func:`sims.scenario.check`: the FMU files,
+    missing ones built, and the wiring) before anything is written, and an earlier file of
+    that name is removed first: a refused or failed export leaves no file (:func:`write`).
+
+    Raises
+    ------
+    ScenarioError
+        What a run refuses (the key path named), or an :class:`SspError`.
     """
     scenario = load(name_or_path)
-    ssd, resources = system_structure(scenario, Path(fmu_dir), backend)
+    target(scenario, out).unlink(missing_ok=True)
+    return write(scenario, check(scenario, fmu_dir, backend, allow_stale), out, backend)
+
+
+def target(scenario: Scenario, out: Path) -> Path:
+    """The file an export of ``scenario`` to ``out`` writes: ``out`` itself if it is a ``.ssp``
+    path, else ``out/<scenario>.ssp``."""
     out = Path(out)
-    if out.suffix != ".ssp":
-        out = out / f"{scenario.name}.ssp"
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = out.with_name(out.name + ".part")
-    with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as zf:
-        zf.writestr("SystemStructure.ssd", ssd)
-        for arcname, path in resources.items():
-            zf.write(path, arcname)
-    tmp.replace(out)
-    return out
+    return out if out.suffix == ".ssp" else out / f"{scenario.name}.ssp"
+
+
+def write(scenario: Scenario, fmu_dir: Path, out: Path, backend: str = "native") -> Path:
+    """Write a scenario :func:`sims.scenario.check` accepted as an SSP file (:func:`target`),
+    whole or not at all (:func:`fmus.atomic.write_atomically`).
+
+    Raises
+    ------
+    SspError
+    """
+    ssd, resources = system_structure(scenario, Path(fmu_dir), backend)
+
+    def zip_ssp(tmp: Path) -> None:
+        with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as zf:
+            zf.writestr("SystemStructure.ssd", ssd)
+            for arcname, path in resources.items():
+                zf.write(path, arcname)
+
+    return write_atomically(target(scenario, out), zip_ssp)

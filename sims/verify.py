@@ -53,9 +53,10 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from sims import catalog, libcosim, paths, ssp
+from fmus.atomic import write_atomically
+from sims import libcosim, paths, ssp
 from sims.master import CoSimulation
-from sims.scenario import Scenario, ensure_fmus, evaluate, fmu_paths, load, recorded
+from sims.scenario import Scenario, check, evaluate, fmu_paths, load, recorded
 
 
 @dataclass(frozen=True)
@@ -234,26 +235,42 @@ def _master(scenario: Scenario, fmu_dir: Path, backend: str, exchange: str
     return res, record, sim
 
 
-def verify(name_or_path: str | Path, fmu_dir: Path, out_dir: Path, backend: str = "native",
-           engines: tuple[str, ...] = ("libcosim", "ecos")) -> ScenarioReport:
+def verify(name_or_path: "str | Path | Scenario", fmu_dir: Path, out_dir: Path, backend: str = "native",
+           engines: tuple[str, ...] = ("libcosim", "ecos"), allow_stale: bool = False) -> ScenarioReport:
     """Verify one scenario against the other engines (see the module docstring).
 
     Parameters
     ----------
-    name_or_path : str or Path
+    name_or_path : str, Path or Scenario
         Scenario.
     fmu_dir : Path
-        The built FMUs (``satfmu build``).
+        Folder of the FMUs; the missing ones are built, and the scenario is checked as a run
+        checks it (:func:`sims.scenario.check`) before its SSP file is written.
     out_dir : Path
         Receives ``<scenario>.ssp``.
     backend : {"native", "python"}
         Default FMU backend of the scenario's instances.
     engines : tuple of str
         Subset of ``("libcosim", "ecos")``.
+    allow_stale : bool
+        Use a stale controller FMU outside the FMU cache as it is (a warning), not an error.
+
+    Raises
+    ------
+    sims.scenario.ScenarioError
+        What a run refuses.
     """
     scenario = load(name_or_path)
+    return _verify(scenario, check(scenario, fmu_dir, backend, allow_stale), out_dir, backend, engines)
+
+
+def _verify(scenario: Scenario, fmu_dir: Path, out_dir: Path, backend: str, engines: tuple[str, ...]
+            ) -> ScenarioReport:
+    """:func:`verify` of a scenario :func:`sims.scenario.check` accepted."""
     d = scenario.data
-    ssp_path = ssp.export(scenario.path, fmu_dir, out_dir, backend)
+    target = ssp.target(scenario, out_dir)
+    target.unlink(missing_ok=True)
+    ssp_path = ssp.write(scenario, fmu_dir, target, backend)
     paths = fmu_paths(scenario, fmu_dir, backend)
     t0 = time.perf_counter()
     res_ft, record, sim = _master(scenario, fmu_dir, backend, "feedthrough")
@@ -321,15 +338,17 @@ def markdown(reports: list[ScenarioReport]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def report_files(out_dir: Path) -> tuple[Path, Path]:
+    """``verify.md`` and ``verify.json`` of ``out_dir``."""
+    return out_dir / "verify.md", out_dir / "verify.json"
+
+
 def write(reports: list[ScenarioReport], out_dir: Path) -> tuple[Path, Path]:
-    """Write ``verify.md`` and ``verify.json`` into ``out_dir`` (atomically)."""
-    out_dir.mkdir(parents=True, exist_ok=True)
-    md, js = out_dir / "verify.md", out_dir / "verify.json"
+    """Write ``verify.md`` and ``verify.json`` into ``out_dir``, each whole or not at all."""
+    md, js = report_files(out_dir)
     payload = [dict(asdict(r), passed=r.passed) for r in reports]
     for path, text in ((md, markdown(reports)), (js, json.dumps(payload, indent=2, default=str))):
-        tmp = path.with_name(path.name + ".part")
-        tmp.write_text(text)
-        tmp.replace(path)
+        write_atomically(path, lambda tmp, text=text: tmp.write_text(text))
     return md, js
 
 
@@ -354,11 +373,13 @@ class VerifyRun:
 
 def verify_all(fmu_dir: Path, out_dir: Path, names: Sequence[str | Path] = (), backend: str = "native",
                engines: tuple[str, ...] = ("libcosim", "ecos"),
-               progress: Callable[[int, int, str], None] | None = None) -> VerifyRun:
+               progress: Callable[[int, int, str], None] | None = None, allow_stale: bool = False) -> VerifyRun:
     """:func:`verify` of each scenario, then :func:`write` of all the reports.
 
-    The FMUs a scenario names (and the generic signal generators of its profiles) that are
-    missing from ``fmu_dir`` are built first (:func:`sims.catalog.ensure`).
+    Every scenario is checked first as a run checks it (:func:`sims.scenario.check`: the FMUs
+    a scenario names that are missing from ``fmu_dir`` are built, each FMU and the wiring are
+    checked), so a bad one stops the run before any work. The report of an earlier
+    run in ``out_dir`` is removed first: a folder with a report holds a complete run.
 
     Parameters
     ----------
@@ -374,15 +395,23 @@ def verify_all(fmu_dir: Path, out_dir: Path, names: Sequence[str | Path] = (), b
         Subset of ``("libcosim", "ecos")``.
     progress : callable, optional
         ``progress(done, total, message)`` before each scenario and at the end.
+    allow_stale : bool
+        See :func:`verify`.
+
+    Raises
+    ------
+    sims.scenario.ScenarioError
+        What a run refuses.
     """
-    names = list(names) or [p.stem for p in paths.shipped_scenarios()]
+    scenarios = [load(name) for name in list(names) or [p.stem for p in paths.shipped_scenarios()]]
+    for f in report_files(Path(out_dir)):
+        f.unlink(missing_ok=True)
+    folders = [check(scenario, fmu_dir, backend, allow_stale) for scenario in scenarios]  # before any work
     reports = []
-    for i, name in enumerate(names):
+    for i, (scenario, folder) in enumerate(zip(scenarios, folders)):
         if progress is not None:
-            progress(i, len(names), f"verifying {name}")
-        ensure_fmus(load(name), fmu_dir, backend)
-        catalog.ensure(fmu_dir, catalog.SIGNALS)
-        reports.append(verify(name, Path(fmu_dir), Path(out_dir), backend, tuple(engines)))
+            progress(i, len(scenarios), f"verifying {scenario.name}")
+        reports.append(_verify(scenario, folder, Path(out_dir), backend, tuple(engines)))
     if progress is not None:
-        progress(len(names), len(names), "verified")
+        progress(len(scenarios), len(scenarios), "verified")
     return VerifyRun(reports, *write(reports, Path(out_dir)))

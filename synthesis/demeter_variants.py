@@ -36,8 +36,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.linalg import sqrtm
 
+from controllers import state_feedback as sf
 from fmus import demeter
 
 PSEUDO_INTEGRATOR_POLE = 1e-3
@@ -290,24 +290,10 @@ class DesignModel:
         VariantError
             If K does not have shape (n_axes, n) or is not finite.
         """
-        K = np.asarray(K, float)
-        na, nr = self.na, self.nr
-        if K.shape != (na, self.n) or not np.all(np.isfinite(K)):
-            raise VariantError(f"K must be a finite {na} x {self.n} matrix, got shape {K.shape}")
-        ax = [a - 1 for a in self.variant.axes]
-        base = 2 * na + 2 * nr
-        full = {"K_theta": np.zeros((3, 3)), "K_theta_dot": np.zeros((3, 3)), "K_xi": np.zeros((3, 3)),
-                "K_xw": np.zeros((3, 3)), "K_torque": np.zeros((3, 3)), "K_torque_rate": np.zeros((3, 3)),
-                "K_eta": np.zeros((3, demeter.N_FLEX)), "K_eta_dot": np.zeros((3, demeter.N_FLEX))}
-        blocks = {"K_theta": 0, "K_theta_dot": na, "K_xi": base, "K_xw": base + na}
-        if self.variant.wheels:
-            blocks.update(K_torque=base + 2 * na, K_torque_rate=base + 3 * na)
-        for name, start in blocks.items():
-            full[name][np.ix_(ax, ax)] = K[:, start:start + na]
-        full["K_eta"][ax] = K[:, 2 * na:2 * na + nr] @ self.Q
-        full["K_eta_dot"][ax] = K[:, 2 * na + nr:base] @ self.Q
-        return {f"{name}[{i + 1},{j + 1}]": float(G[i, j]) for name, G in full.items()
-                for i in range(G.shape[0]) for j in range(G.shape[1])}
+        try:
+            return sf.design_gains(K, self.variant.axes, self.variant.wheels, self.Q)
+        except ValueError as exc:
+            raise VariantError(str(exc)) from None
 
 
 def _augment(A0: np.ndarray, B0: np.ndarray, na: int, nr: int, wheels: bool
@@ -346,20 +332,6 @@ def _wheel_coefficients() -> tuple[float, float]:
     return -Aw[2, 1], -Aw[2, 2]
 
 
-def _groups(variant: Variant) -> list[list[int]]:
-    cols = [[2 * (a - 1), 2 * (a - 1) + 1] for a in variant.appendages]
-    return [sum(cols, [])] if variant.model_type == 2 else cols
-
-
-def _reduce(L_g: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Reduced coupling and projection of one group: (L_r, Q) with L_g eta = L_r (Q eta)."""
-    na, nc = L_g.shape
-    if nc <= na:
-        return L_g.copy(), np.eye(nc)
-    L_r = np.real(sqrtm(L_g @ L_g.T))
-    return L_r, np.linalg.solve(L_r, L_g)
-
-
 def parameters(variant: Variant) -> list[UncertainParameter]:
     """The uncertain parameters of a variant, in the order of delta."""
     ax = [a - 1 for a in variant.axes]
@@ -374,7 +346,7 @@ def parameters(variant: Variant) -> list[UncertainParameter]:
             i, j = ax[k1], ax[k2]
             out.append(UncertainParameter(f"J{i + 1}{j + 1}", "Jprod", (k1, k2), float(demeter.J0[i, j]),
                                           INERTIA_PRODUCT_SPREAD, inertia))
-    ngr = len(_groups(variant))
+    ngr = len(sf.flexible_groups(variant.appendages, variant.model_type))
     for g in range(ngr):
         tag = "" if ngr == 1 else f"{variant.appendages[g]}"
         lo, hi = demeter.OMEGA_RANGE
@@ -390,19 +362,11 @@ def design_model(variant: Variant, L: np.ndarray | None = None) -> DesignModel:
     if L_full.shape != (demeter.N_AXES, demeter.N_FLEX) or not np.all(np.isfinite(L_full)):
         raise VariantError(f"L must be a finite 3 x 8 matrix, got shape {np.shape(L_full)}")
     ax = [a - 1 for a in variant.axes]
-    groups = _groups(variant)
+    groups = sf.flexible_groups(variant.appendages, variant.model_type)
     L_used = np.zeros_like(L_full)
     L_used[np.ix_(ax, sum(groups, []))] = L_full[np.ix_(ax, sum(groups, []))]
-    blocks_L, blocks_Q, mode_group = [], [], []
-    for g, cols in enumerate(groups):
-        L_r, Q = _reduce(L_full[np.ix_(ax, cols)])
-        Qf = np.zeros((Q.shape[0], demeter.N_FLEX))
-        Qf[:, cols] = Q
-        blocks_L.append(L_r)
-        blocks_Q.append(Qf)
-        mode_group += [g] * L_r.shape[1]
-    return _assemble(variant, parameters(variant), groups, L_used, np.vstack(blocks_Q), np.hstack(blocks_L),
-                     np.array(mode_group, int))
+    L_r, Q, mode_group = sf.reduction(variant.axes, groups, L_full)
+    return _assemble(variant, parameters(variant), groups, L_used, Q, L_r, mode_group)
 
 
 def _assemble(variant: Variant, params: list[UncertainParameter], groups: list[list[int]], L_used: np.ndarray,
@@ -487,11 +451,7 @@ def _assemble(variant: Variant, params: list[UncertainParameter], groups: list[l
         for i in range(na):
             add(r, XD + yd[i], 1.0); add(r, X + y[i], wn2); add(r, X + yd[i], cw); add(r, U + i, -wn2); r += 1
     assert r == rows, (r, rows)
-    names = ([f"theta[{a}]" for a in variant.axes] + [f"theta_dot[{a}]" for a in variant.axes]
-             + [f"eta_r[{j + 1}]" for j in range(nr)] + [f"eta_r_dot[{j + 1}]" for j in range(nr)]
-             + [f"xi[{a}]" for a in variant.axes] + [f"xw[{a}]" for a in variant.axes])
-    if wheels:
-        names += [f"wheel_torque[{a}]" for a in variant.axes] + [f"wheel_torque_rate[{a}]" for a in variant.axes]
+    names = sf.design_states(variant.axes, nr, wheels)
     C1 = np.zeros((na, n))
     C1[:, th] = np.eye(na)
     B2 = np.zeros((n, 2 * na))

@@ -2,13 +2,15 @@
 from __future__ import annotations
 
 import copy
+import inspect
 import json
+import time
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from controllers import artifact, polynomial
+from controllers import artifact, claims, polynomial, riccati
 from fmus import codegen
 from tests.conftest import PUBLISHED
 
@@ -143,3 +145,137 @@ def test_save_round_trip_and_refuses_invalid(tmp_path: Path) -> None:
     with pytest.raises(artifact.ArtifactError):
         artifact.save(a, tmp_path / "bad.json")
     assert not (tmp_path / "bad.json").exists()
+
+
+def _shipped(name: str) -> dict:
+    return json.loads((polynomial.ARTIFACTS / f"{name}.json").read_text())
+
+
+def _set(data: dict, path: tuple, value: object) -> None:
+    for key in path[:-1]:
+        data = data[key]
+    data[path[-1]] = value
+
+
+def _scaled_entry(path: tuple, factor: float):
+    def mutate(data: dict) -> None:
+        target = data
+        for key in path[:-1]:
+            target = target[key]
+        target[path[-1]] *= factor
+    return mutate
+
+
+def _numbers(key: str, value: float):
+    return lambda d: _set(d, ("certificate", "numbers", key), value)
+
+
+DOCTORED = [
+    # (artifact, what is doctored, mutation, message) for every kind: the claim each number supports
+    ("mrp_hinf_satfmu", "SOS min eigenvalue -1", _numbers("-M - E: min_eig", -1.0),
+     r"numbers\['-M - E: min_eig'\] = -1: status 'certified' needs >= -1e-06"),
+    ("mrp_hinf_satfmu", "SOS residual 10", _numbers("-M - E: residual", 10.0),
+     r"numbers\['-M - E: residual'\] = 10: status 'certified' needs <= 1e-06"),
+    ("mrp_hinf_satfmu", "L2-gain SOS min eigenvalue -1",
+     lambda d: _set(d, ("certificate", "l2_gain", "checks", "a - z/kv - beta b on region: min_eig"), -1.0),
+     r"l2_gain\.checks\['a - z/kv - beta b on region: min_eig'\] = -1"),
+    ("mrp_hinf_satfmu", "sampled L2 gain above the certified one",
+     lambda d: _set(d, ("certificate", "l2_gain", "sampled_c"), 0.5), r"l2_gain\.sampled_c = 0\.5: a sampled lower"),
+    ("mrp_hinf_satfmu", "law P no longer Q^-1", _scaled_entry(("law", "P", 3, 3), 1.5), r"law\.P: not the inverse"),
+    ("mrp_h2hinf_satfmu", "psd_margin -1", _numbers("psd_margin", -1.0), r"numbers\['psd_margin'\] = -1"),
+    ("mrp_h2hinf_satfmu", "Xinf with a negative eigenvalue (recomputed)",
+     lambda d: _set(d, ("certificate", "Xinf"), (-np.eye(6)).tolist()),
+     r"certificate\.Xinf: recomputed smallest eigenvalue of Xinf -1: status 'certified' needs >= -1e-09"),
+    ("mrp_h2hinf_satfmu", "lambda below the H2 level (recomputed)", _scaled_entry(("certificate", "h2", "lambda"), 0.5),
+     r"h2\.lambda: recomputed smallest eigenvalue of \[\[lambda, x0\^T\], \[x0, X2\]\] .* -0\.0\d+: status"),
+    ("vscmg_lq_servo", "Riccati residual 10", _numbers("riccati_residual", 10.0),
+     r"numbers\['riccati_residual'\] = 10: status 'certified' needs <= 1e-08"),
+    ("vscmg_lq_servo", "shifted closed loop unstable", _numbers("max_re_shifted", 1.5), r"max_re_shifted'\] = 1\.5"),
+    ("vscmg_sdre_approx", "Lyapunov eigenvalue 1.5 on the samples", _numbers("region_trig_max_lyapunov_eig", 1.5),
+     r"region_trig_max_lyapunov_eig'\] = 1\.5: status 'certified' needs < 0"),
+    ("vscmg_sdre_approx", "sampled decay slower than proved", _numbers("region_trig_max_re_off_p4", -0.1),
+     r"region_trig_max_re_off_p4'\] = -0\.1: status 'certified' needs <= -region_trig_decay_bound = -0\.14746"),
+    ("cubesat_periodic_satfmu", "spectral radius 1.5", _numbers("ms_spectral_radius", 1.5),
+     r"numbers\['ms_spectral_radius'\] = 1\.5: status 'certified' needs < 1 \(mean-square stability"),
+    ("cubesat_periodic_published", "min eigenvalue of Y(k) -1", _numbers("min_y_eig", -1.0), r"min_y_eig'\] = -1"),
+    ("cubesat_periodic_satfmu", "no numbers at all", lambda d: _set(d, ("certificate", "numbers"), {}),
+     "status 'certified' but none of the numbers that support it is recorded"),
+    ("demeter_row1_det", "design.K changed", _scaled_entry(("design", "K", 0, 2), 1.5),
+     r"design\.K and gains disagree \(largest difference 1625\.58 at K_eta\[1,1\]: gains 3251\.16, "
+     r"design\.K gives 4876\.75"),
+    ("demeter_row1_det", "a gain changed", lambda d: _set(d, ("gains", "K_xi[1,1]"), 0.0),
+     r"largest difference 0\.000129859 at K_xi\[1,1\]: gains 0, design\.K gives -0\.000129859"),
+    ("demeter_row1_det", "design states reordered", lambda d: d["design"]["states"].reverse(),
+     r"design\.states: .* are not the variant's design states"),
+    ("demeter_row1_det", "coupling L not recorded", lambda d: d["provenance"]["design_plant"]["parameters"].pop("L[1,2]"),
+     r"lacks the coupling L\[1,2\] the design used"),
+    ("demeter_row1_det", "sampled pole 1.5", _numbers("sampled_max_real_pole", 1.5), r"sampled_max_real_pole'\] = 1\.5"),
+    ("demeter_row1_det", "sampled H-infinity norm above the proved bound", _numbers("sampled_max_hinf", 100.0),
+     r"sampled_max_hinf'\] = 100: above the bound analysis_hinf_pdlf = 83\.2965"),
+]
+
+
+def test_every_shipped_artifact_loads_and_its_claims_cost_under_a_millisecond() -> None:
+    files = polynomial.shipped_artifacts()
+    assert len(files) == 8
+    for f in files:
+        artifact.load(f)
+        data = json.loads(f.read_text())
+        start = time.perf_counter()
+        for _ in range(10):
+            assert claims.problems(data) == []
+        # the re-check's budget is 50 ms per artifact; measured 0.01-0.4 ms (DEMETER's gain map)
+        assert (time.perf_counter() - start) / 10 < 0.05, f.name
+
+
+@pytest.mark.parametrize("name,what,mutate,message", DOCTORED, ids=[f"{d[0]}: {d[1]}" for d in DOCTORED])
+def test_an_artifact_whose_numbers_contradict_its_claims_is_refused(tmp_path: Path, name: str, what: str,
+                                                                     mutate, message: str) -> None:
+    data = _shipped(name)
+    mutate(data)
+    f = tmp_path / f"{name}.json"
+    f.write_text(json.dumps(data))
+    with pytest.raises(artifact.ArtifactError, match=message) as err:
+        artifact.load(f)
+    assert str(err.value).startswith(f"{f}: ") and "\n" not in str(err.value)  # the file, one line
+
+
+def test_what_each_status_claims() -> None:
+    # not_verified claims nothing: failing numbers are allowed (hinf_sos records a failed check so)
+    data = _shipped("mrp_hinf_satfmu")
+    data["certificate"]["status"] = "not_verified"
+    data["certificate"]["numbers"]["-M - E: min_eig"] = -1.0
+    assert artifact.parse(data).certificate["status"] == "not_verified"
+    # sampled claims the sampled checks only: the SOS region's numbers may fail (gain_fit keeps
+    # status sampled when the region is not certified), the frozen closed loop may not
+    data = _shipped("vscmg_sdre_approx")
+    data["certificate"]["status"] = "sampled"
+    data["certificate"]["numbers"]["region_trig_max_lyapunov_eig"] = 1.5
+    assert artifact.parse(data).certificate["status"] == "sampled"
+    data["certificate"]["numbers"]["frozen_max_re"] = 1.5
+    with pytest.raises(artifact.ArtifactError, match=r"frozen_max_re'\] = 1\.5: status 'sampled' needs <= 1e-06"):
+        artifact.parse(data)
+    # a gain held twice must agree whatever the status
+    data = _shipped("demeter_row1_det")
+    data["certificate"]["status"] = "not_verified"
+    data["design"]["K"][0][0] = 0.0
+    with pytest.raises(artifact.ArtifactError, match=r"at K_theta\[1,1\]"):
+        artifact.parse(data)
+
+
+def test_design_gains_agree_to_rounding_not_bitwise() -> None:
+    # another machine may round K_eta = K_r Q otherwise: a few ulps pass, GAIN_RTOL (1e-9) more do not
+    data = _shipped("demeter_row1_det")
+    g = data["gains"]["K_eta[1,1]"]
+    data["gains"]["K_eta[1,1]"] = float(np.nextafter(np.nextafter(g, np.inf), np.inf))
+    artifact.parse(data)
+    data["gains"]["K_eta[1,1]"] = g * (1 + 1e-8)
+    with pytest.raises(artifact.ArtifactError, match=r"at K_eta\[1,1\]"):
+        artifact.parse(data)
+
+
+def test_claim_tolerances_are_the_verifiers_own() -> None:
+    # one source: the Riccati bounds are riccati_gain's defaults
+    defaults = inspect.signature(riccati.riccati_gain).parameters
+    assert claims.RICCATI_RES_TOL == defaults["residual_tol"].default
+    assert claims.MAX_RE_TOL == defaults["max_re_tol"].default

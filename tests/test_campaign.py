@@ -1,11 +1,16 @@
 """Monte Carlo campaigns on Dask (sims.campaign): bit-for-bit reproducibility, resume, loss of a
-worker, the probabilistic bounds, and a campaign of co-simulated FMUs."""
+worker, damaged and foreign chunks, two drivers in one folder, the probabilistic bounds, and a
+campaign of co-simulated FMUs."""
 from __future__ import annotations
 
+import json
 import math
 import os
+import re
 import signal
-import time
+import struct
+import subprocess
+import sys
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -18,9 +23,11 @@ from pandas.testing import assert_frame_equal
 from controllers import artifact
 from fmus import demeter, export
 from sims import campaign as cp
-from sims import catalog
-from sims.campaign import Campaign, CampaignError
+from sims import catalog, chunk_files
+from sims.campaign import Campaign, CampaignError, CampaignWarning
 from synthesis.demeter_variants import Variant, design_model
+from tests.campaign_tasks import (abscissa, decay_time, matrix_column, normal_matrices, short_column,
+                                  slow_abscissa)
 
 ROOT = Path(__file__).resolve().parents[1]
 N, CHUNK, SEED = 20_000, 2_000, 2024
@@ -29,39 +36,8 @@ WIRES = [(f"plant.{n}", f"ctrl.{n}") for n in
          ("theta", "theta_dot", "eta", "eta_dot", "wheel_torque", "wheel_torque_rate")] + [("ctrl.u_c", "plant.u_c")]
 
 
-# Tasks and samplers are module-level: the workers import them from this module.
-def normal_matrices(rng: np.random.Generator, count: int) -> np.ndarray:
-    """Entries (a, b, c, d) of random 2x2 matrices [[a, b], [c, d]]."""
-    return rng.standard_normal((count, 4))
-
-
-def abscissa(samples: np.ndarray) -> dict[str, np.ndarray]:
-    """Spectral abscissa (largest real part of the eigenvalues) and trace of each matrix."""
-    a, b, c, d = samples.T
-    disc = ((a - d) / 2) ** 2 + b * c
-    return {"abscissa": (a + d) / 2 + np.sqrt(np.maximum(disc, 0.0)), "trace": a + d}
-
-
-def slow_abscissa(samples: np.ndarray) -> dict[str, np.ndarray]:
-    time.sleep(0.4)
-    return abscissa(samples)
-
-
-def decay_time(samples: np.ndarray) -> dict[str, np.ndarray]:
-    """1 / |abscissa| of a stable matrix, inf for an unstable one (a result, not a failure)."""
-    alpha = abscissa(samples)["abscissa"]
-    with np.errstate(divide="ignore"):
-        return {"decay_time": np.where(alpha < 0, -1.0 / alpha, np.inf)}
-
-
-def short_column(samples: np.ndarray) -> dict[str, np.ndarray]:
-    return {"abscissa": np.zeros(len(samples) - 1)}
-
-
-def matrix_column(samples: np.ndarray) -> dict[str, np.ndarray]:
-    return {"grid": np.zeros((len(samples), 2))}
-
-
+# Tasks and samplers are module-level: the workers import them by name (the light ones from
+# tests.campaign_tasks, so that a worker starts fast).
 def uniform_delta(rng: np.random.Generator, count: int) -> np.ndarray:
     return rng.uniform(-1.0, 1.0, (count, 3))
 
@@ -174,15 +150,31 @@ def test_a_different_campaign_in_the_same_folder_is_refused(tmp_path: Path, clus
         with pytest.raises(CampaignError, match=f"differs in {word}"):
             cp.run(matrices(**{**small, **change}), tmp_path, client=cluster[1])
     assert len(cp.run(matrices(**small), tmp_path, client=cluster[1])) == 10  # the same campaign resumes
+    meta = tmp_path / "abscissa" / "campaign.json"
+    for broken, text in (('{"n": 10', "Expecting"), ('{"n": 10}', "it must hold n, seed, chunk, task, sampler"),
+                         (meta.read_text().replace('"chunks": {', '"chunks": {"x": 1, '), "'chunks' must map")):
+        meta.write_text(broken)
+        with pytest.raises(CampaignError, match=f"campaign.json: not a campaign record .*{text}"):
+            cp.run(matrices(**small), tmp_path, client=cluster[1])
 
 
 def test_load_names_missing_and_duplicated_samples(tmp_path: Path, cluster) -> None:
-    cp.run(matrices(n=10, chunk=5), tmp_path, client=cluster[1])
+    small = matrices(n=10, chunk=5)
+    cp.run(small, tmp_path, client=cluster[1])
     folder = tmp_path / "abscissa"
     (folder / "chunk-000009.parquet").write_bytes((folder / "chunk-000001.parquet").read_bytes())
-    with pytest.raises(CampaignError, match=r"5 duplicated \(first: \[5, 6, 7, 8, 9\]\)"):
+    assert len(cp.load(folder)) == 10  # a file campaign.json does not list is never read
+    # a forged chunk 0 (chunk 1's rows under chunk 0's name, checksum and metadata): the sample
+    # indices still tell
+    record = json.loads((folder / "campaign.json").read_text())
+    forged = chunk_files.chunk_bytes(cp.run_chunk(small, 1), chunk_files.identity_digest(small.identity()), 0)
+    (folder / "chunk-000000.parquet").write_bytes(forged)
+    record["chunks"]["0"] = chunk_files.sha256(forged)
+    (folder / "campaign.json").write_text(json.dumps(record))
+    with pytest.raises(CampaignError, match=r"5 missing \(first: \[0, 1, 2, 3, 4\]\); 5 duplicated \(first: \[5"):
         cp.load(folder)
-    (folder / "chunk-000000.parquet").unlink()
+    del record["chunks"]["0"]  # an incomplete campaign: chunk 0 not computed yet
+    (folder / "campaign.json").write_text(json.dumps(record))
     with pytest.raises(CampaignError, match=r"5 missing \(first: \[0, 1, 2, 3, 4\]\)"):
         cp.load(folder)
 
@@ -252,3 +244,117 @@ def test_fmu_campaign_equals_the_in_process_runs(tmp_path: Path, cluster, demete
     assert df["peak_theta"].nunique() == 8  # the sampled plants differ
     # 1 mrad/s for 20 s drifts at most 20 mrad; the loop keeps it above 5 mrad (values 7-12 mrad)
     assert df["peak_theta"].between(0.005, 0.02).all()
+
+
+SMALL = {"n": 20, "chunk": 5}
+"""4 chunks of 5 samples: the damage tests."""
+
+
+def _flip_a_value_bit(path: Path) -> None:
+    """Flip the lowest mantissa bit of sample 6's abscissa where the file stores it (a data page)."""
+    data = bytearray(path.read_bytes())
+    value = pd.read_parquet(path)["abscissa"].iloc[1]
+    at = bytes(data).find(struct.pack("<d", value))
+    assert at > 0 and bytes(data).count(struct.pack("<d", value)) == 1
+    data[at] ^= 0x01
+    path.write_bytes(bytes(data))
+    # Parquet itself does not notice: the file reads, with another value (what passed silently)
+    assert pd.read_parquet(path)["abscissa"].iloc[1] != value
+
+
+def _rewrite_valid(path: Path) -> None:
+    """A valid Parquet file with the chunk's columns and other values."""
+    frame = pd.read_parquet(path)
+    frame["abscissa"] += 1.0
+    frame.to_parquet(path, index=False)
+
+
+DAMAGES = [
+    ("truncated", lambda p: p.write_bytes(p.read_bytes()[: p.stat().st_size // 2]),
+     r"differs from its checksum in campaign\.json \(truncated, corrupted or rewritten\)"),
+    ("0-byte", lambda p: p.write_bytes(b""), r"is empty \(0 bytes\)"),
+    ("bit flip in a data page", _flip_a_value_bit, r"differs from its checksum"),
+    ("rewritten valid chunk", _rewrite_valid, r"differs from its checksum"),
+    ("deleted", lambda p: p.unlink(), r"is recorded in campaign\.json but its file is missing"),
+]
+
+
+@pytest.mark.parametrize("damage,message", [(d[1], d[2]) for d in DAMAGES], ids=[d[0] for d in DAMAGES])
+def test_resume_computes_a_damaged_chunk_again_and_names_it(tmp_path: Path, cluster, damage, message) -> None:
+    campaign = matrices(**SMALL)
+    reference = cp.run(campaign, tmp_path, client=cluster[1])
+    folder = tmp_path / "abscissa"
+    damage(cp.chunk_path(folder, 2))
+    with pytest.raises(CampaignError, match=r"chunk 2 \(chunk-000002\.parquet\) " + message):
+        cp.load(folder)  # load alone never hands out a damaged chunk
+    kept = {k: cp.chunk_path(folder, k).stat().st_mtime_ns for k in (0, 1, 3)}
+    computed: list[int] = []
+    with pytest.warns(CampaignWarning, match=r"chunk 2 \(chunk-000002\.parquet\) " + message + r".*: computing it again"):
+        df = cp.run(campaign, tmp_path, client=cluster[1], progress=lambda done, total: computed.append(done))
+    assert_frame_equal(df, reference, check_exact=True)  # exact: the chunk's own draws again
+    assert computed == [4]  # chunk 2 only
+    assert {k: cp.chunk_path(folder, k).stat().st_mtime_ns for k in (0, 1, 3)} == kept
+
+
+def test_a_chunk_of_another_campaign_is_never_adopted(tmp_path: Path, cluster) -> None:
+    seed0, seed1 = matrices(**SMALL), matrices(**SMALL, seed=1)
+    folder = tmp_path / "abscissa"
+    # campaign.json deleted, the seed-1 chunks left: a new campaign, every chunk computed again
+    cp.run(seed1, tmp_path, client=cluster[1])
+    (folder / "campaign.json").unlink()
+    with pytest.warns(CampaignWarning) as caught:
+        df = cp.run(seed0, tmp_path, client=cluster[1])
+    assert_frame_equal(df, serial(seed0), check_exact=True)
+    assert sorted(int(re.search(r"chunk (\d) \(", str(w.message))[1]) for w in caught) == [0, 1, 2, 3]
+    assert all("is not in campaign.json (no checksum to verify it by)" in str(w.message) for w in caught)
+    # a seed-1 folder whose campaign.json was edited to say seed 0: the checksums match, the
+    # chunks' own metadata names the seed-1 campaign
+    cp.run(seed1, tmp_path / "edited", client=cluster[1])
+    meta = tmp_path / "edited" / "abscissa" / "campaign.json"
+    meta.write_text(json.dumps({**json.loads(meta.read_text()), "seed": SEED}))
+    with pytest.raises(CampaignError, match=r"chunk 0 \(chunk-000000\.parquet\) was written by another campaign"):
+        cp.load(meta.parent)
+    with pytest.warns(CampaignWarning, match="was written by another campaign"):
+        assert_frame_equal(cp.run(seed0, tmp_path / "edited", client=cluster[1]), serial(seed0), check_exact=True)
+
+
+DRIVER = """
+import json, sys, time, warnings
+from pathlib import Path
+from sims import campaign as cp
+from tests import campaign_tasks as ct
+out, scheduler, me = Path(sys.argv[1]), sys.argv[2], sys.argv[3]
+(out / f"ready-{me}").touch()
+while len(list(out.glob("ready-*"))) < 2:  # start both runs at once
+    time.sleep(0.005)
+computed = []
+with warnings.catch_warnings(record=True) as caught:
+    warnings.simplefilter("always")
+    df = cp.run(cp.Campaign(name="abscissa", task=ct.abscissa, n=20, seed=int(sys.argv[4]), chunk=5,
+                            sampler=ct.normal_matrices), out, scheduler=scheduler,
+                progress=lambda done, total: computed.append(done))
+print(json.dumps({"computed": computed, "rows": len(df),
+                  "warnings": [str(w.message) for w in caught if issubclass(w.category, cp.CampaignWarning)]}))
+"""
+
+
+def test_two_drivers_in_one_folder_wait_for_each_other(tmp_path: Path, cluster) -> None:
+    env = {**os.environ, "PYTHONPATH": str(ROOT), "OPENBLAS_NUM_THREADS": "1"}
+    drivers = [subprocess.Popen([sys.executable, "-c", DRIVER, str(tmp_path), cluster[0].scheduler_address, str(i),
+                                 str(SEED)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
+                                cwd=ROOT) for i in range(2)]
+    results = []
+    for d in drivers:
+        out, err = d.communicate(timeout=120)
+        assert d.returncode == 0, err
+        results.append(json.loads(out.splitlines()[-1]))
+    first, second = sorted(results, key=lambda r: -len(r["computed"]))
+    # one computed the 4 chunks, the other waited for it and found them done
+    assert first["computed"] == [1, 2, 3, 4] and first["warnings"] == []
+    assert second["computed"] == [] and len(second["warnings"]) == 1
+    assert "is in use by another campaign driver (process" in second["warnings"][0]
+    assert first["rows"] == second["rows"] == 20
+    folder = tmp_path / "abscissa"
+    assert_frame_equal(cp.load(folder), serial(matrices(**SMALL)), check_exact=True)
+    assert sorted(p.name for p in folder.iterdir() if p.name != "campaign.json") == \
+        [".campaign.lock"] + [f"chunk-{k:06d}.parquet" for k in range(4)]  # no temporary file left

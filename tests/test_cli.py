@@ -34,6 +34,21 @@ def test_run_fails_with_exit_1_when_a_bound_is_missed(fmu_dir: Path, tmp_path: P
     assert "FAIL" in capsys.readouterr().out
 
 
+@pytest.mark.parametrize("backend", ["native", "python"])
+def test_design_mismatch_is_found_in_both_backends(backend: str, fmu_dir: Path, tmp_path: Path,
+                                                   capsys: pytest.CaptureFixture) -> None:
+    """The controller FMU of either backend carries its artifact (resources/artifact.json): a
+    plant other than its design plant is refused with --strict."""
+    f = tmp_path / "own.toml"
+    f.write_text('name = "own"\nstop_time = 0.1\nstep_size = 0.1\n'
+                 '[fmus.plant]\nmodel = "mrp_satellite"\nparameters = { I_x = 100.0 }\n'
+                 '[fmus.controller]\nmodel = "mrp_hinf_published"\n')
+    code = main(["run", str(f), "--backend", backend, "--strict", "--fmu-dir", str(fmu_dir), "--out", str(tmp_path)])
+    err = capsys.readouterr().err
+    assert code == 2 and f"{f}: design mismatch (strict): controller (mrp_hinf_published) on plant: I_x = 100 " \
+                         "(designed for 15)" in err, err
+
+
 def test_errors_exit_2_with_a_message(fmu_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
     assert main(["run", "no_such_scenario", "--fmu-dir", str(fmu_dir)]) == 2
     assert "no scenario named 'no_such_scenario'" in capsys.readouterr().err
@@ -308,9 +323,31 @@ BAD_SCENARIOS = [  # (body after the header, the message); the header is a valid
     ("step_size = -0.1", "step_size: must be a finite number > 0"),
     ("stop_time = 0.0", "stop_time: must be a finite number > 0"),
     ('[[metrics]]\nname = "m"\nkind = "peak"\nsignals = ["plant.phi"]\nmax = "200"', r"metrics\[0\]\.max: must be"),
-    ('[fmus.plant]\npath = "zero.fmu"', "not a readable FMU"),
+    ('[fmus.plant]\npath = "zero.fmu"', r"fmus\.plant\.path: FMU file .*zero.fmu is empty \(0 bytes\)"),
     ('[fmus.plant]\nmodel = "mrp_satellite"\nparameters = "x"', "parameters: must be a table"),
+    ('[fmus.plant]\nmodel = "mrp_satelite"', r"fmus\.plant\.model: no FMU mrp_satelite.fmu .*did you mean 'mrp_satellite'"),
+    ('[fmus.plant]\nmodel = "../mrp_satellite"', r"fmus\.plant\.model: '\.\./mrp_satellite' is not a safe folder name"),
+    # refused by the master at run time before, now by the checks of run and export-ssp alike
+    ('[fmus.ctrl]\nmodel = "mrp_hinf_published"\n[[connections]]\nfrom = "ctrl.u"\nto = "ctrl.omega"',
+     r"connections: algebraic loop through direct feedthrough: ctrl.u\[1\] => ctrl.omega\[1\]"),
+    ('[[connections]]\nfrom = "plant.omega"\nto = "plant.u"\n[[profiles]]\nto = "plant.u[2]"\nkind = "constant"\nvalue = 1.0',
+     r"profiles\[0\]: input plant.u\[2\] is driven twice \(by connections\[0\] and by profiles\[0\]\)"),
+    ('[[connections]]\nfrom = "plant.u"\nto = "plant.u"', r"connections\[0\]: plant.u\[1\] is a input, not an output"),
+    ('[[profiles]]\nto = "plant.omega[1]"\nkind = "constant"\nvalue = 1.0',
+     r"profiles\[0\]\.to: profile target plant.omega\[1\] is not a Real input"),
+    ('[fmus.plant]\nmodel = "mrp_satellite"\nparameters = { n_substeps = 0 }',
+     r"fmus\.plant\.parameters\.n_substeps: 0 is outside its declared range \[1, 100000\]"),
+    ('[fmus.plant]\nmodel = "mrp_satellite"\nparameters = { n_substeps = 2.5 }',
+     r"fmus\.plant\.parameters\.n_substeps: plant.n_substeps is Integer; got 2.5"),
+    ('[fmus.plant]\nmodel = "mrp_satellite"\nparameters = { I_q = 1.0 }',
+     r"fmus\.plant\.parameters\.I_q: .*has no variable 'I_q'"),
+    ('record = ["plant.omega", "plant.omga"]', r"record\[1\]: .*has no variable 'omga'.*did you mean 'omega'"),
+    ('record = ["plant.n_substeps"]', r"record\[0\]: plant.n_substeps is Integer; only Real variables can be recorded"),
+    ('[[metrics]]\nname = "m"\nkind = "max_difference"\nsignals = ["plant.omega"]\nversus = ["plant.phi"]',
+     r"metrics\[0\]\.versus: 1 variables for 3 in 'signals'"),
 ]
+"""Malformed scenarios: (the body after a valid one-plant header, the message as a regular
+expression); tests/test_cli_bad_input.py runs each through run, export-ssp and verify."""
 
 
 def _bad_scenario(tmp_path: Path, body: str) -> Path:
@@ -324,24 +361,51 @@ def _bad_scenario(tmp_path: Path, body: str) -> Path:
     return f
 
 
-@pytest.mark.parametrize("body, message", BAD_SCENARIOS, ids=[m[:24] for _, m in BAD_SCENARIOS])
-@pytest.mark.parametrize("command", ["run", "export-ssp"])
-def test_malformed_scenarios_exit_2_with_one_line(command: str, body: str, message: str, tmp_path: Path,
-                                                  fmu_dir: Path, capsys: pytest.CaptureFixture) -> None:
-    """Every user error: exit 2 (1 is a missed bound), one line naming the file and key, no traceback,
-    and nothing written."""
-    import re
-
-    f = _bad_scenario(tmp_path, body)
-    out = tmp_path / "out"
-    code = main([command, str(f), "--fmu-dir", str(fmu_dir), "--out", str(out)])
-    err = capsys.readouterr().err
-    assert code == 2, err
-    assert re.search(message, err) and "Traceback" not in err and len(err.strip().splitlines()) == 1, err
-    assert not out.exists() or not any(out.rglob("*.*")), "a refused scenario wrote files"
-
-
 def test_debug_shows_the_traceback(tmp_path: Path, fmu_dir: Path) -> None:
     f = _bad_scenario(tmp_path, "profiles = 5")
     with pytest.raises(Exception, match="profiles: must be a list"):
         main(["run", str(f), "--fmu-dir", str(fmu_dir), "--debug"])
+
+
+DOCTORED = [
+    # (command, artifact, doctored key, value, what the one-line message says)
+    (["analyze", "l2", "{file}"], "mrp_hinf_satfmu", ("certificate", "numbers", "-M - E: min_eig"), -1.0,
+     "certificate.numbers['-M - E: min_eig'] = -1: status 'certified' needs >= -1e-06"),
+    (["analyze", "l2", "{file}"], "mrp_hinf_satfmu", ("certificate", "numbers", "-M - E: residual"), 10.0,
+     "certificate.numbers['-M - E: residual'] = 10: status 'certified' needs <= 1e-06"),
+    (["campaign", "demeter", "--artifact", "{file}", "--samples", "10", "--out", "{out}"], "demeter_row1_det",
+     ("design", "K", 0, 2), 5000.0, "design.K and gains disagree (largest difference 1651.74 at K_eta[1,1]"),
+    (["campaign", "demeter", "--artifact", "{file}", "--samples", "10", "--out", "{out}"], "demeter_row1_det",
+     ("certificate", "numbers", "sampled_max_real_pole"), 1.5, "['sampled_max_real_pole'] = 1.5: status 'certified'"),
+    (["build", "--fmu-dir", "{out}", "--backend", "native"], "cubesat_periodic_satfmu",
+     ("certificate", "numbers", "ms_spectral_radius"), 1.5, "['ms_spectral_radius'] = 1.5: status 'certified' needs < 1"),
+    (["build", "--fmu-dir", "{out}", "--backend", "native"], "vscmg_lq_servo",
+     ("certificate", "numbers", "riccati_residual"), 10.0, "['riccati_residual'] = 10: status 'certified' needs <= 1e-08"),
+]
+
+
+@pytest.mark.parametrize("argv,name,key,value,message", DOCTORED,
+                         ids=[f"{d[0][0]} {d[1]} {'.'.join(map(str, d[2][1:]))}" for d in DOCTORED])
+def test_commands_refuse_an_artifact_that_contradicts_its_claims(argv: list[str], name: str, key: tuple,
+                                                                 value: float, message: str, tmp_path: Path,
+                                                                 monkeypatch: pytest.MonkeyPatch,
+                                                                 capsys: pytest.CaptureFixture) -> None:
+    from controllers import polynomial
+
+    data = json.loads((paths.SHIPPED_ARTIFACTS / f"{name}.json").read_text())
+    target = data
+    for k in key[:-1]:
+        target = target[k]
+    target[key[-1]] = value
+    shipped = tmp_path / "shipped"  # `build` builds the shipped artifacts: here, the doctored one
+    shipped.mkdir()
+    f = shipped / f"{name}.json"
+    f.write_text(json.dumps(data))
+    monkeypatch.setattr(polynomial, "ARTIFACTS", shipped)
+    out = tmp_path / "out"
+    code = main([a.format(file=f, out=out) for a in argv])
+    err = capsys.readouterr().err
+    assert code == 2 and "Traceback" not in err
+    assert err.strip().splitlines() == [f"satfmu {argv[0]}: error: {f}: " + err.split(f"{f}: ", 1)[1].strip()]
+    assert message in err
+    assert not list(out.rglob("*.fmu")) and not list(out.rglob("*.parquet"))  # refused before any work

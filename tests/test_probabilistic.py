@@ -146,7 +146,9 @@ def test_campaign_of_a_design_unstable_for_some_samples(tmp_path, capsys) -> Non
 
     data = json.loads((SHIPPED_ARTIFACTS / "demeter_row1_det.json").read_text())
     data["name"] = "demeter_row1_k3"
-    data["design"]["K"] = (3 * np.array(data["design"]["K"])).tolist()
+    K3 = 3 * np.array(data["design"]["K"])
+    data["design"]["K"], data["gains"] = K3.tolist(), design_model(ROW1).fmu_gains(K3)  # one law, both forms
+    data["certificate"]["status"] = "not_verified"  # the certificate is row 1's, not this gain's
     f = tmp_path / "demeter_row1_k3.json"
     f.write_text(json.dumps(data))
     args = ["campaign", "demeter", "--artifact", str(f), "--samples", "200", "--chunk", "100", "--workers", "1",

@@ -10,8 +10,8 @@ from lxml import etree
 
 from sims import ssp
 from sims.cli import main
-from sims.master import UnknownVariableError, WiringError
-from sims.scenario import load
+from sims import scenario
+from sims.scenario import ScenarioError, load
 
 
 def _ssd(path: Path):
@@ -90,18 +90,23 @@ def _scenario(tmp_path: Path, text: str) -> Path:
     return f
 
 
-def test_bad_scenarios_fail_as_in_the_master(fmu_dir: Path, tmp_path: Path) -> None:
-    plant = '[fmus.plant]\nmodel = "mrp_satellite"\n'
-    with pytest.raises(WiringError, match="sigma_0.1. is Real; got 'x'"):
-        ssp.export(_scenario(tmp_path, plant + 'parameters = { "sigma_0[1]" = "x" }\n'), fmu_dir, tmp_path)
-    with pytest.raises(UnknownVariableError, match="no variable 'nope'"):
-        ssp.export(_scenario(tmp_path, plant + 'parameters = { nope = 1.0 }\n'), fmu_dir, tmp_path)
-    with pytest.raises(WiringError, match="not an output"):
-        ssp.export(_scenario(tmp_path, plant + '[[connections]]\nfrom = "plant.u"\nto = "plant.u"\n'),
-                   fmu_dir, tmp_path)
-    with pytest.raises(FileNotFoundError, match="not found"):
-        ssp.export(_scenario(tmp_path, '[fmus.plant]\nmodel = "no_such_model"\n'), fmu_dir, tmp_path)
-    assert not list(tmp_path.glob("*.ssp*"))
+@pytest.mark.parametrize("body, message", [
+    ('parameters = { "sigma_0[1]" = "x" }', r"fmus\.plant\.parameters\.sigma_0\[1\]: plant.sigma_0\[1\] is Real; got 'x'"),
+    ("parameters = { nope = 1.0 }", r"fmus\.plant\.parameters\.nope: FMU instance 'plant' .*has no variable 'nope'"),
+    ('[[connections]]\nfrom = "plant.u"\nto = "plant.u"', r"connections\[0\]: plant.u\[1\] is a input, not an output"),
+    ("model = 'no_such_model'", r"fmus\.plant\.model: no FMU no_such_model.fmu in .*, and it cannot be built: no model or "
+                               r"artifact named 'no_such_model'"),
+], ids=["type", "unknown", "causality", "model"])
+def test_bad_scenarios_fail_as_in_the_run(body: str, message: str, fmu_dir: Path, tmp_path: Path) -> None:
+    """export-ssp checks a scenario as a run does (sims.scenario.check), with the same message,
+    before it writes anything."""
+    plant = "[fmus.plant]\n" + ("" if body.startswith("model") else 'model = "mrp_satellite"\n')
+    f = _scenario(tmp_path, plant + body + "\n")
+    with pytest.raises(ScenarioError, match=message):
+        ssp.export(f, fmu_dir, tmp_path / "out")
+    with pytest.raises(ScenarioError, match=message):
+        scenario.run(f, fmu_dir, out_dir=tmp_path / "out")
+    assert not (tmp_path / "out").exists()
 
 
 def test_schema_failures_are_reported(fmu_dir: Path) -> None:
