@@ -179,3 +179,26 @@ def test_a_failed_rerun_leaves_nothing_that_looks_complete(tmp_path: Path, fmu_d
         scenario.run(ok, fmu_dir, out_dir=out)
     left = sorted(p.name for p in folder.iterdir())
     assert left == [files["csv"].name], left  # the new data only: no plot, no summary, no temporary file
+
+
+def test_fmus_run_with_one_blas_thread_and_the_limits_are_restored(fmu_dir: Path, monkeypatch) -> None:
+    """While the FMUs run, every BLAS/OpenMP pool of the host has one thread (many small solves:
+    a pool costs CPU, see sims.master.ONE_THREAD); afterwards the original sizes are back."""
+    import threadpoolctl
+
+    from sims import master
+
+    seen: list[list[int]] = []
+
+    def recording(**kwargs):
+        limiter = threadpoolctl.threadpool_limits(**kwargs)
+        seen.append([lib["num_threads"] for lib in threadpoolctl.threadpool_info()])
+        return limiter
+
+    monkeypatch.setattr(master, "threadpool_limits", recording)
+    before = [(lib["filepath"], lib["num_threads"]) for lib in threadpoolctl.threadpool_info()]
+    with CoSimulation({"plant": fmu_dir / "mrp_satellite_py.fmu"}) as sim:  # loads the host's numpy
+        sim.run(0.1, 0.05, record=["plant.omega"])
+    assert len(seen) == 1 and seen[0] and set(seen[0]) == {1}, seen
+    after = {(lib["filepath"], lib["num_threads"]) for lib in threadpoolctl.threadpool_info()}
+    assert set(before) <= after  # libraries loaded during the run keep their own (limited) pools
