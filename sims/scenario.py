@@ -45,6 +45,9 @@ approximated law against the exact one, say).
 integral_square is ``integral of sum_i y_i^2 dt`` (an H2 cost with unit weights): plant
 outputs by the trapezoidal rule, FMU inputs (held over each step, e.g. ``plant.u``) by the
 left rectangle.
+
+A ``[dispersions]`` table declares what each Monte Carlo sample draws (syntax:
+:mod:`sims.dispersions`); :meth:`Scenario.sample` is the scenario of one sample.
 """
 from __future__ import annotations
 
