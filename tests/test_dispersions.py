@@ -224,3 +224,20 @@ def test_a_dispersed_parameter_the_fmu_lacks_is_refused_at_check(tmp_path: Path,
     sc = S.Scenario.from_toml(tmp_path / "bad.toml")
     with pytest.raises(S.ScenarioError, match=r'bad.toml: dispersions.plant.omega_9\[1\]: .*no variable'):
         S.check(sc, fmu_dir)
+
+
+def test_a_draw_without_its_nominal_value_names_the_key() -> None:
+    d = Dispersions.from_dict({"plant.I_x": {"kind": "normal", "std": 1.0}})
+    with pytest.raises(DispersionError, match=r"dispersions.plant.I_x.mean: not given, and plant.I_x has no nominal"):
+        d.sample(0, 0)
+    with pytest.raises(DispersionError, match="index must be a non-negative integer"):
+        d.sample(0, -1, lookup({"plant": {"I_x": 1.0}}))
+
+
+def test_with_parameters_refuses_an_unknown_instance() -> None:
+    sc = S.Scenario.from_dict({"name": "x", "stop_time": 1.0, "step_size": 0.5,
+                               "fmus": {"plant": {"model": "mrp_satellite"}}})
+    assert sc.with_parameters({"plant": {"I_x": 3.0}}).fmus["plant"].parameters == {"I_x": 3.0}
+    assert sc.fmus["plant"].parameters == {}  # the original is unchanged
+    with pytest.raises(S.ScenarioError, match="no FMU instance or profile 'plnt'.*did you mean 'plant'"):
+        sc.with_parameters({"plnt": {"I_x": 3.0}})
