@@ -12,7 +12,9 @@ Scenarios
     :class:`Scenario` (``from_toml``, ``from_dict``, or built from :class:`FmuSpec`,
     :class:`Connection`, :class:`Metric`), :func:`run` -> :class:`Result` (metrics,
     pass/fail, the recorded array, ``.plot()``, ``.write()``), :class:`ScenarioError`,
-    :class:`DesignMismatchWarning`, :class:`StaleFmuWarning`.
+    :class:`DesignMismatchWarning`, :class:`StaleFmuWarning`; :class:`Dispersions` (the
+    ``[dispersions]`` table: ``Scenario.sample(seed, index)`` is one Monte Carlo sample's
+    scenario), :class:`DispersionError`.
 FMUs
     :func:`build` (every FMU, or some by name, into a folder; no-op when up to date),
     :func:`fmu_cache` (the default FMU folder).
@@ -43,6 +45,7 @@ _EXPORTS = {
     "Scenario": "sims.scenario", "FmuSpec": "sims.scenario", "Connection": "sims.scenario",
     "Metric": "sims.scenario", "Result": "sims.scenario", "ScenarioError": "sims.scenario",
     "DesignMismatchWarning": "sims.scenario", "StaleFmuWarning": "sims.scenario",
+    "Dispersions": "sims.dispersions", "DispersionError": "sims.dispersions",
     "Design": "sims.designs", "DesignError": "sims.designs", "design_hinf": "sims.designs",
     "design_h2hinf": "sims.designs", "design_vscmg_sdre": "sims.designs",
     "design_cubesat_periodic": "sims.designs", "design_demeter": "sims.designs",

@@ -45,16 +45,20 @@ approximated law against the exact one, say).
 integral_square is ``integral of sum_i y_i^2 dt`` (an H2 cost with unit weights): plant
 outputs by the trapezoidal rule, FMU inputs (held over each step, e.g. ``plant.u``) by the
 left rectangle.
+
+A ``[dispersions]`` table declares what each Monte Carlo sample draws (syntax:
+:mod:`sims.dispersions`); :meth:`Scenario.sample` is the scenario of one sample.
 """
 from __future__ import annotations
 
 import csv
 import json
 import math
+import re
 import warnings
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, Callable, Mapping
 
 import numpy as np
 
@@ -64,11 +68,12 @@ from fmus.profiles import Profile
 from fmus.profiles import make as make_profile
 from sims import metrics as M
 from sims import preflight
+from sims.dispersions import DispersionError, Dispersions, Overrides
 from sims.master import CoSimulation, UnknownVariableError, WiringError, communication_times, start_value
 from sims.paths import BACKENDS, SHIPPED_SCENARIOS
 
 _TOP = ("name", "description", "stop_time", "step_size", "start_time", "fmus", "connections",
-        "profiles", "record", "metrics", "plot", "reference", "verify")
+        "profiles", "record", "metrics", "plot", "reference", "verify", "dispersions")
 _FMU = ("model", "path", "backend", "parameters")
 _METRIC = ("name", "kind", "signals", "scale", "unit", "min", "max", "tolerance", "limit",
            "disturbances", "versus", "description")
@@ -214,6 +219,9 @@ class Scenario:
         Folder that relative FMU and CSV paths resolve against (a TOML file's folder).
     path : Path, optional
         The TOML file it was read from.
+    dispersions : Dispersions or dict, optional
+        What each Monte Carlo sample draws (the ``[dispersions]`` table, :mod:`sims.dispersions`);
+        :meth:`sample` gives the scenario of one sample.
     """
 
     name: str
@@ -231,8 +239,12 @@ class Scenario:
     verify: dict[str, Any] = field(default_factory=dict)
     base_dir: Path | None = None
     path: Path | None = None
+    dispersions: Dispersions | None = None
 
     def __post_init__(self) -> None:
+        if isinstance(self.dispersions, Mapping):
+            self.dispersions = _dispersions(self.dispersions, "scenario: dispersions", list(self.fmus),
+                                            len(self.profiles))
         self.fmus = {k: v if isinstance(v, FmuSpec) else FmuSpec(**v) for k, v in self.fmus.items()}
         self.connections = [c if isinstance(c, Connection) else Connection(*c) for c in self.connections]
         self.metrics = [m if isinstance(m, Metric) else Metric(**m) for m in self.metrics]
@@ -265,7 +277,74 @@ class Scenario:
             defaults = asdict(Metric("", "", []))
             out["metrics"] = [{k: v for k, v in asdict(m).items() if k in ("name", "kind", "signals") or v != defaults[k]}
                               for m in self.metrics]
+        if self.dispersions is not None:
+            out["dispersions"] = dict(self.dispersions.data)
         return out
+
+    def with_parameters(self, overrides: Overrides) -> "Scenario":
+        """This scenario with start values and profile fields replaced, and no dispersions.
+
+        Parameters
+        ----------
+        overrides : dict
+            Instance -> parameter -> start value, and ``"profiles[i]"`` -> field -> value
+            (what :meth:`Dispersions.sample` returns).
+
+        Raises
+        ------
+        ScenarioError
+            An unknown instance or profile, or a value the declaration refuses.
+        """
+        where = str(self.path) if self.path else f"scenario {self.name!r}"
+        fmus = {k: replace(v, parameters=dict(v.parameters)) for k, v in self.fmus.items()}
+        profs = [dict(p) for p in self.profiles]
+        for owner, values in overrides.items():
+            m = re.fullmatch(r"profiles\[(\d+)\]", owner)
+            if m and int(m[1]) < len(profs):
+                profs[int(m[1])].update(values)
+            elif owner in fmus:
+                fmus[owner].parameters.update(values)
+            else:
+                raise ScenarioError(f"{where}: overrides: no FMU instance or profile {owner!r}"
+                                    f"{did_you_mean(owner, list(fmus))}")
+        return replace(self, fmus=fmus, profiles=profs, dispersions=None)
+
+    def sample(self, seed: int, index: int, fmu_dir: str | Path | None = None, backend: str = "native"
+               ) -> "Scenario":
+        """The dispersed scenario of sample ``index`` of campaign ``seed``
+        (:meth:`Dispersions.sample` with the nominal values of :func:`nominal_values`).
+
+        Parameters
+        ----------
+        seed : int
+            Campaign seed (>= 0).
+        index : int
+            Sample index (>= 0).
+        fmu_dir : path, optional
+            FMU folder the nominal start values are read from (default: the FMU cache), read
+            only if a dispersion needs a value the scenario does not set.
+        backend : {"native", "python"}
+            Backend of those FMUs.
+
+        Returns
+        -------
+        Scenario
+            With the sample's start values and profile fields, and no dispersions.
+
+        Raises
+        ------
+        ScenarioError
+            No dispersions, or a dispersion that cannot be drawn (key path named).
+        """
+        where = str(self.path) if self.path else f"scenario {self.name!r}"
+        if self.dispersions is None:
+            raise ScenarioError(f"{where}: no [dispersions] to sample")
+        try:
+            values = self.dispersions.sample(seed, index, nominal_values(self, fmu_dir, backend),
+                                             f"{where}: dispersions")
+        except DispersionError as exc:
+            raise ScenarioError(str(exc)) from None
+        return self.with_parameters(values)
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any], base_dir: str | Path | None = None, where: str = "scenario",
@@ -287,7 +366,8 @@ class Scenario:
             metrics=[Metric(**m) for m in d.get("metrics", [])], start_time=float(d.get("start_time", 0.0)),
             description=d.get("description", ""), reference=d.get("reference", ""), plot=dict(d.get("plot", {})),
             verify=dict(d.get("verify", {})), base_dir=None if base_dir is None else Path(base_dir).resolve(),
-            path=path)
+            path=path, dispersions=_dispersions(d["dispersions"], f"{where}: dispersions", list(d["fmus"]),
+                                                len(d.get("profiles", []))) if "dispersions" in d else None)
 
     @classmethod
     def from_toml(cls, path: str | Path) -> "Scenario":
@@ -533,6 +613,51 @@ def validate(data: Any, where: str = "scenario") -> None:
         for key in ("scale", "min", "max", "tolerance", "limit"):
             if key in m:
                 _number(m[key], f"{wm}.{key}")
+    if "dispersions" in data:
+        _dispersions(data["dispersions"], f"{w}dispersions", instances, len(data.get("profiles", [])))
+
+
+def _dispersions(data: Any, where: str, instances: list[str], n_profiles: int) -> Dispersions:
+    """The ``[dispersions]`` table, validated; a :class:`ScenarioError` names the key path."""
+    try:
+        return Dispersions.from_dict(data, where, instances, n_profiles)
+    except DispersionError as exc:
+        raise ScenarioError(str(exc)) from None
+
+
+def nominal_values(scenario: Scenario, fmu_dir: str | Path | None = None, backend: str = "native"
+                   ) -> Callable[[str, str], float | None]:
+    """The nominal value of a parameter or profile field: the scenario's start value, else the
+    FMU's (its model description, read on first need; the FMUs are ensured by
+    :func:`ensure_fmus`); None when the instance has no such parameter or the profile no such
+    field.
+
+    Returns
+    -------
+    callable
+        (instance or ``"profiles[i]"``, name) -> float or None.
+    """
+    from fmpy import read_model_description
+
+    starts: dict[str, dict[str, float]] = {}
+
+    def value(owner: str, name: str) -> float | None:
+        m = re.fullmatch(r"profiles\[(\d+)\]", owner)
+        if m:
+            v = scenario.profiles[int(m[1])].get(name)
+            return None if v is None else float(v)
+        given = scenario.fmus[owner].parameters
+        if name in given:
+            return float(given[name])
+        if owner not in starts:
+            folder = ensure_fmus(scenario, fmu_dir, backend)
+            md = read_model_description(str(fmu_paths(scenario, folder, backend)[owner]))
+            starts[owner] = {v.name: float(v.start) for v in md.modelVariables
+                             if v.causality in ("parameter", "input") and v.type in ("Real", "Integer")
+                             and v.start is not None}
+        return starts[owner].get(name)
+
+    return value
 
 
 def resolve_path(name_or_path: str | Path) -> Path:
@@ -691,6 +816,7 @@ def wire(scenario: Scenario, fmu_dir: Path, backend: str = "native", strict: boo
             warnings.warn(f"{where}: {line}", DesignMismatchWarning, stacklevel=3)
         _wire(scenario, sim, where)
         _check_parameters(scenario, sim, where)
+        _check_dispersions(scenario, sim, where)
         _check_signals(scenario, sim, where)
     except BaseException:
         sim.close()
@@ -745,6 +871,20 @@ def _check_parameters(scenario: Scenario, sim: CoSimulation, where: str) -> None
             if not isinstance(value, bool) and (low is not None and value < low or high is not None and value > high):
                 raise ScenarioError(f"{key}: {value!r} is outside its declared range [{var.min or '-inf'}, "
                                     f"{var.max or 'inf'}] ({comp.path.name})")
+
+
+def _check_dispersions(scenario: Scenario, sim: CoSimulation, where: str) -> None:
+    """Each dispersed FMU parameter: a parameter or input of its instance."""
+    if scenario.dispersions is None:
+        return
+    for key, inst, name in scenario.dispersions.parameter_targets():
+        try:
+            var = sim.components[inst].variable(name)
+        except UnknownVariableError as exc:
+            raise ScenarioError(f"{where}: dispersions.{key}: {exc}") from None
+        if var.causality not in ("parameter", "input"):
+            raise ScenarioError(f"{where}: dispersions.{key}: {inst}.{name} is a {var.causality}; only "
+                                "parameters and inputs can be dispersed")
 
 
 def _check_signals(scenario: Scenario, sim: CoSimulation, where: str) -> None:
