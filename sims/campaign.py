@@ -4,7 +4,10 @@ A campaign draws its samples chunk by chunk.  Chunk ``k`` covers the sample indi
 ``[k * chunk, min((k + 1) * chunk, n))`` and draws them with its own generator,
 ``default_rng(SeedSequence(seed, spawn_key=(k,)))``, so every value depends only on
 ``(seed, chunk, n)``: never on the number of workers or on the order in which chunks
-complete.  The task is vectorized (one call per chunk) and returns one column per metric.
+complete.  With the :func:`sample_indices` sampler the samples are the global indices and
+the task draws sample ``i`` from ``(seed, i)`` itself: its values do not depend on the chunk
+size either (:mod:`sims.scenario_campaign`).  The task is vectorized (one call per chunk) and
+returns one column per metric.
 
 :func:`run` submits the chunks to a Dask cluster and, in the driver, writes each completed
 chunk to its own Parquet file (``chunk-000042.parquet``, whole or not at all:
@@ -82,7 +85,8 @@ class Campaign:
     chunk : int
         Samples per chunk (per task call and per result file), >= 1.
     sampler : callable
-        ``sampler(rng, count) -> array`` whose first axis has ``count`` samples; module-level.
+        ``sampler(rng, count) -> array`` whose first axis has ``count`` samples; module-level;
+        or :func:`sample_indices` (the samples are the global indices).
 
     Raises
     ------
@@ -139,8 +143,17 @@ def chunk_range(campaign: Campaign, k: int) -> range:
     return range(k * campaign.chunk, min((k + 1) * campaign.chunk, campaign.n))
 
 
+def sample_indices(rng: np.random.Generator | None, count: int, *, start: int) -> np.ndarray:
+    """The sampler whose samples are the chunk's global indices ``start .. start + count - 1``
+    (int64; no generator is used): for a task that draws sample ``i`` from ``(seed, i)`` itself,
+    so that its values do not depend on the chunk size either. :func:`run_chunk` passes
+    ``start``."""
+    return np.arange(start, start + count, dtype=np.int64)
+
+
 def run_chunk(campaign: Campaign, k: int) -> pd.DataFrame:
-    """Draw the samples of chunk ``k`` and evaluate the task on them.
+    """Draw the samples of chunk ``k`` and evaluate the task on them (with the
+    :func:`sample_indices` sampler: the chunk's global indices).
 
     Returns
     -------
@@ -155,8 +168,11 @@ def run_chunk(campaign: Campaign, k: int) -> pd.DataFrame:
         results (the H-infinity norm of an unstable closed loop), NaN marks a failed sample.
     """
     indices = chunk_range(campaign, k)
-    rng = np.random.default_rng(np.random.SeedSequence(int(campaign.seed), spawn_key=(int(k),)))
-    samples = np.asarray(campaign.sampler(rng, len(indices)))
+    if campaign.sampler is sample_indices:
+        samples = sample_indices(None, len(indices), start=indices.start)
+    else:
+        rng = np.random.default_rng(np.random.SeedSequence(int(campaign.seed), spawn_key=(int(k),)))
+        samples = np.asarray(campaign.sampler(rng, len(indices)))
     if samples.ndim == 0 or samples.shape[0] != len(indices):
         raise CampaignError(f"campaign {campaign.name!r}: sampler returned shape {samples.shape} for "
                             f"{len(indices)} samples (first axis must be the samples)")

@@ -20,6 +20,8 @@
     satfmu figures demeter [--artifact demeter_row1_det] [--samples 100] [--stop 60] [--step 0.001] [--fmu-dir DIR]
                            [--out results/demeter]
     satfmu campaign demeter [--artifact demeter_row1_det] [--samples 100000] [--workers 2] [--scheduler tcp://...]
+    satfmu campaign scenario SCENARIO --samples N [--workers 2 | --scheduler tcp://...] [--seed 0] [--chunk 10]
+                             [--fmu-dir DIR] [--out results/campaigns]
     satfmu detumble [--samples 2000] [--seed 0] [--rates R ...] [--fmu-dir DIR] [--out results/cubesat]
     satfmu analyze sweep [--gammas 1 0.8 ...] [--region 0.45] [--out results/h2hinf_sweep]
     satfmu analyze region [--artifact vscmg_sdre_approx] [--box-q2 LO HI] [--box-w4 LO HI] [--cells 7 6] [--out DIR]
@@ -48,6 +50,9 @@ the three L2-gain estimates of a controller, ``analyze region`` seed 002's re-po
 stability region of the approximated SDRE on one box and cell by cell (JSON and PNG)
 (:mod:`sims.analysis`). ``table1``, ``figures demeter`` and ``campaign demeter`` are seed 004's
 (:mod:`sims.demeter_reports`), ``detumble`` seed 003's (:mod:`sims.detumble`).
+``campaign scenario`` runs the Monte Carlo samples of a scenario's ``[dispersions]`` and
+prints their statistics (:mod:`sims.scenario_campaign`); it exits with status 1 when a
+sample misses a metric's bound or fails to run.
 
 This module imports only the standard library and :mod:`sims.paths` at start (``satfmu
 --help`` and ``satfmu list`` stay fast); each handler imports what it needs.
@@ -278,6 +283,22 @@ def _campaign_demeter(args: argparse.Namespace) -> int:
     return 0
 
 
+def _campaign_scenario(args: argparse.Namespace) -> int:
+    from sims import campaign, scenario, scenario_campaign
+
+    sc = scenario.load(args.scenario)
+    camp = scenario_campaign.campaign(sc, args.samples, seed=args.seed, chunk=args.chunk, name=args.name,
+                                      fmu_dir=Path(args.fmu_dir), backend=args.backend)
+    df = campaign.run(camp, Path(args.out), scheduler=args.scheduler, n_workers=args.workers,
+                      progress=lambda done, total: _progress(done, total, "chunks"))
+    print(scenario_campaign.statistics(sc, df, args.confidence, args.worst).text())
+    failed = df.loc[df["failed"] > 0, "sample"].to_numpy(dtype=int)
+    for index in failed[:3]:
+        print(f"sample {index}: {scenario_campaign.explain(camp.task, int(index))}")
+    print(f"results: {Path(args.out) / camp.name}")
+    return 0 if bool((df["passed"] == 1.0).all()) else 1
+
+
 def _detumble(args: argparse.Namespace) -> int:
     from sims import detumble
 
@@ -485,6 +506,22 @@ def parser() -> argparse.ArgumentParser:
                     help="campaign (folder) name (default: <artifact>-n<samples>-s<seed>)")
     cd.add_argument("--out", default="results/campaigns", help="folder of the campaign folders")
     cd.set_defaults(fn=_campaign_demeter)
+    cs = command(kinds, "scenario", "Monte Carlo campaign of a scenario's [dispersions]: per metric the pass rate "
+                                    "(Clopper-Pearson interval), percentiles and the worst samples")
+    cs.add_argument("scenario", help="scenario name or .toml file (with a [dispersions] table)")
+    cs.add_argument("--samples", type=_positive_int, required=True, help="number of samples")
+    cs.add_argument("--seed", type=int, default=0, help="root seed (sample i depends only on seed and i)")
+    cs.add_argument("--chunk", type=_positive_int, default=10, help="samples per task and per Parquet file")
+    cs.add_argument("--workers", type=_positive_int, default=2, help="local Dask workers (ignored with --scheduler)")
+    cs.add_argument("--scheduler", default=None,
+                    help="address of a running Dask scheduler, tcp://host:port (default: a local cluster)")
+    cs.add_argument("--backend", choices=backends, default="native", help="default FMU backend")
+    cs.add_argument("--confidence", type=float, default=0.95, help="two-sided confidence of the pass-rate intervals")
+    cs.add_argument("--worst", type=int, default=5, help="worst samples listed")
+    cs.add_argument("--name", default=None, help="campaign (folder) name (default: <scenario>-n<samples>-s<seed>)")
+    _fmu_dir(cs, "folder of the FMUs (the missing ones are built; the workers read them there)")
+    cs.add_argument("--out", default="results/campaigns", help="folder of the campaign folders")
+    cs.set_defaults(fn=_campaign_scenario)
     dt = command(sub, "detumble", "seed 003: linear Monte Carlo (Fig. 2) and the nonlinear initial-rate sweep")
     dt.add_argument("--samples", type=int, default=2000, help="Monte Carlo realizations per gain set")
     dt.add_argument("--seed", type=int, default=0, help="seed of the realizations")

@@ -1,0 +1,311 @@
+"""Monte Carlo campaigns of a scenario with ``[dispersions]``, and their statistics.
+
+:func:`campaign` makes a :class:`~sims.campaign.Campaign` whose samples are the global
+sample indices (:func:`sims.campaign.sample_indices`): sample ``i`` runs
+``scenario.sample(seed, i)`` through :func:`sims.scenario.simulate` and
+:func:`sims.scenario.evaluate`, the path of :func:`sims.scenario.run`, so its row depends on
+``(seed, i)`` only, not on the chunk size, the workers or the order of the chunks. Each
+sample runs its own :class:`~sims.master.CoSimulation` (:func:`sims.scenario.wire` makes one
+per run); the FMU libraries stay loaded in the worker process.
+
+Columns of a row (all float64, as every campaign chunk): ``sample`` (global index), one per
+metric (its value in the metric's unit, NaN for a sample that did not run; an infinite
+value is a result, e.g. a settling time never reached), ``passed`` (1 if every
+metric is within its bounds, else 0), ``failed`` (a code of :data:`FAILURES`, 0 when the
+sample ran) and one per dispersed value (``plant.I_x``, ``profiles[0].after``; in the
+parameter's unit). A failed sample is a row like any other: the campaign goes on. Its
+message is not stored (chunk columns are numbers); as a sample is a pure function of
+``(seed, index)``, :func:`explain` runs it again and returns it.
+
+:func:`statistics` gives per metric the pass rate with its Clopper-Pearson interval, the
+percentiles :data:`PERCENTILES` and the worst samples with their dispersed values.
+"""
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Mapping
+
+import numpy as np
+import pandas as pd
+from scipy import stats
+
+from sims import metrics as M
+from sims import scenario as S
+from sims.campaign import Campaign, CampaignError, sample_indices
+from sims.master import MasterError
+
+FAILURES = {0: "ran", 1: "an FMU call or the master failed (sims.master.MasterError)",
+            2: "the sampled scenario was refused (ScenarioError, e.g. a start value outside its declared range)",
+            3: "a recorded signal is not finite (NaN or infinite: the run diverged)"}
+"""Code of the ``failed`` column -> what it means."""
+PERCENTILES = (50.0, 95.0, 99.0, 99.73)
+"""Percentiles of each metric, % (99.73: the 3-sigma level of a normal distribution)."""
+_RESERVED = ("sample", "passed", "failed")
+
+
+@dataclass(frozen=True)
+class ScenarioTask:
+    """Campaign task: sample ``i`` of the scenario's dispersions, run and evaluated.
+
+    Built by :func:`campaign`; picklable (workers receive the scenario and the FMU folder's
+    path, which they must be able to read).
+
+    Parameters
+    ----------
+    scenario : Scenario
+        With ``[dispersions]``.
+    seed : int
+        Campaign seed (>= 0).
+    fmu_dir : str
+        FMU folder, every FMU of the scenario present (:func:`sims.scenario.check`).
+    backend : {"native", "python"}
+    dispersed : tuple of (str, str)
+        (instance or ``"profiles[i]"``, parameter or field) of each dispersed value column.
+    """
+
+    scenario: S.Scenario
+    seed: int
+    fmu_dir: str
+    backend: str
+    dispersed: tuple[tuple[str, str], ...]
+
+    @property
+    def columns(self) -> list[str]:
+        """The task's columns, in order: metrics, ``passed``, ``failed``, dispersed values."""
+        return ([m.name for m in self.scenario.metrics] + ["passed", "failed"]
+                + [f"{owner}.{name}" for owner, name in self.dispersed])
+
+    def __call__(self, samples: np.ndarray) -> dict[str, np.ndarray]:
+        """One value per column and sample index of ``samples``."""
+        rows = [self.run_sample(int(i))[0] for i in samples]
+        return {col: np.array([row[col] for row in rows], dtype=np.float64) for col in self.columns}
+
+    def run_sample(self, index: int) -> tuple[dict[str, float], str | None]:
+        """The row of sample ``index`` and, if it failed, its message."""
+        row = dict.fromkeys(self.columns, math.nan)
+        try:
+            sampled = self.scenario.sample(self.seed, index, self.fmu_dir, self.backend)
+        except S.ScenarioError as exc:
+            return {**row, "passed": 0.0, "failed": 2.0}, str(exc)
+        for owner, name in self.dispersed:
+            row[f"{owner}.{name}"] = float(_value(sampled, owner, name))
+        try:
+            with warnings.catch_warnings():  # shown once, by the check of the nominal scenario
+                warnings.simplefilter("ignore", S.DesignMismatchWarning)
+                res, sim = S.simulate(sampled, Path(self.fmu_dir), self.backend)
+            results, _ = S.evaluate(sampled, res, sim)
+        except (MasterError, S.ScenarioError) as exc:
+            code = 2.0 if isinstance(exc, S.ScenarioError) else 1.0
+            return {**row, "passed": 0.0, "failed": code}, str(exc)
+        for m in results:
+            row[m.name] = m.value
+        bad = [c for c in res.dtype.names if not np.all(np.isfinite(res[c]))]
+        row["passed"] = 0.0 if bad else float(all(m.passed for m in results))
+        row["failed"] = 3.0 if bad else 0.0
+        return row, (f"sample {index}: recorded signal(s) not finite: {', '.join(bad)}" if bad else None)
+
+
+def _value(sampled: S.Scenario, owner: str, name: str) -> Any:
+    """A dispersed value of a sampled scenario: a profile field or an FMU start value."""
+    if owner.startswith("profiles["):
+        return sampled.profiles[int(owner[len("profiles["):-1])][name]
+    return sampled.fmus[owner].parameters[name]
+
+
+def campaign(scenario: "str | Path | Mapping[str, Any] | S.Scenario", n: int, seed: int = 0, chunk: int = 10,
+             name: str | None = None, fmu_dir: str | Path | None = None, backend: str = "native") -> Campaign:
+    """The Monte Carlo campaign of a scenario's ``[dispersions]`` (run it with :func:`sims.campaign.run`).
+
+    The nominal scenario is checked first (:func:`sims.scenario.check`: its FMUs are built
+    when missing, its wiring and start values checked), so a sample can fail only by its
+    dispersed values or its run.
+
+    Parameters
+    ----------
+    scenario : Scenario, dict, str or Path
+        A scenario with ``[dispersions]``, its data, a TOML file or a shipped scenario's name.
+    n : int
+        Number of samples, >= 1.
+    seed : int
+        Campaign seed, >= 0.
+    chunk : int
+        Samples per task and per Parquet file (the rows do not depend on it).
+    name : str, optional
+        Campaign (folder) name; default ``<scenario>-n<n>-s<seed>``.
+    fmu_dir : path, optional
+        FMU folder (default: the FMU cache); the workers read the FMUs from it.
+    backend : {"native", "python"}
+
+    Returns
+    -------
+    Campaign
+        Its task is a :class:`ScenarioTask`, its sampler :func:`sims.campaign.sample_indices`.
+
+    Raises
+    ------
+    ScenarioError
+        The scenario has no dispersions, names a column twice (a metric called ``sample``,
+        ``passed`` or ``failed``), or :func:`sims.scenario.check` refuses it.
+    sims.campaign.CampaignError
+        An invalid n, seed, chunk or name.
+    """
+    sc = S.load(scenario)
+    where = str(sc.path) if sc.path else f"scenario {sc.name!r}"
+    if sc.dispersions is None:
+        raise S.ScenarioError(f"{where}: no [dispersions]: a campaign needs a scenario with dispersions")
+    clash = [m.name for m in sc.metrics if m.name in _RESERVED]
+    if clash:
+        raise S.ScenarioError(f"{where}: metrics: the names {clash} are campaign columns; rename the metric(s)")
+    folder = S.check(sc, fmu_dir, backend)
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise CampaignError(f"campaign of {where}: seed must be an integer >= 0, got {seed!r}")
+    first = sc.dispersions.sample(int(seed), 0, S.nominal_values(sc, folder, backend), f"{where}: dispersions")
+    dispersed = tuple((owner, p) for owner, values in first.items() for p in values)
+    task = ScenarioTask(sc, int(seed), str(folder), backend, dispersed)
+    return Campaign(name=name or f"{sc.name}-n{n}-s{seed}", task=task, n=n, seed=int(seed), chunk=chunk,
+                    sampler=sample_indices)
+
+
+def explain(task: ScenarioTask, index: int) -> str | None:
+    """Why sample ``index`` failed (its message, the sample run again), None if it ran."""
+    return task.run_sample(int(index))[1]
+
+
+@dataclass(frozen=True)
+class MetricStatistics:
+    """Pass rate and percentiles of one metric over a campaign (values in ``unit``).
+
+    ``passes`` counts the samples within the metric's bounds (a failed sample is not);
+    ``low`` and ``high`` bound the pass probability (Clopper-Pearson, at the campaign's
+    confidence); the percentiles are over the samples with a finite value.
+    """
+
+    name: str
+    unit: str
+    n: int
+    passes: int
+    low: float
+    high: float
+    percentiles: dict[float, float]
+
+    @property
+    def pass_rate(self) -> float:
+        """Fraction of the samples within the bounds."""
+        return self.passes / self.n
+
+
+@dataclass(frozen=True)
+class Statistics:
+    """What a scenario campaign shows: pass rates with their intervals, percentiles, worst samples.
+
+    Attributes
+    ----------
+    scenario : str
+    n, n_failed : int
+        Samples, and those that did not run (``failed`` > 0).
+    confidence : float
+        Two-sided confidence of the intervals, in (0, 1).
+    overall : MetricStatistics
+        Every metric within its bounds (``passed``), no percentiles.
+    metrics : list of MetricStatistics
+    worst : pandas.DataFrame
+        The ``k`` worst samples (failed ones first, then by the smallest margin to a bound,
+        in the metrics' units, over the metrics with bounds): their rows.
+    """
+
+    scenario: str
+    n: int
+    n_failed: int
+    confidence: float
+    overall: MetricStatistics
+    metrics: list[MetricStatistics]
+    worst: pd.DataFrame
+
+    def text(self) -> str:
+        """The statistics as a readable table."""
+        pct = "  ".join(f"{'p' + format(p, 'g'):>10}" for p in PERCENTILES)
+        lines = [f"{self.scenario}: {self.n} samples, {self.n_failed} failed to run; pass rates with "
+                 f"Clopper-Pearson intervals at {100 * self.confidence:g} % confidence",
+                 f"{'metric':<32} {'pass':>9} {'rate':>7} {'interval':>17}  {pct}  unit"]
+        for s in [self.overall, *self.metrics]:
+            values = "  ".join(f"{s.percentiles[p]:>10.4g}" if p in s.percentiles else f"{'':>10}" for p in PERCENTILES)
+            lines.append(f"{s.name[:32]:<32} {s.passes:>4}/{s.n:<4} {s.pass_rate:>7.2%} "
+                         f"[{s.low:>6.2%}, {s.high:>7.2%}]  {values}  {s.unit}")
+        if len(self.worst):
+            lines.append(f"worst {len(self.worst)} samples:")
+            lines.append(self.worst.to_string(index=False, float_format=lambda v: f"{v:.6g}"))
+        return "\n".join(lines)
+
+
+def clopper_pearson(successes: int, n: int, confidence: float = 0.95) -> tuple[float, float]:
+    """Exact (Clopper-Pearson) two-sided interval of a binomial probability.
+
+    Parameters
+    ----------
+    successes, n : int
+        Successes of ``n`` >= 1 trials.
+    confidence : float
+        In (0, 1).
+
+    Returns
+    -------
+    (float, float)
+        Lower and upper bound.
+    """
+    ci = stats.binomtest(int(successes), int(n)).proportion_ci(confidence_level=confidence, method="exact")
+    return float(ci.low), float(ci.high)
+
+
+def _metric_statistics(name: str, unit: str, passed: np.ndarray, values: np.ndarray | None,
+                       confidence: float) -> MetricStatistics:
+    passes = int(passed.sum())
+    finite = values[np.isfinite(values)] if values is not None else np.array([])
+    pct = dict(zip(PERCENTILES, map(float, np.percentile(finite, PERCENTILES)))) if finite.size else {}
+    return MetricStatistics(name, unit, int(passed.size), passes, *clopper_pearson(passes, passed.size, confidence),
+                            pct)
+
+
+def statistics(scenario: "str | Path | Mapping[str, Any] | S.Scenario", df: pd.DataFrame, confidence: float = 0.95,
+               k: int = 5) -> Statistics:
+    """The statistics of a scenario campaign's rows (:func:`sims.campaign.load`).
+
+    Parameters
+    ----------
+    scenario : Scenario, dict, str or Path
+        The campaign's scenario (its metrics' names, units and bounds).
+    df : pandas.DataFrame
+        The campaign's rows (the columns of this module's docstring).
+    confidence : float
+        Two-sided confidence of the pass-rate intervals, in (0, 1).
+    k : int
+        How many worst samples to list, >= 0.
+
+    Raises
+    ------
+    CampaignError
+        No rows, a metric column missing, or a confidence not in (0, 1).
+    """
+    sc = S.load(scenario)
+    if not 0.0 < confidence < 1.0:
+        raise CampaignError(f"confidence must be in (0, 1), got {confidence!r}")
+    missing = [c for c in [m.name for m in sc.metrics] + list(_RESERVED) if c not in df.columns]
+    if len(df) == 0 or missing:
+        raise CampaignError(f"not the rows of a campaign of {sc.name!r}: "
+                            + (f"columns {missing} missing" if missing else "no rows"))
+    failed = df["failed"].to_numpy() > 0
+    per_metric, margin = [], np.full(len(df), np.inf)
+    for m in sc.metrics:
+        values = df[m.name].to_numpy(dtype=np.float64)
+        passed = np.array([M.MetricResult(m.name, m.kind, float(v), m.min, m.max, m.unit).passed for v in values])
+        per_metric.append(_metric_statistics(m.name, m.unit, passed, values, confidence))
+        for bound, sign in ((m.max, 1.0), (m.min, -1.0)):
+            if bound is not None:
+                margin = np.fmin(margin, sign * (bound - values))
+    margin[np.isnan(margin)] = -np.inf
+    overall = _metric_statistics("all metrics (passed)", "", df["passed"].to_numpy() == 1.0, None, confidence)
+    order = np.lexsort((margin, ~failed))[:max(int(k), 0)]  # failed first, then by margin (stable)
+    return Statistics(sc.name, len(df), int(failed.sum()), confidence, overall, per_metric,
+                      df.iloc[order].reset_index(drop=True))

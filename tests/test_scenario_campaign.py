@@ -1,0 +1,156 @@
+"""Monte Carlo campaigns of a dispersed scenario (sims.scenario_campaign) and `satfmu campaign scenario`."""
+from __future__ import annotations
+
+import tomllib
+import warnings
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from distributed import Client, LocalCluster
+from scipy import stats
+
+from sims import campaign as C
+from sims import scenario as S
+from sims import scenario_campaign as SC
+from sims.cli import main
+from sims.paths import SHIPPED_SCENARIOS
+
+SEED = 3
+DISPERSIONS = {"plant.omega_0[1]": {"kind": "uniform", "low": -0.01, "high": 0.01},  # rad/s
+               "inertia": {"instance": "plant", "relative": 0.1}}
+
+
+def mrp(**changes: object) -> dict:
+    """Shipped mrp_200deg run for 2 s (40 steps) with dispersed rate and inertia."""
+    data = tomllib.loads((SHIPPED_SCENARIOS / "mrp_200deg.toml").read_text())
+    return {**data, "stop_time": 2.0, "dispersions": DISPERSIONS, **changes}
+
+
+def toml(path: Path, data: dict) -> Path:
+    """Write scenario data as TOML (the subset these scenarios use)."""
+    def value(v: object) -> str:
+        if isinstance(v, dict):
+            return "{ " + ", ".join(f'"{k}" = {value(x)}' for k, x in v.items()) + " }"
+        if isinstance(v, list):
+            return "[" + ", ".join(value(x) for x in v) + "]"
+        if isinstance(v, bool):
+            return "true" if v else "false"
+        return f'"{v}"' if isinstance(v, str) else repr(v)
+
+    lines = [f"{k} = {value(v)}" for k, v in data.items() if not isinstance(v, (dict, list)) or k == "record"]
+    lines += [f"[plot]\npanels = {value(data['plot']['panels'])}"]
+    for inst, spec in data["fmus"].items():
+        lines.append(f"[fmus.{inst}]\n" + "\n".join(f"{k} = {value(v)}" for k, v in spec.items()))
+    for key in ("connections", "metrics"):
+        for entry in data[key]:
+            lines.append(f"[[{key}]]\n" + "\n".join(f"{k} = {value(v)}" for k, v in entry.items()))
+    lines.append("[dispersions]\n" + "\n".join(f'"{k}" = {value(v)}' for k, v in data["dispersions"].items()))
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+@pytest.fixture(scope="module")
+def client() -> Iterator[Client]:
+    """One in-process worker with one thread (FMUs run in this process)."""
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=False) as lc, Client(lc) as cl:
+        yield cl
+
+
+def rows(tmp_path: Path, client: Client, fmu_dir: Path, data: dict, n: int, chunk: int) -> tuple[C.Campaign, pd.DataFrame]:
+    camp = SC.campaign(S.Scenario.from_dict(data), n, seed=SEED, chunk=chunk, fmu_dir=fmu_dir)
+    return camp, C.run(camp, tmp_path / f"chunk{chunk}", client=client)
+
+
+def test_rows_are_the_scenario_runs_of_the_samples_whatever_the_chunks(tmp_path: Path, client: Client,
+                                                                       fmu_dir: Path) -> None:
+    sc = S.Scenario.from_dict(mrp())
+    _, by2 = rows(tmp_path, client, fmu_dir, mrp(), 5, 2)
+    _, by5 = rows(tmp_path, client, fmu_dir, mrp(), 5, 5)
+    pd.testing.assert_frame_equal(by2, by5, check_exact=True)  # same (seed, index) -> same computation
+    assert list(by2.columns[:7]) == ["sample", "attitude angle at 120 s", "settling time to 0.1 deg", "peak |u|",
+                                     "RMS command", "passed", "failed"]
+    for k in (1, 4):
+        sampled = sc.sample(SEED, k, fmu_dir)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", S.DesignMismatchWarning)
+            res = S.run(sampled, fmu_dir)
+        row = by2.iloc[k]
+        for m in res.metrics:  # the same code path: bit for bit
+            assert row[m.name] == m.value
+        assert row["passed"] == float(res.passed) == 0.0  # 2 s is too short to settle
+        assert row["failed"] == 0.0
+        for name in ("I_x", "I_y", "I_z", "omega_0[1]"):
+            assert row[f"plant.{name}"] == sampled.fmus["plant"].parameters[name]
+    assert by2["plant.omega_0[1]"].nunique() == 5  # a draw per sample
+
+
+def test_a_refused_sample_is_a_recorded_failure_and_the_others_run(tmp_path: Path, client: Client,
+                                                                    fmu_dir: Path) -> None:
+    data = mrp(dispersions={"plant.u_max": {"kind": "uniform", "low": -5.0, "high": 5.0}})  # N m, declared min 0
+    camp, df = rows(tmp_path, client, fmu_dir, data, 8, 3)
+    assert df["sample"].tolist() == list(range(8))
+    negative = df["plant.u_max"] < 0
+    assert 0 < negative.sum() < 8  # this seed draws both signs
+    assert (df.loc[negative, "failed"] == 2.0).all() and (df.loc[~negative, "failed"] == 0.0).all()
+    assert df.loc[negative, "peak |u|"].isna().all() and np.isfinite(df.loc[~negative, "peak |u|"]).all()
+    first = int(df.loc[negative, "sample"].iloc[0])
+    assert "outside its declared range" in SC.explain(camp.task, first)
+    assert SC.explain(camp.task, int(df.loc[~negative, "sample"].iloc[0])) is None
+    st = SC.statistics(S.Scenario.from_dict(data), df)
+    assert st.n_failed == int(negative.sum())
+    assert set(st.worst["sample"][:st.n_failed]) == set(df.loc[negative, "sample"])  # failures are the worst
+
+
+def test_clopper_pearson_equals_the_beta_quantiles() -> None:
+    # Independent reference: the exact interval's bounds are Beta quantiles; rtol 1e-9 is
+    # root-finding noise of scipy's binomtest, far below any reported digit.
+    low, high = SC.clopper_pearson(100, 100, 0.95)
+    assert high == 1.0
+    assert low == pytest.approx(stats.beta.ppf(0.025, 100, 1), rel=1e-9)
+    assert 1 - low == pytest.approx(0.0362, abs=5e-5)  # 0 failures of 100: failure rate <= 3.62 %
+    low, high = SC.clopper_pearson(37, 100, 0.99)
+    assert low == pytest.approx(stats.beta.ppf(0.005, 37, 64), rel=1e-9)
+    assert high == pytest.approx(stats.beta.ppf(0.995, 38, 63), rel=1e-9)
+
+
+def test_statistics_percentiles_and_worst_samples() -> None:
+    sc = S.Scenario.from_dict(mrp())
+    n = 1000
+    values = np.random.default_rng(0).permutation(np.arange(n, dtype=float))  # peak |u|, N m
+    df = pd.DataFrame({"sample": np.arange(n), **{m.name: np.full(n, 0.0) for m in sc.metrics},
+                       "passed": np.zeros(n), "failed": np.zeros(n)})
+    df["peak |u|"] = 6.1 + values / n * 0.3  # within [6.1, 6.3] except the largest 333
+    df.loc[7, "failed"] = 1.0
+    df.loc[7, "peak |u|"] = np.nan
+    st = SC.statistics(sc, df, confidence=0.9, k=3)
+    peak = st.metrics[[m.name for m in sc.metrics].index("peak |u|")]
+    finite = df["peak |u|"].dropna().to_numpy()
+    # exact: the same numpy computation (linear interpolation) on the finite values
+    assert [peak.percentiles[p] for p in SC.PERCENTILES] == np.percentile(finite, SC.PERCENTILES).tolist()
+    assert peak.passes == int(((finite >= 6.1) & (finite <= 6.3)).sum())
+    assert (peak.low, peak.high) == SC.clopper_pearson(peak.passes, n, 0.9)
+    assert st.overall.passes == 0 and st.n_failed == 1
+    assert st.worst["sample"][0] == 7  # the failed sample first, then the largest peaks (6.3 - value)
+    assert st.worst["peak |u|"][1:].tolist() == sorted(finite)[-2:][::-1]
+    text = st.text()
+    assert "peak |u|" in text and "p99.73" in text and "worst 3 samples" in text
+
+
+def test_cli_exit_codes(tmp_path: Path, client: Client, fmu_dir: Path, capsys: pytest.CaptureFixture) -> None:
+    address = client.scheduler.address
+    common = ["--samples", "4", "--chunk", "2", "--scheduler", address, "--fmu-dir", str(fmu_dir), "--out",
+              str(tmp_path / "out")]
+    data = mrp()
+    passing = toml(tmp_path / "passing.toml", {**data, "name": "pass", "metrics": [
+        m for m in data["metrics"] if m["name"] == "peak |u|"]})  # 6.216 N m within [6.1, 6.3]
+    failing = toml(tmp_path / "failing.toml", {**data, "name": "fail"})  # no settling within 2 s
+    assert main(["campaign", "scenario", str(passing), *common]) == 0
+    out = capsys.readouterr().out
+    assert "4/4" in out and "peak |u|" in out
+    assert main(["campaign", "scenario", str(failing), *common]) == 1
+    assert "0/4" in capsys.readouterr().out
+    assert main(["campaign", "scenario", "mrp_200deg", *common]) == 2  # shipped, no [dispersions]
+    assert "no [dispersions]" in capsys.readouterr().err
