@@ -32,13 +32,15 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
+from fmus.profiles import ProfileError
 from sims import metrics as M
 from sims import scenario as S
 from sims.campaign import Campaign, CampaignError, sample_indices
 from sims.master import MasterError
 
 FAILURES = {0: "ran", 1: "an FMU call or the master failed (sims.master.MasterError)",
-            2: "the sampled scenario was refused (ScenarioError, e.g. a start value outside its declared range)",
+            2: "the sampled scenario was refused (ScenarioError or ProfileError, e.g. a start value outside "
+               "its declared range, a profile field its kind refuses)",
             3: "a recorded signal is not finite (NaN or infinite: the run diverged)"}
 """Code of the ``failed`` column -> what it means."""
 PERCENTILES = (50.0, 95.0, 99.0, 99.73)
@@ -97,8 +99,8 @@ class ScenarioTask:
                 warnings.simplefilter("ignore", S.DesignMismatchWarning)
                 res, sim = S.simulate(sampled, Path(self.fmu_dir), self.backend)
             results, _ = S.evaluate(sampled, res, sim)
-        except (MasterError, S.ScenarioError) as exc:
-            code = 2.0 if isinstance(exc, S.ScenarioError) else 1.0
+        except (MasterError, S.ScenarioError, ProfileError) as exc:
+            code = 1.0 if isinstance(exc, MasterError) else 2.0
             return {**row, "passed": 0.0, "failed": code}, str(exc)
         for m in results:
             row[m.name] = m.value

@@ -59,7 +59,9 @@ def client() -> Iterator[Client]:
         yield cl
 
 
-def rows(tmp_path: Path, client: Client, fmu_dir: Path, data: dict, n: int, chunk: int) -> tuple[C.Campaign, pd.DataFrame]:
+def rows(tmp_path: Path, client: Client, fmu_dir: Path, data: dict, n: int, chunk: int
+         ) -> tuple[C.Campaign, pd.DataFrame]:
+    """The campaign of ``data`` (seed SEED) and its rows, run in ``tmp_path/chunk<chunk>``."""
     camp = SC.campaign(S.Scenario.from_dict(data), n, seed=SEED, chunk=chunk, fmu_dir=fmu_dir)
     return camp, C.run(camp, tmp_path / f"chunk{chunk}", client=client)
 
@@ -154,3 +156,13 @@ def test_cli_exit_codes(tmp_path: Path, client: Client, fmu_dir: Path, capsys: p
     assert "0/4" in capsys.readouterr().out
     assert main(["campaign", "scenario", "mrp_200deg", *common]) == 2  # shipped, no [dispersions]
     assert "no [dispersions]" in capsys.readouterr().err
+
+
+def test_a_sampled_profile_the_scenario_refuses_is_a_recorded_failure(tmp_path: Path, client: Client,
+                                                                      fmu_dir: Path) -> None:
+    profile = {"to": "plant.w_d[1]", "kind": "random", "seed": 1, "std": 1e-3}  # N m
+    data = mrp(profiles=[profile], dispersions={"profiles[0].std": {"kind": "uniform", "low": -1e-3, "high": 1e-3}})
+    _, df = rows(tmp_path, client, fmu_dir, data, 6, 3)
+    negative = df["profiles[0].std"] < 0
+    assert 0 < negative.sum() < 6  # this seed draws both signs
+    assert (df.loc[negative, "failed"] == 2.0).all() and (df.loc[~negative, "failed"] == 0.0).all()
