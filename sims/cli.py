@@ -284,19 +284,17 @@ def _campaign_demeter(args: argparse.Namespace) -> int:
 
 
 def _campaign_scenario(args: argparse.Namespace) -> int:
-    from sims import campaign, scenario, scenario_campaign
+    from sims import scenario_campaign
 
-    sc = scenario.load(args.scenario)
-    camp = scenario_campaign.campaign(sc, args.samples, seed=args.seed, chunk=args.chunk, name=args.name,
-                                      fmu_dir=Path(args.fmu_dir), backend=args.backend)
-    df = campaign.run(camp, Path(args.out), scheduler=args.scheduler, n_workers=args.workers,
-                      progress=lambda done, total: _progress(done, total, "chunks"))
-    print(scenario_campaign.statistics(sc, df, args.confidence, args.worst).text())
-    failed = df.loc[df["failed"] > 0, "sample"].to_numpy(dtype=int)
-    for index in failed[:3]:
-        print(f"sample {index}: {scenario_campaign.explain(camp.task, int(index))}")
-    print(f"results: {Path(args.out) / camp.name}")
-    return 0 if bool((df["passed"] == 1.0).all()) else 1
+    result = scenario_campaign.run_campaign(
+        args.scenario, args.samples, args.out, seed=args.seed, chunk=args.chunk, name=args.name,
+        fmu_dir=args.fmu_dir, backend=args.backend, workers=args.workers, scheduler=args.scheduler,
+        confidence=args.confidence, worst=args.worst, progress=lambda done, total: _progress(done, total, "chunks"))
+    print(result.statistics.text())
+    for index, message in result.failures():
+        print(f"sample {index}: {message}")
+    print(f"results: {result.folder}")
+    return 0 if result.passed else 1
 
 
 def _detumble(args: argparse.Namespace) -> int:

@@ -311,3 +311,72 @@ def statistics(scenario: "str | Path | Mapping[str, Any] | S.Scenario", df: pd.D
     order = np.lexsort((margin, ~failed))[:max(int(k), 0)]  # failed first, then by margin (stable)
     return Statistics(sc.name, len(df), int(failed.sum()), confidence, overall, per_metric,
                       df.iloc[order].reset_index(drop=True))
+
+
+@dataclass(frozen=True)
+class CampaignResult:
+    """A finished scenario campaign (:func:`run_campaign`).
+
+    Attributes
+    ----------
+    campaign : Campaign
+    folder : Path
+        Its folder: ``campaign.json`` and the Parquet chunks.
+    rows : pandas.DataFrame
+        One row per sample (the columns of the module docstring), sorted by ``sample``.
+    statistics : Statistics
+    """
+
+    campaign: Campaign
+    folder: Path
+    rows: pd.DataFrame
+    statistics: Statistics
+
+    @property
+    def passed(self) -> bool:
+        """Every sample ran and met every metric's bounds."""
+        return bool((self.rows["passed"] == 1.0).all())
+
+    def failures(self, count: int = 3) -> list[tuple[int, str | None]]:
+        """The first ``count`` samples that failed to run, with their messages (run again)."""
+        failed = self.rows.loc[self.rows["failed"] > 0, "sample"].to_numpy(dtype=int)
+        return [(int(i), explain(self.campaign.task, int(i))) for i in failed[:count]]
+
+
+def run_campaign(scenario: "str | Path | Mapping[str, Any] | S.Scenario", n: int, out_dir: str | Path, *,
+                 seed: int = 0, chunk: int = 10, name: str | None = None, fmu_dir: str | Path | None = None,
+                 backend: str = "native", workers: int = 2, scheduler: str | None = None,
+                 confidence: float = 0.95, worst: int = 5, progress: Any = None) -> CampaignResult:
+    """Run (or resume) the Monte Carlo campaign of a scenario's ``[dispersions]`` on Dask.
+
+    Parameters
+    ----------
+    scenario : Scenario, dict, str or Path
+        A scenario with ``[dispersions]``, its data, a TOML file or a shipped scenario's name.
+    n : int
+        Number of samples, >= 1.
+    out_dir : path
+        Folder of the campaign folders; the campaign's is ``out_dir/<name>``.
+    seed, chunk, name, fmu_dir, backend
+        As :func:`campaign`.
+    workers : int
+        Processes of the local Dask cluster (ignored with ``scheduler``).
+    scheduler : str, optional
+        Address of a running Dask scheduler (``tcp://host:8786``) instead of a local cluster.
+    confidence : float
+        Two-sided confidence of the pass-rate intervals, in (0, 1).
+    worst : int
+        How many worst samples the statistics list.
+    progress : callable, optional
+        ``progress(done, total)`` after each chunk.
+
+    Returns
+    -------
+    CampaignResult
+    """
+    from sims import campaign as C
+
+    sc = S.load(scenario)
+    camp = campaign(sc, n, seed=seed, chunk=chunk, name=name, fmu_dir=fmu_dir, backend=backend)
+    rows = C.run(camp, Path(out_dir), scheduler=scheduler, n_workers=workers, progress=progress)
+    return CampaignResult(camp, Path(out_dir) / camp.name, rows, statistics(sc, rows, confidence, worst))

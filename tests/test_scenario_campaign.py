@@ -166,3 +166,24 @@ def test_a_sampled_profile_the_scenario_refuses_is_a_recorded_failure(tmp_path: 
     negative = df["profiles[0].std"] < 0
     assert 0 < negative.sum() < 6  # this seed draws both signs
     assert (df.loc[negative, "failed"] == 2.0).all() and (df.loc[~negative, "failed"] == 0.0).all()
+
+
+def test_run_campaign_of_the_public_api_resumes_to_the_same_result(tmp_path: Path, client: Client,
+                                                                   fmu_dir: Path) -> None:
+    """satfmu.run_campaign: rows, statistics and failures; a second call resumes (no chunk computed
+    again) and gives the same rows."""
+    import satfmu
+
+    data = mrp(dispersions={"plant.u_max": {"kind": "uniform", "low": -5.0, "high": 5.0}})  # N m, declared min 0
+    first = satfmu.run_campaign(data, 6, tmp_path, seed=SEED, chunk=3, fmu_dir=fmu_dir,
+                                scheduler=client.scheduler.address)
+    assert first.folder == tmp_path / f"{first.campaign.name}" and (first.folder / "campaign.json").is_file()
+    assert first.rows["sample"].tolist() == list(range(6)) and not first.passed
+    n_failed = int((first.rows["failed"] > 0).sum())
+    assert first.statistics.n == 6 and first.statistics.n_failed == n_failed > 0
+    assert all("outside its declared range" in message for _, message in first.failures())
+    chunks = {p: p.stat().st_mtime_ns for p in first.folder.glob("chunk-*.parquet")}
+    again = satfmu.run_campaign(data, 6, tmp_path, seed=SEED, chunk=3, fmu_dir=fmu_dir,
+                                scheduler=client.scheduler.address)
+    pd.testing.assert_frame_equal(first.rows, again.rows, check_exact=True)
+    assert {p: p.stat().st_mtime_ns for p in first.folder.glob("chunk-*.parquet")} == chunks  # resumed, not redone
