@@ -56,8 +56,9 @@ def markdown(report: Report) -> str:
     known = [r for r in report.rows if r.verdict == "known"]
     lines += ["## Known pythonfmu deviations (today)", "",
               "Rows whose expectation lists today's measured pythonfmu behaviour (`pythonfmu_today` in "
-              "`sims/robustness/table.py`): deviations from FMI 2.0 or from issue 26, to be fixed in "
-              "`fmus/pyslave.py` (or upstream in pythonfmu) and then removed from the table.", ""]
+              "`sims/robustness/table.py`): deviations from FMI 2.0 in pythonfmu 0.7.0's own C++ layer, "
+              "which `fmus/pyslave.py` cannot change (docs/pythonfmu.md: each with a reproduction script); "
+              "an entry goes when pythonfmu fixes it.", ""]
     lines += [f"- `{r.fmu}` / {r.case}: {r.got}: {short(r.detail, 300)}" for r in known] or ["None."]
     lines += [""]
     bad = report.failures + report.crashes
