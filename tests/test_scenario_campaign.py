@@ -55,7 +55,8 @@ def toml(path: Path, data: dict) -> Path:
 @pytest.fixture(scope="module")
 def client() -> Iterator[Client]:
     """One in-process worker with one thread (FMUs run in this process)."""
-    with LocalCluster(n_workers=1, threads_per_worker=1, processes=False) as lc, Client(lc) as cl:
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=False, dashboard_address=":0") as lc, \
+            Client(lc) as cl:
         yield cl
 
 
