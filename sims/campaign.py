@@ -38,7 +38,7 @@ import pickle
 import uuid
 import warnings
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -55,7 +55,7 @@ Sampler = Callable[[np.random.Generator, int], np.ndarray]
 Progress = Callable[[int, int], None]
 
 _META = "campaign.json"
-_IDENTITY = ("n", "seed", "chunk", "task", "sampler")
+_IDENTITY = ("n", "seed", "chunk", "task", "sampler", "context")
 
 
 class CampaignError(ValueError):
@@ -87,6 +87,11 @@ class Campaign:
     sampler : callable
         ``sampler(rng, count) -> array`` whose first axis has ``count`` samples; module-level;
         or :func:`sample_indices` (the samples are the global indices).
+    context : dict, optional
+        Plain JSON data that is part of the campaign's identity and kept in ``campaign.json``
+        (a scenario campaign: the scenario's declaration and the SHA-256 of each FMU file, so
+        a folder is never resumed with another scenario or other FMU binaries, and
+        ``satfmu replay`` and ``satfmu report`` can read the campaign back).
 
     Raises
     ------
@@ -100,9 +105,14 @@ class Campaign:
     seed: int
     chunk: int = 1000
     sampler: Sampler
+    context: dict[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         check_safe_name(self.name, "campaign name", CampaignError)
+        try:  # stored as JSON, compared as read back: tuples become lists, keys strings
+            object.__setattr__(self, "context", json.loads(json.dumps(self.context, allow_nan=False)))
+        except (TypeError, ValueError) as exc:
+            raise CampaignError(f"campaign {self.name!r}: context must be plain JSON data: {exc}") from None
         for label, value, least in (("n", self.n, 1), ("chunk", self.chunk, 1), ("seed", self.seed, 0)):
             if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < least:
                 raise CampaignError(f"campaign {self.name!r}: {label} must be an integer >= {least}, got {value!r}")
@@ -116,9 +126,11 @@ class Campaign:
         return -(-self.n // self.chunk)
 
     def identity(self) -> dict[str, Any]:
-        """What makes two campaigns the same: n, seed, chunk and the task's and sampler's names."""
+        """What makes two campaigns the same: n, seed, chunk, the task's and sampler's names and
+        the context."""
         return {"n": int(self.n), "seed": int(self.seed), "chunk": int(self.chunk),
-                "task": _qualified_name(self.task), "sampler": _qualified_name(self.sampler)}
+                "task": _qualified_name(self.task), "sampler": _qualified_name(self.sampler),
+                "context": self.context}
 
 
 def _qualified_name(fn: Callable) -> str:
@@ -260,16 +272,24 @@ def _claim_folder(folder: Path, campaign: Campaign) -> dict[str, Any]:
     if not meta.exists():
         _write_record(folder, record)
         return record
-    stored = _read_record(folder)
+    stored = read_record(folder)
     differ = [key for key in _IDENTITY if stored.get(key) != record[key]]
     if differ:
-        raise CampaignError(f"{folder} holds another campaign (differs in {', '.join(differ)}: stored "
-                            f"{ {k: stored.get(k) for k in differ} }, now { {k: record[k] for k in differ} }); "
+        shown = [k for k in differ if k != "context"]
+        parts = [f"stored { {k: stored.get(k) for k in shown} }, now { {k: record[k] for k in shown} }"] if shown else []
+        if "context" in differ:
+            old, new = stored.get("context") or {}, record["context"]
+            keys = [f"{k}.{sub}" if isinstance(old.get(k), dict) and isinstance(new.get(k), dict) else k
+                    for k in sorted(set(old) | set(new)) if old.get(k) != new.get(k)
+                    for sub in (sorted(s for s in set(old[k]) | set(new[k]) if old[k].get(s) != new[k].get(s))
+                                if isinstance(old.get(k), dict) and isinstance(new.get(k), dict) else [None])]
+            parts.append(f"context differs in {', '.join(keys) or 'its type'}")
+        raise CampaignError(f"{folder} holds another campaign (differs in {', '.join(differ)}: {'; '.join(parts)}); "
                             "use another name or out_dir, or delete the folder")
     return {**record, "chunks": stored["chunks"]}
 
 
-def _read_record(folder: Path) -> dict[str, Any]:
+def read_record(folder: Path) -> dict[str, Any]:
     """``campaign.json`` of a folder, its ``chunks`` checked (a record without one has none).
 
     Raises
@@ -376,7 +396,7 @@ def load(path: Path) -> pd.DataFrame:
         is missing or appears more than once.
     """
     folder = Path(path)
-    record = _read_record(folder)
+    record = read_record(folder)
     n, digest = int(record["n"]), _digest(record)
     files = [chunk_path(folder, int(k)) for k in sorted(record["chunks"], key=int)]
     if not files:

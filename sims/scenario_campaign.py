@@ -22,6 +22,8 @@ percentiles :data:`PERCENTILES` and the worst samples with their dispersed value
 """
 from __future__ import annotations
 
+import hashlib
+import json
 import math
 import warnings
 from dataclasses import dataclass
@@ -154,7 +156,7 @@ def campaign(scenario: "str | Path | Mapping[str, Any] | S.Scenario", n: int, se
     sims.campaign.CampaignError
         An invalid n, seed, chunk or name.
     """
-    sc = S.load(scenario)
+    sc = _canonical(S.load(scenario))
     where = str(sc.path) if sc.path else f"scenario {sc.name!r}"
     if sc.dispersions is None:
         raise S.ScenarioError(f"{where}: no [dispersions]: a campaign needs a scenario with dispersions")
@@ -168,7 +170,63 @@ def campaign(scenario: "str | Path | Mapping[str, Any] | S.Scenario", n: int, se
     dispersed = tuple((owner, p) for owner, values in first.items() for p in values)
     task = ScenarioTask(sc, int(seed), str(folder), backend, dispersed)
     return Campaign(name=name or f"{sc.name}-n{n}-s{seed}", task=task, n=n, seed=int(seed), chunk=chunk,
-                    sampler=sample_indices)
+                    sampler=sample_indices, context=context(sc, folder, backend))
+
+
+def _canonical(scenario: S.Scenario) -> S.Scenario:
+    """The scenario as :func:`reopen` reads it back from ``campaign.json`` (its declaration, its
+    folder and file), so that a reopened campaign's task is the one that ran."""
+    where = str(scenario.path) if scenario.path else f"scenario {scenario.name!r}"
+    return S.Scenario.from_dict(json.loads(json.dumps(scenario.to_dict())), scenario.folder, where, scenario.path)
+
+
+def context(scenario: S.Scenario, fmu_dir: Path, backend: str) -> dict[str, Any]:
+    """What ``campaign.json`` keeps of a scenario campaign (part of its identity): the scenario's
+    declaration, the folder its relative paths resolve against, the backend, the FMU folder, and
+    each FMU file's name and SHA-256 (another binary is another campaign)."""
+    fmus = {inst: {"file": p.name, "sha256": hashlib.sha256(p.read_bytes()).hexdigest()}
+            for inst, p in S.fmu_paths(scenario, Path(fmu_dir), backend).items()}
+    return {"scenario": scenario.to_dict(), "base_dir": str(scenario.folder),
+            "path": None if scenario.path is None else str(scenario.path), "backend": backend,
+            "fmu_dir": str(fmu_dir), "fmus": fmus}
+
+
+def reopen(folder: str | Path, fmu_dir: str | Path | None = None) -> Campaign:
+    """The scenario campaign a folder holds, as :func:`campaign` made it (to replay a sample or
+    report on it).
+
+    Parameters
+    ----------
+    folder : path
+        A campaign folder (``campaign.json`` of a scenario campaign).
+    fmu_dir : path, optional
+        Where its FMUs are now (default: the folder the campaign ran them from).
+
+    Raises
+    ------
+    CampaignError
+        Not a scenario campaign's folder, or its FMUs are not the files it ran (another SHA-256:
+        a replay would not be the campaign's run).
+    """
+    from sims.campaign import read_record
+
+    folder = Path(folder)
+    record = read_record(folder)
+    ctx = record.get("context") or {}
+    if "scenario" not in ctx:
+        raise CampaignError(f"{folder}: not the folder of a scenario campaign (campaign.json holds no scenario)")
+    path = None if ctx.get("path") is None else Path(ctx["path"])
+    sc = S.Scenario.from_dict(ctx["scenario"], ctx["base_dir"], str(path) if path else f"scenario {ctx['scenario']['name']!r}",
+                              path)
+    task_dir = fmu_dir if fmu_dir is not None else ctx["fmu_dir"]
+    camp = campaign(sc, int(record["n"]), seed=int(record["seed"]), chunk=int(record["chunk"]), name=record["name"],
+                    fmu_dir=task_dir, backend=ctx["backend"])
+    changed = [inst for inst, f in ctx["fmus"].items() if camp.context["fmus"].get(inst) != f]
+    if changed:
+        raise CampaignError(f"{folder}: the FMU files of {', '.join(changed)} in {camp.task.fmu_dir} are not the ones "
+                            "the campaign ran (SHA-256 differs); rebuild them from the same sources or give the "
+                            "folder holding the campaign's FMUs")
+    return camp
 
 
 def explain(task: ScenarioTask, index: int) -> str | None:

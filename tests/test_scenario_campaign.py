@@ -223,3 +223,29 @@ def test_a_campaign_killed_mid_run_resumes_to_the_same_rows_and_statistics(tmp_p
     assert resumed.rows["sample"].tolist() == list(range(n))  # none lost, none twice
     pd.testing.assert_frame_equal(resumed.rows, whole.rows, check_exact=True)
     assert resumed.statistics.text() == whole.statistics.text()
+
+
+def test_the_folder_records_its_scenario_and_fmus_and_refuses_other_binaries(tmp_path: Path, client: Client,
+                                                                             fmu_dir: Path) -> None:
+    """campaign.json keeps the scenario and each FMU's SHA-256: reopen() gives back the same
+    campaign; a resume with a changed FMU binary (one byte appended to the zip comment-free
+    archive: still a loadable FMU) is refused, naming the instance."""
+    import shutil
+
+    own = tmp_path / "fmus"
+    own.mkdir()
+    for name in ("mrp_satellite.fmu", "mrp_hinf_published.fmu"):
+        shutil.copy(fmu_dir / name, own / name)
+    camp = SC.campaign(S.Scenario.from_dict(mrp()), 2, seed=SEED, chunk=2, fmu_dir=own)
+    C.run(camp, tmp_path / "out", client=client)
+    again = SC.reopen(tmp_path / "out" / camp.name)
+    a, b = again.identity(), camp.identity()
+    assert {k: (a[k], b[k]) for k in a if a[k] != b[k]} == {}
+    assert again.task == camp.task
+    with open(own / "mrp_hinf_published.fmu", "ab") as fh:  # trailing bytes: zip readers ignore them
+        fh.write(b"\0")
+    with pytest.raises(C.CampaignError, match=r"context differs in fmus\.controller"):
+        C.run(SC.campaign(S.Scenario.from_dict(mrp()), 2, seed=SEED, chunk=2, fmu_dir=own), tmp_path / "out",
+              client=client)
+    with pytest.raises(C.CampaignError, match="controller in .* are not the ones the campaign ran"):
+        SC.reopen(tmp_path / "out" / camp.name)
