@@ -29,7 +29,8 @@
 
 ``--fmu-dir`` defaults to the user's FMU cache (:func:`sims.paths.fmu_cache`, under
 ``$SATFMU_HOME``); ``run``, ``export-ssp``, ``verify``, ``figures`` and ``detumble`` build the
-FMUs missing there (:func:`sims.catalog.ensure`), ``satfmu build`` brings every FMU up to date.
+FMUs missing there (:func:`sims.catalog.ensure`), ``satfmu build`` brings every FMU up to date and compiles the co-simulation loop
+(:mod:`sims.compiled_loop`).
 A controller is named by its artifact (the user's artifacts first, then the shipped ones) or a
 ``.json`` path.
 
@@ -87,10 +88,14 @@ def _positive_int(text: str) -> int:
 
 
 def _build(args: argparse.Namespace) -> int:
-    from sims import catalog
+    from sims import catalog, compiled_loop
 
     backends = ("native", "python") if args.backend == "all" else (args.backend,)
     start = time.perf_counter()
+    try:
+        print(f"co-simulation loop: {compiled_loop.compile_library()}")
+    except (FileNotFoundError, RuntimeError) as exc:
+        print(f"warning: the co-simulation loop is not compiled ({exc}); runs step in Python", file=sys.stderr)
     report = catalog.build_all(Path(args.fmu_dir), backends, jobs=args.jobs)
     for p in report.built:
         print(f"built {p}")
@@ -356,7 +361,7 @@ def parser() -> argparse.ArgumentParser:
         return p
 
     backends = sorted(paths.BACKENDS)
-    b = command(sub, "build", "build every FMU (only those whose model changed)")
+    b = command(sub, "build", "build every FMU (only those whose model changed) and the compiled co-simulation loop")
     _fmu_dir(b, "folder the FMUs are built into")
     b.add_argument("--backend", choices=["native", "python", "all"], default="all", help="FMU kind")
     b.add_argument("--jobs", type=_positive_int, default=None, help="parallel build processes (default: one per CPU)")

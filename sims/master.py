@@ -37,7 +37,7 @@ from typing import Any, Sequence
 import numpy as np
 from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import FMU2Slave
-from threadpoolctl import threadpool_limits
+from threadpoolctl import ThreadpoolController
 
 from fmus.declared import did_you_mean
 from fmus.profiles import Profile
@@ -96,6 +96,17 @@ def start_value(comp: "Component", name: str, value: Any) -> tuple[Any, float | 
     raise WiringError(f"{comp.name}.{name}: type {var.type} is not supported")
 
 
+ENGINES = ("auto", "compiled", "python")
+"""Who runs the step loop (:meth:`CoSimulation.run`)."""
+
+
+def recorded_steps(n_steps: int, record_every: int) -> np.ndarray:
+    """The communication points recorded when every ``record_every``-th is: 0, m, 2m, ... and the
+    last, ``n_steps`` (the compiled loop's rule, ``sims/c/cosim_loop.c``)."""
+    steps = np.arange(0, n_steps + 1, record_every)
+    return steps if steps[-1] == n_steps else np.append(steps, n_steps)
+
+
 def communication_times(start_time: float, step_size: float, n_steps: int) -> np.ndarray:
     """``t_k = t0 + k h``, k = 0..n_steps, s: when t0 and h are whole nanoseconds, the correctly
     rounded ``(t0_ns + k h_ns) / 1e9``, the times libcosim passes to the FMUs (it counts integer
@@ -120,6 +131,8 @@ class Component:
     log: list[str] = field(default_factory=list)
     fatal: bool = False
     """Set when the FMU returned fmi2Fatal: FMI then allows no further call, not even a free."""
+    instantiated: bool = False
+    """An instance exists (between a run and the next with ``reuse_instances``)."""
 
     def variable(self, name: str) -> Any:
         try:
@@ -168,6 +181,10 @@ class CoSimulation:
     ----------
     fmus : dict of str to path
         Instance name -> FMU file.
+    reuse_instances : bool
+        Keep the FMU instances after a run and ``fmi2Reset`` them for the next one, instead of
+        a new ``fmi2Instantiate`` per run (a campaign's many short runs; the results are the
+        same, as FMI 2.0 requires of a reset). :meth:`close` frees them.
 
     Raises
     ------
@@ -175,7 +192,10 @@ class CoSimulation:
         If an FMU file does not exist.
     """
 
-    def __init__(self, fmus: dict[str, str | Path]) -> None:
+    def __init__(self, fmus: dict[str, str | Path], reuse_instances: bool = False) -> None:
+        self.reuse_instances = reuse_instances
+        self._pools: ThreadpoolController | None = None
+        self._loop: Any = None  # the compiled loop's library, False if unavailable, None until asked
         self.components: dict[str, Component] = {}
         self.connections: list[tuple[str, str]] = []
         self.profiles: list[tuple[str, Profile]] = []
@@ -304,9 +324,13 @@ class CoSimulation:
         try:
             return getattr(comp.slave, fn)(*args)
         except FMICallException as exc:
-            comp.fatal |= exc.status == fmi_host.FATAL
-            tail = "; ".join(comp.log[-5:]) or "no log message"
-            raise FmuCallError(f"{comp.name} ({comp.path.name}): {exc} -- FMU log: {tail}") from None
+            self._raise(comp, exc)
+
+    def _raise(self, comp: Component, exc: FMICallException) -> None:
+        """Raise the :class:`FmuCallError` of a failed call (its status and the FMU's last log lines)."""
+        comp.fatal |= exc.status == fmi_host.FATAL
+        tail = "; ".join(comp.log[-5:]) or "no log message"
+        raise FmuCallError(f"{comp.name} ({comp.path.name}): {exc} -- FMU log: {tail}") from None
 
     def _set_parameters(self, comp: Component, values: dict[str, Any]) -> None:
         for name, value in values.items():
@@ -333,7 +357,8 @@ class CoSimulation:
     # ------------------------------------------------------------------ run
     def run(self, stop_time: float, step_size: float, start_time: float = 0.0,
             parameters: dict[str, dict[str, Any]] | None = None,
-            record: Sequence[str] = (), exchange_order: str = "feedthrough") -> np.ndarray:
+            record: Sequence[str] = (), exchange_order: str = "feedthrough", *,
+            engine: str = "auto", record_every: int = 1) -> np.ndarray:
         """Run the co-simulation and return the recorded variables.
 
         Parameters
@@ -343,11 +368,19 @@ class CoSimulation:
         parameters : dict
             Instance name -> {variable name: value} set before initialization.
         record : sequence of str
-            Qualified names (base names expand) to record at every communication point.
+            Qualified names (base names expand) to record.
         exchange_order : {"feedthrough", "jacobi"}
             Propagation order after each step: in feedthrough order (default), or every
             output read before any input is set (see the module docstring). Initialization
             propagates in feedthrough order either way (as libcosim's does).
+        engine : {"auto", "compiled", "python"}
+            Who runs the step loop: the compiled loop (:mod:`sims.compiled_loop`), the
+            Python loop, or the compiled one when a C compiler is there (default). Both
+            make the same calls with the same values: the results are identical.
+        record_every : int
+            Record every ``record_every``-th communication point, from the first, and the last
+            one (>= 1; the default records every point). Memory: 8 bytes per recorded
+            variable and row.
 
         Returns
         -------
@@ -365,6 +398,10 @@ class CoSimulation:
             raise ValueError(f"step_size must be > 0 s, got {step_size}")
         if exchange_order not in ("feedthrough", "jacobi"):
             raise ValueError(f"exchange_order must be 'feedthrough' or 'jacobi', got {exchange_order!r}")
+        if engine not in ENGINES:
+            raise ValueError(f"engine must be one of {', '.join(ENGINES)}, got {engine!r}")
+        if isinstance(record_every, bool) or not isinstance(record_every, (int, np.integer)) or record_every < 1:
+            raise ValueError(f"record_every must be an integer >= 1, got {record_every!r}")
         if stop_time <= start_time:
             raise ValueError(f"stop_time {stop_time} must exceed start_time {start_time}")
         n_float = (stop_time - start_time) / step_size
@@ -375,6 +412,16 @@ class CoSimulation:
         if dead:
             raise MasterError(f"FMU instance(s) {dead} returned fmi2Fatal in an earlier run and cannot be "
                               "used again; create a new CoSimulation")
+        lib = None
+        if engine != "python":
+            if self._loop is None:
+                from sims import compiled_loop
+
+                self._loop = compiled_loop.library() or False
+            lib = self._loop or None
+            if lib is None and engine == "compiled":
+                raise MasterError("the compiled loop is not available (no C compiler, or SATFMU_PYTHON_LOOP is "
+                                  "set); use engine='python' or 'auto'")
         parameters = parameters or {}
         for inst in parameters:
             if inst not in self.components:
@@ -403,21 +450,20 @@ class CoSimulation:
         prof_bufs = {c: ((ctypes.c_uint * len(g))(*[p[0] for p in g]), (ctypes.c_double * len(g))(),
                          np.stack([p[1] for p in g], axis=1)) for c, g in prof_groups.items()}
 
-        data = np.zeros((n_steps + 1, len(rec_names)))
-        instantiated: list[Component] = []
+        rows = recorded_steps(n_steps, int(record_every))
+        data = np.zeros((len(rows), len(rec_names)))
+        comps = list(self.components.values())
         limits = None
         try:
-            for comp in self.components.values():
-                comp.log.clear()
-                comp.slave.instantiate(callbacks=self._callbacks.functions, loggingOn=True)
-                instantiated.append(comp)
+            for comp in comps:
+                self._start(comp)
                 self._set_parameters(comp, parameters.get(comp.name, {}))
                 self._call(comp, "setupExperiment", None, start_time, stop_time)
                 self._call(comp, "enterInitializationMode")
             # one BLAS/OpenMP thread while the FMUs run: their work (and the master's) is many small
             # solves, for which a thread pool costs CPU and gives nothing (ONE_THREAD); set after
             # instantiation, which loads the libraries of pythonfmu FMUs (scipy's own OpenBLAS)
-            limits = threadpool_limits(limits=ONE_THREAD)
+            limits = self._thread_pools().limit(limits=ONE_THREAD)
 
             def set_profiles(k: int) -> None:
                 for c, (vr, buf, values) in prof_bufs.items():
@@ -439,36 +485,92 @@ class CoSimulation:
                 for tr in transfers if jacobi else ():
                     self._call(tr.dst, "fmi2SetReal", tr.dst.slave.component, tr.dst_vr, tr.n, tr.buf)
 
-            def sample(k: int) -> None:
+            def sample(row: int) -> None:
                 for c, (vr, buf, cols) in rec_bufs.items():
                     self._call(self.components[c], "fmi2GetReal", self.components[c].slave.component,
                                vr, len(buf), buf)
-                    data[k, cols] = buf[:]
+                    data[row, cols] = buf[:]
 
             exchange(0, False)
-            for comp in self.components.values():
+            for comp in comps:
                 self._call(comp, "exitInitializationMode")
             sample(0)
-            comps = list(self.components.values())
-            for k in range(n_steps):
-                for comp in comps:
-                    self._call(comp, "doStep", float(times[k]), step_size)
-                exchange(k + 1, exchange_order == "jacobi")
-                sample(k + 1)
+            jacobi = exchange_order == "jacobi"
+            if lib is not None:
+                self._compiled_steps(lib, comps, transfers, prof_bufs, rec_bufs, times, step_size, jacobi,
+                                     int(record_every), data)
+            else:
+                row = 1
+                for k in range(n_steps):
+                    for comp in comps:
+                        self._call(comp, "doStep", float(times[k]), step_size)
+                    exchange(k + 1, jacobi)
+                    if row < len(rows) and rows[row] == k + 1:
+                        sample(row)
+                        row += 1
             for comp in comps:
                 self._call(comp, "terminate")
         finally:
             if limits is not None:
                 limits.restore_original_limits()
-            for comp in instantiated:  # the library stays loaded so the same set can run again
-                if not comp.fatal:  # after fmi2Fatal the instance is abandoned, as FMI 2.0 requires
-                    comp.slave.fmi2FreeInstance(comp.slave.component)
+            if not self.reuse_instances:
+                self._free_instances()
         dtype = [("time", "f8")] + [(n, "f8") for n in rec_names]
-        out = np.zeros(n_steps + 1, dtype=dtype)
-        out["time"] = times
+        out = np.zeros(len(rows), dtype=dtype)
+        out["time"] = times[rows]
         for i, n in enumerate(rec_names):
             out[n] = data[:, i]
         return out
+
+    def _start(self, comp: Component) -> None:
+        """Bring an FMU instance to the instantiated state: ``fmi2Instantiate`` the first time;
+        with ``reuse_instances`` and an instance left by an earlier run, ``fmi2Reset`` (which
+        gives every variable its default value, as a new instance has), or a new instance if
+        the reset fails."""
+        comp.log.clear()
+        if comp.instantiated:
+            try:
+                self._call(comp, "reset")
+                return
+            except FmuCallError:
+                if comp.fatal:
+                    raise
+                comp.slave.fmi2FreeInstance(comp.slave.component)
+                comp.instantiated = False
+                comp.log.clear()
+        comp.slave.instantiate(callbacks=self._callbacks.functions, loggingOn=True)
+        comp.instantiated = True
+
+    def _thread_pools(self) -> ThreadpoolController:
+        """The host's BLAS/OpenMP pools, found once (a scan of the loaded libraries costs ~2 ms) after
+        the first instantiation, which loads the libraries of pythonfmu FMUs."""
+        if self._pools is None:
+            self._pools = ThreadpoolController()
+        return self._pools
+
+    def _free_instances(self) -> None:
+        """Free every instance (the libraries stay loaded so the same set can run again)."""
+        for comp in self.components.values():
+            if comp.instantiated and not comp.fatal:  # after fmi2Fatal the instance is abandoned, as FMI 2.0 requires
+                comp.slave.fmi2FreeInstance(comp.slave.component)
+            comp.instantiated = False
+
+    def _compiled_steps(self, lib: Any, comps: list[Component], transfers: list[_Transfer],
+                        prof_bufs: dict[str, Any], rec_bufs: dict[str, Any], times: np.ndarray, step_size: float,
+                        jacobi: bool, record_every: int, data: np.ndarray) -> None:
+        """The step loop in C (:mod:`sims.compiled_loop`); a failed call raises as :meth:`_call` does."""
+        from sims.compiled_loop import StepPlan
+
+        index = {c.name: i for i, c in enumerate(comps)}
+        plan = StepPlan(
+            slaves=[c.slave for c in comps],
+            transfers=[(index[t.src.name], index[t.dst.name], t.src_vr, t.dst_vr, t.buf) for t in transfers],
+            profiles=[(index[c], vr, buf, values) for c, (vr, buf, values) in prof_bufs.items()],
+            records=[(index[c], vr, buf, cols) for c, (vr, buf, cols) in rec_bufs.items()],
+            times=times, step_size=step_size, jacobi=jacobi, record_every=record_every, data=data)
+        failure = plan.run(lib)
+        if failure is not None:
+            self._raise(comps[failure.fmu], FMICallException(function=failure.function, status=failure.status))
 
     def held_signals(self) -> set[str]:
         """Qualified variables whose value is held over each step (inputs and connected outputs)."""
@@ -482,7 +584,8 @@ class CoSimulation:
         return {dst for _, dst in self.connections} | {t for t, _ in self.profiles}
 
     def close(self) -> None:
-        """Unload the FMU libraries and remove the extracted FMU folders."""
+        """Free the instances, unload the FMU libraries and remove the extracted FMU folders."""
+        self._free_instances()
         for comp in self.components.values():
             if not comp.fatal:  # an abandoned instance may still reference its library
                 comp.slave.freeLibrary()

@@ -189,13 +189,14 @@ def test_fmus_run_with_one_blas_thread_and_the_limits_are_restored(fmu_dir: Path
     from sims import master
 
     seen: list[list[int]] = []
+    limit = threadpoolctl.ThreadpoolController.limit
 
-    def recording(**kwargs):
-        limiter = threadpoolctl.threadpool_limits(**kwargs)
+    def recording(self, **kwargs):
+        limiter = limit(self, **kwargs)
         seen.append([lib["num_threads"] for lib in threadpoolctl.threadpool_info()])
         return limiter
 
-    monkeypatch.setattr(master, "threadpool_limits", recording)
+    monkeypatch.setattr(master.ThreadpoolController, "limit", recording)
     before = [(lib["filepath"], lib["num_threads"]) for lib in threadpoolctl.threadpool_info()]
     with CoSimulation({"plant": fmu_dir / "mrp_satellite_py.fmu"}) as sim:  # loads the host's numpy
         sim.run(0.1, 0.05, record=["plant.omega"])

@@ -1,0 +1,148 @@
+"""The compiled step loop (sims.compiled_loop, sims/c/cosim_loop.c) against the master's Python loop.
+
+Both loops make the same FMI calls with the same values in the same order, so every
+comparison here is exact (bytes of the result arrays, NaN payloads included): any
+difference is a defect, not round-off.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from fmus.profiles import make
+from sims import compiled_loop
+from sims import scenario as S
+from sims.master import CoSimulation, FmuCallError, MasterError, recorded_steps
+from sims.paths import shipped_scenarios
+
+SHORT = {"vscmg_seed": 1.5, "vscmg_seed_friction": 1.5}
+"""Stop time of the fast test for the scenarios with pythonfmu online SDRE controllers, s (2.3 s
+of CPU per full run; the full runs are the slow test's)."""
+
+
+def _runs(scenario: S.Scenario, fmu_dir: Path, stop_time: float) -> dict[str, np.ndarray]:
+    """The scenario run by each loop in each exchange order, fresh and reused instances."""
+    params = {inst: spec.parameters for inst, spec in scenario.fmus.items()}
+    out = {}
+    with S.wire(scenario, fmu_dir) as fresh, S.wire(scenario, fmu_dir) as reused:
+        reused.reuse_instances = True
+        record = S.recorded(scenario, fresh)
+        for order in ("feedthrough", "jacobi"):
+            for engine in ("python", "compiled"):
+                out[f"{order} {engine}"] = fresh.run(stop_time, scenario.step_size, scenario.start_time, params,
+                                                     record, order, engine=engine)
+            for i in range(2):  # reset between runs: as a new instance
+                out[f"{order} compiled reused {i}"] = reused.run(stop_time, scenario.step_size, scenario.start_time,
+                                                                 params, record, order, engine="compiled")
+    return out
+
+
+def _assert_identical(runs: dict[str, np.ndarray]) -> None:
+    for order in ("feedthrough", "jacobi"):
+        ref = runs[f"{order} python"]
+        assert len(ref) > 1 and len(ref.dtype.names) > 1
+        for label, res in runs.items():
+            if label.startswith(order):
+                assert res.dtype == ref.dtype and res.tobytes() == ref.tobytes(), label
+
+
+@pytest.mark.parametrize("path", shipped_scenarios(), ids=lambda p: p.stem)
+def test_every_shipped_scenario_runs_bit_for_bit_in_both_loops(path: Path, fmu_dir: Path) -> None:
+    """Compiled == Python, feedthrough and Jacobi order, fresh and reset instances; the vscmg
+    scenarios (python SDRE FMUs that log through the host's callback) to SHORT s."""
+    sc = S.load(path)
+    _assert_identical(_runs(sc, fmu_dir, SHORT.get(sc.name, sc.stop_time)))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", sorted(SHORT))
+def test_the_python_controller_scenarios_run_bit_for_bit_to_their_stop_time(name: str, fmu_dir: Path) -> None:
+    """As the fast test, over the whole manoeuvre (~20 s of CPU each)."""
+    sc = S.load(name)
+    _assert_identical(_runs(sc, fmu_dir, sc.stop_time))
+
+
+def _diverging(fmu_dir: Path) -> CoSimulation:
+    """A plant whose disturbance torque jumps to 1e300 N m at 1 s: its state overflows in the step
+    from t = 1 s, and fmi2DoStep returns fmi2Error."""
+    sim = CoSimulation({"plant": fmu_dir / "mrp_satellite.fmu"}, reuse_instances=True)
+    sim.add_profile("plant.w_d[1]", make({"kind": "step", "time": 1.0, "before": 0.0, "after": 1e300}))
+    return sim
+
+
+@pytest.mark.parametrize("order", ["feedthrough", "jacobi"])
+def test_a_failing_call_raises_the_same_error_in_both_loops_and_the_instance_runs_again(fmu_dir: Path,
+                                                                                       order: str) -> None:
+    messages = {}
+    for engine in ("python", "compiled"):
+        with _diverging(fmu_dir) as sim:
+            with pytest.raises(FmuCallError) as info:
+                sim.run(5.0, 0.05, record=["plant.omega"], exchange_order=order, engine=engine)
+            messages[engine] = str(info.value)
+            sim.profiles.clear()  # reset from the error state, then a quiet run
+            res = sim.run(5.0, 0.05, record=["plant.omega"], exchange_order=order, engine=engine)
+            assert np.all(res["plant.omega[1]"] == 0.0)  # rest, no torque: exactly zero
+    assert messages["python"] == messages["compiled"]
+    assert "fmi2DoStep failed with status 3 (error)" in messages["compiled"]
+    assert "non-finite in the step from t = 1 s" in messages["compiled"]
+
+
+@pytest.mark.parametrize("every", [1, 7, 2400, 5000])
+def test_record_every_keeps_the_rows_of_the_full_run_at_those_steps_and_the_last(fmu_dir: Path, every: int) -> None:
+    sc = S.load("mrp_200deg")
+    params = {inst: spec.parameters for inst, spec in sc.fmus.items()}
+    with S.wire(sc, fmu_dir) as sim:
+        record = S.recorded(sc, sim)
+        full = sim.run(sc.stop_time, sc.step_size, 0.0, params, record)
+        steps = recorded_steps(len(full) - 1, every)
+        for engine in ("python", "compiled"):
+            part = sim.run(sc.stop_time, sc.step_size, 0.0, params, record, engine=engine, record_every=every)
+            assert part.tobytes() == full[steps].tobytes(), engine
+    assert steps[0] == 0 and steps[-1] == 2400 and len(steps) == -(-2400 // every) + 1
+
+
+def test_bad_engine_and_record_every_are_refused(fmu_dir: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    with CoSimulation({"plant": fmu_dir / "mrp_satellite.fmu"}) as sim:
+        for bad in (0, -1, 1.5, True, "2"):
+            with pytest.raises(ValueError, match="record_every must be an integer >= 1"):
+                sim.run(1.0, 0.05, record_every=bad)
+        with pytest.raises(ValueError, match="engine must be one of auto, compiled, python"):
+            sim.run(1.0, 0.05, engine="cython")
+    monkeypatch.setenv("SATFMU_PYTHON_LOOP", "1")
+    with CoSimulation({"plant": fmu_dir / "mrp_satellite.fmu"}) as sim:
+        with pytest.raises(MasterError, match="compiled loop is not available"):
+            sim.run(1.0, 0.05, engine="compiled")
+        assert len(sim.run(1.0, 0.05, engine="auto", record=["plant.omega"])) == 21  # the Python loop
+
+
+def test_the_library_is_compiled_once_into_the_home_folder_named_by_its_digest(tmp_path: Path,
+                                                                               monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("SATFMU_HOME", str(tmp_path))
+    path = compiled_loop.compile_library()
+    assert path.parent == tmp_path / "lib" and path.name.startswith("cosim_loop-") and path.suffix == ".so"
+    mtime = path.stat().st_mtime_ns
+    assert compiled_loop.compile_library() == path and path.stat().st_mtime_ns == mtime  # reused
+    assert [p.name for p in path.parent.iterdir()] == [path.name]  # no temporary file left
+    with pytest.raises(FileNotFoundError, match="C compiler 'no-such-cc' not found"):
+        compiled_loop.compile_library("no-such-cc")
+    assert compiled_loop.library("no-such-cc") is None  # the master then steps in Python
+
+
+def test_result_csv_reads_back_to_the_same_floats(tmp_path: Path) -> None:
+    """The vectorized CSV writer: every float64 back bit for bit (Python's float() is exact),
+    special values included, and a header name that needs quoting."""
+    import csv
+
+    values = np.array([0.05, 0.1 + 0.2, 1e-310, 5e-324, -0.0, np.nan, np.inf, -np.inf, 1e16, 123456.789e10,
+                       np.nextafter(1.0, 2.0), -2.5e-8])
+    res = np.zeros(len(values), dtype=[("time", "f8"), ("a[1,2]", "f8")])
+    res["time"], res["a[1,2]"] = np.arange(len(values)) * 0.05, values
+    S.write_csv(res, tmp_path / "r.csv")
+    with open(tmp_path / "r.csv", newline="") as fh:
+        rows = list(csv.reader(fh))
+    assert rows[0] == ["time", "a[1,2]"] and len(rows) == len(values) + 1
+    back = np.array([[float(v) for v in row] for row in rows[1:]])
+    assert back[:, 0].tobytes() == res["time"].tobytes()
+    assert back[:, 1].tobytes() == values.tobytes()  # NaN, signed zero and subnormals included
