@@ -196,6 +196,8 @@ class CoSimulation:
         self.reuse_instances = reuse_instances
         self._pools: ThreadpoolController | None = None
         self._loop: Any = None  # the compiled loop's library, False if unavailable, None until asked
+        self._resolved: dict[str, tuple[Component, list[str]]] = {}  # resolve()'s answers
+        self._plan: tuple[tuple[tuple[str, str], ...], list[_Transfer]] | None = None  # connections, transfers
         self.components: dict[str, Component] = {}
         self.connections: list[tuple[str, str]] = []
         self.profiles: list[tuple[str, Profile]] = []
@@ -229,6 +231,8 @@ class CoSimulation:
         ------
         UnknownVariableError
         """
+        if qualified in self._resolved:
+            return self._resolved[qualified]
         if "." not in qualified:
             raise UnknownVariableError(f"{qualified!r} is not of the form 'instance.variable'")
         inst, var = qualified.split(".", 1)
@@ -236,7 +240,8 @@ class CoSimulation:
             raise UnknownVariableError(
                 f"{qualified!r}: no FMU instance {inst!r} (instances: {', '.join(self.components)})")
         comp = self.components[inst]
-        return comp, comp.expand(var)
+        self._resolved[qualified] = comp, comp.expand(var)
+        return self._resolved[qualified]
 
     def unit(self, qualified: str) -> str:
         """Declared unit of one variable (``"1"`` if none)."""
@@ -338,7 +343,14 @@ class CoSimulation:
             self._call(comp, f"set{var.type}", [var.valueReference], [value])
 
     def _transfers(self) -> list[_Transfer]:
-        """Connections batched per (level, source FMU, target FMU), in level order."""
+        """Connections batched per (level, source FMU, target FMU), in level order (made once per
+        set of connections)."""
+        key = tuple(self.connections)
+        if self._plan is None or self._plan[0] != key:
+            self._plan = key, self._batched_transfers()
+        return self._plan[1]
+
+    def _batched_transfers(self) -> list[_Transfer]:
         level = self._levels()
         groups: dict[tuple[int, str, str], list[tuple[int, int]]] = defaultdict(list)
         for src, dst in self.connections:

@@ -56,7 +56,7 @@ import json
 import math
 import re
 import warnings
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any, Callable, Mapping
 
@@ -269,13 +269,13 @@ class Scenario:
             value = getattr(self, key)
             if value not in (0.0, "", {}, []):
                 out[key] = value
-        out["fmus"] = {k: {f: v for f, v in asdict(spec).items() if v not in (None, {})}
+        out["fmus"] = {k: {f: v for f, v in _fields(spec).items() if v not in (None, {})}
                        for k, spec in self.fmus.items()}
         if self.connections:
             out["connections"] = [{"from": c.source, "to": c.target} for c in self.connections]
         if self.metrics:
-            defaults = asdict(Metric("", "", []))
-            out["metrics"] = [{k: v for k, v in asdict(m).items() if k in ("name", "kind", "signals") or v != defaults[k]}
+            defaults = _fields(Metric("", "", []))
+            out["metrics"] = [{k: v for k, v in _fields(m).items() if k in ("name", "kind", "signals") or v != defaults[k]}
                               for m in self.metrics]
         if self.dispersions is not None:
             out["dispersions"] = dict(self.dispersions.data)
@@ -309,8 +309,8 @@ class Scenario:
                                     f"{did_you_mean(owner, list(fmus))}")
         return replace(self, fmus=fmus, profiles=profs, dispersions=None)
 
-    def sample(self, seed: int, index: int, fmu_dir: str | Path | None = None, backend: str = "native"
-               ) -> "Scenario":
+    def sample(self, seed: int, index: int, fmu_dir: str | Path | None = None, backend: str = "native",
+               nominal: Callable[[str, str], float | None] | None = None) -> "Scenario":
         """The dispersed scenario of sample ``index`` of campaign ``seed``
         (:meth:`Dispersions.sample` with the nominal values of :func:`nominal_values`).
 
@@ -325,6 +325,9 @@ class Scenario:
             only if a dispersion needs a value the scenario does not set.
         backend : {"native", "python"}
             Backend of those FMUs.
+        nominal : callable, optional
+            The nominal values (default :func:`nominal_values` of this scenario, ``fmu_dir`` and
+            ``backend``; a campaign's worker passes one for all its samples).
 
         Returns
         -------
@@ -340,7 +343,7 @@ class Scenario:
         if self.dispersions is None:
             raise ScenarioError(f"{where}: no [dispersions] to sample")
         try:
-            values = self.dispersions.sample(seed, index, nominal_values(self, fmu_dir, backend),
+            values = self.dispersions.sample(seed, index, nominal or nominal_values(self, fmu_dir, backend),
                                              f"{where}: dispersions")
         except DispersionError as exc:
             raise ScenarioError(str(exc)) from None
@@ -483,6 +486,12 @@ class Result:
         self.files.update(files)
         write_atomically(files["summary"], lambda tmp: tmp.write_text(json.dumps(self.summary(), indent=1) + "\n"))
         return dict(self.files)
+
+
+def _fields(obj: Any) -> dict[str, Any]:
+    """A dataclass's fields, one level deep (``dataclasses.asdict`` copies recursively: ten times the
+    cost, for the plain data these hold)."""
+    return {f.name: (lambda v: v.copy() if isinstance(v, (dict, list)) else v)(getattr(obj, f.name)) for f in fields(obj)}
 
 
 def clear_outputs(folder: Path, name: str, backend: str) -> None:
@@ -922,12 +931,44 @@ def simulate(scenario: Scenario, fmu_dir: Path, backend: str = "native", strict:
     """
     sim = wire(scenario, fmu_dir, backend, strict, design_rtol)
     try:
-        params = {inst: spec.parameters for inst, spec in scenario.fmus.items()}
-        res = sim.run(scenario.stop_time, scenario.step_size, scenario.start_time, params,
-                      recorded(scenario, sim))
+        res = _execute(scenario, sim)
     finally:
         sim.close()
     return res, sim
+
+
+def _execute(scenario: Scenario, sim: CoSimulation) -> np.ndarray:
+    """Run ``scenario`` through its wired master; the recorded array."""
+    params = {inst: spec.parameters for inst, spec in scenario.fmus.items()}
+    return sim.run(scenario.stop_time, scenario.step_size, scenario.start_time, params, recorded(scenario, sim))
+
+
+def resimulate(scenario: Scenario, sim: CoSimulation) -> np.ndarray:
+    """Run ``scenario`` through a master that :func:`wire` made for a scenario of the same FMUs,
+    connections, records and metrics, differing in start values and profile fields only (a
+    sample of its dispersions, :meth:`Scenario.sample`): the master's profiles are replaced by
+    the scenario's and its start values checked, then it runs as :func:`simulate` runs it. With
+    ``sim.reuse_instances`` the FMU instances are reset, not created again (a campaign's worker).
+
+    Raises
+    ------
+    ScenarioError
+        A start value of the wrong type or outside its declared range.
+    fmus.profiles.ProfileError
+        A profile field its kind refuses.
+    sims.master.MasterError
+        An FMU call failed.
+    """
+    where = str(scenario.path) if scenario.path else f"scenario {scenario.name!r}"
+    built = profiles(scenario)
+    wired = [t for t, _ in sim.profiles]
+    sim.profiles = []
+    for target, prof in built:
+        sim.add_profile(target, prof)
+    if [t for t, _ in sim.profiles] != wired:
+        raise ScenarioError(f"{where}: its profiles drive other inputs than the wired scenario's ({wired})")
+    _check_parameters(scenario, sim, where)
+    return _execute(scenario, sim)
 
 
 def check(scenario: Scenario, fmu_dir: str | Path | None = None, backend: str = "native",

@@ -4,9 +4,12 @@
 sample indices (:func:`sims.campaign.sample_indices`): sample ``i`` runs
 ``scenario.sample(seed, i)`` through :func:`sims.scenario.simulate` and
 :func:`sims.scenario.evaluate`, the path of :func:`sims.scenario.run`, so its row depends on
-``(seed, i)`` only, not on the chunk size, the workers or the order of the chunks. Each
-sample runs its own :class:`~sims.master.CoSimulation` (:func:`sims.scenario.wire` makes one
-per run); the FMU libraries stay loaded in the worker process.
+``(seed, i)`` only, not on the chunk size, the workers or the order of the chunks. A worker
+process wires the scenario's :class:`~sims.master.CoSimulation` once
+(:meth:`ScenarioTask.simulation`) and runs every sample through it
+(:func:`sims.scenario.resimulate`): the FMU instances are reset between samples, the step
+loop is the compiled one (:mod:`sims.compiled_loop`), and a row equals that of
+:func:`sims.scenario.run` of the sampled scenario bit for bit.
 
 Columns of a row (all float64, as every campaign chunk): ``sample`` (global index), one per
 metric (its value in the metric's unit, NaN for a sample that did not run; an infinite
@@ -22,9 +25,11 @@ percentiles :data:`PERCENTILES` and the worst samples with their dispersed value
 """
 from __future__ import annotations
 
+import atexit
 import hashlib
 import json
 import math
+import pickle
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
@@ -38,7 +43,7 @@ from fmus.profiles import ProfileError
 from sims import metrics as M
 from sims import scenario as S
 from sims.campaign import Campaign, CampaignError, sample_indices
-from sims.master import MasterError
+from sims.master import CoSimulation, MasterError
 
 FAILURES = {0: "ran", 1: "an FMU call or the master failed (sims.master.MasterError)",
             2: "the sampled scenario was refused (ScenarioError or ProfileError, e.g. a start value outside "
@@ -84,24 +89,27 @@ class ScenarioTask:
 
     def __call__(self, samples: np.ndarray) -> dict[str, np.ndarray]:
         """One value per column and sample index of ``samples``."""
-        rows = [self.run_sample(int(i))[0] for i in samples]
+        sim = self.simulation()
+        rows = [self.run_sample(int(i), sim)[0] for i in samples]
         return {col: np.array([row[col] for row in rows], dtype=np.float64) for col in self.columns}
 
-    def run_sample(self, index: int) -> tuple[dict[str, float], str | None]:
-        """The row of sample ``index`` and, if it failed, its message."""
+    def run_sample(self, index: int, sim: CoSimulation | None = None) -> tuple[dict[str, float], str | None]:
+        """The row of sample ``index`` and, if it failed, its message (run through ``sim``, by
+        default :meth:`simulation`)."""
         row = dict.fromkeys(self.columns, math.nan)
+        sim = self.simulation() if sim is None else sim
         try:
-            sampled = self.scenario.sample(self.seed, index, self.fmu_dir, self.backend)
+            sampled = self.scenario.sample(self.seed, index, self.fmu_dir, self.backend, _NOMINAL[id(sim)])
         except S.ScenarioError as exc:
             return {**row, "passed": 0.0, "failed": 2.0}, str(exc)
         for owner, name in self.dispersed:
             row[f"{owner}.{name}"] = float(_value(sampled, owner, name))
         try:
-            with warnings.catch_warnings():  # shown once, by the check of the nominal scenario
-                warnings.simplefilter("ignore", S.DesignMismatchWarning)
-                res, sim = S.simulate(sampled, Path(self.fmu_dir), self.backend)
+            res = S.resimulate(sampled, sim)
             results, _ = S.evaluate(sampled, res, sim)
         except (MasterError, S.ScenarioError, ProfileError) as exc:
+            if any(c.fatal for c in sim.components.values()):  # no further call allowed: wire anew
+                _discard(sim)
             code = 1.0 if isinstance(exc, MasterError) else 2.0
             return {**row, "passed": 0.0, "failed": code}, str(exc)
         for m in results:
@@ -110,6 +118,50 @@ class ScenarioTask:
         row["passed"] = 0.0 if bad else float(all(m.passed for m in results))
         row["failed"] = 3.0 if bad else 0.0
         return row, (f"sample {index}: recorded signal(s) not finite: {', '.join(bad)}" if bad else None)
+
+
+    def simulation(self) -> CoSimulation:
+        """This process's master of the scenario, wired once and kept (:data:`_WIRED`): its FMU
+        instances are reset between samples (``reuse_instances``), not created again."""
+        key = hashlib.sha256(pickle.dumps(self, protocol=4)).hexdigest()
+        sim = _WIRED.pop(key, None)
+        if sim is None:
+            with warnings.catch_warnings():  # shown once, by the check of the nominal scenario
+                warnings.simplefilter("ignore", S.DesignMismatchWarning)
+                sim = S.wire(self.scenario, Path(self.fmu_dir), self.backend)
+            sim.reuse_instances = True
+            _NOMINAL[id(sim)] = S.nominal_values(self.scenario, self.fmu_dir, self.backend)
+            while len(_WIRED) >= _KEEP:
+                _close(_WIRED.pop(next(iter(_WIRED))))
+        _WIRED[key] = sim  # most recently used last
+        return sim
+
+
+_KEEP = 2
+"""Wired masters a process keeps (two campaigns of one worker in turn)."""
+_WIRED: dict[str, CoSimulation] = {}
+"""This process's wired masters by task digest, least recently used first."""
+_NOMINAL: dict[int, Any] = {}
+"""The nominal values (:func:`sims.scenario.nominal_values`) of each kept master's scenario, read
+once, by ``id`` of the master."""
+
+
+def _close(sim: CoSimulation) -> None:
+    _NOMINAL.pop(id(sim), None)
+    sim.close()
+
+
+def _discard(sim: CoSimulation) -> None:
+    """Drop a kept master (an FMU returned fmi2Fatal); the next sample wires a new one."""
+    for key in [k for k, v in _WIRED.items() if v is sim]:
+        _close(_WIRED.pop(key))
+
+
+@atexit.register
+def _close_wired() -> None:
+    """Free the kept FMU instances and unload their libraries before the interpreter ends."""
+    while _WIRED:
+        _close(_WIRED.popitem()[1])
 
 
 def _value(sampled: S.Scenario, owner: str, name: str) -> Any:

@@ -1,0 +1,102 @@
+"""Scenario campaign speed: samples/s on 1 and 2 Dask workers against one bare compiled run.
+
+The campaign is mrp_200deg (seed 000's published controller, 120 s = 2400 steps of 0.05 s)
+with its attitude uniform over the sphere and its principal moments of inertia +-20 %. The
+figures:
+
+- one bare run: :meth:`sims.master.CoSimulation.run` of the nominal scenario through the
+  compiled loop, FMU instances reused (what a campaign worker does per sample, without the
+  sampling, the metrics and the row), CPU s, min and median of ``--repeat`` runs;
+- per sample in one process: :class:`sims.scenario_campaign.ScenarioTask` on 500 samples
+  (draw the dispersions, run, evaluate the metrics, build the row), CPU s per sample, and its
+  ratio to the bare run (target <= 1.5);
+- the campaign (:func:`sims.scenario_campaign.run_campaign`: a local Dask cluster started,
+  every chunk computed and written as a checksummed Parquet file, the rows loaded and the
+  statistics computed) on 1 and on 2 workers, wall s, samples/s, the speed-up (target >= 1.8)
+  and whether the two give the same rows (they must: samples depend on (seed, index) only).
+  The two runs alternate over ``--repeat-campaign`` rounds (min and median).
+
+    python bench/campaign_speed.py [--samples 10000] [--chunk 250] [--repeat 20] [--repeat-campaign 1]
+"""
+from __future__ import annotations
+
+import argparse
+import statistics
+import tempfile
+import time
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from sims import catalog, paths
+from sims import scenario as S
+from sims import scenario_campaign as SC
+
+DISPERSIONS = {"attitude": {"instance": "plant", "kind": "uniform"},
+               "inertia": {"instance": "plant", "relative": 0.2}}
+
+
+def scenario() -> S.Scenario:
+    """mrp_200deg with dispersed attitude and inertia."""
+    data = tomllib.loads((paths.SHIPPED_SCENARIOS / "mrp_200deg.toml").read_text())
+    return S.Scenario.from_dict({**data, "dispersions": DISPERSIONS})
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--samples", type=int, default=10_000, help="campaign size (default: 10000)")
+    ap.add_argument("--chunk", type=int, default=250, help="samples per chunk (default: 250)")
+    ap.add_argument("--repeat", type=int, default=20, help="bare runs timed (default: 20)")
+    ap.add_argument("--repeat-campaign", type=int, default=1, help="rounds of the 1- and 2-worker campaigns (default: 1)")
+    ap.add_argument("--fmu-dir", type=Path, default=paths.fmu_cache(),
+                    help="FMU folder, brought up to date first (default: the user's FMU cache)")
+    args = ap.parse_args()
+    fmu_dir = args.fmu_dir.resolve()
+    catalog.build_all(fmu_dir)
+    sc = scenario()
+    camp = SC.campaign(sc, args.samples, seed=1, chunk=args.chunk, fmu_dir=fmu_dir)
+    task = camp.task
+    sim = task.simulation()
+    params = {inst: spec.parameters for inst, spec in sc.fmus.items()}
+    record = S.recorded(sc, sim)
+    bare = []
+    for _ in range(args.repeat):
+        t0 = time.process_time()
+        sim.run(sc.stop_time, sc.step_size, sc.start_time, params, record, engine="compiled")
+        bare.append(time.process_time() - t0)
+    task(np.arange(10))  # warm
+    n_one = 500
+    t0 = time.process_time()
+    task(np.arange(n_one))
+    per_sample = (time.process_time() - t0) / n_one
+    steps = len(S.grid(sc)) - 1
+    print(f"campaign of {sc.name} ({steps} steps of {sc.step_size} s per sample), attitude uniform, inertia +-20 %")
+    print(f"one bare compiled run: {min(bare) * 1e3:.3f} ms CPU min, {statistics.median(bare) * 1e3:.3f} ms median "
+          f"({args.repeat} runs)")
+    print(f"per sample in one process (draw, run, metrics, row; {n_one} samples): {per_sample * 1e3:.3f} ms CPU = "
+          f"{per_sample / min(bare):.2f}x the bare run's min (target <= 1.5)")
+    walls: dict[int, list[float]] = {1: [], 2: []}
+    rows: dict[int, pd.DataFrame] = {}
+    for _ in range(args.repeat_campaign):
+        for workers in (1, 2):
+            with tempfile.TemporaryDirectory(prefix="satfmu_campaign_speed_") as tmp:
+                t0 = time.perf_counter()
+                result = SC.run_campaign(sc, args.samples, tmp, seed=1, chunk=args.chunk, fmu_dir=fmu_dir,
+                                         workers=workers)
+                walls[workers].append(time.perf_counter() - t0)
+                rows[workers] = result.rows
+    print(f"{'workers':>8s} {'wall s (min)':>13s} {'median':>8s} {'samples/s':>10s}")
+    for w, ts in walls.items():
+        print(f"{w:>8d} {min(ts):13.2f} {statistics.median(ts):8.2f} {args.samples / min(ts):10.0f}")
+    speedup = min(walls[1]) / min(walls[2])
+    print(f"speed-up on 2 workers: {speedup:.2f}x (target >= 1.8); {args.samples} samples on 2 workers in "
+          f"{min(walls[2]):.1f} s (target < 120 s); rows of 1 and 2 workers identical: "
+          f"{rows[1].equals(rows[2])}")
+    print(f"pass rate of the campaign: {result.statistics.overall.pass_rate:.2%}, failed to run: "
+          f"{result.statistics.n_failed}")
+
+
+if __name__ == "__main__":
+    main()
