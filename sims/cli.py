@@ -201,6 +201,22 @@ def _progress(done: int, total: int, message: str) -> None:
           end="" if _PROGRESS["open"] else "\n", file=sys.stderr, flush=True)
 
 
+def _progress_eta(unit: str) -> Any:
+    """A progress callback ``(done, total)`` (called after each chunk) whose bar also gives the
+    rate and the time left, estimated from the chunks done since the callback was made (chunks
+    resumed from disk are not speed: the first call counts one new chunk)."""
+    start: dict[str, float] = {"t": time.perf_counter()}
+
+    def report(done: int, total: int) -> None:
+        now = time.perf_counter()
+        start.setdefault("done", done - 1)
+        rate = (done - start["done"]) / max(now - start["t"], 1e-9)
+        left = (total - done) / rate if rate > 0 else float("inf")
+        eta = f"{int(left // 60)} min {int(left % 60):02d} s" if left < float("inf") else "?"
+        _progress(done, total, f"{unit}, {rate:.2f}/s, {eta} left")
+    return report
+
+
 def _write_design(design, args: argparse.Namespace) -> int:
     """Print a design's report, write its artifacts (and build their FMUs unless ``--fmu-dir ''``)."""
     print(design.report)
@@ -283,7 +299,7 @@ def _campaign_demeter(args: argparse.Namespace) -> int:
     report = demeter_reports.campaign(Path(args.out), args.artifact, samples=args.samples, seed=args.seed,
                                       chunk=args.chunk, workers=args.workers, scheduler=args.scheduler,
                                       epsilon=args.epsilon, delta=args.delta, name=args.name,
-                                      progress=lambda done, total: _progress(done, total, "chunks"))
+                                      progress=_progress_eta("chunks"))
     print(report.text())
     return 0
 
@@ -294,7 +310,7 @@ def _campaign_scenario(args: argparse.Namespace) -> int:
     result = scenario_campaign.run_campaign(
         args.scenario, args.samples, args.out, seed=args.seed, chunk=args.chunk, name=args.name,
         fmu_dir=args.fmu_dir, backend=args.backend, workers=args.workers, scheduler=args.scheduler,
-        confidence=args.confidence, worst=args.worst, progress=lambda done, total: _progress(done, total, "chunks"))
+        confidence=args.confidence, worst=args.worst, progress=_progress_eta("chunks"))
     print(result.statistics.text())
     for index, message in result.failures():
         print(f"sample {index}: {message}")
