@@ -310,7 +310,8 @@ def _campaign_scenario(args: argparse.Namespace) -> int:
     result = scenario_campaign.run_campaign(
         args.scenario, args.samples, args.out, seed=args.seed, chunk=args.chunk, name=args.name,
         fmu_dir=args.fmu_dir, backend=args.backend, workers=args.workers, scheduler=args.scheduler,
-        confidence=args.confidence, worst=args.worst, progress=_progress_eta("chunks"))
+        confidence=args.confidence, worst=args.worst, progress=_progress_eta("chunks"), envelopes=args.envelope or (),
+        points=args.points)
     print(result.statistics.text())
     for index, message in result.failures():
         print(f"sample {index}: {message}")
@@ -537,6 +538,11 @@ def parser() -> argparse.ArgumentParser:
     cs.add_argument("--backend", choices=backends, default="native", help="default FMU backend")
     cs.add_argument("--confidence", type=float, default=0.95, help="two-sided confidence of the pass-rate intervals")
     cs.add_argument("--worst", type=int, default=5, help="worst samples listed")
+    cs.add_argument("--envelope", action="append", metavar="SIGNAL",
+                    help="a recorded signal (base names expand) whose percentile envelope over the samples is kept in "
+                         "envelopes.parquet; repeat for more (default: none)")
+    cs.add_argument("--points", type=_positive_int, default=500,
+                    help="time points of each envelope (default: 500, at most the run's communication points)")
     cs.add_argument("--name", default=None, help="campaign (folder) name (default: <scenario>-n<samples>-s<seed>)")
     _fmu_dir(cs, "folder of the FMUs (the missing ones are built; the workers read them there)")
     cs.add_argument("--out", default="results/campaigns", help="folder of the campaign folders")

@@ -33,17 +33,19 @@ import pickle
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 import pandas as pd
 from scipy import stats
 
+from fmus.atomic import write_atomically
 from fmus.profiles import ProfileError
+from sims import envelopes as E
 from sims import metrics as M
 from sims import scenario as S
 from sims.campaign import Campaign, CampaignError, sample_indices
-from sims.master import CoSimulation, MasterError
+from sims.master import CoSimulation, MasterError, UnknownVariableError
 
 FAILURES = {0: "ran", 1: "an FMU call or the master failed (sims.master.MasterError)",
             2: "the sampled scenario was refused (ScenarioError or ProfileError, e.g. a start value outside "
@@ -73,6 +75,10 @@ class ScenarioTask:
     backend : {"native", "python"}
     dispersed : tuple of (str, str)
         (instance or ``"profiles[i]"``, parameter or field) of each dispersed value column.
+    envelopes : tuple of str
+        Recorded scalar signals whose time history each row keeps (:mod:`sims.envelopes`).
+    trace_steps : tuple of int
+        The recorded rows (communication points) of those histories.
     """
 
     scenario: S.Scenario
@@ -80,12 +86,19 @@ class ScenarioTask:
     fmu_dir: str
     backend: str
     dispersed: tuple[tuple[str, str], ...]
+    envelopes: tuple[str, ...] = ()
+    trace_steps: tuple[int, ...] = ()
 
     @property
     def columns(self) -> list[str]:
         """The task's columns, in order: metrics, ``passed``, ``failed``, dispersed values."""
         return ([m.name for m in self.scenario.metrics] + ["passed", "failed"]
-                + [f"{owner}.{name}" for owner, name in self.dispersed])
+                + [f"{owner}.{name}" for owner, name in self.dispersed] + self.trace_columns)
+
+    @property
+    def trace_columns(self) -> list[str]:
+        """The columns of the kept time histories (:func:`sims.envelopes.trace_columns`)."""
+        return [c for s in self.envelopes for c in E.trace_columns(s, len(self.trace_steps))]
 
     def __call__(self, samples: np.ndarray) -> dict[str, np.ndarray]:
         """One value per column and sample index of ``samples``."""
@@ -114,11 +127,13 @@ class ScenarioTask:
             return {**row, "passed": 0.0, "failed": code}, str(exc)
         for m in results:
             row[m.name] = m.value
+        steps = np.asarray(self.trace_steps, dtype=np.int64)
+        for signal in self.envelopes:
+            row.update(zip(E.trace_columns(signal, len(steps)), res[signal][steps].tolist()))
         bad = [c for c in res.dtype.names if not np.all(np.isfinite(res[c]))]
         row["passed"] = 0.0 if bad else float(all(m.passed for m in results))
         row["failed"] = 3.0 if bad else 0.0
         return row, (f"sample {index}: recorded signal(s) not finite: {', '.join(bad)}" if bad else None)
-
 
     def simulation(self) -> CoSimulation:
         """This process's master of the scenario, wired once and kept (:data:`_WIRED`): its FMU
@@ -172,7 +187,8 @@ def _value(sampled: S.Scenario, owner: str, name: str) -> Any:
 
 
 def campaign(scenario: "str | Path | Mapping[str, Any] | S.Scenario", n: int, seed: int = 0, chunk: int = 10,
-             name: str | None = None, fmu_dir: str | Path | None = None, backend: str = "native") -> Campaign:
+             name: str | None = None, fmu_dir: str | Path | None = None, backend: str = "native",
+             envelopes: Sequence[str] = (), points: int = E.POINTS) -> Campaign:
     """The Monte Carlo campaign of a scenario's ``[dispersions]`` (run it with :func:`sims.campaign.run`).
 
     The nominal scenario is checked first (:func:`sims.scenario.check`: its FMUs are built
@@ -194,6 +210,11 @@ def campaign(scenario: "str | Path | Mapping[str, Any] | S.Scenario", n: int, se
     fmu_dir : path, optional
         FMU folder (default: the FMU cache); the workers read the FMUs from it.
     backend : {"native", "python"}
+    envelopes : sequence of str
+        Recorded signals (base names expand) whose time history every row keeps at ``points``
+        times, for percentile envelopes (:mod:`sims.envelopes`).
+    points : int
+        Time points kept per signal and sample, >= 2 (at most the run's communication points).
 
     Returns
     -------
@@ -204,9 +225,10 @@ def campaign(scenario: "str | Path | Mapping[str, Any] | S.Scenario", n: int, se
     ------
     ScenarioError
         The scenario has no dispersions, names a column twice (a metric called ``sample``,
-        ``passed`` or ``failed``), or :func:`sims.scenario.check` refuses it.
+        ``passed`` or ``failed``), an envelope signal it does not record, or
+        :func:`sims.scenario.check` refuses it.
     sims.campaign.CampaignError
-        An invalid n, seed, chunk or name.
+        An invalid n, seed, chunk, name or points.
     """
     sc = _canonical(S.load(scenario))
     where = str(sc.path) if sc.path else f"scenario {sc.name!r}"
@@ -220,9 +242,42 @@ def campaign(scenario: "str | Path | Mapping[str, Any] | S.Scenario", n: int, se
         raise CampaignError(f"campaign of {where}: seed must be an integer >= 0, got {seed!r}")
     first = sc.dispersions.sample(int(seed), 0, S.nominal_values(sc, folder, backend), f"{where}: dispersions")
     dispersed = tuple((owner, p) for owner, values in first.items() for p in values)
-    task = ScenarioTask(sc, int(seed), str(folder), backend, dispersed)
+    signals = _envelope_signals(sc, folder, backend, envelopes, where)
+    try:
+        steps = tuple(int(k) for k in E.trace_steps(len(S.grid(sc)), points)) if signals else ()
+    except ValueError as exc:
+        raise CampaignError(f"campaign of {where}: {exc}") from None
+    task = ScenarioTask(sc, int(seed), str(folder), backend, dispersed, signals, steps)
+    ctx = context(sc, folder, backend)
+    if signals:
+        ctx["envelopes"] = {"signals": list(signals), "points": int(points)}
     return Campaign(name=name or f"{sc.name}-n{n}-s{seed}", task=task, n=n, seed=int(seed), chunk=chunk,
-                    sampler=sample_indices, context=context(sc, folder, backend))
+                    sampler=sample_indices, context=ctx)
+
+
+def _envelope_signals(scenario: S.Scenario, folder: Path, backend: str, envelopes: Sequence[str], where: str
+                      ) -> tuple[str, ...]:
+    """The scalar signals of ``envelopes`` (base names expanded), each recorded by the scenario."""
+    if isinstance(envelopes, str):
+        raise S.ScenarioError(f"{where}: envelopes must be a list of signals, got the string {envelopes!r}")
+    if not envelopes:
+        return ()
+    with S.wire(scenario, folder, backend) as sim:
+        recorded = S.recorded(scenario, sim)
+        out: list[str] = []
+        for i, name in enumerate(envelopes):
+            try:
+                comp, names = sim.resolve(name)
+            except UnknownVariableError as exc:
+                raise S.ScenarioError(f"{where}: envelopes[{i}]: {exc}") from None
+            for n in names:
+                q = f"{comp.name}.{n}"
+                if q not in recorded:
+                    raise S.ScenarioError(f"{where}: envelopes[{i}]: {q} is not recorded by the scenario (add it "
+                                          "to its record list)")
+                if q not in out:
+                    out.append(q)
+    return tuple(out)
 
 
 def _canonical(scenario: S.Scenario) -> S.Scenario:
@@ -271,8 +326,10 @@ def reopen(folder: str | Path, fmu_dir: str | Path | None = None) -> Campaign:
     sc = S.Scenario.from_dict(ctx["scenario"], ctx["base_dir"], str(path) if path else f"scenario {ctx['scenario']['name']!r}",
                               path)
     task_dir = fmu_dir if fmu_dir is not None else ctx["fmu_dir"]
+    env = ctx.get("envelopes") or {}
     camp = campaign(sc, int(record["n"]), seed=int(record["seed"]), chunk=int(record["chunk"]), name=record["name"],
-                    fmu_dir=task_dir, backend=ctx["backend"])
+                    fmu_dir=task_dir, backend=ctx["backend"], envelopes=env.get("signals", ()),
+                    points=env.get("points", E.POINTS))
     changed = [inst for inst, f in ctx["fmus"].items() if camp.context["fmus"].get(inst) != f]
     if changed:
         raise CampaignError(f"{folder}: the FMU files of {', '.join(changed)} in {camp.task.fmu_dir} are not the ones "
@@ -433,14 +490,19 @@ class CampaignResult:
     folder : Path
         Its folder: ``campaign.json`` and the Parquet chunks.
     rows : pandas.DataFrame
-        One row per sample (the columns of the module docstring), sorted by ``sample``.
+        One row per sample (the columns of the module docstring, not the kept time
+        histories), sorted by ``sample``.
     statistics : Statistics
+    envelopes : pandas.DataFrame or None
+        The percentile envelopes of the kept time histories (:func:`sims.envelopes.envelopes`;
+        also in the folder's ``envelopes.parquet``), None if the campaign keeps none.
     """
 
     campaign: Campaign
     folder: Path
     rows: pd.DataFrame
     statistics: Statistics
+    envelopes: pd.DataFrame | None = None
 
     @property
     def passed(self) -> bool:
@@ -456,7 +518,8 @@ class CampaignResult:
 def run_campaign(scenario: "str | Path | Mapping[str, Any] | S.Scenario", n: int, out_dir: str | Path, *,
                  seed: int = 0, chunk: int = 10, name: str | None = None, fmu_dir: str | Path | None = None,
                  backend: str = "native", workers: int = 2, scheduler: str | None = None,
-                 confidence: float = 0.95, worst: int = 5, progress: Any = None) -> CampaignResult:
+                 confidence: float = 0.95, worst: int = 5, progress: Any = None, envelopes: Sequence[str] = (),
+                 points: int = E.POINTS) -> CampaignResult:
     """Run (or resume) the Monte Carlo campaign of a scenario's ``[dispersions]`` on Dask.
 
     Parameters
@@ -467,7 +530,7 @@ def run_campaign(scenario: "str | Path | Mapping[str, Any] | S.Scenario", n: int
         Number of samples, >= 1.
     out_dir : path
         Folder of the campaign folders; the campaign's is ``out_dir/<name>``.
-    seed, chunk, name, fmu_dir, backend
+    seed, chunk, name, fmu_dir, backend, envelopes, points
         As :func:`campaign`.
     workers : int
         Processes of the local Dask cluster (ignored with ``scheduler``).
@@ -487,6 +550,18 @@ def run_campaign(scenario: "str | Path | Mapping[str, Any] | S.Scenario", n: int
     from sims import campaign as C
 
     sc = S.load(scenario)
-    camp = campaign(sc, n, seed=seed, chunk=chunk, name=name, fmu_dir=fmu_dir, backend=backend)
+    camp = campaign(sc, n, seed=seed, chunk=chunk, name=name, fmu_dir=fmu_dir, backend=backend, envelopes=envelopes,
+                    points=points)
+    folder = Path(out_dir) / camp.name
     rows = C.run(camp, Path(out_dir), scheduler=scheduler, n_workers=workers, progress=progress)
-    return CampaignResult(camp, Path(out_dir) / camp.name, rows, statistics(sc, rows, confidence, worst))
+    task: ScenarioTask = camp.task
+    env = None
+    if task.envelopes:
+        env = E.envelopes(rows, list(task.envelopes), S.grid(task.scenario)[list(task.trace_steps)])
+        write_atomically(folder / ENVELOPES, lambda tmp: env.to_parquet(tmp, index=False))
+        rows = rows.drop(columns=task.trace_columns)
+    return CampaignResult(camp, folder, rows, statistics(sc, rows, confidence, worst), env)
+
+
+ENVELOPES = "envelopes.parquet"
+"""File of a campaign folder with the percentile envelopes of its kept time histories."""

@@ -249,3 +249,36 @@ def test_the_folder_records_its_scenario_and_fmus_and_refuses_other_binaries(tmp
               client=client)
     with pytest.raises(C.CampaignError, match="controller in .* are not the ones the campaign ran"):
         SC.reopen(tmp_path / "out" / camp.name)
+
+
+def test_envelopes_are_the_percentiles_of_the_sampled_runs(tmp_path: Path, client: Client, fmu_dir: Path) -> None:
+    """Envelopes of plant.phi over 6 samples, 8 time points: the percentiles (numpy, independently)
+    of the samples' own runs at those times; a refused sample (negative u_max) is left out; the
+    table is in the folder; a signal not recorded and points < 2 are refused."""
+    from sims import envelopes as E
+
+    data = mrp(dispersions={**DISPERSIONS, "plant.u_max": {"kind": "uniform", "low": -5.0, "high": 5.0}})
+    res = SC.run_campaign(data, 6, tmp_path, seed=SEED, chunk=3, fmu_dir=fmu_dir, scheduler=client.scheduler.address,
+                          envelopes=["plant.phi"], points=8)
+    assert not any("@" in c for c in res.rows.columns)  # the traces are not rows
+    sc = S.Scenario.from_dict(data)
+    steps = E.trace_steps(41, 8)
+    assert steps.tolist() == [0, 6, 11, 17, 23, 29, 34, 40]
+    ran = res.rows.loc[res.rows["failed"] == 0, "sample"].tolist()
+    assert 0 < len(ran) < 6
+    with warnings.catch_warnings():  # the dispersed inertia is not the design's: expected
+        warnings.simplefilter("ignore", S.DesignMismatchWarning)
+        traces = np.array([S.run(sc.sample(SEED, i, fmu_dir), fmu_dir).results["plant.phi"][steps] for i in ran])
+    env = pd.read_parquet(res.folder / SC.ENVELOPES)
+    pd.testing.assert_frame_equal(env, res.envelopes)
+    assert env["time"].tolist() == S.grid(sc)[steps].tolist()  # the master's communication times
+    for level in E.LEVELS:  # the same numbers through the same numpy call: exact
+        assert env[f"plant.phi:p{level:g}"].tolist() == np.percentile(traces, level, axis=0).tolist()
+    assert env["plant.phi:p0"].tolist() == traces.min(axis=0).tolist()
+    with pytest.raises(S.ScenarioError, match=r"envelopes\[1\]: plant.w_d\[1\] is not recorded"):
+        SC.campaign(data, 2, fmu_dir=fmu_dir, envelopes=["plant.phi", "plant.w_d"])
+    with pytest.raises(C.CampaignError, match="envelope points must be an integer >= 2"):
+        SC.campaign(data, 2, fmu_dir=fmu_dir, envelopes=["plant.phi"], points=1)
+    with pytest.raises(C.CampaignError, match="context differs in envelopes"):  # same folder, other envelopes
+        SC.run_campaign(data, 6, tmp_path, seed=SEED, chunk=3, fmu_dir=fmu_dir, scheduler=client.scheduler.address,
+                        envelopes=["plant.phi"], points=9, name=res.campaign.name)
