@@ -27,6 +27,11 @@ the scenario's start value or else the FMU's):
 ``choice``            values (non-empty list), weights (as many, >= 0, summing to > 0)
 ``seed``              an integer in [0, 2**31 - 1], for the ``seed`` of a random profile
 
+The numeric kinds take ``transform = "square"``: the value set is the square of the draw
+(a moment of inertia whose square root is uniform, as seed 004's uncertainty model draws
+``J``; ``low``, ``high``, ``mean`` and ``std`` are then those of the root, and ``mean`` must
+be given).
+
 ``attitude`` writes the plant's initial attitude: ``mrp = "sigma_0"`` (the MRP
 ``sigma_0[1..3]``, the shadow set with ``|sigma| <= 1``) or ``quaternion = "q_0"``
 (``q_0[1..4]``, scalar last); without either, the plant's parameters decide (``sigma_0``
@@ -74,6 +79,8 @@ KINDS = {"normal": ("mean", "std"), "truncated_normal": ("mean", "std", "low", "
          "uniform": ("low", "high"), "log_uniform": ("low", "high"), "choice": ("values", "weights"),
          "seed": ()}
 """Distribution kind -> its fields."""
+TRANSFORMS = {"square": lambda v: v * v}
+"""``transform`` of a numeric distribution -> the function of the draw that is set."""
 ATTITUDE_KINDS = ("uniform", "cone")
 SEED_MAX = 2**31 - 1
 """Largest ``seed`` drawn (a non-negative 32-bit signed integer, valid for any FMU Integer)."""
@@ -124,7 +131,12 @@ class Distribution:
         return self.target[len(self.owner) + 1:]
 
     def draw(self, rng: np.random.Generator, nominal: Nominal | None, where: str) -> Any:
-        """One value from ``rng`` (``nominal`` gives the default ``mean``)."""
+        """One value from ``rng`` (``nominal`` gives the default ``mean``), transformed."""
+        value = self._draw(rng, nominal, where)
+        transform = self.spec.get("transform")
+        return value if transform is None else TRANSFORMS[transform](value)
+
+    def _draw(self, rng: np.random.Generator, nominal: Nominal | None, where: str) -> Any:
         s = self.spec
         if self.kind == "seed":
             return int(rng.integers(0, SEED_MAX, endpoint=True))
@@ -436,8 +448,15 @@ def _distribution(key: str, spec: Mapping[str, Any], where: str, instances: list
     if kind not in KINDS:
         raise DispersionError(f"{where}.kind: must be one of {', '.join(KINDS)}, got {kind!r}"
                               f"{did_you_mean(str(kind), KINDS)}")
-    check_keys(spec, ("kind", *KINDS[kind]), where, DispersionError)
-    fields = {k: v for k, v in spec.items() if k != "kind"}
+    numeric = kind not in ("choice", "seed")
+    check_keys(spec, ("kind", *KINDS[kind], *(("transform",) if numeric else ())), where, DispersionError)
+    fields = {k: v for k, v in spec.items() if k not in ("kind", "transform")}
+    transform = spec.get("transform")
+    if transform is not None and transform not in TRANSFORMS:
+        raise DispersionError(f"{where}.transform: must be one of {', '.join(TRANSFORMS)}, got {transform!r}")
+    if transform is not None and "mean" in KINDS[kind] and "mean" not in fields:
+        raise DispersionError(f"{where}.mean: must be given with a transform (the nominal value is not the "
+                              "transformed draw's mean)")
     if kind == "choice":
         values, weights = fields.get("values"), fields.get("weights")
         if not isinstance(values, list) or not values:
@@ -460,4 +479,4 @@ def _distribution(key: str, spec: Mapping[str, Any], where: str, instances: list
         raise DispersionError(f"{where}: low {fields['low']:g} must be < high {fields['high']:g}")
     if kind == "log_uniform" and fields["low"] <= 0:
         raise DispersionError(f"{where}.low: must be > 0 for log_uniform, got {fields['low']:g}")
-    return Distribution(key, kind, fields)
+    return Distribution(key, kind, {**fields, **({"transform": transform} if transform else {})})

@@ -63,6 +63,17 @@ def test_uniform() -> None:
     assert abs(x.mean() - 0.01) < Z * (0.04 / math.sqrt(12)) / math.sqrt(n)  # std of U(a, b): (b - a)/sqrt(12)
 
 
+def test_square_transform_sets_the_square_of_the_uniform_root() -> None:
+    """J = S^2 with S uniform on [4, 6] (seed 004's sqrtJ parameters): the roots are uniform and
+    the values their squares (exactly: the same draw)."""
+    n = 20_000
+    x = values({"plant.I_x": {"kind": "uniform", "low": 4.0, "high": 6.0, "transform": "square"}}, n)
+    plain = values({"plant.I_x": {"kind": "uniform", "low": 4.0, "high": 6.0}}, n)
+    assert np.array_equal(x, plain * plain)  # same generator, same draw, squared
+    assert x.min() >= 16.0 and x.max() <= 36.0
+    assert abs(np.sqrt(x).mean() - 5.0) < Z * (2.0 / math.sqrt(12)) / math.sqrt(n)
+
+
 def test_log_uniform() -> None:
     n = 20_000
     y = values({"plant.k": {"kind": "log_uniform", "low": 0.1, "high": 10.0}}, n)
@@ -174,6 +185,11 @@ def test_samples_depend_on_seed_and_index_only() -> None:
     ({"inertia": {"instance": "plant", "relative": 1.5}}, r"dispersions.inertia.relative: must be in \(0, 1\)"),
     ({"plant.I_x": {"kind": "normal", "std": 1.0}, "inertia": {"instance": "plant", "relative": 0.1}},
      r"plant.I_x is dispersed twice"),
+    ({"plant.I_x": {"kind": "uniform", "low": 1.0, "high": 2.0, "transform": "cube"}},
+     r"dispersions.\"plant.I_x\".transform: must be one of square, got 'cube'"),
+    ({"plant.I_x": {"kind": "normal", "std": 1.0, "transform": "square"}},
+     r"dispersions.\"plant.I_x\".mean: must be given with a transform"),
+    ({"profiles[0].seed": {"kind": "seed", "transform": "square"}}, r"unknown key 'transform'"),
 ])
 def test_validation_names_the_key_path(table: dict, message: str) -> None:
     data = {"name": "bad", "stop_time": 1.0, "step_size": 0.5, "fmus": {"plant": {"model": "mrp_satellite"}},
