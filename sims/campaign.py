@@ -259,7 +259,7 @@ def run(campaign: Campaign, out_dir: Path, *, scheduler: str | None = None, n_wo
         record = _claim_folder(folder, campaign)
         todo = _todo(folder, campaign, record)
         if todo:
-            with _client(scheduler, client, n_workers, threads_per_worker) as active:
+            with cluster_client(scheduler, client, n_workers, threads_per_worker) as active:
                 _compute(active, campaign, folder, record, todo, progress)
         return load(folder)
 
@@ -344,16 +344,18 @@ def _todo(folder: Path, campaign: Campaign, record: dict[str, Any]) -> list[int]
 
 
 @contextlib.contextmanager
-def _client(scheduler: str | None, client: Client | None, n_workers: int,
-            threads_per_worker: int) -> Iterator[Client]:
-    """The given client, a client of ``scheduler``, or a local cluster's; the latter two closed at exit."""
+def cluster_client(scheduler: str | None, client: Client | None, n_workers: int = 2,
+                   threads_per_worker: int = 1) -> Iterator[Client]:
+    """The given client, a client of ``scheduler``, or that of a local cluster of ``n_workers``
+    processes (its dashboard on a free port); the latter two closed at exit."""
     if client is not None:
         yield client
     elif scheduler is not None:
         with Client(scheduler) as remote:
             yield remote
     else:
-        with LocalCluster(n_workers=n_workers, threads_per_worker=threads_per_worker, processes=True) as cluster, \
+        with LocalCluster(n_workers=n_workers, threads_per_worker=threads_per_worker, processes=True,
+                          dashboard_address=":0") as cluster, \
                 Client(cluster) as local:
             yield local
 

@@ -1,9 +1,14 @@
 """Seed 004 Figs 4-5: random closed loops of the DEMETER plant FMU and a design's controller FMU.
 
-For ``n`` plants drawn uniformly in the design's parameter box, the plant FMU
-(``demeter_flexible``, parameters from
-:meth:`~synthesis.demeter_variants.DesignModel.fmu_parameters`) and the controller FMU of a
-``linear_state_feedback`` artifact run through :class:`sims.master.CoSimulation`:
+:func:`scenario` declares the loop as a scenario: the plant FMU (``demeter_flexible``, its
+start values from :meth:`~synthesis.demeter_variants.DesignModel.fmu_parameters` at the
+nominal parameters) and the controller FMU of a ``linear_state_feedback`` artifact, with the
+design's uncertain parameters as ``[dispersions]`` (each uniform in its interval; a
+principal inertia as the square of its uniform root, as the design model draws it), and a
+metric bounding the pseudo-integrator's peak by the artifact's certified impulse-to-peak
+bound. :func:`run` runs it as three scenario campaigns (:mod:`sims.scenario_campaign`: the
+FMUs through the compiled loop, on Dask, one Parquet file per chunk) and keeps every sample's
+time histories:
 
 - Fig. 4: the impulse responses ``w2 -> z2``: an impulse on each column of w2 is the initial
   state ``theta(0) = 0.262 rad`` (column 1) or ``theta'(0) = 1.4e-3 rad/s`` (column 2), and z2 is
@@ -24,16 +29,22 @@ whole horizon (the slowest pole is -3e-4 1/s) exactly, as the seed's figures do.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from scipy.linalg import expm
 
 from controllers import artifact as artifacts
+from sims import envelopes as E
 from sims import paths
-from sims.master import CoSimulation
+from sims.scenario import Scenario, grid
 from synthesis.demeter_variants import RATE_WORST, THETA_WORST, DesignModel, Variant, design_model
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 MEASURED = ("theta", "theta_dot", "eta", "eta_dot", "wheel_torque", "wheel_torque_rate")
 """Plant outputs the controller reads (same names on both FMUs)."""
@@ -103,12 +114,14 @@ def load_design(artifact: str | Path) -> tuple[artifacts.GainArtifact, Variant]:
     return art, variant
 
 
-def linear(artifact: str | Path, *, n: int = 100, seed: int = 0, stop_time: float = 10000.0, points: int = 2001
-           ) -> RandomLoops:
-    """The same loops as :func:`run` on the design model, exactly, over the whole horizon."""
+def linear(artifact: str | Path, *, n: int = 100, seed: int = 0, stop_time: float = 10000.0, points: int = 2001,
+           deltas: np.ndarray | None = None) -> RandomLoops:
+    """Loops as :func:`run`'s on the design model, exactly, over the whole horizon: the plants
+    ``deltas`` (e.g. :attr:`RandomLoops.deltas` of a run), else ``n`` drawn with ``seed``."""
     art, variant = load_design(artifact)
     dm, K = design_model(variant), np.array(art.design["K"])
-    deltas = dm.sample(n, np.random.default_rng(seed))
+    deltas = dm.sample(n, np.random.default_rng(seed)) if deltas is None else np.atleast_2d(np.asarray(deltas, float))
+    n = len(deltas)
     t = np.linspace(0.0, stop_time, points)
     X0 = np.column_stack([dm.B2[:, 0], dm.B2[:, dm.na], dm.B2[:, 0] + dm.B2[:, dm.na]])
     z2, theta, rate = [], [], []
@@ -121,41 +134,175 @@ def linear(artifact: str | Path, *, n: int = 100, seed: int = 0, stop_time: floa
                        variant.axes[0], "design model")
 
 
+STARTS = {"theta": (True, False), "rate": (False, True), "both": (True, True)}
+"""Initial state of each run: (theta(0) = 0.262 rad, theta'(0) = 1.4e-3 rad/s) on the design axis."""
+
+
+def scenario(artifact: str | Path = "demeter_row1_det", *, start: str = "both", limits: str = "wheels",
+             stop_time: float = 60.0, step_size: float = 1e-3) -> Scenario:
+    """The closed loop of a DEMETER design on the flexible plant FMU, as a dispersed scenario.
+
+    Parameters
+    ----------
+    artifact : str or Path
+        DEMETER design artifact: name (:func:`sims.paths.find_artifact`) or ``.json`` path.
+    start : {"theta", "rate", "both"}
+        Initial state (:data:`STARTS`): one column of w2 (Fig. 4) or both (Fig. 5).
+    limits : {"wheels", "linear"}
+        The plant's wheel limits, or none (module docstring).
+    stop_time, step_size : float
+        s.
+
+    Returns
+    -------
+    Scenario
+        Named ``demeter_<artifact>_<start>`` (``_linear`` without limits); records ``xw``,
+        ``theta``, ``theta_dot`` and ``wheel_saturated`` of the design axis; metrics: peak
+        ``|xw|`` bounded by the certified impulse-to-peak bound times ``|w2|`` (1 or sqrt 2),
+        ``|theta|`` at the end, the time at the momentum limit.
+
+    Raises
+    ------
+    ValueError
+        Not a DEMETER state-feedback design; ``start`` or ``limits`` unknown; a mode group of
+        several appendages (one draw for several FMU parameters: not a scenario dispersion).
+    """
+    if start not in STARTS:
+        raise ValueError(f"start must be one of {', '.join(STARTS)}, got {start!r}")
+    if limits not in ("linear", "wheels"):
+        raise ValueError(f"limits must be 'linear' or 'wheels', got {limits!r}")
+    art, variant = load_design(artifact)
+    dm, axis = design_model(variant), variant.axes[0]
+    plant = {k: v for k, v in dm.fmu_parameters(np.zeros(len(dm.parameters))).items()}
+    on_theta, on_rate = STARTS[start]
+    plant.update({f"theta_0[{axis}]": THETA_WORST if on_theta else 0.0,
+                  f"theta_dot_0[{axis}]": RATE_WORST if on_rate else 0.0})
+    if limits == "linear":
+        plant.update(wheel_torque_max=NO_LIMIT, wheel_momentum_max=NO_LIMIT)
+    dispersions = {}
+    for p in dm.parameters:
+        low, high = p.nominal - p.half_width, p.nominal + p.half_width
+        if p.kind in ("sqrtJ", "Jprod"):
+            i, j = (variant.axes[k] for k in (p.index * 2)[:2])
+            spec = {"kind": "uniform", "low": low, "high": high, **({"transform": "square"} if p.kind == "sqrtJ" else {})}
+            dispersions[f"plant.J[{min(i, j)},{max(i, j)}]"] = spec
+            continue
+        appendages = sorted({c // 2 for c in dm.groups[p.index[0]]})
+        if len(appendages) != 1:
+            raise ValueError(f"{variant.label}: {p.name} is shared by appendages {[a + 1 for a in appendages]}; "
+                             "a scenario dispersion draws one value per FMU parameter")
+        dispersions[f"plant.{p.kind}[{appendages[0] + 1}]"] = {"kind": "uniform", "low": low, "high": high}
+    bound = float(art.certificate["numbers"]["design_i2p_bound"]) * math.hypot(float(on_theta), float(on_rate))
+    xw, theta = f"ctrl.xw[{axis}]", f"plant.theta[{axis}]"
+    name = f"demeter_{art.name}_{start}{'_linear' if limits == 'linear' else ''}"
+    return Scenario.from_dict({
+        "name": name, "stop_time": stop_time, "step_size": step_size,
+        "description": f"Seed 004 Fig. {5 if start == 'both' else 4}: {art.name} on the flexible plant "
+                       f"({'wheel limits' if limits == 'wheels' else 'no limits'}), start {start}, random plants in "
+                       "the design's parameter box",
+        "reference": "docs/models.md, Seed 004; the artifact's certificate (impulse-to-peak bound w2 -> z2)",
+        "record": [xw, theta, f"plant.theta_dot[{axis}]", f"plant.wheel_saturated[{axis}]"],
+        "fmus": {"plant": {"model": "demeter_flexible", "parameters": plant}, "ctrl": {"model": art.name}},
+        "connections": [{"from": f"plant.{m}", "to": f"ctrl.{m}"} for m in MEASURED]
+        + [{"from": "ctrl.u_c", "to": "plant.u_c"}],
+        "metrics": [
+            {"name": "peak |z2| = |xw|", "kind": "peak", "signals": [xw], "unit": "N.m.s", "max": bound,
+             "description": "certified impulse-to-peak bound w2 -> z2 times |w2|"},
+            {"name": "|theta| at the end", "kind": "final", "signals": [theta], "unit": "rad"},
+            {"name": "time at the momentum limit", "kind": "time_in_saturation",
+             "signals": [f"plant.wheel_saturated[{axis}]"], "limit": 0.5, "unit": "s"}],
+        "dispersions": dispersions})
+
+
+def uniform_points(n_rows: int, points: int) -> int:
+    """The largest count <= ``points`` of evenly spaced rows out of ``n_rows`` (first and last
+    included) that fall on whole rows: a uniform grid, as the exact design-model solution needs."""
+    if points < 2:
+        raise ValueError(f"points must be >= 2, got {points}")
+    return next(m + 1 for m in range(min(points, n_rows) - 1, 0, -1) if (n_rows - 1) % m == 0)
+
+
+def deltas_of(rows: "pd.DataFrame", dm: DesignModel, variant: Variant) -> np.ndarray:
+    """The design model's parameter vectors delta (in [-1, 1]) of a campaign's dispersed values."""
+    out = np.empty((len(rows), len(dm.parameters)))
+    for k, p in enumerate(dm.parameters):
+        if p.kind in ("sqrtJ", "Jprod"):
+            i, j = sorted(variant.axes[m] for m in (p.index * 2)[:2])
+            v = rows[f"plant.J[{i},{j}]"].to_numpy()
+            v = np.sqrt(v) if p.kind == "sqrtJ" else v
+        else:
+            v = rows[f"plant.{p.kind}[{dm.groups[p.index[0]][0] // 2 + 1}]"].to_numpy()
+        out[:, k] = (v - p.nominal) / p.half_width
+    return out
+
+
 def run(fmu_dir: Path, artifact: str | Path, *, n: int = 100, seed: int = 0, stop_time: float = 60.0,
-        step_size: float = 1e-3, limits: str = "wheels") -> RandomLoops:
-    """Run the 3 n co-simulations of Figs 4-5 (module docstring).
+        step_size: float = 1e-3, limits: str = "wheels", points: int = 2001, out_dir: Path | None = None,
+        workers: int = 2, client: Any = None) -> RandomLoops:
+    """Run the 3 n co-simulations of Figs 4-5 as three scenario campaigns (module docstring).
+
+    Parameters
+    ----------
+    fmu_dir : Path
+        Folder of the FMUs (the missing ones are built).
+    artifact : str or Path
+        DEMETER design artifact.
+    n, seed : int
+        Samples (random plants, the same in the three campaigns) and campaign seed.
+    stop_time, step_size : float
+        s.
+    limits : {"wheels", "linear"}
+    points : int
+        Time points kept of each history (at most the run's communication points).
+    out_dir : Path, optional
+        Folder of the campaign folders (kept, resumable); default a temporary folder.
+    workers : int
+        Local Dask workers (without ``client``).
+    client : distributed.Client, optional
+        A Dask client to use instead of a local cluster.
 
     Raises
     ------
     ValueError
         If the artifact is not a DEMETER state-feedback design or ``limits`` is unknown.
     """
-    if limits not in ("linear", "wheels"):
-        raise ValueError(f"limits must be 'linear' or 'wheels', got {limits!r}")
+    import tempfile
+
+    from sims import campaign as C
+    from sims import scenario_campaign as SC
+
     art, variant = load_design(artifact)
     dm, K, axis = design_model(variant), np.array(art.design["K"]), variant.axes[0]
-    deltas = dm.sample(n, np.random.default_rng(seed))
-    starts = [{f"theta_0[{axis}]": THETA_WORST}, {f"theta_dot_0[{axis}]": RATE_WORST},
-              {f"theta_0[{axis}]": THETA_WORST, f"theta_dot_0[{axis}]": RATE_WORST}]
-    extra = {} if limits == "wheels" else {"wheel_torque_max": NO_LIMIT, "wheel_momentum_max": NO_LIMIT}
-    record = [f"ctrl.xw[{axis}]", f"plant.theta[{axis}]", f"plant.theta_dot[{axis}]", f"plant.wheel_saturated[{axis}]"]
+    scenarios = {start: scenario(artifact, start=start, limits=limits, stop_time=stop_time, step_size=step_size)
+                 for start in STARTS}
+    points = uniform_points(len(grid(scenarios["both"])), points)
+    keep = {"theta": [f"ctrl.xw[{axis}]"], "rate": [f"ctrl.xw[{axis}]"],
+            "both": [f"plant.theta[{axis}]", f"plant.theta_dot[{axis}]", f"plant.wheel_saturated[{axis}]"]}
+    with tempfile.TemporaryDirectory(prefix="satfmu_demeter_") as tmp, \
+            C.cluster_client(None, client, workers) as active:
+        rows, tasks = {}, {}
+        for start, sc in scenarios.items():
+            camp = SC.campaign(sc, n, seed=seed, chunk=max(1, -(-n // (4 * workers))), fmu_dir=fmu_dir,
+                               envelopes=keep[start], points=points)
+            rows[start], tasks[start] = C.run(camp, Path(out_dir or tmp), client=active), camp.task
+    failed = {start: r.loc[r["failed"] > 0, "sample"].tolist() for start, r in rows.items()}
+    if any(failed.values()):
+        raise RuntimeError(f"DEMETER loops that did not run (sample indices): {failed}")
+    steps = tasks["both"].trace_steps
+    t = grid(scenarios["both"])[list(steps)]
+
+    def traces(start: str, signal: str) -> np.ndarray:
+        return rows[start][E.trace_columns(signal, len(steps))].to_numpy()
+
+    deltas = deltas_of(rows["both"], dm, variant)
+    theta = traces("both", f"plant.theta[{axis}]")
+    sat = traces("both", f"plant.wheel_saturated[{axis}]")
     x0 = dm.B2[:, 0] + dm.B2[:, dm.na]  # the two impulses of w2 at once
-    z2, theta, rate, sat, err = [], [], [], [], 0.0
-    with CoSimulation({"plant": fmu_dir / "demeter_flexible.fmu", "ctrl": fmu_dir / f"{art.name}.fmu"}) as sim:
-        for name in MEASURED:
-            sim.connect(f"plant.{name}", f"ctrl.{name}")
-        sim.connect("ctrl.u_c", "plant.u_c")
-        for d in deltas:
-            base = {**dm.fmu_parameters(d), **extra}
-            res = [sim.run(stop_time, step_size, parameters={"plant": {**base, **s}}, record=record) for s in starts]
-            z2.append([r[f"ctrl.xw[{axis}]"] for r in res[:2]])
-            theta.append(res[2][f"plant.theta[{axis}]"])
-            rate.append(res[2][f"plant.theta_dot[{axis}]"])
-            sat.append(float(np.mean(res[2][f"plant.wheel_saturated[{axis}]"] > 0.5)))
-            exact = _free_response(dm, K, d, x0[:, None], res[2]["time"])[:, 0, 0]
-            err = max(err, float(np.max(np.abs(theta[-1] - exact))))
-        t = res[2]["time"]
-    return RandomLoops(t, deltas, np.array(z2), np.array(theta), np.array(rate), np.array(sat), err, limits, axis)
+    err = max(float(np.max(np.abs(th - _free_response(dm, K, d, x0[:, None], t)[:, 0, 0])))
+              for d, th in zip(deltas, theta))
+    z2 = np.stack([traces("theta", f"ctrl.xw[{axis}]"), traces("rate", f"ctrl.xw[{axis}]")], axis=1)
+    return RandomLoops(t, deltas, z2, theta, traces("both", f"plant.theta_dot[{axis}]"),
+                       np.mean(sat > 0.5, axis=1), err, limits, axis)
 
 
 def plot(loops: RandomLoops, out_dir: Path) -> list[Path]:

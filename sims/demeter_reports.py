@@ -103,7 +103,8 @@ class FiguresReport:
 def figures(fmu_dir: Path, out_dir: Path, artifact: str | Path = "demeter_row1_det", *, samples: int = 100,
             seed: int = 0, stop_time: float = 60.0, step_size: float = 1e-3,
             linear_stop_time: float = 10000.0) -> FiguresReport:
-    """Seed 004 Figs 4-5 through the FMUs (with and without wheel limits) and on the design model.
+    """Seed 004 Figs 4-5 through the FMUs (with and without wheel limits: scenario campaigns of
+    :func:`sims.demeter_loops.scenario`) and on the design model (the same plants, exactly).
 
     The plant and controller FMUs missing from ``fmu_dir`` are built first (:func:`sims.catalog.ensure`).
 
@@ -133,7 +134,8 @@ def figures(fmu_dir: Path, out_dir: Path, artifact: str | Path = "demeter_row1_d
     for limits in ("wheels", "linear"):
         report.loops[limits] = demeter_loops.run(Path(fmu_dir), artifact, n=samples, seed=seed, stop_time=stop_time,
                                                  step_size=step_size, limits=limits)
-    report.loops["design"] = demeter_loops.linear(artifact, n=samples, seed=seed, stop_time=linear_stop_time)
+    report.loops["design"] = demeter_loops.linear(artifact, deltas=report.loops["wheels"].deltas,
+                                                  stop_time=linear_stop_time)  # the same plants
     report.files = {key: demeter_loops.plot(loops, out_dir) for key, loops in report.loops.items()}
     return report
 

@@ -5,6 +5,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from distributed import Client, LocalCluster
 
 from controllers import polynomial
 from sims import demeter_loops as dl
@@ -15,20 +16,45 @@ ART = polynomial.ARTIFACTS / "demeter_row1_det.json"
 
 @pytest.fixture(scope="module")
 def loops(fmu_dir: Path) -> dict[str, dl.RandomLoops]:
-    return {lim: dl.run(fmu_dir, ART, n=2, seed=3, stop_time=5.0, step_size=1e-3, limits=lim)
-            for lim in ("linear", "wheels")}
+    """Two random plants, 5 s at 1 ms, both limit settings: six scenario campaigns on one in-process
+    Dask worker (the FMUs run in this process)."""
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=False, dashboard_address=":0") as lc, \
+            Client(lc) as client:
+        return {lim: dl.run(fmu_dir, ART, n=2, seed=3, stop_time=5.0, step_size=1e-3, limits=lim, points=2001,
+                            client=client) for lim in ("linear", "wheels")}
 
 
 def test_fmu_loops_without_limits_are_the_design_model(loops) -> None:
     lin = loops["linear"]
-    assert lin.theta.shape == (2, 5001) and lin.z2.shape == (2, 2, 5001)
+    # 2001 points asked of 5001 rows: 1251 (every 4th row), the largest uniform grid
+    assert lin.theta.shape == (2, 1251) and lin.z2.shape == (2, 2, 1251) and lin.time[1] == pytest.approx(4e-3)
     assert lin.theta[:, 0] == pytest.approx(THETA_WORST, rel=1e-12) and lin.saturated.max() == 0.0  # 15 deg
     # the only difference is the command held over 1 ms: 9e-7 rad over 60 s (cli), less over 5 s
     assert lin.linear_error < 1e-6
     # the same plants on the design model, exactly: same start of theta to the hold's accuracy
-    ref = dl.linear(ART, n=2, seed=3, stop_time=5.0, points=5001)
+    ref = dl.linear(ART, deltas=lin.deltas, stop_time=5.0, points=1251)
     assert np.abs(ref.theta - lin.theta).max() < 1e-6
-    assert np.array_equal(ref.deltas, lin.deltas)
+    assert np.abs(lin.deltas).max() <= 1.0 and lin.deltas.shape == (2, 3)  # sqrtJ11, omega, zeta in the box
+
+
+def test_the_scenario_disperses_the_design_box_and_bounds_z2_by_the_certificate() -> None:
+    """Row 1: J[1,1] = S^2 with S uniform on the design's sqrtJ11 interval, omega[1] and zeta[1]
+    uniform on theirs; the peak-|xw| bound is the artifact's impulse-to-peak bound times |w2|."""
+    import json
+
+    cert = json.loads(ART.read_text())["certificate"]["numbers"]["design_i2p_bound"]
+    sc = dl.scenario(ART, start="both")
+    table = sc.dispersions.data
+    assert table["plant.J[1,1]"]["transform"] == "square"
+    assert table["plant.J[1,1]"]["low"] ** 2 == pytest.approx(21.966, abs=1e-3)  # the artifact's range of J[1,1]
+    assert table["plant.J[1,1]"]["high"] ** 2 == pytest.approx(40.794, abs=1e-3)
+    assert (table["plant.omega[1]"]["low"], table["plant.zeta[1]"]["high"]) == pytest.approx((0.4 * np.pi, 0.005))
+    assert sc.metrics[0].max == pytest.approx(cert * np.sqrt(2), rel=1e-15)
+    assert dl.scenario(ART, start="theta").metrics[0].max == pytest.approx(cert, rel=1e-15)
+    assert sc.fmus["plant"].parameters["theta_0[1]"] == THETA_WORST
+    with pytest.raises(ValueError, match="start must be one of theta, rate, both"):
+        dl.scenario(ART, start="omega")
+    assert [dl.uniform_points(n, 2001) for n in (60001, 5001, 7, 2)] == [2001, 1251, 7, 2]
 
 
 def test_wheel_limits_change_the_loop(loops) -> None:
