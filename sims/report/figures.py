@@ -271,35 +271,46 @@ def envelopes(df: pd.DataFrame, signals: Mapping[str, Mapping[float, str]], unit
     return svg(fig, tight=True)
 
 
-def compare_histograms(series: Mapping[str, np.ndarray], metric: S.Metric) -> str:
-    """One metric over several campaigns: a step histogram each, on common bins, with the bounds.
+def compare_strips(series: Mapping[str, np.ndarray], metric: S.Metric) -> str:
+    """One metric over several campaigns side by side: a row per campaign, a dot per sample
+    (a red cross where it misses the bounds), the quartiles as a box, the bounds dashed.
 
     Parameters
     ----------
     series : dict of str to ndarray
-        Campaign label -> the metric's values.
+        Campaign label -> the metric's values (in the metric's unit).
     metric : Metric
         Names the axis and gives the bounds (the first campaign's).
 
     Returns
     -------
     str
-        An ``<svg>`` element.
+        An ``<svg>`` element. Non-finite values (a settling time never reached, a sample that
+        did not run) are counted in the row's label, not drawn.
     """
-    fig, ax = plt.subplots(figsize=(7.5, 2.9))
-    finite = {k: _finite(np.asarray(v, float)) for k, v in series.items()}
-    pooled = np.concatenate([f for f, _ in finite.values()]) if finite else np.array([])
-    if pooled.size:
-        bins = np.histogram_bin_edges(pooled, bins=min(50, max(5, int(np.sqrt(pooled.size)) + 1)))
-        for k, (label, (values, note)) in enumerate(finite.items()):
-            ax.hist(values, bins=bins, histtype="step", lw=1.6, color=f"C{k % 10}",
-                    label=label + (f" ({note})" if note else ""))
-    else:
-        ax.text(0.5, 0.5, "no finite value", ha="center", va="center", transform=ax.transAxes)
+    from sims import metrics as M
+
+    labels = list(series)
+    fig, ax = plt.subplots(figsize=(8.5, 0.75 * len(labels) + 1.1))
+    jitter = np.random.default_rng(0)  # vertical spread of the dots only: a fixed seed, the same page each time
+    ticks = []
+    for k, label in enumerate(labels):
+        values = np.asarray(series[label], float)
+        finite, note = _finite(values)
+        ticks.append(label + (f"\n({note})" if note else ""))
+        if finite.size:
+            ax.boxplot(finite, positions=[k], vert=False, widths=0.5, showfliers=False, manage_ticks=False,
+                       medianprops={"color": f"C{k % 10}"})
+            ok = np.array([M.MetricResult(metric.name, metric.kind, float(v), metric.min, metric.max).passed
+                           for v in finite], bool)
+            y = k + jitter.uniform(-0.18, 0.18, finite.size)
+            ax.scatter(finite[ok], y[ok], s=10, color=f"C{k % 10}", alpha=0.8, rasterized=True, zorder=3)
+            ax.scatter(finite[~ok], y[~ok], s=18, marker="x", color=FAILED, rasterized=True, zorder=3)
     _bound_lines(ax, metric, vertical=True)
+    ax.set_yticks(range(len(labels)), ticks, fontsize=8)
+    ax.set_ylim(len(labels) - 0.5, -0.5)
     ax.set_xlabel(f"{metric.name} ({metric.unit or '1'})", fontsize=8)
-    ax.set_ylabel("samples", fontsize=8)
-    ax.grid(True, alpha=0.3)
+    ax.grid(True, axis="x", alpha=0.3)
     _legend(ax)
     fig.tight_layout()
     return svg(fig)

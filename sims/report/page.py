@@ -83,7 +83,7 @@ class Comparison:
     metrics : list of str
         Every metric name of the campaigns, in order of first appearance.
     figures : dict of str to Markup
-        Metric name -> overlaid histograms (metrics two or more campaigns share).
+        Metric name -> the campaigns' samples side by side (metrics two or more campaigns share).
     """
 
     campaigns: list[CampaignFolder]
@@ -184,7 +184,7 @@ def _comparison(camps: list[CampaignFolder]) -> Comparison:
         having = [(c, next(m for m in c.scenario.metrics if m.name == name)) for c in camps
                   if any(m.name == name for m in c.scenario.metrics)]
         if len(having) > 1 and any(np.isfinite(c.rows[name].to_numpy(dtype=float)).any() for c, _ in having):
-            comp.figures[name] = Markup(figures.compare_histograms(
+            comp.figures[name] = Markup(figures.compare_strips(
                 {c.label: c.rows[name].to_numpy(dtype=float) for c, _ in having}, having[0][1]))
     return comp
 
