@@ -200,7 +200,8 @@ def scatter(rows: pd.DataFrame, metrics: Sequence[S.Metric], dispersed: Sequence
     """
     from sims import metrics as M
 
-    fig, axes = plt.subplots(len(metrics), len(dispersed), figsize=(2.6 * len(dispersed) + 0.8, 2.3 * len(metrics)),
+    fig, axes = plt.subplots(len(metrics), len(dispersed), figsize=(max(6.5, 2.6 * len(dispersed) + 0.8),
+                                                                    2.3 * len(metrics) + 0.4),
                              squeeze=False, sharex="col", sharey="row")
     for i, m in enumerate(metrics):
         y = rows[m.name].to_numpy(dtype=float)
@@ -221,11 +222,11 @@ def scatter(rows: pd.DataFrame, metrics: Sequence[S.Metric], dispersed: Sequence
             if j == 0:
                 ax.set_ylabel(textwrap.fill(f"{m.name} ({m.unit or '1'})", 28) + (f"\n{note}" if note else ""),
                               fontsize=7)
-    handles, labels = axes[0, 0].get_legend_handles_labels()
-    fig.legend(handles, labels, loc="upper right", fontsize=7, ncol=len(labels))
+    handles, labels = axes[0, 0].get_legend_handles_labels()  # the markers; each panel's bounds are dashed red
+    fig.legend(handles[:2], labels[:2], loc="upper right", fontsize=7, ncol=2)
     if title:
         fig.suptitle(title, fontsize=9, x=0.02, ha="left")
-    fig.tight_layout(rect=(0, 0, 1, 0.97))
+    fig.tight_layout(rect=(0, 0, 1, 1.0 - 0.45 / fig.get_figheight()))  # room for the title and legend
     return svg(fig)
 
 
