@@ -17,7 +17,7 @@ VERIFY_SHORT := mrp_200deg mrp_90deg_h2 cubesat_detumble
 # (set on some machines) would forbid, so make's commands run without it.
 unexport PYTHONDONTWRITEBYTECODE
 
-.PHONY: demo test test-all build validate verify bench clean system-deps
+.PHONY: demo test test-all build validate verify bench clean system-deps browser-deps
 
 # Debian's libtbb12 is needed by the ecos co-simulation host (ecospy); installed once, guarded.
 system-deps: $(VENV)/.system-deps
@@ -30,6 +30,16 @@ $(VENV)/.system-deps:
 	else echo "error: libtbb12 is missing; install Debian's libtbb12 (needed by the ecos FMU host)"; exit 1; fi
 	@command -v gcc >/dev/null || { echo "error: gcc is needed to compile the native FMUs"; exit 1; }
 	@touch $@
+
+# Debian's chromium and chromium-driver: the report page's browser test (tests/test_report.py) opens
+# the page in them. Checked on every `make test`, installed when missing (about 23 s with apt-get).
+browser-deps:
+	@if command -v chromium >/dev/null 2>&1 && command -v chromedriver >/dev/null 2>&1; then :; \
+	elif command -v apt-get >/dev/null 2>&1 && [ "$$(id -u)" = 0 ]; then \
+	  echo "installing Debian's chromium and chromium-driver (the report page's browser test)"; \
+	  (apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium chromium-driver >/dev/null 2>&1) \
+	  || { echo "error: apt-get could not install chromium and chromium-driver (needed by the report page's browser test)"; exit 1; }; \
+	else echo "error: chromium or chromedriver is missing and apt-get cannot install them here (not Debian, or not root): install Debian's chromium and chromium-driver, or your system's Chromium and its ChromeDriver on PATH (needed by the report page's browser test, tests/test_report.py)"; exit 1; fi
 
 $(VENV)/.installed: pyproject.toml | system-deps
 	@command -v $(PYTHON) >/dev/null || { echo "error: $(PYTHON) not found (Python 3.11 is required)"; exit 1; }
@@ -66,10 +76,10 @@ verify: build
 # thread per worker (spinning BLAS pools of two workers oversubscribe the CPUs)
 PYTEST := env OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 $(PY) -m pytest -q -n auto --dist loadfile
 
-test: build
+test: build browser-deps
 	@$(STAGE) --show tests $(PYTEST)
 
-test-all: build
+test-all: build browser-deps
 	@$(STAGE) --show "tests (all)" $(PYTEST) -m "slow or not slow"
 
 bench: build

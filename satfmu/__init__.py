@@ -19,6 +19,11 @@ Dispersion campaigns
     :func:`run_campaign` (the Monte Carlo campaign of a scenario's ``[dispersions]`` on Dask,
     resumable) -> :class:`CampaignResult` (``.rows``, ``.statistics``: a :class:`Statistics`
     of pass rates with Clopper-Pearson intervals, percentiles and the worst samples).
+Reports
+    :func:`write_report` (one self-contained HTML page of run and campaign folders: metrics,
+    time histories with requirement and actuator-limit lines, campaign statistics and figures,
+    side-by-side comparison, what each controller's artifact proved, provenance),
+    :class:`ReportError`.
 FMUs
     :func:`build` (every FMU, or some by name, into a folder; no-op when up to date),
     :func:`fmu_cache` (the default FMU folder).
@@ -52,6 +57,7 @@ _EXPORTS = {
     "Dispersions": "sims.dispersions", "DispersionError": "sims.dispersions",
     "run_campaign": "sims.scenario_campaign", "CampaignResult": "sims.scenario_campaign",
     "Statistics": "sims.scenario_campaign",
+    "write_report": "sims.report", "ReportError": "sims.report",
     "Design": "sims.designs", "DesignError": "sims.designs", "design_hinf": "sims.designs",
     "design_h2hinf": "sims.designs", "design_vscmg_sdre": "sims.designs",
     "design_cubesat_periodic": "sims.designs", "design_demeter": "sims.designs",

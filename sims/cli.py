@@ -22,6 +22,7 @@
     satfmu campaign demeter [--artifact demeter_row1_det] [--samples 100000] [--workers 2] [--scheduler tcp://...]
     satfmu campaign scenario SCENARIO --samples N [--workers 2 | --scheduler tcp://...] [--seed 0] [--chunk 10]
                              [--fmu-dir DIR] [--out results/campaigns]
+    satfmu report DIR [DIR ...] [--out results/report.html] [--fmu-dir DIR] [--confidence 0.95] [--worst 5]
     satfmu detumble [--samples 2000] [--seed 0] [--rates R ...] [--fmu-dir DIR] [--out results/cubesat]
     satfmu analyze sweep [--gammas 1 0.8 ...] [--region 0.45] [--out results/h2hinf_sweep]
     satfmu analyze region [--artifact vscmg_sdre_approx] [--box-q2 LO HI] [--box-w4 LO HI] [--cells 7 6] [--out DIR]
@@ -53,7 +54,8 @@ stability region of the approximated SDRE on one box and cell by cell (JSON and 
 (:mod:`sims.demeter_reports`), ``detumble`` seed 003's (:mod:`sims.detumble`).
 ``campaign scenario`` runs the Monte Carlo samples of a scenario's ``[dispersions]`` and
 prints their statistics (:mod:`sims.scenario_campaign`); it exits with status 1 when a
-sample misses a metric's bound or fails to run.
+sample misses a metric's bound or fails to run. ``report`` writes one self-contained HTML page
+of run and campaign folders (:mod:`sims.report`).
 
 This module imports only the standard library and :mod:`sims.paths` at start (``satfmu
 --help`` and ``satfmu list`` stay fast); each handler imports what it needs.
@@ -319,6 +321,15 @@ def _campaign_scenario(args: argparse.Namespace) -> int:
     return 0 if result.passed else 1
 
 
+def _report(args: argparse.Namespace) -> int:
+    from sims import report
+
+    out = report.write_report(args.folders, args.out, fmu_dir=args.fmu_dir, confidence=args.confidence,
+                              worst=args.worst)
+    print(f"wrote {out}")
+    return 0
+
+
 def _detumble(args: argparse.Namespace) -> int:
     from sims import detumble
 
@@ -547,6 +558,18 @@ def parser() -> argparse.ArgumentParser:
     _fmu_dir(cs, "folder of the FMUs (the missing ones are built; the workers read them there)")
     cs.add_argument("--out", default="results/campaigns", help="folder of the campaign folders")
     cs.set_defaults(fn=_campaign_scenario)
+    rp = command(sub, "report", "one self-contained HTML page of run and scenario campaign folders: metrics, "
+                                "time histories with requirement and actuator-limit lines, campaign statistics and "
+                                "figures, side-by-side comparison, what each controller's artifact proved, provenance")
+    rp.add_argument("folders", nargs="+", metavar="DIR",
+                    help="run folders (satfmu run --out: summary_<backend>.json) and scenario campaign folders "
+                         "(satfmu campaign scenario --out: campaign.json)")
+    rp.add_argument("--out", default="results/report.html", help="the HTML file written")
+    rp.add_argument("--fmu-dir", default=None,
+                    help="where the FMU files are now (default: the folder each run or campaign used)")
+    rp.add_argument("--confidence", type=float, default=0.95, help="two-sided confidence of the pass-rate intervals")
+    rp.add_argument("--worst", type=int, default=5, help="worst samples listed per campaign")
+    rp.set_defaults(fn=_report)
     dt = command(sub, "detumble", "seed 003: linear Monte Carlo (Fig. 2) and the nonlinear initial-rate sweep")
     dt.add_argument("--samples", type=int, default=2000, help="Monte Carlo realizations per gain set")
     dt.add_argument("--seed", type=int, default=0, help="seed of the realizations")

@@ -405,13 +405,17 @@ class Result:
     l2_curves : dict of str to ndarray
         The truncated L2 ratio over T of each ``l2_ratio`` metric.
     units : dict of str to str
-        Unit of each plotted column.
+        Unit of each recorded column.
     panels : list of list of str
         Columns of each plot panel.
     title : str
         Plot title.
     warnings : list of str
         Design mismatches found (a controller paired with a plant it was not designed for).
+    scenario : Scenario, optional
+        The scenario that ran (:meth:`write` records its declaration and FMU files).
+    fmu_dir : Path, optional
+        The FMU folder of the run.
     """
 
     name: str
@@ -424,6 +428,8 @@ class Result:
     panels: list[list[str]] = field(default_factory=list)
     title: str = ""
     warnings: list[str] = field(default_factory=list)
+    scenario: Scenario | None = None
+    fmu_dir: Path | None = None
 
     @property
     def passed(self) -> bool:
@@ -460,8 +466,15 @@ class Result:
         return path
 
     def write(self, folder: str | Path) -> dict[str, Path]:
-        """Write ``<name>_<backend>.csv``, the plot(s) and ``summary_<backend>.json`` into
-        ``folder``; returns (and records in :attr:`files`) what was written.
+        """Write ``<name>_<backend>.csv``, the plot(s), ``scenario_<backend>.json`` and
+        ``summary_<backend>.json`` into ``folder``; returns (and records in :attr:`files`) what
+        was written.
+
+        ``scenario_<backend>.json`` (written when :attr:`scenario` is known) holds what a report
+        of the run needs beside the summary: the scenario's declaration
+        (:meth:`Scenario.to_dict`), the folder its relative paths resolve against, the backend,
+        the FMU folder and each FMU file's name and SHA-256
+        (:func:`sims.scenario_campaign.context`), and the unit of every recorded column.
 
         The files of an earlier run of the same scenario and backend are removed first, every
         file is written whole (temporary name, then rename) and the summary comes last: a
@@ -482,6 +495,12 @@ class Result:
             write_atomically(files["l2_ratio_plot"], lambda tmp: plots.l2_ratio(
                 self.results["time"], {n: (c, bounds[n]) for n, c in self.l2_curves.items()}, tmp,
                 title=f"{self.name}: truncated L2 ratio over T"))
+        if self.scenario is not None and self.fmu_dir is not None:
+            from sims.scenario_campaign import context
+
+            files["scenario"] = folder / f"scenario_{self.backend}.json"
+            record = {**context(self.scenario, self.fmu_dir, self.backend), "units": self.units}
+            write_atomically(files["scenario"], lambda tmp: tmp.write_text(json.dumps(record, indent=1) + "\n"))
         files["summary"] = folder / f"summary_{self.backend}.json"
         self.files.update(files)
         write_atomically(files["summary"], lambda tmp: tmp.write_text(json.dumps(self.summary(), indent=1) + "\n"))
@@ -497,7 +516,7 @@ def _fields(obj: Any) -> dict[str, Any]:
 def clear_outputs(folder: Path, name: str, backend: str) -> None:
     """Remove the result files of an earlier run of ``name`` with ``backend`` from ``folder``."""
     for f in (f"{name}_{backend}.csv", f"{name}_{backend}.png", f"{name}_{backend}_l2_ratio.png",
-              f"summary_{backend}.json"):
+              f"scenario_{backend}.json", f"summary_{backend}.json"):
         (Path(folder) / f).unlink(missing_ok=True)
 
 
@@ -1098,8 +1117,8 @@ def run(scenario: "str | Path | Mapping[str, Any] | Scenario", fmu_dir: str | Pa
     panels = sc.plot.get("panels") or [[r] for r in sc.record] or [m.signals for m in sc.metrics]
     cols = [_columns(sim, p) for p in panels]
     result = Result(sc.name, backend, res, mres, l2_curves=curves,
-                    units={c: sim.unit(c) for group in cols for c in group}, panels=cols,
-                    title=f"{sc.name}: {sc.description}", warnings=list(sim.mismatches))
+                    units={c: sim.unit(c) for c in res.dtype.names if c != "time"}, panels=cols,
+                    title=f"{sc.name}: {sc.description}", warnings=list(sim.mismatches), scenario=sc, fmu_dir=folder)
     if out_dir is not None:
         result.write(Path(out_dir) / sc.name)
     return result

@@ -124,8 +124,12 @@ def test_one_name_per_meaning() -> None:
     assert not names & {"--dest", "--n", "--runs"}
     with pytest.raises(SystemExit):  # no abbreviation: the old --n does not become --name
         main(["campaign", "demeter", "--n", "300"])
-    fmu_dirs = [a for _, a in _options(cli.parser()) if "--fmu-dir" in a.option_strings]
+    # every command that builds or runs FMUs defaults to the FMU cache; `report` reads the FMU
+    # folder each run or campaign recorded, unless told where the files are now
+    fmu_dirs = [a for where, a in _options(cli.parser()) if "--fmu-dir" in a.option_strings and where != "satfmu report"]
     assert {a.default for a in fmu_dirs} == {str(paths.fmu_cache())} and Path(fmu_dirs[0].default).is_absolute()
+    assert [a.default for where, a in _options(cli.parser()) if where == "satfmu report"
+            and "--fmu-dir" in a.option_strings] == [None]
 
 
 def test_analyze_groups_the_analyses(capsys: pytest.CaptureFixture) -> None:

@@ -1,0 +1,317 @@
+"""The report's figures, drawn with matplotlib and returned as inline SVG (``<svg>...</svg>``).
+
+Scatter points are rasterized inside the SVG (an embedded PNG image), so a campaign of many
+samples stays a page of reasonable size; axes, lines and text stay vector.
+"""
+from __future__ import annotations
+
+import io
+import math
+import textwrap
+from typing import Callable, Mapping, Sequence
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
+
+from sims import scenario as S  # noqa: E402
+from sims.report.limits import Line, base  # noqa: E402
+
+REQUIREMENT = "#c0392b"
+"""Colour of requirement lines (a metric's bounds)."""
+ACTUATOR = "#222222"
+"""Colour of actuator-limit lines."""
+FAILED = "#d62728"
+"""Colour of the samples that miss a metric's bound."""
+
+
+def svg(fig: plt.Figure, tight: bool = False) -> str:
+    """The figure as an inline ``<svg>`` element (no XML prolog), the figure closed.
+
+    ``tight``: the bounding box of everything drawn (legends outside the axes), one more draw.
+    """
+    buf = io.StringIO()
+    try:
+        fig.savefig(buf, format="svg", bbox_inches="tight" if tight else None)
+    finally:
+        plt.close(fig)
+    text = buf.getvalue()
+    return text[text.index("<svg"):]
+
+
+def _draw_lines(ax: plt.Axes, lines: Sequence[Line]) -> None:
+    """Requirement (dashed) and actuator-limit (dash-dot) lines, one legend entry each."""
+    for ln in lines:
+        colour = REQUIREMENT if ln.kind == "requirement" else ACTUATOR
+        style = dict(color=colour, lw=1.1, ls="--" if ln.kind == "requirement" else "-.",
+                     alpha=1.0 if ln.active else 0.4)
+        if ln.axis == "time":
+            ax.axvline(ln.value, label=ln.label, **style)
+            continue
+        ax.axhline(ln.value, xmin=ln.span[0], xmax=ln.span[1], label=ln.label, **style)
+        if ln.symmetric and ln.value != 0.0:
+            ax.axhline(-ln.value, xmin=ln.span[0], xmax=ln.span[1], **style)
+
+
+def _legend(ax: plt.Axes, outside: bool = False) -> None:
+    handles, labels = ax.get_legend_handles_labels()
+    if handles and outside:
+        ax.legend(fontsize=6.5, loc="upper left", bbox_to_anchor=(1.01, 1.0), framealpha=0.85)
+    elif handles:
+        ax.legend(fontsize=6.5, loc="best", ncol=1 if len(handles) < 5 else 2, framealpha=0.85)
+
+
+ZOOM = 0.02
+"""A signal's panel is repeated, zoomed to its requirement band, when a level line is below this
+fraction of the signal's largest magnitude (a 0.1 deg settling band on a 200 deg manoeuvre)."""
+
+
+def time_histories(results: pd.DataFrame, units: Mapping[str, str], lines: Callable[[str], list[Line]],
+                   title: str = "") -> str:
+    """One panel per recorded signal (all its indices), against time, with its reference lines.
+
+    A signal whose requirement or limit levels are too small to see beside its largest value
+    (below :data:`ZOOM` of it) gets a second panel zoomed to three times its largest such level.
+
+    Parameters
+    ----------
+    results : pandas.DataFrame
+        ``time`` (s) and one column per ``instance.variable``.
+    units : dict of str to str
+        Unit of each column.
+    lines : callable
+        Base name (``plant.omega``) -> its :class:`~sims.report.limits.Line` list.
+    title : str
+
+    Returns
+    -------
+    str
+        An ``<svg>`` element.
+    """
+    groups: dict[str, list[str]] = {}
+    for c in results.columns:
+        if c != "time":
+            groups.setdefault(base(c), []).append(c)
+    panels: list[tuple[str, list[str], list[Line], float | None]] = []
+    for name, cols in groups.items():
+        found = lines(name)
+        panels.append((name, cols, found, None))
+        top = float(np.nanmax(np.abs(results[cols].to_numpy(dtype=float)), initial=0.0))
+        small = [abs(ln.value) for ln in found if ln.axis == "level" and 0.0 < abs(ln.value) < ZOOM * top]
+        if small:
+            panels.append((name, cols, found, 3.0 * max(small)))
+    fig, axes = plt.subplots(len(panels), 1, sharex=True, figsize=(8.5, 2.1 * len(panels) + 0.5), squeeze=False)
+    t = results["time"].to_numpy()
+    for ax, (name, cols, found, zoom) in zip(axes[:, 0], panels):
+        for k, c in enumerate(cols):
+            ax.plot(t, results[c].to_numpy(), color=f"C{k % 10}", lw=1.2, label=c)
+        _draw_lines(ax, found)
+        unit = ", ".join(sorted({units.get(c) or "1" for c in cols}))
+        if zoom is not None:
+            ax.set_ylim(-zoom, zoom)
+        ax.set_ylabel(f"{name}\n({unit})" + (", zoomed" if zoom is not None else ""), fontsize=8)
+        ax.grid(True, alpha=0.3)
+        _legend(ax, outside=True)
+    axes[-1, 0].set_xlabel("time (s)")
+    if title:
+        fig.suptitle(textwrap.fill(title, 110), fontsize=9)
+    fig.tight_layout()
+    return svg(fig, tight=True)
+
+
+def _finite(values: np.ndarray) -> tuple[np.ndarray, str]:
+    """The finite values and a note on the others (``"2 inf"``, ``"1 not run"``)."""
+    finite = values[np.isfinite(values)]
+    notes = [f"{int(np.sum(values == np.inf))} inf" if np.any(values == np.inf) else "",
+             f"{int(np.sum(values == -np.inf))} -inf" if np.any(values == -np.inf) else "",
+             f"{int(np.sum(np.isnan(values)))} not run" if np.any(np.isnan(values)) else ""]
+    return finite, ", ".join(n for n in notes if n)
+
+
+def _bound_lines(ax: plt.Axes, metric: S.Metric, vertical: bool) -> None:
+    for bound, label in ((metric.min, "min"), (metric.max, "max")):
+        if bound is not None:
+            (ax.axvline if vertical else ax.axhline)(bound, color=REQUIREMENT, ls="--", lw=1.1,
+                                                     label=f"{label} {bound:g}")
+
+
+def _grid(n: int, columns: int) -> tuple[int, int]:
+    cols = max(1, min(columns, n))
+    return math.ceil(n / cols), cols
+
+
+def histograms(rows: pd.DataFrame, metrics: Sequence[S.Metric], title: str = "") -> str:
+    """A histogram per metric over a campaign's samples, with its bounds (dashed).
+
+    Parameters
+    ----------
+    rows : pandas.DataFrame
+        A campaign's rows (a column per metric, in its unit).
+    metrics : list of Metric
+        The scenario's metrics (names, units, bounds).
+    title : str
+
+    Returns
+    -------
+    str
+        An ``<svg>`` element; a metric without a finite value gets an empty panel saying so.
+    """
+    nr, nc = _grid(len(metrics), 2)
+    fig, axes = plt.subplots(nr, nc, figsize=(4.3 * nc, 2.8 * nr), squeeze=False)
+    for ax in axes.flat[len(metrics):]:
+        ax.set_visible(False)
+    for ax, m in zip(axes.flat, metrics):
+        finite, note = _finite(rows[m.name].to_numpy(dtype=float))
+        if finite.size:
+            ax.hist(finite, bins=min(50, max(5, int(np.sqrt(finite.size)) + 1)), color="C0", alpha=0.8)
+        else:
+            ax.text(0.5, 0.5, "no finite value", ha="center", va="center", transform=ax.transAxes)
+        _bound_lines(ax, m, vertical=True)
+        ax.set_title(textwrap.fill(m.name, 45) + (f"\n({note})" if note else ""), fontsize=8)
+        ax.set_xlabel(m.unit or "1", fontsize=8)
+        ax.set_ylabel("samples", fontsize=8)
+        ax.grid(True, alpha=0.3)
+        _legend(ax)
+    if title:
+        fig.suptitle(title, fontsize=9)
+    fig.tight_layout()
+    return svg(fig)
+
+
+def scatter(rows: pd.DataFrame, metrics: Sequence[S.Metric], dispersed: Sequence[str], title: str = "") -> str:
+    """Each metric against each dispersed value, samples that miss the metric's bounds marked.
+
+    Parameters
+    ----------
+    rows : pandas.DataFrame
+        A campaign's rows.
+    metrics : list of Metric
+    dispersed : list of str
+        The dispersed value columns.
+    title : str
+
+    Returns
+    -------
+    str
+        An ``<svg>`` element: a row of panels per metric, a column per dispersed value.
+    """
+    from sims import metrics as M
+
+    fig, axes = plt.subplots(len(metrics), len(dispersed), figsize=(max(6.5, 2.6 * len(dispersed) + 0.8),
+                                                                    2.3 * len(metrics) + 0.4),
+                             squeeze=False, sharex="col", sharey="row")
+    for i, m in enumerate(metrics):
+        y = rows[m.name].to_numpy(dtype=float)
+        ok = np.array([M.MetricResult(m.name, m.kind, float(v), m.min, m.max, m.unit).passed for v in y], bool)
+        _, note = _finite(y)
+        for j, d in enumerate(dispersed):
+            ax = axes[i, j]
+            x = rows[d].to_numpy(dtype=float)
+            shown = np.isfinite(x) & np.isfinite(y)
+            ax.scatter(x[shown & ok], y[shown & ok], s=9, color="C0", label="within bounds", rasterized=True)
+            ax.scatter(x[shown & ~ok], y[shown & ~ok], s=16, marker="x", color=FAILED, label="misses a bound",
+                       rasterized=True)
+            _bound_lines(ax, m, vertical=False)
+            ax.grid(True, alpha=0.3)
+            ax.tick_params(labelsize=7)
+            if i == len(metrics) - 1:
+                ax.set_xlabel(d, fontsize=8)
+            if j == 0:
+                ax.set_ylabel(textwrap.fill(f"{m.name} ({m.unit or '1'})", 28) + (f"\n{note}" if note else ""),
+                              fontsize=7)
+    handles, labels = axes[0, 0].get_legend_handles_labels()  # the markers; each panel's bounds are dashed red
+    fig.legend(handles[:2], labels[:2], loc="upper right", fontsize=7, ncol=2)
+    if title:
+        fig.suptitle(title, fontsize=9, x=0.02, ha="left")
+    fig.tight_layout(rect=(0, 0, 1, 1.0 - 0.45 / fig.get_figheight()))  # room for the title and legend
+    return svg(fig)
+
+
+def envelopes(df: pd.DataFrame, signals: Mapping[str, Mapping[float, str]], units: Mapping[str, str],
+              lines: Callable[[str], list[Line]], title: str = "") -> str:
+    """Percentile envelopes of recorded signals over a campaign's samples, with reference lines.
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        ``time`` (s) and ``<signal>:p<percentile>`` columns.
+    signals : dict
+        Signal -> percentile (%) -> column (:func:`sims.report.folders.envelope_signals`).
+    units : dict of str to str
+        Unit of each signal.
+    lines : callable
+        Base name -> its :class:`~sims.report.limits.Line` list.
+    title : str
+
+    Returns
+    -------
+    str
+        An ``<svg>`` element: a panel per signal, the band between its lowest and highest
+        percentile shaded, each percentile a line.
+    """
+    fig, axes = plt.subplots(len(signals), 1, sharex=True, figsize=(8.5, 2.3 * len(signals) + 0.5), squeeze=False)
+    t = df["time"].to_numpy()
+    for ax, (name, pcts) in zip(axes[:, 0], signals.items()):
+        ps = list(pcts)
+        if len(ps) > 1:
+            ax.fill_between(t, df[pcts[ps[0]]], df[pcts[ps[-1]]], color="C0", alpha=0.15,
+                            label=f"p{ps[0]:g} to p{ps[-1]:g}")
+        for k, p in enumerate(ps):
+            ax.plot(t, df[pcts[p]], color=f"C{k % 10}", lw=1.1, label=f"p{p:g}")
+        _draw_lines(ax, lines(base(name)))
+        ax.set_ylabel(f"{name}\n({units.get(name) or '1'})", fontsize=8)
+        ax.grid(True, alpha=0.3)
+        _legend(ax, outside=True)
+    axes[-1, 0].set_xlabel("time (s)")
+    if title:
+        fig.suptitle(title, fontsize=9)
+    fig.tight_layout()
+    return svg(fig, tight=True)
+
+
+def compare_strips(series: Mapping[str, np.ndarray], metric: S.Metric) -> str:
+    """One metric over several campaigns side by side: a row per campaign, a dot per sample
+    (a red cross where it misses the bounds), the quartiles as a box, the bounds dashed.
+
+    Parameters
+    ----------
+    series : dict of str to ndarray
+        Campaign label -> the metric's values (in the metric's unit).
+    metric : Metric
+        Names the axis and gives the bounds (the first campaign's).
+
+    Returns
+    -------
+    str
+        An ``<svg>`` element. Non-finite values (a settling time never reached, a sample that
+        did not run) are counted in the row's label, not drawn.
+    """
+    from sims import metrics as M
+
+    labels = list(series)
+    fig, ax = plt.subplots(figsize=(8.5, 0.75 * len(labels) + 1.1))
+    jitter = np.random.default_rng(0)  # vertical spread of the dots only: a fixed seed, the same page each time
+    ticks = []
+    for k, label in enumerate(labels):
+        values = np.asarray(series[label], float)
+        finite, note = _finite(values)
+        ticks.append(label + (f"\n({note})" if note else ""))
+        if finite.size:
+            ax.boxplot(finite, positions=[k], vert=False, widths=0.5, showfliers=False, manage_ticks=False,
+                       medianprops={"color": f"C{k % 10}"})
+            ok = np.array([M.MetricResult(metric.name, metric.kind, float(v), metric.min, metric.max).passed
+                           for v in finite], bool)
+            y = k + jitter.uniform(-0.18, 0.18, finite.size)
+            ax.scatter(finite[ok], y[ok], s=10, color=f"C{k % 10}", alpha=0.8, rasterized=True, zorder=3)
+            ax.scatter(finite[~ok], y[~ok], s=18, marker="x", color=FAILED, rasterized=True, zorder=3)
+    _bound_lines(ax, metric, vertical=True)
+    ax.set_yticks(range(len(labels)), ticks, fontsize=8)
+    ax.set_ylim(len(labels) - 0.5, -0.5)
+    ax.set_xlabel(f"{metric.name} ({metric.unit or '1'})", fontsize=8)
+    ax.grid(True, axis="x", alpha=0.3)
+    _legend(ax)
+    fig.tight_layout()
+    return svg(fig)

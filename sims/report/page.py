@@ -1,0 +1,297 @@
+"""The report page: runs, campaigns, their comparison, what was proved and the provenance,
+as one self-contained HTML file (inline CSS and SVG figures; no script, no external URL).
+
+The page is rendered from the Jinja2 template ``page.html.j2`` beside this module (autoescaped;
+only the SVG figures, which matplotlib writes, are inserted as they are). Every number of a
+table also sits, unrounded, in its cell's ``data-value`` attribute (``repr`` of the float),
+for scripts and tests that read the page.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Sequence
+
+import jinja2
+import numpy as np
+from markupsafe import Markup
+
+from fmus.atomic import write_atomically
+from sims import metrics as M
+from sims import scenario as S
+from sims.report import figures, limits, proved
+from sims.report.folders import (CampaignFolder, Folder, ReportError, RunFolder, envelope_signals, read_folder)
+from sims.report.provenance import Provenance, collect
+from sims.scenario_campaign import FAILURES, PERCENTILES, MetricStatistics
+
+
+def number(value: Any) -> str:
+    """A value as the page prints it: 6 significant digits, ``inf``, ``NaN``, empty for None."""
+    if value is None:
+        return ""
+    v = float(value)
+    if math.isnan(v):
+        return "NaN"
+    if math.isinf(v):
+        return "inf" if v > 0 else "-inf"
+    return f"{v:.6g}"
+
+
+def percent(value: float) -> str:
+    """A fraction as the page prints it: ``87.50 %``."""
+    return f"{100.0 * float(value):.2f} %"
+
+
+def exact(value: Any) -> str:
+    """The unrounded value of a cell (``data-value``): ``repr`` of the float, empty for None."""
+    return "" if value is None else repr(float(value))
+
+
+def bounds(metric: S.Metric | M.MetricResult) -> str:
+    """``min 6.1, max 6.3``, in the metric's unit (empty: no bound)."""
+    return ", ".join(f"{k} {v:g}" for k, v in (("min", metric.min), ("max", metric.max)) if v is not None)
+
+
+@dataclass(frozen=True)
+class StatisticsRow:
+    """A row of a campaign's statistics table (:class:`sims.scenario_campaign.MetricStatistics`).
+
+    Parameters
+    ----------
+    statistics : MetricStatistics
+    bounds : str
+        The metric's bounds (empty for the ``passed`` row).
+    """
+
+    statistics: MetricStatistics
+    bounds: str
+
+    @property
+    def percentiles(self) -> list[float | None]:
+        """The metric's value at each of :data:`~sims.scenario_campaign.PERCENTILES` (None: no finite value)."""
+        return [self.statistics.percentiles.get(p) for p in PERCENTILES]
+
+
+@dataclass
+class Comparison:
+    """Side-by-side figures of several campaigns: metrics matched by name.
+
+    Attributes
+    ----------
+    campaigns : list of CampaignFolder
+    metrics : list of str
+        Every metric name of the campaigns, in order of first appearance.
+    figures : dict of str to Markup
+        Metric name -> the campaigns' samples side by side (metrics two or more campaigns share).
+    """
+
+    campaigns: list[CampaignFolder]
+    metrics: list[str]
+    figures: dict[str, Markup] = field(default_factory=dict)
+
+    def statistics(self, campaign: CampaignFolder, name: str) -> MetricStatistics | None:
+        """The campaign's statistics of metric ``name`` (None: the scenario has no such metric)."""
+        return next((s for s in campaign.statistics.metrics if s.name == name), None)
+
+    def worst(self, campaign: CampaignFolder, name: str) -> tuple[float, int] | None:
+        """The worst value of metric ``name`` over the samples that ran, and its sample (:func:`worst_value`)."""
+        metric = next((m for m in campaign.scenario.metrics if m.name == name), None)
+        return None if metric is None else worst_value(campaign.rows, metric)
+
+
+def worst_value(rows: Any, metric: S.Metric) -> tuple[float, int] | None:
+    """The worst value of a metric over a campaign's samples that ran, and its sample index.
+
+    Worst is the largest value for a metric with a ``max`` (or no bound), the smallest for a
+    metric with only a ``min``; infinite values count (a settling time never reached).
+
+    Parameters
+    ----------
+    rows : pandas.DataFrame
+        A campaign's rows.
+    metric : Metric
+
+    Returns
+    -------
+    (float, int) or None
+        None when no sample ran.
+    """
+    values = rows[metric.name].to_numpy(dtype=float)
+    ran = ~np.isnan(values)
+    if not ran.any():
+        return None
+    pick = np.where(ran, values, -np.inf if metric.max is not None or metric.min is None else np.inf)
+    k = int(np.argmin(pick) if metric.max is None and metric.min is not None else np.argmax(pick))
+    return float(values[k]), int(rows["sample"].iloc[k])
+
+
+def _run_view(run: RunFolder) -> dict[str, Any]:
+    lim = limits.actuator_limits(run.scenario, run.fmus)
+    figure = figures.time_histories(run.results, run.units, lambda s: limits.signal_lines(run.scenario, s, lim),
+                                    title=f"{run.scenario.name} ({run.backend})")
+    return {"kind": "run", "run": run, "figure": Markup(figure), "limits": lim}
+
+
+def _campaign_view(camp: CampaignFolder) -> dict[str, Any]:
+    st, sc = camp.statistics, camp.scenario
+    rows = [StatisticsRow(st.overall, "")] + [StatisticsRow(s, bounds(m)) for s, m in zip(st.metrics, sc.metrics)]
+    view: dict[str, Any] = {"kind": "campaign", "campaign": camp, "rows": rows, "metrics": sc.metrics,
+                            "worst_columns": ["sample", "passed", "failed", *[m.name for m in sc.metrics],
+                                              *camp.dispersed],
+                            "failures": {int(c): FAILURES[int(c)] for c in sorted(set(camp.rows["failed"]))
+                                         if int(c) in FAILURES and c > 0},
+                            "histograms": Markup(figures.histograms(camp.rows, sc.metrics, camp.label))}
+    # a value every sample shares (a product of inertia the dispersion keeps at 0) or a metric
+    # without a finite value has nothing to scatter: the caption names them
+    varied = [d for d in camp.dispersed if camp.rows[d].nunique(dropna=True) > 1]
+    view["constant"] = {d: camp.rows[d].dropna().iloc[0] if camp.rows[d].notna().any() else None
+                        for d in camp.dispersed if d not in varied}
+    plotted = [m for m in sc.metrics if np.isfinite(camp.rows[m.name].to_numpy(dtype=float)).any()]
+    view["unplotted"] = [m.name for m in sc.metrics if m not in plotted]
+    if varied and plotted:
+        view["scatter"] = Markup(figures.scatter(camp.rows, plotted, varied, camp.label))
+    if camp.envelopes is not None:
+        signals = envelope_signals(camp.envelopes)
+        lim = limits.actuator_limits(sc, camp.fmus)
+        view["envelopes"] = Markup(figures.envelopes(
+            camp.envelopes, signals, _units(camp, list(signals)), lambda s: limits.signal_lines(sc, s, lim),
+            camp.label))
+    return view
+
+
+def _units(camp: CampaignFolder, signals: list[str]) -> dict[str, str]:
+    """Unit of each ``instance.variable`` (from its FMU's model description; ``"1"`` if unknown)."""
+    from fmpy import read_model_description
+
+    out, mds = {}, {}
+    for s in signals:
+        inst, _, name = s.partition(".")
+        f = camp.fmus.get(inst)
+        if f is not None and inst not in mds and f.path.is_file():
+            mds[inst] = {v.name: v for v in read_model_description(str(f.path)).modelVariables}
+        v = mds.get(inst, {}).get(name) or next((w for n, w in mds.get(inst, {}).items()
+                                                 if limits.base(n) == name), None)
+        unit = getattr(v, "unit", None) or getattr(getattr(v, "declaredType", None), "unit", None)
+        out[s] = unit or "1"
+    return out
+
+
+def _comparison(camps: list[CampaignFolder]) -> Comparison:
+    names = list(dict.fromkeys(m.name for c in camps for m in c.scenario.metrics))
+    comp = Comparison(camps, names)
+    for name in names:
+        having = [(c, next(m for m in c.scenario.metrics if m.name == name)) for c in camps
+                  if any(m.name == name for m in c.scenario.metrics)]
+        if len(having) > 1 and any(np.isfinite(c.rows[name].to_numpy(dtype=float)).any() for c, _ in having):
+            comp.figures[name] = Markup(figures.compare_strips(
+                {c.label: c.rows[name].to_numpy(dtype=float) for c, _ in having}, having[0][1]))
+    return comp
+
+
+def _claims(folders: Sequence[Folder]) -> list[proved.Claims]:
+    """The claims of every controller FMU the folders used, each file once."""
+    found: dict[tuple[Path, str], proved.Claims] = {}
+    for f in folders:
+        for inst, fmu in f.fmus.items():
+            key = (fmu.path, fmu.sha256)
+            if key not in found:
+                c = proved.claims(fmu)
+                if c is None:
+                    continue
+                found[key] = c
+            found[key].used_by.append(f"{f.label}: {inst}")
+    return list(found.values())
+
+
+def _environment() -> jinja2.Environment:
+    env = jinja2.Environment(loader=jinja2.FileSystemLoader(Path(__file__).parent), autoescape=True,
+                             undefined=jinja2.StrictUndefined, trim_blocks=True, lstrip_blocks=True)
+    env.filters.update(number=number, percent=percent, exact=exact, bounds=bounds)
+    env.globals.update(PERCENTILES=PERCENTILES)
+    return env
+
+
+def build_report(folders: Sequence[str | Path], fmu_dir: str | Path | None = None, confidence: float = 0.95,
+                 worst: int = 5, provenance: Provenance | None = None) -> str:
+    """The report page of run and campaign folders, as HTML text.
+
+    Parameters
+    ----------
+    folders : list of path
+        Run folders (``satfmu run --out``) and scenario campaign folders (``satfmu campaign
+        scenario --out``), in the order the page shows them; two or more campaigns (or runs)
+        are also compared side by side.
+    fmu_dir : path, optional
+        Where the FMU files are now (default: the folder each run or campaign used).
+    confidence : float
+        Two-sided confidence of the campaigns' pass-rate intervals, in (0, 1).
+    worst : int
+        How many worst samples of each campaign to list, >= 0.
+    provenance : Provenance, optional
+        Default :func:`sims.report.provenance.collect` (now, this process).
+
+    Returns
+    -------
+    str
+
+    Raises
+    ------
+    ReportError
+        No folder, a bad confidence or count, or a folder :func:`~sims.report.folders.read_folder` refuses.
+    """
+    if not folders:
+        raise ReportError("no folder to report on")
+    if not 0.0 < confidence < 1.0:
+        raise ReportError(f"confidence must be in (0, 1), got {confidence!r}")
+    if isinstance(worst, bool) or int(worst) != worst or worst < 0:
+        raise ReportError(f"worst must be an integer >= 0, got {worst!r}")
+    items: list[Folder] = []
+    for path in dict.fromkeys(Path(f).resolve() for f in folders):
+        items += read_folder(path, fmu_dir, confidence, int(worst))
+    runs = [f for f in items if isinstance(f, RunFolder)]
+    camps = [f for f in items if isinstance(f, CampaignFolder)]
+    template = _environment().get_template("page.html.j2")
+    views = [_run_view(f) if isinstance(f, RunFolder) else _campaign_view(f) for f in items]
+    return template.render(
+        items=items, views=views, run_comparison=runs if len(runs) > 1 else None,
+        run_metrics=list(dict.fromkeys(m.name for r in runs for m in r.metrics)),
+        comparison=_comparison(camps) if len(camps) > 1 else None, claims=_claims(items),
+        provenance=provenance or collect(), confidence=confidence)
+
+
+def write_report(folders: Sequence[str | Path], out: str | Path, fmu_dir: str | Path | None = None,
+                 confidence: float = 0.95, worst: int = 5) -> Path:
+    """Write the report page of run and campaign folders (:func:`build_report`) to one HTML file.
+
+    The page is self-contained: inline CSS and SVG figures, no script and no external URL,
+    so it opens offline in any browser and can be mailed or archived as one file.
+
+    Parameters
+    ----------
+    folders : list of path
+        Run folders and scenario campaign folders.
+    out : path
+        The HTML file (its folder is created; written whole or not at all).
+    fmu_dir : path, optional
+        Where the FMU files are now (default: the folder each run or campaign used).
+    confidence : float
+        Two-sided confidence of the campaigns' pass-rate intervals, in (0, 1).
+    worst : int
+        How many worst samples of each campaign to list, >= 0.
+
+    Returns
+    -------
+    Path
+        ``out``.
+
+    Raises
+    ------
+    ReportError
+        What :func:`build_report` refuses.
+    """
+    html = build_report(folders, fmu_dir, confidence, worst)
+    out = Path(out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    write_atomically(out, lambda tmp: tmp.write_text(html, encoding="utf-8"))
+    return out

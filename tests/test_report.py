@@ -1,0 +1,398 @@
+"""The report page (sims.report, `satfmu report`): its numbers against the rows and statistics
+computed here independently, its sections, bad input, and the page rendered in a real browser
+(Debian's chromium driven by selenium).
+
+Small campaigns keep it fast: seed 000's 200 deg manoeuvre cut to 2 s (40 steps), its three
+MRP controllers (published, synthesized, mixed H2/H-infinity), each over the same dispersions
+(initial rate, inertia), 8 samples each, on an in-process Dask cluster.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import re
+import shutil
+import subprocess
+import tomllib
+from collections.abc import Iterator
+from pathlib import Path
+
+import lxml.html
+import numpy as np
+import pandas as pd
+import pytest
+from distributed import Client, LocalCluster
+from scipy import stats
+
+from sims import campaign as C
+from sims import scenario as S
+from sims import scenario_campaign as SC
+from sims.cli import main
+from sims.paths import SHIPPED_ARTIFACTS, SHIPPED_SCENARIOS
+from sims.report import ReportError, build_report, limits, provenance
+from sims.report.folders import read_folder
+from sims.report.page import number, percent
+
+SEED = 3
+N = 8
+CONTROLLERS = ("mrp_hinf_published", "mrp_hinf_satfmu", "mrp_h2hinf_satfmu")
+DISPERSIONS = {"plant.omega_0[1]": {"kind": "uniform", "low": -0.01, "high": 0.01},  # rad/s
+               "inertia": {"instance": "plant", "relative": 0.1}}
+DIGITS = 5e-6
+"""Relative tolerance of a number read from the page's text: printed with 6 significant digits."""
+
+
+def scenario_data(controller: str) -> dict:
+    """mrp_200deg for 2 s with ``controller``, dispersed; metrics: the shipped ones (the final angle
+    at 120 s left out) and the angle at 2 s, bounded so that some samples pass and some fail."""
+    data = tomllib.loads((SHIPPED_SCENARIOS / "mrp_200deg.toml").read_text())
+    metrics = [m for m in data["metrics"] if m["name"] != "attitude angle at 120 s"]
+    metrics.append({"name": "peak rate", "kind": "peak", "signals": ["plant.omega"], "unit": "rad/s", "max": 0.2})
+    return {**data, "name": f"r_{controller}", "stop_time": 2.0, "dispersions": DISPERSIONS, "metrics": metrics,
+            "fmus": {**data["fmus"], "controller": {"model": controller, "parameters": {"saturation_on": False}}}}
+
+
+@pytest.fixture(scope="module")
+def client() -> Iterator[Client]:
+    """One in-process worker with one thread (FMUs run in this process)."""
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=False, dashboard_address=":0") as lc, \
+            Client(lc) as cl:
+        yield cl
+
+
+@pytest.fixture(scope="module")
+def campaigns(tmp_path_factory: pytest.TempPathFactory, client: Client, fmu_dir: Path) -> dict[str, Path]:
+    """Controller -> the folder of its campaign (seed SEED, N samples, chunks of 4)."""
+    out = tmp_path_factory.mktemp("campaigns")
+    folders = {}
+    for ctrl in CONTROLLERS:
+        camp = SC.campaign(S.Scenario.from_dict(scenario_data(ctrl)), N, seed=SEED, chunk=4, fmu_dir=fmu_dir,
+                           name=ctrl)
+        C.run(camp, out, client=client)
+        folders[ctrl] = out / ctrl
+    return folders
+
+
+@pytest.fixture(scope="module")
+def run_folder(tmp_path_factory: pytest.TempPathFactory, fmu_dir: Path) -> Path:
+    """The folder of mrp_200deg_sat (command saturated at 5 N m) run for 5 s."""
+    data = tomllib.loads((SHIPPED_SCENARIOS / "mrp_200deg_sat.toml").read_text())
+    out = tmp_path_factory.mktemp("runs")
+    S.run(S.Scenario.from_dict({**data, "stop_time": 5.0}), fmu_dir, out_dir=out)
+    return out / data["name"]
+
+
+@pytest.fixture(scope="module")
+def page(campaigns: dict[str, Path], run_folder: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The report of the three campaigns and the run, written by `satfmu report`."""
+    out = tmp_path_factory.mktemp("page") / "report.html"
+    assert main(["report", *map(str, campaigns.values()), str(run_folder), "--out", str(out)]) == 0
+    return out
+
+
+def tree(path: Path) -> lxml.html.HtmlElement:
+    return lxml.html.fromstring(path.read_bytes())
+
+
+def section(doc: lxml.html.HtmlElement, label: str) -> lxml.html.HtmlElement:
+    found = doc.xpath(f'//section[@data-label="{label}"]')
+    assert len(found) == 1, label
+    return found[0]
+
+
+def cell(row: lxml.html.HtmlElement, column: str) -> lxml.html.HtmlElement:
+    found = row.xpath(f'./td[@data-column="{column}"]')
+    assert len(found) == 1, column
+    return found[0]
+
+
+def within(values: np.ndarray, metric: dict) -> np.ndarray:
+    """Whether each value meets the metric's bounds (NaN: a sample that did not run, fails)."""
+    ok = ~np.isnan(values)
+    if "max" in metric:
+        ok &= values <= metric["max"]
+    if "min" in metric:
+        ok &= values >= metric["min"]
+    return ok
+
+
+def percentile(values: np.ndarray, p: float) -> float:
+    """The p-th percentile by linear interpolation between order statistics (numpy's default,
+    written out here)."""
+    x = np.sort(values)
+    rank = p / 100.0 * (x.size - 1)
+    lo = int(math.floor(rank))
+    hi = min(lo + 1, x.size - 1)
+    return float(x[lo] + (rank - lo) * (x[hi] - x[lo]))
+
+
+def test_campaign_statistics_in_the_page_are_those_of_the_rows(page: Path, campaigns: dict[str, Path]) -> None:
+    doc = tree(page)
+    mixed = False
+    for ctrl, folder in campaigns.items():
+        rows = C.load(folder)
+        sec = section(doc, ctrl)
+        for metric in scenario_data(ctrl)["metrics"]:
+            row = sec.xpath(f'.//table[@class="statistics"]/tr[@data-metric="{metric["name"]}"]')[0]
+            values = rows[metric["name"]].to_numpy(dtype=float)
+            passes = int(within(values, metric).sum())
+            mixed |= 0 < passes < N
+            rate = cell(row, "rate")
+            assert float(rate.get("data-value")) == passes / N  # a ratio of counts: exact
+            assert rate.text_content() == f"{100 * passes / N:.2f} %"
+            interval = cell(row, "interval")
+            # Clopper-Pearson bounds are Beta quantiles; rel 1e-9: root finding in scipy's binomtest
+            low = stats.beta.ppf(0.025, passes, N - passes + 1) if passes > 0 else 0.0
+            high = stats.beta.ppf(0.975, passes + 1, N - passes) if passes < N else 1.0
+            assert float(interval.get("data-low")) == pytest.approx(low, rel=1e-9, abs=1e-12)
+            assert float(interval.get("data-high")) == pytest.approx(high, rel=1e-9, abs=1e-12)
+            finite = values[np.isfinite(values)]
+            for p in SC.PERCENTILES:
+                c = cell(row, f"p{p:g}")
+                if finite.size == 0:  # a settling time never reached in 2 s: no percentile
+                    assert c.get("data-value") == "" and c.text_content() == ""
+                    continue
+                # rel 1e-12: the same interpolation, rounding of the last bits only
+                assert float(c.get("data-value")) == pytest.approx(percentile(finite, p), rel=1e-12)
+                assert float(c.text_content()) == pytest.approx(percentile(finite, p), rel=DIGITS)
+        overall = sec.xpath('.//table[@class="statistics"]/tr[@data-metric="all metrics (passed)"]')[0]
+        assert float(cell(overall, "rate").get("data-value")) == float((rows["passed"] == 1.0).mean())
+    assert mixed, "no metric with both passing and failing samples: the test checks too little"
+
+
+def test_worst_samples_show_their_rows(page: Path, campaigns: dict[str, Path]) -> None:
+    doc = tree(page)
+    for ctrl, folder in campaigns.items():
+        rows = C.load(folder).set_index("sample")
+        shown = section(doc, ctrl).xpath('.//table[@class="worst"]/tr[@data-sample]')
+        assert len(shown) == 5  # --worst default
+        for tr in shown:
+            k = int(tr.get("data-sample"))
+            for td in tr.xpath("./td[@data-column]"):
+                col = td.get("data-column")
+                if col == "sample":
+                    continue
+                expected = rows.loc[k, col]
+                value = float(td.get("data-value"))
+                assert value == expected or (math.isnan(value) and math.isnan(expected)), (ctrl, k, col)
+                assert td.text_content() == (str(int(expected)) if col in ("passed", "failed") else number(expected))
+
+
+def test_campaigns_side_by_side(page: Path, campaigns: dict[str, Path]) -> None:
+    doc = tree(page)
+    table = doc.xpath('//section[@id="comparison"]//table[@class="comparison"]')[0]
+    for ctrl, folder in campaigns.items():
+        rows = C.load(folder)
+        for metric in scenario_data(ctrl)["metrics"]:
+            tr = table.xpath(f'./tr[@data-metric="{metric["name"]}"]')[0]
+            rate = tr.xpath(f'./td[@data-campaign="{ctrl}"][@data-column="rate"]')[0]
+            values = rows[metric["name"]].to_numpy(dtype=float)
+            assert float(rate.get("data-value")) == within(values, metric).sum() / N
+            worst = tr.xpath(f'./td[@data-campaign="{ctrl}"][@data-column="worst"]')[0]
+            k = int(np.argmax(values))  # every metric here has a max: the largest value is the worst
+            assert float(worst.get("data-value")) == values[k]
+            assert f"sample {int(rows['sample'][k])}" in worst.text_content()
+    worst = doc.xpath('//section[@id="comparison"]//table[@class="comparison-worst"]')[0]
+    assert [th.text_content() for th in worst.xpath("./tr[1]/th")][1:] == list(CONTROLLERS)
+    # the same dispersions and seed: every campaign's sample k flew the same plant
+    loaded = [C.load(f) for f in campaigns.values()]
+    for col in ("plant.I_x", "plant.omega_0[1]"):
+        assert all(np.array_equal(loaded[0][col], other[col]) for other in loaded[1:])
+
+
+def test_run_metrics_and_figure(page: Path, run_folder: Path) -> None:
+    summary = json.loads((run_folder / "summary_native.json").read_text())
+    sec = section(tree(page), "mrp_200deg_sat (native)")
+    for m in summary["metrics"]:
+        tr = sec.xpath(f'.//table[@class="metrics"]/tr[@data-metric="{m["name"]}"]')[0]
+        assert float(cell(tr, "value").get("data-value")) == m["value"]
+        assert tr.xpath("./td")[-1].text_content() == ("pass" if m["passed"] else "FAIL")
+    csv = pd.read_csv(run_folder / "mrp_200deg_sat_native.csv")
+    peak = float(np.max(np.abs(csv[["controller.u[1]", "controller.u[2]", "controller.u[3]"]].to_numpy())))
+    assert [m["value"] for m in summary["metrics"] if m["name"] == "peak |u|"] == [peak]  # the CSV the page plots
+    assert len(sec.xpath(".//figure/*[local-name()='svg']")) == 1
+
+
+def test_requirement_and_actuator_lines(run_folder: Path) -> None:
+    sc = S.Scenario.from_dict(tomllib.loads((SHIPPED_SCENARIOS / "mrp_200deg_sat.toml").read_text()))
+    run = read_folder(run_folder)[0]
+    lim = limits.actuator_limits(run.scenario, run.fmus)
+    by_target = {(x.target, x.parameter): x for x in lim}
+    # the scenario sets the controller's u_max = 5 N m with saturation on; the plant keeps its
+    # declared u_max (5 N m) with saturation off (the FMU's default)
+    assert by_target[("controller.u", "u_max")].value == 5.0 and by_target[("controller.u", "u_max")].active
+    assert not by_target[("plant.u", "u_max")].active
+    u = limits.signal_lines(sc, "controller.u", lim)
+    levels = {(ln.kind, ln.value, ln.active) for ln in u if ln.axis == "level"}
+    assert ("requirement", 5.000000001, True) in levels  # peak |u| max
+    assert ("actuator", 5.0, True) in levels  # time in saturation's limit and the controller's u_max
+    assert ("actuator", 5.0, False) in levels  # the plant's u_max, saturation off
+    phi = limits.signal_lines(sc, "plant.phi", lim)
+    band = [ln for ln in phi if "band" in ln.label][0]
+    assert band.value == pytest.approx(0.1 * math.pi / 180.0, rel=1e-12)  # 0.1 deg in rad: rounding only
+    assert [ln.value for ln in phi if ln.axis == "time"] == [120.0]
+    assert limits.signal_lines(sc, "plant.omega", lim) == []  # no metric or limit on the rates
+
+
+def test_what_was_proved_is_the_embedded_artifact(page: Path, fmu_dir: Path) -> None:
+    doc = tree(page)
+    for name in CONTROLLERS:
+        shipped = json.loads((SHIPPED_ARTIFACTS / f"{name}.json").read_text())
+        block = doc.xpath(f'//section[@id="proved"]/div[@data-fmu="{name}.fmu"]')
+        assert len(block) == 1, name  # used by a campaign (and the run, for the published one): listed once
+        text = block[0].text_content()
+        assert shipped["certificate"]["status"] in text and shipped["certificate"]["proved"] in text
+        assert hashlib.sha256((fmu_dir / f"{name}.fmu").read_bytes()).hexdigest() in text
+        assert shipped["provenance"]["design_plant"]["digest"] in text
+        if "l2_gain" in shipped["certificate"]:
+            c = block[0].xpath('.//td[@data-column="l2_gain"]')[0]
+            assert float(c.get("data-value")) == shipped["certificate"]["l2_gain"]["c"]
+    published = doc.xpath('//section[@id="proved"]/div[@data-fmu="mrp_hinf_published.fmu"]')[0].text_content()
+    assert "mrp_200deg_sat (native): controller" in published and "mrp_hinf_published: controller" in published
+    assert not doc.xpath('//section[@id="proved"]/div[@data-fmu="mrp_satellite.fmu"]')  # a plant claims nothing
+
+
+def test_provenance(page: Path, fmu_dir: Path, tmp_path: Path) -> None:
+    import satfmu
+
+    sec = tree(page).xpath('//section[@id="provenance"]')[0]
+    text = sec.text_content()
+    assert satfmu.__version__ in text
+    root = Path(__file__).resolve().parents[1]
+    head = subprocess.run(["git", "-C", str(root), "rev-parse", "HEAD"], capture_output=True, text=True)
+    if head.returncode == 0:
+        assert head.stdout.strip() in text
+    assert provenance.git_commit(tmp_path) is None  # not a git checkout
+    assert hashlib.sha256((fmu_dir / "mrp_satellite.fmu").read_bytes()).hexdigest() in text
+    assert "numpy" in text and "matplotlib" in text and "CPython" in text
+
+
+def test_the_page_is_self_contained(page: Path) -> None:
+    """Every reference of the page stays in it: anchors, data: URIs; no script, no stylesheet link."""
+    doc = tree(page)
+    assert not doc.xpath("//script") and not doc.xpath("//link[@rel='stylesheet']")
+    refs = [(el.tag, k, v) for el in doc.iter() if isinstance(el.tag, str) for k, v in el.attrib.items()
+            if k.split("}")[-1] in ("src", "href")]
+    assert refs and all(v.startswith(("#", "data:")) for _, _, v in refs), [r for r in refs if not
+                                                                           r[2].startswith(("#", "data:"))]
+    assert "@import" not in page.read_text() and "url(http" not in page.read_text()
+
+
+def test_result_write_records_the_scenario_and_its_fmus(run_folder: Path, fmu_dir: Path) -> None:
+    record = json.loads((run_folder / "scenario_native.json").read_text())
+    data = tomllib.loads((SHIPPED_SCENARIOS / "mrp_200deg_sat.toml").read_text())
+    assert record["scenario"] == S.Scenario.from_dict({**data, "stop_time": 5.0}).to_dict()
+    for inst, f in record["fmus"].items():
+        assert f["sha256"] == hashlib.sha256((fmu_dir / f["file"]).read_bytes()).hexdigest()
+    header = (run_folder / "mrp_200deg_sat_native.csv").read_text().splitlines()[0].split(",")
+    assert set(record["units"]) == set(header[1:])  # a unit for every recorded column
+    assert record["units"]["plant.omega[1]"] == "rad/s" and record["units"]["controller.u[2]"] == "N.m"
+
+
+def test_envelopes_only_when_the_folder_has_them(campaigns: dict[str, Path],
+                                                 tmp_path_factory: pytest.TempPathFactory) -> None:
+    folder = tmp_path_factory.mktemp("copy") / "campaign"  # (tmp_path's name would hold the word)
+    shutil.copytree(campaigns["mrp_hinf_satfmu"], folder)
+    without = lxml.html.fromstring(build_report([folder]))
+    assert "envelope" not in without.text_content().lower()  # no section, no placeholder
+    t = np.linspace(0.0, 2.0, 41)  # s
+    pd.DataFrame({"time": t, "plant.phi:p50": 3.4 - t, "plant.phi:p99": 3.5 - 0.9 * t,
+                  "controller.u[1]:p50": np.cos(t)}).to_parquet(folder / "envelopes.parquet")
+    with_ = lxml.html.fromstring(build_report([folder]))
+    fig = with_.xpath("//h3[. = 'Percentile envelopes']/following-sibling::figure[1]/*[local-name()='svg']")
+    assert len(fig) == 1
+    pd.DataFrame({"time": t, "plant.phi": t}).to_parquet(folder / "envelopes.parquet")
+    with pytest.raises(ReportError, match=r"envelopes.parquet: envelopes need .*'plant.phi'"):
+        build_report([folder])
+
+
+def _one_error(argv: list[str], match: str, capsys: pytest.CaptureFixture, out: Path) -> None:
+    """`satfmu report argv --out out`: exit 2, one line matching ``match`` on stderr, nothing written."""
+    assert main(["report", *argv, "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err, err
+    assert err.startswith("satfmu report: error: ") and re.search(match, err), err
+    assert not out.exists()
+
+
+def test_bad_input_exits_2_with_one_line(campaigns: dict[str, Path], run_folder: Path, tmp_path: Path,
+                                         capsys: pytest.CaptureFixture) -> None:
+    out = tmp_path / "out" / "report.html"
+    _one_error([str(tmp_path / "nowhere")], r"nowhere: no such folder", capsys, out)
+    (tmp_path / "empty").mkdir()
+    _one_error([str(tmp_path / "empty")], r"empty: neither a run folder .* nor a scenario campaign folder", capsys,
+               out)
+    parent = campaigns["mrp_hinf_published"].parent
+    _one_error([str(parent)], r"it holds run or campaign folders, name them: mrp_h2hinf_satfmu, mrp_hinf_published",
+               capsys, out)
+    bad = tmp_path / "bad_campaign"
+    shutil.copytree(campaigns["mrp_hinf_published"], bad)
+    (bad / "campaign.json").write_text('{"n": 8, "seed"')
+    _one_error([str(bad)], r"bad_campaign/campaign.json: not a campaign record", capsys, out)
+    (bad / "campaign.json").write_text(json.dumps({"n": 1}))
+    _one_error([str(bad)], r"campaign.json: not a campaign record", capsys, out)
+    run = tmp_path / "bad_run"
+    shutil.copytree(run_folder, run)
+    (run / "summary_native.json").write_text("{ not json")
+    _one_error([str(run)], r"bad_run/summary_native.json: not readable JSON", capsys, out)
+    (run / "summary_native.json").write_text(json.dumps({"scenario": "mrp_200deg_sat"}))
+    _one_error([str(run)], r"summary_native.json: not a run summary of satfmu", capsys, out)
+    shutil.copy(run_folder / "summary_native.json", run / "summary_native.json")
+    (run / "scenario_native.json").unlink()
+    _one_error([str(run)], r"no scenario_native.json beside summary_native.json .* run the scenario again", capsys,
+               out)
+    _one_error([str(run_folder), "--confidence", "1.5"], r"confidence must be in \(0, 1\)", capsys, out)
+
+
+# ---------------------------------------------------------------- the page in a real browser
+
+CHROMIUM_FLAGS = ("--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+                  "--disable-background-networking", "--disable-component-update", "--disable-sync")
+
+
+def browser(profile: Path):
+    """Headless chromium through its chromedriver (selenium; both found on PATH, as Debian's
+    chromium and chromium-driver install them), console messages kept."""
+    found = {name: shutil.which(name) for name in ("chromium", "chromedriver")}
+    missing = [name for name, path in found.items() if path is None]
+    if missing:
+        pytest.fail(f"the report's browser test needs chromium and chromedriver on PATH ({' and '.join(missing)} "
+                    "missing): run `make browser-deps` (Debian: apt-get install chromium chromium-driver)",
+                    pytrace=False)
+    from selenium import webdriver
+    from selenium.webdriver.chrome.service import Service
+
+    options = webdriver.ChromeOptions()
+    options.binary_location = found["chromium"]
+    for flag in (*CHROMIUM_FLAGS, f"--user-data-dir={profile}"):
+        options.add_argument(flag)
+    options.set_capability("goog:loggingPrefs", {"browser": "ALL"})
+    return webdriver.Chrome(service=Service(executable_path=found["chromedriver"]), options=options)
+
+
+def test_the_page_renders_in_chromium(page: Path, campaigns: dict[str, Path], fmu_dir: Path, tmp_path: Path) -> None:
+    """The page opens from a file:// URL; its text shows a pass rate, a percentile, a metric
+    value of the rows and an FMU digest; the browser console has no error."""
+    from selenium.webdriver.common.by import By
+
+    rows = C.load(campaigns["mrp_hinf_satfmu"])
+    peak = rows["peak |u|"].to_numpy(dtype=float)
+    metric = next(m for m in scenario_data("mrp_hinf_satfmu")["metrics"] if m["name"] == "peak |u|")
+    rate = percent(within(peak, metric).sum() / N)
+    p95 = number(percentile(peak[np.isfinite(peak)], 95.0))
+    worst_rate = number(rows["peak rate"].max())  # in the comparison table, the worst rate of the campaign
+    digest = hashlib.sha256((fmu_dir / "mrp_hinf_satfmu.fmu").read_bytes()).hexdigest()
+    driver = browser(tmp_path / "profile")
+    try:
+        driver.get(page.resolve().as_uri())
+        assert driver.title.startswith("satfmu report: mrp_hinf_published")
+        body = driver.find_element(By.TAG_NAME, "body").text
+        for expected in (rate, p95, worst_rate, digest):
+            assert expected in body, expected
+        svgs = driver.find_elements(By.CSS_SELECTOR, "figure svg")
+        assert len(svgs) >= 10 and all(s.size["width"] > 100 and s.size["height"] > 50 for s in svgs)
+        errors = [e for e in driver.get_log("browser") if e["level"] in ("SEVERE", "ERROR")]
+        assert errors == [], errors
+    finally:
+        driver.quit()
