@@ -4,7 +4,8 @@ The four engines run the same scenario through the same native FMUs (parameters,
 profiles, recorded variables):
 
 - ``compiled loop``: :meth:`sims.master.CoSimulation.run` with ``engine="compiled"``, timed
-  whole (instantiation, parameters, initialization, the steps, the result array);
+  whole (``fmi2Reset`` of the instances kept from the previous run, parameters,
+  initialization, profiles sampled, the steps, the result array);
 - ``Python loop``: the same with ``engine="python"`` (the master's reference loop);
 - ``libcosim``: libcosimpy (Open Simulation Platform) on the scenario's SSP export, in this
   process, ``step(n)`` with a time-series observer of the recorded variables (as libcosim's
@@ -136,6 +137,7 @@ def bench(name: str, fmu_dir: Path, repeat: int, exe: Path, tmp: Path) -> dict[s
     ssp_path = ssp.write(sc, fmu_dir, tmp / f"{name}.ssp")
     times: dict[str, list[float]] = {k: [] for k in ("compiled loop", "Python loop", "libcosim", "C loop")}
     with S.wire(sc, fmu_dir) as sim:
+        sim.reuse_instances = True
         record = S.recorded(sc, sim)
         plan = write_plan(sc, sim, record, tmp, 1)
         last: dict[str, np.ndarray] = {}
