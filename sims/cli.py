@@ -22,6 +22,7 @@
     satfmu campaign demeter [--artifact demeter_row1_det] [--samples 100000] [--workers 2] [--scheduler tcp://...]
     satfmu campaign scenario SCENARIO --samples N [--workers 2 | --scheduler tcp://...] [--seed 0] [--chunk 10]
                              [--fmu-dir DIR] [--out results/campaigns]
+    satfmu replay CAMPAIGN_DIR --sample K [--out results/replay] [--fmu-dir DIR]
     satfmu detumble [--samples 2000] [--seed 0] [--rates R ...] [--fmu-dir DIR] [--out results/cubesat]
     satfmu analyze sweep [--gammas 1 0.8 ...] [--region 0.45] [--out results/h2hinf_sweep]
     satfmu analyze region [--artifact vscmg_sdre_approx] [--box-q2 LO HI] [--box-w4 LO HI] [--cells 7 6] [--out DIR]
@@ -52,7 +53,9 @@ stability region of the approximated SDRE on one box and cell by cell (JSON and 
 (:mod:`sims.demeter_reports`), ``detumble`` seed 003's (:mod:`sims.detumble`).
 ``campaign scenario`` runs the Monte Carlo samples of a scenario's ``[dispersions]`` and
 prints their statistics (:mod:`sims.scenario_campaign`); it exits with status 1 when a
-sample misses a metric's bound or fails to run.
+sample misses a metric's bound or fails to run. ``replay`` runs one sample of such a campaign again
+(:func:`sims.scenario_campaign.replay`: the same FMU files, the same metrics bit for bit) and
+writes its CSV and plots; it exits as ``run`` does.
 
 This module imports only the standard library and :mod:`sims.paths` at start (``satfmu
 --help`` and ``satfmu list`` stay fast); each handler imports what it needs.
@@ -131,18 +134,39 @@ def _run(args: argparse.Namespace) -> int:
                            allow_stale=args.allow_stale)
         summaries.append(res.summary())
         print(f"{'PASS' if res.passed else 'FAIL'} {res.name} ({args.backend})")
-        for line in res.warnings:
-            print(f"     warning: design mismatch: {line}")
-        for m in res.metrics:
-            bounds = " ".join(f"{k} {v:g}" for k, v in (("min", m.min), ("max", m.max)) if v is not None)
-            print(f"     {'ok  ' if m.passed else 'FAIL'} {m.name}: {m.value:.6g} {m.unit}  [{bounds}]")
-        for k, f in res.files.items():
-            print(f"     {k}: {f}")
+        _print_result(res)
         failed += not res.passed
     print(f"{len(args.scenarios) - failed} of {len(args.scenarios)} scenarios pass ({args.backend} FMUs)")
     if args.summary:
         metrics.write_summaries(summaries, Path(args.summary))
     return 1 if failed else 0
+
+
+def _print_result(res) -> None:
+    """The design mismatches, metrics (value, unit, bounds, pass/fail) and files of a run."""
+    for line in res.warnings:
+        print(f"     warning: design mismatch: {line}")
+    for m in res.metrics:
+        bounds = " ".join(f"{k} {v:g}" for k, v in (("min", m.min), ("max", m.max)) if v is not None)
+        print(f"     {'ok  ' if m.passed else 'FAIL'} {m.name}: {m.value:.6g} {m.unit}  [{bounds}]")
+    for k, f in res.files.items():
+        print(f"     {k}: {f}")
+
+
+def _replay(args: argparse.Namespace) -> int:
+    import json
+    import warnings
+
+    from sims import scenario, scenario_campaign
+
+    warnings.simplefilter("ignore", scenario.DesignMismatchWarning)  # printed below, with the run
+    res = scenario_campaign.replay(args.campaign, args.sample, Path(args.out), args.fmu_dir)
+    print(f"{'PASS' if res.passed else 'FAIL'} {args.campaign} sample {args.sample}: {res.name} ({res.backend})")
+    dispersed = json.loads(res.files["sample"].read_text())["dispersed"]
+    print("     dispersed: " + ", ".join(f"{k} = {v:.6g}" if isinstance(v, float) else f"{k} = {v}"
+                                       for k, v in dispersed.items()))
+    _print_result(res)
+    return 0 if res.passed else 1
 
 
 def _export_ssp(args: argparse.Namespace) -> int:
@@ -520,6 +544,17 @@ def parser() -> argparse.ArgumentParser:
     _fmu_dir(cs, "folder of the FMUs (the missing ones are built; the workers read them there)")
     cs.add_argument("--out", default="results/campaigns", help="folder of the campaign folders")
     cs.set_defaults(fn=_campaign_scenario)
+    rp = command(sub, "replay", "run one sample of a scenario campaign again, bit for bit, and write its time "
+                                "histories (CSV) and plots")
+    rp.add_argument("campaign", metavar="CAMPAIGN_DIR", help="campaign folder (--out/NAME of campaign scenario)")
+    rp.add_argument("--sample", type=int, required=True,
+                    help="sample index, 0 .. samples - 1 (the rows' sample column; required, no default)")
+    rp.add_argument("--out", default="results/replay",
+                    help="folder of the replays; the run goes to OUT/<campaign>-sample<K>/ (default: results/replay)")
+    rp.add_argument("--fmu-dir", default=None,
+                    help="folder of the campaign's FMU files, whose SHA-256 must be the ones it ran (default: the "
+                         "folder the campaign ran them from, recorded in its campaign.json)")
+    rp.set_defaults(fn=_replay)
     dt = command(sub, "detumble", "seed 003: linear Monte Carlo (Fig. 2) and the nonlinear initial-rate sweep")
     dt.add_argument("--samples", type=int, default=2000, help="Monte Carlo realizations per gain set")
     dt.add_argument("--seed", type=int, default=0, help="seed of the realizations")
