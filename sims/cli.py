@@ -20,8 +20,8 @@
     satfmu figures demeter [--artifact demeter_row1_det] [--samples 100] [--stop 60] [--step 0.001] [--fmu-dir DIR]
                            [--out results/demeter]
     satfmu campaign demeter [--artifact demeter_row1_det] [--samples 100000] [--workers 2] [--scheduler tcp://...]
-    satfmu campaign scenario SCENARIO --samples N [--workers 2 | --scheduler tcp://...] [--seed 0] [--chunk 10]
-                             [--fmu-dir DIR] [--out results/campaigns]
+    satfmu campaign scenario SCENARIO [--samples N | --demo] [--workers 2 | --scheduler tcp://...] [--seed S]
+                             [--chunk 10] [--fmu-dir DIR] [--out results/campaigns]
     satfmu replay CAMPAIGN_DIR --sample K [--out results/replay] [--fmu-dir DIR]
     satfmu detumble [--samples 2000] [--seed 0] [--rates R ...] [--fmu-dir DIR] [--out results/cubesat]
     satfmu analyze sweep [--gammas 1 0.8 ...] [--region 0.45] [--out results/h2hinf_sweep]
@@ -308,10 +308,12 @@ def _campaign_demeter(args: argparse.Namespace) -> int:
 
 
 def _campaign_scenario(args: argparse.Namespace) -> int:
-    from sims import scenario_campaign
+    from sims import scenario, scenario_campaign
 
+    sc = scenario.load(args.scenario)
+    samples, seed = scenario_campaign.campaign_size(sc, args.samples, args.seed, args.demo)
     result = scenario_campaign.run_campaign(
-        args.scenario, args.samples, args.out, seed=args.seed, chunk=args.chunk, name=args.name,
+        sc, samples, args.out, seed=seed, chunk=args.chunk, name=args.name,
         fmu_dir=args.fmu_dir, backend=args.backend, workers=args.workers, scheduler=args.scheduler,
         confidence=args.confidence, worst=args.worst, progress=lambda done, total: _progress(done, total, "chunks"))
     print(result.statistics.text())
@@ -531,8 +533,14 @@ def parser() -> argparse.ArgumentParser:
     cs = command(kinds, "scenario", "Monte Carlo campaign of a scenario's [dispersions]: per metric the pass rate "
                                     "(Clopper-Pearson interval), percentiles and the worst samples")
     cs.add_argument("scenario", help="scenario name or .toml file (with a [dispersions] table)")
-    cs.add_argument("--samples", type=_positive_int, required=True, help="number of samples")
-    cs.add_argument("--seed", type=int, default=0, help="root seed (sample i depends only on seed and i)")
+    size = cs.add_mutually_exclusive_group()
+    size.add_argument("--samples", type=_positive_int, default=None,
+                      help="number of samples (default: the scenario's [campaign] samples, the full size)")
+    size.add_argument("--demo", action="store_true",
+                      help="run the scenario's [campaign] demo_samples, a quick look (default: the full size)")
+    cs.add_argument("--seed", type=int, default=None,
+                    help="root seed, sample i depends only on seed and i (default: the scenario's [campaign] seed, "
+                         "else 0)")
     cs.add_argument("--chunk", type=_positive_int, default=10, help="samples per task and per Parquet file")
     cs.add_argument("--workers", type=_positive_int, default=2, help="local Dask workers (ignored with --scheduler)")
     cs.add_argument("--scheduler", default=None,

@@ -176,9 +176,12 @@ def campaign(scenario: "str | Path | Mapping[str, Any] | S.Scenario", n: int, se
 
 def _canonical(scenario: S.Scenario) -> S.Scenario:
     """The scenario as :func:`reopen` reads it back from ``campaign.json`` (its declaration, its
-    folder and file), so that a reopened campaign's task is the one that ran."""
+    folder and file), so that a reopened campaign's task is the one that ran. Its ``[campaign]``
+    table (default sizes and seed, not what a sample computes) is left out, so that editing a
+    default does not make a folder another campaign."""
     where = str(scenario.path) if scenario.path else f"scenario {scenario.name!r}"
-    return S.Scenario.from_dict(json.loads(json.dumps(scenario.to_dict())), scenario.folder, where, scenario.path)
+    data = {k: v for k, v in scenario.to_dict().items() if k != "campaign"}
+    return S.Scenario.from_dict(json.loads(json.dumps(data)), scenario.folder, where, scenario.path)
 
 
 def context(scenario: S.Scenario, fmu_dir: Path, backend: str) -> dict[str, Any]:
@@ -563,3 +566,43 @@ def replay(folder: str | Path, sample: int, out_dir: str | Path | None = None,
         result.files["sample"] = write_atomically(target / "sample.json", lambda tmp: tmp.write_text(text))
         result.write(target)  # the summary last: it lists sample.json too
     return result
+
+
+def campaign_size(scenario: "str | Path | Mapping[str, Any] | S.Scenario", samples: int | None = None,
+                  seed: int | None = None, demo: bool = False) -> tuple[int, int]:
+    """The number of samples and the seed of a scenario's campaign: those given, else its
+    ``[campaign]`` table's (``samples``, or ``demo_samples`` with ``demo``; ``seed``, else 0).
+
+    Parameters
+    ----------
+    scenario : Scenario, dict, str or Path
+        A scenario, its data, a TOML file or a shipped scenario's name.
+    samples : int, optional
+        Number of samples (overrides the table).
+    seed : int, optional
+        Campaign seed (overrides the table).
+    demo : bool
+        Take the table's ``demo_samples`` (a quick look) instead of ``samples`` (the full size).
+
+    Returns
+    -------
+    (int, int)
+        Samples and seed.
+
+    Raises
+    ------
+    ScenarioError
+        No ``samples`` given and none declared (the key path named), or both ``samples`` and
+        ``demo``.
+    """
+    sc = S.load(scenario)
+    where = str(sc.path) if sc.path else f"scenario {sc.name!r}"
+    key = "demo_samples" if demo else "samples"
+    if samples is not None and demo:
+        raise S.ScenarioError(f"{where}: give the number of samples or ask for the demo size, not both")
+    if samples is None:
+        samples = sc.campaign.get(key)
+        if samples is None:
+            raise S.ScenarioError(f"{where}: campaign.{key}: not declared (no [campaign] {key}); give the number "
+                                  "of samples (--samples N)")
+    return int(samples), int(sc.campaign.get("seed", 0) if seed is None else seed)
