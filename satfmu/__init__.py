@@ -18,7 +18,9 @@ Scenarios
 Dispersion campaigns
     :func:`run_campaign` (the Monte Carlo campaign of a scenario's ``[dispersions]`` on Dask,
     resumable) -> :class:`CampaignResult` (``.rows``, ``.statistics``: a :class:`Statistics`
-    of pass rates with Clopper-Pearson intervals, percentiles and the worst samples).
+    of pass rates with Clopper-Pearson intervals, percentiles and the worst samples);
+    :func:`replay` (one sample of a finished campaign run again bit for bit, its time
+    histories and plots written) -> :class:`Result`.
 Reports
     :func:`write_report` (one self-contained HTML page of run and campaign folders: metrics,
     time histories with requirement and actuator-limit lines, campaign statistics and figures,
@@ -58,6 +60,7 @@ _EXPORTS = {
     "run_campaign": "sims.scenario_campaign", "CampaignResult": "sims.scenario_campaign",
     "Statistics": "sims.scenario_campaign",
     "write_report": "sims.report", "ReportError": "sims.report",
+    "replay": "sims.scenario_campaign",
     "Design": "sims.designs", "DesignError": "sims.designs", "design_hinf": "sims.designs",
     "design_h2hinf": "sims.designs", "design_vscmg_sdre": "sims.designs",
     "design_cubesat_periodic": "sims.designs", "design_demeter": "sims.designs",

@@ -20,8 +20,10 @@
     satfmu figures demeter [--artifact demeter_row1_det] [--samples 100] [--stop 60] [--step 0.001] [--fmu-dir DIR]
                            [--out results/demeter]
     satfmu campaign demeter [--artifact demeter_row1_det] [--samples 100000] [--workers 2] [--scheduler tcp://...]
-    satfmu campaign scenario SCENARIO --samples N [--workers 2 | --scheduler tcp://...] [--seed 0] [--chunk 10]
-                             [--fmu-dir DIR] [--out results/campaigns]
+    satfmu campaign scenario SCENARIO [--samples N | --demo] [--workers 2 | --scheduler tcp://...] [--seed S]
+                             [--chunk 10] [--envelope SIGNAL ...] [--points 500] [--fmu-dir DIR]
+                             [--out results/campaigns]
+    satfmu replay CAMPAIGN_DIR --sample K [--out results/replay] [--fmu-dir DIR]
     satfmu report DIR [DIR ...] [--out results/report.html] [--fmu-dir DIR] [--confidence 0.95] [--worst 5]
     satfmu detumble [--samples 2000] [--seed 0] [--rates R ...] [--fmu-dir DIR] [--out results/cubesat]
     satfmu analyze sweep [--gammas 1 0.8 ...] [--region 0.45] [--out results/h2hinf_sweep]
@@ -55,7 +57,9 @@ stability region of the approximated SDRE on one box and cell by cell (JSON and 
 ``campaign scenario`` runs the Monte Carlo samples of a scenario's ``[dispersions]`` and
 prints their statistics (:mod:`sims.scenario_campaign`); it exits with status 1 when a
 sample misses a metric's bound or fails to run. ``report`` writes one self-contained HTML page
-of run and campaign folders (:mod:`sims.report`).
+of run and campaign folders (:mod:`sims.report`). ``replay`` runs one sample of a scenario campaign again
+(:func:`sims.scenario_campaign.replay`: the same FMU files, the same metrics bit for bit) and
+writes its CSV and plots; it exits as ``run`` does.
 
 This module imports only the standard library and :mod:`sims.paths` at start (``satfmu
 --help`` and ``satfmu list`` stay fast); each handler imports what it needs.
@@ -138,18 +142,39 @@ def _run(args: argparse.Namespace) -> int:
                            allow_stale=args.allow_stale)
         summaries.append(res.summary())
         print(f"{'PASS' if res.passed else 'FAIL'} {res.name} ({args.backend})")
-        for line in res.warnings:
-            print(f"     warning: design mismatch: {line}")
-        for m in res.metrics:
-            bounds = " ".join(f"{k} {v:g}" for k, v in (("min", m.min), ("max", m.max)) if v is not None)
-            print(f"     {'ok  ' if m.passed else 'FAIL'} {m.name}: {m.value:.6g} {m.unit}  [{bounds}]")
-        for k, f in res.files.items():
-            print(f"     {k}: {f}")
+        _print_result(res)
         failed += not res.passed
     print(f"{len(args.scenarios) - failed} of {len(args.scenarios)} scenarios pass ({args.backend} FMUs)")
     if args.summary:
         metrics.write_summaries(summaries, Path(args.summary))
     return 1 if failed else 0
+
+
+def _print_result(res) -> None:
+    """The design mismatches, metrics (value, unit, bounds, pass/fail) and files of a run."""
+    for line in res.warnings:
+        print(f"     warning: design mismatch: {line}")
+    for m in res.metrics:
+        bounds = " ".join(f"{k} {v:g}" for k, v in (("min", m.min), ("max", m.max)) if v is not None)
+        print(f"     {'ok  ' if m.passed else 'FAIL'} {m.name}: {m.value:.6g} {m.unit}  [{bounds}]")
+    for k, f in res.files.items():
+        print(f"     {k}: {f}")
+
+
+def _replay(args: argparse.Namespace) -> int:
+    import json
+    import warnings
+
+    from sims import scenario, scenario_campaign
+
+    warnings.simplefilter("ignore", scenario.DesignMismatchWarning)  # printed below, with the run
+    res = scenario_campaign.replay(args.campaign, args.sample, Path(args.out), args.fmu_dir)
+    print(f"{'PASS' if res.passed else 'FAIL'} {args.campaign} sample {args.sample}: {res.name} ({res.backend})")
+    dispersed = json.loads(res.files["sample"].read_text())["dispersed"]
+    print("     dispersed: " + ", ".join(f"{k} = {v:.6g}" if isinstance(v, float) else f"{k} = {v}"
+                                       for k, v in dispersed.items()))
+    _print_result(res)
+    return 0 if res.passed else 1
 
 
 def _export_ssp(args: argparse.Namespace) -> int:
@@ -307,10 +332,12 @@ def _campaign_demeter(args: argparse.Namespace) -> int:
 
 
 def _campaign_scenario(args: argparse.Namespace) -> int:
-    from sims import scenario_campaign
+    from sims import scenario, scenario_campaign
 
+    sc = scenario.load(args.scenario)
+    samples, seed = scenario_campaign.campaign_size(sc, args.samples, args.seed, args.demo)
     result = scenario_campaign.run_campaign(
-        args.scenario, args.samples, args.out, seed=args.seed, chunk=args.chunk, name=args.name,
+        sc, samples, args.out, seed=seed, chunk=args.chunk, name=args.name,
         fmu_dir=args.fmu_dir, backend=args.backend, workers=args.workers, scheduler=args.scheduler,
         confidence=args.confidence, worst=args.worst, progress=_progress_eta("chunks"), envelopes=args.envelope or (),
         points=args.points)
@@ -540,8 +567,14 @@ def parser() -> argparse.ArgumentParser:
     cs = command(kinds, "scenario", "Monte Carlo campaign of a scenario's [dispersions]: per metric the pass rate "
                                     "(Clopper-Pearson interval), percentiles and the worst samples")
     cs.add_argument("scenario", help="scenario name or .toml file (with a [dispersions] table)")
-    cs.add_argument("--samples", type=_positive_int, required=True, help="number of samples")
-    cs.add_argument("--seed", type=int, default=0, help="root seed (sample i depends only on seed and i)")
+    size = cs.add_mutually_exclusive_group()
+    size.add_argument("--samples", type=_positive_int, default=None,
+                      help="number of samples (default: the scenario's [campaign] samples, the full size)")
+    size.add_argument("--demo", action="store_true",
+                      help="run the scenario's [campaign] demo_samples, a quick look (default: the full size)")
+    cs.add_argument("--seed", type=int, default=None,
+                    help="root seed, sample i depends only on seed and i (default: the scenario's [campaign] seed, "
+                         "else 0)")
     cs.add_argument("--chunk", type=_positive_int, default=10, help="samples per task and per Parquet file")
     cs.add_argument("--workers", type=_positive_int, default=2, help="local Dask workers (ignored with --scheduler)")
     cs.add_argument("--scheduler", default=None,
@@ -570,6 +603,17 @@ def parser() -> argparse.ArgumentParser:
     rp.add_argument("--confidence", type=float, default=0.95, help="two-sided confidence of the pass-rate intervals")
     rp.add_argument("--worst", type=int, default=5, help="worst samples listed per campaign")
     rp.set_defaults(fn=_report)
+    ry = command(sub, "replay", "run one sample of a scenario campaign again, bit for bit, and write its time "
+                                "histories (CSV) and plots")
+    ry.add_argument("campaign", metavar="CAMPAIGN_DIR", help="campaign folder (--out/NAME of campaign scenario)")
+    ry.add_argument("--sample", type=int, required=True,
+                    help="sample index, 0 .. samples - 1 (the rows' sample column; required, no default)")
+    ry.add_argument("--out", default="results/replay",
+                    help="folder of the replays; the run goes to OUT/<campaign>-sample<K>/ (default: results/replay)")
+    ry.add_argument("--fmu-dir", default=None,
+                    help="folder of the campaign's FMU files, whose SHA-256 must be the ones it ran (default: the "
+                         "folder the campaign ran them from, recorded in its campaign.json)")
+    ry.set_defaults(fn=_replay)
     dt = command(sub, "detumble", "seed 003: linear Monte Carlo (Fig. 2) and the nonlinear initial-rate sweep")
     dt.add_argument("--samples", type=int, default=2000, help="Monte Carlo realizations per gain set")
     dt.add_argument("--seed", type=int, default=0, help="seed of the realizations")

@@ -47,7 +47,14 @@ outputs by the trapezoidal rule, FMU inputs (held over each step, e.g. ``plant.u
 left rectangle.
 
 A ``[dispersions]`` table declares what each Monte Carlo sample draws (syntax:
-:mod:`sims.dispersions`); :meth:`Scenario.sample` is the scenario of one sample.
+:mod:`sims.dispersions`); :meth:`Scenario.sample` is the scenario of one sample. A
+``[campaign]`` table gives the campaign's default size and seed (what ``satfmu campaign
+scenario`` runs without ``--samples`` or ``--seed``)::
+
+    [campaign]
+    samples = 1000       # the full campaign
+    demo_samples = 50    # a quick look (``--demo``), at most ``samples``
+    seed = 0             # the campaign seed (sample i depends on (seed, i) only)
 """
 from __future__ import annotations
 
@@ -73,12 +80,14 @@ from sims.master import CoSimulation, UnknownVariableError, WiringError, communi
 from sims.paths import BACKENDS, SHIPPED_SCENARIOS
 
 _TOP = ("name", "description", "stop_time", "step_size", "start_time", "fmus", "connections",
-        "profiles", "record", "metrics", "plot", "reference", "verify", "dispersions")
+        "profiles", "record", "metrics", "plot", "reference", "verify", "dispersions", "campaign")
 _FMU = ("model", "path", "backend", "parameters")
 _METRIC = ("name", "kind", "signals", "scale", "unit", "min", "max", "tolerance", "limit",
            "disturbances", "versus", "description")
 MAX_STEPS = 10_000_000
 """Most communication steps of one run (a typo'd stop time fails here, not in a MemoryError)."""
+CAMPAIGN_KEYS = {"samples": 1, "demo_samples": 1, "seed": 0}
+"""Keys of a scenario's ``[campaign]`` table -> the least integer each takes."""
 _NEEDS = {"settling_time": "tolerance", "time_in_saturation": "limit", "l2_ratio": "disturbances",
           "max_difference": "versus"}
 
@@ -222,6 +231,9 @@ class Scenario:
     dispersions : Dispersions or dict, optional
         What each Monte Carlo sample draws (the ``[dispersions]`` table, :mod:`sims.dispersions`);
         :meth:`sample` gives the scenario of one sample.
+    campaign : dict
+        The ``[campaign]`` table: default ``samples``, ``demo_samples`` and ``seed`` of the
+        scenario's Monte Carlo campaign (:data:`CAMPAIGN_KEYS`); needs ``dispersions``.
     """
 
     name: str
@@ -240,6 +252,7 @@ class Scenario:
     base_dir: Path | None = None
     path: Path | None = None
     dispersions: Dispersions | None = None
+    campaign: dict[str, int] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if isinstance(self.dispersions, Mapping):
@@ -279,6 +292,8 @@ class Scenario:
                               for m in self.metrics]
         if self.dispersions is not None:
             out["dispersions"] = dict(self.dispersions.data)
+        if self.campaign:
+            out["campaign"] = dict(self.campaign)
         return out
 
     def with_parameters(self, overrides: Overrides) -> "Scenario":
@@ -307,7 +322,7 @@ class Scenario:
             else:
                 raise ScenarioError(f"{where}: overrides: no FMU instance or profile {owner!r}"
                                     f"{did_you_mean(owner, list(fmus))}")
-        return replace(self, fmus=fmus, profiles=profs, dispersions=None)
+        return replace(self, fmus=fmus, profiles=profs, dispersions=None, campaign={})
 
     def sample(self, seed: int, index: int, fmu_dir: str | Path | None = None, backend: str = "native",
                nominal: Callable[[str, str], float | None] | None = None) -> "Scenario":
@@ -370,7 +385,8 @@ class Scenario:
             description=d.get("description", ""), reference=d.get("reference", ""), plot=dict(d.get("plot", {})),
             verify=dict(d.get("verify", {})), base_dir=None if base_dir is None else Path(base_dir).resolve(),
             path=path, dispersions=_dispersions(d["dispersions"], f"{where}: dispersions", list(d["fmus"]),
-                                                len(d.get("profiles", []))) if "dispersions" in d else None)
+                                                len(d.get("profiles", []))) if "dispersions" in d else None,
+            campaign=dict(d.get("campaign", {})))
 
     @classmethod
     def from_toml(cls, path: str | Path) -> "Scenario":
@@ -643,6 +659,23 @@ def validate(data: Any, where: str = "scenario") -> None:
                 _number(m[key], f"{wm}.{key}")
     if "dispersions" in data:
         _dispersions(data["dispersions"], f"{w}dispersions", instances, len(data.get("profiles", [])))
+    if "campaign" in data:
+        _campaign(data["campaign"], f"{w}campaign", "dispersions" in data)
+
+
+def _campaign(table: Any, where: str, dispersed: bool) -> None:
+    """Check a ``[campaign]`` table (:data:`CAMPAIGN_KEYS`); a :class:`ScenarioError` names the key path."""
+    if not isinstance(table, Mapping):
+        raise ScenarioError(f"{where}: must be a table of {', '.join(CAMPAIGN_KEYS)}, got {table!r}")
+    check_keys(table, tuple(CAMPAIGN_KEYS), where, ScenarioError)
+    if not dispersed:
+        raise ScenarioError(f"{where}: a campaign needs a [dispersions] table (what each sample draws)")
+    for key, least in CAMPAIGN_KEYS.items():
+        v = table.get(key, least)
+        if isinstance(v, bool) or not isinstance(v, int) or v < least:
+            raise ScenarioError(f"{where}.{key}: must be an integer >= {least}, got {table[key]!r}")
+    if table.get("demo_samples", 1) > table.get("samples", math.inf):
+        raise ScenarioError(f"{where}.demo_samples: {table['demo_samples']} is more than samples = {table['samples']}")
 
 
 def _dispersions(data: Any, where: str, instances: list[str], n_profiles: int) -> Dispersions:

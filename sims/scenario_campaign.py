@@ -282,9 +282,12 @@ def _envelope_signals(scenario: S.Scenario, folder: Path, backend: str, envelope
 
 def _canonical(scenario: S.Scenario) -> S.Scenario:
     """The scenario as :func:`reopen` reads it back from ``campaign.json`` (its declaration, its
-    folder and file), so that a reopened campaign's task is the one that ran."""
+    folder and file), so that a reopened campaign's task is the one that ran. Its ``[campaign]``
+    table (default sizes and seed, not what a sample computes) is left out, so that editing a
+    default does not make a folder another campaign."""
     where = str(scenario.path) if scenario.path else f"scenario {scenario.name!r}"
-    return S.Scenario.from_dict(json.loads(json.dumps(scenario.to_dict())), scenario.folder, where, scenario.path)
+    data = {k: v for k, v in scenario.to_dict().items() if k != "campaign"}
+    return S.Scenario.from_dict(json.loads(json.dumps(data)), scenario.folder, where, scenario.path)
 
 
 def context(scenario: S.Scenario, fmu_dir: Path, backend: str) -> dict[str, Any]:
@@ -565,3 +568,167 @@ def run_campaign(scenario: "str | Path | Mapping[str, Any] | S.Scenario", n: int
 
 ENVELOPES = "envelopes.parquet"
 """File of a campaign folder with the percentile envelopes of its kept time histories."""
+
+
+def campaign_row(folder: str | Path, sample: int) -> pd.Series | None:
+    """The row of sample ``sample`` as the campaign folder stores it, or None when the chunk that
+    holds it is not recorded yet (an interrupted campaign) or its file is not the one recorded.
+
+    Parameters
+    ----------
+    folder : path
+        A campaign folder (``campaign.json`` and its chunk files).
+    sample : int
+        Global sample index, ``0 <= sample < n``.
+
+    Returns
+    -------
+    pandas.Series or None
+        The row's columns (:func:`campaign` module docstring), only the chunk holding it read
+        and verified (:func:`sims.chunk_files.chunk_problem`).
+
+    Raises
+    ------
+    CampaignError
+        Not a campaign folder.
+    """
+    from sims import campaign as C
+    from sims import chunk_files
+
+    folder = Path(folder)
+    record = C.read_record(folder)
+    k = int(sample) // int(record["chunk"])
+    recorded = record["chunks"].get(str(k))
+    path = C.chunk_path(folder, k)
+    if recorded is None or chunk_files.chunk_problem(path, recorded, C._digest(record), k) is not None:
+        return None
+    frame = pd.read_parquet(path)
+    hit = frame.loc[frame["sample"] == int(sample)]
+    return None if len(hit) != 1 else hit.iloc[0]
+
+
+def replay_folder(campaign_name: str, sample: int) -> str:
+    """Name of the folder :func:`replay` writes sample ``sample`` of a campaign into (inside
+    ``out_dir``): ``<campaign name>-sample<sample>``."""
+    return f"{campaign_name}-sample{int(sample)}"
+
+
+def replay(folder: str | Path, sample: int, out_dir: str | Path | None = None,
+           fmu_dir: str | Path | None = None) -> S.Result:
+    """Run one sample of a scenario campaign again, as the campaign ran it (bit for bit), with
+    its time histories.
+
+    The campaign is read back from ``campaign.json`` (:func:`reopen`: its scenario declaration,
+    seed, backend, and FMU files whose SHA-256 must be the ones the campaign ran); sample
+    ``sample`` is ``scenario.sample(seed, sample)`` run by :func:`sims.scenario.run`, the path of
+    the campaign's own runs, so its metrics equal the campaign row's exactly. When the chunk that
+    holds the row is recorded, the replay is compared with it: a metric or dispersed value that
+    differs (e.g. other numpy/scipy versions drawing other dispersed values) is reported by a
+    :class:`sims.campaign.CampaignWarning` naming the columns.
+
+    A sample the campaign recorded as failed fails the same way: the same exception, with the
+    message :func:`explain` gives.
+
+    Parameters
+    ----------
+    folder : path
+        The campaign folder (``--out/<name>`` of ``satfmu campaign scenario``).
+    sample : int
+        Global sample index, ``0 <= sample < n`` (the row's ``sample`` column).
+    out_dir : path, optional
+        Write the run into ``out_dir/<campaign name>-sample<sample>/`` (:func:`replay_folder`):
+        the time histories as CSV, the plots and the summary as :meth:`sims.scenario.Result.write`
+        writes them, and ``sample.json`` (campaign, seed, sample, dispersed values and the
+        sampled scenario's declaration). Default: nothing written.
+    fmu_dir : path, optional
+        Folder of the campaign's FMU files (default: the folder the campaign ran them from).
+
+    Returns
+    -------
+    Result
+        The replayed run: recorded signals (``time`` in s, each variable in its unit), metrics.
+
+    Raises
+    ------
+    CampaignError
+        Not a scenario campaign's folder, a sample index outside ``0 .. n - 1``, or FMU files
+        other than the campaign's (another SHA-256).
+    ScenarioError
+        The sampled scenario is refused (a dispersed value outside its declared range, ...):
+        the campaign's failure code 2.
+    sims.master.MasterError
+        An FMU call failed (failure code 1).
+    """
+    from sims.campaign import CampaignWarning
+
+    folder = Path(folder)
+    camp = reopen(folder, fmu_dir)
+    if isinstance(sample, bool) or not isinstance(sample, (int, np.integer)) or not 0 <= sample < camp.n:
+        raise CampaignError(f"{folder}: sample {sample!r} is not a sample of the campaign {camp.name!r} "
+                            f"(its samples are 0..{camp.n - 1})")
+    task: ScenarioTask = camp.task
+    target = None if out_dir is None else Path(out_dir) / replay_folder(camp.name, int(sample))
+    if target is not None:  # a failed replay must not leave an earlier replay's files looking current
+        S.clear_outputs(target, task.scenario.name, task.backend)
+        (target / "sample.json").unlink(missing_ok=True)
+    sampled = task.scenario.sample(task.seed, int(sample), task.fmu_dir, task.backend)
+    result = S.run(sampled, task.fmu_dir, task.backend)
+    dispersed = {f"{owner}.{name}": _value(sampled, owner, name) for owner, name in task.dispersed}
+    result.title = f"{camp.name}, sample {int(sample)}: {sampled.description}"
+    row = campaign_row(folder, int(sample))
+    if row is not None:
+        replayed = {m.name: m.value for m in result.metrics}
+        replayed.update({k: float(v) for k, v in dispersed.items()})
+        differ = [k for k, v in replayed.items() if not (row[k] == v or (math.isnan(row[k]) and math.isnan(v)))]
+        if differ:
+            warnings.warn(f"{folder}: sample {int(sample)} replayed differently from the campaign's row in "
+                          + ", ".join(f"{k} ({replayed[k]!r}, row {row[k]!r})" for k in differ), CampaignWarning,
+                          stacklevel=2)
+    if target is not None:
+        info = {"campaign": str(folder.resolve()), "name": camp.name, "seed": camp.seed, "sample": int(sample),
+                "backend": task.backend, "fmu_dir": task.fmu_dir, "dispersed": dispersed,
+                "scenario": sampled.to_dict(), "base_dir": str(sampled.folder)}
+        text = json.dumps(info, indent=1) + "\n"
+        result.files["sample"] = write_atomically(target / "sample.json", lambda tmp: tmp.write_text(text))
+        result.write(target)  # the summary last: it lists sample.json too
+    return result
+
+
+def campaign_size(scenario: "str | Path | Mapping[str, Any] | S.Scenario", samples: int | None = None,
+                  seed: int | None = None, demo: bool = False) -> tuple[int, int]:
+    """The number of samples and the seed of a scenario's campaign: those given, else its
+    ``[campaign]`` table's (``samples``, or ``demo_samples`` with ``demo``; ``seed``, else 0).
+
+    Parameters
+    ----------
+    scenario : Scenario, dict, str or Path
+        A scenario, its data, a TOML file or a shipped scenario's name.
+    samples : int, optional
+        Number of samples (overrides the table).
+    seed : int, optional
+        Campaign seed (overrides the table).
+    demo : bool
+        Take the table's ``demo_samples`` (a quick look) instead of ``samples`` (the full size).
+
+    Returns
+    -------
+    (int, int)
+        Samples and seed.
+
+    Raises
+    ------
+    ScenarioError
+        No ``samples`` given and none declared (the key path named), or both ``samples`` and
+        ``demo``.
+    """
+    sc = S.load(scenario)
+    where = str(sc.path) if sc.path else f"scenario {sc.name!r}"
+    key = "demo_samples" if demo else "samples"
+    if samples is not None and demo:
+        raise S.ScenarioError(f"{where}: give the number of samples or ask for the demo size, not both")
+    if samples is None:
+        samples = sc.campaign.get(key)
+        if samples is None:
+            raise S.ScenarioError(f"{where}: campaign.{key}: not declared (no [campaign] {key}); give the number "
+                                  "of samples (--samples N)")
+    return int(samples), int(sc.campaign.get("seed", 0) if seed is None else seed)

@@ -124,9 +124,10 @@ def test_one_name_per_meaning() -> None:
     assert not names & {"--dest", "--n", "--runs"}
     with pytest.raises(SystemExit):  # no abbreviation: the old --n does not become --name
         main(["campaign", "demeter", "--n", "300"])
-    # every command that builds or runs FMUs defaults to the FMU cache; `report` reads the FMU
+    # every command that builds or runs FMUs defaults to the FMU cache; `report` and `replay` read the FMU
     # folder each run or campaign recorded, unless told where the files are now
-    fmu_dirs = [a for where, a in _options(cli.parser()) if "--fmu-dir" in a.option_strings and where != "satfmu report"]
+    fmu_dirs = [a for where, a in _options(cli.parser()) if "--fmu-dir" in a.option_strings
+                and where not in ("satfmu report", "satfmu replay")]
     assert {a.default for a in fmu_dirs} == {str(paths.fmu_cache())} and Path(fmu_dirs[0].default).is_absolute()
     assert [a.default for where, a in _options(cli.parser()) if where == "satfmu report"
             and "--fmu-dir" in a.option_strings] == [None]
