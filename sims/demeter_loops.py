@@ -40,7 +40,7 @@ from scipy.linalg import expm
 from controllers import artifact as artifacts
 from sims import envelopes as E
 from sims import paths
-from sims.scenario import Scenario, grid
+from sims.scenario import Scenario, recorded_times
 from synthesis.demeter_variants import RATE_WORST, THETA_WORST, DesignModel, Variant, design_model
 
 if TYPE_CHECKING:
@@ -275,7 +275,7 @@ def run(fmu_dir: Path, artifact: str | Path, *, n: int = 100, seed: int = 0, sto
     dm, K, axis = design_model(variant), np.array(art.design["K"]), variant.axes[0]
     scenarios = {start: scenario(artifact, start=start, limits=limits, stop_time=stop_time, step_size=step_size)
                  for start in STARTS}
-    points = uniform_points(len(grid(scenarios["both"])), points)
+    points = uniform_points(len(recorded_times(scenarios["both"])), points)
     keep = {"theta": [f"ctrl.xw[{axis}]"], "rate": [f"ctrl.xw[{axis}]"],
             "both": [f"plant.theta[{axis}]", f"plant.theta_dot[{axis}]", f"plant.wheel_saturated[{axis}]"]}
     with tempfile.TemporaryDirectory(prefix="satfmu_demeter_") as tmp, \
@@ -289,7 +289,7 @@ def run(fmu_dir: Path, artifact: str | Path, *, n: int = 100, seed: int = 0, sto
     if any(failed.values()):
         raise RuntimeError(f"DEMETER loops that did not run (sample indices): {failed}")
     steps = tasks["both"].trace_steps
-    t = grid(scenarios["both"])[list(steps)]
+    t = recorded_times(scenarios["both"])[list(steps)]
 
     def traces(start: str, signal: str) -> np.ndarray:
         return rows[start][E.trace_columns(signal, len(steps))].to_numpy()

@@ -76,16 +76,18 @@ from fmus.profiles import make as make_profile
 from sims import metrics as M
 from sims import preflight
 from sims.dispersions import DispersionError, Dispersions, Overrides
-from sims.master import CoSimulation, UnknownVariableError, WiringError, communication_times, start_value
+from sims.master import (CoSimulation, UnknownVariableError, WiringError, communication_times, recorded_steps,
+                         start_value)
 from sims.paths import BACKENDS, SHIPPED_SCENARIOS
 
 _TOP = ("name", "description", "stop_time", "step_size", "start_time", "fmus", "connections",
-        "profiles", "record", "metrics", "plot", "reference", "verify", "dispersions", "campaign")
+        "profiles", "record", "metrics", "plot", "reference", "verify", "dispersions", "campaign", "record_every")
 _FMU = ("model", "path", "backend", "parameters")
 _METRIC = ("name", "kind", "signals", "scale", "unit", "min", "max", "tolerance", "limit",
            "disturbances", "versus", "description")
 MAX_STEPS = 10_000_000
-"""Most communication steps of one run (a typo'd stop time fails here, not in a MemoryError)."""
+"""Most recorded communication points of one run (a typo'd stop time fails here, not in a
+MemoryError)."""
 CAMPAIGN_KEYS = {"samples": 1, "demo_samples": 1, "seed": 0}
 """Keys of a scenario's ``[campaign]`` table -> the least integer each takes."""
 _NEEDS = {"settling_time": "tolerance", "time_in_saturation": "limit", "l2_ratio": "disturbances",
@@ -234,6 +236,10 @@ class Scenario:
     campaign : dict
         The ``[campaign]`` table: default ``samples``, ``demo_samples`` and ``seed`` of the
         scenario's Monte Carlo campaign (:data:`CAMPAIGN_KEYS`); needs ``dispersions``.
+    record_every : int
+        Record every ``record_every``-th communication point, from the first, and the last one
+        (:func:`recorded_times`); the metrics are computed on the recorded points. A long run
+        keeps 8 bytes per recorded variable and recorded point.
     """
 
     name: str
@@ -253,6 +259,7 @@ class Scenario:
     path: Path | None = None
     dispersions: Dispersions | None = None
     campaign: dict[str, int] = field(default_factory=dict)
+    record_every: int = 1
 
     def __post_init__(self) -> None:
         if isinstance(self.dispersions, Mapping):
@@ -294,6 +301,8 @@ class Scenario:
             out["dispersions"] = dict(self.dispersions.data)
         if self.campaign:
             out["campaign"] = dict(self.campaign)
+        if self.record_every != 1:
+            out["record_every"] = self.record_every
         return out
 
     def with_parameters(self, overrides: Overrides) -> "Scenario":
@@ -386,7 +395,7 @@ class Scenario:
             verify=dict(d.get("verify", {})), base_dir=None if base_dir is None else Path(base_dir).resolve(),
             path=path, dispersions=_dispersions(d["dispersions"], f"{where}: dispersions", list(d["fmus"]),
                                                 len(d.get("profiles", []))) if "dispersions" in d else None,
-            campaign=dict(d.get("campaign", {})))
+            campaign=dict(d.get("campaign", {})), record_every=d.get("record_every", 1))
 
     @classmethod
     def from_toml(cls, path: str | Path) -> "Scenario":
@@ -586,9 +595,13 @@ def validate(data: Any, where: str = "scenario") -> None:
     n_float = (stop - start) / step
     if abs(n_float - round(n_float)) > 1e-9 * max(1.0, n_float):
         raise ScenarioError(f"{w}step_size: (stop_time - start_time) / step_size = {n_float:.12g} is not an integer")
-    if n_float > MAX_STEPS:
-        raise ScenarioError(f"{w}stop_time: {n_float:.3g} communication steps, more than {MAX_STEPS:.0e} "
-                            f"(the recorded signals alone would need {n_float * 8 / 2**30:.3g} GiB per column)")
+    every = data.get("record_every", 1)
+    if isinstance(every, bool) or not isinstance(every, int) or every < 1:
+        raise ScenarioError(f"{w}record_every: must be an integer >= 1, got {every!r}")
+    if n_float / every > MAX_STEPS:
+        raise ScenarioError(f"{w}stop_time: {n_float:.3g} communication steps, {n_float / every:.3g} recorded, more "
+                            f"than {MAX_STEPS:.0e} (the recorded signals alone would need "
+                            f"{n_float / every * 8 / 2**30:.3g} GiB per column; record_every thins them)")
     for key in ("connections", "profiles", "metrics", "record"):
         if key in data and not isinstance(data[key], list):
             raise ScenarioError(f"{w}{key}: must be a list (TOML array{' of tables' if key != 'record' else ''}), "
@@ -789,6 +802,13 @@ def grid(scenario: Scenario) -> np.ndarray:
     """The communication times of the scenario, s (as the master steps them)."""
     t0 = scenario.start_time
     return communication_times(t0, scenario.step_size, round((scenario.stop_time - t0) / scenario.step_size))
+
+
+def recorded_times(scenario: Scenario) -> np.ndarray:
+    """The communication times a run of the scenario records, s (every ``record_every``-th of
+    :func:`grid`, and the last)."""
+    t = grid(scenario)
+    return t[recorded_steps(len(t) - 1, scenario.record_every)]
 
 
 def recorded(scenario: Scenario, sim: CoSimulation) -> list[str]:
@@ -992,7 +1012,8 @@ def simulate(scenario: Scenario, fmu_dir: Path, backend: str = "native", strict:
 def _execute(scenario: Scenario, sim: CoSimulation) -> np.ndarray:
     """Run ``scenario`` through its wired master; the recorded array."""
     params = {inst: spec.parameters for inst, spec in scenario.fmus.items()}
-    return sim.run(scenario.stop_time, scenario.step_size, scenario.start_time, params, recorded(scenario, sim))
+    return sim.run(scenario.stop_time, scenario.step_size, scenario.start_time, params, recorded(scenario, sim),
+                   record_every=scenario.record_every)
 
 
 def resimulate(scenario: Scenario, sim: CoSimulation) -> np.ndarray:

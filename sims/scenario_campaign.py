@@ -244,7 +244,7 @@ def campaign(scenario: "str | Path | Mapping[str, Any] | S.Scenario", n: int, se
     dispersed = tuple((owner, p) for owner, values in first.items() for p in values)
     signals = _envelope_signals(sc, folder, backend, envelopes, where)
     try:
-        steps = tuple(int(k) for k in E.trace_steps(len(S.grid(sc)), points)) if signals else ()
+        steps = tuple(int(k) for k in E.trace_steps(len(S.recorded_times(sc)), points)) if signals else ()
     except ValueError as exc:
         raise CampaignError(f"campaign of {where}: {exc}") from None
     task = ScenarioTask(sc, int(seed), str(folder), backend, dispersed, signals, steps)
@@ -560,7 +560,7 @@ def run_campaign(scenario: "str | Path | Mapping[str, Any] | S.Scenario", n: int
     task: ScenarioTask = camp.task
     env = None
     if task.envelopes:
-        env = E.envelopes(rows, list(task.envelopes), S.grid(task.scenario)[list(task.trace_steps)])
+        env = E.envelopes(rows, list(task.envelopes), S.recorded_times(task.scenario)[list(task.trace_steps)])
         write_atomically(folder / ENVELOPES, lambda tmp: env.to_parquet(tmp, index=False))
         rows = rows.drop(columns=task.trace_columns)
     return CampaignResult(camp, folder, rows, statistics(sc, rows, confidence, worst), env)

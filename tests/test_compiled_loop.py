@@ -146,3 +146,31 @@ def test_result_csv_reads_back_to_the_same_floats(tmp_path: Path) -> None:
     back = np.array([[float(v) for v in row] for row in rows[1:]])
     assert back[:, 0].tobytes() == res["time"].tobytes()
     assert back[:, 1].tobytes() == values.tobytes()  # NaN, signed zero and subnormals included
+
+
+def test_a_scenario_records_every_nth_point_and_its_metrics_read_them(fmu_dir: Path, tmp_path: Path) -> None:
+    """record_every = 8 on mrp_200deg: 301 rows, those of the full run at steps 0, 8, ..., 2400;
+    the final-value metric is the full run's (the last point is always recorded); the CSV has
+    the thinned rows; a bad value is refused with its key; a run of more than MAX_STEPS points
+    is refused unless thinned."""
+    import csv
+    import tomllib
+
+    from sims.paths import SHIPPED_SCENARIOS
+
+    data = tomllib.loads((SHIPPED_SCENARIOS / "mrp_200deg.toml").read_text())
+    full = S.run(S.Scenario.from_dict(data), fmu_dir)
+    thin_sc = S.Scenario.from_dict({**data, "record_every": 8})
+    assert thin_sc.to_dict()["record_every"] == 8 and S.recorded_times(thin_sc).tolist() == full.results["time"][::8].tolist()
+    thin = S.run(thin_sc, fmu_dir, out_dir=tmp_path)
+    assert len(thin.results) == 301 and thin.results.tobytes() == full.results[::8].tobytes()
+    assert thin.metric("attitude angle at 120 s").value == full.metric("attitude angle at 120 s").value
+    with open(thin.files["csv"], newline="") as fh:
+        assert len(list(csv.reader(fh))) == 302
+    for bad in (0, 1.5, True):
+        with pytest.raises(S.ScenarioError, match=r"record_every: must be an integer >= 1"):
+            S.Scenario.from_dict({**data, "record_every": bad})
+    long = {**data, "stop_time": 0.05 * (S.MAX_STEPS + 8)}
+    with pytest.raises(S.ScenarioError, match=r"stop_time: .* communication steps, .* recorded, more than 1e\+07"):
+        S.Scenario.from_dict(long)
+    assert S.Scenario.from_dict({**long, "record_every": 2}).record_every == 2  # thinned: accepted
