@@ -58,6 +58,7 @@ scenario`` runs without ``--samples`` or ``--seed``)::
 """
 from __future__ import annotations
 
+import copy
 import csv
 import json
 import math
@@ -331,6 +332,13 @@ class Scenario:
             else:
                 raise ScenarioError(f"{where}: overrides: no FMU instance or profile {owner!r}"
                                     f"{did_you_mean(owner, list(fmus))}")
+        if all(owner in fmus for owner in overrides):  # start values only: the rest was validated
+            for owner, values in overrides.items():
+                for name, value in values.items():
+                    _check_start_value(value, f"{where}: fmus.{owner}.parameters.{name}")
+            out = copy.copy(self)
+            out.fmus, out.profiles, out.dispersions, out.campaign = fmus, profs, None, {}
+            return out
         return replace(self, fmus=fmus, profiles=profs, dispersions=None, campaign={})
 
     def sample(self, seed: int, index: int, fmu_dir: str | Path | None = None, backend: str = "native",
@@ -629,10 +637,7 @@ def validate(data: Any, where: str = "scenario") -> None:
         if not isinstance(params, Mapping):
             raise ScenarioError(f"{ws}.parameters: must be a table of start values")
         for k, v in params.items():
-            if isinstance(v, float) and not math.isfinite(v):
-                raise ScenarioError(f"{ws}.parameters.{k}: must be finite, got {v!r}")
-            if not isinstance(v, (bool, int, float, str)):
-                raise ScenarioError(f"{ws}.parameters.{k}: must be a number, boolean or string, got {v!r}")
+            _check_start_value(v, f"{ws}.parameters.{k}")
     for i, c in enumerate(data.get("connections", [])):
         wc = f"{w}connections[{i}]"
         if not isinstance(c, Mapping):
@@ -689,6 +694,14 @@ def _campaign(table: Any, where: str, dispersed: bool) -> None:
             raise ScenarioError(f"{where}.{key}: must be an integer >= {least}, got {table[key]!r}")
     if table.get("demo_samples", 1) > table.get("samples", math.inf):
         raise ScenarioError(f"{where}.demo_samples: {table['demo_samples']} is more than samples = {table['samples']}")
+
+
+def _check_start_value(v: Any, where: str) -> None:
+    """A start value is a finite number, a boolean or a string."""
+    if isinstance(v, float) and not math.isfinite(v):
+        raise ScenarioError(f"{where}: must be finite, got {v!r}")
+    if not isinstance(v, (bool, int, float, str)):
+        raise ScenarioError(f"{where}: must be a number, boolean or string, got {v!r}")
 
 
 def _dispersions(data: Any, where: str, instances: list[str], n_profiles: int) -> Dispersions:
