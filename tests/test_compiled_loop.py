@@ -17,7 +17,7 @@ from sims import scenario as S
 from sims.master import CoSimulation, FmuCallError, MasterError, recorded_steps
 from sims.paths import shipped_scenarios
 
-SHORT = {"vscmg_seed": 1.5, "vscmg_seed_friction": 1.5}
+SHORT = {"vscmg_seed": 1.5, "vscmg_seed_friction": 1.5, "vscmg_friction_mc_online": 1.5}
 """Stop time of the fast test for the scenarios with pythonfmu online SDRE controllers, s (2.3 s
 of CPU per full run; the full runs are the slow test's)."""
 
