@@ -11,6 +11,9 @@ SCENARIOS := mrp_200deg mrp_200deg_sat mrp_320deg_sat mrp_eq44 mrp_200deg_synth 
 # the demo's verification: seed 000's and seed 001's loops and the cubesat detumbling, native FMUs only
 # (seconds each; the vscmg scenarios hold pythonfmu SDRE controllers: `make verify`)
 VERIFY_SHORT := mrp_200deg mrp_90deg_h2 cubesat_detumble
+# the demo's Monte Carlo: seed 000's two controllers and seed 001's over the same random attitudes and
+# inertias (their [campaign] demo size), then one report page of them and the 200 deg run
+DEMO_CAMPAIGNS := mrp_slew_mc mrp_slew_mc_synth mrp_slew_mc_h2hinf
 
 # pip installs without byte-compiling the ~9,000 modules of the dependencies (half of the install
 # time); Python compiles a module on its first import and keeps it, which PYTHONDONTWRITEBYTECODE
@@ -62,12 +65,24 @@ demo: build
 	@$(STAGE) "pythonfmu run" $(SATFMU) run mrp_200deg --backend python --fmu-dir $(FMU_DIR) --out results
 	@$(STAGE) detumble $(SATFMU) detumble --fmu-dir $(FMU_DIR) --out results/cubesat
 	@$(STAGE) "verify (short)" $(SATFMU) verify $(VERIFY_SHORT) --fmu-dir $(FMU_DIR) --out results/verify
+	@mkdir -p results/campaigns
+	@$(STAGE) campaigns sh -c 'for s in $(DEMO_CAMPAIGNS); do rm -rf results/campaigns/$$s-demo; \
+	  $(SATFMU) campaign scenario $$s --demo --name $$s-demo --fmu-dir $(FMU_DIR) --out results/campaigns \
+	  >results/campaigns/$$s-demo.txt 2>results/campaigns/$$s-demo.err \
+	  || [ $$? -eq 1 ] || { cat results/campaigns/$$s-demo.err; exit 2; }; \
+	  sed -n 3p results/campaigns/$$s-demo.txt | sed "s/^all metrics (passed) */$$s: /; s/ *$$//"; done'
+	@$(STAGE) report $(SATFMU) report $(foreach s,$(DEMO_CAMPAIGNS),results/campaigns/$(s)-demo) results/mrp_200deg \
+	  --out results/report.html
 	@$(STAGE) "co-sim speed" $(PY) bench/cosim_speed.py --fmu-dir $(FMU_DIR)
 	@echo
 	@cat results/summary.md
 	@echo
 	@sed -n '/^closed loop/,$$p' build/logs/co-sim_speed.log
-	@echo "plots, CSV and summaries (results/summary.md, results/summary.json) are in results/; logs in build/logs/"
+	@echo
+	@echo "Monte Carlo, random attitudes and inertia +-20 %, samples within every bound (Clopper-Pearson 95 %):"
+	@cat build/logs/campaigns.log
+	@echo "plots, CSV and summaries (results/summary.md, results/summary.json) are in results/, the campaigns in"
+	@echo "results/campaigns/, their report page in results/report.html; logs in build/logs/"
 
 verify: build
 	@$(STAGE) --show verify $(SATFMU) verify --fmu-dir $(FMU_DIR) --out results/verify
