@@ -34,6 +34,7 @@ import contextlib
 import hashlib
 import json
 import math
+import os
 import pickle
 import uuid
 import warnings
@@ -42,6 +43,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import dask
 import numpy as np
 import pandas as pd
 from distributed import Client, LocalCluster, as_completed
@@ -343,20 +345,43 @@ def _todo(folder: Path, campaign: Campaign, record: dict[str, Any]) -> list[int]
     return todo
 
 
+WORKER_ENV = {"MALLOC_ARENA_MAX": "1", "MALLOC_TRIM_THRESHOLD_": str(64 * 2**20),
+              "MALLOC_MMAP_THRESHOLD_": str(32 * 2**20)}
+"""glibc malloc settings of a local cluster's workers. A worker runs its tasks in a thread of its
+own, whose allocations go to a thread arena that glibc trims eagerly, and Dask sets
+``MALLOC_TRIM_THRESHOLD_=65536`` (memory back to the system sooner), which also freezes malloc's
+adaptive mmap threshold: a campaign worker, which allocates and frees the same arrays of 10-400
+KiB every sample, then maps, unmaps and trims them every sample. One arena and high thresholds
+keep its heap at its working size. Measured on mrp_200deg samples (CPU per sample, one process,
+500 samples): 2.08 ms in the main thread, 2.54 ms in another thread, 2.03 ms in another thread
+with these settings."""
+
+
 @contextlib.contextmanager
 def cluster_client(scheduler: str | None, client: Client | None, n_workers: int = 2,
                    threads_per_worker: int = 1) -> Iterator[Client]:
     """The given client, a client of ``scheduler``, or that of a local cluster of ``n_workers``
-    processes (its dashboard on a free port); the latter two closed at exit."""
+    processes (its dashboard on a free port; its workers started with :data:`WORKER_ENV`); the
+    latter two closed at exit."""
     if client is not None:
         yield client
     elif scheduler is not None:
         with Client(scheduler) as remote:
             yield remote
     else:
-        with LocalCluster(n_workers=n_workers, threads_per_worker=threads_per_worker, processes=True,
-                          dashboard_address=":0") as cluster, \
-                Client(cluster) as local:
+        # malloc reads its settings when a process starts: they go into the environment the nanny
+        # spawns the workers with (Dask's pre-spawn-environ, which it copies into this process's
+        # os.environ); this process's own environment is restored once they run
+        pre = {**dask.config.get("distributed.nanny.pre-spawn-environ", default={}), **WORKER_ENV}
+        saved = {k: os.environ.get(k) for k in pre}
+        with dask.config.set({"distributed.nanny.pre-spawn-environ": pre}), \
+                LocalCluster(n_workers=n_workers, threads_per_worker=threads_per_worker, processes=True,
+                             dashboard_address=":0") as cluster, Client(cluster) as local:
+            for k, v in saved.items():
+                if v is None:
+                    os.environ.pop(k, None)
+                else:
+                    os.environ[k] = v
             yield local
 
 
