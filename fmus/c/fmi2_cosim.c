@@ -1,8 +1,9 @@
 /*
  * satfmu: generic FMI 2.0 co-simulation wrapper for models generated from a symbolic
  * definition (fmus/model.py). The model-specific part (sizes, variable table, identity and the
- * functions model_derivatives, model_outputs, model_post_step) is generated into model.c, which
- * this file includes. Written for this project.
+ * functions model_derivatives, model_outputs, model_post_step) is generated into the header
+ * model.h, which this file includes: this file is the FMU's only translation unit, so a tool may
+ * compile every .c file under sources/ or the one <SourceFiles> lists. Written for this project.
  *
  * Integration: classical RK4 over each communication step, inputs held constant
  * (zero-order hold), n = max(n_substeps, ceil(h / h_max)) substeps, post_step map
@@ -27,7 +28,7 @@
  * are always those of the previous instant (held_prev), so a repeated sample at one instant
  * gives the same result as a single one.
  *
- * Time: two times closer than time_tolerance(t) (model.c, fmus.model.time_tolerance: 1e-9 |t|,
+ * Time: two times closer than time_tolerance(t) (model.h, fmus.model.time_tolerance: 1e-9 |t|,
  * at most 1 us, at least 8 ulp of |t|) are one instant (a sample instant and a step end, a
  * breakpoint). fmi2DoStep refuses a currentCommunicationPoint farther than point_tol (8 ulp of
  * the larger of 1 s, |t| and |start|: what double precision forces when a master computes
@@ -75,7 +76,7 @@ typedef struct {
 enum { KIND_PARAMETER = 0, KIND_INPUT = 1, KIND_OUTPUT = 2 };
 enum { TYPE_REAL = 0, TYPE_INTEGER = 1, TYPE_BOOLEAN = 2 };
 
-#include "model.c"
+#include "model.h"
 
 #define DIM(n) ((n) > 0 ? (n) : 1)
 
