@@ -69,7 +69,7 @@ def _run(unzipped: Path) -> list[list[float]]:
     slave = FMU2Slave(guid=md.guid, unzipDirectory=str(unzipped),
                       modelIdentifier=md.coSimulation.modelIdentifier, instanceName="sources")
     callbacks = fmi_host.Callbacks()
-    slave.instantiate(callbacks=callbacks.functions)
+    slave.instantiate(callbacks=callbacks.functions, loggingOn=True)
     inputs = [v for v in md.modelVariables if v.causality == "input" and v.type == "Real"]
     outputs = [v.valueReference for v in md.modelVariables if v.causality == "output" and v.type == "Real"]
     h = float(md.defaultExperiment.stepSize)
@@ -87,7 +87,8 @@ def _run(unzipped: Path) -> list[list[float]]:
         if inputs:
             slave.setReal([v.valueReference for v in inputs], values)
         rows.append(slave.getReal(outputs))
-        slave.doStep(k * h, h)
+        status, _ = fmi_host.attempt(slave, "doStep", k * h, h)
+        assert status == fmi_host.OK, f"{md.modelName}: step {k} refused: {callbacks.text()}"
     rows.append(slave.getReal(outputs))
     slave.terminate()
     slave.freeInstance()

@@ -65,6 +65,26 @@
 
 #include "fmi2Functions.h"
 
+/* glibc floor of the Linux x86-64 binary: GLIBC_2.14 (memcpy), so that it loads on RHEL 8
+ * (glibc 2.28) and older. glibc 2.29 gave pow, exp, log, exp2 and log2 a new default symbol
+ * version (GLIBC_2.29) that drops the SVID error-handling wrapper; a binary linked against a newer
+ * glibc asks for pow@GLIBC_2.29 (e.g. for the integer powers sympy prints as pow(x, 3)) and does
+ * not load on glibc <= 2.28. Binding each to its original version GLIBC_2.2.5, which every x86-64
+ * glibc keeps, removes that requirement for every exponent and every model, whatever the code
+ * generator prints; rewriting powers as products would change the arithmetic (and the results
+ * against the pythonfmu FMUs, which call pow) and cover integer exponents only. On a newer glibc
+ * the old version runs the same pow (only errno handling on overflow or a pole differs, and a
+ * non-finite result is refused here anyway), so results are unchanged bit for bit. Only for glibc
+ * on x86-64, where GLIBC_2.2.5 is the base version; a directive for a function the model does not
+ * call adds nothing. tests/test_glibc_floor.py checks every native FMU's binary. */
+#if defined(__GLIBC__) && defined(__x86_64__)
+__asm__(".symver pow,pow@GLIBC_2.2.5");
+__asm__(".symver exp,exp@GLIBC_2.2.5");
+__asm__(".symver log,log@GLIBC_2.2.5");
+__asm__(".symver exp2,exp2@GLIBC_2.2.5");
+__asm__(".symver log2,log2@GLIBC_2.2.5");
+#endif
+
 typedef struct {
     const char *name;
     int kind;   /* 0 parameter, 1 input, 2 output */
