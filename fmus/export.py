@@ -1,7 +1,9 @@
 """Turn a :class:`fmus.model.Model` into FMI 2.0 co-simulation FMUs (native C and pythonfmu).
 
-The native FMU carries ``sources/`` (the generic wrapper and the generated model
-file) so other platforms can rebuild it (``fmpy compile``), and a Linux x86-64
+The native FMU carries ``sources/`` (the generic wrapper ``fmi2_cosim.c``, its one ``.c`` file
+and the only file ``<SourceFiles>`` lists, and the generated model header it includes,
+:data:`fmus.codegen.C_HEADER`) so other platforms can rebuild it (``fmpy compile``, or a tool
+compiling every ``.c`` file under ``sources/``), and a Linux x86-64
 binary compiled here with gcc against the FMI headers that fmpy ships. The
 pythonfmu FMU embeds the generated Python module and :mod:`fmus.pyslave`.
 
@@ -42,6 +44,11 @@ _COMMENT_PREFIX = b"satfmu-build sha256:"
 _ARTIFACT_FIELD = b" artifact sha256:"
 ARTIFACT = "artifact.json"
 """Name, in ``resources/``, of the controller artifact a controller FMU embeds."""
+
+
+C_FLAGS = ("-std=c99", "-O2", "-fPIC", "-fvisibility=hidden", "-Wall", "-Wextra", "-Werror")
+"""gcc flags of a native FMU's sources (compiling; linking adds ``-shared`` and ``-lm``): warnings
+are errors."""
 
 
 class FmuBuildError(RuntimeError):
@@ -171,12 +178,12 @@ def build_native(model: Model, dest_dir: Path, resources: dict[str, bytes] | Non
     digest = digest_of(model, "native", resources, cc)
     if built_digest(dest) == digest:
         return dest
-    model_c = codegen.c_source(model)
+    model_h = codegen.c_source(model)
     with tempfile.TemporaryDirectory(prefix="satfmu_") as tmp:
         root = Path(tmp)
         src = root / "sources"
         src.mkdir()
-        (src / "model.c").write_text(model_c)
+        (src / codegen.C_HEADER).write_text(model_h)
         shutil.copy(WRAPPER, src / WRAPPER.name)
         desc = model_description(model, Capabilities(model.name))
         files = SubElement(desc.find("CoSimulation"), "SourceFiles")  # type: ignore[arg-type]
@@ -184,8 +191,7 @@ def build_native(model: Model, dest_dir: Path, resources: dict[str, bytes] | Non
         (root / "modelDescription.xml").write_bytes(to_xml_bytes(desc))
         bindir = root / "binaries" / "linux64"
         bindir.mkdir(parents=True)
-        cmd = [cc, "-std=c99", "-O2", "-fPIC", "-shared", "-fvisibility=hidden", "-Wall", "-Wextra",
-               "-Werror", f"-I{fmi_headers()}", f"-I{src}", "-o", str(bindir / f"{model.name}.so"),
+        cmd = [cc, *C_FLAGS, "-shared", f"-I{fmi_headers()}", f"-I{src}", "-o", str(bindir / f"{model.name}.so"),
                str(src / WRAPPER.name), "-lm"]
         proc = subprocess.run(cmd, capture_output=True, text=True)
         if proc.returncode != 0:

@@ -26,7 +26,7 @@ def test_native_fmu_carries_sources_and_artifact(fmu_dir: Path) -> None:
     import zipfile
 
     names = zipfile.ZipFile(fmu_dir / "mrp_hinf_published.fmu").namelist()
-    assert {"sources/fmi2_cosim.c", "sources/model.c", "resources/artifact.json",
+    assert {"sources/fmi2_cosim.c", "sources/model.h", "resources/artifact.json",
             "binaries/linux64/mrp_hinf_published.so"} <= set(names)
 
 

@@ -1,8 +1,9 @@
 /*
  * satfmu: generic FMI 2.0 co-simulation wrapper for models generated from a symbolic
  * definition (fmus/model.py). The model-specific part (sizes, variable table, identity and the
- * functions model_derivatives, model_outputs, model_post_step) is generated into model.c, which
- * this file includes. Written for this project.
+ * functions model_derivatives, model_outputs, model_post_step) is generated into the header
+ * model.h, which this file includes: this file is the FMU's only translation unit, so a tool may
+ * compile every .c file under sources/ or the one <SourceFiles> lists. Written for this project.
  *
  * Integration: classical RK4 over each communication step, inputs held constant
  * (zero-order hold), n = max(n_substeps, ceil(h / h_max)) substeps, post_step map
@@ -27,7 +28,7 @@
  * are always those of the previous instant (held_prev), so a repeated sample at one instant
  * gives the same result as a single one.
  *
- * Time: two times closer than time_tolerance(t) (model.c, fmus.model.time_tolerance: 1e-9 |t|,
+ * Time: two times closer than time_tolerance(t) (model.h, fmus.model.time_tolerance: 1e-9 |t|,
  * at most 1 us, at least 8 ulp of |t|) are one instant (a sample instant and a step end, a
  * breakpoint). fmi2DoStep refuses a currentCommunicationPoint farther than point_tol (8 ulp of
  * the larger of 1 s, |t| and |start|: what double precision forces when a master computes
@@ -64,6 +65,26 @@
 
 #include "fmi2Functions.h"
 
+/* glibc floor of the Linux x86-64 binary: GLIBC_2.14 (memcpy), so that it loads on RHEL 8
+ * (glibc 2.28) and older. glibc 2.29 gave pow, exp, log, exp2 and log2 a new default symbol
+ * version (GLIBC_2.29) that drops the SVID error-handling wrapper; a binary linked against a newer
+ * glibc asks for pow@GLIBC_2.29 (e.g. for the integer powers sympy prints as pow(x, 3)) and does
+ * not load on glibc <= 2.28. Binding each to its original version GLIBC_2.2.5, which every x86-64
+ * glibc keeps, removes that requirement for every exponent and every model, whatever the code
+ * generator prints; rewriting powers as products would change the arithmetic (and the results
+ * against the pythonfmu FMUs, which call pow) and cover integer exponents only. On a newer glibc
+ * the old version runs the same pow (only errno handling on overflow or a pole differs, and a
+ * non-finite result is refused here anyway), so results are unchanged bit for bit. Only for glibc
+ * on x86-64, where GLIBC_2.2.5 is the base version; a directive for a function the model does not
+ * call adds nothing. tests/test_glibc_floor.py checks every native FMU's binary. */
+#if defined(__GLIBC__) && defined(__x86_64__)
+__asm__(".symver pow,pow@GLIBC_2.2.5");
+__asm__(".symver exp,exp@GLIBC_2.2.5");
+__asm__(".symver log,log@GLIBC_2.2.5");
+__asm__(".symver exp2,exp2@GLIBC_2.2.5");
+__asm__(".symver log2,log2@GLIBC_2.2.5");
+#endif
+
 typedef struct {
     const char *name;
     int kind;   /* 0 parameter, 1 input, 2 output */
@@ -75,7 +96,7 @@ typedef struct {
 enum { KIND_PARAMETER = 0, KIND_INPUT = 1, KIND_OUTPUT = 2 };
 enum { TYPE_REAL = 0, TYPE_INTEGER = 1, TYPE_BOOLEAN = 2 };
 
-#include "model.c"
+#include "model.h"
 
 #define DIM(n) ((n) > 0 ? (n) : 1)
 
