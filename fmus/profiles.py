@@ -8,7 +8,8 @@ following communication step (zero-order hold), as the FMUs do with inputs.
 Kinds (times in s, values in the target input's unit):
 
 ``constant``  value
-``step``      time, before, after            (``after`` from ``time`` on)
+``step``      time, before, after            (``after`` from ``time`` on; the generator FMU's
+              parameter is ``step_time``)
 ``table``     times, values, interpolation = "previous" | "linear"
 ``sinusoid``  amplitude, frequency_Hz, phase_rad = 0, offset = 0
 ``random``    seed, std, mean = 0, hold = communication step  (Gaussian, held over ``hold``)
@@ -40,8 +41,9 @@ import numpy as np
 from fmus import signals
 from fmus.model import Model, ModelDefinitionError, Table
 
-Generator = Callable[[np.ndarray], tuple[Model, dict[str, float]]]
-"""Communication grid (s) -> the signal-generator model and its parameter values."""
+Generator = Callable[[np.ndarray, str], tuple[Model, dict[str, float]]]
+"""(communication grid (s), unit of the target input) -> the signal-generator model and its
+parameter values."""
 
 
 class ProfileError(ValueError):
@@ -62,15 +64,16 @@ class Profile:
         v = np.asarray(self._fn(np.asarray(t, float)), float)
         return np.broadcast_to(v, np.shape(t)).copy()
 
-    def generator(self, times: np.ndarray) -> tuple[Model, dict[str, float]]:
+    def generator(self, times: np.ndarray, unit: str = signals.DIMENSIONLESS) -> tuple[Model, dict[str, float]]:
         """The signal-generator model (:mod:`fmus.signals`) and its parameter values that give
-        this profile's values at ``times``, the communication grid (s).
+        this profile's values at ``times``, the communication grid (s), declaring ``unit`` (the
+        target input's: FMI 2.0 gives each variable one fixed unit) for its output.
 
         The analytic kinds are the generic generators and do not depend on ``times``; the
         sampled ones are tables: ``table`` and ``csv`` their data, ``random`` its held draws over
         the hold instants up to the last time, ``igrf`` the field on ``times`` (linear).
         """
-        return self._generator(np.asarray(times, float))
+        return self._generator(np.asarray(times, float), unit)
 
 
 def _num(spec: dict, key: str, where: str, default: float | None = None) -> float:
@@ -89,12 +92,13 @@ def _table(times: Any, values: Any, mode: Any, where: str) -> tuple[Callable[[np
         tb = Table(times, values, mode)
     except (ModelDefinitionError, TypeError, ValueError) as exc:
         raise ProfileError(f"{where}: {exc}") from None
-    return tb.evaluate, lambda grid: (signals.table(tb), {})
+    return tb.evaluate, lambda grid, unit: (signals.table(tb, unit), {})
 
 
 def _generic(kind: str, params: dict[str, float]) -> tuple[Callable[[np.ndarray], np.ndarray], Generator]:
     model = signals.GENERIC[kind]()
-    return (lambda t: signals.evaluate(model, params, t)), (lambda grid: (model, dict(params)))
+    return ((lambda t: signals.evaluate(model, params, t)),
+            (lambda grid, unit: (signals.GENERIC[kind](unit), dict(params))))
 
 
 def make(spec: dict[str, Any], where: str = "profile", base_dir: Path | None = None,
@@ -121,7 +125,9 @@ def make(spec: dict[str, Any], where: str = "profile", base_dir: Path | None = N
     if kind == "constant":
         fns = _generic("constant", {"value": _num(spec, "value", where)})
     elif kind == "step":
-        fns = _generic("step", {k: _num(spec, k, where) for k in ("time", "before", "after")})
+        # the profile's field "time" is the generator's parameter "step_time" (never an FMU variable "time")
+        fns = _generic("step", {"step_time": _num(spec, "time", where),
+                                **{k: _num(spec, k, where) for k in ("before", "after")}})
     elif kind == "table":
         fns = _table(spec.get("times", []), spec.get("values", []), spec.get("interpolation", "previous"), where)
     elif kind == "sinusoid":
@@ -197,7 +203,7 @@ def _igrf(spec: dict, where: str) -> tuple[Callable[[np.ndarray], np.ndarray], G
         tt = np.atleast_1d(t)
         b = _igrf_field(key, tt.astype(float).ravel().tobytes())
         return b[:, comp - 1].reshape(tt.shape) if np.ndim(t) else b[0, comp - 1]
-    return fn, lambda grid: _table(grid, fn(grid), "linear", where)[1](grid)
+    return fn, lambda grid, unit: _table(grid, fn(grid), "linear", where)[1](grid, unit)
 
 
 @lru_cache(maxsize=4)
@@ -229,7 +235,7 @@ def _random(spec: dict, where: str, step_size: float | None
         n = int(np.floor(max(float(np.max(t, initial=0.0)), 0.0) / hold + 1e-9)) + 1
         return _table(hold * np.arange(n), np.random.default_rng(seed).normal(mean, std, n), "previous", where)
 
-    return (lambda t: draws(t)[0](t)), (lambda grid: draws(grid)[1](grid))
+    return (lambda t: draws(t)[0](t)), (lambda grid, unit: draws(grid)[1](grid, unit))
 
 
 def _csv(spec: dict, where: str, base_dir: Path | None) -> Callable[[np.ndarray], np.ndarray]:

@@ -38,12 +38,14 @@ restored state is checked field by field (:meth:`SatfmuSlave._state_problem`).
 """
 from __future__ import annotations
 
+import ast
 import atexit
 import ctypes
 import functools
 import importlib
 import json
 import math
+import operator
 import os
 import sys
 import zlib
@@ -74,6 +76,90 @@ STATE_FORMAT = 1
 layout is refused."""
 STATE_MODES = ("Instantiated", "InitializationMode", "StepComplete", "Terminated")
 """The states of the FMI state machine an FMU state may hold (after fmi2Fatal no call is allowed)."""
+
+
+def ieee(op: Callable[..., Any], *args: Any) -> Any:
+    """``op(*args)`` with the IEEE 754 result C gives where Python raises instead.
+
+    Python raises ZeroDivisionError for ``x / 0.0``, ``x % 0.0`` and ``0.0 ** -n``,
+    OverflowError for a float ``**`` or a ``math`` function past DBL_MAX, and ValueError for a
+    ``math`` function outside its domain; C's ``/``, ``fmod``, ``pow`` and ``<math.h>`` return
+    an infinity or NaN there. A complex power of a negative base (C: NaN) is NaN too.
+
+    Parameters
+    ----------
+    op : callable
+        An :mod:`operator` function (``truediv``, ``floordiv``, ``mod``, ``pow``) or a
+        :mod:`math` function.
+    *args
+        Its arguments.
+
+    Returns
+    -------
+    float
+        The result, an infinity or NaN where Python raised.
+    """
+    try:
+        value = op(*args)
+    except ZeroDivisionError:
+        a = float(args[0])
+        if op is operator.pow:
+            value = math.inf  # pow(0, negative)
+        elif op is operator.mod or a == 0.0 or math.isnan(a):
+            value = math.nan  # fmod(x, 0), 0 / 0
+        else:
+            value = math.copysign(math.inf, a) * math.copysign(1.0, float(args[1]))
+    except OverflowError:
+        negative = op is operator.pow and args[0] < 0 and float(args[1]).is_integer() and args[1] % 2 == 1
+        value = -math.inf if negative else math.inf
+    except ValueError:
+        value = math.nan
+    return math.nan if isinstance(value, complex) else value
+
+
+class _IeeeArithmetic(ast.NodeTransformer):
+    """Rewrites generated code so that division, ``%``, ``**`` and ``math.<f>(...)`` go
+    through :func:`ieee` (``a / b`` becomes ``_ieee(_operator.truediv, a, b)``)."""
+
+    OPERATORS = {ast.Div: "truediv", ast.FloorDiv: "floordiv", ast.Mod: "mod", ast.Pow: "pow"}
+
+    def visit_BinOp(self, node: ast.BinOp) -> ast.AST:
+        self.generic_visit(node)
+        name = self.OPERATORS.get(type(node.op))
+        if name is None:
+            return node
+        op = ast.Attribute(ast.Name("_operator", ast.Load()), name, ast.Load())
+        return ast.copy_location(ast.Call(ast.Name("_ieee", ast.Load()), [op, node.left, node.right], []), node)
+
+    def visit_Call(self, node: ast.Call) -> ast.AST:
+        self.generic_visit(node)
+        f = node.func
+        if isinstance(f, ast.Attribute) and isinstance(f.value, ast.Name) and f.value.id == "math" \
+                and not node.keywords:
+            return ast.copy_location(ast.Call(ast.Name("_ieee", ast.Load()), [f, *node.args], []), node)
+        return node
+
+
+def ieee_function(gen: ModuleType, name: str) -> Callable[..., list[Any]] | None:
+    """The generated function ``name`` of ``gen`` rewritten to C's IEEE 754 arithmetic
+    (:func:`ieee`), from the module's source file; None when the module has no source file.
+
+    Used only after the plain function raised: it tells which results are non-finite, so a
+    refusal names the variable as the native FMU's does (the plain function stays the fast
+    path, bit for bit the C results where it does not raise).
+    """
+    path = getattr(gen, "__file__", None)
+    if not path or not os.path.isfile(path):
+        return None
+    with open(path, encoding="utf-8") as fh:
+        tree = ast.parse(fh.read(), filename=path)
+    defs = [n for n in tree.body if isinstance(n, ast.FunctionDef) and n.name == name]
+    if not defs:
+        return None
+    module = ast.fix_missing_locations(ast.Module([_IeeeArithmetic().visit(defs[0])], []))
+    namespace = dict(vars(gen), _ieee=ieee, _operator=operator)
+    exec(compile(module, path, "exec"), namespace)  # noqa: S102 (the FMU's own generated code)
+    return namespace[name]
 
 
 def substep_count(h: float, n_substeps: float, h_max: float) -> int:
@@ -458,17 +544,33 @@ class SatfmuSlave(Fmi2Slave):
     def _update_outputs(self, fn: str) -> None:
         """The outputs at the FMU time; a non-finite one is refused and the error state entered (as
         the native FMU: no non-finite output is ever returned with fmi2OK)."""
+        args = (self.time, self.x, self.u, self.p)
+        failure: str = "a complex result"
         try:
-            self.y = self.generated.outputs(self.time, self.x, self.u, self.p)
-        except ArithmeticError as exc:  # float ** overflows with OverflowError where C gives inf
-            self.mode = "Error"
-            self._reject(f"{fn}: an output is non-finite ({type(exc).__name__}: {exc}) at t = {self.time:.17g} s")
+            self.y = self.generated.outputs(*args)
+            plain = not any(isinstance(v, complex) for v in self.y)
+        except (ArithmeticError, ValueError) as exc:  # 1 / 0.0, float ** overflow, math domain: C gives inf, NaN
+            plain, failure = False, f"{type(exc).__name__}: {exc}"
+        if not plain:  # C's values (an infinity or NaN where Python raised), to name the output
+            fn_ieee = self._ieee_outputs()
+            if fn_ieee is None:
+                self.mode = "Error"
+                self._reject(f"{fn}: an output is non-finite ({failure}) at "
+                             f"t = {self.time:.17g} s")
+            self.y = fn_ieee(*args)
         for out in self._table:
             if out["kind"] == KIND_OUTPUT and not math.isfinite(self.y[out["index"]]):
                 self.mode = "Error"
                 self._reject(f"{fn}: output '{out['name']}' is non-finite ({self.y[out['index']]:g}) at "
                              f"t = {self.time:.17g} s")
         self.outputs_valid = True
+
+    def _ieee_outputs(self) -> Callable[..., list[Any]] | None:
+        """The generated ``outputs`` in C's arithmetic (:func:`ieee_function`), made once per class."""
+        cls = type(self)
+        if "_ieee_outputs_fn" not in cls.__dict__:
+            cls._ieee_outputs_fn = ieee_function(self.generated, "outputs")
+        return cls.__dict__["_ieee_outputs_fn"]
 
     def _set(self, row: dict, value: Any) -> None:
         name = row["name"]

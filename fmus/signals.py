@@ -8,11 +8,20 @@ the master's in-process profile (:func:`evaluate`, used by :mod:`fmus.profiles`)
 Python and the C of the native FMU, so a scenario run with its profiles as FMUs (an SSP file in
 another tool) sees the very values the master sets.
 
-Kinds (times in s; ``y`` in the unit of the input it drives, declared ``"1"``):
+Units: FMI 2.0 gives every variable one fixed unit, so a generator is made for the unit of
+the input it drives (``unit``, from the target FMU's model description: :func:`sims.ssp.target_unit`);
+``y`` and the value parameters (``value``, ``before``, ``after``, ``amplitude``, ``offset``)
+declare it. Unit ``"1"`` (dimensionless) gives the catalog's generic FMUs ``signal_<kind>``; another
+unit gives ``signal_<kind>__<unit tag>`` (:func:`model_name`, e.g. ``signal_step__N_m`` for N.m),
+built when a scenario's SSP file needs it. Times are in s.
+
+Kinds:
 
 ``signal_constant``     y = value
-``signal_step``         y = before until ``time``, then after (a jump at ``time``, to the
-                        time tolerance :data:`fmus.model.TIME_TOL`)
+``signal_step``         y = before until ``step_time``, then after (a jump at ``step_time``, to
+                        the time tolerance :data:`fmus.model.TIME_TOL`); the parameter is not
+                        called ``time``, the name of the independent variable in result files
+                        and in Modelica
 ``signal_sinusoid``     y = offset + amplitude sin(2 pi frequency_Hz t + phase_rad), the
                         argument reduced to one period (``frequency_Hz t`` modulo 1) where
                         2 pi frequency_Hz t would overflow, so that it stays finite up to
@@ -38,10 +47,13 @@ from typing import Callable
 import numpy as np
 import sympy as sp
 
-from fmus.model import Model, Output, Table, TableLookup, Variable, time_tolerance
+from fmus.model import UNITS, Model, Output, Table, TableLookup, Variable, time_tolerance
 
 OUTPUT = "y"
 """Name of every generator's output."""
+DIMENSIONLESS = "1"
+"""The unit of the catalog's generic generators (``signal_<kind>``)."""
+_TAG = {".": "_", "/": "_per_", "^": "_pow_", "-": "_neg_"}
 
 t = Model.t
 
@@ -51,54 +63,83 @@ def _at_or_after(t0: sp.Expr) -> sp.Basic:
     return t >= t0 - time_tolerance(t)
 
 
-def _model(name: str, description: str, parameters: list[Variable], y: sp.Expr, stop: float = 10.0) -> Model:
-    out = Output(Variable(OUTPUT, "1", "Signal value (in the unit of the input it drives)"), y)
-    return Model(name, description, states=[], inputs=[], parameters=parameters, outputs=[out],
-                 default_stop_time=stop)
+def unit_tag(unit: str) -> str:
+    """``unit`` as a part of a C identifier: letters and digits kept, ``.`` -> ``_``, ``/`` ->
+    ``_per_``, ``^`` -> ``_pow_``, ``-`` -> ``_neg_``, any other character (``_`` too) ->
+    ``_x<hex code>``, so that different units give different tags (``"N.m"`` -> ``"N_m"``)."""
+    return "".join(c if c.isascii() and c.isalnum() else _TAG.get(c, f"_x{ord(c):x}") for c in unit)
+
+
+def model_name(kind: str, unit: str = DIMENSIONLESS) -> str:
+    """The generator's model (and FMU) name: ``signal_<kind>`` for a dimensionless signal,
+    ``signal_<kind>__<unit_tag(unit)>`` otherwise."""
+    return f"signal_{kind}" if unit == DIMENSIONLESS else f"signal_{kind}__{unit_tag(unit)}"
+
+
+def _check_unit(unit: str) -> None:
+    if unit not in UNITS:
+        raise ValueError(f"a signal's unit must be one of fmus.model.UNITS, got {unit!r}")
+
+
+def _model(kind: str, unit: str, description: str, parameters: list[Variable], y: sp.Expr,
+           stop: float = 10.0) -> Model:
+    out = Output(Variable(OUTPUT, unit, "Signal value"), y)
+    suffix = "" if unit == DIMENSIONLESS else f", in {unit}"
+    return Model(model_name(kind, unit), description + suffix, states=[], inputs=[], parameters=parameters,
+                 outputs=[out], default_stop_time=stop)
 
 
 @lru_cache(maxsize=None)
-def constant() -> Model:
-    """``y = value``."""
-    value = Variable("value", "1", "Signal value")
-    return _model("signal_constant", "Constant signal", [value], value.symbol)
+def constant(unit: str = DIMENSIONLESS) -> Model:
+    """``y = value``, in ``unit``."""
+    _check_unit(unit)
+    value = Variable("value", unit, "Signal value")
+    return _model("constant", unit, "Constant signal", [value], value.symbol)
 
 
 @lru_cache(maxsize=None)
-def step() -> Model:
-    """``y = before`` for ``t < time``, ``after`` from ``time`` on."""
-    time = Variable("time", "s", "Time of the step", 1.0)
-    before = Variable("before", "1", "Value before the step", 0.0)
-    after = Variable("after", "1", "Value from the step time on", 1.0)
-    y = sp.Piecewise((after.symbol, _at_or_after(time.symbol)), (before.symbol, True))
-    return _model("signal_step", "Step signal", [time, before, after], y)
+def step(unit: str = DIMENSIONLESS) -> Model:
+    """``y = before`` for ``t < step_time``, ``after`` from ``step_time`` on, in ``unit``."""
+    _check_unit(unit)
+    step_time = Variable("step_time", "s", "Time of the step", 1.0)
+    before = Variable("before", unit, "Value before the step", 0.0)
+    after = Variable("after", unit, "Value from the step time on", 1.0)
+    y = sp.Piecewise((after.symbol, _at_or_after(step_time.symbol)), (before.symbol, True))
+    return _model("step", unit, "Step signal", [step_time, before, after], y)
 
 
 @lru_cache(maxsize=None)
-def sinusoid() -> Model:
-    """``y = offset + amplitude sin(2 pi frequency_Hz t + phase_rad)``."""
-    amp = Variable("amplitude", "1", "Amplitude", 1.0)
+def sinusoid(unit: str = DIMENSIONLESS) -> Model:
+    """``y = offset + amplitude sin(2 pi frequency_Hz t + phase_rad)``, in ``unit``."""
+    _check_unit(unit)
+    amp = Variable("amplitude", unit, "Amplitude", 1.0)
     freq = Variable("frequency_Hz", "1/s", "Frequency, Hz", 1.0)
     phase = Variable("phase_rad", "rad", "Phase at t = 0", 0.0)
-    offset = Variable("offset", "1", "Offset", 0.0)
+    offset = Variable("offset", unit, "Offset", 0.0)
     # sin(2 pi (f t mod 1) + phase) = sin(2 pi f t + phase) where 2 pi f t overflows (|f t| beyond
     # 2^1000 ~ 1e301 s x Hz, up to DBL_MAX: t = DBL_MAX at 1 Hz); below, the direct form, bit for bit
     ft = freq.symbol * t
     y = offset.symbol + amp.symbol * sp.Piecewise(
         (sp.sin(2 * sp.pi * ft + phase.symbol), sp.Abs(ft) < sp.Float(2.0**1000)),
         (sp.sin(2 * sp.pi * sp.Mod(ft, 1) + phase.symbol), True))
-    return _model("signal_sinusoid", "Sinusoidal signal", [amp, freq, phase, offset], y)
+    return _model("sinusoid", unit, "Sinusoidal signal", [amp, freq, phase, offset], y)
 
 
 @lru_cache(maxsize=None)
-def cosine_ramp() -> Model:
+def cosine_ramp(unit: str = DIMENSIONLESS) -> Model:
     """Seed 002 eq. (24)-(25): a cosine ramp from ``before`` to ``after`` over [start, stop],
     or its first or second derivative (per s, per s^2), zero outside the ramp; with
-    ``stop <= start`` a step from ``before`` to ``after`` at ``start`` (derivatives 0)."""
+    ``stop <= start`` a step from ``before`` to ``after`` at ``start`` (derivatives 0).
+
+    ``unit`` is the output's (the input it drives: for a derivative the ramped value's unit per s
+    or per s^2). ``before`` and ``after`` are the ramped values, in ``unit`` only for
+    ``derivative`` = 0 (a parameter, set after the FMU is built): they are declared ``"1"``,
+    their description says so."""
+    _check_unit(unit)
     start = Variable("start", "s", "Start of the ramp", 0.0)
     stop = Variable("stop", "s", "End of the ramp (must exceed start)", 1.0)
-    before = Variable("before", "1", "Value until start", 0.0)
-    after = Variable("after", "1", "Value from stop on", 1.0)
+    before = Variable("before", DIMENSIONLESS, "Value until start (in the unit of the ramped value)", 0.0)
+    after = Variable("after", DIMENSIONLESS, "Value from stop on (in the unit of the ramped value)", 1.0)
     order = Variable("derivative", "1", "0: the ramp; 1, 2: its first, second time derivative",
                      0, "Integer", min=0, max=2)
     t0, t1, a, b, n = (v.symbol for v in (start, stop, before, after, order))
@@ -112,26 +153,27 @@ def cosine_ramp() -> Model:
                      (0, sp.Not(inside)),
                      ((b - a) * w * sp.sin(x) / 2, n < sp.Rational(3, 2)),
                      ((b - a) * w**2 * sp.cos(x) / 2, True))
-    return _model("signal_cosine_ramp", "Cosine ramp (seed 002 eq. 24-25) or its derivatives",
+    return _model("cosine_ramp", unit, "Cosine ramp (seed 002 eq. 24-25) or its derivatives",
                   [start, stop, before, after, order], y)
 
 
-def table(tb: Table) -> Model:
-    """The table ``tb`` as a generator; its name carries a hash of the data
-    (``signal_table_<12 hex>``), so equal tables give one FMU."""
-    key = json.dumps([tb.times, tb.values, tb.interpolation]).encode()
+def table(tb: Table, unit: str = DIMENSIONLESS) -> Model:
+    """The table ``tb`` as a generator of values in ``unit``; its name carries a hash of the
+    data and the unit (``signal_table_<12 hex>``), so equal tables of one unit give one FMU."""
+    _check_unit(unit)
+    key = json.dumps([tb.times, tb.values, tb.interpolation] + ([] if unit == DIMENSIONLESS else [unit])).encode()
     name = f"signal_table_{hashlib.sha256(key).hexdigest()[:12]}"
     span = tb.times[-1] - tb.times[0]
-    return Model(name, f"Table of {len(tb.times)} breakpoints, {tb.interpolation} interpolation",
+    return Model(name, f"Table of {len(tb.times)} breakpoints, {tb.interpolation} interpolation, in {unit}",
                  states=[], inputs=[], parameters=[],
-                 outputs=[Output(Variable(OUTPUT, "1", "Signal value (in the unit of the input it drives)"),
-                                 TableLookup(0, t))],
+                 outputs=[Output(Variable(OUTPUT, unit, "Signal value"), TableLookup(0, t))],
                  default_stop_time=span if span > 0 else 10.0, tables=[tb])
 
 
-GENERIC: dict[str, Callable[[], Model]] = {"constant": constant, "step": step, "sinusoid": sinusoid,
-                                           "cosine_ramp": cosine_ramp}
-"""The generic generators by profile kind (built once into ``build/fmus``)."""
+GENERIC: dict[str, Callable[..., Model]] = {"constant": constant, "step": step, "sinusoid": sinusoid,
+                                            "cosine_ramp": cosine_ramp}
+"""The generic generators by profile kind, called with the unit (default ``"1"``: the catalog's
+FMUs, built once into ``build/fmus``)."""
 
 
 def evaluate(model: Model, parameters: dict[str, float], times: np.ndarray) -> np.ndarray:

@@ -17,17 +17,21 @@ runs. The file is validated against the SSP 1.0 schemas that fmpy ships
 written.
 
 Each disturbance profile becomes a signal-generator component (:mod:`fmus.signals`, native)
-named ``signal_<instance>_<variable>`` and connected to the input it drives: the generic ones
-(constant, step, sinusoid, cosine ramp) are taken from the FMU folder with the profile's
-constants as parameter values, the sampled ones (table, csv, random, igrf) are compiled from
-their tables into the file. The file is then the whole scenario: FMUs plus connections.
+named ``signal_<instance>_<variable>`` and connected to the input it drives, its output declaring
+that input's unit (:func:`target_unit`, read from the target FMU: FMI 2.0 gives each variable one
+fixed unit): the dimensionless generic ones (constant, step, sinusoid, cosine ramp) are taken
+from the FMU folder, those of another unit (``signal_step__N_m``) and the sampled ones (table,
+csv, random, igrf) are compiled into ``signal_tables`` there, with the profile's constants as
+parameter values. The file is then the whole scenario: FMUs plus connections.
 """
 from __future__ import annotations
 
+import functools
 import re
 import zipfile
 from pathlib import Path
 
+from fmpy import read_model_description
 from fmpy.ssp import ssd as fmpy_ssd
 from lxml import etree
 
@@ -64,30 +68,61 @@ def _el(parent, tag: str, **attrib: str):
     return etree.SubElement(parent, _q(tag), attrib)
 
 
-def signal_components(scenario: Scenario, fmu_dir: Path, table_dir: Path
+def target_unit(scenario: Scenario, fmu_dir: Path, target: str, backend: str = "native") -> str:
+    """The declared unit of the input ``target`` (``instance.variable``) in its FMU's model
+    description (``"1"`` when it declares none).
+
+    Raises
+    ------
+    SspError
+        If the instance or the variable does not exist.
+    """
+    inst, _, var = target.partition(".")
+    path = fmu_paths(scenario, fmu_dir, backend).get(inst)
+    if path is None:
+        raise SspError(f"{scenario.name}: profile target {target!r}: no FMU instance {inst!r}")
+    md = _model_description(str(path), path.stat().st_mtime_ns if path.is_file() else 0)
+    for v in md.modelVariables:
+        if v.name == var:
+            unit = v.unit or (v.declaredType.unit if v.declaredType is not None else None)
+            return unit or signals.DIMENSIONLESS
+    raise SspError(f"{scenario.name}: profile target {target!r}: {path.name} has no variable {var!r}")
+
+
+@functools.lru_cache(maxsize=32)
+def _model_description(path: str, mtime_ns: int):
+    """The model description of the FMU ``path`` (read once per file version, ``mtime_ns``)."""
+    return read_model_description(path)
+
+
+def signal_components(scenario: Scenario, fmu_dir: Path, table_dir: Path, backend: str = "native"
                       ) -> tuple[dict[str, Path], dict[str, dict], list[dict[str, str]]]:
     """The scenario's profiles as signal-generator instances: FMU paths, parameter values and
     connections (``from``/``to``), by instance name ``signal_<instance>_<variable>``.
 
-    Generic generators come from ``fmu_dir`` (built there when missing); table generators
-    are compiled into ``table_dir``.
+    Each generator's output declares the unit of the input it drives (:func:`target_unit`, of
+    the scenario's FMUs for ``backend``). The dimensionless generic generators come from
+    ``fmu_dir`` (built there when missing); those of another unit and the table generators are
+    compiled into ``table_dir`` (again when their build digest is not their model's).
 
     Raises
     ------
     fmus.profiles.ProfileError
         An invalid profile.
+    SspError
+        A target that is not a variable of the scenario's FMUs.
     """
     paths: dict[str, Path] = {}
     params: dict[str, dict] = {}
     conns: list[dict[str, str]] = []
     times = grid(scenario)
     for target, prof in profiles(scenario):
-        model, values = prof.generator(times)
+        model, values = prof.generator(times, target_unit(scenario, fmu_dir, target, backend))
         inst = "signal_" + re.sub(r"[^A-Za-z0-9]+", "_", target).strip("_")
-        if model.tables:
-            path = table_dir / f"{model.name}.fmu"
-            if not path.exists():
-                fmu_export.build_native(model, table_dir)
+        if model.tables or model.name not in catalog.SIGNALS:
+            path = fmu_export.fmu_path(model, table_dir, "native")
+            if fmu_export.built_digest(path) != fmu_export.digest_of(model, "native"):
+                path = fmu_export.build_native(model, table_dir)
         else:
             path = catalog.ensure(Path(fmu_dir), [model.name])[model.name]
         paths[inst], params[inst] = path, values
@@ -113,7 +148,7 @@ def system_structure(scenario: Scenario, fmu_dir: Path, backend: str = "native",
     paths = fmu_paths(scenario, fmu_dir, backend)
     table_dir = Path(table_dir) if table_dir is not None else Path(fmu_dir) / "signal_tables"
     table_dir.mkdir(parents=True, exist_ok=True)
-    sig_paths, sig_params, sig_conns = signal_components(scenario, fmu_dir, table_dir)
+    sig_paths, sig_params, sig_conns = signal_components(scenario, fmu_dir, table_dir, backend)
     taken = sorted(set(paths) & set(sig_paths))
     if taken:
         raise SspError(f"{scenario.name}: instance name(s) {taken} are taken by the scenario; the profiles' "

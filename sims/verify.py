@@ -220,7 +220,8 @@ def _master(scenario: Scenario, fmu_dir: Path, backend: str, exchange: str
     names and the (closed) master."""
     d = scenario.data
     paths = fmu_paths(scenario, fmu_dir, backend)
-    sig_paths, sig_params, sig_conns = ssp.signal_components(scenario, fmu_dir, Path(fmu_dir) / "signal_tables")
+    sig_paths, sig_params, sig_conns = ssp.signal_components(scenario, fmu_dir, Path(fmu_dir) / "signal_tables",
+                                                             backend)
     sim = CoSimulation(paths | sig_paths)
     try:
         for c in list(d.get("connections", [])) + sig_conns:

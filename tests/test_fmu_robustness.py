@@ -962,3 +962,60 @@ def test_native_sinusoid_at_the_largest_time_is_finite(native) -> None:
     assert inst.outputs() == [math.sin(0.5)]
     # no later finite time: a step from DBL_MAX is refused, the FMU stays at its time
     inst.rejected("doStep", DBL_MAX, 1.0, contains=("does not reach a finite later time",))
+
+
+# ----------------------------------------------------------------------------- 9. singular controller outputs
+BACKSTEPPING, BACKSTEPPING_PY = "vscmg_backstepping.fmu", "vscmg_backstepping_py.fmu"
+
+
+@pytest.fixture
+def built(fmu_dir: Path):
+    """Factory of :class:`Instance` objects of any FMU of the build (native or pythonfmu, by its
+    file name), extracted per test."""
+    made: list[tuple[Instance, str]] = []
+
+    def _make(file: str) -> Instance:
+        path = fmu_dir / file
+        fmu = Fmu(file, path, read_model_description(str(path)), extract(str(path)), path.stem.endswith("_py"))
+        inst = Instance(fmu)
+        made.append((inst, fmu.unzip))
+        return inst
+
+    yield _make
+    for inst, unzip in made:
+        inst.free()
+        shutil.rmtree(unzip, ignore_errors=True)
+
+
+@pytest.mark.parametrize("file", [BACKSTEPPING, BACKSTEPPING_PY])
+def test_backstepping_output_at_q2_zero_is_refused_naming_it(built, file: str) -> None:
+    """At gimbal angle q2 = 0 the backstepping law divides by sin q2 (issue 28, defect 2: T1 came
+    back as -inf). fmi2GetReal of T1 is refused with a message naming 'T1', on both backends, and
+    never returns a non-finite value with fmi2OK; the native FMU is in the error state and
+    fmi2Reset recovers it.
+
+    pythonfmu 0.7.0 turns every refusal into fmi2Fatal (docs/pythonfmu.md), after which FMI 2.0
+    allows no call, not even fmi2Reset: its message is the native one (Python's ZeroDivisionError
+    is evaluated as C's IEEE arithmetic to find the non-finite output), the recovery is native only.
+    """
+    inst = built(file)
+    inst.initialize()
+    t1 = inst.vr("T1")
+    # the start values (q2 = pi/18) are away from the singularity: finite torques
+    assert all(math.isfinite(v) for v in inst.get(["T1", "T2"])), "T1, T2 at the seed's start must be finite"
+    # q2 = 0 with a gimbal-4 rate error: sin q2 = 0 divides a non-zero torque demand
+    inst.ok("setReal", [inst.vr("q2"), inst.vr("w4"), inst.vr("q4_ref_dot")], [0.0, 0.2, 0.5])
+    text = inst.rejected("getReal", [t1], contains=("fmi2GetReal: output 'T1' is non-finite", "at t = 0 s"))
+    assert "ZeroDivisionError" not in text, f"the refusal must name the output, not Python's exception: {text!r}"
+    if inst.fmu.is_python:
+        assert inst.dead, "pythonfmu 0.7.0 answers fmi2Fatal: the instance is not called again"
+        return
+    # native: the error state; every further read of an output is refused the same way
+    inst.rejected("getReal", [inst.vr("T2")], contains=("output 'T1' is non-finite",))
+    inst.rejected("doStep", 0.0, 0.01, contains=("fmi2DoStep must not be called in state Error",))
+    inst.ok("reset")
+    inst.initialize()
+    # after the reset the inputs are back at their start values: finite torques, and a step works
+    assert all(math.isfinite(v) for v in inst.get(["T1", "T2"])), "fmi2Reset must give a usable FMU again"
+    inst.ok("doStep", 0.0, 0.01)
+    assert all(math.isfinite(v) for v in inst.outputs()), "the step after the reset must give finite outputs"

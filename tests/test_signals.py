@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from fmpy import read_model_description
 
 from fmus import export, signals
 from fmus.model import ModelDefinitionError, Table
@@ -95,3 +96,14 @@ def test_table_lookup_index_is_checked() -> None:
     with pytest.raises(ModelDefinitionError, match="reads no table"):
         Model("bad", "", [], [], [], [Output(Variable("y"), TableLookup(1, Model.t))],
               tables=[Table((0.0,), (1.0,))])
+
+
+def test_no_fmu_of_the_catalog_has_a_variable_named_time(fmu_dir: Path) -> None:
+    """Issue 28, defect 5: a variable ``time`` (signal_step's step time was one) duplicates the
+    ``time`` column of fmusim's and the FMI Compliance Checker's result files and clashes with
+    Modelica's ``time``; no FMU of the catalog may declare one."""
+    fmus = sorted(fmu_dir.glob("*.fmu"))
+    assert any(f.name == "signal_step.fmu" for f in fmus), "the catalog's signal_step.fmu must be checked"
+    clashes = [f"{f.name}: {v.name}" for f in fmus for v in read_model_description(str(f)).modelVariables
+               if v.name.lower() == "time"]
+    assert not clashes, f"variables named time: {clashes}"

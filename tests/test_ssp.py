@@ -5,6 +5,7 @@ import zipfile
 from pathlib import Path
 
 import pytest
+from fmpy import read_model_description
 from fmpy.ssp.ssd import read_ssd
 from lxml import etree
 
@@ -57,14 +58,16 @@ def test_python_backend_and_cli(fmu_dir: Path, tmp_path: Path, capsys) -> None:
 def test_profiles_become_signal_generator_components(fmu_dir: Path, tmp_path: Path) -> None:
     # mrp_eq44: two steps and a constant on plant.w_d, as generic generators with the profile's
     # constants as parameter values, each connected to the input it drives
+    # (plant.w_d is in N.m: the generators are made for N.m, signal_step__N_m)
     path = ssp.export("mrp_eq44", fmu_dir, tmp_path)
     names, root = _ssd(path)
-    assert {"resources/signal_step.fmu", "resources/signal_constant.fmu"} <= set(names)
+    assert {"resources/signal_step__N_m.fmu", "resources/signal_constant__N_m.fmu"} <= set(names)
     ns = ssp.NS
     comp = root.find("ssd:System/ssd:Elements/ssd:Component[@name='signal_plant_w_d_1']", ns)
-    assert comp.get("source") == "resources/signal_step.fmu"
+    assert comp.get("source") == "resources/signal_step__N_m.fmu"
     p = {e.get("name"): float(e[0].get("value")) for e in comp.iter(f"{{{ns['ssv']}}}Parameter")}
-    assert p == {"time": 5.0, "before": 2.0, "after": 0.0}
+    # the profile's field "time" sets the parameter step_time (no FMU variable is called time)
+    assert p == {"step_time": 5.0, "before": 2.0, "after": 0.0}
     cons = {(c.get("startElement"), c.get("startConnector"), c.get("endElement"), c.get("endConnector"))
             for c in root.findall("ssd:System/ssd:Connections/ssd:Connection", ns)}
     assert ("signal_plant_w_d_3", "y", "plant", "w_d[3]") in cons
@@ -118,3 +121,31 @@ def test_schema_failures_are_reported(fmu_dir: Path) -> None:
         ssp.validate(root)
     text = str(exc.value)
     assert "'version' is required" in text and "SystemStructureParameterValues.xsd" in text and "'fast'" in text
+
+
+def test_signal_generators_declare_the_unit_of_the_input_they_drive(fmu_dir: Path, tmp_path: Path) -> None:
+    """Issue 28, defect 5: every generator of an exported SSP declares, for its output ``y``, the
+    unit its target input declares (FMI 2.0: one fixed unit per variable; a ``"1"`` output
+    connected to an N.m input is a unit mismatch for a tool that checks units)."""
+    path = ssp.export("mrp_eq44", fmu_dir, tmp_path)
+    _, root = _ssd(path)
+    ns = ssp.NS
+    with zipfile.ZipFile(path) as zf:
+        def description(element: str):
+            source = root.find(f"ssd:System/ssd:Elements/ssd:Component[@name='{element}']", ns).get("source")
+            fmu = tmp_path / Path(source).name
+            fmu.write_bytes(zf.read(source))
+            return read_model_description(str(fmu))
+
+        checked = 0
+        for c in root.findall("ssd:System/ssd:Connections/ssd:Connection", ns):
+            if not c.get("startElement").startswith("signal_"):
+                continue
+            src, dst = description(c.get("startElement")), description(c.get("endElement"))
+            y = next(v for v in src.modelVariables if v.name == c.get("startConnector"))
+            target = next(v for v in dst.modelVariables if v.name == c.get("endConnector"))
+            assert target.unit == "N.m", f"mrp_eq44 drives plant.w_d (N.m), got {target.unit!r}"
+            assert y.unit == target.unit, (f"{c.get('startElement')}.y declares {y.unit!r}, the input "
+                                           f"{c.get('endElement')}.{target.name} it drives {target.unit!r}")
+            checked += 1
+    assert checked == 3, f"mrp_eq44 has three profiles on plant.w_d[1..3], {checked} generator connections found"
