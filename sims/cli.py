@@ -21,7 +21,7 @@
                            [--out results/demeter]
     satfmu campaign demeter [--artifact demeter_row1_det] [--samples 100000] [--workers 2] [--scheduler tcp://...]
     satfmu campaign scenario SCENARIO [--samples N | --demo] [--workers 2 | --scheduler tcp://...] [--seed S]
-                             [--chunk 10] [--envelope SIGNAL ...] [--points 500] [--fmu-dir DIR]
+                             [--chunk C] [--envelope SIGNAL ...] [--points 500] [--fmu-dir DIR]
                              [--out results/campaigns]
     satfmu replay CAMPAIGN_DIR --sample K [--out results/replay] [--fmu-dir DIR]
     satfmu report DIR [DIR ...] [--out results/report.html] [--fmu-dir DIR] [--confidence 0.95] [--worst 5]
@@ -575,7 +575,8 @@ def parser() -> argparse.ArgumentParser:
     cs.add_argument("--seed", type=int, default=None,
                     help="root seed, sample i depends only on seed and i (default: the scenario's [campaign] seed, "
                          "else 0)")
-    cs.add_argument("--chunk", type=_positive_int, default=10, help="samples per task and per Parquet file")
+    cs.add_argument("--chunk", type=_positive_int, default=None,
+                    help="samples per task and per Parquet file (default: about 100 chunks, 10 to 1000 samples each)")
     cs.add_argument("--workers", type=_positive_int, default=2, help="local Dask workers (ignored with --scheduler)")
     cs.add_argument("--scheduler", default=None,
                     help="address of a running Dask scheduler, tcp://host:port (default: a local cluster)")

@@ -186,7 +186,7 @@ def _value(sampled: S.Scenario, owner: str, name: str) -> Any:
     return sampled.fmus[owner].parameters[name]
 
 
-def campaign(scenario: "str | Path | Mapping[str, Any] | S.Scenario", n: int, seed: int = 0, chunk: int = 10,
+def campaign(scenario: "str | Path | Mapping[str, Any] | S.Scenario", n: int, seed: int = 0, chunk: int | None = None,
              name: str | None = None, fmu_dir: str | Path | None = None, backend: str = "native",
              envelopes: Sequence[str] = (), points: int = E.POINTS) -> Campaign:
     """The Monte Carlo campaign of a scenario's ``[dispersions]`` (run it with :func:`sims.campaign.run`).
@@ -203,8 +203,9 @@ def campaign(scenario: "str | Path | Mapping[str, Any] | S.Scenario", n: int, se
         Number of samples, >= 1.
     seed : int
         Campaign seed, >= 0.
-    chunk : int
-        Samples per task and per Parquet file (the rows do not depend on it).
+    chunk : int, optional
+        Samples per task and per Parquet file (the rows do not depend on it); default
+        :func:`default_chunk` of ``n``.
     name : str, optional
         Campaign (folder) name; default ``<scenario>-n<n>-s<seed>``.
     fmu_dir : path, optional
@@ -251,8 +252,20 @@ def campaign(scenario: "str | Path | Mapping[str, Any] | S.Scenario", n: int, se
     ctx = context(sc, folder, backend)
     if signals:
         ctx["envelopes"] = {"signals": list(signals), "points": int(points)}
-    return Campaign(name=name or f"{sc.name}-n{n}-s{seed}", task=task, n=n, seed=int(seed), chunk=chunk,
+    return Campaign(name=name or f"{sc.name}-n{n}-s{seed}", task=task, n=n, seed=int(seed),
+                    chunk=default_chunk(n) if chunk is None else chunk,
                     sampler=sample_indices, context=ctx)
+
+
+def default_chunk(n: int) -> int:
+    """Samples per chunk of a campaign of ``n`` samples when none is given: about 100 chunks, at
+    least 10 and at most 1000 samples each. Per chunk the driver writes a Parquet file and the
+    campaign record and Dask schedules a task (milliseconds each); a chunk is also what an
+    interruption loses. A pure function of ``n``, so a resumed campaign finds its chunks whatever
+    the number of workers."""
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)):
+        return 10  # the campaign refuses the count itself, naming it
+    return int(min(1000, max(10, -(-int(n) // 100))))
 
 
 def _envelope_signals(scenario: S.Scenario, folder: Path, backend: str, envelopes: Sequence[str], where: str
@@ -519,7 +532,7 @@ class CampaignResult:
 
 
 def run_campaign(scenario: "str | Path | Mapping[str, Any] | S.Scenario", n: int, out_dir: str | Path, *,
-                 seed: int = 0, chunk: int = 10, name: str | None = None, fmu_dir: str | Path | None = None,
+                 seed: int = 0, chunk: int | None = None, name: str | None = None, fmu_dir: str | Path | None = None,
                  backend: str = "native", workers: int = 2, scheduler: str | None = None,
                  confidence: float = 0.95, worst: int = 5, progress: Any = None, envelopes: Sequence[str] = (),
                  points: int = E.POINTS) -> CampaignResult:

@@ -282,3 +282,11 @@ def test_envelopes_are_the_percentiles_of_the_sampled_runs(tmp_path: Path, clien
     with pytest.raises(C.CampaignError, match="context differs in envelopes"):  # same folder, other envelopes
         SC.run_campaign(data, 6, tmp_path, seed=SEED, chunk=3, fmu_dir=fmu_dir, scheduler=client.scheduler.address,
                         envelopes=["plant.phi"], points=9, name=res.campaign.name)
+
+
+def test_the_default_chunk_gives_about_a_hundred_chunks_of_10_to_1000_samples(fmu_dir: Path) -> None:
+    """A pure function of n (a resumed campaign finds its chunks whatever the workers)."""
+    assert [SC.default_chunk(n) for n in (1, 999, 1000, 1001, 10_000, 100_000, 10**7)] == [10, 10, 10, 11, 100,
+                                                                                         1000, 1000]
+    camp = SC.campaign(S.Scenario.from_dict(mrp()), 10_000, seed=SEED, fmu_dir=fmu_dir)
+    assert camp.chunk == 100 and camp.n_chunks == 100
