@@ -108,7 +108,7 @@ def functions(model: Model) -> list[LoweredFunction]:
 
     Lowering (common subexpression elimination) is the expensive part of code generation;
     its result is kept per :func:`fmus.digest.model_digest`, so the C, the Python and the
-    GUID of one model share one lowering."""
+    native and pythonfmu FMUs of one model share one lowering."""
     key = model_digest(model)
     if key not in _LOWERED:
         _LOWERED[key] = tuple(_lower_all(model))

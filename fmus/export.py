@@ -29,7 +29,8 @@ from functools import lru_cache
 from pathlib import Path
 from fmus import codegen
 from fmus.atomic import write_atomically
-from fmus.description import NATIVE, PYTHON, PYTHON_SUFFIX, WRAPPER_SOURCE, capabilities, model_description, to_xml_bytes
+from fmus.description import (NATIVE, PYTHON, PYTHON_SUFFIX, WRAPPER_SOURCE, capabilities, model_description,
+                              to_xml_bytes)
 from fmus.digest import build_digest, sha256
 from fmus.model import Model
 

@@ -66,7 +66,8 @@ def test_every_model_has_two_guids_one_name_one_version(fmu_dir: Path) -> None:
 def test_every_fmu_has_a_version(fmu_dir: Path) -> None:
     fmus = sorted(fmu_dir.glob("*.fmu"))
     assert fmus, f"no FMU in {fmu_dir}"
-    missing = [f"{f.name}: {_root(f).get('version')!r}" for f in fmus if not VERSION.fullmatch(_root(f).get("version") or "")]
+    versions = {f.name: _root(f).get("version") for f in fmus}
+    missing = [f"{name}: {v!r}" for name, v in versions.items() if not VERSION.fullmatch(v or "")]
     assert not missing, f"version is not <satfmu version>+<16 hex digits>: {missing}"
 
 
@@ -168,7 +169,8 @@ def test_states_carry_the_guid_and_the_two_backends_reject_each_others(fmu_dir: 
     would write (its GUID) is refused."""
     model = mrp_satellite.MODEL
     gen = codegen.load_python(model)
-    assert gen.GUID == description.fmu_guid(model, description.PYTHON) == _root(fmu_dir / "mrp_satellite_py.fmu").get("guid")
+    built = _root(fmu_dir / "mrp_satellite_py.fmu").get("guid")
+    assert gen.GUID == description.fmu_guid(model, description.PYTHON) == built, "the module's GUID is not its FMU's"
     state = {"model": gen.NAME, "guid": description.fmu_guid(model, description.NATIVE), "format": 1,
              "content": {}, "crc32": 0}
     from fmus.pyslave import SatfmuSlave
