@@ -1,18 +1,44 @@
 """FMI 2.0 modelDescription.xml of a :class:`fmus.model.Model`, for both backends.
 
-The native FMU and the pythonfmu FMU of one model share this description (only
-the modelIdentifier and capability flags differ), so their variables, value
-references, units and ModelStructure are identical by construction.
+The native FMU and the pythonfmu FMU of one model share this description (only the GUID, the
+modelIdentifier, the capability flags and the native FMU's SourceFiles differ), so their
+variables, value references, units and ModelStructure are identical by construction.
+
+Identity (``docs/fmus-in-your-tool.md``, "GUID, modelName and version"):
+
+* ``guid`` identifies the description: a name-based UUID (:func:`uuid.uuid5` in
+  :data:`GUID_NAMESPACE`) of the model digest (:func:`fmus.digest.model_digest`: the equations,
+  which the description does not show) and the SHA-256 of the description itself with an empty
+  ``guid``. The two FMUs of one model therefore have different GUIDs; two builds of the same
+  sources the same one; any change of the model or of the description another.
+* ``modelName`` is the model's name, the same for both FMUs: FMI 2.0 defines it as the name of
+  the model in the environment that generated the description, and both FMUs export the same
+  satfmu model (the modelIdentifier, the file name and the GUID tell the backends apart).
+* ``version`` is :func:`model_version`: the satfmu version, ``+``, the first 16 hex digits of
+  the model digest.
 """
 from __future__ import annotations
 
+import uuid
 from dataclasses import dataclass
 from xml.dom import minidom
 from xml.etree.ElementTree import Element, SubElement, tostring
 
 from fmus import __version__
-from fmus.codegen import KIND_INPUT, KIND_PARAMETER, model_guid, variable_table
+from fmus.codegen import KIND_INPUT, KIND_PARAMETER, variable_table
+from fmus.digest import model_digest, sha256
 from fmus.model import UNITS, Model
+
+NATIVE, PYTHON = "native", "python"
+"""The two backends: the native C FMU and the pythonfmu FMU."""
+PYTHON_SUFFIX = "_py"
+"""Suffix of a pythonfmu FMU's modelIdentifier (and file name) after the model's name."""
+WRAPPER_SOURCE = "fmi2_cosim.c"
+"""The native FMU's one source file (``<SourceFiles>``), the generic wrapper ``fmus/c/fmi2_cosim.c``."""
+GUID_NAMESPACE = uuid.uuid5(uuid.NAMESPACE_URL, "https://satfmu/modelDescription/guid")
+"""Namespace of the name-based GUIDs (:func:`description_guid`); fixed, so GUIDs are reproducible."""
+VERSION_DIGEST_DIGITS = 16
+"""Hex digits of the model digest in the ``version`` attribute (:func:`model_version`)."""
 
 LOG_CATEGORIES = {
     "logStatusWarning": "Messages with status fmi2Warning",
@@ -32,6 +58,82 @@ class Capabilities:
     can_get_and_set_fmu_state: bool = True
     can_serialize_fmu_state: bool = True
     generation_tool: str = f"satfmu {__version__}"
+    source_files: tuple[str, ...] = ()
+    """The files ``<SourceFiles>`` lists (a native FMU's wrapper); none for a pythonfmu FMU."""
+
+
+def capabilities(model: Model, backend: str) -> Capabilities:
+    """The CoSimulation attributes of ``model``'s FMU on ``backend``.
+
+    Parameters
+    ----------
+    model : Model
+    backend : {"native", "python"}
+
+    Returns
+    -------
+    Capabilities
+        Native: modelIdentifier ``<name>``, the wrapper as its source file; pythonfmu:
+        ``<name>_py``, needsExecutionTool (a Python interpreter).
+
+    Raises
+    ------
+    ValueError
+        For another backend.
+    """
+    if backend == NATIVE:
+        return Capabilities(model.name, source_files=(WRAPPER_SOURCE,))
+    if backend == PYTHON:
+        return Capabilities(model.name + PYTHON_SUFFIX, needs_execution_tool=True)
+    raise ValueError(f"unknown backend {backend!r} (expected {NATIVE!r} or {PYTHON!r})")
+
+
+def model_version(model: Model) -> str:
+    """The ``version`` attribute of ``model``'s FMUs: ``<satfmu version>+<model digest>``, the
+    digest cut to :data:`VERSION_DIGEST_DIGITS` hex digits (e.g. ``0.1.0+3f2a9c1b04de7755``).
+
+    The same for both backends; it changes with the satfmu release and with the model (its
+    equations, variables, defaults, tables, sampler), so two FMUs of one version were built
+    from the same model by the same satfmu.
+    """
+    return f"{__version__}+{model_digest(model)[:VERSION_DIGEST_DIGITS]}"
+
+
+def description_guid(model: Model, root: Element) -> str:
+    """The GUID of the model description ``root`` of ``model`` (its ``guid`` attribute ignored).
+
+    A name-based UUID (version 5, in :data:`GUID_NAMESPACE`) of the model digest and the SHA-256
+    of the description's XML with an empty ``guid``: it identifies the description (the two
+    backends' descriptions differ, so do their GUIDs) and the equations behind it (which the
+    description does not show), and is the same for every build of the same sources.
+
+    Parameters
+    ----------
+    model : Model
+    root : Element
+        An ``fmiModelDescription`` element of ``model`` (not changed).
+
+    Returns
+    -------
+    str
+        ``{xxxxxxxx-xxxx-5xxx-yxxx-xxxxxxxxxxxx}``.
+    """
+    blank = Element(root.tag, {**root.attrib, "guid": ""})
+    blank.extend(list(root))
+    name = f"satfmu model {model_digest(model)} description {sha256(tostring(blank, 'UTF-8'))}"
+    return "{" + str(uuid.uuid5(GUID_NAMESPACE, name)) + "}"
+
+
+def fmu_guid(model: Model, backend: str) -> str:
+    """The GUID of ``model``'s FMU on ``backend`` (:func:`description_guid` of its description).
+
+    Cached on the model object (never changed after construction): the description is built
+    once per model and backend.
+    """
+    cache = model.__dict__.setdefault("_fmu_guids", {})
+    if backend not in cache:
+        cache[backend] = model_description(model, capabilities(model, backend)).get("guid")
+    return cache[backend]
 
 
 def xml_value(value: float | int | bool, vtype: str) -> str:
@@ -45,12 +147,12 @@ def xml_value(value: float | int | bool, vtype: str) -> str:
 
 
 def model_description(model: Model, caps: Capabilities) -> Element:
-    """The modelDescription element tree."""
+    """The modelDescription element tree, its ``guid`` :func:`description_guid` of itself."""
     root = Element("fmiModelDescription", {
-        "fmiVersion": "2.0", "modelName": model.name, "guid": model_guid(model),
-        "description": model.description, "generationTool": caps.generation_tool,
+        "fmiVersion": "2.0", "modelName": model.name, "guid": "",
+        "description": model.description, "version": model_version(model), "generationTool": caps.generation_tool,
         "variableNamingConvention": "structured", "numberOfEventIndicators": "0"})
-    SubElement(root, "CoSimulation", {
+    cosim = SubElement(root, "CoSimulation", {
         "modelIdentifier": caps.model_identifier,
         "needsExecutionTool": str(caps.needs_execution_tool).lower(),
         "canHandleVariableCommunicationStepSize": "true",
@@ -60,6 +162,10 @@ def model_description(model: Model, caps: Capabilities) -> Element:
         "canGetAndSetFMUstate": str(caps.can_get_and_set_fmu_state).lower(),
         "canSerializeFMUstate": str(caps.can_serialize_fmu_state).lower(),
     })
+    if caps.source_files:
+        files = SubElement(cosim, "SourceFiles")
+        for name in caps.source_files:
+            SubElement(files, "File", {"name": name})
     units = SubElement(root, "UnitDefinitions")
     used = sorted({v.unit for v in model.variables if v.type == "Real"})
     for name in used:
@@ -105,6 +211,7 @@ def model_description(model: Model, caps: Capabilities) -> Element:
         init = SubElement(structure, "InitialUnknowns")
         for name, deps in model.initial_output_dependencies().items():
             _unknown(init, index[name], [index[d] for d in deps])
+    root.set("guid", description_guid(model, root))
     return root
 
 

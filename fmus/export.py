@@ -27,18 +27,16 @@ import zipfile
 import zlib
 from functools import lru_cache
 from pathlib import Path
-from xml.etree.ElementTree import SubElement
-
 from fmus import codegen
 from fmus.atomic import write_atomically
-from fmus.description import Capabilities, model_description, to_xml_bytes
+from fmus.description import (NATIVE, PYTHON, PYTHON_SUFFIX, WRAPPER_SOURCE, capabilities, model_description,
+                              to_xml_bytes)
 from fmus.digest import build_digest, sha256
 from fmus.model import Model
 
 HERE = Path(__file__).resolve().parent
-WRAPPER = HERE / "c" / "fmi2_cosim.c"
+WRAPPER = HERE / "c" / WRAPPER_SOURCE
 PYSLAVE = HERE / "pyslave.py"
-PYTHON_SUFFIX = "_py"
 _ZIP_DATE = (2020, 1, 1, 0, 0, 0)
 _COMMENT_PREFIX = b"satfmu-build sha256:"
 _ARTIFACT_FIELD = b" artifact sha256:"
@@ -178,16 +176,14 @@ def build_native(model: Model, dest_dir: Path, resources: dict[str, bytes] | Non
     digest = digest_of(model, "native", resources, cc)
     if built_digest(dest) == digest:
         return dest
-    model_h = codegen.c_source(model)
+    desc = model_description(model, capabilities(model, NATIVE))
+    model_h = codegen.c_source(model, desc.get("guid"))  # the binary requires this description's GUID
     with tempfile.TemporaryDirectory(prefix="satfmu_") as tmp:
         root = Path(tmp)
         src = root / "sources"
         src.mkdir()
         (src / codegen.C_HEADER).write_text(model_h)
         shutil.copy(WRAPPER, src / WRAPPER.name)
-        desc = model_description(model, Capabilities(model.name))
-        files = SubElement(desc.find("CoSimulation"), "SourceFiles")  # type: ignore[arg-type]
-        SubElement(files, "File", {"name": WRAPPER.name})
         (root / "modelDescription.xml").write_bytes(to_xml_bytes(desc))
         bindir = root / "binaries" / "linux64"
         bindir.mkdir(parents=True)
@@ -245,12 +241,12 @@ def build_python(model: Model, dest_dir: Path, resources: dict[str, bytes] | Non
         root = Path(tmp)
         proj = root / "project"
         proj.mkdir()
-        (proj / f"{generated}.py").write_text(codegen.python_source(model))
+        desc = model_description(model, capabilities(model, PYTHON))
+        (proj / f"{generated}.py").write_text(codegen.python_source(model, desc.get("guid")))
         shutil.copy(PYSLAVE, proj / "satfmu_pyslave.py")
         python_sampler = model.sampler is not None and not model.sampler.is_expression
         if python_sampler:
             shutil.copy(model.sampler.module, proj / f"{codegen.sampler_module_name(model)}.py")
-        desc = model_description(model, Capabilities(cls, needs_execution_tool=True))
         (proj / "satfmu_description.xml").write_bytes(to_xml_bytes(desc))
         _write_resources(proj, resources)  # pythonfmu puts the project files in resources/
         script = root / f"{cls}.py"

@@ -32,9 +32,9 @@ What this class guards against in pythonfmu 0.7.0 (``docs/pythonfmu.md`` lists t
 cannot guard, each with a reproduction in ``scripts/upstream/``): an empty instance name is
 refused (pythonfmu passes the name on, but not the GUID or the FMU type, so those cannot be
 checked here); the use after free in pythonfmu's library at process exit is avoided
-(:func:`_guard_exit`); a serialized FMU state carries the model's name and GUID (the model
-digest), a format version and a CRC-32, must be the canonical bytes this class writes, and every
-restored state is checked field by field (:meth:`SatfmuSlave._state_problem`).
+(:func:`_guard_exit`); a serialized FMU state carries the model's name and this FMU's GUID, a
+format version and a CRC-32, must be the canonical bytes this class writes, and every restored
+state is checked field by field (:meth:`SatfmuSlave._state_problem`).
 """
 from __future__ import annotations
 
@@ -789,7 +789,7 @@ class SatfmuSlave(Fmi2Slave):
 
     # ------------------------------------------------------------ FMU state
     def _get_fmu_state(self) -> dict[str, Any]:
-        """The FMU state: the model's identity (name, GUID: the model digest), the layout version,
+        """The FMU state: the model's identity (name, this FMU's GUID), the layout version,
         the content (what a restore sets; the outputs are recomputed from it) and the CRC-32 of
         all of them."""
         content = {"mode": self.mode, "time": self.time, "start_time": self.start_time,

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from fmus import codegen, digest, export, signals
+from fmus import codegen, description, digest, export, signals
 from fmus.model import Model, Output, Variable
 from sims import catalog, paths
 
@@ -34,8 +34,11 @@ def test_model_digest_sees_every_field_and_nothing_else() -> None:
     m = _gain_model()
     m2 = dataclasses.replace(m, outputs=[Output(m.outputs[0].variable, 2 * m.outputs[0].expression)])
     assert digest.model_digest(m2) != base  # an expression
-    # the GUID is the digest: a changed model never reuses an FMU's GUID
-    assert codegen.model_guid(m2) != codegen.model_guid(m)
+    # the GUID covers the model digest: a changed model never reuses an FMU's GUID, even where its
+    # description is the same (an expression changed, no variable)
+    for backend in ("native", "python"):
+        assert description.fmu_guid(m2, backend) != description.fmu_guid(m, backend), \
+            f"{backend}: a changed expression must change the GUID"
 
 
 def test_model_digest_is_the_same_in_another_process() -> None:
@@ -94,9 +97,10 @@ def test_a_failed_build_leaves_no_file(tmp_path: Path) -> None:
 
 def test_lowering_is_shared_and_never_changed_by_its_users() -> None:
     m = _gain_model(gain=7.0)
-    first = codegen.c_source(m)
+    guid = description.fmu_guid(m, "native")
+    first = codegen.c_source(m, guid)
     assert codegen.functions(m) == codegen.functions(_gain_model(gain=7.0))  # one lowering per digest
-    assert codegen.c_source(m) == first  # the C generator appends to a copy, not to the cache
+    assert codegen.c_source(m, guid) == first  # the C generator appends to a copy, not to the cache
 
 
 def test_build_all_builds_in_parallel_then_does_nothing(tmp_path: Path, monkeypatch) -> None:

@@ -597,7 +597,7 @@ def test_native_corrupted_serialized_state_is_rejected(make, file: str, kind: st
     magic, fmt, size, crc, ident = HEADER.unpack_from(good)
     assert (magic, fmt, size) == (STATE_MAGIC, STATE_FORMAT, len(good))
     assert crc == zlib.crc32(HEADER.pack(magic, fmt, size, 0, ident) + good[HEADER.size:])
-    # the identity is the GUID's bytes (the model digest)
+    # the identity is the bytes of this FMU's GUID (fmus.codegen.guid_bytes)
     assert ident.hex() == inst.fmu.md.guid.strip("{}").replace("-", "")
     assert struct.unpack_from("<d", good, TIME_AT)[0] == 0.1  # the FMU time after the step
     bad, what = _corrupt(kind, good, marker)

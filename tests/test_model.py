@@ -6,6 +6,7 @@ import pytest
 import sympy as sp
 
 from fmus import codegen, mrp_satellite
+from fmus.description import fmu_guid
 from fmus.model import Model, ModelDefinitionError, Output, Variable, states, symbols
 
 MODEL = mrp_satellite.MODEL
@@ -103,5 +104,8 @@ def test_model_definition_errors_are_specific() -> None:
 
 
 def test_guid_changes_with_the_equations_and_is_stable() -> None:
-    assert codegen.model_guid(MODEL) == codegen.model_guid(mrp_satellite.build())
-    assert codegen.model_guid(MODEL) != codegen.model_guid(mrp_satellite.build(omega_0=(0.1, 0, 0)))
+    for backend in ("native", "python"):
+        assert fmu_guid(MODEL, backend) == fmu_guid(mrp_satellite.build(), backend), \
+            f"{backend}: a new object of the same model must have the same GUID"
+        assert fmu_guid(MODEL, backend) != fmu_guid(mrp_satellite.build(omega_0=(0.1, 0, 0)), backend), \
+            f"{backend}: another default initial rate must change the GUID"

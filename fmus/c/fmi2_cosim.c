@@ -40,7 +40,7 @@
  * is refused with fmi2Error, whatever h (up to DBL_MAX) and the sample period.
  *
  * FMU states: a snapshot is a Saved record: a magic number, the format version, the size,
- * the model identity (the first 16 bytes of the model digest, as in the GUID), a CRC-32 over
+ * the FMU identity (the 16 bytes of its GUID, MODEL_ID), a CRC-32 over
  * the whole record, then the instance data. fmi2SetFMUstate, fmi2SerializeFMUstate and
  * fmi2DeSerializeFMUstate check all of it, then the ranges (model state, finite time within
  * [start, stop], finite state outside the error state, parameters and inputs within their

@@ -9,7 +9,7 @@ instance is abandoned and a new one is made for the next damaged state.
 
 The native layout the forgery of "another model's state" needs (``fmus/c/fmi2_cosim.c``, ``Saved``):
 four little-endian uint32 (magic, format, size, CRC-32 of the record with the CRC field 0), then the
-16 bytes of the model identity (:func:`fmus.codegen.model_identity`). The pythonfmu one
+16 bytes of the GUID (:func:`fmus.codegen.guid_bytes`). The pythonfmu one
 (``fmus/pyslave.py``): canonical JSON (sorted keys, no spaces) of ``model``, ``guid``, ``format``,
 ``content`` and ``crc32``, the CRC-32 of the canonical JSON of the other four.
 """
