@@ -118,6 +118,10 @@ def test_sampled_fmus_are_recognized_in_both_backends(fmu_dir: Path) -> None:
     for name in ("cubesat_bdot", "cubesat_periodic_satfmu"):
         assert verify.sampled_fmu(fmu_dir / f"{name}.fmu") and verify.sampled_fmu(fmu_dir / f"{name}_py.fmu")
     assert verify.sampled_fmu(fmu_dir / "vscmg_sdre_online_py.fmu")  # a Python sampler (no native FMU)
+    # its servo integrators are continuous states: listed, not checked
+    sc = load("vscmg_seed")
+    assert verify._sampled_controllers(sc, verify.fmu_paths(sc, fmu_dir, "native")) == (
+        [], ["online", "online_w1free"])
     for name in ("mrp_satellite", "mrp_hinf_published", "magnetorquer_cubesat"):
         assert not verify.sampled_fmu(fmu_dir / f"{name}.fmu") and not verify.sampled_fmu(fmu_dir / f"{name}_py.fmu")
 
@@ -135,7 +139,8 @@ def test_delayed_deviation_flags_a_silent_jacobi_run() -> None:
 
 def _detumble_feedthrough(fmu_dir: Path) -> tuple[object, list[str], np.ndarray]:
     sc = load("cubesat_detumble")
-    controllers = verify._sampled_controllers(sc, verify.fmu_paths(sc, fmu_dir, "native"))
+    controllers, stateful = verify._sampled_controllers(sc, verify.fmu_paths(sc, fmu_dir, "native"))
+    assert stateful == []
     conns = sc.data["connections"]
     extra = [c["to"] for c in conns if c["to"].split(".")[0] in controllers or c["from"].split(".")[0] in controllers]
     res_ft, _, _ = verify._master(sc, fmu_dir, "native", "feedthrough", extra)
