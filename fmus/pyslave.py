@@ -12,9 +12,13 @@ give the same outputs bit for bit, ``tests/test_pythonfmu_parity.py``): RK4 with
 A model with a sampler (:class:`fmus.model.Sampler`) also holds values computed at the
 start and at the instants ``t_k = k * period - phase`` (``t0 + k * period`` without a phase), ``k``
 an integer count, never an accumulated time (:class:`Instants`): a step is integrated in segments
-between instants. The values of an instant at a communication point are computed from the inputs
-set at that point, when first needed (an output read or the next step), and again if an input
-changes there.
+between instants. Every sample is taken from the inputs set for the step being taken: an instant
+inside a step, or at its start, from that step's inputs; an instant at which a step ends belongs to
+the next step, so its values are computed from the inputs set there, when first needed after one is
+set (an output read) or else by the next step, and again if an input changes there. Until an input
+is set at that point (``inputs_stale``) an output read shows the values held from the previous
+instant: a Jacobi-order importer sees the feedthrough-order outputs one step later, never a sample
+of the previous step's inputs (``fmus/c/fmi2_cosim.c`` states the rule in full).
 
 Time and work, as the C wrapper: a step ends at ``currentCommunicationPoint + h``; a
 communication point more than 8 ulp (of the larger of 1 s, ``|t|`` and the start time) off the
@@ -71,9 +75,9 @@ at most ~5 to 50 s per step); the far step of the robustness suite (1e4 default 
 instant each) is the longest the project takes."""
 INDEX_LIMIT = 2 ** 52
 """Sample counts stay below this: exact integers in a double, as the native FMU keeps them."""
-STATE_FORMAT = 1
-"""Version of the FMU state's layout (:meth:`SatfmuSlave._get_fmu_state`); a state of another
-layout is refused."""
+STATE_FORMAT = 2
+"""Version of the FMU state's layout (:meth:`SatfmuSlave._get_fmu_state`; 1 had no ``inputs_stale``); a
+state of another layout is refused."""
 STATE_MODES = ("Instantiated", "InitializationMode", "StepComplete", "Terminated")
 """The states of the FMI state machine an FMU state may hold (after fmi2Fatal no call is allowed)."""
 
@@ -512,6 +516,7 @@ class SatfmuSlave(Fmi2Slave):
         self.held_prev = [0.0] * self._nh  # the held values of the previous instant
         self.at_instant = True  # the FMU time is a sample instant
         self.sample_due = self._sampler is not None  # the held values of that instant are stale
+        self.inputs_stale = False  # a step ended at that instant and no input has been set since
         self.u = [float(v["start"]) for v in self._table if v["kind"] == KIND_INPUT]
         self.y = [0.0] * self._ny
         self.x = [0.0] * self.generated.N_STATES
@@ -536,7 +541,7 @@ class SatfmuSlave(Fmi2Slave):
         if row["kind"] == KIND_OUTPUT and not self.outputs_valid:
             if self.mode in ("Instantiated", "InitializationMode"):
                 self.x = [self.p[i] for i in self.generated.STATE_INITIAL]
-            if self.sample_due:
+            if self.sample_due and not self.inputs_stale:  # an instant that ended a step waits for its inputs
                 self._sample()
             self._update_outputs(f"fmi2Get{row['type']}")
         return self._slot(row)[row["index"]]
@@ -590,6 +595,7 @@ class SatfmuSlave(Fmi2Slave):
         self._slot(row)[row["index"]] = v
         self.outputs_valid = False
         self.sample_due = self._sampler is not None and self.at_instant
+        self.inputs_stale = False
 
     def _reject(self, message: str) -> None:
         """Log ``message`` and fail the call (pythonfmu 0.7.0 returns fmi2Fatal for any exception).
@@ -669,6 +675,7 @@ class SatfmuSlave(Fmi2Slave):
         self.outputs_valid = False
         self.at_instant = True
         self.sample_due = self._sampler is not None
+        self.inputs_stale = False
         self.next_k = k
 
     def do_step(self, current_time: float, step_size: float) -> bool:
@@ -756,6 +763,8 @@ class SatfmuSlave(Fmi2Slave):
             self.next_k = k_end + 1
             self._new_instant()
         self.sample_due = self.at_instant
+        # sampled from the inputs set for the next step
+        self.inputs_stale = self.at_instant and len(self.u) > 0
 
     def _integrate(self, h: float, t_end: float) -> None:
         """Advance the state by ``h`` seconds from the FMU time, which ends at ``t_end`` (inputs and
@@ -795,7 +804,8 @@ class SatfmuSlave(Fmi2Slave):
         content = {"mode": self.mode, "time": self.time, "start_time": self.start_time,
                    "stop_time": None if math.isinf(self.stop_time) else self.stop_time,
                    "x": list(self.x), "u": list(self.u), "p": list(self.p), "held_prev": list(self.held_prev),
-                   "next_k": self.next_k, "at_instant": self.at_instant, "sample_due": self.sample_due}
+                   "next_k": self.next_k, "at_instant": self.at_instant, "sample_due": self.sample_due,
+                   "inputs_stale": self.inputs_stale}
         state = {"model": self.generated.NAME, "guid": self.generated.GUID, "format": STATE_FORMAT,
                  "content": content}
         return {**state, "crc32": _checksum(state)}
@@ -805,7 +815,7 @@ class SatfmuSlave(Fmi2Slave):
         if problem is not None:
             self._reject(f"fmi2SetFMUstate: {problem}")
         content = state["content"]
-        for key in ("mode", "at_instant", "sample_due", "next_k"):
+        for key in ("mode", "at_instant", "sample_due", "inputs_stale", "next_k"):
             setattr(self, key, content[key])
         for key in ("time", "start_time"):
             setattr(self, key, float(content[key]))
@@ -870,8 +880,9 @@ class SatfmuSlave(Fmi2Slave):
         n_u = sum(1 for v in table if v["kind"] == KIND_INPUT)
         if c["mode"] not in STATE_MODES:
             return f"corrupted state (invalid model state {c['mode']!r})"
-        flags = (c["at_instant"], c["sample_due"])
-        if not all(isinstance(f, bool) for f in flags) or (nh == 0 and c["sample_due"]):
+        flags = (c["at_instant"], c["sample_due"], c["inputs_stale"])
+        if (not all(isinstance(f, bool) for f in flags) or (nh == 0 and (c["sample_due"] or c["inputs_stale"]))
+                or (c["inputs_stale"] and not c["at_instant"])):
             return f"corrupted state (flags {flags!r})"
         lengths = {"x": gen.N_STATES, "u": n_u, "p": n_p + nh, "held_prev": nh}
         for key, n in lengths.items():
@@ -911,7 +922,7 @@ class SatfmuSlave(Fmi2Slave):
 
 
 STATE_FIELDS = {"mode", "time", "start_time", "stop_time", "x", "u", "p", "held_prev", "next_k", "at_instant",
-                "sample_due"}
+                "sample_due", "inputs_stale"}
 """The fields of an FMU state's content (:meth:`SatfmuSlave._get_fmu_state`)."""
 
 

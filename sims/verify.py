@@ -37,6 +37,17 @@ its model amplifies rounding (a stick-slip friction mode that flips on a 1e-17 d
 The master's own feedthrough run differs from the others by the one-step delay of a
 direct-feedthrough controller in Jacobi order; that deviation is reported, not gated (it is
 a property of the exchange order, shrinking with the step).
+
+Sampled controllers without continuous states (an FMU with held values: B-dot, the periodic
+schedules; :func:`sampled_fmu`) are gated on that delay itself (:func:`sampled_order_check`): each is run
+open loop by the master in Jacobi order, its inputs replayed bit for bit from the feedthrough
+run, its outputs passed to the FMUs they drive in the scenario; what those receive at ``t_k+1``
+must be the controller's feedthrough-order output at ``t_k``, exactly. A sampled controller that
+sampled the previous step's inputs when read at a sample instant (issue 28, defect 1: B-dot then
+commanded nothing in libcosim and ecos, and the three Jacobi-order engines agreed on it) fails
+it; so does one that is silent where the feedthrough run commands. A sampled controller with
+continuous states (the online SDRE servos' integrators) is listed, not checked: its output moves
+with its own state over the step, so the relation is not exact for it.
 """
 from __future__ import annotations
 
@@ -44,9 +55,11 @@ import csv
 import json
 import math
 import os
+import re
 import subprocess
 import tempfile
 import time
+import zipfile
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Callable, Sequence
@@ -55,6 +68,7 @@ import numpy as np
 
 from fmus.atomic import write_atomically
 from sims import libcosim, paths, ssp
+from fmus.profiles import make as make_profile
 from sims.master import CoSimulation
 from sims.scenario import Scenario, check, evaluate, fmu_paths, load, recorded
 
@@ -90,6 +104,22 @@ class Comparison:
 
 
 @dataclass
+class SampledOrderCheck:
+    """The Jacobi-order outputs of a scenario's sampled controllers against their
+    feedthrough-order outputs one step earlier (:func:`sampled_order_check`)."""
+
+    controllers: list[str]
+    """The sampled controller instances checked (those without continuous states)."""
+    max_deviation: float
+    """Largest ``|received_jacobi(t_k+1) - output_feedthrough(t_k)|`` over the checked signals."""
+    worst_variable: str
+    passed: bool
+    error: str = ""
+    unchecked: list[str] = field(default_factory=list)
+    """Sampled controllers with continuous states, not checked (:func:`_sampled_controllers`)."""
+
+
+@dataclass
 class ScenarioReport:
     """Verification of one scenario."""
 
@@ -103,10 +133,13 @@ class ScenarioReport:
     """Largest deviation, relative to the signal's magnitude, of the master's feedthrough run
     from its Jacobi run (information: the one-step delay of feedthrough loops)."""
     comparisons: list[Comparison] = field(default_factory=list)
+    sampled_order: SampledOrderCheck | None = None
+    """The exchange-order check of the sampled controllers (None: the scenario has none)."""
 
     @property
     def passed(self) -> bool:
-        return self.metrics_passed and all(c.passed for c in self.comparisons)
+        return (self.metrics_passed and all(c.passed for c in self.comparisons)
+                and (self.sampled_order is None or self.sampled_order.passed))
 
 
 def ecos_binary() -> Path:
@@ -213,11 +246,138 @@ def feedthrough_outputs(sim: CoSimulation) -> set[str]:
     return out
 
 
-def _master(scenario: Scenario, fmu_dir: Path, backend: str, exchange: str
+def _structure(path: Path) -> tuple[bool, int] | None:
+    """Whether the satfmu FMU at ``path`` samples, and its number of continuous states: from a
+    native FMU's ``sources/model.h`` (``NH`` > 0, ``NX``) or a pythonfmu FMU's generated model
+    (a ``SAMPLER``, ``N_STATES``); None for an FMU satfmu did not build."""
+    with zipfile.ZipFile(path) as z:
+        names = z.namelist()
+        if "sources/model.h" in names:
+            text = z.read("sources/model.h")
+            nh = re.search(rb"^#define NH (\d+)$", text, re.MULTILINE)
+            nx = re.search(rb"^#define NX (\d+)$", text, re.MULTILINE)
+            return (int(nh.group(1)) > 0, int(nx.group(1))) if nh and nx else None
+        for name in names:
+            if re.fullmatch(r"resources/satfmu_gen_[^/]*\.py", name):
+                text = z.read(name)
+                nx = re.search(rb"^N_STATES = (\d+)$", text, re.MULTILINE)
+                sampler = re.search(rb"^SAMPLER = None$", text, re.MULTILINE) is None
+                return (sampler, int(nx.group(1))) if nx else None
+    return None
+
+
+def sampled_fmu(path: Path) -> bool:
+    """Whether the FMU at ``path`` is one of satfmu's sampled FMUs (it holds values computed at
+    sample instants): a native FMU whose ``sources/model.h`` defines ``NH`` > 0, or a pythonfmu
+    FMU whose generated model has a ``SAMPLER``. Any other FMU (not built by satfmu) is not."""
+    found = _structure(path)
+    return found is not None and found[0]
+
+
+def _sampled_controllers(scenario: Scenario, paths: dict[str, Path]) -> tuple[list[str], list[str]]:
+    """The instances of ``scenario`` that are sampled FMUs and drive another FMU's input: those
+    without continuous states (checked by :func:`sampled_order_check`), and those with (not
+    checked: their outputs also move with their own state over the step, so a Jacobi-order
+    reader's value at t_k+1 is not their output at t_k even when every sample is right)."""
+    sources = {c["from"].split(".", 1)[0] for c in scenario.data.get("connections", [])}
+    found = {inst: _structure(paths[inst]) for inst in sorted(sources) if inst in paths}
+    sampled = [inst for inst, f in found.items() if f is not None and f[0]]
+    return ([inst for inst in sampled if found[inst][1] == 0], [inst for inst in sampled if found[inst][1] > 0])
+
+
+def _inputs(sim: CoSimulation, instance: str) -> list[str]:
+    """Every Real input of ``instance``, qualified."""
+    return [f"{instance}.{v.name}" for v in sim.components[instance].model_description.modelVariables
+            if v.causality == "input" and v.type == "Real"]
+
+
+def delayed_deviation(received: np.ndarray, output: np.ndarray) -> tuple[float, bool]:
+    """How far what a Jacobi-order run passed on (``received`` at t_0 ... t_n) is from the
+    feedthrough-order output (``output`` at t_0 ... t_n) one step later: the largest
+    ``|received[k+1] - output[k]|``, and whether the Jacobi run is silent (identically zero)
+    where the feedthrough output is not."""
+    received, output = np.asarray(received, float), np.asarray(output, float)
+    if received.shape != output.shape or received.size < 2:
+        raise ValueError(f"expected two series of the same length >= 2, got {received.shape} and {output.shape}")
+    dev = float(np.max(np.abs(received[1:] - output[:-1])))
+    silent = not np.any(received[1:] != 0.0) and bool(np.any(output[:-1] != 0.0))
+    return dev, silent
+
+
+SAMPLED_ORDER_ATOL = 0.0
+"""Allowance of :func:`sampled_order_check`: none. The replay gives the controller the
+feedthrough run's input values bit for bit at the same communication points, through the same
+binary: its samples are the same numbers, so what a Jacobi-order reader gets one step later is
+the feedthrough output exactly; any difference is a sample from other inputs."""
+
+
+def sampled_order_check(scenario: Scenario, fmu_dir: Path, backend: str, res_ft: np.ndarray,
+                        controllers: Sequence[str]) -> SampledOrderCheck:
+    """Check that a Jacobi-order importer gets each sampled controller's feedthrough-order output
+    one communication step later (the module docstring).
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario (its connections and parameters).
+    fmu_dir : Path
+        Folder of the FMUs.
+    backend : {"native", "python"}
+        Default FMU backend of the scenario's instances.
+    res_ft : numpy.ndarray
+        The master's feedthrough-order run of the scenario, every communication point, recording
+        every Real input and output of ``controllers`` and the inputs they drive.
+    controllers : sequence of str
+        The sampled controller instances (:func:`sampled_fmu`).
+
+    Returns
+    -------
+    SampledOrderCheck
+    """
+    d = scenario.data
+    paths = fmu_paths(scenario, fmu_dir, backend)
+    params = {inst: spec.get("parameters", {}) for inst, spec in d["fmus"].items()}
+    worst, worst_name, silent_at = 0.0, "", []
+    times = np.asarray(res_ft["time"], float)
+    for ctrl in controllers:
+        conns = [c for c in d.get("connections", []) if c["from"].split(".", 1)[0] == ctrl]
+        sinks = {c["to"].split(".", 1)[0] for c in conns} - {ctrl}
+        sim = CoSimulation({ctrl: paths[ctrl]} | {s: paths[s] for s in sinks})
+        try:
+            pairs = []
+            for c in conns:
+                _, outs = sim.resolve(c["from"])
+                dst, ins = sim.resolve(c["to"])
+                pairs += [(f"{ctrl}.{o}", f"{dst.name}.{i}") for o, i in zip(outs, ins)]
+                if dst.name != ctrl:
+                    sim.connect(c["from"], c["to"])
+            for q in (q for q in _inputs(sim, ctrl) if q in res_ft.dtype.names):  # the driven ones
+                sim.add_profile(q, make_profile({"kind": "table", "times": times.tolist(),
+                                                 "values": np.asarray(res_ft[q], float).tolist(),
+                                                 "interpolation": "previous"}, f"replay of {q}"))
+            res_j = sim.run(d["stop_time"], d["step_size"], d.get("start_time", 0.0),
+                            {i: params.get(i, {}) for i in sim.components}, [dst for _, dst in pairs],
+                            exchange_order="jacobi")
+        finally:
+            sim.close()
+        for src, dst in pairs:
+            if dst.split(".", 1)[0] == ctrl:
+                continue
+            dev, silent = delayed_deviation(res_j[dst], res_ft[src])
+            if silent:
+                silent_at.append(src)
+            if dev >= worst:
+                worst, worst_name = dev, f"{src} -> {dst}"
+    ok = worst <= SAMPLED_ORDER_ATOL and not silent_at
+    error = f"silent in Jacobi order where the feedthrough run commands: {silent_at}" if silent_at else ""
+    return SampledOrderCheck(list(controllers), worst, worst_name, ok, error)
+
+
+def _master(scenario: Scenario, fmu_dir: Path, backend: str, exchange: str, extra: Sequence[str] = ()
             ) -> tuple[np.ndarray, list[str], CoSimulation]:
     """A master run of the scenario as its SSP file has it (profiles as signal-generator FMUs)
-    recording the scenario's variables and every Real output; returns the run, the outputs'
-    names and the (closed) master."""
+    recording the scenario's variables, every Real output and the ``extra`` variables; returns
+    the run, the outputs' names and the (closed) master."""
     d = scenario.data
     paths = fmu_paths(scenario, fmu_dir, backend)
     sig_paths, sig_params, sig_conns = ssp.signal_components(scenario, fmu_dir, Path(fmu_dir) / "signal_tables",
@@ -230,7 +390,7 @@ def _master(scenario: Scenario, fmu_dir: Path, backend: str, exchange: str
                   for v in c.model_description.modelVariables if v.causality == "output" and v.type == "Real"]
         params = {inst: spec.get("parameters", {}) for inst, spec in d["fmus"].items()} | sig_params
         res = sim.run(d["stop_time"], d["step_size"], d.get("start_time", 0.0), params,
-                      list(dict.fromkeys(recorded(scenario, sim) + record)), exchange_order=exchange)
+                      list(dict.fromkeys(recorded(scenario, sim) + record + list(extra))), exchange_order=exchange)
     finally:
         sim.close()
     return res, record, sim
@@ -273,8 +433,13 @@ def _verify(scenario: Scenario, fmu_dir: Path, out_dir: Path, backend: str, engi
     target.unlink(missing_ok=True)
     ssp_path = ssp.write(scenario, fmu_dir, target, backend)
     paths = fmu_paths(scenario, fmu_dir, backend)
+    sampled, stateful = _sampled_controllers(scenario, paths)
+    # the sampled controllers' inputs and the inputs they drive, for the replay
+    extra = [c["to"] for c in d.get("connections", []) if c["to"].split(".", 1)[0] in sampled]
+    extra += [c["to"] for c in d.get("connections", []) if c["from"].split(".", 1)[0] in sampled]
+    extra += [p["to"] for p in d.get("profiles", []) if p["to"].split(".", 1)[0] in sampled]
     t0 = time.perf_counter()
-    res_ft, record, sim = _master(scenario, fmu_dir, backend, "feedthrough")
+    res_ft, record, sim = _master(scenario, fmu_dir, backend, "feedthrough", extra)
     master_seconds = time.perf_counter() - t0
     metrics, _ = evaluate(scenario, res_ft, sim)
     res_j, _, _ = _master(scenario, fmu_dir, backend, "jacobi")
@@ -283,6 +448,11 @@ def _verify(scenario: Scenario, fmu_dir: Path, out_dir: Path, backend: str, engi
                      for q in record if np.any(res_j[q] != 0)), default=0.0)
     report = ScenarioReport(scenario.name, str(ssp_path), len(record), len(res_j), master_seconds,
                             all(m.passed for m in metrics), order_dev)
+    if sampled:
+        report.sampled_order = sampled_order_check(scenario, fmu_dir, backend, res_ft, sampled)
+    if stateful:
+        report.sampled_order = report.sampled_order or SampledOrderCheck([], 0.0, "", True)
+        report.sampled_order.unchecked = stateful
     own = d.get("verify")
     for engine in engines:
         tol = TOLERANCES[engine]
@@ -327,12 +497,22 @@ def markdown(reports: list[ScenarioReport]) -> str:
         lines.append(f"| {r.scenario} | satfmu master (feedthrough order) | {r.n_variables} x {r.n_points} | "
                      f"{r.order_deviation:.2g} relative to Jacobi order (not gated) | {r.master_seconds:.2f} | "
                      f"metrics {'pass' if r.metrics_passed else 'FAIL'} |")
+        if r.sampled_order is not None:
+            so = r.sampled_order
+            what = so.error or f"{so.max_deviation:.3g} ({so.worst_variable or 'no signal'})"
+            if so.unchecked:
+                what += f"; not checked (continuous states): {', '.join(so.unchecked)}"
+            lines.append(f"| {r.scenario} | master, sampled controllers {', '.join(so.controllers) or '(none checked)'}: Jacobi order "
+                         f"vs feedthrough order one step later | {r.n_points} points | {what} | | "
+                         f"{'pass' if so.passed else 'FAIL'} |")
         for c in r.comparisons:
             what = c.error.splitlines()[0] if c.error else f"{c.max_deviation:.3g} ({c.worst_variable})"
             lines.append(f"| {r.scenario} | {c.engine} vs master (Jacobi order) | {r.n_variables} x {r.n_points} | "
                          f"{what} | {c.seconds:.2f} | {'pass' if c.passed else 'FAIL'} |")
     lines += ["", "Tolerances (per variable, |a - b| <= atol + rtol max|a|):"]
     lines += [f"- {e}: atol {t.atol:g}, rtol {t.rtol:g}: {t.reason}" for e, t in TOLERANCES.items()]
+    lines += ["- sampled controllers, Jacobi order vs feedthrough order one step later: exact (the same inputs "
+              "bit for bit, the same binary)"]
     lines += [f"- {r.scenario}: atol {c.tolerance.atol:g}, rtol {c.tolerance.rtol:g} ({c.engine}): "
               f"{c.tolerance.reason}" for r in reports for c in r.comparisons
               if c.tolerance and c.tolerance.reason.startswith("scenario")]

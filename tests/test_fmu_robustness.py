@@ -54,7 +54,7 @@ NATIVE = (PLANT, CTRL)
 PYTHON = (PLANT_PY, CTRL_PY)
 # (input to abuse, output to watch) per model
 IO = {"mrp_satellite": ("u[1]", "omega[1]"), "mrp_hinf_published": ("omega[1]", "u[1]")}
-STATE_MAGIC, STATE_FORMAT = 0x73746655, 2  # fmi2_cosim.c: the head of every native FMU state
+STATE_MAGIC, STATE_FORMAT = 0x73746655, 3  # fmi2_cosim.c: the head of every native FMU state
 HEADER = struct.Struct("<4I16s")  # fmi2_cosim.c Saved: magic, format, size, CRC-32, model identity
 TIME_AT = HEADER.size  # Saved.d.time, the first field of the instance data
 BLOW_UP = {"h_max": 1e6, "omega_0[1]": 1e3, "omega_0[2]": 1e3, "omega_0[3]": 1e3}

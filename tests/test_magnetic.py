@@ -69,9 +69,13 @@ def slaves(fmu_dir: Path) -> Iterator:
         s.close()
 
 
-def _expected_periodic(t: float, w: np.ndarray, tau0: float, period: float) -> tuple[np.ndarray, int]:
-    """Dipole of the last instant at or before t (instants: start and tau0 + t = k * period)."""
-    instants = [0.0] + [k * period - tau0 for k in range(1, 100) if 0 < k * period - tau0 <= t + 1e-9]
+def _expected_periodic(t: float, w: np.ndarray, tau0: float, period: float, inputs_set: bool = True
+                       ) -> tuple[np.ndarray, int]:
+    """Dipole of the last instant before t, or at t once the inputs of the step from t are set
+    (instants: start and tau0 + t = k * period; an instant that ends a step is sampled from the
+    next step's inputs, issue 28 defect 1)."""
+    instants = [0.0] + [k * period - tau0 for k in range(1, 100)
+                        if 0 < k * period - tau0 <= t + 1e-9 and (inputs_set or k * period - tau0 < t - 1e-9)]
     t_inst = max(instants)
     k = int(ART.gain_index(tau0 + t_inst))
     return ART.gains[k] @ w, k
@@ -86,6 +90,12 @@ def test_periodic_gain_follows_orbit_time_and_holds_between_instants(slaves, bac
         s.set(f"omega[{i + 1}]", v)
     names = ("m[1]", "m[2]", "m[3]", "gain_index")
     for _ in range(40):  # 40 x 150 s: instants fall inside communication steps too
+        # read before the inputs are set (a Jacobi-order host): an instant at s.t is not sampled yet
+        m, k = _expected_periodic(s.t, w, 300.0, ART.sample_period, inputs_set=s.t == 0.0)
+        got = s.get(*names)
+        assert np.abs(got[:3] - m).max() < 1e-15 and got[3] == k, s.t
+        for i, v in enumerate(w):  # the inputs of the next step (the same values): an instant at s.t samples them
+            s.set(f"omega[{i + 1}]", v)
         m, k = _expected_periodic(s.t, w, 300.0, ART.sample_period)
         got = s.get(*names)
         assert np.abs(got[:3] - m).max() < 1e-15 and got[3] == k, s.t
@@ -135,7 +145,17 @@ def test_bdot_is_the_finite_difference_law_and_resampling_an_instant_is_idempote
     s.set("b_body[1]", 7e-5)
     assert np.abs(s.get("m[1]", "m[2]", "m[3]") - law(d, b)).max() < 1e-15
     s.step(1.0)
-    assert np.abs(s.get("m[1]", "m[2]", "m[3]") - law(np.array([7e-5, 3e-5, 2e-5]), d)).max() < 1e-15
+    # the instant t = 4 s ends the step: it is sampled from the next step's inputs, not from those
+    # of [3 s, 4 s) before they are set again (issue 28, defect 1): still the dipole of t = 2 s
+    assert np.abs(s.get("m[1]", "m[2]", "m[3]") - law(d, b)).max() < 1e-15
+    s.set("b_body[2]", 4e-5)  # the inputs of the step from 4 s: sampled at once
+    assert np.abs(s.get("m[1]", "m[2]", "m[3]") - law(np.array([7e-5, 4e-5, 2e-5]), d)).max() < 1e-15
+    s.step(1.0)
+    s.step(1.0)  # t = 6 s: no input set, so the next fmi2DoStep samples it from the inputs as they are
+    assert np.abs(s.get("m[1]", "m[2]", "m[3]") - law(np.array([7e-5, 4e-5, 2e-5]), d)).max() < 1e-15
+    s.step(1.0)
+    e = np.array([7e-5, 4e-5, 2e-5])
+    assert np.abs(s.get("m[1]", "m[2]", "m[3]") - law(e, e)).max() < 1e-15  # sampled at 6 s: no change
 
 
 @pytest.mark.parametrize("backend", ["native", "python"])

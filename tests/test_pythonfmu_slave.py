@@ -188,7 +188,7 @@ def test_same_values_written_otherwise_are_refused(stepped) -> None:
     (lambda c: c.__setitem__("mode", "Error"), "corrupted state (invalid model state 'Error')"),
     (lambda c: c.__setitem__("time", -1.0), "corrupted state (time -1 s outside [start 0 s, stop inf s])"),
     (lambda c: c.__setitem__("x", c["x"][:-1]), "corrupted state (x: expected 6 numbers)"),
-    (lambda c: c.__setitem__("at_instant", 1), "corrupted state (flags (1, False))"),
+    (lambda c: c.__setitem__("at_instant", 1), "corrupted state (flags (1, False, False))"),
     (lambda c: c.pop("held_prev"), "corrupted state (fields)"),
 ], ids=["parameter below min", "huge input", "mode", "time before start", "state length", "flag type",
         "missing field"])
@@ -248,7 +248,7 @@ def test_format_version_is_checked(stepped) -> None:
     slave, callbacks = stepped(PLANT)
     state = serialized(slave)
     state["format"] = 0
-    assert "not a state of this FMU (format 0, expected 1)" in refused(slave, callbacks, with_checksum(state))
+    assert "not a state of this FMU (format 0, expected 2)" in refused(slave, callbacks, with_checksum(state))
 
 
 def test_state_holds_no_non_finite_number(stepped) -> None:

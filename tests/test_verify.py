@@ -112,3 +112,56 @@ def test_every_scenario_passes_verify(fmu_dir: Path, tmp_path: Path) -> None:
 
     reports = [verify.verify(p.stem, fmu_dir, tmp_path) for p in sorted(SCENARIOS.glob("*.toml"))]
     assert all(r.passed for r in reports), verify.markdown([r for r in reports if not r.passed])
+
+
+def test_sampled_fmus_are_recognized_in_both_backends(fmu_dir: Path) -> None:
+    for name in ("cubesat_bdot", "cubesat_periodic_satfmu"):
+        assert verify.sampled_fmu(fmu_dir / f"{name}.fmu") and verify.sampled_fmu(fmu_dir / f"{name}_py.fmu")
+    assert verify.sampled_fmu(fmu_dir / "vscmg_sdre_online_py.fmu")  # a Python sampler (no native FMU)
+    # its servo integrators are continuous states: listed, not checked
+    sc = load("vscmg_seed")
+    assert verify._sampled_controllers(sc, verify.fmu_paths(sc, fmu_dir, "native")) == (
+        [], ["online", "online_w1free"])
+    for name in ("mrp_satellite", "mrp_hinf_published", "magnetorquer_cubesat"):
+        assert not verify.sampled_fmu(fmu_dir / f"{name}.fmu") and not verify.sampled_fmu(fmu_dir / f"{name}_py.fmu")
+
+
+def test_delayed_deviation_flags_a_silent_jacobi_run() -> None:
+    output = np.array([0.0, 1.0, -2.0, 3.0])
+    assert verify.delayed_deviation(np.array([0.0, 0.0, 1.0, -2.0]), output) == (0.0, False)
+    dev, silent = verify.delayed_deviation(np.zeros(4), output)
+    assert silent and dev == 2.0
+    assert verify.delayed_deviation(np.zeros(4), np.zeros(4)) == (0.0, False)  # nothing commanded: not silence
+    assert verify.delayed_deviation(output, output)[0] == 5.0  # no delay is a deviation too: |3 - (-2)|
+    with pytest.raises(ValueError):
+        verify.delayed_deviation(np.zeros(3), np.zeros(4))
+
+
+def _detumble_feedthrough(fmu_dir: Path) -> tuple[object, list[str], np.ndarray]:
+    sc = load("cubesat_detumble")
+    controllers, stateful = verify._sampled_controllers(sc, verify.fmu_paths(sc, fmu_dir, "native"))
+    assert stateful == []
+    conns = sc.data["connections"]
+    extra = [c["to"] for c in conns if c["to"].split(".")[0] in controllers or c["from"].split(".")[0] in controllers]
+    res_ft, _, _ = verify._master(sc, fmu_dir, "native", "feedthrough", extra)
+    return sc, controllers, res_ft
+
+
+def test_sampled_controllers_pass_on_their_output_one_step_later_in_jacobi_order(fmu_dir: Path) -> None:
+    """cubesat_detumble's three sampled laws (B-dot every 1 s, the periodic schedules every
+    900 s, step 1 s): a Jacobi-order reader gets each one's feedthrough-order output one step
+    later, exactly (issue 28, defect 1: B-dot's was identically zero)."""
+    sc, controllers, res_ft = _detumble_feedthrough(fmu_dir)
+    assert controllers == ["bdot", "lmi", "pub"]
+    got = verify.sampled_order_check(sc, fmu_dir, "native", res_ft, controllers)
+    assert got.passed and got.max_deviation == 0.0 and not got.error
+    assert np.max(np.abs(res_ft["bdot.m[1]"])) > 1e-3  # the check compared commands, not zeros
+    # the check fails a run whose outputs are not the replayed inputs' (here: B-dot's commands
+    # one more step late, as if the controller sampled stale inputs)
+    late = res_ft.copy()
+    for i in (1, 2, 3):
+        late[f"bdot.m[{i}]"][1:] = res_ft[f"bdot.m[{i}]"][:-1]
+    bad = verify.sampled_order_check(sc, fmu_dir, "native", late, ["bdot"])
+    assert not bad.passed and bad.max_deviation > 1e-4 and bad.worst_variable.startswith("bdot.m")
+    report = verify.ScenarioReport("x", "x.ssp", 1, 1, 0.0, True, 0.0, [], bad)
+    assert not report.passed and "FAIL" in verify.markdown([report])

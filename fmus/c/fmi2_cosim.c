@@ -22,11 +22,21 @@
  * model_sample_arguments at the start and at the instants t_k = k * period - phase
  * (t_k = start + k * period without a phase parameter), k an integer count kept exactly in
  * a double (|k| < 2^52), and held in p[NP..NP+NH-1] in between; a step is integrated in
- * segments between instants. The values of an instant at a communication point are computed
- * from the inputs set there, when first needed (an output read or the next step), and again
- * if an input changes there (as fmus/pyslave.py does). The held values the expressions read
- * are always those of the previous instant (held_prev), so a repeated sample at one instant
- * gives the same result as a single one.
+ * segments between instants. Every sample is taken from the inputs set for the step being
+ * taken (FMI 2.0: the inputs set before fmi2DoStep(t, h) hold over [t, t + h)):
+ *  - an instant inside a step, or at its start, is sampled from that step's inputs;
+ *  - an instant at which a step ends (a communication point t_k) belongs to the next step: its
+ *    values are computed from the inputs set at t_k, when first needed after one is set (an
+ *    output read, as a feedthrough-order importer does) or else by the next fmi2DoStep, and
+ *    again if an input changes there. Until an input is set at t_k (inputs_stale), an output
+ *    read shows the values held from the previous instant: a Jacobi-order importer (every
+ *    output read before any input is set, as libcosim and ecos) thus sees the feedthrough-order
+ *    outputs one communication step later, never a sample of the previous step's inputs (which
+ *    made a finite difference of two samples, B-dot's, exactly 0). A model without inputs, and
+ *    the start time (inputs set in initialization mode), have no stale inputs.
+ * The held values the expressions read are always those of the previous instant (held_prev),
+ * so a repeated sample at one instant gives the same result as a single one. fmus/pyslave.py
+ * does the same.
  *
  * Time: two times closer than time_tolerance(t) (model.h, fmus.model.time_tolerance: 1e-9 |t|,
  * at most 1 us, at least 8 ulp of |t|) are one instant (a sample instant and a step end, a
@@ -110,7 +120,7 @@ enum { TYPE_REAL = 0, TYPE_INTEGER = 1, TYPE_BOOLEAN = 2 };
 #define INDEX_LIMIT 4503599627370496.0 /* 2^52: sample counts stay exact integers in a double */
 
 #define STATE_MAGIC 0x73746655u /* "Ufts": a satfmu FMU state */
-#define STATE_FORMAT 2u         /* layout of Saved; 1 was the unchecked Data of satfmu <= 0.x */
+#define STATE_FORMAT 3u         /* layout of Saved; 2 had no inputs_stale, 1 was the unchecked Data */
 
 typedef enum {
     ST_INSTANTIATED = 1 << 0,
@@ -145,6 +155,7 @@ typedef struct {
     int32_t outputs_valid;
     int32_t at_instant;  /* the FMU time is a sample instant */
     int32_t sample_due;  /* the held values of that instant are stale */
+    int32_t inputs_stale; /* a step ended at that instant and no input has been set since */
 } Data;
 
 /* An FMU state (fmi2FMUstate points to one; serialized, it is these bytes). */
@@ -302,7 +313,8 @@ static int update_outputs(Instance *inst, const char *fn) {
     int i;
     if (d->outputs_valid) return 1;
     if (d->state & (ST_INSTANTIATED | ST_INITIALIZATION)) initial_state(d);
-    if (d->sample_due && !sample(inst)) return 0;
+    /* the instant that ended the last step waits for the inputs of the next one */
+    if (d->sample_due && !d->inputs_stale && !sample(inst)) return 0;
     if (NY > 0) model_outputs(d->time, d->x, d->u, d->p, d->y);
     for (i = 0; i < NV; i++) {
         const VariableInfo *v = &VARIABLES[i];
@@ -493,6 +505,7 @@ static fmi2Status set_values(fmi2Component c, const fmi2ValueReference vr[], siz
         *slot(&inst->d, &VARIABLES[vr[i]]) = r ? r[i] : (n ? (double)n[i] : (b[i] ? 1.0 : 0.0));
     inst->d.outputs_valid = 0;
     inst->d.sample_due = NH > 0 && inst->d.at_instant;
+    inst->d.inputs_stale = 0;
     return fmi2OK;
 }
 
@@ -595,6 +608,7 @@ fmi2Status fmi2ExitInitializationMode(fmi2Component c) {
     inst->d.outputs_valid = 0;
     inst->d.at_instant = 1;
     inst->d.sample_due = NH > 0;
+    inst->d.inputs_stale = 0;
     inst->d.next_k = k;
     return fmi2OK;
 }
@@ -705,9 +719,10 @@ static fmi2Status check_saved(Instance *inst, const Saved *s, const char *fn) {
         d->state != ST_TERMINATED && d->state != ST_ERROR)
         return ERROR(inst, "%s: corrupted state (invalid model state %d)", fn, (int)d->state);
     if (!valid_flag(d->outputs_valid) || !valid_flag(d->at_instant) || !valid_flag(d->sample_due) ||
-        (NH == 0 && d->sample_due))
-        return ERROR(inst, "%s: corrupted state (flags %d %d %d)", fn, (int)d->outputs_valid, (int)d->at_instant,
-                     (int)d->sample_due);
+        !valid_flag(d->inputs_stale) || (NH == 0 && (d->sample_due || d->inputs_stale)) ||
+        (d->inputs_stale && !d->at_instant))
+        return ERROR(inst, "%s: corrupted state (flags %d %d %d %d)", fn, (int)d->outputs_valid, (int)d->at_instant,
+                     (int)d->sample_due, (int)d->inputs_stale);
     tol = time_tolerance(d->time);
     if (!isfinite(d->start_time) || !isfinite(d->time) || isnan(d->stop_time) || d->stop_time < d->start_time ||
         d->time < d->start_time - tol || d->time > d->stop_time + tol)
@@ -909,6 +924,7 @@ static fmi2Status step_sampled(Instance *inst, double t_end, double k_end) {
         new_instant(d);
     }
     d->sample_due = d->at_instant;
+    d->inputs_stale = d->at_instant && NU > 0; /* sampled from the inputs set for the next step */
     return fmi2OK;
 }
 
