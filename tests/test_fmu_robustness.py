@@ -797,21 +797,9 @@ DBL_MAX = sys.float_info.max
 
 
 @pytest.fixture
-def native(fmu_dir: Path):
-    """Factory of native :class:`Instance` objects of any FMU of the build, extracted per test."""
-    made: list[tuple[Instance, str]] = []
-
-    def _make(file: str) -> Instance:
-        path = fmu_dir / file
-        fmu = Fmu(file, path, read_model_description(str(path)), extract(str(path)), False)
-        inst = Instance(fmu)
-        made.append((inst, fmu.unzip))
-        return inst
-
-    yield _make
-    for inst, unzip in made:
-        inst.free()
-        shutil.rmtree(unzip, ignore_errors=True)
+def native(built):
+    """Factory of native :class:`Instance` objects of any FMU of the build (:func:`built`)."""
+    return built
 
 
 @pytest.mark.parametrize("file", [PLANT, CTRL, BDOT, SINE])
