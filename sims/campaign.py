@@ -323,7 +323,7 @@ def _write_record(folder: Path, record: dict[str, Any]) -> None:
     write_atomically(folder / _META, lambda tmp: tmp.write_text(json.dumps(record, indent=1) + "\n"))
 
 
-def _digest(record: dict[str, Any]) -> str:
+def record_digest(record: dict[str, Any]) -> str:
     """Digest of the campaign identity a record holds (what each chunk file's metadata names)."""
     return chunk_files.identity_digest({key: record[key] for key in _IDENTITY})
 
@@ -331,7 +331,7 @@ def _digest(record: dict[str, Any]) -> str:
 def _todo(folder: Path, campaign: Campaign, record: dict[str, Any]) -> list[int]:
     """The chunks to compute: those not computed yet and those whose file or record entry is not
     right (warned about and dropped from ``record``)."""
-    digest, todo = _digest(record), []
+    digest, todo = record_digest(record), []
     for k in range(campaign.n_chunks):
         path, recorded = chunk_path(folder, k), record["chunks"].get(str(k))
         if recorded is None and not path.exists():
@@ -397,7 +397,7 @@ def _compute(client: Client, campaign: Campaign, folder: Path, record: dict[str,
     run_id = uuid.uuid4().hex[:12]
     futures = {client.submit(run_chunk, campaign, k, key=f"{campaign.name}-chunk-{k}-{run_id}", retries=2): k
                for k in todo}
-    done, digest = campaign.n_chunks - len(todo), _digest(record)
+    done, digest = campaign.n_chunks - len(todo), record_digest(record)
     try:
         for future in as_completed(list(futures)):
             k = futures.pop(future)
@@ -428,7 +428,7 @@ def load(path: Path) -> pd.DataFrame:
     """
     folder = Path(path)
     record = read_record(folder)
-    n, digest = int(record["n"]), _digest(record)
+    n, digest = int(record["n"]), record_digest(record)
     files = [chunk_path(folder, int(k)) for k in sorted(record["chunks"], key=int)]
     if not files:
         raise CampaignError(f"{folder}: no chunk recorded in {_META}; missing all {n} samples")

@@ -613,7 +613,7 @@ def campaign_row(folder: str | Path, sample: int) -> pd.Series | None:
     k = int(sample) // int(record["chunk"])
     recorded = record["chunks"].get(str(k))
     path = C.chunk_path(folder, k)
-    if recorded is None or chunk_files.chunk_problem(path, recorded, C._digest(record), k) is not None:
+    if recorded is None or chunk_files.chunk_problem(path, recorded, C.record_digest(record), k) is not None:
         return None
     frame = pd.read_parquet(path)
     hit = frame.loc[frame["sample"] == int(sample)]
