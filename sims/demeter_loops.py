@@ -41,7 +41,8 @@ from controllers import artifact as artifacts
 from sims import envelopes as E
 from sims import paths
 from sims.scenario import Scenario, recorded_times
-from synthesis.demeter_variants import RATE_WORST, THETA_WORST, DesignModel, Variant, design_model
+from synthesis.demeter_variants import (RATE_WORST, THETA_WORST, DesignModel, UncertainParameter, Variant,
+                                        design_model)
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -181,17 +182,8 @@ def scenario(artifact: str | Path = "demeter_row1_det", *, start: str = "both", 
         plant.update(wheel_torque_max=NO_LIMIT, wheel_momentum_max=NO_LIMIT)
     dispersions = {}
     for p in dm.parameters:
-        low, high = p.nominal - p.half_width, p.nominal + p.half_width
-        if p.kind in ("sqrtJ", "Jprod"):
-            i, j = (variant.axes[k] for k in (p.index * 2)[:2])
-            spec = {"kind": "uniform", "low": low, "high": high, **({"transform": "square"} if p.kind == "sqrtJ" else {})}
-            dispersions[f"plant.J[{min(i, j)},{max(i, j)}]"] = spec
-            continue
-        appendages = sorted({c // 2 for c in dm.groups[p.index[0]]})
-        if len(appendages) != 1:
-            raise ValueError(f"{variant.label}: {p.name} is shared by appendages {[a + 1 for a in appendages]}; "
-                             "a scenario dispersion draws one value per FMU parameter")
-        dispersions[f"plant.{p.kind}[{appendages[0] + 1}]"] = {"kind": "uniform", "low": low, "high": high}
+        spec = {"kind": "uniform", "low": p.nominal - p.half_width, "high": p.nominal + p.half_width}
+        dispersions[fmu_parameter(p, dm, variant)] = {**spec, **({"transform": "square"} if p.kind == "sqrtJ" else {})}
     bound = float(art.certificate["numbers"]["design_i2p_bound"]) * math.hypot(float(on_theta), float(on_rate))
     xw, theta = f"ctrl.xw[{axis}]", f"plant.theta[{axis}]"
     name = f"demeter_{art.name}_{start}{'_linear' if limits == 'linear' else ''}"
@@ -222,17 +214,32 @@ def uniform_points(n_rows: int, points: int) -> int:
     return next(m + 1 for m in range(min(points, n_rows) - 1, 0, -1) if (n_rows - 1) % m == 0)
 
 
+def fmu_parameter(p: UncertainParameter, dm: DesignModel, variant: Variant) -> str:
+    """The plant FMU parameter (``"plant.J[1,1]"``, ``"plant.omega[1]"``) that an uncertain parameter
+    of the design model sets: a principal inertia (the square of ``p``'s value for ``sqrtJ``), a
+    product of inertia, or the damping or frequency of its mode group's appendage.
+
+    Raises
+    ------
+    ValueError
+        A mode group of several appendages (one value for several FMU parameters).
+    """
+    if p.kind in ("sqrtJ", "Jprod"):
+        i, j = sorted(variant.axes[k] for k in (p.index * 2)[:2])
+        return f"plant.J[{i},{j}]"
+    appendages = sorted({c // 2 for c in dm.groups[p.index[0]]})
+    if len(appendages) != 1:
+        raise ValueError(f"{variant.label}: {p.name} is shared by appendages {[a + 1 for a in appendages]}; "
+                         "a scenario dispersion draws one value per FMU parameter")
+    return f"plant.{p.kind}[{appendages[0] + 1}]"
+
+
 def deltas_of(rows: "pd.DataFrame", dm: DesignModel, variant: Variant) -> np.ndarray:
     """The design model's parameter vectors delta (in [-1, 1]) of a campaign's dispersed values."""
     out = np.empty((len(rows), len(dm.parameters)))
     for k, p in enumerate(dm.parameters):
-        if p.kind in ("sqrtJ", "Jprod"):
-            i, j = sorted(variant.axes[m] for m in (p.index * 2)[:2])
-            v = rows[f"plant.J[{i},{j}]"].to_numpy()
-            v = np.sqrt(v) if p.kind == "sqrtJ" else v
-        else:
-            v = rows[f"plant.{p.kind}[{dm.groups[p.index[0]][0] // 2 + 1}]"].to_numpy()
-        out[:, k] = (v - p.nominal) / p.half_width
+        v = rows[fmu_parameter(p, dm, variant)].to_numpy()
+        out[:, k] = ((np.sqrt(v) if p.kind == "sqrtJ" else v) - p.nominal) / p.half_width
     return out
 
 
