@@ -16,12 +16,16 @@ normal with 0.1 rad/s deviation; references q + normal 0.05 rad; fixed ``--seed`
   servo's ``outputs`` (the command T = -K xe) and the online servo's sample path,
   ``sample_arguments`` then :func:`controllers.riccati.sampled_gain`, as the pythonfmu
   FMUs call them (held values follow the parameters in ``p``);
-- the FMUs through fmpy: the native approximated servo FMU against the pythonfmu online
-  SDRE FMU, ``--steps`` steps of 0.01 s of fmi2SetReal(inputs) + fmi2GetReal(T1, T2) +
-  fmi2DoStep, preallocated buffers as in :class:`sims.master.CoSimulation`. In this order
-  the online FMU solves one Riccati equation per step (the gain of the instant, with that
-  instant's inputs); reading the outputs after fmi2DoStep and before setting the new
-  inputs would make it solve a second time per step, with the stale inputs.
+- the FMUs through fmpy: the native approximated servo FMU and the online SDRE FMUs, native
+  (the C Riccati routine, ``fmus/c/riccati.h``) and pythonfmu (scipy), ``--steps`` steps of
+  0.01 s of fmi2SetReal(inputs) + fmi2GetReal(T1, T2) + fmi2DoStep, preallocated buffers as in
+  :class:`sims.master.CoSimulation`. In this order the online FMU solves one Riccati equation
+  per step (the gain of the instant, with that instant's inputs); reading the outputs after
+  fmi2DoStep and before setting the new inputs would make it solve a second time per step,
+  with the stale inputs;
+- the closed loops: the shipped scenarios ``vscmg_seed`` and ``vscmg_seed_friction`` run with
+  native FMUs, the two online SDRE controllers native, then pythonfmu; the largest difference of the online SDRE loops' plant
+  states (q2, q4, rad) and commands (T1, T2, N m) between the two, and each run's wall time.
 
 Each timing is the best of ``--repeat`` runs, in this one process, reported as
 evaluations/s, microseconds per evaluation and speed-up over the in-process online SDRE
@@ -30,7 +34,7 @@ drift). Also prints the approximation's largest gain error over the points (rela
 the largest gain entry, as :mod:`synthesis.gain_fit`) and how closely the generated code
 reproduces the in-process laws.
 
-    python bench/sdre_speed.py [--points 2000] [--steps 1500] [--repeat 3] [--seed 2]
+    python bench/sdre_speed.py [--points 2000] [--steps 1500] [--repeat 3] [--seed 2] [--fmu-dir build/fmus]
 """
 from __future__ import annotations
 
@@ -107,12 +111,44 @@ def fmu_steps(path: Path, inputs: list[list[float]], input_names: list[str], rep
     return dt
 
 
+ONLINE_LOOPS = {"online": "online_plant", "online_w1free": "online_w1free_plant"}
+"""The online SDRE instances of the vscmg_seed scenarios and their plants."""
+
+
+def closed_loops(fmu_dir: Path | None) -> None:
+    """Run ``vscmg_seed`` and ``vscmg_seed_friction`` with native and pythonfmu FMUs; print the
+    largest native - pythonfmu difference of the online loops and each run's wall time."""
+    import copy
+    import time
+
+    from sims import scenario
+
+    print("closed loops (native online SDRE FMUs vs pythonfmu ones, every communication point of 0.01 s):")
+    for name in ("vscmg_seed", "vscmg_seed_friction"):
+        runs, walls = {}, {}
+        for backend in ("native", "python"):  # only the online controllers change backend
+            data = copy.deepcopy(scenario.load(name).data)
+            for ctrl in ONLINE_LOOPS:
+                data["fmus"][ctrl]["backend"] = backend
+            t0 = time.perf_counter()
+            runs[backend] = scenario.run(data, fmu_dir).results
+            walls[backend] = time.perf_counter() - t0
+        a, b = runs["native"], runs["python"]
+        for ctrl, plant in ONLINE_LOOPS.items():
+            dq = max(float(np.max(np.abs(a[f"{plant}.{q}"] - b[f"{plant}.{q}"]))) for q in ("q2", "q4"))
+            dt = max(float(np.max(np.abs(a[f"{ctrl}.{c}"] - b[f"{ctrl}.{c}"]))) for c in ("T1", "T2"))
+            print(f"  {name:20s} {ctrl:14s} largest |q native - q python| {dq:.2e} rad, |T| {dt:.2e} N m")
+        print(f"  {name:20s} whole scenario (5 loops, {len(a)} points): native online SDRE {walls['native']:.2f} s, "
+              f"pythonfmu online SDRE {walls['python']:.2f} s ({walls['python'] / walls['native']:.1f}x)")
+
+
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--points", type=int, default=2000, help="plant states evaluated in process")
     ap.add_argument("--steps", type=int, default=1500, help="FMU steps of 0.01 s (at most --points)")
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--seed", type=int, default=2)
+    ap.add_argument("--fmu-dir", type=Path, default=None, help="FMU folder of the closed loops (default: the cache)")
     args = ap.parse_args(argv)
     if not 0 < args.steps <= args.points:
         ap.error("--steps must be between 1 and --points")
@@ -142,10 +178,14 @@ def main(argv: list[str] | None = None) -> None:
 
     with tempfile.TemporaryDirectory(prefix="sdre_speed_") as tmp:
         native = export.build_native(approx, Path(tmp), artifact.resource(art))
+        online_native = export.build_native(online, Path(tmp))
         python = export.build_python(online, Path(tmp))
         rows = u_approx[:args.steps]
+        online_names = [v.name for v in online.inputs]
         fmu = {"native FMU approx., fmpy step": fmu_steps(native, rows, [v.name for v in approx.inputs], args.repeat),
-               "pythonfmu FMU online, fmpy step": fmu_steps(python, rows, [v.name for v in online.inputs],
+               "native FMU online, fmpy step": fmu_steps(online_native, u_online[:args.steps], online_names,
+                                                         args.repeat),
+               "pythonfmu FMU online, fmpy step": fmu_steps(python, u_online[:args.steps], online_names,
                                                             args.repeat)}
 
     base = timings["online SDRE gyro_on_w2, Servo.gain"] / n
@@ -154,8 +194,10 @@ def main(argv: list[str] | None = None) -> None:
     print(f"{'method':40s} {'evals/s':>10s} {'us/eval':>10s} {'x online':>10s}")
     for label, dt, count in ([(k, v, n) for k, v in timings.items()] + [(k, v, args.steps) for k, v in fmu.items()]):
         print(f"{label:40s} {count / dt:10.0f} {1e6 * dt / count:10.2f} {base / (dt / count):10.2f}")
-    native_s, python_s = fmu.values()
-    print(f"FMU steps: native approximated servo is {python_s / native_s:.1f}x the pythonfmu online SDRE")
+    native_s, online_s, python_s = fmu.values()
+    print(f"FMU steps: native approximated servo is {python_s / native_s:.1f}x the pythonfmu online SDRE; "
+          f"native online SDRE is {python_s / online_s:.1f}x the pythonfmu online SDRE")
+    closed_loops(args.fmu_dir)
 
     k_free, k_fit = np.array(k_free), np.array(k_fit)
     print(f"approximation: largest |K_approx - K_w1free| / largest |K_w1free| = "

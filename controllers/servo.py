@@ -12,8 +12,10 @@ e = reference - tracked. The servo state is xe = [int e, e, rates].
 - :func:`build_online`: the online SDRE of seed 002. The gain is solved and checked
   (:func:`controllers.riccati.sampled_gain`) at every control instant from the servo's
   SDC matrices (:func:`controllers.servo_sdc.servo_matrices`, the plant's own factorization) and
-  held in between; a rejected solution stops the FMU with the check's message. pythonfmu
-  FMU only (it needs numpy and scipy at run time).
+  held in between; a rejected solution stops the FMU with the check's message. Native FMU:
+  the C twin of the checked solve (``fmus/c/riccati.h``: Hamiltonian sign function, then
+  Newton-Kleinman refinement, the same checks and messages); pythonfmu FMU (the cross-check
+  backend): :func:`controllers.riccati.sampled_gain`, scipy's ``solve_continuous_are``.
 
 For the VSCMG (``plant == "vscmg"``) the optional friction compensation of
 :func:`fmus.vscmg.friction_compensation` is added (parameter ``compensation_on``, off by
@@ -111,7 +113,7 @@ def build_online(name: str = "vscmg_sdre_online") -> Model:
     held += [Variable("held_residual"), Variable("held_max_re", "1/s")]
     sampler = Sampler(held=held, arguments=list(Ae) + list(Be) + [v.symbol for v in q + r] + [eps.symbol],
                       period=period.name, module=str(Path(riccati.__file__)), function="sampled_gain",
-                      options={"n": n, "m": m})
+                      options={"n": n, "m": m}, c_header="riccati.h", c_function="riccati_sampled_gain")
     K = [[held[i * n + j].symbol for j in range(n)] for i in range(m)]
     monitors = [Output(Variable("riccati_residual", "1", "Relative residual of the Riccati solution in use"),
                        held[-2].symbol),

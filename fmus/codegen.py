@@ -326,10 +326,29 @@ def _c_double(v: float | None, default: str) -> str:
 
 
 def require_c_form(model: Model) -> None:
-    """Raise ``ValueError`` if the model has no C form (it samples a Python function)."""
-    if model.sampler is not None and not model.sampler.is_expression:
-        raise ValueError(f"model {model.name!r} samples a Python function ({model.sampler.function}); "
-                         "it has no native FMU, build its pythonfmu FMU")
+    """Raise ``ValueError`` if the model has no C form (it samples a Python function with no C twin)."""
+    if model.sampler is not None and not model.sampler.has_c_form:
+        raise ValueError(f"model {model.name!r} samples a Python function ({model.sampler.function}) with no C "
+                         "routine; it has no native FMU, build its pythonfmu FMU")
+
+
+def c_headers(model: Model) -> list[Path]:
+    """The library headers (``fmus/c/``) the model's C code includes, to ship in ``sources/``."""
+    path = model.sampler.c_header_path if model.sampler is not None else None
+    return [path] if path is not None else []
+
+
+def _c_sample(model: Model) -> list[str]:
+    """``model_sample``: the held values of an instant, 1; or 0 and a message (a routine's refusal)."""
+    head = ("static int model_sample(double t, const double *x, const double *u, const double *p, double *held, "
+            "char *message, size_t size) {")
+    smp = model.sampler
+    if smp is None or smp.is_expression:
+        return [head, "    (void)size;", "    message[0] = '\\0';",
+                "    model_sample_arguments(t, x, u, p, held);", "    return 1;", "}"]
+    return [head, f"    double arguments[{len(smp.arguments)}];",
+            "    model_sample_arguments(t, x, u, p, arguments);",
+            f"    return {smp.c_function}(arguments, held, message, size);", "}"]
 
 
 C_HEADER = "model.h"
@@ -421,6 +440,9 @@ def c_source(model: Model, guid: str) -> str:
     generated = functions(model)
     if model.sampler is None:  # the wrapper calls it only when NH > 0
         generated = generated + [LoweredFunction("sample_arguments", [], [])]
+    if model.sampler is not None and model.sampler.c_header is not None:
+        lines += [f"#define SAMPLER_{k.upper()} {v!r}" for k, v in model.sampler.options.items()]
+        lines.append(f'#include "{model.sampler.c_header}"')
     for f in generated:
         lines.append(f"static void model_{f.name}({sig[f.name]}) {{")
         unused = "t x u p out" if f.name in ("outputs", "sample_arguments", "switch_time") else "t x xp u p out"
@@ -430,5 +452,6 @@ def c_source(model: Model, guid: str) -> str:
         for i, e in enumerate(f.results):
             lines.append(f"    out[{i}] = {pr.doprint(e)};")
         lines.append("}")
+    lines += _c_sample(model)
     lines.append("#endif /* SATFMU_MODEL_H */")
     return "\n".join(lines) + "\n"

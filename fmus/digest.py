@@ -41,6 +41,8 @@ def _canonical(obj: Any) -> Any:
         fields = {f.name: _canonical(getattr(obj, f.name)) for f in dataclasses.fields(obj)}
         if obj.module is not None:  # the file's text, not only its path
             fields["module_text"] = sha256(Path(obj.module).read_bytes())
+        if obj.c_header_path is not None:
+            fields["c_header_text"] = sha256(obj.c_header_path.read_bytes())
         return fields
     if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
         return {f.name: _canonical(getattr(obj, f.name)) for f in dataclasses.fields(obj)}

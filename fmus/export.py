@@ -184,6 +184,8 @@ def build_native(model: Model, dest_dir: Path, resources: dict[str, bytes] | Non
         src.mkdir()
         (src / codegen.C_HEADER).write_text(model_h)
         shutil.copy(WRAPPER, src / WRAPPER.name)
+        for header in codegen.c_headers(model):  # a sampler's C routine (model.h includes it)
+            shutil.copy(header, src / header.name)
         (root / "modelDescription.xml").write_bytes(to_xml_bytes(desc))
         bindir = root / "binaries" / "linux64"
         bindir.mkdir(parents=True)

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass, field, replace
+from pathlib import Path
 from typing import Callable, Literal, Sequence
 
 import numpy as np
@@ -145,9 +146,12 @@ class Sampler:
     - an *expression sampler* (no :attr:`module`): the held values ARE the arguments, one
       expression each. Native and pythonfmu FMUs (a periodic gain schedule, a sampled
       B-dot law);
-    - a *Python sampler*: ``function(arguments, **options)`` of the module file
-      :attr:`module` returns the held values (an online SDRE law holds its gain this way:
-      the Riccati solve is no expression). pythonfmu FMUs only.
+    - a *routine sampler*: a routine computes the held values from the arguments (an online
+      SDRE law holds its gain this way: the Riccati solve is no expression). Its Python form,
+      ``function(arguments, **options)`` of the module file :attr:`module`, runs in pythonfmu
+      FMUs and in process; its C form, :attr:`c_function` of the header :attr:`c_header` in
+      ``fmus/c/``, in native FMUs (a model without it has no native FMU). The two are twins
+      that the tests hold to a stated agreement.
 
     The expressions of the model read the held values through the symbols of :attr:`held`.
 
@@ -171,6 +175,14 @@ class Sampler:
     phase : str, optional
         Name of the model parameter giving the phase of the instants, s (an orbit time at
         ``t = 0``, say, so that the instants fall on orbit times ``k * period``).
+    c_header : str, optional
+        File name, in ``fmus/c/``, of the C header defining :attr:`c_function`; a native FMU
+        carries it in ``sources/``. Its code reads the options as macros ``SAMPLER_<KEY>``
+        (upper case, integer or float values).
+    c_function : str, optional
+        Name of the C routine, ``int f(const double *arguments, double *held, char *message,
+        size_t size)``: it writes ``len(held)`` numbers and returns 1, or returns 0 with a
+        message (the FMU then reports fmi2Error with it, as the Python form's exception).
     """
 
     held: list[Variable]
@@ -180,11 +192,23 @@ class Sampler:
     function: str | None = None
     options: dict = field(default_factory=dict)
     phase: str | None = None
+    c_header: str | None = None
+    c_function: str | None = None
 
     @property
     def is_expression(self) -> bool:
-        """Whether the held values are the arguments themselves (no Python function)."""
-        return self.module is None
+        """Whether the held values are the arguments themselves (no routine)."""
+        return self.module is None and self.c_function is None
+
+    @property
+    def has_c_form(self) -> bool:
+        """Whether a native FMU can sample it (an expression sampler or a C routine)."""
+        return self.is_expression or self.c_function is not None
+
+    @property
+    def c_header_path(self) -> Path | None:
+        """The C header's file (in ``fmus/c/``), or None."""
+        return None if self.c_header is None else Path(__file__).resolve().parent / "c" / self.c_header
 
     def load(self) -> Callable[..., list[float]]:
         """The function itself, ``values -> held`` with the options bound (in-process use)."""
@@ -404,6 +428,17 @@ class Model:
                     raise ModelDefinitionError(f"{self.name}: sampler {label} {pname!r} is no parameter")
             if (smp.module is None) != (smp.function is None):
                 raise ModelDefinitionError(f"{self.name}: a sampler needs both module and function, or neither")
+            if (smp.c_header is None) != (smp.c_function is None):
+                raise ModelDefinitionError(f"{self.name}: a sampler needs both c_header and c_function, or neither")
+            if smp.c_function is not None and smp.module is None:
+                raise ModelDefinitionError(f"{self.name}: a C sampler routine needs its Python twin (module and "
+                                           "function) for pythonfmu FMUs and in-process use")
+            if smp.c_header_path is not None and not smp.c_header_path.is_file():
+                raise ModelDefinitionError(f"{self.name}: sampler C header {smp.c_header!r} is not in fmus/c/")
+            bad = [k for k, v in smp.options.items()
+                   if not (k.isidentifier() and isinstance(v, (int, float)) and not isinstance(v, bool))]
+            if smp.c_function is not None and bad:
+                raise ModelDefinitionError(f"{self.name}: C sampler options must be named numbers, not {bad}")
             if smp.is_expression and len(smp.arguments) != len(smp.held):
                 raise ModelDefinitionError(f"{self.name}: an expression sampler needs one argument per held "
                                            f"value ({len(smp.arguments)} for {len(smp.held)})")

@@ -34,7 +34,8 @@ class FmuSource:
     model: Model
     resources: dict[str, bytes]
     backends: tuple[str, ...] = ("native", "python")
-    """FMU backends the model supports (a model with a Python sampler: pythonfmu only)."""
+    """FMU backends the model supports (every model has both but the generic signal generators,
+    native only)."""
 
 
 def _plant(module: str) -> Callable[[], FmuSource]:
@@ -45,7 +46,7 @@ def _plant(module: str) -> Callable[[], FmuSource]:
 def _online_sdre(name: str) -> FmuSource:
     from controllers import servo
 
-    return FmuSource(servo.build_online(name), {}, ("python",))
+    return FmuSource(servo.build_online(name), {})
 
 
 def _backstepping() -> FmuSource:

@@ -46,8 +46,8 @@ from sims import fmi_host
 
 ONE_THREAD = 1
 """BLAS and OpenMP threads of the host process while FMUs step. Measured on 2 cores
-(``satfmu run vscmg_seed``, whose pythonfmu online SDRE controllers solve a 6-state Riccati
-equation per 0.01 s sample through the host's numpy/scipy): 10.1-11.5 s CPU with OpenBLAS's
+(``satfmu run vscmg_seed`` with its online SDRE controllers as pythonfmu FMUs, which solve a
+7-state Riccati equation per 0.01 s sample through the host's numpy/scipy): 10.1-11.5 s CPU with OpenBLAS's
 default threads, 6.0-6.3 s with one, the same wall time."""
 
 

@@ -1,5 +1,6 @@
-"""Online SDRE servo FMU (pythonfmu, gain sampled by a Python function) and the master's
-variable-level feedthrough ordering that its closed loop needs."""
+"""Online SDRE servo FMUs (native: the C Riccati routine of fmus/c/riccati.h; pythonfmu: the
+Python sampler, scipy) and the master's variable-level feedthrough ordering that their closed
+loop needs."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -14,7 +15,7 @@ from fmus.profiles import make
 from sims.master import CoSimulation, FmuCallError, WiringError
 from synthesis import sdre
 
-ONLINE = "vscmg_sdre_online_py.fmu"
+ONLINE = ["vscmg_sdre_online.fmu", "vscmg_sdre_online_py.fmu"]
 RECORD = ["plant.q2", "plant.q4", "c.T1", "c.T2", "c.e_q2", "c.e_q4", "c.riccati_residual"]
 
 
@@ -36,11 +37,13 @@ def _reference(t: np.ndarray) -> np.ndarray:
     return np.stack([r.sample(t) for r in refs], axis=1)
 
 
-def test_online_fmu_matches_the_in_process_sdre_and_tracks(fmu_dir: Path) -> None:
-    res = _loop(fmu_dir, ONLINE, plant={"friction_on": False})
+@pytest.mark.parametrize("online", ONLINE)
+def test_online_fmu_matches_the_in_process_sdre_and_tracks(fmu_dir: Path, online: str) -> None:
+    res = _loop(fmu_dir, online, plant={"friction_on": False})
     run = sdre.simulate_servo(sdre.Servo(), _reference, plant_params={"friction_on": 0})
-    # Same RK4 arithmetic, same Riccati function on the same SDC entries (generated code vs
-    # lambdify differ in rounding only): measured 2e-11 rad.
+    # Same RK4 arithmetic on the same SDC entries (generated code vs lambdify differ in rounding
+    # only); the pythonfmu FMU runs the same Riccati function, the native one its C twin (gains
+    # within 6e-9 of scipy's, tests/test_riccati_native.py): measured 2e-11 rad both.
     assert np.max(np.abs(run.x[:, 1] - res["plant.q2"])) < 1e-8
     assert np.max(np.abs(run.x[:, 2] - res["plant.q4"])) < 1e-8
     assert np.max(np.abs(run.u[:-1, 0] - res["c.T1"][:-1])) < 1e-8
@@ -52,25 +55,42 @@ def test_online_fmu_matches_the_in_process_sdre_and_tracks(fmu_dir: Path) -> Non
     assert np.max(res["c.riccati_residual"]) < 1e-8  # every gain in use passed the check
 
 
-def test_gain_is_held_between_sample_instants(fmu_dir: Path) -> None:
+@pytest.mark.parametrize("online", ONLINE)
+def test_gain_is_held_between_sample_instants(fmu_dir: Path, online: str) -> None:
     # control_period 0.025 s with 0.01 s steps: instants at 0.025 (inside the step from
     # 0.02, sampled with the inputs held there), 0.05 (a communication point), 0.075, ...
     # The gimbal moves from the start (w4_0), so every new sample changes the residual.
-    res = _loop(fmu_dir, ONLINE, stop=0.2, plant={"w4_0": 0.3}, ctrl={"control_period": 0.025})
+    res = _loop(fmu_dir, online, stop=0.2, plant={"w4_0": 0.3}, ctrl={"control_period": 0.025})
     changed = np.flatnonzero(np.diff(res["c.riccati_residual"]) != 0.0) + 1
     t = res["time"][changed]
     assert np.allclose(t, [0.03, 0.05, 0.08, 0.10, 0.13, 0.15, 0.18, 0.20])
 
 
-def test_failed_riccati_check_stops_the_fmu_with_the_message(fmu_dir: Path) -> None:
+@pytest.mark.parametrize(("online", "message"), [
+    (ONLINE[0], "sample at t = 0 s: no stabilizing Riccati solution for the pair shifted by eps = 0"),
+    (ONLINE[1], "sample at t = 0 s failed: RiccatiCheckError: Riccati solution rejected: relative residual")])
+def test_failed_riccati_check_stops_the_fmu_with_the_message(fmu_dir: Path, online: str, message: str) -> None:
     # Without the shift the conserved p4 makes the pair unstabilizable at the start state.
-    with pytest.raises(FmuCallError, match="sample at t = 0 s failed: RiccatiCheckError"):
-        _loop(fmu_dir, ONLINE, stop=0.1, ctrl={"riccati_eps": 0.0})
+    with pytest.raises(FmuCallError, match=message):
+        _loop(fmu_dir, online, stop=0.1, ctrl={"riccati_eps": 0.0})
 
 
-def test_sampled_model_has_no_native_fmu(tmp_path: Path) -> None:
-    with pytest.raises(export.FmuBuildError, match="no native FMU"):
-        export.build_native(servo.build_online(), tmp_path)
+def test_native_online_fmu_ships_its_riccati_routine(fmu_dir: Path) -> None:
+    import zipfile
+
+    with zipfile.ZipFile(fmu_dir / ONLINE[0]) as z:
+        names = set(z.namelist())
+        header = z.read("sources/model.h").decode()
+    assert {"sources/fmi2_cosim.c", "sources/model.h", "sources/riccati.h"} <= names
+    assert "#define SAMPLER_N 7" in header and '#include "riccati.h"' in header
+
+
+def test_python_sampler_without_a_c_routine_has_no_native_fmu(tmp_path: Path) -> None:
+    python_only = Model(name="m", description="", states=[], inputs=[Variable("y")],
+                        parameters=[Variable("period", "s", start=0.1)], outputs=[],
+                        sampler=Sampler([Variable("k")], [Variable("y").symbol], "period", __file__, "f"))
+    with pytest.raises(export.FmuBuildError, match="with no C routine; it has no native FMU"):
+        export.build_native(python_only, tmp_path)
 
 
 def test_sampler_definition_is_checked() -> None:
@@ -84,6 +104,16 @@ def test_sampler_definition_is_checked() -> None:
         Model(**good, sampler=Sampler(held, [Variable("z").symbol], "period", __file__, "f"))
     with pytest.raises(ModelDefinitionError, match="held values reuse names"):
         Model(**good, sampler=Sampler([Variable("y")], [Variable("y").symbol], "period", __file__, "f"))
+    y = [Variable("y").symbol]
+    with pytest.raises(ModelDefinitionError, match="both c_header and c_function"):
+        Model(**good, sampler=Sampler(held, y, "period", __file__, "f", c_header="riccati.h"))
+    with pytest.raises(ModelDefinitionError, match="needs its Python twin"):
+        Model(**good, sampler=Sampler(held, y, "period", c_header="riccati.h", c_function="riccati_sampled_gain"))
+    with pytest.raises(ModelDefinitionError, match="sampler C header 'nope.h' is not in fmus/c/"):
+        Model(**good, sampler=Sampler(held, y, "period", __file__, "f", c_header="nope.h", c_function="g"))
+    with pytest.raises(ModelDefinitionError, match=r"options must be named numbers, not \['n'\]"):
+        Model(**good, sampler=Sampler(held, y, "period", __file__, "f", {"n": "7"}, c_header="riccati.h",
+                                      c_function="riccati_sampled_gain"))
 
 
 def test_true_algebraic_loop_names_the_variables(fmu_dir: Path) -> None:

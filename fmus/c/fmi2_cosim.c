@@ -18,8 +18,9 @@
  * measured as a duration from the substep start, so the result does not depend on the
  * absolute time.
  *
- * Sampling (NH > 0, an expression sampler of fmus/model.py): NH values are computed by
- * model_sample_arguments at the start and at the instants t_k = k * period - phase
+ * Sampling (NH > 0, a sampler of fmus/model.py): NH values are computed by model_sample (the
+ * sampler's expressions, or its C routine on them, e.g. riccati.h's checked Riccati gain; a
+ * refusal is an error with the routine's message) at the start and at the instants t_k = k * period - phase
  * (t_k = start + k * period without a phase parameter), k an integer count kept exactly in
  * a double (|k| < 2^52), and held in p[NP..NP+NH-1] in between; a step is integrated in
  * segments between instants. Every sample is taken from the inputs set for the step being
@@ -277,15 +278,21 @@ static double first_instant_after(const Data *d, double t) {
     return k;
 }
 
-/* Held values of the current instant; 0 (and the error state) when one is not finite. */
+/* Held values of the current instant; 0 (and the error state) when the sample routine refuses
+ * (its message is logged) or a value is not finite. */
 static int sample(Instance *inst) {
     double held[DIM(NH)], pp[DIM(NP + NH)];
+    char message[512];
     int i;
     Data *d = &inst->d;
     if (NH == 0) return 1;
     for (i = 0; i < NP; i++) pp[i] = d->p[i];
     for (i = 0; i < NH; i++) pp[NP + i] = d->held_prev[i];
-    model_sample_arguments(d->time, d->x, d->u, pp, held);
+    if (!model_sample(d->time, d->x, d->u, pp, held, message, sizeof message)) {
+        d->state = ST_ERROR;
+        log_msg(inst, fmi2Error, "logStatusError", "sample at t = %g s: %s", d->time, message);
+        return 0;
+    }
     for (i = 0; i < NH; i++) {
         if (!isfinite(held[i])) {
             d->state = ST_ERROR;
