@@ -325,6 +325,13 @@ def _c_double(v: float | None, default: str) -> str:
     return repr(float(v))
 
 
+MAX_STEP_ROUTINE_SAMPLES = 10_000
+"""Most sample instants one fmi2DoStep of a native FMU may span when its sampler is a C routine (the
+online SDRE's Riccati solve, 0.12 ms: ~1.2 s): the bound of ``fmus/pyslave.py`` for a Python
+sampler, so both FMUs of a model refuse the same steps (the expression samplers' bound, 1e6, is
+``fmi2_cosim.c``'s own)."""
+
+
 def require_c_form(model: Model) -> None:
     """Raise ``ValueError`` if the model has no C form (it samples a Python function with no C twin)."""
     if model.sampler is not None and not model.sampler.has_c_form:
@@ -441,6 +448,7 @@ def c_source(model: Model, guid: str) -> str:
     if model.sampler is None:  # the wrapper calls it only when NH > 0
         generated = generated + [LoweredFunction("sample_arguments", [], [])]
     if model.sampler is not None and model.sampler.c_header is not None:
+        lines.append(f"#define MAX_STEP_INSTANTS {float(MAX_STEP_ROUTINE_SAMPLES)!r} /* a routine's instants per step */")
         lines += [f"#define SAMPLER_{k.upper()} {v!r}" for k, v in model.sampler.options.items()]
         lines.append(f'#include "{model.sampler.c_header}"')
     for f in generated:

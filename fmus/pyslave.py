@@ -25,7 +25,7 @@ communication point more than 8 ulp (of the larger of 1 s, ``|t|`` and the start
 FMU time is refused, as is a step that does not advance the time or passes a defined stopTime;
 two times closer than the generated ``time_tolerance(t)`` are one instant; a step is refused
 before anything changes when it spans more than :data:`MAX_STEP_INSTANTS` sample instants
-(:data:`MAX_STEP_PYTHON_SAMPLES` for a Python sampler, which has no native FMU) or needs more
+(:data:`MAX_STEP_PYTHON_SAMPLES` for a Python sampler) or needs more
 than :data:`MAX_STEP_SUBSTEPS` substeps; no output is returned non-finite (the call is refused).
 
 pythonfmu 0.7.0 writes parameters without variability and omits the
@@ -69,10 +69,11 @@ refused before anything changes."""
 MAX_STEP_SUBSTEPS = 1_000_000
 """Most integration substeps one fmi2DoStep may take (as ``fmus/c/fmi2_cosim.c``)."""
 MAX_STEP_PYTHON_SAMPLES = 10_000
-"""Most sample instants one fmi2DoStep may span when the sampler is a Python function (a model
-without a native FMU): the online SDRE solves a Riccati equation per instant (~0.5 to 5 ms, so
-at most ~5 to 50 s per step); the far step of the robustness suite (1e4 default steps, one
-instant each) is the longest the project takes."""
+"""Most sample instants one fmi2DoStep may span when the sampler is a Python function: the online
+SDRE solves a Riccati equation per instant (~0.5 to 5 ms, so at most ~5 to 50 s per step); the far
+step of the robustness suite (1e4 default steps, one instant each) is the longest the project
+takes. The native FMU of such a model (its C routine) has the same bound
+(``fmus.codegen.MAX_STEP_ROUTINE_SAMPLES``)."""
 INDEX_LIMIT = 2 ** 52
 """Sample counts stay below this: exact integers in a double, as the native FMU keeps them."""
 STATE_FORMAT = 2

@@ -112,11 +112,16 @@ enum { TYPE_REAL = 0, TYPE_INTEGER = 1, TYPE_BOOLEAN = 2 };
 #define DIM(n) ((n) > 0 ? (n) : 1)
 
 /* Work bounds of one fmi2DoStep. Measured (x86-64, gcc -O2, a step of 999,999 instants or
- * substeps): a sample instant costs 12 ns (cubesat_bdot) to 22 ns (cubesat_periodic_satfmu, its
- * gain schedule), an RK4 substep 0.16 us (mrp_satellite) to 0.65 us (magnetorquer_cubesat with its
- * field model), so a step at either bound takes at most ~25 ms and ~0.7 s. The far steps of the
- * robustness suite (1e4 default steps: 1e4 instants, <= 8e5 substeps) stay below them. */
+ * substeps): a sample instant of an expression sampler costs 12 ns (cubesat_bdot) to 22 ns
+ * (cubesat_periodic_satfmu, its gain schedule), an RK4 substep 0.16 us (mrp_satellite) to 0.65 us
+ * (magnetorquer_cubesat with its field model), so a step at either bound takes at most ~25 ms and
+ * ~0.7 s. A routine sampler's instant costs far more (the online SDRE's Riccati solve: 0.12 ms):
+ * model.h then bounds the instants at 1e4 (~1.2 s), as fmus/pyslave.py bounds a Python sampler's.
+ * The far steps of the robustness suite (1e4 default steps: 1e4 instants, <= 8e5 substeps) stay
+ * within them. */
+#ifndef MAX_STEP_INSTANTS
 #define MAX_STEP_INSTANTS 1000000.0
+#endif
 #define MAX_STEP_SUBSTEPS 1000000.0
 #define INDEX_LIMIT 4503599627370496.0 /* 2^52: sample counts stay exact integers in a double */
 
