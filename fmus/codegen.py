@@ -177,10 +177,32 @@ def guid_bytes(guid: str) -> bytes:
     return uuid.UUID(guid).bytes
 
 
+MAX_PRODUCT_POWER = 8
+"""Integer powers x**n with 2 <= |n| <= this are printed as products, identically in C and Python."""
+
+
+def _product_power(printer: C99CodePrinter | PythonCodePrinter, expr: sp.Pow, one: str) -> str | None:
+    """``x**n`` for an integer ``2 <= |n| <= MAX_PRODUCT_POWER`` as ``((x)*(x)*...)`` (``one/(...)`` for
+    n < 0), multiplied left to right in both languages; None for any other power.
+
+    Why: gcc -O2 turns ``pow(x, 2)`` into ``x*x`` while Python's ``x**2`` calls the C library's pow,
+    and the two differ in the last bit now and then; over a long run the native and pythonfmu FMUs
+    then drift apart (121,060 of 162,015 values of cubesat_detumble, up to 8.5e-14). Products in
+    both keep them identical bit for bit, and spare the native FMU the pow calls."""
+    base, exp = expr.as_base_exp()
+    if not (exp.is_Integer and 2 <= abs(int(exp)) <= MAX_PRODUCT_POWER):
+        return None
+    product = "(" + "*".join([f"({printer._print(base)})"] * abs(int(exp))) + ")"
+    return product if exp > 0 else f"({one}/{product})"
+
+
 # ----------------------------------------------------------------------------- Python
 class _Py(PythonCodePrinter):
     def _print_Symbol(self, expr: sp.Symbol) -> str:  # keep x[i] verbatim
         return expr.name
+
+    def _print_Pow(self, expr: sp.Pow, rational: bool = False) -> str:
+        return _product_power(self, expr, "1.0") or super()._print_Pow(expr, rational)
 
     def _print_TableLookup(self, expr: TableLookup) -> str:
         return f"table_lookup({int(expr.args[0])}, {self._print(expr.args[1])})"
@@ -308,6 +330,9 @@ class _C(C99CodePrinter):
 
     def _print_TableLookup(self, expr: TableLookup) -> str:
         return f"table_lookup({int(expr.args[0])}, {self._print(expr.args[1])})"
+
+    def _print_Pow(self, expr: sp.Pow) -> str:
+        return _product_power(self, expr, "1.0") or super()._print_Pow(expr)
 
     _print_Pi = _print_Exp1 = _print_NumberSymbol
 

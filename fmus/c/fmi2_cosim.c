@@ -82,8 +82,8 @@
  * glibc asks for pow@GLIBC_2.29 (e.g. for the integer powers sympy prints as pow(x, 3)) and does
  * not load on glibc <= 2.28. Binding each to its original version GLIBC_2.2.5, which every x86-64
  * glibc keeps, removes that requirement for every exponent and every model, whatever the code
- * generator prints; rewriting powers as products would change the arithmetic (and the results
- * against the pythonfmu FMUs, which call pow) and cover integer exponents only. On a newer glibc
+ * generator prints (it prints integer powers up to 8 as products, in C and Python alike, but
+ * other exponents, exp and log still call the C library). On a newer glibc
  * the old version runs the same pow (only errno handling on overflow or a pole differs, and a
  * non-finite result is refused here anyway), so results are unchanged bit for bit. Only for glibc
  * on x86-64, where GLIBC_2.2.5 is the base version; a directive for a function the model does not
