@@ -8,9 +8,9 @@ SATFMU := $(VENV)/bin/satfmu
 STAGE := scripts/stage.sh
 FMU_DIR := build/fmus
 SCENARIOS := mrp_200deg mrp_200deg_sat mrp_320deg_sat mrp_eq44 mrp_200deg_synth mrp_320deg_sat_synth mrp_eq44_synth mrp_90deg_h2 mrp_200deg_h2hinf mrp_320deg_sat_h2hinf mrp_eq44_h2hinf vscmg_seed vscmg_seed_friction cubesat_detumble
-# the demo's verification: seed 000's and seed 001's loops and the cubesat detumbling, native FMUs only
-# (seconds each; the vscmg scenarios hold pythonfmu SDRE controllers: `make verify`)
-VERIFY_SHORT := mrp_200deg mrp_90deg_h2 cubesat_detumble
+# the demo's verification: seed 000's and seed 001's loops, the cubesat detumbling and seed 002's
+# manoeuvre with its native online SDRE controllers (seconds each; every scenario: `make verify`)
+VERIFY_SHORT := mrp_200deg mrp_90deg_h2 cubesat_detumble vscmg_seed
 # the demo's Monte Carlo: seed 000's two controllers and seed 001's over the same random attitudes and
 # inertias (their [campaign] demo size), then one report page of them and the 200 deg run
 DEMO_CAMPAIGNS := mrp_slew_mc mrp_slew_mc_synth mrp_slew_mc_h2hinf
