@@ -47,7 +47,7 @@ class Var:
 SAMPLE_PERIODS = ("control_period", "sample_period")
 """Names of the sample-period parameters of the project's sampled FMUs (fmus.model.Sampler.period:
 controllers/magnetic.py, controllers/servo.py); the huge-step cases also run at its declared minimum."""
-TIME_ORIGINS = {"time": 1.0, "start": 1.0, "stop": 1.0, "orbit_time_0": -1.0}
+TIME_ORIGINS = {"step_time": 1.0, "start": 1.0, "stop": 1.0, "orbit_time_0": -1.0}
 """Parameters that place an FMU's time-dependent behaviour on the time axis, with the sign of their
 shift when the experiment starts t0 later (a step or ramp time moves by +t0; the orbit time at
 t = 0 of the cubesat plant and of the periodic schedules by -t0, so the orbit time at the start is
