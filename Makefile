@@ -22,15 +22,24 @@ unexport PYTHONDONTWRITEBYTECODE
 
 .PHONY: demo test test-all build validate verify bench clean system-deps browser-deps
 
-# Debian's libtbb12 is needed by the ecos co-simulation host (ecospy); installed once, guarded.
+# Debian's libtbb12 is needed by the ecos co-simulation host (ecospy), and its MinGW-w64 cross compiler
+# (x86_64-w64-mingw32-gcc) builds every native FMU's win64 DLL; installed once, guarded, checked again
+# when this Makefile changes.
 system-deps: $(VENV)/.system-deps
-$(VENV)/.system-deps:
+$(VENV)/.system-deps: Makefile
 	@mkdir -p $(VENV)
 	@if ldconfig -p 2>/dev/null | grep -q 'libtbb.so.12'; then :; \
 	elif command -v apt-get >/dev/null 2>&1 && [ "$$(id -u)" = 0 ]; then \
 	  (apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq libtbb12 >/dev/null 2>&1) \
 	  || { echo "error: apt-get could not install libtbb12 (needed by the ecos FMU host)"; exit 1; }; \
 	else echo "error: libtbb12 is missing; install Debian's libtbb12 (needed by the ecos FMU host)"; exit 1; fi
+	@if command -v x86_64-w64-mingw32-gcc >/dev/null 2>&1; then :; \
+	elif command -v apt-get >/dev/null 2>&1 && [ "$$(id -u)" = 0 ]; then \
+	  echo "installing Debian's gcc-mingw-w64-x86-64-posix (the cross compiler of the native FMUs' win64 DLLs)"; \
+	  (apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends \
+	    gcc-mingw-w64-x86-64-posix >/dev/null 2>&1) \
+	  || { echo "error: apt-get could not install gcc-mingw-w64-x86-64-posix (needed to build the native FMUs' win64 DLLs)"; exit 1; }; \
+	else echo "error: x86_64-w64-mingw32-gcc is missing and apt-get cannot install it here (not Debian, or not root): install Debian's gcc-mingw-w64-x86-64-posix (or -win32), the MinGW-w64 cross compiler that builds the native FMUs' win64 DLLs"; exit 1; fi
 	@command -v gcc >/dev/null || { echo "error: gcc is needed to compile the native FMUs"; exit 1; }
 	@touch $@
 

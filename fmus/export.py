@@ -3,13 +3,14 @@
 The native FMU carries ``sources/`` (the generic wrapper ``fmi2_cosim.c``, its one ``.c`` file
 and the only file ``<SourceFiles>`` lists, and the generated model header it includes,
 :data:`fmus.codegen.C_HEADER`) so other platforms can rebuild it (``fmpy compile``, or a tool
-compiling every ``.c`` file under ``sources/``), and a Linux x86-64
-binary compiled here with gcc against the FMI headers that fmpy ships. The
+compiling every ``.c`` file under ``sources/``), and two binaries compiled here against the FMI
+headers that fmpy ships, concurrently: ``binaries/linux64/<model>.so`` (gcc) and
+``binaries/win64/<model>.dll`` (the MinGW-w64 cross compiler, :data:`WIN64_CC`). The
 pythonfmu FMU embeds the generated Python module and :mod:`fmus.pyslave`.
 
 Builds are incremental: every FMU records, as its zip archive's comment, the digest of what
 its build read (:func:`fmus.digest.build_digest`: the model, the resources, the generators,
-the compiler), and a build whose destination already carries that digest does nothing. A
+the compilers), and a build whose destination already carries that digest does nothing. A
 controller FMU also records there the SHA-256 of the artifact it embeds
 (``resources/artifact.json``, :func:`artifact_digest`), which a run compares with the
 artifact file of its name (:mod:`sims.preflight`). The comment reads
@@ -45,8 +46,25 @@ ARTIFACT = "artifact.json"
 
 
 C_FLAGS = ("-std=c99", "-O2", "-fPIC", "-fvisibility=hidden", "-Wall", "-Wextra", "-Werror")
-"""gcc flags of a native FMU's sources (compiling; linking adds ``-shared`` and ``-lm``): warnings
-are errors."""
+"""gcc flags of a native FMU's sources on every platform (compiling; linking adds
+:data:`LINK_FLAGS` and ``-lm``): warnings are errors."""
+
+WIN64_CC = "x86_64-w64-mingw32-gcc"
+"""The MinGW-w64 cross compiler of the win64 binary (Debian's gcc-mingw-w64-x86-64-posix or
+-win32)."""
+LINK_FLAGS = {
+    "linux64": ("-shared",),
+    # libgcc linked in (the DLL imports only KERNEL32.dll and msvcrt.dll); no time stamp and the
+    # fixed image base 0x180000000 (still relocatable), so that the same sources give the same bytes;
+    # stripped of the debug sections MinGW-w64's static runtime brings (a quarter of the size)
+    "win64": ("-shared", "-static-libgcc", "-s", "-Wl,--no-insert-timestamp,--disable-auto-image-base"),
+}
+"""Link flags of a native FMU's binary per platform (its folder under ``binaries/``)."""
+SUFFIX = {"linux64": ".so", "win64": ".dll"}
+"""File name extension of a native FMU's binary per platform."""
+_INSTALL = {WIN64_CC: "install Debian's gcc-mingw-w64-x86-64-posix or -win32 (make system-deps)"}
+_RUNTIME_MACROS = ("__GLIBC__", "__GLIBC_MINOR__", "__MINGW64_VERSION_MAJOR", "__MINGW64_VERSION_MINOR",
+                   "__MINGW64_VERSION_BUGFIX")
 
 
 class FmuBuildError(RuntimeError):
@@ -120,8 +138,9 @@ def artifact_digest(fmu: Path) -> str | None:
 
 @lru_cache(maxsize=None)
 def toolchain(cc: str) -> str:
-    """The C compiler's identification (``cc --version``'s first line), part of a native build's
-    digest.
+    """The C compiler's identification, part of a native build's digest: ``cc --version``'s first
+    line and the version of the C library its headers declare (glibc, or the MinGW-w64 runtime,
+    whose math functions are linked into the win64 DLL).
 
     Raises
     ------
@@ -129,9 +148,13 @@ def toolchain(cc: str) -> str:
         If the compiler is not found.
     """
     if shutil.which(cc) is None:
-        raise FmuBuildError(f"C compiler {cc!r} not found (install gcc)")
+        raise FmuBuildError(f"C compiler {cc!r} not found ({_INSTALL.get(cc, 'install gcc')})")
     proc = subprocess.run([cc, "--version"], capture_output=True, text=True)
-    return f"{cc}: {proc.stdout.splitlines()[0] if proc.stdout else proc.returncode}"
+    macros = subprocess.run([cc, "-E", "-dM", "-x", "c", "-"], input="#include <stdio.h>\n",
+                            capture_output=True, text=True).stdout
+    defined = dict(line.split(None, 2)[1:] for line in macros.splitlines() if len(line.split(None, 2)) == 3)
+    runtime = " ".join(f"{m}={defined[m]}" for m in _RUNTIME_MACROS if m in defined)
+    return f"{cc}: {proc.stdout.splitlines()[0] if proc.stdout else proc.returncode}; {runtime}"
 
 
 def fmu_path(model: Model, dest_dir: Path, backend: str) -> Path:
@@ -139,13 +162,16 @@ def fmu_path(model: Model, dest_dir: Path, backend: str) -> Path:
     return Path(dest_dir) / f"{model.name}{PYTHON_SUFFIX if backend == 'python' else ''}.fmu"
 
 
-def digest_of(model: Model, backend: str, resources: dict[str, bytes] | None = None, cc: str = "gcc") -> str:
-    """The build digest of ``model``'s FMU on ``backend`` (``"native"`` or ``"python"``)."""
-    return build_digest(model, backend, resources, toolchain(cc) if backend == "native" else "")
+def digest_of(model: Model, backend: str, resources: dict[str, bytes] | None = None, cc: str = "gcc",
+              win64_cc: str = WIN64_CC) -> str:
+    """The build digest of ``model``'s FMU on ``backend`` (``"native"``, its compilers' identification
+    included, or ``"python"``)."""
+    tools = f"{toolchain(cc)}\n{toolchain(win64_cc)}" if backend == "native" else ""
+    return build_digest(model, backend, resources, tools)
 
 
 def build_native(model: Model, dest_dir: Path, resources: dict[str, bytes] | None = None,
-                 cc: str = "gcc") -> Path:
+                 cc: str = "gcc", win64_cc: str = WIN64_CC) -> Path:
     """Generate, compile and package the native FMU ``<dest_dir>/<model.name>.fmu``.
 
     Parameters
@@ -155,7 +181,9 @@ def build_native(model: Model, dest_dir: Path, resources: dict[str, bytes] | Non
     resources : dict of str to bytes, optional
         Extra files for ``resources/`` (e.g. the controller artifact JSON).
     cc : str
-        C compiler.
+        C compiler of the linux64 binary.
+    win64_cc : str
+        C cross compiler of the win64 binary (MinGW-w64).
 
     Returns
     -------
@@ -165,15 +193,15 @@ def build_native(model: Model, dest_dir: Path, resources: dict[str, bytes] | Non
     Raises
     ------
     FmuBuildError
-        If the model has no C form (a Python sampler), or the compiler is missing or reports
-        an error or a warning.
+        If the model has no C form (a Python sampler), or a compiler is missing or reports an
+        error or a warning.
     """
     try:
         codegen.require_c_form(model)
     except ValueError as exc:  # a model the C code cannot express (a Python sampler)
         raise FmuBuildError(str(exc)) from None
     dest = fmu_path(model, dest_dir, "native")
-    digest = digest_of(model, "native", resources, cc)
+    digest = digest_of(model, "native", resources, cc, win64_cc)
     if built_digest(dest) == digest:
         return dest
     desc = model_description(model, capabilities(model, NATIVE))
@@ -187,16 +215,34 @@ def build_native(model: Model, dest_dir: Path, resources: dict[str, bytes] | Non
         for header in codegen.c_headers(model):  # a sampler's C routine (model.h includes it)
             shutil.copy(header, src / header.name)
         (root / "modelDescription.xml").write_bytes(to_xml_bytes(desc))
-        bindir = root / "binaries" / "linux64"
-        bindir.mkdir(parents=True)
-        cmd = [cc, *C_FLAGS, "-shared", f"-I{fmi_headers()}", f"-I{src}", "-o", str(bindir / f"{model.name}.so"),
-               str(src / WRAPPER.name), "-lm"]
-        proc = subprocess.run(cmd, capture_output=True, text=True)
-        if proc.returncode != 0:
-            raise FmuBuildError(f"compiling {model.name} failed:\n{proc.stderr}")
+        _compile(model.name, root, {"linux64": cc, "win64": win64_cc})
         _write_resources(root / "resources", resources)
         _zip_dir(root, dest, _comment(digest, resources))
     return dest
+
+
+def _compile(name: str, root: Path, compilers: dict[str, str]) -> None:
+    """Compile the FMU's ``root/sources`` into ``root/binaries/<platform>/<name><suffix>`` for each
+    platform (``compilers``: platform -> C compiler), the compilers running concurrently.
+
+    Raises
+    ------
+    FmuBuildError
+        If a compiler reports an error or a warning; every compiler's messages are given.
+    """
+    src = root / "sources"
+    running = {}
+    for platform, cc in compilers.items():
+        binary = root / "binaries" / platform / f"{name}{SUFFIX[platform]}"
+        binary.parent.mkdir(parents=True)
+        cmd = [cc, *C_FLAGS, *LINK_FLAGS[platform], f"-I{fmi_headers()}", f"-I{src}", "-o", str(binary),
+               str(src / WRAPPER.name), "-lm"]
+        running[platform] = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    messages = {platform: proc.communicate()[1] for platform, proc in running.items()}
+    failed = [f"{platform} ({compilers[platform]}):\n{messages[platform]}" for platform, proc in running.items()
+              if proc.returncode != 0]
+    if failed:
+        raise FmuBuildError(f"compiling {name} failed for " + "\n".join(failed))
 
 
 def _write_resources(folder: Path, resources: dict[str, bytes] | None) -> None:

@@ -95,6 +95,14 @@ def test_a_failed_build_leaves_no_file(tmp_path: Path) -> None:
     assert list(tmp_path.iterdir()) == []
 
 
+def test_the_cross_compiler_is_part_of_the_digest_and_can_fail_the_build(tmp_path: Path) -> None:
+    # another win64 compiler (here gcc, whose identification differs) is another build
+    assert export.digest_of(_gain_model(), "native", win64_cc="gcc") != export.digest_of(_gain_model(), "native")
+    with pytest.raises(export.FmuBuildError, match="compiling cache_gain failed for win64"):
+        export.build_native(_gain_model(), tmp_path, win64_cc="false")
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_lowering_is_shared_and_never_changed_by_its_users() -> None:
     m = _gain_model(gain=7.0)
     guid = description.fmu_guid(m, "native")

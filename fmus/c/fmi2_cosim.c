@@ -86,9 +86,10 @@
  * other exponents, exp and log still call the C library). On a newer glibc
  * the old version runs the same pow (only errno handling on overflow or a pole differs, and a
  * non-finite result is refused here anyway), so results are unchanged bit for bit. Only for glibc
- * on x86-64, where GLIBC_2.2.5 is the base version; a directive for a function the model does not
- * call adds nothing. tests/test_glibc_floor.py checks every native FMU's binary. */
-#if defined(__GLIBC__) && defined(__x86_64__)
+ * on x86-64 Linux, where GLIBC_2.2.5 is the base version (not the win64 DLL, MinGW-w64's, whose
+ * C library is msvcrt, nor GNU/Hurd); a directive for a function the model does not call adds
+ * nothing. tests/test_glibc_floor.py checks every native FMU's binary. */
+#if defined(__linux__) && defined(__GLIBC__) && defined(__x86_64__)
 __asm__(".symver pow,pow@GLIBC_2.2.5");
 __asm__(".symver exp,exp@GLIBC_2.2.5");
 __asm__(".symver log,log@GLIBC_2.2.5");
