@@ -20,7 +20,7 @@ DEMO_CAMPAIGNS := mrp_slew_mc mrp_slew_mc_synth mrp_slew_mc_h2hinf
 # (set on some machines) would forbid, so make's commands run without it.
 unexport PYTHONDONTWRITEBYTECODE
 
-.PHONY: demo test test-all build validate verify bench clean system-deps browser-deps
+.PHONY: demo test test-all build validate verify bench clean system-deps browser-deps wine-deps
 
 # Debian's libtbb12 is needed by the ecos co-simulation host (ecospy), and its MinGW-w64 cross compiler
 # (x86_64-w64-mingw32-gcc) builds every native FMU's win64 DLL; installed once, guarded, checked again
@@ -52,6 +52,17 @@ browser-deps:
 	  (apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium chromium-driver >/dev/null 2>&1) \
 	  || { echo "error: apt-get could not install chromium and chromium-driver (needed by the report page's browser test)"; exit 1; }; \
 	else echo "error: chromium or chromedriver is missing and apt-get cannot install them here (not Debian, or not root): install Debian's chromium and chromium-driver, or your system's Chromium and its ChromeDriver on PATH (needed by the report page's browser test, tests/test_report.py)"; exit 1; fi
+
+# Debian's wine64 (wine 8 on bookworm): the slow test that runs every native FMU's win64 DLL under wine
+# beside its linux64 library (tests/test_win64.py). Checked on every `make test-all`, installed when
+# missing (about 21 s with apt-get).
+wine-deps:
+	@if command -v wine64 >/dev/null 2>&1 || [ -x /usr/lib/wine/wine64 ]; then :; \
+	elif command -v apt-get >/dev/null 2>&1 && [ "$$(id -u)" = 0 ]; then \
+	  echo "installing Debian's wine64 (the win64 FMU binaries' test under wine)"; \
+	  (apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq wine64 >/dev/null 2>&1) \
+	  || { echo "error: apt-get could not install wine64 (needed by the win64 test under wine)"; exit 1; }; \
+	else echo "error: wine64 is missing and apt-get cannot install it here (not Debian, or not root): install Debian's wine64, or your system's 64-bit wine with wine64 on PATH (needed by the win64 test under wine, tests/test_win64.py)"; exit 1; fi
 
 $(VENV)/.installed: pyproject.toml | system-deps
 	@command -v $(PYTHON) >/dev/null || { echo "error: $(PYTHON) not found (Python 3.11 is required)"; exit 1; }
@@ -103,7 +114,7 @@ PYTEST := env OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 $(PY) -
 test: build browser-deps
 	@$(STAGE) --show tests $(PYTEST)
 
-test-all: build browser-deps
+test-all: build browser-deps wine-deps
 	@$(STAGE) --show "tests (all)" $(PYTEST) -m "slow or not slow"
 
 bench: build
