@@ -62,7 +62,9 @@ LINK_FLAGS = {
 """Link flags of a native FMU's binary per platform (its folder under ``binaries/``)."""
 SUFFIX = {"linux64": ".so", "win64": ".dll"}
 """File name extension of a native FMU's binary per platform."""
+# what to install when a compiler is missing (toolchain's message; gcc by default)
 _INSTALL = {WIN64_CC: "install Debian's gcc-mingw-w64-x86-64-posix or -win32 (make system-deps)"}
+# the macros of a compiler's headers that name the C library version (part of toolchain)
 _RUNTIME_MACROS = ("__GLIBC__", "__GLIBC_MINOR__", "__MINGW64_VERSION_MAJOR", "__MINGW64_VERSION_MINOR",
                    "__MINGW64_VERSION_BUGFIX")
 
