@@ -334,8 +334,9 @@ def test_win64_under_wine_gives_linux64s_outputs(unpacked: dict[str, Path], linu
     linux64 host and ``.so`` give the same outputs on the same plan, within :func:`tolerances`
     (5 to 9 s measured: wine's first start in a fresh prefix 4 to 5 s, each run ~0.05 s)."""
     windows_host = compile_host(export.WIN64_CC, tmp_path / "fmu_host.exe", ("-static-libgcc",))
+    # headless, no Mono/Gecko installer, the prefix and wineserver's socket folder (TMPDIR) in tmp_path
     env = {**{k: v for k, v in os.environ.items() if k != "DISPLAY"}, "WINEPREFIX": str(tmp_path / "wine"),
-           "WINEDEBUG": "-all", "WINEDLLOVERRIDES": "mscoree,mshtml="}  # headless, no Mono/Gecko installer
+           "TMPDIR": str(tmp_path), "WINEDEBUG": "-all", "WINEDLLOVERRIDES": "mscoree,mshtml="}
     wineserver = [shutil.which("wineserver") or str(Path(_wine()).with_name("wineserver")), "-k"]
     worst = {}
     try:
