@@ -30,12 +30,12 @@ the gains ``F(k) = Z(k)^T Y(k)^-1`` make ``u = F(k) x`` exponentially stable in 
 """
 from __future__ import annotations
 
-import time
-import warnings
 from dataclasses import dataclass, field
 
 import cvxpy as cp
 import numpy as np
+
+from synthesis import solve_policy
 
 
 class PeriodicSystemError(ValueError):
@@ -226,15 +226,8 @@ def design(sys: PeriodicSystem, gamma: float, eps: float = EPS) -> PeriodicDesig
 def _solved(sys: PeriodicSystem, prob: cp.Problem, Y: list, Z: list, gamma: float | None
             ) -> PeriodicDesign | None:
 
-    t0 = time.perf_counter()
-    try:
-        with warnings.catch_warnings():  # an inaccurate solution is judged by verify() below
-            warnings.simplefilter("ignore", UserWarning)
-            prob.solve(solver=cp.CLARABEL)
-    except cp.SolverError:
-        return None
-    seconds = time.perf_counter() - t0
-    if prob.status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE) or Y[0].value is None:
+    out = solve_policy.solve_cvxpy(prob)  # an inaccurate solution is judged by verify() below
+    if not out.solved or Y[0].value is None:
         return None
     a2 = sys.output_scale() ** 2  # the problem was posed for the scaled system
     Yv = np.stack([(y.value + y.value.T) / 2 for y in Y]) / a2
@@ -245,7 +238,7 @@ def _solved(sys: PeriodicSystem, prob: cp.Problem, Y: list, Z: list, gamma: floa
     if not check.ok:
         return None
     F = np.stack([np.linalg.solve(Yv[k], Zv[k]).T for k in range(len(Y))])
-    return PeriodicDesign(gamma, Yv, Zv, F, check, prob.status, seconds)
+    return PeriodicDesign(gamma, Yv, Zv, F, check, out.solver_status, out.seconds)
 
 
 def gamma_min(sys: PeriodicSystem, eps: float = EPS) -> PeriodicDesign | None:

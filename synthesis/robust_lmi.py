@@ -110,13 +110,14 @@ from __future__ import annotations
 
 import itertools
 import time
-import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 
 import cvxpy as cp
 import numpy as np
 import scipy.linalg as sla
+
+from synthesis import solve_policy
 
 ABS_MARGIN = 1e-9
 """Smallest eigenvalue margin accepted as strict (the solver is asked for ``eps``, default
@@ -817,40 +818,14 @@ class RobustDesign:
     """Plants in the last program of the constraint generation over many plants (None: all)."""
 
 
-RELAXED_TOLERANCES = {"tol_gap_abs": 1e-6, "tol_gap_rel": 1e-6, "tol_feas": 1e-7, "tol_ktratio": 1e-5}
-"""Clarabel tolerances of the retry after a numerical failure at the default ones (1e-8): a
-poorly conditioned program (a fixed slow mode, as DEMETER's momentum at -1e-3 1/s) often stalls
-just short of 1e-8; the answer is verified by :func:`verify` either way."""
-
-REGULARIZED = {**RELAXED_TOLERANCES, "static_regularization_constant": 1e-7}
-"""Settings of the last retry: Clarabel's static KKT regularization raised from 1e-8 to 1e-7.
-Some programs fail at the first iteration with the default (the two-axis DEMETER design model,
-whose KKT system is singular to working precision after chordal decomposition); the
-regularization only perturbs the Newton steps, not the problem, and :func:`verify` judges the
-answer."""
-
-SOLVER_SETTINGS = ({}, RELAXED_TOLERANCES, REGULARIZED)
-"""Clarabel settings tried in turn until one returns without a solver error."""
+def _solve(prob: cp.Problem) -> solve_policy.SolveOutcome:
+    """:func:`synthesis.solve_policy.solve_cvxpy`: the synthesis layer's one solve policy."""
+    return solve_policy.solve_cvxpy(prob)
 
 
-def _solve(prob: cp.Problem) -> tuple[str, float]:
-    t0 = time.perf_counter()
-    status = ""
-    for settings in SOLVER_SETTINGS:
-        try:
-            with warnings.catch_warnings():  # an inaccurate solution is judged by the check
-                warnings.simplefilter("ignore", UserWarning)
-                prob.solve(solver=cp.CLARABEL, **settings)
-            status = str(prob.status)
-            break
-        except cp.SolverError as exc:
-            status = f"solver_error: {exc}"
-    return status, time.perf_counter() - t0
-
-
-def _failed(solver_status: str) -> str:
+def _failed(out: solve_policy.SolveOutcome) -> str:
     """Status of a minimization without a solution: proved infeasible, or no usable answer."""
-    return "infeasible" if solver_status in (cp.INFEASIBLE, cp.INFEASIBLE_INACCURATE) else "unverified"
+    return "infeasible" if out.status == "infeasible" else "unverified"
 
 
 def _check_options(w_hinf: float, w_i2p: float, alpha: float, beta: float | None, uncertainty: str,
@@ -979,8 +954,7 @@ def _phase_one(plants: tuple[LFTPlant, ...], K: np.ndarray | None, *, alpha: flo
     Y, _, _, cons = _robust_constraints(plants, K, specs, uncertainty, t, None, None)
     cons[1:1] = [Y << np.eye(Y.shape[0]), t <= 1]  # next to t I <= Y (the solver's path depends on the order)
     prob = cp.Problem(cp.Maximize(t), cons)
-    status, _ = _solve(prob)
-    if status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE) or Y.value is None:
+    if not _solve(prob).solved or Y.value is None:
         return None
     return _sym(Y.value)
 
@@ -999,17 +973,17 @@ def _robust_program(plants: tuple[LFTPlant, ...], K: np.ndarray | None, *, hinf:
     Y, W, _, cons = _robust_constraints(plants, K, specs, uncertainty, eps, gamma, nu)
     prob = cp.Problem(cp.Minimize(w_i2p * nu + (w_hinf * gamma if hinf else 0)), cons)
     build = time.perf_counter() - t0
-    status, seconds = _solve(prob)
+    out = _solve(prob)
     n_mult = sum(len(s) * (p.n_params if uncertainty == "norm" else min(p.n_params, 1))
                  for p, s in zip(plants, specs))
     info = {"uncertainty": uncertainty,
             "n_vertices": sum(2**p.n_params for p in plants) if uncertainty == "vertex" else 0,
             "n_multipliers": n_mult, "fixed_gain": K is not None}
-    if status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE) or Y.value is None:
-        return RobustDesign(_failed(status), None, None, None, None, {}, None, None, **info,
-                            solver_status=status, solve_seconds=seconds, build_seconds=build), None
+    if not out.solved or Y.value is None:
+        return RobustDesign(_failed(out), None, None, None, None, {}, None, None, **info,
+                            solver_status=out.solver_status, solve_seconds=out.seconds, build_seconds=build), None
     optimum, Y1 = float(prob.value), _sym(Y.value)
-    times = {"solver_status": status, "solve_seconds": seconds, "build_seconds": build}
+    times = {"solver_status": out.solver_status, "solve_seconds": out.seconds, "build_seconds": build}
     mults, check = {}, None
     for b in backoffs:
         t0 = time.perf_counter()
@@ -1019,10 +993,10 @@ def _robust_program(plants: tuple[LFTPlant, ...], K: np.ndarray | None, *, hinf:
         Yb, Wb, values, cons = _robust_constraints(plants, K, specs, uncertainty, t, g, nv)
         prob = cp.Problem(cp.Maximize(t), cons)
         times["build_seconds"] += time.perf_counter() - t0
-        status2, seconds2 = _solve(prob)
-        times["solver_status"] += f"; back-off {b:g}: {status2}"
-        times["solve_seconds"] += seconds2
-        if status2 not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE) or Yb.value is None:
+        out2 = _solve(prob)
+        times["solver_status"] += f"; back-off {b:g}: {out2.solver_status}"
+        times["solve_seconds"] += out2.seconds
+        if not out2.solved or Yb.value is None:
             continue
         Yv = _sym(Yb.value)
         Kv = np.linalg.solve(Yv, np.asarray(Wb.value).T).T if K is None else K
@@ -1296,12 +1270,12 @@ def pdlf_hinf(desc: AffineDescriptor, K, *, common: bool = False, max_vertices: 
     prob = cp.Problem(cp.Minimize(g), cons)
     info = {"common": common, "n_vertices": 2**desc.n_params, "solve_seconds": 0.0,
             "build_seconds": time.perf_counter() - t0}
-    status = _timed_solve(prob, info)
-    info["solver_status"] = status
-    if status in (cp.INFEASIBLE, cp.INFEASIBLE_INACCURATE):
+    out = _timed_solve(prob, info)
+    info["solver_status"] = out.solver_status
+    if out.status == "infeasible":
         return PDLFResult("infeasible", None, None, None, None, None, **info)
     check = None
-    if status in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE) and g.value is not None:
+    if out.solved and g.value is not None:
         root = float(np.sqrt(max(float(g.value), 0.0)))
         for b in BACKOFFS:
             found, check = _pdlf_at(desc, K, common, root * (1 + b), info, f"back-off {b:g}")
@@ -1316,10 +1290,10 @@ PDLF_MAX_DOUBLINGS = 30
 """Doublings of the nominal norm tried before the bisection gives up finding a feasible level."""
 
 
-def _timed_solve(prob: cp.Problem, info: dict) -> str:
-    status, seconds = _solve(prob)
-    info["solve_seconds"] += seconds
-    return status
+def _timed_solve(prob: cp.Problem, info: dict) -> solve_policy.SolveOutcome:
+    out = _solve(prob)
+    info["solve_seconds"] += out.seconds
+    return out
 
 
 def _pdlf_at(desc: AffineDescriptor, K: np.ndarray, common: bool, gamma: float, info: dict, label: str
@@ -1331,9 +1305,9 @@ def _pdlf_at(desc: AffineDescriptor, K: np.ndarray, common: bool, gamma: float, 
     P0, Pk, F, cons = _pdlf_constraints(desc, K, common, t, gamma**2)
     prob = cp.Problem(cp.Maximize(t), cons + [t <= 1])
     info["build_seconds"] += time.perf_counter() - t0
-    status = _timed_solve(prob, info)
-    info["solver_status"] += f"; {label}: {status}"
-    if status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE) or P0.value is None or t.value is None or t.value <= 0:
+    out = _timed_solve(prob, info)
+    info["solver_status"] += f"; {label}: {out.solver_status}"
+    if not out.solved or P0.value is None or t.value is None or t.value <= 0:
         return None, None
     n, N = desc.n, desc.n_params
     P0v = _sym(P0.value)
