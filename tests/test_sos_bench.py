@@ -1,0 +1,62 @@
+"""bench/sos_speed.py: its Drake programs are ours, coefficient by coefficient, and solve alike.
+
+Drake (PyPI ``drake``) is a bench-only extra (``pip install -e '.[bench]'``): the tests that
+need it skip without it. Seed 000's Theorem 1 is the smallest program of the bench (one
+second per tool), global (one SOS matrix) and on ``|sigma| <= 0.9`` (with a multiplier).
+"""
+from __future__ import annotations
+
+import importlib
+import sys
+from pathlib import Path
+from types import ModuleType
+
+import pytest
+
+from synthesis import hinf_sos
+
+BENCH = Path(__file__).resolve().parents[1] / "bench"
+
+
+@pytest.fixture(scope="module")
+def sos_speed() -> ModuleType:
+    """bench/sos_speed.py as a module (it imports its sibling bench/timing.py)."""
+    sys.path.insert(0, str(BENCH))
+    try:
+        return importlib.import_module("sos_speed")
+    finally:
+        sys.path.remove(str(BENCH))
+
+
+@pytest.fixture(scope="module")
+def drake() -> None:
+    pytest.importorskip("pydrake", reason="drake is a bench-only extra: pip install -e '.[bench]'")
+
+
+def test_interleaved_runs_in_turn_and_limits_slow_contenders(sos_speed: ModuleType) -> None:
+    calls: list[str] = []
+    out = sos_speed.interleaved({k: (lambda k=k: calls.append(k) or k) for k in "abc"}, 3, {"c": 1})
+    assert calls == ["a", "b", "c", "a", "b", "a", "b"]
+    assert out == {"a": ["a"] * 3, "b": ["b"] * 3, "c": ["c"]}
+
+
+@pytest.mark.parametrize("region", [None, 0.9])
+def test_drake_poses_our_theorem1_and_finds_the_same_optimum(sos_speed: ModuleType, drake: None,
+                                                             region: float | None) -> None:
+    ours, caught = sos_speed.run_ours(lambda: hinf_sos.theorem1(rate_margin=1e-2, region=region))
+    bases = [c.basis for c in caught.program.sos]
+    diff, scale = sos_speed.same_program(caught, sos_speed.drake_theorem1(bases, region))
+    assert diff <= 1e-12 * scale
+    theirs = sos_speed.run_drake(lambda: sos_speed.drake_theorem1(bases, region))
+    assert theirs.gram_sizes == ours.gram_sizes == ((33,) if region is None else (1, 33))
+    assert theirs.certified and ours.certified
+    # both solve the same SDP with Clarabel to its default tolerance (1e-8)
+    assert theirs.objective == pytest.approx(ours.objective, rel=1e-7)
+
+
+def test_a_different_program_is_told_apart(sos_speed: ModuleType, drake: None) -> None:
+    _, caught = sos_speed.run_ours(lambda: hinf_sos.theorem1(region=0.9))
+    bases = [c.basis for c in caught.program.sos]
+    diff, _ = sos_speed.same_program(caught, sos_speed.drake_theorem1(bases, 0.8))
+    # the multiplier's term s (r^2 - |sigma|^2) |v|^2: r^2 = 0.81 against 0.64
+    assert diff == pytest.approx(0.81 - 0.64)
