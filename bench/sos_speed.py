@@ -433,6 +433,19 @@ def drake_theorem1(bases: list[np.ndarray], region: float | None) -> DrakeProgra
 
 
 @_drake_arithmetic
+def _theorem8_plant() -> tuple[list, Any, np.ndarray, int, int, np.ndarray, np.ndarray, list[int]]:
+    """Seed 001's plant as Theorem 8 splits it: the state symbols, the SDC matrix A(x) (sympy), B,
+    n, m, the control and disturbance columns Bu, Bw, and the unactuated state indices."""
+    model = mrp_satellite.MODEL
+    xs = [s.symbol for s in model.states]
+    subs = {p.symbol: p.start for p in model.parameters}
+    A = model.sdc.A.subs(subs)  # type: ignore[union-attr]
+    B = np.array(model.sdc.B.subs(subs), float)  # type: ignore[union-attr]
+    n, m = len(xs), B.shape[1] // 2
+    tilde = [i for i in range(n) if not B[i].any()]
+    return xs, A, B, n, m, B[:, :m], B[:, m:], tilde
+
+
 def drake_theorem8(bases: list[np.ndarray], gamma: float, alpha: float, beta: float) -> DrakeProgram:
     """Seed 001 Theorem 8, slack variant, as :func:`synthesis.h2hinf_sos.theorem8` poses it
     (its defaults: ``|x~| <= 0.45``, Y of degree 1, multipliers of degree 0 on the first
@@ -441,14 +454,7 @@ def drake_theorem8(bases: list[np.ndarray], gamma: float, alpha: float, beta: fl
     polynomials: ``Kg = -(Bu^T Bu)^-1 Bu^T A(x)`` cancels the actuated rows of A, round-off
     of the cancellation (relative 1e-12) dropped."""
     sym, solvers = _drake()
-    model = mrp_satellite.MODEL
-    xs = [s.symbol for s in model.states]
-    subs = {p.symbol: p.start for p in model.parameters}
-    A = model.sdc.A.subs(subs)  # type: ignore[union-attr]
-    B = np.array(model.sdc.B.subs(subs), float)  # type: ignore[union-attr]
-    n, m = len(xs), B.shape[1] // 2
-    Bu, Bw = B[:, :m], B[:, m:]
-    tilde = [i for i in range(n) if not B[i].any()]
+    xs, A, B, n, m, Bu, Bw, tilde = _theorem8_plant()
     nt, radius, margin, x0 = len(tilde), 0.45, 1e-6, h2hinf_sos.X0_90
     prog = solvers.MathematicalProgram()
     xt = prog.NewIndeterminates(nt, "x")
@@ -737,14 +743,7 @@ def sospy_theorem8(gamma: float, alpha: float, beta: float) -> tuple[Any, list, 
     """Theorem 8 in SumOfSquares.py, as :func:`drake_theorem8` poses it (the plant split in sympy)."""
     from SumOfSquares import SOSProblem, poly_variable
 
-    model = mrp_satellite.MODEL
-    xs = [s.symbol for s in model.states]
-    subs = {p.symbol: p.start for p in model.parameters}
-    A = model.sdc.A.subs(subs)  # type: ignore[union-attr]
-    B = np.array(model.sdc.B.subs(subs), float)  # type: ignore[union-attr]
-    n, m = len(xs), B.shape[1] // 2
-    Bu, Bw = B[:, :m], B[:, m:]
-    tilde = [i for i in range(n) if not B[i].any()]
+    xs, A, B, n, m, Bu, Bw, tilde = _theorem8_plant()
     xt = [xs[i] for i in tilde]
     radius, margin, x0 = 0.45, 1e-6, h2hinf_sos.X0_90
     scale = max([1.0] + [abs(float(f)) for f in A.atoms(sp.Float)])
