@@ -57,9 +57,10 @@ def newton_basis(support: np.ndarray) -> np.ndarray:
 
     Start from every monomial with degree between half the lowest and half the highest
     degree of the support, keep those in half the Newton polytope (``2 z`` in the convex
-    hull of the support, an LP per candidate), then repeatedly drop ``z_i`` whose square
-    ``2 z_i`` is neither in the support nor the sum of two other basis monomials (its
-    diagonal Gram entry would be forced to zero, hence its whole row).
+    hull of the support: at once when ``2 z`` is a support point, else by an LP), then
+    repeatedly drop ``z_i`` whose square ``2 z_i`` is neither in the support nor the sum of
+    two other basis monomials (its diagonal Gram entry would be forced to zero, hence its
+    whole row).
     """
     if support.shape[0] == 0:
         return np.zeros((0, support.shape[1]), np.int64)
@@ -71,7 +72,11 @@ def newton_basis(support: np.ndarray) -> np.ndarray:
     half_min = (support.min(axis=0) + 1) // 2
     cand = cand[np.all(cand <= half_max, axis=1) & np.all(cand >= half_min, axis=1)]
     if len(cand):
-        cand = cand[_in_hull(np.unique(support, axis=0), 2 * cand)]
+        k = keys(np.vstack([2 * cand, support]))
+        inside = np.isin(k[: len(cand)], k[len(cand):])  # 2 z a support point: in the hull, no LP
+        if not inside.all():
+            inside[~inside] = _in_hull(np.unique(support, axis=0), 2 * cand[~inside])
+        cand = cand[inside]
     return prune_diagonal(cand, support)
 
 
