@@ -23,10 +23,13 @@ program and checkout interleaved (the machine is shared and noisy).
 
 ``--against DIR`` runs the same programs from another checkout as well (its modules first
 on ``PYTHONPATH``; e.g. ``git worktree add --detach ../base <commit>``), alternating with
-this one, and prints both and the ratio of medians. Each run also prints its objective,
-which must agree between the checkouts to solver tolerance.
+this one, and prints both and the ratio of medians. ``--cvxpy`` adds this checkout with
+the conic problem posed in cvxpy instead (:func:`_via_cvxpy`: the structure cvxpy compiles
+fastest, one sparse affine expression of one variable vector per cone) and solved by
+cvxpy's Clarabel interface with the same settings: cvxpy's canonicalization then counts
+as build. Each run also prints its objective, which must agree to solver tolerance.
 
-    python bench/sos_build_profile.py [--programs t1-global t8-regional] [--repeat 5] [--against ../base]
+    python bench/sos_build_profile.py [--programs t1-global t8-regional] [--repeat 5] [--against ../base] [--cvxpy]
 """
 from __future__ import annotations
 
@@ -96,13 +99,51 @@ class _TimedSolver:
         return getattr(self._solver, name)
 
 
-def _child(name: str) -> dict[str, Any]:
-    """One timed run of ``name`` in this process."""
+def _via_cvxpy(problem: Any, **settings: Any) -> Any:
+    """:func:`synthesis.conic.solve_clarabel`'s work done through cvxpy: one variable vector,
+    each cone's rows one sparse affine expression of it, each PSD cone the symmetric matrix
+    its scaled svec rows describe; solved by cvxpy's Clarabel interface."""
+    import cvxpy as cp
+    import numpy as np
+    import scipy.sparse as sps
+
+    from synthesis.conic import SOLVED, ConicResult, svec_indices, svec_scale
+
+    x = cp.Variable(len(problem.q))
+    A, b = sps.csr_matrix(problem.A), problem.b
+    end = problem.zero + problem.nonneg
+    cons = [A[: problem.zero] @ x == b[: problem.zero]] if problem.zero else []
+    if problem.nonneg:
+        cons.append(A[problem.zero:end] @ x <= b[problem.zero:end])
+    for N in problem.psd:
+        d = N * (N + 1) // 2
+        i, j = svec_indices(N)
+        off, unscale = i != j, 1.0 / svec_scale(N)
+        U = sps.csr_matrix((np.concatenate([unscale, unscale[off]]),
+                            (np.concatenate([j * N + i, (i * N + j)[off]]), np.concatenate([np.arange(d), np.flatnonzero(off)]))),
+                           shape=(N * N, d))  # scaled svec -> full matrix, column-major
+        S = cp.reshape(U @ b[end:end + d] - (U @ A[end:end + d]) @ x, (N, N), order="F")
+        cons.append((S + S.T) / 2 >> 0)
+        end += d
+    prob = cp.Problem(cp.Minimize(problem.q @ x), cons)
+    prob.solve(solver="CLARABEL", **settings)
+    status = {v: v for v in SOLVED.values()}.get(prob.status, prob.status)
+    if status in SOLVED.values():
+        xv = np.asarray(x.value, float)
+        return ConicResult(status, xv, float(problem.q @ xv), 0.0)
+    return ConicResult(status, None, float("nan"), 0.0)
+
+
+def _child(name: str, route: str) -> dict[str, Any]:
+    """One timed run of ``name`` in this process (``route`` "cvxpy": through :func:`_via_cvxpy`)."""
     import clarabel
     import sympy as sp
 
     from synthesis import sos
     from synthesis.polynomial import Poly
+
+    if route == "cvxpy":
+        sos.solve_clarabel = _via_cvxpy  # type: ignore[attr-defined]
 
     x, y = sp.symbols("x y")
     warm = sos.SOSProgram(2)
@@ -124,11 +165,11 @@ def _child(name: str) -> dict[str, Any]:
             "build": total - solve_clock.seconds - verify_clock.seconds, "objective": objective}
 
 
-def _run(name: str, tree: Path) -> dict[str, Any]:
+def _run(name: str, tree: Path, route: str) -> dict[str, Any]:
     """One child run of ``name`` with the modules of checkout ``tree``."""
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(tree), os.environ.get("PYTHONPATH", "")])}
-    done = subprocess.run([sys.executable, __file__, "--child", name], env=env, cwd=tree, capture_output=True,
-                          text=True)
+    done = subprocess.run([sys.executable, __file__, "--child", name, "--route", route], env=env, cwd=tree,
+                          capture_output=True, text=True)
     if done.returncode:
         sys.exit(f"{name} in {tree} failed:\n{done.stderr[-3000:]}")
     return json.loads(done.stdout.strip().splitlines()[-1])
@@ -140,19 +181,22 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--programs", nargs="+", default=list(PROGRAMS), choices=PROGRAMS)
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--against", type=Path, help="another checkout to time alternately with this one")
+    ap.add_argument("--cvxpy", action="store_true", help="also this checkout with the conic problem posed in cvxpy")
     ap.add_argument("--child", help=argparse.SUPPRESS)
+    ap.add_argument("--route", default="direct", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     if args.child:
-        print(json.dumps(_child(args.child)))
+        print(json.dumps(_child(args.child, args.route)))
         return
-    trees = {"this": HERE} | ({"against": args.against.resolve()} if args.against else {})
+    trees = {"this": (HERE, "direct")} | ({"cvxpy": (HERE, "cvxpy")} if args.cvxpy else {}) | \
+        ({"against": (args.against.resolve(), "direct")} if args.against else {})
     runs: dict[tuple[str, str], list[dict[str, Any]]] = {(p, t): [] for p in args.programs for t in trees}
     for r in range(args.repeat):
         for p in args.programs:
-            for t, tree in (trees.items() if r % 2 == 0 else reversed(trees.items())):
-                runs[p, t].append(_run(p, tree))
+            for t, (tree, route) in (list(trees.items()) if r % 2 == 0 else list(trees.items())[::-1]):
+                runs[p, t].append(_run(p, tree, route))
     keys = ("build", "solve", "verify", "total")
-    print(f"seconds, min / median of {args.repeat} interleaved runs" + (f"; against = {trees['against']}"
+    print(f"seconds, min / median of {args.repeat} interleaved runs" + (f"; against = {trees['against'][0]}"
                                                                        if args.against else ""))
     print(f"{'program':14}{'checkout':10}" + "".join(f"{k:>16}" for k in keys) + f"{'objective':>14}")
     for p in args.programs:
@@ -160,9 +204,10 @@ def main(argv: list[str] | None = None) -> None:
             rs = runs[p, t]
             cells = "".join(f"{min(r[k] for r in rs):>7.3f} /{statistics.median(r[k] for r in rs):>7.3f}" for k in keys)
             print(f"{p:14}{t:10}{cells}{rs[0]['objective']:>14.8g}")
-        if args.against:
-            med = {t: {k: statistics.median(r[k] for r in runs[p, t]) for k in keys} for t in trees}
-            print(f"{'':14}{'ratio':10}" + "".join(f"{med['against'][k] / med['this'][k]:>15.1f}x" for k in keys))
+        med = {t: {k: statistics.median(r[k] for r in runs[p, t]) for k in keys} for t in trees}
+        for t in trees:
+            if t != "this":
+                print(f"{'median ' + t + ' / this':>24}" + "".join(f"{med[t][k] / med['this'][k]:>15.2f}x" for k in keys))
 
 
 if __name__ == "__main__":

@@ -1,4 +1,4 @@
-"""Conic programs in Clarabel's standard form, solved by Clarabel directly or through cvxpy.
+"""Conic programs in Clarabel's standard form, handed to Clarabel as arrays.
 
 A :class:`ConicProblem` is
 
@@ -9,13 +9,11 @@ where ``S(N)`` is the cone of N x N positive semidefinite matrices in Clarabel's
 ``(0,0), (0,1), (1,1), (0,2), (1,2), (2,2), ...``, off-diagonal entries times sqrt 2 (so
 the svec inner product is the trace inner product; :func:`svec_indices`,
 :func:`svec_scale`). :func:`solve_clarabel` hands the arrays to
-``clarabel.DefaultSolver`` as they are; :func:`solve_cvxpy` poses the same problem in
-cvxpy for its other solvers (SCS: the SOS layer's fallback).
+``clarabel.DefaultSolver`` as they are: no modelling layer re-canonicalizes them.
 """
 from __future__ import annotations
 
 import time
-import warnings
 from dataclasses import dataclass
 from typing import Any
 
@@ -23,7 +21,8 @@ import numpy as np
 import scipy.sparse as sps
 
 SOLVED = {"Solved": "optimal", "AlmostSolved": "optimal_inaccurate"}
-"""Clarabel statuses with a solution, and their names in :class:`ConicResult` (cvxpy's)."""
+"""Clarabel statuses with a solution, and their names in :class:`ConicResult` (those cvxpy
+gives them, as the SOS layer's solutions always said)."""
 REFUTED = {"PrimalInfeasible": "infeasible", "DualInfeasible": "unbounded"}
 """Clarabel statuses that are clean certificates of infeasibility or unboundedness."""
 
@@ -44,9 +43,10 @@ class ConicProblem:
 
 @dataclass
 class ConicResult:
-    """A solver's answer: status (cvxpy's names: ``optimal``, ``optimal_inaccurate``,
-    ``infeasible``, ``unbounded``; otherwise the solver's own word), ``x`` when a solution
-    is present, ``q^T x`` and the solver's wall time (s)."""
+    """Clarabel's answer: the status (``optimal``, ``optimal_inaccurate``, ``infeasible``,
+    ``unbounded``, or Clarabel's own word for a failure, e.g. ``NumericalError``), ``x``
+    when a solution is present, ``q^T x`` and Clarabel's wall time (s, setting up and
+    solving)."""
 
     status: str
     x: np.ndarray | None
@@ -99,45 +99,3 @@ def solve_clarabel(problem: ConicProblem, **settings: Any) -> ConicResult:
         return ConicResult(SOLVED[status], x, float(problem.q @ x), seconds)
     return ConicResult(REFUTED.get(status, status), None, float("nan"), seconds)
 
-
-def solve_cvxpy(problem: ConicProblem, solver: str, **options: Any) -> ConicResult:
-    """Solve through cvxpy with ``solver`` (one of cvxpy's names): one variable vector, each
-    cone's rows one sparse affine expression of it, each PSD cone as the symmetric matrix
-    its svec rows describe.
-
-    A solver failure (cvxpy's ``SolverError``) is returned as a status ``solver error: ...``.
-    """
-    import cvxpy as cp
-
-    x = cp.Variable(len(problem.q))
-    A, b = sps.csr_matrix(problem.A), problem.b
-    cons = []
-    if problem.zero:
-        cons.append(A[: problem.zero] @ x == b[: problem.zero])
-    end = problem.zero + problem.nonneg
-    if problem.nonneg:
-        cons.append(A[problem.zero:end] @ x <= b[problem.zero:end])
-    for N in problem.psd:
-        d = N * (N + 1) // 2
-        i, j = svec_indices(N)
-        # full column-major matrix from the scaled svec s = b - A x
-        unscale = 1.0 / svec_scale(N)
-        U = sps.csr_matrix((np.concatenate([unscale, unscale[i != j]]),
-                            (np.concatenate([j * N + i, (i * N + j)[i != j]]),
-                             np.concatenate([np.arange(d), np.flatnonzero(i != j)]))), shape=(N * N, d))
-        S = cp.reshape(U @ b[end:end + d] - (U @ A[end:end + d]) @ x, (N, N), order="F")
-        cons.append((S + S.T) / 2 >> 0)
-        end += d
-    prob = cp.Problem(cp.Minimize(problem.q @ x), cons)
-    t0 = time.perf_counter()
-    try:
-        with warnings.catch_warnings():  # "inaccurate" is in the status; the caller judges
-            warnings.simplefilter("ignore", UserWarning)
-            prob.solve(solver=solver, **options)
-    except cp.error.SolverError as exc:
-        return ConicResult(f"solver error: {exc}", None, float("nan"), time.perf_counter() - t0)
-    seconds = time.perf_counter() - t0
-    if prob.status in ("optimal", "optimal_inaccurate"):
-        xv = np.asarray(x.value, float)
-        return ConicResult(prob.status, xv, float(problem.q @ xv), seconds)
-    return ConicResult(str(prob.status), None, float("nan"), seconds)

@@ -11,8 +11,8 @@ Layers (each a function or class with a test):
    (:mod:`synthesis.conic`) over ``x = (y, svec G_1, ..., svec G_p)``; the coefficient
    matching of every SOS constraint is one sparse linear map, assembled at once from
    integer keys of the exponent rows (:mod:`synthesis.exponents`).
-4. :meth:`SOSProgram.solve`: Clarabel on those arrays (default), a cvxpy solver (SCS) as
-   fallback; returns a :class:`SOSSolution` with the decision values and Gram matrices.
+4. :meth:`SOSProgram.solve`: Clarabel on those arrays; returns a :class:`SOSSolution` with
+   the decision values and Gram matrices.
 5. :func:`verify`: re-checks each SOS constraint without the solver and without the
    program's matching map: minimum eigenvalue of the Gram matrix, the coefficients of
    ``p - z^T G z`` expanded from the polynomials, and a sampled check of the polynomial
@@ -29,7 +29,7 @@ from typing import Any, Sequence
 import numpy as np
 import scipy.sparse as sps
 
-from synthesis.conic import ConicProblem, solve_clarabel, solve_cvxpy, svec_indices, svec_scale
+from synthesis.conic import ConicProblem, solve_clarabel, svec_indices, svec_scale
 from synthesis.exponents import keys
 from synthesis.polynomial import Poly, PolyMatrix, monomials, quadratic_form
 
@@ -307,33 +307,24 @@ class SOSProgram:
         return ConicProblem(q, A, np.concatenate(zero_b + ineq_b + cones_b), sum(len(b) for b in zero_b),
                             sum(len(b) for b in ineq_b), psd)
 
-    def solve(self, objective: sps.spmatrix | None = None, solver: str = "CLARABEL",
-              fallback: str | None = "SCS", **options: Any) -> SOSSolution:
+    def solve(self, objective: sps.spmatrix | None = None, **settings: Any) -> SOSSolution:
         """Minimize ``objective @ y`` (feasibility if None) subject to all constraints.
 
-        ``solver`` "CLARABEL" gets the arrays of :meth:`conic_problem` as they are; any
-        other name (cvxpy's) solves the same problem through cvxpy. ``options`` go to the
-        primary ``solver`` only (solver settings differ); the fallback runs with its
-        defaults and is tried when the primary one fails or claims infeasibility without a
-        clean certificate.
+        Clarabel gets the arrays of :meth:`conic_problem` as they are (no re-formulation);
+        ``settings`` are Clarabel's (e.g. ``tol_feas``).
 
         Raises
         ------
         SOSError
-            If both solvers fail or report infeasibility.
+            If Clarabel does not return a solution (infeasible, unbounded, or a failure such
+            as ``NumericalError``; the status is in the message).
         """
         t0 = time.perf_counter()
         problem = self.conic_problem(objective)
         build = time.perf_counter() - t0 + self.build_seconds
-        for name in [solver] + ([fallback] if fallback else []):
-            opts = options if name == solver else {}
-            result = solve_clarabel(problem, **opts) if name == "CLARABEL" else solve_cvxpy(problem, name, **opts)
-            # a clean infeasibility certificate is final; only failures and inaccurate
-            # infeasibility claims go to the fallback solver
-            if result.status in ("optimal", "optimal_inaccurate", "infeasible", "unbounded"):
-                break
+        result = solve_clarabel(problem, **settings)
         if result.x is None:
-            raise SOSError(f"SOS program not solved: status {result.status} (solver {name})")
+            raise SOSError(f"SOS program not solved: status {result.status} (solver CLARABEL)")
         grams = {}
         for k, off in zip(*self._gram_layout()):
             c = self.sos[k]
@@ -341,7 +332,7 @@ class SOSProgram:
             G = np.zeros((len(c.basis), len(c.basis)))
             G[i, j] = G[j, i] = result.x[off:off + len(i)]
             grams[f"{k}:{c.name}"] = G
-        return SOSSolution(result.x[: self.n_decision].copy(), grams, result.status, name, result.objective,
+        return SOSSolution(result.x[: self.n_decision].copy(), grams, result.status, "CLARABEL", result.objective,
                            {"build": build, "solve": result.seconds})
 
     def _gram_layout(self) -> tuple[list[int], np.ndarray]:

@@ -215,7 +215,7 @@ def _rigorous_margin(prog: SOSProgram, checks: list[Check], sol: Any, eps: float
 
 
 def certify(loop: ClosedLoop, q2: tuple[float, float], w4: tuple[float, float], multiplier_degree: int = 4,
-            trace_bound: float = 100.0, fallback: str | None = None) -> BoxCertificate:
+            trace_bound: float = 100.0) -> BoxCertificate:
     """Solve and re-verify the region condition on the box ``q2`` (rad) x ``w4`` (rad/s).
 
     Raises
@@ -250,7 +250,7 @@ def certify(loop: ClosedLoop, q2: tuple[float, float], w4: tuple[float, float], 
         prog.add_sos_matrix(Q, f"Lyapunov, cos q2 on the {label}", region=box, multiplier_degree=multiplier_degree,
                             label=f"q2 in {list(q2)}, w4 in {list(w4)}")
     try:
-        sol = prog.solve(objective=-eps.C, fallback=fallback)
+        sol = prog.solve(objective=-eps.C)
     except SOSError as exc:
         return BoxCertificate(q2, w4, False, str(exc), seconds=time.perf_counter() - t0)
     e = float(-sol.objective)
