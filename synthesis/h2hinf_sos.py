@@ -333,7 +333,7 @@ def theorem8(gamma: float, alpha: float, beta: float, variant: str = "slack", re
     for name, M in (("H2", M2 + margins(alpha, n + m)), ("Hinf", Minf + margins(beta, m + n - m))):
         # only the first two block rows are quadratic in x~; the weight rows are at most
         # linear and need no multiplier (smaller Gram basis)
-        prog.add_sos_matrix(_symmetrize_lower(M).scale(-1.0), f"-M_{name}", region=regions,
+        prog.add_sos_matrix(M.symmetric_from_lower().scale(-1.0), f"-M_{name}", region=regions,
                             multiplier_degree=multiplier_degree, label=label,
                             multiplier_rows=range(2 * n) if y_degree <= 1 else None)
     prog.add_psd_constant(X2.entries, "X2 > 0", margin=margin)
@@ -364,13 +364,6 @@ def theorem8(gamma: float, alpha: float, beta: float, variant: str = "slack", re
     return Theorem8Result(variant, float(gamma), float(alpha), float(beta), float(sol.y[lam_idx[0]]),
                           num(X2), num(Xinf), num(F), polys(Y), plant, checks, label, float(region), x0,
                           Qh, Rh, sol, timings)
-
-
-def _symmetrize_lower(M: PolyMatrix) -> PolyMatrix:
-    """The symmetric matrix whose lower triangle (diagonal included) is that of ``M``."""
-    r, _ = M.shape
-    e = M.entries
-    return PolyMatrix([[e[i][j] if i >= j else e[j][i] for j in range(r)] for i in range(r)])
 
 
 Progress = Callable[[int, int, str], None]

@@ -111,16 +111,16 @@ def theorem1(model: Model | None = None, k_degree: int = 2, rate_margin: float =
     t0 = time.perf_counter()
     xs = [s.symbol for s in model.states]
     n = len(xs)
-    subs = {v.symbol: v.start for v in model.parameters}
-    A = PolyMatrix.from_sympy(model.sdc.A.subs(subs), xs)  # type: ignore[union-attr]
+    subs = {v.symbol: sp.Float(v.start) for v in model.parameters}  # xreplace: numbers for symbols
+    A = PolyMatrix.from_sympy(model.sdc.A.xreplace(subs), xs)  # type: ignore[union-attr]
     G_inv = _input_gain_inverse(model, subs, m)
     Bf = PolyMatrix.from_sympy(sp.Matrix(sp.BlockMatrix([[sp.eye(m)], [sp.zeros(n - m, m)]])), xs)
     prog = SOSProgram(n)
     Qe = prog.new_symmetric(n)
     Q = PolyMatrix(Qe)
     K = PolyMatrix([[prog.new_poly(monomials(n, k_degree)) for _ in range(n)] for _ in range(m)])
-    M = A @ Q + (A @ Q).T + Bf @ K + (Bf @ K).T
-    negM = PolyMatrix([[e.scale(-1.0) for e in row] for row in M.entries])
+    AQ, BK = A @ Q, Bf @ K
+    negM = -(AQ + AQ.T + BK + BK.T)
     if coefficient_limit is not None:
         allk = sps.vstack([e.with_decision_size(prog.n_decision).C for row in K.entries for e in row],
                           format="csr")
@@ -138,18 +138,17 @@ def theorem1(model: Model | None = None, k_degree: int = 2, rate_margin: float =
     if region is None:
         E = np.diag([rate_margin] * m + [0.0] * (n - m))
         label, proved = "global", f"global, semi-definite + LaSalle: dV/dt <= -{rate_margin:g} |P_w x|^2"
-        prog.add_sos_matrix(_minus_const(negM, E), "-M - E", label=label)
+        prog.add_sos_matrix(negM - PolyMatrix.constant(E, n), "-M - E", label=label)
     else:
         E = strict_margin * np.eye(n)
         label = f"|sigma| <= {region:g}"
         proved = f"strict on |sigma| <= {region:g}: dV/dt <= -{strict_margin:g} |P x|^2"
         if decay_rate > 0:
-            negM = PolyMatrix([[e - q.scale(2 * decay_rate) for e, q in zip(row, qrow)]
-                               for row, qrow in zip(negM.entries, Qe)])
+            negM = negM - Q.scale(2 * decay_rate)
             proved += f" - {2 * decay_rate:g} V"
         s2 = sum(sp.Symbol(f"sigma[{i}]", real=True) ** 2 for i in (1, 2, 3))
         ball = Poly.from_sympy(region**2 - s2, xs)
-        prog.add_sos_matrix(_minus_const(negM, E), "-M - E", region=[ball],
+        prog.add_sos_matrix(negM - PolyMatrix.constant(E, n), "-M - E", region=[ball],
                             multiplier_degree=multiplier_degree, label=label)
     trace = sum(Qe[i][i].C for i in range(n))
     t1 = time.perf_counter()
@@ -174,7 +173,7 @@ def _input_gain_inverse(model: Model, subs: dict, m: int) -> np.ndarray:
     ValueError
         If ``B_u`` depends on the state, has non-zero rows below ``G``, or ``G`` is singular.
     """
-    Bu = model.sdc.B[:, :m].subs(subs)  # type: ignore[union-attr]
+    Bu = model.sdc.B[:, :m].xreplace(subs)  # type: ignore[union-attr]
     if Bu.free_symbols:
         raise ValueError(f"{model.name}: the SDC input matrix depends on {sorted(map(str, Bu.free_symbols))}; "
                          f"Theorem 1 needs a constant one")
@@ -206,12 +205,6 @@ def _check_arguments(n: int, m: int, k_degree: int, region: float | None, decay_
     for (i, j) in coefficient_bounds or {}:
         if not (0 <= i < m and 0 <= j < n):
             raise ValueError(f"coefficient bound on K[{i}][{j}]: K is {m} x {n}")
-
-
-def _minus_const(M: PolyMatrix, E: np.ndarray) -> PolyMatrix:
-    """``M - E`` for a constant matrix ``E``."""
-    return PolyMatrix([[e - float(E[i, j]) if E[i, j] else e for j, e in enumerate(row)]
-                       for i, row in enumerate(M.entries)])
 
 
 def artifact_data(result: Theorem1Result, name: str, model: Model | None = None) -> dict[str, Any]:

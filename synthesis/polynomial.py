@@ -4,18 +4,26 @@ A :class:`Poly` in variables ``x = (x_1..x_n)`` is a list of exponent rows
 ``exps`` (k x n, int) with coefficients ``c0 + C @ y``, where ``y`` is the decision
 vector of an SOS program (``C`` is a k x n_y sparse matrix; a numeric polynomial has
 ``C = 0``). Products, sums and coefficient matching are done on these arrays, never by
-symbolic expansion, so building a program costs numpy time. :class:`PolyMatrix` is a
-matrix of such polynomials (entry-wise).
+symbolic expansion, so building a program costs numpy time.
+
+A :class:`PolyMatrix` holds all its entries' terms in one table (the entry of each term
+beside its exponent row and coefficients), so a matrix product, a sum or a quadratic
+form is a few array operations whatever the matrix size: a product pairs every term of
+row ``i`` of the left factor with every term of column ``j`` of the right one by index
+arithmetic, adds their exponent keys (:mod:`synthesis.exponents`) and merges equal
+``(entry, exponent)`` keys with one sparse summation.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
 from itertools import combinations_with_replacement
-from typing import Sequence
+from typing import NamedTuple, Sequence
 
 import numpy as np
 import scipy.sparse as sps
 import sympy as sp
+
+from synthesis.exponents import keys, weights
 
 
 def monomials(n: int, max_degree: int, min_degree: int = 0) -> np.ndarray:
@@ -31,14 +39,97 @@ def monomials(n: int, max_degree: int, min_degree: int = 0) -> np.ndarray:
     return np.array(rows, dtype=np.int64).reshape(-1, n)
 
 
-def _merge(exps: np.ndarray, c0: np.ndarray, C: sps.spmatrix) -> tuple[np.ndarray, np.ndarray, sps.csr_matrix]:
-    """Sum the coefficients of equal exponent rows."""
-    if exps.shape[0] == 0:
-        return exps, c0, sps.csr_matrix(C)
-    uniq, inv = np.unique(exps, axis=0, return_inverse=True)
-    inv = inv.ravel()
-    S = sps.csr_matrix((np.ones(len(inv)), (inv, np.arange(len(inv)))), shape=(len(uniq), len(inv)))
-    return uniq, S @ c0, sps.csr_matrix(S @ C)
+def _csr(C: sps.spmatrix, width: int) -> sps.csr_matrix:
+    """``C`` as CSR with ``width`` columns (padded with empty columns)."""
+    C = C if isinstance(C, sps.csr_matrix) else sps.csr_matrix(C)
+    if C.shape[1] == width:
+        return C
+    if C.shape[1] > width:
+        raise ValueError("cannot shrink the decision vector")
+    return sps.csr_matrix((C.data, C.indices, C.indptr), shape=(C.shape[0], width))
+
+
+def _vstack(mats: Sequence[sps.spmatrix], width: int) -> sps.csr_matrix:
+    """Row-stack CSR matrices of at most ``width`` columns (one concatenation of their arrays)."""
+    mats = [_csr(m, width) for m in mats]
+    nnz = np.cumsum([0] + [m.nnz for m in mats])
+    indptr = np.concatenate([[0]] + [m.indptr[1:] + off for m, off in zip(mats, nnz)])
+    data = np.concatenate([m.data for m in mats]) if mats else np.zeros(0)
+    indices = np.concatenate([m.indices for m in mats]) if mats else np.zeros(0, np.int32)
+    return sps.csr_matrix((data, indices, indptr), shape=(len(indptr) - 1, width))
+
+
+class _Terms(NamedTuple):
+    """Terms of a polynomial matrix: entry index (row-major), exponent row, ``c0``, ``C`` row."""
+
+    entry: np.ndarray
+    exps: np.ndarray
+    c0: np.ndarray
+    C: sps.csr_matrix
+
+
+def _merge(t: _Terms) -> _Terms:
+    """Sum the coefficients of equal ``(entry, exponent row)``; sorted by entry, then
+    exponent row lexicographically."""
+    if len(t.entry) == 0:
+        return t
+    key = keys(np.column_stack([t.entry, t.exps]))
+    _, first, inv = np.unique(key, return_index=True, return_inverse=True)
+    S = sps.csr_matrix((np.ones(len(inv)), (inv, np.arange(len(inv)))), shape=(len(first), len(inv)))
+    return _Terms(t.entry[first], t.exps[first], np.bincount(inv, t.c0, len(first)), S @ t.C)
+
+
+def _ragged_arange(counts: np.ndarray) -> np.ndarray:
+    """``concatenate([arange(c) for c in counts])`` without the loop."""
+    ends = np.cumsum(counts)
+    return np.arange(ends[-1] if len(ends) else 0) - np.repeat(ends - counts, counts)
+
+
+def _product(left: _Terms, right: _Terms, shape: tuple[int, int, int]) -> _Terms:
+    """Terms of the matrix product of ``left`` (r x k) and ``right`` (k x c), merged.
+
+    Every term of entry ``(i, m)`` on the left is paired with every term of entry
+    ``(m, j)`` on the right (output entry ``(i, j)``): exponents add, ``c0`` multiply and
+    ``C`` rows combine as ``c0_l C_r + c0_r C_l`` (affine as long as no pair has decision
+    variables on both sides).
+
+    Raises
+    ------
+    ValueError
+        If some pair of entries both depend on decision variables.
+    """
+    r, k, c = shape
+    if left.exps.shape[1] != right.exps.shape[1]:
+        raise ValueError(f"polynomials in {left.exps.shape[1]} and {right.exps.shape[1]} variables")
+    width = max(left.C.shape[1], right.C.shape[1])
+    mid_l, mid_r = left.entry % k, right.entry // c
+    order_l = np.argsort(mid_l, kind="stable")
+    order_r = np.argsort(mid_r, kind="stable")
+    count_r = np.bincount(mid_r, minlength=k)
+    start_r = np.cumsum(count_r) - count_r
+    per_l = count_r[mid_l[order_l]]
+    pl = np.repeat(order_l, per_l)
+    pr = order_r[np.repeat(start_r[mid_l[order_l]], per_l) + _ragged_arange(per_l)]
+    n_vars = left.exps.shape[1]
+    if len(pl) == 0:
+        return _Terms(np.zeros(0, np.int64), np.zeros((0, n_vars), np.int64), np.zeros(0),
+                      sps.csr_matrix((0, width)))
+    if np.any((np.diff(left.C.indptr) > 0)[pl] & (np.diff(right.C.indptr) > 0)[pr]):
+        raise ValueError("the product of two polynomials with decision-variable coefficients is not affine")
+    entry = (left.entry[pl] // k) * c + right.entry[pr] % c
+    bound = left.exps.max(axis=0) + right.exps.max(axis=0) + 1
+    w = weights(bound, r * c)
+    if w is not None:  # exponent keys add; the entry is the leading digit
+        key = entry * (int(w[0]) * int(bound[0])) + (left.exps @ w)[pl] + (right.exps @ w)[pr]
+    else:
+        key = keys(np.column_stack([entry, left.exps[pl] + right.exps[pr]]))
+    _, first, inv = np.unique(key, return_index=True, return_inverse=True)
+    u = len(first)
+    S_l = sps.csr_matrix((right.c0[pr], (inv, pl)), shape=(u, len(left.entry)))
+    S_r = sps.csr_matrix((left.c0[pl], (inv, pr)), shape=(u, len(right.entry)))
+    C = S_l @ _csr(left.C, width) + S_r @ _csr(right.C, width)
+    return _Terms(entry[first], left.exps[pl[first]] + right.exps[pr[first]],
+                  np.bincount(inv, left.c0[pl] * right.c0[pr], u), sps.csr_matrix(C))
 
 
 @dataclass
@@ -57,6 +148,13 @@ class Poly:
     def n_decision(self) -> int:
         return self.C.shape[1]
 
+    def _terms(self) -> _Terms:
+        return _Terms(np.zeros(len(self.c0), np.int64), self.exps, self.c0, _csr(self.C, self.n_decision))
+
+    @staticmethod
+    def _of(t: _Terms) -> "Poly":
+        return Poly(t.exps, t.c0, t.C)
+
     @staticmethod
     def constant(value: float, n_vars: int, n_decision: int = 0) -> "Poly":
         return Poly(np.zeros((1, n_vars), np.int64), np.array([float(value)]), sps.csr_matrix((1, n_decision)))
@@ -64,7 +162,8 @@ class Poly:
     @staticmethod
     def numeric(exps: np.ndarray, coefs: np.ndarray, n_decision: int = 0) -> "Poly":
         exps = np.asarray(exps, np.int64).reshape(len(coefs), -1)
-        return Poly(*_merge(exps, np.asarray(coefs, float), sps.csr_matrix((len(coefs), n_decision))))
+        return Poly._of(_merge(_Terms(np.zeros(len(coefs), np.int64), exps, np.asarray(coefs, float),
+                                      sps.csr_matrix((len(coefs), n_decision)))))
 
     @staticmethod
     def from_sympy(expr: sp.Expr, variables: Sequence[sp.Symbol], n_decision: int = 0) -> "Poly":
@@ -86,10 +185,7 @@ class Poly:
         """The same polynomial with ``C`` padded to ``n`` decision columns."""
         if n < self.n_decision:
             raise ValueError("cannot shrink the decision vector")
-        if n == self.n_decision:
-            return self
-        C = sps.csr_matrix((self.C.data, self.C.indices, self.C.indptr), shape=(self.C.shape[0], n))
-        return Poly(self.exps, self.c0, C)
+        return self if n == self.n_decision else Poly(self.exps, self.c0, _csr(self.C, n))
 
     @staticmethod
     def sum(polys: Sequence["Poly"]) -> "Poly":
@@ -97,9 +193,9 @@ class Poly:
         if not polys:
             raise ValueError("sum of no polynomials")
         n = max(p.n_decision for p in polys)
-        polys = [p.with_decision_size(n) for p in polys]
-        return Poly(*_merge(np.vstack([p.exps for p in polys]), np.concatenate([p.c0 for p in polys]),
-                            sps.vstack([p.C for p in polys], format="csr")))
+        return Poly._of(_merge(_Terms(np.zeros(sum(len(p.c0) for p in polys), np.int64),
+                                      np.vstack([p.exps for p in polys]), np.concatenate([p.c0 for p in polys]),
+                                      _vstack([p.C for p in polys], n))))
 
     def __add__(self, other: "Poly | float") -> "Poly":
         if not isinstance(other, Poly):
@@ -125,14 +221,7 @@ class Poly:
     def __mul__(self, other: "Poly | float") -> "Poly":
         if not isinstance(other, Poly):
             return self.scale(float(other))
-        if self.is_affine_free() or other.is_affine_free():
-            num, aff = (self, other) if self.is_affine_free() else (other, self)
-            ka, kn = aff.exps.shape[0], num.exps.shape[0]
-            exps = (aff.exps[:, None, :] + num.exps[None, :, :]).reshape(ka * kn, -1)
-            c0 = np.outer(aff.c0, num.c0).ravel()
-            C = sps.kron(aff.C, sps.csr_matrix(num.c0[:, None])).tocsr()
-            return Poly(*_merge(exps, c0, C))
-        raise ValueError("the product of two polynomials with decision-variable coefficients is not affine")
+        return Poly._of(_product(self._terms(), other._terms(), (1, 1, 1)))
 
     __rmul__ = __mul__
 
@@ -150,21 +239,9 @@ class Poly:
         c = self.value(y).c0
         x = np.atleast_2d(np.asarray(x, float))
         out = np.zeros(len(x))
-        if not len(c):
-            return out
-        # powers x_j^d by repeated products, then one gather-multiply per variable
         chunk = max(1, 4_000_000 // max(1, len(c)))  # bounds the (m, k) temporary
-        top = int(self.exps.max(initial=0))
         for i in range(0, len(x), chunk):
-            xc = x[i:i + chunk]
-            pw = np.ones((len(xc), self.n_vars, top + 1))
-            for d in range(1, top + 1):
-                pw[:, :, d] = pw[:, :, d - 1] * xc
-            terms = np.ones((len(xc), len(c)))
-            for j in range(self.n_vars):
-                if self.exps[:, j].any():
-                    terms *= pw[:, j, self.exps[:, j]]
-            out[i:i + chunk] = terms @ c
+            out[i:i + chunk] = _term_values(self.exps, x[i:i + chunk]) @ c
         return out
 
     def degree(self) -> int:
@@ -181,15 +258,64 @@ class Poly:
                         for ci, row in zip(c, self.exps) if ci != 0])
 
 
-@dataclass
-class PolyMatrix:
-    """A matrix of :class:`Poly` entries (row-major list of lists)."""
+def _term_values(exps: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """Monomial values ``x^e`` (m x k) of the points ``x`` (m x n) for exponent rows ``exps``
+    (k x n): powers by repeated products, then one gather-multiply per variable."""
+    terms = np.ones((len(x), len(exps)))
+    if not len(exps):
+        return terms
+    top = int(exps.max(initial=0))
+    pw = np.ones((len(x), exps.shape[1], top + 1))
+    for d in range(1, top + 1):
+        pw[:, :, d] = pw[:, :, d - 1] * x
+    for j in range(exps.shape[1]):
+        if exps[:, j].any():
+            terms *= pw[:, j, exps[:, j]]
+    return terms
 
-    entries: list[list[Poly]]
+
+class PolyMatrix:
+    """A matrix of :class:`Poly` entries, held as one table of terms.
+
+    Built from a row-major list of lists of :class:`Poly` (``PolyMatrix(entries)``) or by
+    the operations below; :attr:`entries` gives the polynomials back.
+    """
+
+    __slots__ = ("shape", "_t", "_entries")
+
+    def __init__(self, entries: Sequence[Sequence[Poly]]) -> None:
+        rows = [list(row) for row in entries]
+        if not rows or not rows[0] or any(len(row) != len(rows[0]) for row in rows):
+            raise ValueError("a polynomial matrix needs equally long, non-empty rows")
+        flat = [p for row in rows for p in row]
+        counts = [len(p.c0) for p in flat]
+        self.shape = (len(rows), len(rows[0]))
+        self._t = _Terms(np.repeat(np.arange(len(flat)), counts), np.vstack([p.exps for p in flat]),
+                         np.concatenate([p.c0 for p in flat]), _vstack([p.C for p in flat],
+                                                                       max(p.n_decision for p in flat)))
+        self._entries: list[list[Poly]] | None = rows
+
+    @classmethod
+    def _of(cls, shape: tuple[int, int], t: _Terms) -> "PolyMatrix":
+        """A matrix from its terms (sorted by entry)."""
+        out = cls.__new__(cls)
+        out.shape, out._t, out._entries = shape, t, None
+        return out
 
     @property
-    def shape(self) -> tuple[int, int]:
-        return len(self.entries), len(self.entries[0])
+    def n_vars(self) -> int:
+        return self._t.exps.shape[1]
+
+    @property
+    def entries(self) -> list[list[Poly]]:
+        """The entries as polynomials (row-major list of lists)."""
+        if self._entries is None:
+            r, c = self.shape
+            t = self._t
+            start = np.searchsorted(t.entry, np.arange(r * c + 1))
+            flat = [Poly(t.exps[a:b], t.c0[a:b], t.C[a:b]) for a, b in zip(start[:-1], start[1:])]
+            self._entries = [flat[i * c:(i + 1) * c] for i in range(r)]
+        return self._entries
 
     @staticmethod
     def from_sympy(M: sp.Matrix, variables: Sequence[sp.Symbol], n_decision: int = 0) -> "PolyMatrix":
@@ -200,18 +326,16 @@ class PolyMatrix:
         (r, k), (k2, c) = self.shape, other.shape
         if k != k2:
             raise ValueError(f"shapes {self.shape} and {other.shape} do not multiply")
-        n = self.entries[0][0].n_vars
-        out = []
-        for i in range(r):
-            out.append([Poly.sum([Poly.constant(0.0, n)] + [self.entries[i][m] * other.entries[m][j]
-                                                            for m in range(k)]) for j in range(c)])
-        return PolyMatrix(out)
+        return PolyMatrix._of((r, c), _product(self._t, other._t, (r, k, c)))
 
     @staticmethod
     def constant(M: np.ndarray, n_vars: int) -> "PolyMatrix":
-        """A numeric constant matrix as degree-0 polynomials in ``n_vars`` variables."""
+        """A numeric constant matrix as degree-0 polynomials in ``n_vars`` variables (zero
+        entries have no term)."""
         M = np.atleast_2d(np.asarray(M, float))
-        return PolyMatrix([[Poly.constant(v, n_vars) for v in row] for row in M])
+        entry = np.flatnonzero(M)
+        return PolyMatrix._of(M.shape, _Terms(entry, np.zeros((len(entry), n_vars), np.int64), M.ravel()[entry],
+                                              sps.csr_matrix((len(entry), 0))))
 
     @staticmethod
     def block(rows: Sequence[Sequence["PolyMatrix | None"]]) -> "PolyMatrix":
@@ -219,23 +343,27 @@ class PolyMatrix:
         heights = [next(b.shape[0] for b in row if b is not None) for row in rows]
         widths = [next(rows[i][j].shape[1] for i in range(len(rows)) if rows[i][j] is not None)  # type: ignore[union-attr]
                   for j in range(len(rows[0]))]
-        n = next(b for row in rows for b in row if b is not None).entries[0][0].n_vars
-        out: list[list[Poly]] = []
+        cols = sum(widths)
+        r0 = np.cumsum([0] + heights)
+        c0 = np.cumsum([0] + widths)
+        parts: list[_Terms] = []
         for i, row in enumerate(rows):
-            for r in range(heights[i]):
-                line: list[Poly] = []
-                for j, b in enumerate(row):
-                    if b is None:
-                        line.extend(Poly.constant(0.0, n) for _ in range(widths[j]))
-                    else:
-                        if b.shape != (heights[i], widths[j]):
-                            raise ValueError(f"block ({i}, {j}) is {b.shape}, expected {(heights[i], widths[j])}")
-                        line.extend(b.entries[r])
-                out.append(line)
-        return PolyMatrix(out)
+            for j, b in enumerate(row):
+                if b is None:
+                    continue
+                if b.shape != (heights[i], widths[j]):
+                    raise ValueError(f"block ({i}, {j}) is {b.shape}, expected {(heights[i], widths[j])}")
+                bi, bj = np.divmod(b._t.entry, b.shape[1])
+                parts.append(b._t._replace(entry=(r0[i] + bi) * cols + c0[j] + bj))
+        width = max(p.C.shape[1] for p in parts)
+        entry = np.concatenate([p.entry for p in parts])
+        order = np.argsort(entry, kind="stable")
+        t = _Terms(entry, np.vstack([p.exps for p in parts]), np.concatenate([p.c0 for p in parts]),
+                   _vstack([p.C for p in parts], width))
+        return PolyMatrix._of((sum(heights), cols), _Terms(t.entry[order], t.exps[order], t.c0[order], t.C[order]))
 
     def scale(self, s: float) -> "PolyMatrix":
-        return PolyMatrix([[e.scale(s) for e in row] for row in self.entries])
+        return PolyMatrix._of(self.shape, self._t._replace(c0=s * self._t.c0, C=(s * self._t.C).tocsr()))
 
     def __neg__(self) -> "PolyMatrix":
         return self.scale(-1.0)
@@ -246,16 +374,81 @@ class PolyMatrix:
     def __add__(self, other: "PolyMatrix") -> "PolyMatrix":
         if self.shape != other.shape:
             raise ValueError(f"shapes {self.shape} and {other.shape} do not add")
-        return PolyMatrix([[a + b for a, b in zip(ra, rb)] for ra, rb in zip(self.entries, other.entries)])
+        a, b = self._t, other._t
+        width = max(a.C.shape[1], b.C.shape[1])
+        return PolyMatrix._of(self.shape, _merge(_Terms(np.concatenate([a.entry, b.entry]), np.vstack([a.exps, b.exps]),
+                                                        np.concatenate([a.c0, b.c0]), _vstack([a.C, b.C], width))))
 
     @property
     def T(self) -> "PolyMatrix":
         r, c = self.shape
-        return PolyMatrix([[self.entries[i][j] for i in range(r)] for j in range(c)])
+        i, j = np.divmod(self._t.entry, c)
+        entry = j * r + i
+        order = np.argsort(entry, kind="stable")
+        t = self._t
+        return PolyMatrix._of((c, r), _Terms(entry[order], t.exps[order], t.c0[order], t.C[order]))
+
+    def symmetric_from_lower(self) -> "PolyMatrix":
+        """The symmetric matrix whose lower triangle (diagonal included) is this one's."""
+        r, c = self.shape
+        if r != c:
+            raise ValueError(f"a {self.shape} matrix has no symmetric counterpart")
+        t = self._t
+        i, j = np.divmod(t.entry, c)
+        lower, strict = np.flatnonzero(i >= j), np.flatnonzero(i > j)
+        take = np.concatenate([lower, strict])
+        entry = np.concatenate([t.entry[lower], j[strict] * c + i[strict]])
+        order = np.argsort(entry, kind="stable")
+        return PolyMatrix._of(self.shape, _Terms(entry[order], t.exps[take[order]], t.c0[take[order]],
+                                                 t.C[take[order]]))
+
+    def degree(self) -> int:
+        """Largest total degree of a term (0 for a matrix without terms)."""
+        return int(self._t.exps.sum(axis=1).max(initial=0))
+
+    def substitute(self, polys: Sequence[Poly]) -> "PolyMatrix":
+        """The matrix with each variable ``x_j`` replaced by the numeric polynomial ``polys[j]``
+        (all in the same new variables ``z``): a polynomial matrix in ``z``.
+
+        One variable at a time, as a batched product: the term ``c x^e`` of entry ``(i, j)``
+        goes to column ``e_j`` of a ``(rows * cols) x (d + 1)`` matrix (``x_j`` dropped from
+        it), multiplied by the column of powers ``polys[j]^0 .. polys[j]^d``.
+
+        Raises
+        ------
+        ValueError
+            If the count of ``polys`` is not the number of variables, or a substitute
+            depends on decision variables.
+        """
+        if len(polys) != self.n_vars:
+            raise ValueError(f"{len(polys)} substitutes for {self.n_vars} variables")
+        if not all(q.is_affine_free() for q in polys):
+            raise ValueError("substitutes must be numeric polynomials")
+        n, m = self.n_vars, polys[0].n_vars
+        t = self._t
+        cur = t._replace(exps=np.hstack([t.exps, np.zeros((len(t.entry), m), np.int64)]))
+        cells = self.shape[0] * self.shape[1]
+        for j, q in enumerate(polys):
+            d = cur.exps[:, j].copy()
+            top = int(d.max(initial=0))
+            powers = [Poly.constant(1.0, m)]
+            for _ in range(top):
+                powers.append(powers[-1] * q)
+            counts = [len(pw.c0) for pw in powers]
+            right = _Terms(np.repeat(np.arange(top + 1), counts),
+                           np.hstack([np.zeros((sum(counts), n), np.int64), np.vstack([pw.exps for pw in powers])]),
+                           np.concatenate([pw.c0 for pw in powers]), sps.csr_matrix((sum(counts), 0)))
+            exps = cur.exps.copy()
+            exps[:, j] = 0
+            cur = _product(cur._replace(entry=cur.entry * (top + 1) + d, exps=exps), right, (cells, top + 1, 1))
+        return PolyMatrix._of(self.shape, cur._replace(exps=cur.exps[:, n:]))
 
     def evaluate(self, x: np.ndarray, y: np.ndarray | None = None) -> np.ndarray:
         """Numeric matrix at one point ``x`` of shape (n,)."""
-        return np.array([[float(e.evaluate(x, y)[0]) for e in row] for row in self.entries])
+        t = self._t
+        c = t.c0 if y is None or t.C.shape[1] == 0 else t.c0 + t.C @ y[: t.C.shape[1]]
+        vals = _term_values(t.exps, np.atleast_2d(np.asarray(x, float)))[0] * c
+        return np.bincount(t.entry, vals, self.shape[0] * self.shape[1]).reshape(self.shape)
 
 
 def quadratic_form(M: PolyMatrix) -> Poly:
@@ -263,16 +456,10 @@ def quadratic_form(M: PolyMatrix) -> Poly:
     r, c = M.shape
     if r != c:
         raise ValueError(f"quadratic form of a non-square {M.shape} matrix")
-    n = M.entries[0][0].n_vars
-    terms = [Poly.constant(0.0, n + r)]
-    for i in range(r):
-        for j in range(r):
-            e = M.entries[i][j]
-            if e.exps.shape[0] == 0:
-                continue
-            v = np.zeros((e.exps.shape[0], r), np.int64)
-            v[:, i] += 1
-            v[:, j] += 1
-            terms.append(Poly(np.hstack([e.exps, v]), e.c0, e.C))
-    return Poly.sum(terms)
-
+    t = M._t
+    v = np.zeros((len(t.entry), r), np.int64)
+    i, j = np.divmod(t.entry, r)
+    np.add.at(v, (np.arange(len(i)), i), 1)
+    np.add.at(v, (np.arange(len(j)), j), 1)
+    q = _merge(_Terms(np.zeros(len(t.entry), np.int64), np.hstack([t.exps, v]), t.c0, t.C))
+    return Poly(q.exps, q.c0, q.C) if len(q.entry) else Poly.constant(0.0, M.n_vars + r, t.C.shape[1])

@@ -1,4 +1,4 @@
-"""Sum-of-squares programs over cvxpy, with independent verification of every result.
+"""Sum-of-squares programs solved by Clarabel, with independent verification of every result.
 
 Layers (each a function or class with a test):
 
@@ -6,12 +6,16 @@ Layers (each a function or class with a test):
 2. :class:`SOSProgram`: decision variables and polynomials, scalar SOS constraints
    ``p(x) = z(x)^T G z(x), G >= 0`` on a pruned monomial basis ``z``, SOS-matrix
    constraints (``v^T M(x) v`` SOS in ``(x, v)``), S-procedure multipliers for ball and
-   box regions, linear and PSD constraints; coefficient matching is one sparse matrix per
-   constraint.
-3. :meth:`SOSProgram.solve`: Clarabel (default), SCS as fallback; returns a
-   :class:`SOSSolution` with the decision values and Gram matrices.
-4. :func:`verify`: re-checks each SOS constraint without the solver: minimum eigenvalue of
-   the Gram matrix, coefficient-match residual, and a sampled check of the polynomial
+   box regions, linear and PSD constraints.
+3. :meth:`SOSProgram.conic_problem`: the whole program as one conic problem
+   (:mod:`synthesis.conic`) over ``x = (y, svec G_1, ..., svec G_p)``; the coefficient
+   matching of every SOS constraint is one sparse linear map, assembled at once from
+   integer keys of the exponent rows (:mod:`synthesis.exponents`).
+4. :meth:`SOSProgram.solve`: Clarabel on those arrays; returns a :class:`SOSSolution` with
+   the decision values and Gram matrices.
+5. :func:`verify`: re-checks each SOS constraint without the solver and without the
+   program's matching map: minimum eigenvalue of the Gram matrix, the coefficients of
+   ``p - z^T G z`` expanded from the polynomials, and a sampled check of the polynomial
    inequality. A constraint is *certified* when ``lambda_min(G) >= N * max|residual|``
    (then ``p - z^T G z`` is absorbed by ``G``'s margin: ``p`` is SOS exactly) and the
    sampled values are non-negative.
@@ -19,14 +23,14 @@ Layers (each a function or class with a test):
 from __future__ import annotations
 
 import time
-import warnings
 from dataclasses import dataclass, field
 from typing import Any, Sequence
 
-import cvxpy as cp
 import numpy as np
 import scipy.sparse as sps
 
+from synthesis.conic import ConicProblem, solve_clarabel, svec_indices, svec_scale
+from synthesis.exponents import keys
 from synthesis.polynomial import Poly, PolyMatrix, monomials, quadratic_form
 
 
@@ -53,9 +57,10 @@ def newton_basis(support: np.ndarray) -> np.ndarray:
 
     Start from every monomial with degree between half the lowest and half the highest
     degree of the support, keep those in half the Newton polytope (``2 z`` in the convex
-    hull of the support, an LP per candidate), then repeatedly drop ``z_i`` whose square
-    ``2 z_i`` is neither in the support nor the sum of two other basis monomials (its
-    diagonal Gram entry would be forced to zero, hence its whole row).
+    hull of the support: at once when ``2 z`` is a support point, else by an LP), then
+    repeatedly drop ``z_i`` whose square ``2 z_i`` is neither in the support nor the sum of
+    two other basis monomials (its diagonal Gram entry would be forced to zero, hence its
+    whole row).
     """
     if support.shape[0] == 0:
         return np.zeros((0, support.shape[1]), np.int64)
@@ -67,7 +72,11 @@ def newton_basis(support: np.ndarray) -> np.ndarray:
     half_min = (support.min(axis=0) + 1) // 2
     cand = cand[np.all(cand <= half_max, axis=1) & np.all(cand >= half_min, axis=1)]
     if len(cand):
-        cand = cand[_in_hull(np.unique(support, axis=0), 2 * cand)]
+        k = keys(np.vstack([2 * cand, support]))
+        inside = np.isin(k[: len(cand)], k[len(cand):])  # 2 z a support point: in the hull, no LP
+        if not inside.all():
+            inside[~inside] = _in_hull(np.unique(support, axis=0), 2 * cand[~inside])
+        cand = cand[inside]
     return prune_diagonal(cand, support)
 
 
@@ -77,29 +86,14 @@ def prune_diagonal(cand: np.ndarray, support: np.ndarray) -> np.ndarray:
     ``z_i`` goes when ``2 z_i`` is neither in ``support`` nor the sum of two other
     basis monomials: then ``G_ii = 0``, so ``G >= 0`` zeroes its whole row.
     """
-    supp = {tuple(r) for r in support}
     while True:
-        sums: dict[tuple, int] = {}
-        for i in range(len(cand)):
-            for j in range(i + 1, len(cand)):
-                key = tuple(cand[i] + cand[j])
-                sums[key] = sums.get(key, 0) + 1
-        keep = np.array([tuple(2 * z) in supp or tuple(2 * z) in sums for z in cand], bool)
+        i, j = np.triu_indices(len(cand), 1)
+        k = keys(np.vstack([2 * cand, support, cand[i] + cand[j]]))
+        squares, reached = k[: len(cand)], k[len(cand):]
+        keep = np.isin(squares, reached)
         if keep.all():
             return cand
         cand = cand[keep]
-
-
-def gram_map(basis: np.ndarray) -> tuple[np.ndarray, sps.csr_matrix]:
-    """Monomials of ``z z^T`` and the matrix taking ``vec(G)`` (column-major) to their coefficients."""
-    N = basis.shape[0]
-    pairs = (basis[:, None, :] + basis[None, :, :]).reshape(N * N, -1)
-    mons, inv = np.unique(pairs, axis=0, return_inverse=True)
-    inv = inv.ravel()
-    # entry (i, j) of G sits at column-major index j * N + i
-    idx = np.arange(N * N).reshape(N, N).T.ravel()
-    A = sps.csr_matrix((np.ones(N * N), (inv, idx)), shape=(len(mons), N * N))
-    return mons, A
 
 
 @dataclass
@@ -270,81 +264,143 @@ class SOSProgram:
         self.psd.append((name, entries))
 
     # ---------------------------------------------------------------- solve
-    def solve(self, objective: sps.spmatrix | None = None, solver: str = "CLARABEL",
-              fallback: str | None = "SCS", **options: Any) -> SOSSolution:
+    def conic_problem(self, objective: sps.spmatrix | None = None) -> ConicProblem:
+        """The program as one conic problem over ``x = (y, svec G_1, ..., svec G_p)``.
+
+        Rows, in cone order: the coefficient matching of every SOS constraint
+        (:func:`coefficient_matching`) and the linear equalities; the linear inequalities;
+        then one PSD cone per non-empty Gram matrix (``G - gram_margin I``) and per
+        constant PSD block (its symmetric part). Gram entries are the variables ``G_ij``,
+        ``i <= j``, in :func:`synthesis.conic.svec_indices` order.
+        """
+        ks, offsets = self._gram_layout()
+        n = int(offsets[-1])
+        match, rhs = coefficient_matching([self.sos[k] for k in ks], offsets[:-1],
+                                          [c for c in self.sos if not c.basis.shape[0]], n)
+        zero = [match] + [-_widen(A, n) for A, _ in self.equalities]  # A y + b == 0: -A y + s = b, s = 0
+        zero_b = [rhs] + [b for _, b in self.equalities]
+        ineq = [-_widen(A, n) for A, _ in self.inequalities]  # A y + b >= 0: -A y + s = b, s >= 0
+        ineq_b = [b for _, b in self.inequalities]
+        cones, cones_b, psd = [], [], []
+        for k, off in zip(ks, offsets):  # s = scale svec(G) - margin svec(I)
+            N = self.sos[k].basis.shape[0]
+            i, j = svec_indices(N)
+            cones.append(sps.csr_matrix((-svec_scale(N), (np.arange(len(i)), off + np.arange(len(i)))),
+                                        shape=(len(i), n)))
+            cones_b.append(np.where(i == j, -self.gram_margin, 0.0))
+            psd.append(N)
+        for _, entries in self.psd:  # s = scale svec((M + M^T) / 2)
+            N = len(entries)
+            i, j = svec_indices(N)
+            half = svec_scale(N) / 2
+            sym = sps.csr_matrix((np.concatenate([half, half]), (np.tile(np.arange(len(i)), 2),
+                                                                  np.concatenate([i * N + j, j * N + i]))),
+                                 shape=(len(i), N * N))
+            cones.append(-_widen(sym @ sps.vstack([_widen(C, n) for line in entries for C, _ in line]), n))
+            cones_b.append(sym @ np.array([c for line in entries for _, c in line]))
+            psd.append(N)
+        q = np.zeros(n)
+        if objective is not None:
+            o = sps.csr_matrix(objective)
+            q[: o.shape[1]] = o.toarray().ravel()
+        A = sps.vstack(zero + ineq + cones, format="csc")
+        return ConicProblem(q, A, np.concatenate(zero_b + ineq_b + cones_b), sum(len(b) for b in zero_b),
+                            sum(len(b) for b in ineq_b), psd)
+
+    def solve(self, objective: sps.spmatrix | None = None, **settings: Any) -> SOSSolution:
         """Minimize ``objective @ y`` (feasibility if None) subject to all constraints.
 
-        ``options`` go to the primary ``solver`` only (solver settings differ); the fallback
-        runs with its defaults.
+        Clarabel gets the arrays of :meth:`conic_problem` as they are (no re-formulation);
+        ``settings`` are Clarabel's (e.g. ``tol_feas``).
 
         Raises
         ------
         SOSError
-            If both solvers fail or report infeasibility.
+            If Clarabel does not return a solution (infeasible, unbounded, or a failure such
+            as ``NumericalError``; the status is in the message).
         """
         t0 = time.perf_counter()
-        y = cp.Variable(self.n_decision) if self.n_decision else None
-        cons = []
-        grams: dict[str, cp.Variable] = {}
-
-        def aff(C: sps.spmatrix, c0: np.ndarray) -> Any:
-            C = sps.csr_matrix(C)
-            if C.shape[1] < self.n_decision:
-                C = sps.hstack([C, sps.csr_matrix((C.shape[0], self.n_decision - C.shape[1]))]).tocsr()
-            return c0 if y is None else C @ y + c0
-
-        for k, c in enumerate(self.sos):
-            N = c.basis.shape[0]
-            mons, A = gram_map(c.basis)
-            key = f"{k}:{c.name}"
-            if N == 0:
-                if np.any(np.abs(c.poly.c0) > 0) or c.poly.C.nnz:
-                    cons.append(aff(c.poly.C, c.poly.c0) == 0)
-                continue
-            G = cp.Variable((N, N), symmetric=True, name=f"G{k}")
-            grams[key] = G
-            cons.append(G >> self.gram_margin * np.eye(N))
-            rows = _match(c.poly.exps, mons)
-            inside = rows >= 0
-            P = sps.csr_matrix((np.ones(inside.sum()), (rows[inside], np.nonzero(inside)[0])),
-                               shape=(len(mons), len(rows)))
-            cons.append(A @ cp.vec(G, order="F") == aff(P @ c.poly.C, P @ c.poly.c0))
-            outside = ~inside & ((c.poly.c0 != 0) | (np.asarray(abs(c.poly.C).sum(axis=1)).ravel() > 0))
-            if outside.any():  # monomials no Gram entry reaches must vanish
-                cons.append(aff(c.poly.C[outside], c.poly.c0[outside]) == 0)
-        for A, b in self.equalities:
-            cons.append(aff(A, b) == 0)
-        for A, b in self.inequalities:
-            cons.append(aff(A, b) >= 0)
-        for name, entries in self.psd:
-            M = cp.bmat([[aff(C, np.array([c])) for C, c in row] for row in entries])
-            cons.append((M + M.T) / 2 >> 0)
-        obj = cp.Minimize(0 if objective is None or y is None else aff(objective, np.zeros(1))[0])
-        prob = cp.Problem(obj, cons)
+        problem = self.conic_problem(objective)
         build = time.perf_counter() - t0 + self.build_seconds
-        status, used = None, solver
-        for name in [solver] + ([fallback] if fallback else []):
-            used = name
-            try:
-                t1 = time.perf_counter()
-                with warnings.catch_warnings():  # "inaccurate" is in the status; verify() judges
-                    warnings.simplefilter("ignore", UserWarning)
-                    prob.solve(solver=name, **(options if name == solver else {}))
-                solve_s = time.perf_counter() - t1
-            except (cp.error.SolverError, cp.error.DCPError) as exc:
-                status = f"solver error: {exc}"
-                continue
-            status = prob.status
-            # a clean infeasibility certificate is final; only errors and inaccurate
-            # infeasibility claims go to the fallback solver
-            if status in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE, cp.INFEASIBLE, cp.UNBOUNDED):
-                break
-        if status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
-            raise SOSError(f"SOS program not solved: status {status} (solver {used})")
-        yv = np.asarray(y.value, float) if y is not None else np.zeros(0)
-        return SOSSolution(yv, {k: np.asarray(G.value, float) for k, G in grams.items()}, str(status), used,
-                           float(prob.value) if prob.value is not None else 0.0,
-                           {"build": build, "solve": solve_s})
+        result = solve_clarabel(problem, **settings)
+        if result.x is None:
+            raise SOSError(f"SOS program not solved: status {result.status} (solver CLARABEL)")
+        grams = {}
+        for k, off in zip(*self._gram_layout()):
+            c = self.sos[k]
+            i, j = svec_indices(c.basis.shape[0])
+            G = np.zeros((len(c.basis), len(c.basis)))
+            G[i, j] = G[j, i] = result.x[off:off + len(i)]
+            grams[f"{k}:{c.name}"] = G
+        return SOSSolution(result.x[: self.n_decision].copy(), grams, result.status, "CLARABEL", result.objective,
+                           {"build": build, "solve": result.seconds})
+
+    def _gram_layout(self) -> tuple[list[int], np.ndarray]:
+        """Indices of the SOS constraints with a non-empty Gram matrix and the offset of each
+        one's svec in ``x`` (after the decision variables; one more offset: the end)."""
+        ks = [k for k, c in enumerate(self.sos) if c.basis.shape[0]]
+        dims = [len(self.sos[k].basis) * (len(self.sos[k].basis) + 1) // 2 for k in ks]
+        return ks, self.n_decision + np.cumsum([0] + dims)
+
+
+def coefficient_matching(constraints: Sequence[SOSConstraint], offsets: np.ndarray,
+                         without_gram: Sequence[SOSConstraint], n: int) -> tuple[sps.csr_matrix, np.ndarray]:
+    """The coefficient matching of SOS constraints as one sparse linear map ``A x = b``.
+
+    For each constraint ``p = z^T G z`` (``G``'s svec at ``offsets[k]`` of ``x``, after the
+    decision variables ``y``): one row per monomial of ``z z^T``, where the coefficient
+    ``c0 + C y`` of ``p`` equals the sum of the Gram entries reaching it (``G_ij`` twice off
+    the diagonal); one row ``c0 + C y = 0`` per term of ``p`` no Gram entry reaches, and per
+    term of the ``without_gram`` constraints (empty basis: ``p = 0``). Assembled at once:
+    every ``(constraint, exponent row)``, of the Gram products and of the polynomials, gets
+    an integer key (:func:`synthesis.exponents.keys`); the Gram monomials are the unique
+    keys and each term of ``p`` finds its row by ``searchsorted``.
+
+    Returns
+    -------
+    A : scipy.sparse.csr_matrix
+        Rows x ``n`` (``n`` the length of ``x``).
+    b : ndarray
+    """
+    polys = [c.poly for c in constraints] + [c.poly for c in without_gram]
+    width = max([p.n_vars for p in polys], default=0)
+
+    def tagged(k: int, e: np.ndarray) -> np.ndarray:  # (constraint, exponent row) at a common width
+        return np.hstack([np.full((len(e), 1), k), e, np.zeros((len(e), width - e.shape[1]), np.int64)])
+
+    pair_rows, pair_cols, pair_vals = [], [], []
+    for k, (c, off) in enumerate(zip(constraints, offsets)):
+        i, j = svec_indices(c.basis.shape[0])
+        pair_rows.append(tagged(k, c.basis[i] + c.basis[j]))
+        pair_cols.append(off + np.arange(len(i)))
+        pair_vals.append(np.where(i == j, 1.0, 2.0))
+    n_pairs = sum(len(r) for r in pair_rows)
+    all_keys = keys(np.vstack(pair_rows + [tagged(k, p.exps) for k, p in enumerate(polys)] +
+                              [np.zeros((0, width + 1), np.int64)]))
+    mons, pair_row = np.unique(all_keys[:n_pairs], return_inverse=True)
+    term_keys = all_keys[n_pairs:]
+    pos = np.minimum(np.searchsorted(mons, term_keys), max(len(mons) - 1, 0))
+    matched = (mons[pos] == term_keys) if len(mons) else np.zeros(len(term_keys), bool)
+    C = sps.vstack([_widen(p.C, n) for p in polys] + [sps.csr_matrix((0, n))], format="csr")
+    c0 = np.concatenate([p.c0 for p in polys] + [np.zeros(0)])
+    outside = ~matched & ((c0 != 0) | (np.diff(C.indptr) > 0))  # must vanish
+    term_row = np.where(matched, pos, -1)
+    term_row[outside] = len(mons) + np.arange(outside.sum())
+    rows = len(mons) + int(outside.sum())
+    Ct = C.tocoo()
+    use = term_row[Ct.row] >= 0
+    A = sps.csr_matrix((np.concatenate([-Ct.data[use], *pair_vals]),
+                        (np.concatenate([term_row[Ct.row[use]], pair_row]),
+                         np.concatenate([Ct.col[use], *pair_cols]))), shape=(rows, n))
+    keep = term_row >= 0
+    return A, np.bincount(term_row[keep], c0[keep], rows)
+
+
+def _widen(C: sps.spmatrix, n: int) -> sps.csr_matrix:
+    """``C`` (CSR) with ``n`` columns (variables created after it, and the Gram entries, are
+    not in it)."""
+    C = sps.csr_matrix(C)
+    return sps.csr_matrix((C.data, C.indices, C.indptr), shape=(C.shape[0], n))
 
 
 class _Extended:
@@ -377,10 +433,19 @@ def _lift(p: Poly, dim: int) -> Poly:
     return Poly(np.hstack([p.exps, np.zeros((p.exps.shape[0], dim), np.int64)]), p.c0, p.C)
 
 
-def _match(rows: np.ndarray, table: np.ndarray) -> np.ndarray:
-    """Index in ``table`` of each exponent row (-1 where absent)."""
-    lookup = {tuple(r): i for i, r in enumerate(table)}
-    return np.array([lookup.get(tuple(r), -1) for r in rows], np.int64)
+def gram_residual(p: Poly, basis: np.ndarray, G: np.ndarray) -> float:
+    """Largest coefficient of ``p - z^T G z`` (``p`` numeric, ``z`` the monomials of ``basis``).
+
+    Expanded from the polynomials alone, independently of the program's matching map:
+    every entry ``G_ij`` (both triangles) is a term ``z_i z_j``; with ``p``'s terms, equal
+    exponent rows are summed (``np.unique`` over whole rows, not the program's integer
+    keys). Terms of ``p`` no Gram entry reaches count in full.
+    """
+    N = basis.shape[0]
+    pairs = (basis[:, None, :] + basis[None, :, :]).reshape(N * N, -1)
+    _, inv = np.unique(np.vstack([p.exps, pairs]), axis=0, return_inverse=True)
+    coefficients = np.bincount(inv.ravel(), np.concatenate([p.c0, -G.ravel()]))
+    return float(np.max(np.abs(coefficients), initial=0.0))
 
 
 def check_numbers(checks: list[Check]) -> dict[str, float]:
@@ -411,13 +476,7 @@ def verify(prog: SOSProgram, sol: SOSSolution, n_samples: int = 2000, sample_rad
             out.append(Check(c.name, c.region, 0, 0.0, res, -res, res <= res_tol, res == 0.0))
             continue
         G = sol.grams[key]
-        mons, A = gram_map(c.basis)
-        gcoef = A @ G.ravel(order="F")
-        rows = _match(p.exps, mons)
-        pc = np.zeros(len(mons))
-        np.add.at(pc, rows[rows >= 0], p.c0[rows >= 0])
-        extra = float(np.max(np.abs(p.c0[rows < 0]), initial=0.0))  # terms no Gram entry reaches
-        residual = max(float(np.max(np.abs(pc - gcoef))), extra)
+        residual = gram_residual(p, c.basis, G)
         min_eig = float(np.linalg.eigvalsh((G + G.T) / 2).min())
         n = p.n_vars
         pts = rng.normal(size=(n_samples, n))

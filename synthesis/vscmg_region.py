@@ -38,6 +38,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Any, Callable
 
 import numpy as np
@@ -123,6 +124,16 @@ class ClosedLoop:
         K = self.artifact.gain_at(self.artifact.scheduling_values({"q2": q2, "w4": w4}))
         return A - B @ K
 
+    @cached_property
+    def acl_poly(self) -> PolyMatrix:
+        """:attr:`acl` as a polynomial matrix in ``(a, c, w4)``."""
+        return PolyMatrix.from_sympy(self.acl, [_A, _C, _W])
+
+    @cached_property
+    def momentum_poly(self) -> PolyMatrix:
+        """:attr:`momentum` as a polynomial matrix in ``(a, c, w4)``."""
+        return PolyMatrix.from_sympy(self.momentum, [_A, _C, _W])
+
     def momentum_at(self, q2: float) -> np.ndarray:
         return np.array(self.momentum.subs(_A, np.sin(q2)), float).ravel()
 
@@ -204,7 +215,7 @@ def _rigorous_margin(prog: SOSProgram, checks: list[Check], sol: Any, eps: float
 
 
 def certify(loop: ClosedLoop, q2: tuple[float, float], w4: tuple[float, float], multiplier_degree: int = 4,
-            trace_bound: float = 100.0, fallback: str | None = None) -> BoxCertificate:
+            trace_bound: float = 100.0) -> BoxCertificate:
     """Solve and re-verify the region condition on the box ``q2`` (rad) x ``w4`` (rad/s).
 
     Raises
@@ -215,9 +226,10 @@ def certify(loop: ClosedLoop, q2: tuple[float, float], w4: tuple[float, float], 
     t0 = time.perf_counter()
     a_lo, a_hi, w_lo, w_hi = _box(q2, w4)
     L = _scaling(loop, q2, w4)
-    Lt, Lti = sp.Matrix(L.T), sp.Matrix(np.linalg.inv(L.T))
+    # a = sin q2 and w4 in the box's scaled variables s, t in [-1, 1]
     sub = {_A: (a_lo + a_hi) / 2 + (a_hi - a_lo) / 2 * _S, _W: (w_lo + w_hi) / 2 + (w_hi - w_lo) / 2 * _T}
     xs = [_S, _T]
+    a, w = Poly.from_sympy(sub[_A], xs), Poly.from_sympy(sub[_W], xs)
     prog = SOSProgram(2)
     Y = PolyMatrix(prog.new_symmetric(7))
     eps = prog.new_poly(np.zeros((1, 2), np.int64))
@@ -225,21 +237,20 @@ def certify(loop: ClosedLoop, q2: tuple[float, float], w4: tuple[float, float], 
     trace = sum((Y.entries[i][i].C for i in range(7)), 0 * Y.entries[0][0].C)
     prog.add_linear(-trace, np.array([trace_bound]), "ge")
     box = [Poly.from_sympy(1 - _S**2, xs), Poly.from_sympy(1 - _T**2, xs)]
-    p = PolyMatrix.from_sympy((sp.Matrix(np.linalg.inv(L)) * loop.momentum).subs(sub).applyfunc(sp.expand), xs)
+    p = PolyMatrix.constant(np.linalg.inv(L), 2) @ loop.momentum_poly.substitute([a, a, w])  # no c in p
     zero = Poly.constant(0.0, 2)
-    p_degree = max(e.degree() for row in p.entries for e in row)
     for label, c in zip(("chord", "tangent"), cos_enclosure(a_lo, a_hi)):
-        A = PolyMatrix.from_sympy((Lt * loop.acl.subs(_C, c) * Lti).subs(sub).applyfunc(sp.expand), xs)
+        acl = loop.acl_poly.substitute([a, Poly.from_sympy(c.subs(sub), xs), w])
+        A = PolyMatrix.constant(L.T, 2) @ acl @ PolyMatrix.constant(np.linalg.inv(L.T), 2)
         G = A.T @ Y
         Q = -(G + G.T)
-        degree = max(e.degree() for row in Q.entries for e in row)
-        lam = PolyMatrix([[prog.new_poly(monomials(2, max(degree - p_degree, 0)))] for _ in range(7)])
+        lam = PolyMatrix([[prog.new_poly(monomials(2, max(Q.degree() - p.degree(), 0)))] for _ in range(7)])
         F = lam @ p.T
         Q = Q - F - F.T - PolyMatrix([[eps if i == j else zero for j in range(7)] for i in range(7)])
         prog.add_sos_matrix(Q, f"Lyapunov, cos q2 on the {label}", region=box, multiplier_degree=multiplier_degree,
                             label=f"q2 in {list(q2)}, w4 in {list(w4)}")
     try:
-        sol = prog.solve(objective=-eps.C, fallback=fallback)
+        sol = prog.solve(objective=-eps.C)
     except SOSError as exc:
         return BoxCertificate(q2, w4, False, str(exc), seconds=time.perf_counter() - t0)
     e = float(-sol.objective)

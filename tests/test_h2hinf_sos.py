@@ -81,7 +81,7 @@ def test_gain_meets_its_certificate_on_the_linear_plant(designs, gamma: float) -
 
 def test_too_small_gamma_is_never_certified() -> None:
     # docs/models.md: infeasible below gamma ~ 0.50. Clarabel stops without a clean certificate
-    # there and SCS returns an inaccurate point: either way it must not pass verification.
+    # there (NumericalError): not solved, or a point that must not pass verification.
     try:
         r = _frozen(0.45, "slack")
     except SOSError:

@@ -129,3 +129,27 @@ def test_sos_matrix_on_a_region() -> None:
     prog.add_sos_matrix(M, "M on |x| <= 0.9", region=[ball], multiplier_degree=0, label="|x| <= 0.9")
     sol = prog.solve()
     assert all(c.certified for c in verify(prog, sol))
+
+
+def test_verify_expands_the_polynomials_without_the_programs_matching_map(monkeypatch) -> None:
+    # the residual is p - z^T G z expanded from the polynomials: neither the conic data nor
+    # the integer exponent keys the build matched coefficients with take part
+    p = (x**2 - y) ** 2 + (x * y - 1) ** 2 + x**2
+    prog = SOSProgram(2)
+    prog.add_sos(Poly.from_sympy(p, [x, y]), "p")
+    sol = prog.solve()
+    key = next(iter(sol.grams))
+    G = sol.grams[key] + 1e-3 * np.eye(len(sol.grams[key]))  # residual 1e-3 on the squares
+
+    def no_build(*args, **kwargs):
+        raise AssertionError("verify used the build path")
+
+    monkeypatch.setattr(SOSProgram, "conic_problem", no_build)
+    monkeypatch.setattr("synthesis.exponents.keys", no_build)
+    monkeypatch.setattr("synthesis.sos.keys", no_build)
+    sol.grams[key] = G
+    z = sp.Matrix([sp.Mul(*[v**int(e) for v, e in zip((x, y), row)]) for row in prog.sos[0].basis])
+    diff = sp.Poly(sp.expand(p - (z.T * sp.Matrix(G) * z)[0]), x, y)
+    check = verify(prog, sol)[0]
+    assert check.residual == pytest.approx(max(abs(float(c)) for c in diff.coeffs()), rel=1e-9)
+    assert check.residual == pytest.approx(1e-3, rel=1e-6) and not check.certified
