@@ -23,8 +23,10 @@ import scipy.sparse as sps
 SOLVED = {"Solved": "optimal", "AlmostSolved": "optimal_inaccurate"}
 """Clarabel statuses with a solution, and their names in :class:`ConicResult` (those cvxpy
 gives them, as the SOS layer's solutions always said)."""
-REFUTED = {"PrimalInfeasible": "infeasible", "DualInfeasible": "unbounded"}
-"""Clarabel statuses that are clean certificates of infeasibility or unboundedness."""
+REFUTED = {"PrimalInfeasible": "infeasible", "DualInfeasible": "unbounded",
+           "AlmostPrimalInfeasible": "infeasible_inaccurate", "AlmostDualInfeasible": "unbounded_inaccurate"}
+"""Clarabel's certificates of infeasibility or unboundedness (clean, or to a reduced accuracy), in
+the words of :mod:`synthesis.solve_policy`."""
 
 
 @dataclass
@@ -44,7 +46,8 @@ class ConicProblem:
 @dataclass
 class ConicResult:
     """Clarabel's answer: the status (``optimal``, ``optimal_inaccurate``, ``infeasible``,
-    ``unbounded``, or Clarabel's own word for a failure, e.g. ``NumericalError``), ``x``
+    ``unbounded``, their ``_inaccurate`` forms, or Clarabel's own word for a failure, e.g.
+    ``NumericalError``, ``MaxIterations``), ``x``
     when a solution is present, ``q^T x`` and Clarabel's wall time (s, setting up and
     solving)."""
 

@@ -1,5 +1,9 @@
 """One solve policy for every conic program of the synthesis layer (SOS, robust and periodic LMIs).
 
+The SOS layer (:meth:`synthesis.sos.SOSProgram.solve`, Clarabel on its own arrays) runs it through
+:func:`solve_with` and :func:`ladder_with`; the robust and periodic LMIs (cvxpy problems) through
+:func:`solve_cvxpy`.
+
 A program is solved by trying the rungs of a *ladder* (solver and settings) in turn:
 
 1. Clarabel with its default tolerances (1e-8);
@@ -41,6 +45,21 @@ REGULARIZED = {**RELAXED_TOLERANCES, "static_regularization_constant": 1e-7}
 LADDER: tuple[tuple[str, dict[str, Any]], ...] = (
     ("CLARABEL", {}), ("CLARABEL", RELAXED_TOLERANCES), ("CLARABEL", REGULARIZED))
 """The default ladder: (solver, settings) tried in turn."""
+
+
+
+def ladder_with(settings: dict[str, Any] | None = None) -> tuple[tuple[str, dict[str, Any]], ...]:
+    """The ladder of :data:`LADDER` with a caller's Clarabel settings on every rung (a rung's
+    own settings win on the rungs after the first: they are what the retry changes).
+
+    Parameters
+    ----------
+    settings : dict, optional
+        Clarabel settings (e.g. ``{"tol_feas": 1e-10}``) asked for by the caller.
+    """
+    settings = dict(settings or {})
+    return tuple((solver, {**settings, **rung}) for solver, rung in LADDER)
+
 
 SOLVED = ("optimal", "optimal_inaccurate")
 """Statuses that end the ladder with a solution (verification judges it)."""

@@ -11,7 +11,8 @@ Layers (each a function or class with a test):
    (:mod:`synthesis.conic`) over ``x = (y, svec G_1, ..., svec G_p)``; the coefficient
    matching of every SOS constraint is one sparse linear map, assembled at once from
    integer keys of the exponent rows (:mod:`synthesis.exponents`).
-4. :meth:`SOSProgram.solve`: Clarabel on those arrays; returns a :class:`SOSSolution` with
+4. :meth:`SOSProgram.solve`: Clarabel on those arrays, under the solve policy of
+   :mod:`synthesis.solve_policy`; returns a :class:`SOSSolution` with
    the decision values and Gram matrices.
 5. :func:`verify`: re-checks each SOS constraint without the solver and without the
    program's matching map: minimum eigenvalue of the Gram matrix, the coefficients of
@@ -29,9 +30,10 @@ from typing import Any, Sequence
 import numpy as np
 import scipy.sparse as sps
 
-from synthesis.conic import ConicProblem, solve_clarabel, svec_indices, svec_scale
+from synthesis.conic import ConicProblem, ConicResult, solve_clarabel, svec_indices, svec_scale
 from synthesis.exponents import keys
 from synthesis.polynomial import Poly, PolyMatrix, monomials, quadratic_form
+from synthesis.solve_policy import solve_with, ladder_with
 
 
 class SOSError(RuntimeError):
@@ -310,21 +312,30 @@ class SOSProgram:
     def solve(self, objective: sps.spmatrix | None = None, **settings: Any) -> SOSSolution:
         """Minimize ``objective @ y`` (feasibility if None) subject to all constraints.
 
-        Clarabel gets the arrays of :meth:`conic_problem` as they are (no re-formulation);
-        ``settings`` are Clarabel's (e.g. ``tol_feas``).
+        Clarabel gets the arrays of :meth:`conic_problem` as they are (no re-formulation),
+        under the project's solve policy (:mod:`synthesis.solve_policy`): ``settings``
+        (Clarabel's, e.g. ``tol_feas``) first, then the policy's relaxed and regularized
+        rungs when Clarabel stops without a solution or a clean certificate.
 
         Raises
         ------
         SOSError
-            If Clarabel does not return a solution (infeasible, unbounded, or a failure such
-            as ``NumericalError``; the status is in the message).
+            If no rung returns a solution (infeasible, unbounded, or failures such as
+            ``NumericalError``; every attempt's status is in the message).
         """
         t0 = time.perf_counter()
         problem = self.conic_problem(objective)
         build = time.perf_counter() - t0 + self.build_seconds
-        result = solve_clarabel(problem, **settings)
-        if result.x is None:
-            raise SOSError(f"SOS program not solved: status {result.status} (solver CLARABEL)")
+        results: list[ConicResult] = []
+
+        def run(solver: str, rung: dict[str, Any]) -> str:
+            results.append(solve_clarabel(problem, **rung))
+            return results[-1].status
+
+        outcome = solve_with(run, ladder_with(settings))
+        result = results[-1]
+        if not outcome.solved:
+            raise SOSError(f"SOS program not solved ({outcome.status}): {outcome.solver_status} (solver CLARABEL)")
         grams = {}
         for k, off in zip(*self._gram_layout()):
             c = self.sos[k]
@@ -332,8 +343,8 @@ class SOSProgram:
             G = np.zeros((len(c.basis), len(c.basis)))
             G[i, j] = G[j, i] = result.x[off:off + len(i)]
             grams[f"{k}:{c.name}"] = G
-        return SOSSolution(result.x[: self.n_decision].copy(), grams, result.status, "CLARABEL", result.objective,
-                           {"build": build, "solve": result.seconds})
+        return SOSSolution(result.x[: self.n_decision].copy(), grams, outcome.solver_status, outcome.solver,
+                           result.objective, {"build": build, "solve": outcome.seconds})
 
     def _gram_layout(self) -> tuple[list[int], np.ndarray]:
         """Indices of the SOS constraints with a non-empty Gram matrix and the offset of each

@@ -52,8 +52,43 @@ def test_sos_polynomial_is_certified() -> None:
 
 def test_motzkin_polynomial_is_not_sos() -> None:
     # Motzkin: non-negative but not a sum of squares; the program must be reported infeasible
-    with pytest.raises(SOSError, match="not solved"):
+    with pytest.raises(SOSError, match=r"not solved \(infeasible\)"):
         _prove(x**4 * y**2 + x**2 * y**4 - 3 * x**2 * y**2 + 1)
+
+
+def test_a_failed_solve_is_retried_on_the_policys_next_rung(monkeypatch) -> None:
+    # Clarabel stopping without a solution (NumericalError) is not the end: the solve policy's
+    # relaxed rung is tried, keeps the caller's settings it does not change, and its answer is used
+    import synthesis.sos as sos
+    from synthesis.conic import ConicResult
+    from synthesis.solve_policy import RELAXED_TOLERANCES
+
+    seen: list[dict] = []
+    real = sos.solve_clarabel
+
+    def flaky(problem, **settings):
+        seen.append(settings)
+        return ConicResult("NumericalError", None, float("nan"), 0.0) if len(seen) == 1 else real(problem, **settings)
+
+    monkeypatch.setattr(sos, "solve_clarabel", flaky)
+    prog = SOSProgram(2)
+    prog.add_sos(Poly.from_sympy((x**2 - y) ** 2 + x**2 + 1, [x, y]), "p")
+    sol = prog.solve(max_iter=80)
+    assert seen == [{"max_iter": 80}, {"max_iter": 80, **RELAXED_TOLERANCES}]
+    assert sol.status == "NumericalError; retry clarabel relaxed: optimal"
+    assert verify(prog, sol)[0].certified
+
+
+def test_failures_on_every_rung_say_what_each_returned(monkeypatch) -> None:
+    import synthesis.sos as sos
+    from synthesis.conic import ConicResult
+
+    monkeypatch.setattr(sos, "solve_clarabel", lambda problem, **s: ConicResult("MaxIterations", None, float("nan"), 0.0))
+    prog = SOSProgram(2)
+    prog.add_sos(Poly.from_sympy(x**2 + y**2, [x, y]), "p")
+    with pytest.raises(SOSError, match=r"not solved \(failed\): MaxIterations; retry clarabel relaxed: "
+                                       r"MaxIterations; retry clarabel regularized: MaxIterations"):
+        prog.solve()
 
 
 def test_global_lower_bound_by_sos() -> None:
