@@ -225,6 +225,19 @@ class Poly:
 
     __rmul__ = __mul__
 
+    def diff(self, i: int) -> "Poly":
+        """The partial derivative with respect to variable ``i`` (coefficients stay affine in
+        the decision variables: ``d/dx_i (c0 + C y) x^e = e_i (c0 + C y) x^(e - 1_i)``)."""
+        if not 0 <= i < self.n_vars:
+            raise IndexError(f"variable {i} of a polynomial in {self.n_vars} variables")
+        factor = self.exps[:, i].astype(float)
+        keep = np.flatnonzero(factor > 0)
+        if keep.size == 0:
+            return Poly.constant(0.0, self.n_vars, self.n_decision)
+        exps = self.exps[keep].copy()
+        exps[:, i] -= 1
+        return Poly(exps, self.c0[keep] * factor[keep], sps.diags(factor[keep]) @ _csr(self.C, self.n_decision)[keep])
+
     def is_affine_free(self) -> bool:
         """True when no coefficient depends on decision variables."""
         return self.C.nnz == 0

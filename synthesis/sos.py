@@ -33,6 +33,7 @@ import scipy.sparse as sps
 from synthesis.conic import ConicProblem, ConicResult, solve_clarabel, svec_indices, svec_scale
 from synthesis.exponents import keys
 from synthesis.polynomial import Poly, PolyMatrix, monomials, quadratic_form
+from synthesis.sign_symmetry import symmetry_blocks
 from synthesis.solve_policy import solve_with, ladder_with
 
 
@@ -106,6 +107,10 @@ class SOSConstraint:
     poly: Poly
     basis: np.ndarray
     region: str = "global"
+    blocks: list[np.ndarray] = field(default_factory=list)
+    """Indices into ``basis`` of the diagonal blocks ``G`` may be restricted to (the sign
+    symmetries of ``poly``, :mod:`synthesis.sign_symmetry`); one block ``arange(N)`` when none
+    separates the basis, none when the basis is empty."""
 
 
 @dataclass
@@ -152,12 +157,16 @@ class SOSProgram:
     True
     """
 
-    def __init__(self, n_vars: int, gram_margin: float = 0.0) -> None:
+    def __init__(self, n_vars: int, gram_margin: float = 0.0, sign_symmetry: bool = True) -> None:
         """``gram_margin``: constrain every Gram matrix to ``G >= gram_margin I`` (tightens each
         SOS condition by ``gram_margin * z^T z``; use it when a strictly interior, exactly
-        checkable certificate is wanted and the basis has no forced-zero monomials)."""
+        checkable certificate is wanted and the basis has no forced-zero monomials).
+        ``sign_symmetry``: split each Gram matrix into the diagonal blocks the sign symmetries
+        of its polynomial allow (lossless: the program is feasible with the blocks if and only
+        if it is without them; :mod:`synthesis.sign_symmetry`); off, one block per constraint."""
         self.n_vars = n_vars
         self.gram_margin = gram_margin
+        self.sign_symmetry = sign_symmetry
         self.n_decision = 0
         self.sos: list[SOSConstraint] = []
         self.equalities: list[tuple[sps.csr_matrix, np.ndarray]] = []   # A y + b == 0
@@ -202,10 +211,17 @@ class SOSProgram:
         t0 = time.perf_counter()
         if p.n_vars != self.n_vars:
             raise SOSError(f"{name}: polynomial in {p.n_vars} variables, program has {self.n_vars}")
-        basis = newton_basis(p.support())
-        c = SOSConstraint(name, p, basis, region)
-        self.sos.append(c)
+        support = p.support()
+        c = self._constraint(name, p, newton_basis(support), support, region)
         self.build_seconds += time.perf_counter() - t0
+        return c
+
+    def _constraint(self, name: str, p: Poly, basis: np.ndarray, support: np.ndarray, region: str) -> SOSConstraint:
+        """Record ``p = z^T G z`` on ``basis`` with the Gram blocks its support allows."""
+        blocks = (symmetry_blocks(basis, support) if self.sign_symmetry
+                  else [np.arange(basis.shape[0])] if basis.shape[0] else [])
+        c = SOSConstraint(name, p, basis, region, blocks)
+        self.sos.append(c)
         return c
 
     def add_sos_on_region(self, p: Poly, name: str, region: list[Poly], multiplier_degree: int,
@@ -271,24 +287,23 @@ class SOSProgram:
 
         Rows, in cone order: the coefficient matching of every SOS constraint
         (:func:`coefficient_matching`) and the linear equalities; the linear inequalities;
-        then one PSD cone per non-empty Gram matrix (``G - gram_margin I``) and per
-        constant PSD block (its symmetric part). Gram entries are the variables ``G_ij``,
-        ``i <= j``, in :func:`synthesis.conic.svec_indices` order.
+        then one PSD cone per Gram block (``G_block - gram_margin I``; one block per Gram
+        matrix unless sign symmetries split it) and per constant PSD block (its symmetric
+        part). Gram entries are the variables ``G_ij``, ``i <= j`` within a block, in
+        :func:`synthesis.conic.svec_indices` order.
         """
-        ks, offsets = self._gram_layout()
-        n = int(offsets[-1])
-        match, rhs = coefficient_matching([self.sos[k] for k in ks], offsets[:-1],
-                                          [c for c in self.sos if not c.basis.shape[0]], n)
+        cones, n = self._gram_layout()
+        match, rhs = coefficient_matching(self.sos, cones, n)
         zero = [match] + [-_widen(A, n) for A, _ in self.equalities]  # A y + b == 0: -A y + s = b, s = 0
         zero_b = [rhs] + [b for _, b in self.equalities]
         ineq = [-_widen(A, n) for A, _ in self.inequalities]  # A y + b >= 0: -A y + s = b, s >= 0
         ineq_b = [b for _, b in self.inequalities]
-        cones, cones_b, psd = [], [], []
-        for k, off in zip(ks, offsets):  # s = scale svec(G) - margin svec(I)
-            N = self.sos[k].basis.shape[0]
+        rows, cones_b, psd = [], [], []
+        for _, block, off in cones:  # s = scale svec(G_block) - margin svec(I)
+            N = len(block)
             i, j = svec_indices(N)
-            cones.append(sps.csr_matrix((-svec_scale(N), (np.arange(len(i)), off + np.arange(len(i)))),
-                                        shape=(len(i), n)))
+            rows.append(sps.csr_matrix((-svec_scale(N), (np.arange(len(i)), off + np.arange(len(i)))),
+                                       shape=(len(i), n)))
             cones_b.append(np.where(i == j, -self.gram_margin, 0.0))
             psd.append(N)
         for _, entries in self.psd:  # s = scale svec((M + M^T) / 2)
@@ -298,14 +313,14 @@ class SOSProgram:
             sym = sps.csr_matrix((np.concatenate([half, half]), (np.tile(np.arange(len(i)), 2),
                                                                   np.concatenate([i * N + j, j * N + i]))),
                                  shape=(len(i), N * N))
-            cones.append(-_widen(sym @ sps.vstack([_widen(C, n) for line in entries for C, _ in line]), n))
+            rows.append(-_widen(sym @ sps.vstack([_widen(C, n) for line in entries for C, _ in line]), n))
             cones_b.append(sym @ np.array([c for line in entries for _, c in line]))
             psd.append(N)
         q = np.zeros(n)
         if objective is not None:
             o = sps.csr_matrix(objective)
             q[: o.shape[1]] = o.toarray().ravel()
-        A = sps.vstack(zero + ineq + cones, format="csc")
+        A = sps.vstack(zero + ineq + rows, format="csc")
         return ConicProblem(q, A, np.concatenate(zero_b + ineq_b + cones_b), sum(len(b) for b in zero_b),
                             sum(len(b) for b in ineq_b), psd)
 
@@ -336,33 +351,36 @@ class SOSProgram:
         result = results[-1]
         if not outcome.solved:
             raise SOSError(f"SOS program not solved ({outcome.status}): {outcome.solver_status} (solver CLARABEL)")
-        grams = {}
-        for k, off in zip(*self._gram_layout()):
-            c = self.sos[k]
-            i, j = svec_indices(c.basis.shape[0])
-            G = np.zeros((len(c.basis), len(c.basis)))
-            G[i, j] = G[j, i] = result.x[off:off + len(i)]
-            grams[f"{k}:{c.name}"] = G
+        grams = {f"{k}:{c.name}": np.zeros((len(c.basis), len(c.basis))) for k, c in enumerate(self.sos)
+                 if c.basis.shape[0]}
+        for k, block, off in self._gram_layout()[0]:  # zero outside the blocks
+            i, j = svec_indices(len(block))
+            G = grams[f"{k}:{self.sos[k].name}"]
+            G[block[i], block[j]] = G[block[j], block[i]] = result.x[off:off + len(i)]
         return SOSSolution(result.x[: self.n_decision].copy(), grams, outcome.solver_status, outcome.solver,
                            result.objective, {"build": build, "solve": outcome.seconds})
 
-    def _gram_layout(self) -> tuple[list[int], np.ndarray]:
-        """Indices of the SOS constraints with a non-empty Gram matrix and the offset of each
-        one's svec in ``x`` (after the decision variables; one more offset: the end)."""
-        ks = [k for k, c in enumerate(self.sos) if c.basis.shape[0]]
-        dims = [len(self.sos[k].basis) * (len(self.sos[k].basis) + 1) // 2 for k in ks]
-        return ks, self.n_decision + np.cumsum([0] + dims)
+    def _gram_layout(self) -> tuple[list[tuple[int, np.ndarray, int]], int]:
+        """The Gram blocks as ``(constraint index, block's indices into its basis, offset of
+        its svec in x)``, after the decision variables, and the length of ``x``."""
+        cones, off = [], self.n_decision
+        for k, c in enumerate(self.sos):
+            for block in c.blocks:
+                cones.append((k, block, off))
+                off += len(block) * (len(block) + 1) // 2
+        return cones, off
 
 
-def coefficient_matching(constraints: Sequence[SOSConstraint], offsets: np.ndarray,
-                         without_gram: Sequence[SOSConstraint], n: int) -> tuple[sps.csr_matrix, np.ndarray]:
+def coefficient_matching(constraints: Sequence[SOSConstraint], cones: Sequence[tuple[int, np.ndarray, int]],
+                         n: int) -> tuple[sps.csr_matrix, np.ndarray]:
     """The coefficient matching of SOS constraints as one sparse linear map ``A x = b``.
 
-    For each constraint ``p = z^T G z`` (``G``'s svec at ``offsets[k]`` of ``x``, after the
-    decision variables ``y``): one row per monomial of ``z z^T``, where the coefficient
+    For each constraint ``p = z^T G z`` (``G``'s blocks given by ``cones``: constraint index,
+    the block's indices into the basis, the offset of its svec in ``x``, after the decision
+    variables ``y``): one row per monomial of the blocks' ``z_i z_j``, where the coefficient
     ``c0 + C y`` of ``p`` equals the sum of the Gram entries reaching it (``G_ij`` twice off
-    the diagonal); one row ``c0 + C y = 0`` per term of ``p`` no Gram entry reaches, and per
-    term of the ``without_gram`` constraints (empty basis: ``p = 0``). Assembled at once:
+    the diagonal); one row ``c0 + C y = 0`` per term of ``p`` no Gram entry reaches (every
+    term of a constraint with an empty basis: ``p = 0``). Assembled at once:
     every ``(constraint, exponent row)``, of the Gram products and of the polynomials, gets
     an integer key (:func:`synthesis.exponents.keys`); the Gram monomials are the unique
     keys and each term of ``p`` finds its row by ``searchsorted``.
@@ -373,16 +391,17 @@ def coefficient_matching(constraints: Sequence[SOSConstraint], offsets: np.ndarr
         Rows x ``n`` (``n`` the length of ``x``).
     b : ndarray
     """
-    polys = [c.poly for c in constraints] + [c.poly for c in without_gram]
+    polys = [c.poly for c in constraints]
     width = max([p.n_vars for p in polys], default=0)
 
     def tagged(k: int, e: np.ndarray) -> np.ndarray:  # (constraint, exponent row) at a common width
         return np.hstack([np.full((len(e), 1), k), e, np.zeros((len(e), width - e.shape[1]), np.int64)])
 
     pair_rows, pair_cols, pair_vals = [], [], []
-    for k, (c, off) in enumerate(zip(constraints, offsets)):
-        i, j = svec_indices(c.basis.shape[0])
-        pair_rows.append(tagged(k, c.basis[i] + c.basis[j]))
+    for k, block, off in cones:
+        i, j = (block[ij] for ij in svec_indices(len(block)))
+        basis = constraints[k].basis
+        pair_rows.append(tagged(k, basis[i] + basis[j]))
         pair_cols.append(off + np.arange(len(i)))
         pair_vals.append(np.where(i == j, 1.0, 2.0))
     n_pairs = sum(len(r) for r in pair_rows)
@@ -432,9 +451,7 @@ class _Extended:
             v[:, i] = 1
             rows.append(np.hstack([basis_x, v]))
         basis = np.vstack(rows) if rows else np.zeros((0, self.prog.n_vars + self.dim), np.int64)
-        basis = prune_diagonal(basis, support)
-        c = SOSConstraint(name, q, basis, label)
-        self.prog.sos.append(c)
+        c = self.prog._constraint(name, q, prune_diagonal(basis, support), support, label)
         self.prog.build_seconds += time.perf_counter() - t0
         return c
 

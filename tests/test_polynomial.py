@@ -126,3 +126,19 @@ def test_keys_order_rows_lexicographically() -> None:
     assert len(np.unique(k)) == len({tuple(r) for r in rows})
     w = exponents.weights(np.full(3, 10))
     assert w is not None and list(w) == [100, 10, 1]  # mixed radix: keys add as exponents do
+
+
+def test_partial_derivative_matches_sympy_with_decision_coefficients() -> None:
+    x, y = sp.symbols("x y")
+    p = Poly.from_sympy(3 * x**3 * y - x * y**2 + 5 * y + 2, [x, y], n_decision=2)
+    p = p + Poly(np.array([[2, 1], [0, 0]]), np.zeros(2), sps.csr_matrix(np.array([[1.0, 0.0], [0.0, 4.0]])))
+    dec = np.array([0.5, -2.0])  # p = 3 x^3 y - x y^2 + 5 y + 2 + 0.5 x^2 y - 8
+    expr = 3 * x**3 * y - x * y**2 + 5 * y + 2 + dec[0] * x**2 * y + 4 * dec[1]
+    for i, v in enumerate((x, y)):
+        d = p.diff(i)
+        assert d.n_decision == 2  # still affine in the same decision variables
+        assert sp.expand(d.to_sympy([x, y], dec) - sp.diff(expr, v)) == 0
+    const = Poly.constant(2.0, 2, 3).diff(1)
+    assert const.n_vars == 2 and const.n_decision == 3 and not const.evaluate(np.ones((1, 2))).any()
+    with pytest.raises(IndexError, match="variable 2 of a polynomial in 2"):
+        p.diff(2)
