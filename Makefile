@@ -20,7 +20,7 @@ DEMO_CAMPAIGNS := mrp_slew_mc mrp_slew_mc_synth mrp_slew_mc_h2hinf
 # (set on some machines) would forbid, so make's commands run without it.
 unexport PYTHONDONTWRITEBYTECODE
 
-.PHONY: demo test test-all build validate verify bench clean system-deps browser-deps wine-deps
+.PHONY: demo test test-all build validate verify bench clean system-deps browser-deps wine-deps bench-deps
 
 # Debian's libtbb12 is needed by the ecos co-simulation host (ecospy), and its MinGW-w64 cross compiler
 # (x86_64-w64-mingw32-gcc) builds every native FMU's win64 DLL; installed once, guarded, checked again
@@ -114,16 +114,25 @@ PYTEST := env OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 $(PY) -
 test: build browser-deps
 	@$(STAGE) --show tests $(PYTEST)
 
-test-all: build browser-deps wine-deps
+# the bench extra (Drake, SumOfSquares.py): `make test-all` runs the tests that pose our SOS programs in
+# Drake (tests/test_sos_bench.py, skipped without it), `make bench` compares with both
+bench-deps: $(VENV)/.bench-deps
+$(VENV)/.bench-deps: pyproject.toml | $(VENV)/.installed
+	@mkdir -p build/logs
+	@$(PY) -m pip install -q --no-compile -e '.[test,bench]' >build/logs/bench-install.log 2>&1 \
+	  || { cat build/logs/bench-install.log; exit 1; }
+	@touch $@
+
+test-all: build browser-deps wine-deps bench-deps
 	@$(STAGE) --show "tests (all)" $(PYTEST) -m "slow or not slow"
 
-bench: build
-	@$(PY) -m pip install -q -e '.[bench]' >build/logs/bench-install.log 2>&1 || { cat build/logs/bench-install.log; exit 1; }
+bench: build bench-deps
 	$(PY) bench/cli_startup.py
 	$(PY) bench/build_speed.py
 	$(PY) bench/fresh_clone.py
 	$(PY) bench/cosim_speed.py --fmu-dir $(FMU_DIR)
 	$(PY) bench/sos_speed.py
+	$(PY) bench/sos_symmetry.py
 	$(PY) bench/sdre_speed.py
 
 clean:
