@@ -33,7 +33,7 @@ The contenders, each end to end and each verifying its own certificate:
   (``NewFreePolynomial``), each SOS condition an ``AddSosConstraint`` on *our* Gram basis
   (extracted from our program, monomial by monomial), LMIs with
   ``AddLinearMatrixInequalityConstraint``; solved by Drake's Clarabel (``ClarabelSolver``,
-  Clarabel 0.11 like the wheel cvxpy calls, default settings and the same options as ours);
+  Clarabel 0.11 like the wheel we call, default settings and the same options as ours);
   then Drake's Gram matrices checked as :func:`synthesis.sos.verify` checks ours.
 - SumOfSquares.py (PyPI, bench extra): the same program with its sympy/picos API
   (``add_matrix_sos_constraint``, its own Newton-polytope basis: it takes none from the
@@ -49,7 +49,7 @@ linear constraint and the objective. Then ``--repeat`` rounds run the tools inte
 program: Gram basis sizes, objectives, min and median of each tool's end-to-end time, the
 medians of its build / solver / verify split ("solver": the time Clarabel reports for ours
 and Drake's, the picos solve call for SumOfSquares.py; "build": everything before it,
-cvxpy's or Drake's translation to the solver's form included), and the ratios of medians
+our or Drake's translation to the solver's form included), and the ratios of medians
 ours/Drake and ours/SumOfSquares.py.
 
     python bench/sos_speed.py [--repeat 5] [--programs thm1-global ...] [--sospy-rounds 1]
@@ -169,9 +169,10 @@ class Caught:
 class _Probe:
     """Looks into one run of a public satfmu function from outside, without changing it.
 
-    Inside ``with probe:`` :meth:`SOSProgram.solve` and ``clarabel.DefaultSolver`` (the
-    solver cvxpy calls) are wrapped: the probe keeps the last program solved (with its
-    objective row and solution), the time its solve returned, and the solver's own time
+    Inside ``with probe:`` :meth:`SOSProgram.solve` and ``clarabel.DefaultSolver`` are
+    wrapped (the solver :func:`synthesis.conic.solve_clarabel` calls): the probe keeps the
+    last program solved (with its objective row and solution), the time its solve returned,
+    and the solver's own time
     (Clarabel's ``solve_time``, summed over calls, s). With ``qdldl`` Clarabel factors its
     KKT systems with QDLDL (one thread, Drake's only choice) instead of the wheel's
     default (faer, multithreaded).
@@ -945,7 +946,7 @@ def main(argv: list[str] | None = None) -> None:
         raise SystemExit("Drake is not installed: pip install -e '.[bench]'") from None
     import clarabel
 
-    print(f"satfmu: Clarabel {clarabel.__version__} (Python wheel, through cvxpy), linear algebra: faer, "
+    print(f"satfmu: Clarabel {clarabel.__version__} (Python wheel, our arrays handed to it directly), linear algebra: faer, "
           f"multithreaded (the wheel's default){'; satfmu qdldl: QDLDL' if args.qdldl else ''}\n"
           f"Drake {metadata.version('drake')}: Clarabel through ClarabelSolver, linear algebra: QDLDL, one thread "
           f"(Drake builds Clarabel without faer and does not pass direct_solve_method)\n"
