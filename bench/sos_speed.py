@@ -39,7 +39,10 @@ The contenders, each end to end and each verifying its own certificate:
   (``add_matrix_sos_constraint``, its own Newton-polytope basis: it takes none from the
   caller), solved by CVXOPT (picos offers no Clarabel), then the same three checks. Slow:
   ``--sospy-rounds`` limits the rounds it takes part in; a program it cannot pose is skipped
-  with the reason printed.
+  with the reason printed. Each of its runs is a forked child process stopped after
+  ``--sospy-limit`` seconds or when its resident memory passes ``--sospy-memory`` GiB (its
+  sympy expansion of the larger programs grows past 12 GiB): then the reason is printed and
+  the ratio as a bound, ours / SumOfSquares.py < (our median) / (the time it was given).
 
 Before timing, each program is run once by each tool (warm-up, not timed) and Drake's
 program is compared with ours coefficient by coefficient: every SOS polynomial (as affine
@@ -53,6 +56,7 @@ our or Drake's translation to the solver's form included), and the ratios of med
 ours/Drake and ours/SumOfSquares.py.
 
     python bench/sos_speed.py [--repeat 5] [--programs thm1-global ...] [--sospy-rounds 1]
+                              [--sospy-limit 600] [--sospy-memory 12]
 
 What the bench reads from our side: the public functions above, the :class:`SOSProgram`
 each one solves (caught in :meth:`SOSProgram.solve`: its ``sos`` constraints' ``basis``
@@ -64,6 +68,7 @@ from __future__ import annotations
 
 import argparse
 import functools
+import multiprocessing
 import time
 from importlib import metadata
 from dataclasses import dataclass
@@ -711,6 +716,66 @@ def _sospy_run(pose: Callable[[], tuple[Any, list, Any, float]]) -> Run:
     return _summarize(grams, total, float(sol.searchTime) or t2 - t1, total - (t2 - t0), float(objective.value))
 
 
+@dataclass(frozen=True)
+class Limits:
+    """What a SumOfSquares.py run is given: wall seconds and resident memory (GiB)."""
+
+    seconds: float
+    memory_gib: float
+
+
+def _resident_gib(pid: int) -> float:
+    """Resident memory of process ``pid`` (GiB; 0 once it is gone)."""
+    try:
+        with open(f"/proc/{pid}/status") as f:
+            for line in f:
+                if line.startswith("VmRSS:"):
+                    return int(line.split()[1]) / 2**20
+    except FileNotFoundError:
+        pass
+    return 0.0
+
+
+def bounded(fn: Callable[[], Run], limits: Limits) -> Run | str:
+    """``fn()`` in a forked child process, or why it gave no result: stopped at the time or
+    memory limit, or the exception it raised."""
+    ctx = multiprocessing.get_context("fork")
+    recv, send = ctx.Pipe(duplex=False)
+
+    def child() -> None:
+        try:
+            send.send(fn())
+        except BaseException as exc:  # the child reports everything, the parent decides
+            send.send(f"failed: {type(exc).__name__}: {exc}")
+
+    proc = ctx.Process(target=child, daemon=True)
+    proc.start()
+    t0 = time.perf_counter()
+    out: Run | str | None = None
+    peak = 0.0
+    while out is None:
+        if recv.poll(0.5):
+            out = recv.recv()
+        elif not proc.is_alive():
+            out = f"died with exit code {proc.exitcode}"
+        elif (peak := max(peak, _resident_gib(proc.pid))) > limits.memory_gib:
+            out = f"stopped at {peak:.1f} GiB resident after {time.perf_counter() - t0:.0f} s (limit {limits.memory_gib:g} GiB)"
+        elif time.perf_counter() - t0 > limits.seconds:
+            out = f"did not finish within {limits.seconds:g} s ({peak:.1f} GiB resident)"
+    proc.kill()
+    proc.join()
+    return out
+
+
+def _bounded_run(pose: Callable[[], tuple[Any, list, Any, float]], limits: Limits) -> Run:
+    """A timed round of SumOfSquares.py in its bounded child; a round that gives no result
+    after the warm-up did is an error of the bench."""
+    out = bounded(lambda: _sospy_run(pose), limits)
+    if isinstance(out, str):
+        raise RuntimeError(f"SumOfSquares.py: {out} (its warm-up run finished)")
+    return out
+
+
 def sospy_theorem1(region: float | None) -> tuple[Any, list, Any, float]:
     """Theorem 1 in SumOfSquares.py, as :func:`drake_theorem1` poses it."""
     from SumOfSquares import SOSProblem, poly_variable
@@ -885,7 +950,7 @@ def _fmt(t: float) -> str:
     return f"{t:9.3f}" if np.isfinite(t) else f"{'-':>9}"
 
 
-def bench(program: Program, repeat: int, sospy_rounds: int, qdldl: bool) -> dict[str, Any]:
+def bench(program: Program, repeat: int, sospy_rounds: int, qdldl: bool, limits: Limits) -> dict[str, Any]:
     """Warm up, compare the programs, then time the tools interleaved; print and return the figures."""
     print(f"\n== {program.key}: {program.title}")
     ref, caught = run_ours(program.ours)
@@ -899,12 +964,18 @@ def bench(program: Program, repeat: int, sospy_rounds: int, qdldl: bool) -> dict
         runs["satfmu qdldl"] = lambda: run_ours(program.ours, qdldl=True)[0]
     runs["Drake"] = lambda: run_drake(lambda: program.drake(bases))
     refs = {"satfmu": ref, "Drake": drake_ref}
+    sospy_note = ""
     if isinstance(program.sospy, str):
         print(f"SumOfSquares.py: skipped ({program.sospy})")
     elif sospy_rounds > 0:
         pose = program.sospy
-        runs["SumOfSquares.py"] = lambda: _sospy_run(pose)
-        refs["SumOfSquares.py"] = runs["SumOfSquares.py"]()
+        first = bounded(lambda: _sospy_run(pose), limits)
+        if isinstance(first, str):
+            sospy_note = first
+            print(f"SumOfSquares.py: {first}")
+        else:
+            refs["SumOfSquares.py"] = first
+            runs["SumOfSquares.py"] = lambda: _bounded_run(pose, limits)
     timed = interleaved(runs, repeat, {"SumOfSquares.py": sospy_rounds})
     for name, r in refs.items():
         print(f"{name:16} Gram sizes {list(r.gram_sizes)}  objective {r.objective:.10g}  "
@@ -925,6 +996,8 @@ def bench(program: Program, repeat: int, sospy_rounds: int, qdldl: bool) -> dict
         ratios["ours qdldl/Drake"] = med["satfmu qdldl"] / med["Drake"]
     if "SumOfSquares.py" in med:
         ratios["ours/SumOfSquares.py"] = med["satfmu"] / med["SumOfSquares.py"]
+    elif sospy_note:
+        print(f"ours/SumOfSquares.py < {med['satfmu'] / limits.seconds:.3g} (SumOfSquares.py {sospy_note})")
     print("ratios of medians: " + ", ".join(f"{k} {v:.3g}" for k, v in ratios.items()))
     return {"key": program.key, "grams": {k: r.gram_sizes for k, r in refs.items()},
             "objectives": {k: r.objective for k, r in refs.items()}, "median": med, "ratios": ratios}
@@ -937,6 +1010,10 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--programs", nargs="+", choices=[p.key for p in all_programs], default=[p.key for p in all_programs])
     ap.add_argument("--sospy-rounds", type=int, default=1,
                     help="rounds SumOfSquares.py takes part in (default: 1; 0: left out)")
+    ap.add_argument("--sospy-limit", type=float, default=600.0,
+                    help="wall seconds a SumOfSquares.py run is given (default: 600)")
+    ap.add_argument("--sospy-memory", type=float, default=12.0,
+                    help="resident GiB a SumOfSquares.py run is given (default: 12)")
     ap.add_argument("--qdldl", action="store_true",
                     help="also time satfmu with Clarabel on QDLDL, one thread (Drake's linear algebra)")
     args = ap.parse_args(argv)
@@ -953,7 +1030,8 @@ def main(argv: list[str] | None = None) -> None:
           f"SumOfSquares.py {metadata.version('SumOfSquares')}: CVXOPT {metadata.version('cvxopt')} through picos "
           f"{metadata.version('picos')}")
     t0 = time.perf_counter()
-    rows = [bench(p, args.repeat, args.sospy_rounds, args.qdldl) for p in all_programs if p.key in args.programs]
+    limits = Limits(args.sospy_limit, args.sospy_memory)
+    rows = [bench(p, args.repeat, args.sospy_rounds, args.qdldl, limits) for p in all_programs if p.key in args.programs]
     names = ["satfmu"] + (["satfmu qdldl"] if args.qdldl else []) + ["Drake", "SumOfSquares.py"]
     print(f"\n{'program':15}{'Gram sizes':>24}" + "".join(f"{n:>16}" for n in names)
           + f"{'ours/Drake':>11}{'ours/sos.py':>12}\n{'':39}{'(median s, end to end, verification included)':>48}")

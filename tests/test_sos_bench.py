@@ -40,6 +40,37 @@ def test_interleaved_runs_in_turn_and_limits_slow_contenders(sos_speed: ModuleTy
     assert out == {"a": ["a"] * 3, "b": ["b"] * 3, "c": ["c"]}
 
 
+def test_bounded_runs_return_the_result_or_say_why_there_is_none(sos_speed: ModuleType) -> None:
+    """SumOfSquares.py runs in a bounded child: its result comes back through the pipe; a run
+    past the time limit, past the memory limit, raising or dying is named, not waited for."""
+    import os
+    import time
+
+    import numpy as np
+
+    generous = sos_speed.Limits(seconds=60.0, memory_gib=8.0)
+    assert sos_speed.bounded(lambda: ("ran", 3), generous) == ("ran", 3)
+    t0 = time.perf_counter()
+    slow = sos_speed.bounded(lambda: time.sleep(30), sos_speed.Limits(seconds=1.0, memory_gib=8.0))
+    assert slow.startswith("did not finish within 1 s"), slow
+    assert time.perf_counter() - t0 < 10  # stopped, not waited for (poll every 0.5 s, kill)
+
+    def grow() -> None:
+        blocks = []
+        while True:  # 64 MiB a step, touched so that it is resident
+            blocks.append(np.ones(2**23))
+            time.sleep(0.01)
+
+    hungry = sos_speed.bounded(grow, sos_speed.Limits(seconds=60.0, memory_gib=0.5))
+    assert hungry.startswith("stopped at") and "limit 0.5 GiB" in hungry, hungry
+
+    def fail() -> None:
+        raise ValueError("bad program")
+
+    assert sos_speed.bounded(fail, generous) == "failed: ValueError: bad program"
+    assert sos_speed.bounded(lambda: os._exit(3), generous) == "died with exit code 3"
+
+
 @pytest.mark.parametrize("region", [None, 0.9])
 def test_drake_poses_our_theorem1_and_finds_the_same_optimum(sos_speed: ModuleType, drake: None,
                                                              region: float | None) -> None:
