@@ -3,7 +3,7 @@
 1. The closed-loop values of the shipped DEMETER row-1 design (poles, exact H-infinity norm,
    impulse-to-peak) on ``--batch`` sampled plants: :class:`synthesis.demeter_random.ClosedLoopSamples`
    (every step batched over the samples) against a per-sample loop of the same functions
-   (:func:`synthesis.robust_lmi.hinf_norm`, ``impulse_to_peak`` on one system); samples/s of
+   (:func:`synthesis.system_norms.hinf_norm`, ``impulse_to_peak`` on one system); samples/s of
    each, best of ``--repeat``, the values compared.
 2. The Chernoff campaign of ``--n`` samples (default 1e5) on an in-process LocalCluster with 1
    and with 2 workers (``sims.campaign``): wall time, speed-up, and whether the two result
@@ -27,8 +27,8 @@ from controllers import polynomial
 from sims import campaign
 from synthesis import demeter_design as dd
 from synthesis import demeter_random as dr
-from synthesis import robust_lmi as rl
 from synthesis.demeter_variants import Variant
+from synthesis.system_norms import hinf_norm, impulse_to_peak
 
 ROW1 = Variant((1,), (1,), 1, 1)
 
@@ -41,8 +41,8 @@ def _per_sample(task: dr.ClosedLoopSamples, deltas: np.ndarray) -> dict[str, np.
         A, Bu, B1 = dm.state_space(d)
         Acl = A + Bu @ task.K
         out["max_real_pole"].append(np.linalg.eigvals(Acl).real.max())
-        out["hinf"].append(rl.hinf_norm(Acl, B1, dm.C1, np.zeros((1, 1))))
-        out["i2p"].append(rl.impulse_to_peak(Acl, dm.B2, dm.C2, dd.I2P_HORIZON, dd.I2P_POINTS))
+        out["hinf"].append(hinf_norm(Acl, B1, dm.C1, np.zeros((1, 1))))
+        out["i2p"].append(impulse_to_peak(Acl, dm.B2, dm.C2, dd.I2P_HORIZON, dd.I2P_POINTS))
     return {k: np.array(v) for k, v in out.items()}
 
 

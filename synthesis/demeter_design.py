@@ -5,13 +5,13 @@
 1. the design model's LFT (:meth:`~synthesis.demeter_variants.DesignModel.lft`) in scaled
    coordinates ``x = T x_s`` (:func:`state_scale`: the states' sizes, balanced, so the LMIs'
    entries are of comparable size; gains, bounds and poles do not depend on T);
-2. :func:`synthesis.robust_lmi.design`: one Lyapunov matrix for H-infinity ``w1 -> z1``,
+2. :func:`synthesis.robust_design.design`: one Lyapunov matrix for H-infinity ``w1 -> z1``,
    impulse-to-peak ``w2 -> z2`` and the pole region ``-10 < Re s < -1e-4``, objective
    ``1 gamma + 100 nu``; D-G scalings for norm-bounded parameters (uncertainty types 1, 3),
    vertex separators for intervals (type 2);
 3. deterministic analysis of the closed loop: H-infinity bound with a parameter-dependent
-   Lyapunov function on the affine descriptor (:func:`synthesis.robust_lmi.pdlf_hinf`) and
-   the impulse-to-peak bound with a common one (:func:`synthesis.robust_lmi.i2p_bound`);
+   Lyapunov function on the affine descriptor (:func:`synthesis.pdlf.pdlf_hinf`) and
+   the impulse-to-peak bound with a common one (:func:`synthesis.robust_design.i2p_bound`);
 4. an independent sampled check: ``n`` plants drawn in the box, closed-loop poles, exact
    H-infinity norms and impulse-to-peak values against the bounds.
 """
@@ -25,9 +25,11 @@ from scipy.linalg import matrix_balance
 
 from controllers.artifact import design_plant_record
 from fmus import demeter
-from synthesis import probabilistic as pr
-from synthesis import robust_lmi as rl
 from synthesis.demeter_variants import RATE_WORST, THETA_WORST, DesignModel, Variant, design_model
+from synthesis.lft_plant import AffineDescriptor, LFTPlant, ProgramTooLargeError
+from synthesis.pdlf import PDLFResult, pdlf_hinf
+from synthesis.robust_design import RobustDesign, design, i2p_bound
+from synthesis.system_norms import hinf_norm, impulse_to_peak
 
 ALPHA = 1e-4
 """Pole region: Re s < -ALPHA, 1/s (seed: region('plane', -1e-4))."""
@@ -60,10 +62,10 @@ def state_scale(dm: DesignModel) -> np.ndarray:
     return T0 * s
 
 
-def scaled_lft(dm: DesignModel, T: np.ndarray) -> rl.LFTPlant:
+def scaled_lft(dm: DesignModel, T: np.ndarray) -> LFTPlant:
     """The design model's LFT in the coordinates ``x_s = T^-1 x``, each uncertainty channel
-    balanced (:meth:`synthesis.robust_lmi.LFTPlant.balance_channels`)."""
-    return rl.LFTPlant(**dm.lft()).scale_states(T).balance_channels()
+    balanced (:meth:`synthesis.lft_plant.LFTPlant.balance_channels`)."""
+    return LFTPlant(**dm.lft()).scale_states(T).balance_channels()
 
 
 @dataclass
@@ -148,8 +150,8 @@ def closed_loop_values(dm: DesignModel, K: np.ndarray, deltas: np.ndarray) -> di
     stable = re.max(axis=1, initial=-np.inf) < 0
     hinf, i2p = np.full(len(Acl), np.inf), np.full(len(Acl), np.inf)
     if stable.any():
-        hinf[stable] = pr.hinf_norms(Acl[stable], B1[stable], dm.C1, np.zeros((dm.C1.shape[0], B1.shape[-1])))
-        i2p[stable] = rl.impulse_to_peak(Acl[stable], dm.B2, dm.C2, I2P_HORIZON, I2P_POINTS)
+        hinf[stable] = hinf_norm(Acl[stable], B1[stable], dm.C1, np.zeros((dm.C1.shape[0], B1.shape[-1])))
+        i2p[stable] = impulse_to_peak(Acl[stable], dm.B2, dm.C2, I2P_HORIZON, I2P_POINTS)
     return {"max_real_pole": re.max(axis=1, initial=-np.inf), "min_real_pole": re.min(axis=1, initial=np.inf),
             "hinf": hinf, "i2p": i2p}
 
@@ -167,11 +169,11 @@ class DeterministicResult:
 
     variant: Variant
     uncertainty: str
-    design: rl.RobustDesign
+    design: RobustDesign
     K: np.ndarray | None
-    analysis_hinf: rl.PDLFResult | None = None
-    analysis_hinf_common: rl.PDLFResult | None = None
-    analysis_i2p: rl.RobustDesign | None = None
+    analysis_hinf: PDLFResult | None = None
+    analysis_hinf_common: PDLFResult | None = None
+    analysis_i2p: RobustDesign | None = None
     analysis_skipped: str = ""
     check: SampledCheck | None = None
     seconds: dict[str, float] = field(default_factory=dict)
@@ -193,27 +195,27 @@ class Analysis:
     """Deterministic analysis of one gain over the whole box (:func:`analyse`); the H-infinity
     bounds are None when their program is too large (``skipped`` says why)."""
 
-    hinf: rl.PDLFResult | None
-    hinf_common: rl.PDLFResult | None
-    i2p: rl.RobustDesign
+    hinf: PDLFResult | None
+    hinf_common: PDLFResult | None
+    i2p: RobustDesign
     seconds: float
     skipped: str = ""
 
 
 def analyse(dm: DesignModel, K: np.ndarray, T: np.ndarray | None = None) -> Analysis:
     """H-infinity bounds with a parameter-dependent and with a common Lyapunov function (on the
-    LFT's descriptor; skipped above :data:`synthesis.robust_lmi.PDLF_MAX_ENTRIES`) and the
+    LFT's descriptor; skipped above :data:`synthesis.pdlf.PDLF_MAX_ENTRIES`) and the
     impulse-to-peak bound of ``u = K x`` (physical units), in the coordinates ``x = T x_s``
     (default :func:`state_scale`)."""
     t0 = time.perf_counter()
     T = state_scale(dm) if T is None else T
     plant = scaled_lft(dm, T)
     Ks = np.asarray(K, float) * T
-    desc = rl.AffineDescriptor.from_lft(plant)
-    i2p = rl.i2p_bound(plant, Ks, alpha=0.0, uncertainty=uncertainty_kind(dm.variant))
+    desc = AffineDescriptor.from_lft(plant)
+    i2p = i2p_bound(plant, Ks, alpha=0.0, uncertainty=uncertainty_kind(dm.variant))
     try:
-        hinf, common, skipped = rl.pdlf_hinf(desc, Ks), rl.pdlf_hinf(desc, Ks, common=True), ""
-    except rl.ProgramTooLargeError as exc:
+        hinf, common, skipped = pdlf_hinf(desc, Ks), pdlf_hinf(desc, Ks, common=True), ""
+    except ProgramTooLargeError as exc:
         hinf, common, skipped = None, None, f"H-infinity analysis skipped: {exc}"
     return Analysis(hinf, common, i2p, time.perf_counter() - t0, skipped)
 
@@ -225,7 +227,7 @@ def deterministic(variant: Variant, *, n_samples: int = 100, seed: int = 0, anal
     T = state_scale(dm)
     kind = uncertainty_kind(variant)
     t0 = time.perf_counter()
-    des = rl.design(scaled_lft(dm, T), w_hinf=W_HINF, w_i2p=W_I2P, alpha=ALPHA, beta=BETA, uncertainty=kind)
+    des = design(scaled_lft(dm, T), w_hinf=W_HINF, w_i2p=W_I2P, alpha=ALPHA, beta=BETA, uncertainty=kind)
     out = DeterministicResult(variant, kind, des, None if des.K is None else des.K / T,
                               seconds={"design": time.perf_counter() - t0}, obstruction=coincident_modes(variant))
     if out.K is None:

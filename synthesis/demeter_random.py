@@ -8,7 +8,7 @@
   ``1 - delta`` the design violates the specs on a set of plants of probability at most epsilon.
   The program is solved in the coordinates where the nominal design's Lyapunov matrix has a unit
   diagonal (without that, Clarabel fails on this stiff loop; see the README), by constraint
-  generation over the plants (:func:`synthesis.robust_lmi.design`: the same optimum, with a
+  generation over the plants (:func:`synthesis.robust_design.design`: the same optimum, with a
   few hundred plants in the solver instead of thousands).
 - :func:`analyse`: the probabilistic analysis of a gain: closed-loop poles, exact H-infinity
   norms and impulse-to-peak values of N sampled plants, all vectorized, with the log-over-log
@@ -28,9 +28,10 @@ import numpy as np
 
 from synthesis import demeter_design as dd
 from synthesis import probabilistic as pr
-from synthesis import robust_lmi as rl
 from synthesis import sequential as sq
 from synthesis.demeter_variants import DesignModel, Variant, design_model
+from synthesis.lft_plant import OptionError
+from synthesis.robust_design import RobustDesign, design
 
 SCENARIO_EPSILON, SCENARIO_DELTA = 0.1, 1e-9
 """The scenario design's violation level and confidence (docs/models.md: N = 962 for row 1)."""
@@ -42,8 +43,8 @@ def design_scale(dm: DesignModel) -> np.ndarray:
     """State scale of the randomized programs: :func:`synthesis.demeter_design.state_scale` times
     the square root of the nominal design's Lyapunov diagonal (unit diagonal at the nominal)."""
     T = dd.state_scale(dm)
-    nominal = rl.design(dd.scaled_lft(dm, T).at(np.zeros(len(dm.parameters))), w_hinf=dd.W_HINF,
-                        w_i2p=dd.W_I2P, alpha=dd.ALPHA, beta=dd.BETA)
+    nominal = design(dd.scaled_lft(dm, T).at(np.zeros(len(dm.parameters))), w_hinf=dd.W_HINF,
+                     w_i2p=dd.W_I2P, alpha=dd.ALPHA, beta=dd.BETA)
     return T if nominal.Y is None else T * np.sqrt(np.diag(nominal.Y))
 
 
@@ -120,7 +121,7 @@ class ScenarioResult:
     """One Prob row of Table 1: scenario design, probabilistic analysis, seconds."""
 
     variant: Variant
-    design: rl.RobustDesign
+    design: RobustDesign
     K: np.ndarray | None
     n_samples: int
     n_decision: int
@@ -141,12 +142,12 @@ def scenario(variant: Variant, *, epsilon: float = SCENARIO_EPSILON, delta: floa
     d = n_decision(dm)
     n = pr.scenario_samples(d, epsilon, delta) if n is None else n
     if n < 1:
-        raise rl.OptionError(f"n must be >= 1, got {n!r}")
+        raise OptionError(f"n must be >= 1, got {n!r}")
     t0 = time.perf_counter()
     T = design_scale(dm)
     P = dd.scaled_lft(dm, T)
     plants = [P.at(x) for x in dm.sample(n, np.random.default_rng(seed))]
-    des = rl.design(plants, w_hinf=dd.W_HINF, w_i2p=dd.W_I2P, alpha=dd.ALPHA, beta=dd.BETA)
+    des = design(plants, w_hinf=dd.W_HINF, w_i2p=dd.W_I2P, alpha=dd.ALPHA, beta=dd.BETA)
     out = ScenarioResult(variant, des, None if des.K is None else des.K / T, n, d, epsilon, delta,
                          seconds={"design": time.perf_counter() - t0})
     if analysis and out.K is not None:
@@ -160,7 +161,7 @@ class SequentialDesign:
     """The sequential method started from the deterministic design, at its levels times ``scale``."""
 
     variant: Variant
-    deterministic: rl.RobustDesign
+    deterministic: RobustDesign
     result: sq.SequentialResult
     K: np.ndarray | None
 
@@ -182,7 +183,7 @@ def sequential_design(variant: Variant, *, scale: float = 0.99, epsilon: float =
     """
     dm = design_model(variant)
     T0 = dd.state_scale(dm)  # the deterministic design's own coordinates (as deterministic())
-    det = rl.design(dd.scaled_lft(dm, T0), w_hinf=dd.W_HINF, w_i2p=dd.W_I2P, alpha=dd.ALPHA, beta=dd.BETA,
+    det = design(dd.scaled_lft(dm, T0), w_hinf=dd.W_HINF, w_i2p=dd.W_I2P, alpha=dd.ALPHA, beta=dd.BETA,
                     uncertainty=dd.uncertainty_kind(variant))
     if det.K is None:
         raise ValueError(f"{variant.label}: no deterministic design to start from ({det.status})")

@@ -252,7 +252,7 @@ class DesignModel:
 
 
     def lft(self) -> dict[str, np.ndarray | tuple]:
-        """The LFT of the design model (matrices of :class:`synthesis.robust_lmi.LFTPlant`).
+        """The LFT of the design model (matrices of :class:`synthesis.lft_plant.LFTPlant`).
 
         Each ``N_k = U_k V_k`` (SVD, rank ``r_k``) gives the channel ``p_k = delta_k q_k``,
         ``q_k = V_k xi``; solving ``N0 xi + sum U_k p_k = 0`` for ``(x', v)`` gives

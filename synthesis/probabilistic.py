@@ -1,5 +1,5 @@
-"""Randomized analysis of uncertain closed loops (seed 004, section 5.2): sample-size bounds,
-vectorized exact performance of many samples, and the probabilistic statements.
+"""Randomized analysis of uncertain closed loops (seed 004, section 5.2): sample-size bounds and
+the probabilistic statements of sampled values.
 
 The seed names its bounds without formulas (``randsettings``: epsilon = 0.1, delta = 1e-6); we
 use the standard ones (Tempo, Calafiore & Dabbene, *Randomized Algorithms for Analysis and
@@ -18,10 +18,10 @@ Control of Uncertain Systems*, 2nd ed., Springer 2013, chapters 8 and 12):
   ``sum_{i < d} C(N, i) epsilon^i (1 - epsilon)^(N - i) <= delta`` (N = 962 for d = 46,
   epsilon 0.1, delta 1e-9: Table 1 row 1).
 
-The exact values per sample are vectorized over the sample axis: :func:`hinf_norms` runs the
-Boyd-Balakrishnan/Bruinsma-Steinbuch iteration on every sample at once (batched Hamiltonian
-eigenvalues and frequency responses; a sample leaves the batch when it converges), and the
-impulse-to-peak values come from :func:`synthesis.robust_lmi.impulse_to_peak`, which
+The exact values per sample come from :mod:`synthesis.system_norms`, vectorized over the sample
+axis: :func:`~synthesis.system_norms.hinf_norm` runs the Boyd-Balakrishnan/Bruinsma-Steinbuch
+iteration on every sample at once (batched Hamiltonian eigenvalues and frequency responses; a
+sample leaves the batch when it converges), and :func:`~synthesis.system_norms.impulse_to_peak`
 propagates a stack of systems.
 """
 from __future__ import annotations
@@ -32,7 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.stats import binom
 
-from synthesis.robust_lmi import NotHurwitzError, OptionError, _system_stack
+from synthesis.lft_plant import OptionError
 
 
 def _check_eps_delta(epsilon: float, delta: float) -> None:
@@ -73,85 +73,6 @@ def scenario_samples(n_decision: int, epsilon: float, delta: float) -> int:
         mid = (lo + hi) // 2
         lo, hi = (lo, mid) if binom.cdf(n_decision - 1, mid, epsilon) <= delta else (mid, hi)
     return hi if binom.cdf(n_decision - 1, lo, epsilon) > delta else lo
-
-
-def _sigma_max_at(A, B, C, D, w: np.ndarray) -> np.ndarray:
-    """``sigma_max(C (j w I - A)^-1 B + D)`` for stacks (S, .) and frequencies w (S, F): (S, F)."""
-    n = A.shape[-1]
-    M = 1j * w[..., None, None] * np.eye(n) - A[:, None]
-    G = C[:, None] @ np.linalg.solve(M, np.broadcast_to(B[:, None], M.shape[:2] + B.shape[-2:])) + D[:, None]
-    return np.linalg.norm(G, ord=2, axis=(-2, -1))
-
-
-def _hamiltonian_stack(A, B, C, D, g: np.ndarray) -> np.ndarray:
-    """Hamiltonians of the bounded-real lemma at levels g (S,), stacked (S, 2n, 2n)."""
-    m, p = D.shape[-1], D.shape[-2]
-    Dt = np.swapaxes(D, -1, -2)
-    Ri = np.linalg.inv(g[:, None, None] ** 2 * np.eye(m) - Dt @ D)
-    Ct = np.swapaxes(C, -1, -2)
-    Ah = A + B @ Ri @ Dt @ C
-    top = np.concatenate([Ah, B @ Ri @ np.swapaxes(B, -1, -2)], axis=-1)
-    bottom = np.concatenate([-Ct @ (np.eye(p) + D @ Ri @ Dt) @ C, -np.swapaxes(Ah, -1, -2)], axis=-1)
-    return np.concatenate([top, bottom], axis=-2)
-
-
-def hinf_norms(A, B, C, D, tol: float = 1e-9, max_iter: int = 200) -> np.ndarray:
-    """H-infinity norms of a stack of stable systems, all iterated together.
-
-    The same iteration, tolerance and acceptance rule as
-    :func:`synthesis.robust_lmi.hinf_norm` (an upper bound within relative ``2 tol``), with
-    every step batched over the samples still iterating.
-
-    Parameters
-    ----------
-    A, B, C, D : ndarray
-        Shapes (S, n, n), (S, n, m), (S, p, n), (S, p, m); B, C, D may be 2-D (shared).
-    tol : float
-        Relative accuracy (> 0).
-
-    Returns
-    -------
-    ndarray, shape (S,)
-
-    Raises
-    ------
-    NotHurwitzError
-        If a sample's A has an eigenvalue with ``Re >= 0`` (its index is named).
-    """
-    A, B, C, D = _system_stack(A, B, C, D)
-    if A.ndim == 2:
-        A, B, C, D = A[None], B[None], C[None], D[None]
-    if not (np.isfinite(tol) and tol > 0):
-        raise OptionError(f"tol must be finite and > 0, got {tol!r}")
-    lam = np.linalg.eigvals(A)
-    bad = np.flatnonzero(lam.real.max(axis=-1) >= 0)
-    if bad.size:
-        raise NotHurwitzError(f"sample {bad[0]} is not Hurwitz (max Re eig {lam[bad[0]].real.max():.3e}): "
-                              f"its H-infinity norm is infinite ({bad.size} such samples)")
-    w0 = np.concatenate([np.zeros((len(A), 1)), np.abs(lam)], axis=1)
-    low = np.maximum(_sigma_max_at(A, B, C, D, w0).max(axis=1), np.linalg.norm(D, ord=2, axis=(-2, -1)))
-    out = np.where(low == 0.0, 0.0, np.nan)
-    active = np.flatnonzero(low > 0)
-    for _ in range(max_iter):
-        if active.size == 0:
-            return out
-        a, b, c, d = A[active], B[active], C[active], D[active]
-        g = (1 + 2 * tol) * low[active]
-        H = _hamiltonian_stack(a, b, c, d, g)
-        ev = np.linalg.eigvals(H)
-        scale = np.maximum(1.0, np.abs(H).max(axis=(-2, -1)))
-        on_axis = np.abs(ev.real) <= 1e-7 * scale[:, None]
-        w = np.sort(np.where(on_axis, ev.imag, np.nan), axis=1)  # NaN last
-        count = on_axis.sum(axis=1)
-        mids = np.where(count[:, None] > 1, (w[:, :-1] + w[:, 1:]) / 2, np.abs(w[:, :1]))
-        mids = np.where(np.isnan(mids), 0.0, np.abs(mids))  # padding: w = 0, already below low
-        best = np.where(count > 0, _sigma_max_at(a, b, c, d, mids).max(axis=1), 0.0)
-        done = best <= g  # no crossing, or the crossings were numerical
-        out[active[done]] = g[done]
-        low[active[~done]] = best[~done]
-        active = active[~done]
-    raise RuntimeError(f"the H-infinity iteration did not converge in {max_iter} iterations "
-                       f"for {active.size} samples")
 
 
 @dataclass(frozen=True)

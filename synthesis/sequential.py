@@ -1,6 +1,6 @@
 """Sequential randomized design: subgradient updates and probabilistic validation (seed 004, 4.2).
 
-The same specs as :func:`synthesis.robust_lmi.design` at fixed levels (gamma, nu): one
+The same specs as :func:`synthesis.robust_design.design` at fixed levels (gamma, nu): one
 Lyapunov matrix, the dual LMIs of H-infinity ``w1 -> z1``, of the pole region and of the
 impulse-to-peak bound, in the variables ``x = (Y, W)``, ``K = W Y^-1``. For a plant at delta
 let ``v(x, delta)`` be the largest eigenvalue over those LMIs (each written as ``L(x) < 0``)
@@ -28,7 +28,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from synthesis import robust_lmi as rl
+from synthesis.lft_plant import LFTPlant, OptionError, _sym
+from synthesis.robust_design import _dual_lmi, _i2p_blocks, _specs
 
 Sampler = Callable[[np.random.Generator, int], np.ndarray]
 
@@ -36,7 +37,7 @@ Sampler = Callable[[np.random.Generator, int], np.ndarray]
 def validation_samples(k: int, epsilon: float, delta: float) -> int:
     """``N_k = ceil(ln(pi^2 k^2 / (6 delta)) / ln(1 / (1 - epsilon)))`` of validation round k >= 1."""
     if not (0 < epsilon < 1 and 0 < delta < 1) or k < 1:
-        raise rl.OptionError(f"need k >= 1 and epsilon, delta in (0, 1), got {k!r}, {epsilon!r}, {delta!r}")
+        raise OptionError(f"need k >= 1 and epsilon, delta in (0, 1), got {k!r}, {epsilon!r}, {delta!r}")
     return math.ceil(math.log(math.pi**2 * k**2 / (6 * delta)) / math.log(1 / (1 - epsilon)))
 
 
@@ -73,13 +74,13 @@ class SequentialResult:
 class _LMIs:
     """The numpy LMIs ``L_j(x) < 0`` of one certain plant at levels (gamma, nu), x = (Y, W)."""
 
-    def __init__(self, plant: rl.LFTPlant, gamma: float, nu: float, alpha: float, beta: float | None) -> None:
+    def __init__(self, plant: LFTPlant, gamma: float, nu: float, alpha: float, beta: float | None) -> None:
         self.plant, self.gamma, self.nu = plant, gamma, nu
-        self.specs = rl._specs(plant, alpha, beta, True)
+        self.specs = _specs(plant, alpha, beta, True)
 
     def __call__(self, Y: np.ndarray, W: np.ndarray) -> list[np.ndarray]:
-        out = [rl._dual_lmi(s, Y, W, None, self.gamma, np.vstack, np.block) for s in self.specs]
-        upper, lower = rl._i2p_blocks(self.plant, Y, self.nu, np.block)
+        out = [_dual_lmi(s, Y, W, None, self.gamma, np.vstack, np.block) for s in self.specs]
+        upper, lower = _i2p_blocks(self.plant, Y, self.nu, np.block)
         return out + [-upper, lower]
 
 
@@ -109,7 +110,7 @@ def _worst(lmis: _LMIs, Y: np.ndarray, W: np.ndarray) -> tuple[float, int, np.nd
     return best
 
 
-def sequential(plant: rl.LFTPlant, sampler: Sampler, gamma: float, nu: float, Y0: np.ndarray, W0: np.ndarray, *,
+def sequential(plant: LFTPlant, sampler: Sampler, gamma: float, nu: float, Y0: np.ndarray, W0: np.ndarray, *,
                alpha: float = 1e-4, beta: float | None = 10.0, epsilon: float = 0.1, delta: float = 1e-6,
                margin: float = 1e-7, overshoot: float = 1e-3, max_updates: int = 2000, seed: int = 0
                ) -> SequentialResult:
@@ -139,7 +140,7 @@ def sequential(plant: rl.LFTPlant, sampler: Sampler, gamma: float, nu: float, Y0
         Seed of the sample stream.
     """
     n, m = plant.A.shape[0], plant.Bu.shape[1]
-    Y, W = rl._sym(np.asarray(Y0, float)), np.asarray(W0, float).reshape(m, n)
+    Y, W = _sym(np.asarray(Y0, float)), np.asarray(W0, float).reshape(m, n)
     basis = _basis(n, m)
     rng = np.random.default_rng(seed)
     t0 = time.perf_counter()

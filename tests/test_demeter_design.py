@@ -10,14 +10,17 @@ from controllers import artifact as artifacts
 from controllers import polynomial, state_feedback
 from synthesis import demeter_design as dd
 from synthesis import demeter_variants as dv
-from synthesis import robust_lmi as rl
+from synthesis.lft_plant import LFTPlant
+from synthesis.pdlf import PDLF_BISECTION_TOL
+from synthesis.robust_design import design
+from synthesis.system_norms import hinf_norm, impulse_to_peak
 
 ROW1 = dv.Variant((1,), (1,), 1, 1)
 
 
-def nominal_plant(dm: dv.DesignModel, T: np.ndarray) -> rl.LFTPlant:
+def nominal_plant(dm: dv.DesignModel, T: np.ndarray) -> LFTPlant:
     P = dd.scaled_lft(dm, T)
-    return rl.LFTPlant.without_uncertainty(A=P.A, Bu=P.Bu, B1=P.B1, B2=P.B2, C1=P.C1, D1u=P.D1u, D11=P.D11, C2=P.C2)
+    return LFTPlant.without_uncertainty(A=P.A, Bu=P.Bu, B1=P.B1, B2=P.B2, C1=P.C1, D1u=P.D1u, D11=P.D11, C2=P.C2)
 
 
 def test_shared_lyapunov_matrix_bounds_the_product_of_the_two_levels() -> None:
@@ -29,7 +32,7 @@ def test_shared_lyapunov_matrix_bounds_the_product_of_the_two_levels() -> None:
     T = dd.state_scale(dm)
     A, Bu, _ = dm.state_space(np.zeros(3))
     for w_i2p, gamma_ref in ((100.0, 223.6), (1.0, 22.37)):
-        des = rl.design(nominal_plant(dm, T), w_hinf=1.0, w_i2p=w_i2p, alpha=dd.ALPHA, beta=dd.BETA)
+        des = design(nominal_plant(dm, T), w_hinf=1.0, w_i2p=w_i2p, alpha=dd.ALPHA, beta=dd.BETA)
         assert des.status == "optimal" and des.check.ok
         # 2e-3: the solver's accuracy on this poorly conditioned program plus the 1e-4 back-off
         assert des.gamma * des.nu >= 500.0 * (1 - 2e-3)
@@ -38,8 +41,8 @@ def test_shared_lyapunov_matrix_bounds_the_product_of_the_two_levels() -> None:
         Acl = A + Bu @ K
         assert np.linalg.eigvals(Acl).real.max() < -dd.ALPHA and np.linalg.eigvals(Acl).real.min() > -dd.BETA
         _, _, B1 = dm.state_space(np.zeros(3))
-        assert rl.hinf_norm(Acl, B1, dm.C1, np.zeros((1, 1))) <= des.gamma
-        assert rl.impulse_to_peak(Acl, dm.B2, dm.C2, 3000.0, 3001) <= des.nu
+        assert hinf_norm(Acl, B1, dm.C1, np.zeros((1, 1))) <= des.gamma
+        assert impulse_to_peak(Acl, dm.B2, dm.C2, 3000.0, 3001) <= des.nu
 
 
 @pytest.fixture(scope="module")
@@ -68,7 +71,7 @@ def test_row1_analysis_bounds_the_sampled_loops(row1) -> None:
     assert h.check.ok and hc.check.ok and i2p.check.ok
     # every bound is above every sampled exact value (measured: 79.67 < 83.3 PDLF < 106.3 common
     # < 256.6 design; i2p 0.058 < 0.199 analysis < 2.57 design)
-    assert ck.hinf.max() <= h.gamma <= hc.gamma * (1 + dd.rl.PDLF_BISECTION_TOL) <= row1.design.gamma
+    assert ck.hinf.max() <= h.gamma <= hc.gamma * (1 + PDLF_BISECTION_TOL) <= row1.design.gamma
     assert ck.i2p.max() <= i2p.nu <= row1.design.nu
     # the parameter-dependent bound is within 10 % of the worst sampled norm (measured 4.5 %)
     assert h.gamma <= 1.1 * ck.hinf.max()

@@ -1,4 +1,4 @@
-"""Randomized analysis and scenario design (seed 004 part 2): bounds, vectorized norms, DEMETER."""
+"""Randomized analysis and scenario design (seed 004 part 2): bounds, statements, DEMETER."""
 from __future__ import annotations
 
 import math
@@ -11,9 +11,9 @@ from scipy.stats import binom
 from synthesis import demeter_design as dd
 from synthesis import demeter_random as dr
 from synthesis import probabilistic as pr
-from synthesis import robust_lmi as rl
 from synthesis import sequential as sq
 from synthesis.demeter_variants import Variant, design_model
+from synthesis.lft_plant import OptionError
 
 ROW1 = Variant((1,), (1,), 1, 1)
 
@@ -31,40 +31,12 @@ def test_sample_size_bounds() -> None:
     assert pr.chernoff_accuracy(726, 1e-6) <= 0.1 < pr.chernoff_accuracy(725, 1e-6)
     assert math.ceil(math.log(1e6) / math.log(1 / 0.9)) == 132  # the closed form itself
     for bad in (0.0, 1.0, float("nan")):
-        with pytest.raises(rl.OptionError):
+        with pytest.raises(OptionError):
             pr.worst_case_samples(bad, 1e-6)
-        with pytest.raises(rl.OptionError):
+        with pytest.raises(OptionError):
             pr.chernoff_samples(0.1, bad)
-    with pytest.raises(rl.OptionError):
+    with pytest.raises(OptionError):
         pr.scenario_samples(0, 0.1, 1e-6)
-
-
-def _random_stable(rng: np.random.Generator, S: int, n: int, m: int, p: int):
-    A = rng.normal(size=(S, n, n))
-    A -= (np.linalg.eigvals(A).real.max(axis=1) + rng.uniform(0.05, 1.0, S))[:, None, None] * np.eye(n)
-    return A, rng.normal(size=(S, n, m)), rng.normal(size=(S, p, n)), rng.normal(size=(S, p, m)) * 0.3
-
-
-def test_vectorized_hinf_equals_the_per_sample_iteration() -> None:
-    rng = np.random.default_rng(11)
-    for n, m, p in ((2, 1, 1), (5, 2, 3), (8, 1, 1)):
-        A, B, C, D = _random_stable(rng, 40, n, m, p)
-        batch = pr.hinf_norms(A, B, C, D)
-        loop = np.array([rl.hinf_norm(a, b, c, d) for a, b, c, d in zip(A, B, C, D)])
-        # same iteration and acceptance rule: equal up to rounding of the batched LAPACK calls
-        assert np.allclose(batch, loop, rtol=1e-10, atol=0)
-        # and a true upper bound of sigma_max on a dense frequency grid (within 2 tol)
-        w = np.logspace(-3, 3, 400)
-        grid = np.array([max(np.linalg.norm(c @ np.linalg.solve(1j * f * np.eye(n) - a, b) + d, 2) for f in w)
-                         for a, b, c, d in zip(A[:5], B[:5], C[:5], D[:5])])
-        assert np.all(grid <= batch[:5] * (1 + 1e-8))
-    A, B, C, D = _random_stable(rng, 3, 3, 1, 1)
-    assert np.array_equal(pr.hinf_norms(A, B, np.zeros_like(C), np.zeros_like(D)), np.zeros(3))
-    A[1] += 5 * np.eye(3)
-    with pytest.raises(rl.NotHurwitzError, match="sample 1"):
-        pr.hinf_norms(A, B, C, D)
-    with pytest.raises(rl.PlantDataError):
-        pr.hinf_norms(A, B[:, :2], C, D)
 
 
 def test_worst_case_and_level_statements() -> None:
@@ -77,7 +49,7 @@ def test_worst_case_and_level_statements() -> None:
     assert lp.accuracy == pytest.approx(math.sqrt(math.log(2e6) / 8), rel=1e-15)
     wc = pr.worst_case(np.arange(200.0))
     assert wc.sufficient and wc.estimate == 199.0 and "<= 0.1 with confidence 0.999999" in wc.text()
-    with pytest.raises(rl.OptionError):
+    with pytest.raises(OptionError):
         pr.worst_case([])
 
 
@@ -167,7 +139,7 @@ def test_campaign_of_a_design_unstable_for_some_samples(tmp_path, capsys) -> Non
 def test_sequential_method_lowers_the_deterministic_levels() -> None:
     # ln(pi^2 / (6e-6)) / ln(1 / 0.9) = 135.85: round 1 draws 136 plants; more rounds, more
     assert sq.validation_samples(1, 0.1, 1e-6) == 136 and sq.validation_samples(2, 0.1, 1e-6) == 150
-    with pytest.raises(rl.OptionError):
+    with pytest.raises(OptionError):
         sq.validation_samples(0, 0.1, 1e-6)
     same = dr.sequential_design(ROW1, scale=1.0, max_updates=5)
     # the deterministic certificate holds on the whole box: every sampled LMI is negative definite;
