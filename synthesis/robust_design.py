@@ -87,6 +87,26 @@ i.e. ``sup_t |z2(t)| <= nu``, for every ``delta`` (even time-varying).
 Fixed gain (``design(plant, K=K0)`` and :func:`i2p_bound`): ``W = K0 Y`` is *linear* in
 ``Y``, so the same dual LMIs are the common-Lyapunov analysis of the given gain.
 
+Two conventions (``convention=``) put the levels into these LMIs differently; each LMI alone
+is the same condition in both (``Y`` rescaled), but with **one** ``Y`` for every specification
+they bound different sets of level pairs:
+
+- ``"satfmu"`` (the default): the forms above, levels ``gamma`` and ``nu`` themselves, on both
+  sides of each LMI (``-gamma I`` on the w and on the z block; ``nu I`` beside ``B2`` and
+  beside ``C2 Y C2^T``); objective ``w_hinf gamma + w_i2p nu``.
+- ``"romuloc"``: the forms of the R-RoMulOC toolbox (release R20160826, which the seed used):
+  squared levels ``g_inf = gamma^2``, ``g_i2p = nu^2`` on the z side only: the H-infinity LMI
+  with ``Gw`` against ``-I`` and ``-g_inf I`` on the z block (for a certain plant
+  ``[He(A Y + Bu W) + Bw Bw^T, (C1 Y + D1u W)^T + Bw D11^T; *, -g_inf I + D11 D11^T] <= 0``),
+  the impulse-to-peak LMIs ``Y >= B2 B2^T`` and ``C2 Y C2^T <= g_i2p I``; objective
+  ``w_hinf g_inf + w_i2p g_i2p`` (the toolbox's "+1*hinfty +100*i2p"); the bounds reported are
+  ``sqrt(g)``.
+
+Neither is tighter in general: a shared ``Y`` that must dominate a slowly decaying mode's
+Gramian (``Y >= c G``, from the H-infinity LMI; DEMETER's momentum pseudo-integrator) costs
+``nu >= c'/gamma`` in ``"satfmu"`` (the product gamma nu is bounded below; a small nu for a large
+gamma) and ``nu^2 >= c'`` in ``"romuloc"`` (nu bounded below whatever gamma; gamma free).
+
 Every result returned as ``"optimal"`` has been re-verified without the solver (:func:`verify`):
 each LMI rebuilt in numpy from the returned matrices (with the returned K), its extreme
 eigenvalue of the right sign with a margin; otherwise ``"unverified"``. An optimal
@@ -131,8 +151,16 @@ below the true one, and no strictly feasible point exists at 1e-4 above it."""
 MAX_VERTICES = 4096
 """Default largest number of box vertices (2^N) a vertex program may enumerate."""
 
+CONVENTIONS = ("satfmu", "romuloc")
+"""How the levels enter the LMIs (module docstring): ours, or the R-RoMulOC toolbox's."""
+
 EPS = 1e-7
 """Default strictness of the LMIs in the solver."""
+
+
+def _check_convention(convention: str) -> None:
+    if convention not in CONVENTIONS:
+        raise OptionError(f"convention must be one of {CONVENTIONS}, got {convention!r}")
 
 
 def _check_eps(eps: float) -> None:
@@ -262,11 +290,28 @@ def _specs(plant: LFTPlant, alpha: float, beta: float | None, hinf: bool, sector
     return out
 
 
-def _dual_lmi(s: _Spec, Y, W, mult, gamma, stack, bmat):
+def _weights(convention: str, level) -> tuple:
+    """``(z side, w side)`` of an H-infinity or impulse-to-peak LMI at the program's level (a
+    variable or a number): ``(level, level)`` in ``"satfmu"``, ``(level, 1)`` in ``"romuloc"``."""
+    return (level, level) if convention == "satfmu" else (level, 1.0)
+
+
+def _level(convention: str, bound: float) -> float:
+    """The program's level of a bound (gamma or nu): itself, or its square in ``"romuloc"``."""
+    return bound if convention == "satfmu" else bound**2
+
+
+def _bound(convention: str, level: float) -> float:
+    """The bound (gamma or nu) certified by a program's level: :func:`_level` inverted."""
+    return level if convention == "satfmu" else float(np.sqrt(level))
+
+
+def _dual_lmi(s: _Spec, Y, W, mult, weights, stack, bmat):
     """The dual robust LMI of spec ``s`` (must be < 0), rows ``(x', q, z, w)``, built with the
     array functions given: numpy's (``np.vstack, np.block``) for a check, cvxpy's for the program.
 
-    ``mult = (Qt, St, Rt)`` (ignored when ``n_q = 0``); ``gamma`` is unused without w, z.
+    ``mult = (Qt, St, Rt)`` (ignored when ``n_q = 0``); ``weights = (z side, w side)`` of the
+    level (:func:`_weights`), unused without w, z.
     """
     plant = s.plant
     if s.copies == 2:
@@ -293,18 +338,19 @@ def _dual_lmi(s: _Spec, Y, W, mult, gamma, stack, bmat):
         U = Gp @ St.T @ Eq.T
         L = L + U + U.T - Gp @ Rt @ Gp.T - Eq @ Qt @ Eq.T
     if nz:
-        L = L - gamma * (Ez @ Ez.T)
+        L = L - weights[0] * (Ez @ Ez.T)
     if nw:
         Gw = np.vstack(gw)
-        L = bmat([[L, Gw], [Gw.T, -gamma * np.eye(nw)]])
+        L = bmat([[L, Gw], [Gw.T, -weights[1] * np.eye(nw)]])
     return (L + L.T) / 2
 
 
-def _i2p_blocks(plant: LFTPlant, Y, nu, bmat) -> tuple:
-    """``[[Y, B2], [B2^T, nu I]]`` (must be > 0) and ``C2 Y C2^T - nu I`` (must be < 0)."""
+def _i2p_blocks(plant: LFTPlant, Y, weights, bmat) -> tuple:
+    """``[[Y, B2], [B2^T, w I]]`` (must be > 0) and ``C2 Y C2^T - z I`` (must be < 0), ``(z, w) =
+    weights`` (:func:`_weights`: ``(nu, nu)``, or ``(g_i2p, 1)`` in the toolbox's form)."""
     m2, p2 = plant.B2.shape[1], plant.C2.shape[0]
-    upper = bmat([[Y, plant.B2], [plant.B2.T, nu * np.eye(m2)]])
-    lower = plant.C2 @ Y @ plant.C2.T - nu * np.eye(p2)
+    upper = bmat([[Y, plant.B2], [plant.B2.T, weights[1] * np.eye(m2)]])
+    lower = plant.C2 @ Y @ plant.C2.T - weights[0] * np.eye(p2)
     return (upper + upper.T) / 2, (lower + lower.T) / 2
 
 
@@ -357,7 +403,8 @@ def _dg_structure_error(mult: Multiplier, reps: np.ndarray) -> float:
 
 
 def verify(plant: LFTPlant, K, Y, gamma: float | None, nu: float, multipliers: dict[str, Multiplier], *,
-           alpha: float, beta: float | None, sector: float | None = None) -> RobustCheck:
+           alpha: float, beta: float | None, sector: float | None = None, convention: str = "satfmu"
+           ) -> RobustCheck:
     """Check the dual robust LMIs of :func:`design` / :func:`i2p_bound` with numpy only.
 
     Rebuilds, from the returned ``K, Y`` (``W = K Y``), ``gamma``, ``nu`` and multipliers: every
@@ -371,16 +418,19 @@ def verify(plant: LFTPlant, K, Y, gamma: float | None, nu: float, multipliers: d
     K : ndarray, shape (m, n)
     Y : ndarray, shape (n, n)
     gamma : float or None
-        H-infinity level (None: no H-infinity LMI, as in :func:`i2p_bound`).
+        H-infinity bound (None: no H-infinity LMI, as in :func:`i2p_bound`).
     nu : float
-        Impulse-to-peak level.
+        Impulse-to-peak bound.
     multipliers : dict
         :class:`Multiplier` per robust LMI name (empty when the plant has no blocks).
     alpha, beta : float
         The pole region (beta None: no ``Re s > -beta`` LMI).
     sector : float, optional
         Half-angle (rad) of the sector ``|Im s| < tan(sector) (-Re s)`` (None: no sector LMI).
+    convention : {"satfmu", "romuloc"}
+        How the bounds enter the LMIs (module docstring).
     """
+    _check_convention(convention)
     n = plant.A.shape[0]
     K = _check_gain(K, plant.Bu.shape[1], n)
     Y = _matrix("Y", Y)
@@ -406,8 +456,9 @@ def verify(plant: LFTPlant, K, Y, gamma: float | None, nu: float, multipliers: d
                 pos[f"{s.name}/Q"] = [mu.Q]
                 neg[f"{s.name}/vertices"] = [_vertex_condition(mu.Q, mu.S, mu.R, D)
                                              for D in _vertex_deltas(s.plant)]
-        neg[s.name] = [_dual_lmi(s, Y, W, triple, gamma, np.vstack, np.block)]
-    upper, lower = _i2p_blocks(plant, Y, nu, np.block)
+        weights = None if gamma is None else _weights(convention, _level(convention, gamma))
+        neg[s.name] = [_dual_lmi(s, Y, W, triple, weights, np.vstack, np.block)]
+    upper, lower = _i2p_blocks(plant, Y, _weights(convention, _level(convention, nu)), np.block)
     pos["i2p/B2"] = [upper]
     neg["i2p/C2"] = [lower]
     return _finish_check(neg, pos, structure)
@@ -421,10 +472,12 @@ class RobustDesign:
     ``"infeasible"`` (the solver proved infeasibility), ``"unverified"`` (a solution that failed
     :func:`verify`, or no usable solver answer; K, gamma, nu are then None, ``check`` tells why).
     ``gamma`` (H-infinity bound, units of z1/w1) and ``nu`` (peak bound, units of z2 per unit
-    impulse of w2) are the solver's optimal values times ``1 + backoff`` (the first of
-    :data:`BACKOFFS` that verifies), the levels at which the returned certificate (from the
-    back-off solve) is verified;
-    ``solver_objective`` is the minimized ``w_hinf gamma + w_i2p nu`` itself (not certified).
+    impulse of w2) are the bounds of the program's optimal levels times ``1 + backoff`` (the
+    first of :data:`BACKOFFS` that verifies), at which the returned certificate (from the
+    back-off solve) is verified: the levels themselves in the ``"satfmu"`` ``convention``, their
+    square roots in ``"romuloc"`` (levels ``gamma^2``, ``nu^2``);
+    ``solver_objective`` is the minimized objective itself (``w_hinf gamma + w_i2p nu``, or
+    ``w_hinf gamma^2 + w_i2p nu^2`` in ``"romuloc"``; not certified).
     ``n_vertices``: box
     vertices enumerated (0 with D-G scalings); ``n_multipliers``: scaling pairs (D-G: one per
     block and robust LMI) or full-block multipliers (one per robust LMI). Times in seconds:
@@ -454,6 +507,8 @@ class RobustDesign:
     state_scaling: np.ndarray | None = None
     active_plants: int | None = None
     """Plants in the last program of the constraint generation over many plants (None: all)."""
+    convention: str = "satfmu"
+    """How the levels entered the LMIs (:data:`CONVENTIONS`)."""
 
 
 def _solve(prob: cp.Problem) -> solve_policy.SolveOutcome:
@@ -497,10 +552,12 @@ def _distinct_i2p(plants: tuple[LFTPlant, ...]) -> list[LFTPlant]:
 
 
 def _robust_constraints(plants: tuple[LFTPlant, ...], K: np.ndarray | None, specs: list[list[_Spec]],
-                        uncertainty: str, margin, gamma, nu) -> tuple[cp.Variable, object, dict, list]:
+                        uncertainty: str, margin, gamma, nu, convention: str = "satfmu"
+                        ) -> tuple[cp.Variable, object, dict, list]:
     """``(Y, W, multiplier values, constraints)`` of the common-Lyapunov program over every plant
     (``specs[i]`` of plant i), every LMI strict by ``margin`` (eps, or the variable the back-off
-    maximizes); gamma, nu variables or constants (nu None: no impulse-to-peak LMIs)."""
+    maximizes); gamma, nu the program's levels (:func:`_level`), variables or constants (nu None:
+    no impulse-to-peak LMIs)."""
     n, m = plants[0].A.shape[0], plants[0].Bu.shape[1]
     Y = cp.Variable((n, n), symmetric=True)
     W = cp.Variable((m, n)) if K is None else K @ Y
@@ -514,23 +571,24 @@ def _robust_constraints(plants: tuple[LFTPlant, ...], K: np.ndarray | None, spec
                 mcons, triple, values[_key(i, s.name, len(plants))] = _multiplier_program(
                     s.plant, uncertainty, deltas, margin)
                 cons += mcons
-            L = _dual_lmi(s, Y, W, triple, gamma, cp.vstack, cp.bmat)
+            L = _dual_lmi(s, Y, W, triple, _weights(convention, gamma), cp.vstack, cp.bmat)
             cons.append(L << -margin * np.eye(L.shape[0]))
     for plant in _distinct_i2p(plants) if nu is not None else ():
-        upper, lower = _i2p_blocks(plant, Y, nu, cp.bmat)
+        upper, lower = _i2p_blocks(plant, Y, _weights(convention, nu), cp.bmat)
         cons += [upper >> margin * np.eye(upper.shape[0]), lower << -margin * np.eye(lower.shape[0])]
     return Y, W, values, cons
 
 
 def _verify_plants(plants: tuple[LFTPlant, ...], K, Y, gamma, nu, multipliers: dict[str, Multiplier], *,
-                   alpha: float, beta: float | None, sector: float | None) -> RobustCheck:
+                   alpha: float, beta: float | None, sector: float | None, convention: str) -> RobustCheck:
     """:func:`verify` at every plant, merged: the smallest margin, names prefixed as :func:`_key`."""
+    options = {"alpha": alpha, "beta": beta, "sector": sector, "convention": convention}
     if len(plants) == 1:
-        return verify(plants[0], K, Y, gamma, nu, multipliers, alpha=alpha, beta=beta, sector=sector)
+        return verify(plants[0], K, Y, gamma, nu, multipliers, **options)
     checks = []
     for i, plant in enumerate(plants):
         own = {k.split("/", 1)[1]: v for k, v in multipliers.items() if k.startswith(f"{i}/")}
-        checks.append(verify(plant, K, Y, gamma, nu, own, alpha=alpha, beta=beta, sector=sector))
+        checks.append(verify(plant, K, Y, gamma, nu, own, **options))
     return _merge_checks(checks)
 
 
@@ -600,15 +658,15 @@ def _phase_one(plants: tuple[LFTPlant, ...], K: np.ndarray | None, *, alpha: flo
 def _robust_program(plants: tuple[LFTPlant, ...], K: np.ndarray | None, *, hinf: bool, w_hinf: float,
                     w_i2p: float,
                     alpha: float, beta: float | None, uncertainty: str, eps: float,
-                    backoffs: tuple[float, ...] = BACKOFFS, sector: float | None = None
-                    ) -> tuple[RobustDesign, np.ndarray | None]:
+                    backoffs: tuple[float, ...] = BACKOFFS, sector: float | None = None,
+                    convention: str = "satfmu") -> tuple[RobustDesign, np.ndarray | None]:
     """Solve (minimize the objective), back off (levels x (1 + b), b in BACKOFFS, largest common margin)
     and verify the common-Lyapunov program (options already checked); also the first solve's Y."""
     t0 = time.perf_counter()
     specs = [_specs(p, alpha, beta, hinf, sector) for p in plants]
     gamma = cp.Variable() if hinf else None
     nu = cp.Variable()
-    Y, W, _, cons = _robust_constraints(plants, K, specs, uncertainty, eps, gamma, nu)
+    Y, W, _, cons = _robust_constraints(plants, K, specs, uncertainty, eps, gamma, nu, convention)
     prob = cp.Problem(cp.Minimize(w_i2p * nu + (w_hinf * gamma if hinf else 0)), cons)
     build = time.perf_counter() - t0
     out = _solve(prob)
@@ -616,7 +674,7 @@ def _robust_program(plants: tuple[LFTPlant, ...], K: np.ndarray | None, *, hinf:
                  for p, s in zip(plants, specs))
     info = {"uncertainty": uncertainty,
             "n_vertices": sum(2**p.n_params for p in plants) if uncertainty == "vertex" else 0,
-            "n_multipliers": n_mult, "fixed_gain": K is not None}
+            "n_multipliers": n_mult, "fixed_gain": K is not None, "convention": convention}
     if not out.solved or Y.value is None:
         return RobustDesign(_failed(out), None, None, None, None, {}, None, None, **info,
                             solver_status=out.solver_status, solve_seconds=out.seconds, build_seconds=build), None
@@ -628,7 +686,7 @@ def _robust_program(plants: tuple[LFTPlant, ...], K: np.ndarray | None, *, hinf:
         g = float(gamma.value) * (1 + b) if hinf else None
         nv = float(nu.value) * (1 + b)
         t = cp.Variable()
-        Yb, Wb, values, cons = _robust_constraints(plants, K, specs, uncertainty, t, g, nv)
+        Yb, Wb, values, cons = _robust_constraints(plants, K, specs, uncertainty, t, g, nv, convention)
         prob = cp.Problem(cp.Maximize(t), cons)
         times["build_seconds"] += time.perf_counter() - t0
         out2 = _solve(prob)
@@ -639,7 +697,9 @@ def _robust_program(plants: tuple[LFTPlant, ...], K: np.ndarray | None, *, hinf:
         Yv = _sym(Yb.value)
         Kv = np.linalg.solve(Yv, np.asarray(Wb.value).T).T if K is None else K
         mults = {k: f() for k, f in values.items()}
-        check = _verify_plants(plants, Kv, Yv, g, nv, mults, alpha=alpha, beta=beta, sector=sector)
+        g, nv = (None if g is None else _bound(convention, g)), _bound(convention, nv)
+        check = _verify_plants(plants, Kv, Yv, g, nv, mults, alpha=alpha, beta=beta, sector=sector,
+                               convention=convention)
         if check.ok:
             return RobustDesign("optimal", Kv, g, nv, Yv, mults, check, optimum, **info, **times, backoff=b), Y1
     return RobustDesign("unverified", None, None, None, None, mults, check, optimum, **info, **times), Y1
@@ -663,10 +723,12 @@ def _plant_list(plant: LFTPlant | Sequence[LFTPlant], uncertainty: str, max_vert
 
 def design(plant: LFTPlant | Sequence[LFTPlant], K=None, *, w_hinf: float = 1.0, w_i2p: float = 100.0,
            alpha: float = 1e-4, beta: float = 10.0, sector: float | None = None, uncertainty: str = "norm",
-           max_vertices: int = MAX_VERTICES, eps: float = EPS, rescale: bool = True) -> RobustDesign:
+           max_vertices: int = MAX_VERTICES, eps: float = EPS, rescale: bool = True,
+           convention: str = "satfmu") -> RobustDesign:
     """Robust multi-objective state feedback ``u = K x`` with one Lyapunov matrix (module docstring).
 
-    Minimizes ``w_hinf gamma + w_i2p nu`` (the seed's "+1*hinfty +100*i2p") subject to, for
+    Minimizes ``w_hinf gamma + w_i2p nu`` (the seed's "+1*hinfty +100*i2p"; with
+    ``convention="romuloc"`` the toolbox's ``w_hinf gamma^2 + w_i2p nu^2``) subject to, for
     every delta in ``[-1, 1]^N``: ``||w1 -> z1||_inf < gamma``; ``sup_t |z2(t)| <= nu`` after a
     unit impulse on w2; closed-loop eigenvalues in ``-beta < Re s < -alpha`` and, with ``sector``,
     in ``|Im s| < tan(sector) (-Re s)`` (damping ratio above ``cos(sector)``). The
@@ -697,6 +759,9 @@ def design(plant: LFTPlant | Sequence[LFTPlant], K=None, *, w_hinf: float = 1.0,
     rescale : bool
         If the certificate fails :func:`verify`, solve once more in the coordinates where the
         first solve's Y has a unit diagonal (see ``state_scaling`` of the result).
+    convention : {"satfmu", "romuloc"}
+        How the levels enter the LMIs and the objective (module docstring): ours (levels gamma,
+        nu on both sides of each LMI) or the R-RoMulOC toolbox's (squared levels on the z side).
 
     Returns
     -------
@@ -712,13 +777,14 @@ def design(plant: LFTPlant | Sequence[LFTPlant], K=None, *, w_hinf: float = 1.0,
         With ``"vertex"`` when ``2^N > max_vertices`` (before anything is built).
     """
     _check_options(w_hinf, w_i2p, alpha, beta, uncertainty, eps)
+    _check_convention(convention)
     if sector is not None and not (np.isfinite(sector) and 0 < sector < np.pi / 2):
         raise OptionError(f"sector must be a half-angle in (0, pi/2) rad, got {sector!r}")
     plants = _plant_list(plant, uncertainty, max_vertices)
     if K is not None:
         K = _check_gain(K, plants[0].Bu.shape[1], plants[0].A.shape[0])
     options = {"hinf": True, "w_hinf": w_hinf, "w_i2p": w_i2p, "alpha": alpha, "beta": beta,
-               "uncertainty": uncertainty, "eps": eps, "sector": sector}
+               "uncertainty": uncertainty, "eps": eps, "sector": sector, "convention": convention}
     if len(plants) > SCENARIO_BATCH and not any(p.n_params for p in plants):
         return _constraint_generation(plants, K, rescale, **options)
     return _rescaled_program(plants, K, rescale, **options)
@@ -754,7 +820,8 @@ def _constraint_generation(plants: tuple[LFTPlant, ...], K: np.ndarray | None, r
         T = np.ones(res.K.shape[1]) if res.state_scaling is None else res.state_scaling
         Ks, Ys = res.K * T, res.Y / T[:, None] / T[None, :]  # the coordinates of res.check
         checks = [verify(p.scale_states(T), Ks, Ys, res.gamma, res.nu, {}, alpha=options["alpha"],
-                         beta=options["beta"], sector=options["sector"]) for p in plants]
+                         beta=options["beta"], sector=options["sector"], convention=options["convention"])
+                  for p in plants]
         violated = sorted((c.margin, i) for i, c in enumerate(checks) if not c.ok)
         if not violated:
             return replace(res, check=_merge_checks(checks))
@@ -772,7 +839,9 @@ def i2p_bound(plant: LFTPlant | Sequence[LFTPlant], K, *, alpha: float = 0.0, un
     Smallest ``nu`` with ``[[Y, B2], [B2^T, nu I]] >= 0``, ``C2 Y C2^T <= nu I`` and the robust
     ``A_cl Y + Y A_cl^T + 2 alpha Y < 0`` (same multipliers as :func:`design`, fixed K, no
     H-infinity or beta LMI): then ``sup_t |z2(t)| <= nu`` for every delta (module docstring).
-    Returns a :class:`RobustDesign` with ``gamma = None``.
+    Returns a :class:`RobustDesign` with ``gamma = None``. Alone, the impulse-to-peak LMIs bound
+    the same nu in both conventions (``Y = P / nu`` turns ours into the toolbox's), so this
+    analysis has none.
 
     Raises
     ------

@@ -79,8 +79,8 @@ class _LMIs:
         self.specs = _specs(plant, alpha, beta, True)
 
     def __call__(self, Y: np.ndarray, W: np.ndarray) -> list[np.ndarray]:
-        out = [_dual_lmi(s, Y, W, None, self.gamma, np.vstack, np.block) for s in self.specs]
-        upper, lower = _i2p_blocks(self.plant, Y, self.nu, np.block)
+        out = [_dual_lmi(s, Y, W, None, (self.gamma, self.gamma), np.vstack, np.block) for s in self.specs]
+        upper, lower = _i2p_blocks(self.plant, Y, (self.nu, self.nu), np.block)
         return out + [-upper, lower]
 
 

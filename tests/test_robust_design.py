@@ -189,6 +189,62 @@ def test_nominal_design_is_the_plain_lmi_and_weights_trade_off() -> None:
     assert np.all(poles.real < -0.1) and np.all(poles.real > -10.0)
 
 
+def _toolbox_lmi(plant: LFTPlant, alpha: float, beta: float, w_i2p: float, eps: float = EPS) -> float:
+    """The nominal problem in the R-RoMulOC toolbox's own forms, written directly: H-infinity
+    ``[He(A P + Bu S) + Bw Bw^T, P Cz^T + S^T Dzu^T + Bw Dzw^T; *, -g_inf I + Dzw Dzw^T] < 0``,
+    impulse-to-peak ``P >= B2 B2^T``, ``[-g_i2p I, C2 P; *, -P] < 0``, the region, objective
+    ``g_inf + w_i2p g_i2p``."""
+    A, Bu, B1, B2, C1, D1u, D11, C2 = (plant.A, plant.Bu, plant.B1, plant.B2, plant.C1, plant.D1u, plant.D11,
+                                         plant.C2)
+    n = A.shape[0]
+    P, S = cp.Variable((n, n), symmetric=True), cp.Variable((1, n))
+    g_inf, g_i2p = cp.Variable(), cp.Variable()
+    AP = A @ P + Bu @ S
+    CP = C1 @ P + D1u @ S
+    hinf = cp.bmat([[AP + AP.T + B1 @ B1.T, CP.T + B1 @ D11.T], [CP + D11 @ B1.T, -g_inf * np.eye(2) + D11 @ D11.T]])
+    peak = cp.bmat([[-g_i2p * np.eye(1), C2 @ P], [P @ C2.T, -P]])
+    I = np.eye(n)
+    cons = [P >> eps * I, (hinf + hinf.T) / 2 << -eps * np.eye(n + 2), AP + AP.T + 2 * alpha * P << -eps * I,
+            -(AP + AP.T) - 2 * beta * P << -eps * I, P - B2 @ B2.T >> eps * I, (peak + peak.T) / 2 << -eps * np.eye(n + 1)]
+    prob = cp.Problem(cp.Minimize(g_inf + w_i2p * g_i2p), cons)
+    prob.solve(solver=cp.CLARABEL)
+    return float(prob.value)
+
+
+def test_toolbox_convention_is_the_toolbox_lmis() -> None:
+    # convention="romuloc" through the dual multiplier machinery (levels (g, 1) on the z and w
+    # sides) poses the toolbox's LMIs: the same optimum as those written directly. The two
+    # programs' strictness margins differ in shape (ours on [[Y, B2], [B2^T, 1]], the direct one
+    # on P - B2 B2^T, ...): measured 6.6e-5 apart at eps 1e-7, 1.0e-6 at 1e-9, 4e-7 at 1e-10, so
+    # eps 1e-9 and 1e-5. The bounds are sqrt(g), and they hold on the closed loop.
+    plant = _certain_plant()
+    d = design(plant, alpha=0.1, beta=10.0, convention="romuloc", eps=1e-9)
+    assert d.status == "optimal" and d.convention == "romuloc"
+    assert d.solver_objective == pytest.approx(_toolbox_lmi(plant, 0.1, 10.0, 100.0, eps=1e-9), rel=1e-5)
+    assert d.gamma**2 + 100 * d.nu**2 <= d.solver_objective * (1 + 2 * d.backoff)  # the back-off on g
+    Acl = plant.A + plant.Bu @ d.K
+    assert hinf_norm(Acl, plant.B1, plant.C1 + plant.D1u @ d.K, plant.D11) <= d.gamma
+    assert impulse_to_peak(Acl, plant.B2, plant.C2, 60.0, 6001) <= d.nu
+    ours = design(plant, alpha=0.1, beta=10.0)
+    assert (ours.gamma, ours.nu) != pytest.approx((d.gamma, d.nu), rel=1e-2)  # another trade-off
+
+
+def test_a_certificate_is_checked_in_its_own_convention() -> None:
+    # Both conventions at once (H-infinity and impulse-to-peak with one Y) give different
+    # certificates; each verifies in its own convention, and verify() rejects a convention it
+    # does not know.
+    plant = _certain_plant()
+    for c in ("satfmu", "romuloc"):
+        d = design(plant, alpha=0.1, beta=10.0, convention=c)
+        assert d.status == "optimal"
+        options = {"alpha": 0.1, "beta": 10.0}
+        assert verify(plant, d.K, d.Y, d.gamma, d.nu, {}, convention=c, **options).ok
+    with pytest.raises(OptionError, match="convention must be one of"):
+        verify(plant, d.K, d.Y, d.gamma, d.nu, {}, alpha=0.1, beta=10.0, convention="matlab")
+    with pytest.raises(OptionError, match="convention must be one of"):
+        design(plant, convention="ROMULOC")
+
+
 def test_infeasible_designs_are_reported() -> None:
     A = np.diag([1.0, -1.0])  # the unstable mode is not controlled
     Bu = np.array([[0.0], [1.0]])
