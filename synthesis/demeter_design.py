@@ -141,9 +141,12 @@ I2P_HORIZON, I2P_POINTS = 2000.0, 4001
 within the first few hundred seconds; the slowest closed-loop modes are near -3e-4 1/s)."""
 
 
-def closed_loop_values(dm: DesignModel, K: np.ndarray, deltas: np.ndarray) -> dict[str, np.ndarray]:
+def closed_loop_values(dm: DesignModel, K: np.ndarray, deltas: np.ndarray,
+                       i2p_directions: np.ndarray | None = None) -> dict[str, np.ndarray]:
     """Per plant of ``deltas`` (shape (S, N)), batched: ``max_real_pole``, ``min_real_pole`` (1/s),
-    exact ``hinf`` of ``w1 -> z1`` (rad/(N m); inf if unstable) and ``i2p`` of ``w2 -> z2`` (N m s)."""
+    exact ``hinf`` of ``w1 -> z1`` (rad/(N m); inf if unstable) and ``i2p`` of ``w2 -> z2`` (N m s):
+    the peak over the worst unit impulse direction of w2, or, with ``i2p_directions`` (S, m2),
+    along each sample's own direction (the R-RoMulOC toolbox's probabilistic i2p analysis)."""
     A, Bu, B1 = dm.state_space(np.reshape(deltas, (-1, len(dm.parameters))))
     Acl = A + Bu @ K
     re = np.linalg.eigvals(Acl).real
@@ -151,7 +154,8 @@ def closed_loop_values(dm: DesignModel, K: np.ndarray, deltas: np.ndarray) -> di
     hinf, i2p = np.full(len(Acl), np.inf), np.full(len(Acl), np.inf)
     if stable.any():
         hinf[stable] = hinf_norm(Acl[stable], B1[stable], dm.C1, np.zeros((dm.C1.shape[0], B1.shape[-1])))
-        i2p[stable] = impulse_to_peak(Acl[stable], dm.B2, dm.C2, I2P_HORIZON, I2P_POINTS)
+        B2 = dm.B2 if i2p_directions is None else (dm.B2 @ np.asarray(i2p_directions, float)[stable, :, None])
+        i2p[stable] = impulse_to_peak(Acl[stable], B2, dm.C2, I2P_HORIZON, I2P_POINTS)
     return {"max_real_pole": re.max(axis=1, initial=-np.inf), "min_real_pole": re.min(axis=1, initial=np.inf),
             "hinf": hinf, "i2p": i2p}
 
@@ -220,14 +224,17 @@ def analyse(dm: DesignModel, K: np.ndarray, T: np.ndarray | None = None) -> Anal
     return Analysis(hinf, common, i2p, time.perf_counter() - t0, skipped)
 
 
-def deterministic(variant: Variant, *, n_samples: int = 100, seed: int = 0, analysis: bool = True
-                  ) -> DeterministicResult:
-    """Design, analyse and check one variant (see the module docstring)."""
+def deterministic(variant: Variant, *, n_samples: int = 100, seed: int = 0, analysis: bool = True,
+                  convention: str = "satfmu") -> DeterministicResult:
+    """Design, analyse and check one variant (see the module docstring); the design's LMIs and
+    objective in ``convention`` (:func:`synthesis.robust_design.design`: ours, or the R-RoMulOC
+    toolbox's); the analysis does not depend on it."""
     dm = design_model(variant)
     T = state_scale(dm)
     kind = uncertainty_kind(variant)
     t0 = time.perf_counter()
-    des = design(scaled_lft(dm, T), w_hinf=W_HINF, w_i2p=W_I2P, alpha=ALPHA, beta=BETA, uncertainty=kind)
+    des = design(scaled_lft(dm, T), w_hinf=W_HINF, w_i2p=W_I2P, alpha=ALPHA, beta=BETA, uncertainty=kind,
+                 convention=convention)
     out = DeterministicResult(variant, kind, des, None if des.K is None else des.K / T,
                               seconds={"design": time.perf_counter() - t0}, obstruction=coincident_modes(variant))
     if out.K is None:

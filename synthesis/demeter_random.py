@@ -64,6 +64,8 @@ class Analysis:
     hinf: pr.WorstCase
     i2p: pr.WorstCase
     seconds: float
+    i2p_direction: str = "worst"
+    """How the impulse of w2 was taken (:data:`I2P_DIRECTIONS`)."""
 
     @property
     def in_region(self) -> bool:
@@ -103,17 +105,35 @@ class ClosedLoopSamples:
         return {"variant": self.variant, "K": self.K, "_dm": None}  # rebuilt in the worker
 
 
+I2P_DIRECTIONS = ("worst", "random")
+"""Impulse directions of the probabilistic i2p analysis: the worst unit direction of w2 per
+sample (ours), or one random unit combination of w2's columns per sample (the R-RoMulOC
+toolbox's ``testi2p``): a lower value, the peak of one impulse rather than of the worst."""
+
+
 def analyse(variant: Variant, K: np.ndarray, *, n: int | None = None, seed: int = 1,
-            epsilon: float = ANALYSIS_EPSILON, delta: float = ANALYSIS_DELTA) -> Analysis:
+            epsilon: float = ANALYSIS_EPSILON, delta: float = ANALYSIS_DELTA, i2p_direction: str = "worst"
+            ) -> Analysis:
     """Worst cases over ``n`` plants drawn uniformly in the box (default: the log-over-log
-    count for epsilon, delta)."""
+    count for epsilon, delta); the impulse of w2 in the worst direction of each sample, or, with
+    ``i2p_direction="random"``, in one direction drawn uniformly on the unit sphere per sample
+    (after the plants, from the same generator)."""
+    if i2p_direction not in I2P_DIRECTIONS:
+        raise OptionError(f"i2p_direction must be one of {I2P_DIRECTIONS}, got {i2p_direction!r}")
     n = pr.worst_case_samples(epsilon, delta) if n is None else n
     task = ClosedLoopSamples(variant, np.asarray(K, float))
+    dm = task.design_model()
     t0 = time.perf_counter()
-    v = task(task.design_model().sample(n, np.random.default_rng(seed)))
+    rng = np.random.default_rng(seed)
+    deltas = dm.sample(n, rng)
+    if i2p_direction == "worst":
+        v = task(deltas)
+    else:
+        u = rng.normal(size=(n, dm.B2.shape[1]))
+        v = dd.closed_loop_values(dm, task.K, deltas, u / np.linalg.norm(u, axis=1, keepdims=True))
     return Analysis(n, seed, float(v["max_real_pole"].max()), float(v["min_real_pole"].min()),
                     pr.worst_case(v["hinf"], epsilon, delta), pr.worst_case(v["i2p"], epsilon, delta),
-                    time.perf_counter() - t0)
+                    time.perf_counter() - t0, i2p_direction)
 
 
 @dataclass
@@ -136,18 +156,24 @@ class ScenarioResult:
 
 
 def scenario(variant: Variant, *, epsilon: float = SCENARIO_EPSILON, delta: float = SCENARIO_DELTA,
-             n: int | None = None, seed: int = 0, analysis: bool = True) -> ScenarioResult:
-    """Scenario design of ``variant`` (module docstring); ``n`` overrides the Campi-Garatti count."""
+             n: int | None = None, seed: int = 0, analysis: bool = True, convention: str = "satfmu",
+             sample_bound: str = "campi-garatti") -> ScenarioResult:
+    """Scenario design of ``variant`` (module docstring).
+
+    ``n`` overrides the sample count, otherwise :func:`synthesis.probabilistic.scenario_samples`
+    with ``sample_bound`` (``"campi-garatti"``, exact; ``"romuloc"``, the toolbox's); the LMIs
+    and the objective in ``convention`` (:func:`synthesis.robust_design.design`).
+    """
     dm = design_model(variant)
     d = n_decision(dm)
-    n = pr.scenario_samples(d, epsilon, delta) if n is None else n
+    n = pr.scenario_samples(d, epsilon, delta, sample_bound) if n is None else n
     if n < 1:
         raise OptionError(f"n must be >= 1, got {n!r}")
     t0 = time.perf_counter()
     T = design_scale(dm)
     P = dd.scaled_lft(dm, T)
     plants = [P.at(x) for x in dm.sample(n, np.random.default_rng(seed))]
-    des = design(plants, w_hinf=dd.W_HINF, w_i2p=dd.W_I2P, alpha=dd.ALPHA, beta=dd.BETA)
+    des = design(plants, w_hinf=dd.W_HINF, w_i2p=dd.W_I2P, alpha=dd.ALPHA, beta=dd.BETA, convention=convention)
     out = ScenarioResult(variant, des, None if des.K is None else des.K / T, n, d, epsilon, delta,
                          seconds={"design": time.perf_counter() - t0})
     if analysis and out.K is not None:

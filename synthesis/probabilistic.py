@@ -16,7 +16,9 @@ Control of Uncertain Systems*, 2nd ed., Springer 2013, chapters 8 and 12):
   convex program with ``d`` decision variables and N sampled constraints has a solution
   violated with probability at most epsilon, with confidence ``1 - delta``, as soon as
   ``sum_{i < d} C(N, i) epsilon^i (1 - epsilon)^(N - i) <= delta`` (N = 962 for d = 46,
-  epsilon 0.1, delta 1e-9: Table 1 row 1).
+  epsilon 0.1, delta 1e-9: Table 1 row 1); or, with ``bound="romuloc"``, the explicit count of
+  the R-RoMulOC toolbox (its ``scensamplenb``), ``N = ceil(1.58 / epsilon (ln(1/delta) + d))``
+  (1055 for the same row), a sufficient count that is larger than the exact one.
 
 The exact values per sample come from :mod:`synthesis.system_norms`, vectorized over the sample
 axis: :func:`~synthesis.system_norms.hinf_norm` runs the Boyd-Balakrishnan/Bruinsma-Steinbuch
@@ -61,11 +63,24 @@ def chernoff_accuracy(n: int, delta: float) -> float:
     return math.sqrt(math.log(2 / delta) / (2 * n))
 
 
-def scenario_samples(n_decision: int, epsilon: float, delta: float) -> int:
-    """Smallest N with ``binom.cdf(d - 1, N, epsilon) <= delta`` (Campi & Garatti 2008)."""
+SCENARIO_BOUNDS = ("campi-garatti", "romuloc")
+"""Scenario sample counts of :func:`scenario_samples`: the exact binomial one, the toolbox's."""
+
+
+def scenario_samples(n_decision: int, epsilon: float, delta: float, bound: str = "campi-garatti") -> int:
+    """Scenario count for ``d = n_decision`` scalar decision variables (module docstring).
+
+    ``bound="campi-garatti"``: the smallest N with ``binom.cdf(d - 1, N, epsilon) <= delta``
+    (Campi & Garatti 2008, exact); ``"romuloc"``: ``ceil(1.58 / epsilon (ln(1/delta) + d))``
+    (the R-RoMulOC toolbox's ``scensamplenb``, which counts every scalar decision variable).
+    """
     _check_eps_delta(epsilon, delta)
     if not (isinstance(n_decision, (int, np.integer)) and n_decision >= 1):
         raise OptionError(f"n_decision must be an integer >= 1, got {n_decision!r}")
+    if bound not in SCENARIO_BOUNDS:
+        raise OptionError(f"bound must be one of {SCENARIO_BOUNDS}, got {bound!r}")
+    if bound == "romuloc":
+        return math.ceil(1.58 / epsilon * (math.log(1 / delta) + n_decision))
     lo, hi = n_decision, n_decision
     while binom.cdf(n_decision - 1, hi, epsilon) > delta:
         lo, hi = hi, 2 * hi

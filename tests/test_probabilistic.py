@@ -37,6 +37,13 @@ def test_sample_size_bounds() -> None:
             pr.chernoff_samples(0.1, bad)
     with pytest.raises(OptionError):
         pr.scenario_samples(0, 0.1, 1e-6)
+    # the R-RoMulOC toolbox's count (scensamplenb): 1055 for row 1 (15.8 x (20.72 + 46) = 1054.2),
+    # sufficient, so never below the exact one
+    assert pr.scenario_samples(46, 0.1, 1e-9, bound="romuloc") == 1055
+    for d, eps, delta in ((1, 0.1, 1e-3), (10, 0.05, 1e-6), (46, 0.1, 1e-9), (300, 0.1, 1e-9)):
+        assert pr.scenario_samples(d, eps, delta, "romuloc") >= pr.scenario_samples(d, eps, delta)
+    with pytest.raises(OptionError, match="bound must be one of"):
+        pr.scenario_samples(46, 0.1, 1e-9, bound="calafiore")
 
 
 def test_worst_case_and_level_statements() -> None:
@@ -77,6 +84,28 @@ def test_scenario_design_row1(scen) -> None:
     # (measured max Re -1.05e-4: 60 scenarios leave the region's edge uncovered)
     assert a.max_real_pole < 0 and np.isfinite(a.hinf.estimate)
     assert a.i2p.estimate <= des.nu and a.hinf.estimate <= des.gamma
+
+
+def test_random_direction_i2p_is_below_the_worst_direction() -> None:
+    # The toolbox's probabilistic i2p analysis takes one random unit impulse direction per
+    # sample; ours the worst one. Same plants (drawn first from the same generator): per sample
+    # the random direction's peak is at most the worst direction's (up to rounding, 1e-12
+    # relative), and below it somewhere; the H-infinity and pole values are the same.
+    dm = design_model(ROW1)
+    K = dd.deterministic(ROW1, n_samples=0, analysis=False).K
+    worst, rand = (dr.analyse(ROW1, K, n=40, seed=3, i2p_direction=d) for d in ("worst", "random"))
+    assert (worst.i2p_direction, rand.i2p_direction) == ("worst", "random")
+    assert rand.hinf.estimate == worst.hinf.estimate and rand.max_real_pole == worst.max_real_pole
+    assert rand.i2p.estimate <= worst.i2p.estimate * (1 + 1e-12)
+    rng = np.random.default_rng(3)
+    deltas = dm.sample(40, rng)
+    u = rng.normal(size=(40, dm.B2.shape[1]))
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    per_worst = dd.closed_loop_values(dm, K, deltas)["i2p"]
+    per_rand = dd.closed_loop_values(dm, K, deltas, u)["i2p"]
+    assert np.all(per_rand <= per_worst * (1 + 1e-12)) and np.any(per_rand < 0.99 * per_worst)
+    with pytest.raises(OptionError, match="i2p_direction must be one of"):
+        dr.analyse(ROW1, K, n=5, i2p_direction="mean")
 
 
 @pytest.mark.slow
