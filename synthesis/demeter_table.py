@@ -54,23 +54,24 @@ def _value(res, attr: str) -> float:
     return getattr(res, attr) if res.status == "optimal" else math.inf
 
 
-def run_row(variant: Variant, method: str, *, n_scenarios: int | None = None, seed: int = 0, n_samples: int = 0
-            ) -> Row:
+def run_row(variant: Variant, method: str, *, n_scenarios: int | None = None, seed: int = 0, n_samples: int = 0,
+            convention: str = "satfmu") -> Row:
     """Design and analyse one row (module docstring). ``n_scenarios`` overrides the scenario count;
-    ``n_samples`` plants are checked after a Det design (``result.check``)."""
+    ``n_samples`` plants are checked after a Det design (``result.check``); the designs' LMIs and
+    objective in ``convention`` (:func:`synthesis.robust_design.design`)."""
     if method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")
     t0 = time.perf_counter()
     row = Row(variant, method, "", seed=SEED_TABLE1.get((variant, method)))
     if method == "Det":
-        res = dd.deterministic(variant, n_samples=n_samples, seed=seed)
+        res = dd.deterministic(variant, n_samples=n_samples, seed=seed, convention=convention)
         design, K = res.design, res.K
         if K is not None:
             row.det_hinf, row.det_i2p = _value(res.analysis_hinf, "gamma"), _value(res.analysis_i2p, "nu")
             row.note = res.analysis_skipped
         obstruction = res.obstruction
     else:
-        res = dr.scenario(variant, n=n_scenarios, seed=seed, analysis=False)
+        res = dr.scenario(variant, n=n_scenarios, seed=seed, analysis=False, convention=convention)
         design, K = res.design, res.K
         if K is not None:
             dm = design_model(variant)

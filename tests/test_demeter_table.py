@@ -56,3 +56,18 @@ def test_two_axis_det_row_designs_and_says_why_the_pdlf_is_skipped() -> None:
     assert row.det_hinf != row.det_hinf and "PDLF program has 32 vertex LMIs of size 48" in row.note
     # the i2p analysis and the 132 sampled plants bound each other: sampled <= analysis <= design
     assert row.prob_i2p <= row.det_i2p <= row.design_i2p and row.prob_hinf <= row.design_hinf
+
+
+@pytest.mark.slow
+def test_row2_in_the_toolbox_convention_has_the_seeds_i2p() -> None:
+    # Row 2 (Det, axis 1, appendage 1, norm-bounded) with the R-RoMulOC toolbox's LMI forms and
+    # objective: design i2p 25.68 N m s against the seed's 22.3 (docs/models.md: the independent
+    # stand-in gave 25.7), within the issue's ~15 %; H-infinity 7.48 (seed 4.7; ours 256.6).
+    # 2 %: the certificate is re-verified, so the numbers move with the solver.
+    key = list(SEED_TABLE1)[1]
+    row = t1.run_row(*key, convention="romuloc")
+    assert row.status == "feasible" and row.result.design.convention == "romuloc"
+    assert row.design_i2p == pytest.approx(25.68, rel=0.02) and row.design_hinf == pytest.approx(7.476, rel=0.02)
+    assert abs(row.design_i2p / row.seed[0] - 1) < 0.16
+    # the analyses bound the same gain as before: sampled <= analysis <= design for the i2p
+    assert row.prob_i2p <= row.det_i2p <= row.design_i2p
