@@ -154,10 +154,14 @@ def _certain_plant() -> LFTPlant:
                                         np.array([[0], [0.1]]), np.zeros((2, 1)), np.array([[1, 0, 0.0]]))
 
 
+def _matrices(plant: LFTPlant) -> tuple[np.ndarray, ...]:
+    """A, Bu, B1, B2, C1, D1u, D11, C2 of a certain plant."""
+    return plant.A, plant.Bu, plant.B1, plant.B2, plant.C1, plant.D1u, plant.D11, plant.C2
+
+
 def _plain_lmi(plant: LFTPlant, alpha: float, beta: float, w_i2p: float, eps: float = EPS) -> float:
     """The nominal problem written directly (bounded-real lemma in Y, i2p, region)."""
-    A, Bu, B1, B2, C1, D1u, D11, C2 = (plant.A, plant.Bu, plant.B1, plant.B2, plant.C1, plant.D1u, plant.D11,
-                                         plant.C2)
+    A, Bu, B1, B2, C1, D1u, D11, C2 = _matrices(plant)
     n = A.shape[0]
     Y, W = cp.Variable((n, n), symmetric=True), cp.Variable((1, n))
     g, nu = cp.Variable(), cp.Variable()
@@ -194,8 +198,7 @@ def _toolbox_lmi(plant: LFTPlant, alpha: float, beta: float, w_i2p: float, eps: 
     ``[He(A P + Bu S) + Bw Bw^T, P Cz^T + S^T Dzu^T + Bw Dzw^T; *, -g_inf I + Dzw Dzw^T] < 0``,
     impulse-to-peak ``P >= B2 B2^T``, ``[-g_i2p I, C2 P; *, -P] < 0``, the region, objective
     ``g_inf + w_i2p g_i2p``."""
-    A, Bu, B1, B2, C1, D1u, D11, C2 = (plant.A, plant.Bu, plant.B1, plant.B2, plant.C1, plant.D1u, plant.D11,
-                                         plant.C2)
+    A, Bu, B1, B2, C1, D1u, D11, C2 = _matrices(plant)
     n = A.shape[0]
     P, S = cp.Variable((n, n), symmetric=True), cp.Variable((1, n))
     g_inf, g_i2p = cp.Variable(), cp.Variable()
