@@ -307,7 +307,8 @@ def _synth_demeter(args: argparse.Namespace) -> int:
 def _table1(args: argparse.Namespace) -> int:
     from sims import demeter_reports
 
-    print(demeter_reports.table1(Path(args.out), args.rows, scenarios=args.scenarios, progress=_progress).text())
+    print(demeter_reports.table1(Path(args.out), args.rows, scenarios=args.scenarios, progress=_progress,
+                                 convention=args.convention).text())
     return 0
 
 
@@ -532,6 +533,8 @@ def parser() -> argparse.ArgumentParser:
                     help="rows 1..14 in the seed's order (default all; the 3-axis rows take hours)")
     t1.add_argument("--scenarios", type=int, default=None,
                     help="scenarios per Prob design (default: the Campi-Garatti count, epsilon 0.1, delta 1e-9)")
+    t1.add_argument("--convention", choices=("satfmu", "romuloc"), default="satfmu",
+                    help="LMI forms and objective of the designs: ours or the R-RoMulOC toolbox's (default: satfmu)")
     t1.add_argument("--out", default="results/table1", help="folder of table1.md and table1.csv")
     t1.set_defaults(fn=_table1)
     fg = command(sub, "figures", "figures of the seeds' papers from the FMUs")

@@ -38,7 +38,7 @@ class Table1Report:
 
 
 def table1(out_dir: Path, rows: Sequence[int] | None = None, *, scenarios: int | None = None,
-           progress: Progress | None = None) -> Table1Report:
+           progress: Progress | None = None, convention: str = "satfmu") -> Table1Report:
     """Seed 004 Table 1: the selected rows, both methods; the files are rewritten after each row.
 
     Parameters
@@ -51,6 +51,8 @@ def table1(out_dir: Path, rows: Sequence[int] | None = None, *, scenarios: int |
         Sampled plants per Prob design (default: the Campi-Garatti count, epsilon 0.1, delta 1e-9).
     progress : callable, optional
         Called after each row.
+    convention : {"satfmu", "romuloc"}
+        LMI forms and objective of the designs (:func:`synthesis.robust_design.design`).
 
     Raises
     ------
@@ -67,7 +69,7 @@ def table1(out_dir: Path, rows: Sequence[int] | None = None, *, scenarios: int |
             raise ValueError(f"rows must be in 1..{len(keys)} (the seed's order), got {bad}")
         keys = [keys[r - 1] for r in rows]
     out_dir = Path(out_dir)
-    found = demeter_table.run(keys, n_scenarios=scenarios, progress=progress, out_dir=out_dir)
+    found = demeter_table.run(keys, n_scenarios=scenarios, progress=progress, out_dir=out_dir, convention=convention)
     return Table1Report(found, [out_dir / "table1.md", out_dir / "table1.csv"])
 
 

@@ -100,13 +100,14 @@ def run_row(variant: Variant, method: str, *, n_scenarios: int | None = None, se
 
 
 def run(selection: list[tuple[Variant, str]] | None = None, *, n_scenarios: int | None = None, seed: int = 0,
-        progress=None, out_dir: Path | None = None) -> list[Row]:
-    """Every row of the seed's table (or ``selection``), in its order; with ``out_dir`` the files
-    are rewritten after each row (:func:`write`), so a long run keeps what it has done."""
+        progress=None, out_dir: Path | None = None, convention: str = "satfmu") -> list[Row]:
+    """Every row of the seed's table (or ``selection``), in its order, designed in ``convention``
+    (:func:`run_row`); with ``out_dir`` the files are rewritten after each row (:func:`write`), so
+    a long run keeps what it has done."""
     keys = list(SEED_TABLE1) if selection is None else selection
     out = []
     for i, (variant, method) in enumerate(keys):
-        out.append(run_row(variant, method, n_scenarios=n_scenarios, seed=seed))
+        out.append(run_row(variant, method, n_scenarios=n_scenarios, seed=seed, convention=convention))
         if out_dir is not None:
             write(out, out_dir)
         if progress is not None:

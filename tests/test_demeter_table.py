@@ -42,6 +42,10 @@ def test_table1_command(tmp_path: Path, capsys) -> None:
     out = capsys.readouterr().out
     assert "infeasible (proved)" in out and (tmp_path / "table1.csv").exists()
     assert main(["table1", "--rows", "15", "--out", str(tmp_path)]) == 2  # rows are 1..14
+    assert main(["table1", "--rows", "4", "--convention", "romuloc", "--out", str(tmp_path)]) == 0
+    assert "infeasible (proved)" in capsys.readouterr().out  # a proof of the whole box, in any convention
+    with pytest.raises(SystemExit):
+        main(["table1", "--rows", "4", "--convention", "matlab", "--out", str(tmp_path)])
 
 
 @pytest.mark.slow
