@@ -42,7 +42,7 @@ The contenders, each end to end and each verifying its own certificate:
   with the reason printed. Each of its runs is a forked child process stopped after
   ``--sospy-limit`` seconds or when its resident memory passes ``--sospy-memory`` GiB (its
   sympy expansion of the larger programs grows past 12 GiB): then the reason is printed and
-  the ratio as a bound, ours / SumOfSquares.py < (our median) / (the time it was given).
+  the ratio as a bound, ours / SumOfSquares.py < (our median) / (the time it ran).
 
 Before timing, each program is run once by each tool (warm-up, not timed) and Drake's
 program is compared with ours coefficient by coefficient: every SOS polynomial (as affine
@@ -736,7 +736,17 @@ def _resident_gib(pid: int) -> float:
     return 0.0
 
 
-def bounded(fn: Callable[[], Run], limits: Limits) -> Run | str:
+@dataclass(frozen=True)
+class NoResult:
+    """Why a bounded run gave no result, and after how long (s). ``stopped``: the bench stopped
+    it at a limit, so the run takes longer than ``seconds``; otherwise it failed."""
+
+    reason: str
+    seconds: float
+    stopped: bool
+
+
+def bounded(fn: Callable[[], Run], limits: Limits) -> Run | NoResult:
     """``fn()`` in a forked child process, or why it gave no result: stopped at the time or
     memory limit, or the exception it raised."""
     ctx = multiprocessing.get_context("fork")
@@ -751,17 +761,20 @@ def bounded(fn: Callable[[], Run], limits: Limits) -> Run | str:
     proc = ctx.Process(target=child, daemon=True)
     proc.start()
     t0 = time.perf_counter()
-    out: Run | str | None = None
+    out: Run | NoResult | None = None
     peak = 0.0
     while out is None:
+        elapsed = time.perf_counter() - t0
         if recv.poll(0.5):
-            out = recv.recv()
+            got = recv.recv()
+            out = NoResult(got, elapsed, False) if isinstance(got, str) else got
         elif not proc.is_alive():
-            out = f"died with exit code {proc.exitcode}"
+            out = NoResult(f"died with exit code {proc.exitcode}", elapsed, False)
         elif (peak := max(peak, _resident_gib(proc.pid))) > limits.memory_gib:
-            out = f"stopped at {peak:.1f} GiB resident after {time.perf_counter() - t0:.0f} s (limit {limits.memory_gib:g} GiB)"
-        elif time.perf_counter() - t0 > limits.seconds:
-            out = f"did not finish within {limits.seconds:g} s ({peak:.1f} GiB resident)"
+            out = NoResult(f"stopped at {peak:.1f} GiB resident after {elapsed:.0f} s "
+                           f"(limit {limits.memory_gib:g} GiB)", elapsed, True)
+        elif elapsed > limits.seconds:
+            out = NoResult(f"did not finish within {limits.seconds:g} s ({peak:.1f} GiB resident)", elapsed, True)
     proc.kill()
     proc.join()
     return out
@@ -771,8 +784,8 @@ def _bounded_run(pose: Callable[[], tuple[Any, list, Any, float]], limits: Limit
     """A timed round of SumOfSquares.py in its bounded child; a round that gives no result
     after the warm-up did is an error of the bench."""
     out = bounded(lambda: _sospy_run(pose), limits)
-    if isinstance(out, str):
-        raise RuntimeError(f"SumOfSquares.py: {out} (its warm-up run finished)")
+    if isinstance(out, NoResult):
+        raise RuntimeError(f"SumOfSquares.py: {out.reason} (its warm-up run finished)")
     return out
 
 
@@ -964,15 +977,15 @@ def bench(program: Program, repeat: int, sospy_rounds: int, qdldl: bool, limits:
         runs["satfmu qdldl"] = lambda: run_ours(program.ours, qdldl=True)[0]
     runs["Drake"] = lambda: run_drake(lambda: program.drake(bases))
     refs = {"satfmu": ref, "Drake": drake_ref}
-    sospy_note = ""
+    sospy_missing: NoResult | None = None
     if isinstance(program.sospy, str):
         print(f"SumOfSquares.py: skipped ({program.sospy})")
     elif sospy_rounds > 0:
         pose = program.sospy
         first = bounded(lambda: _sospy_run(pose), limits)
-        if isinstance(first, str):
-            sospy_note = first
-            print(f"SumOfSquares.py: {first}")
+        if isinstance(first, NoResult):
+            sospy_missing = first
+            print(f"SumOfSquares.py: {first.reason}")
         else:
             refs["SumOfSquares.py"] = first
             runs["SumOfSquares.py"] = lambda: _bounded_run(pose, limits)
@@ -996,8 +1009,9 @@ def bench(program: Program, repeat: int, sospy_rounds: int, qdldl: bool, limits:
         ratios["ours qdldl/Drake"] = med["satfmu qdldl"] / med["Drake"]
     if "SumOfSquares.py" in med:
         ratios["ours/SumOfSquares.py"] = med["satfmu"] / med["SumOfSquares.py"]
-    elif sospy_note:
-        print(f"ours/SumOfSquares.py < {med['satfmu'] / limits.seconds:.3g} (SumOfSquares.py {sospy_note})")
+    elif sospy_missing is not None and sospy_missing.stopped:  # its run takes longer than it was given
+        print(f"ours/SumOfSquares.py < {med['satfmu'] / sospy_missing.seconds:.3g} "
+              f"(SumOfSquares.py {sospy_missing.reason})")
     print("ratios of medians: " + ", ".join(f"{k} {v:.3g}" for k, v in ratios.items()))
     return {"key": program.key, "grams": {k: r.gram_sizes for k, r in refs.items()},
             "objectives": {k: r.objective for k, r in refs.items()}, "median": med, "ratios": ratios}

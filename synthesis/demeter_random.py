@@ -121,16 +121,15 @@ def analyse(variant: Variant, K: np.ndarray, *, n: int | None = None, seed: int 
     if i2p_direction not in I2P_DIRECTIONS:
         raise OptionError(f"i2p_direction must be one of {I2P_DIRECTIONS}, got {i2p_direction!r}")
     n = pr.worst_case_samples(epsilon, delta) if n is None else n
-    task = ClosedLoopSamples(variant, np.asarray(K, float))
-    dm = task.design_model()
+    dm = design_model(variant)
     t0 = time.perf_counter()
     rng = np.random.default_rng(seed)
     deltas = dm.sample(n, rng)
-    if i2p_direction == "worst":
-        v = task(deltas)
-    else:
+    directions = None
+    if i2p_direction == "random":
         u = rng.normal(size=(n, dm.B2.shape[1]))
-        v = dd.closed_loop_values(dm, task.K, deltas, u / np.linalg.norm(u, axis=1, keepdims=True))
+        directions = u / np.linalg.norm(u, axis=1, keepdims=True)
+    v = dd.closed_loop_values(dm, np.asarray(K, float), deltas, directions)
     return Analysis(n, seed, float(v["max_real_pole"].max()), float(v["min_real_pole"].min()),
                     pr.worst_case(v["hinf"], epsilon, delta), pr.worst_case(v["i2p"], epsilon, delta),
                     time.perf_counter() - t0, i2p_direction)

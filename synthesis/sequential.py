@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from synthesis.lft_plant import LFTPlant, OptionError, _sym
-from synthesis.robust_design import _dual_lmi, _i2p_blocks, _specs
+from synthesis.robust_design import _dual_lmi, _i2p_blocks, _specs, _weights
 
 Sampler = Callable[[np.random.Generator, int], np.ndarray]
 
@@ -79,8 +79,8 @@ class _LMIs:
         self.specs = _specs(plant, alpha, beta, True)
 
     def __call__(self, Y: np.ndarray, W: np.ndarray) -> list[np.ndarray]:
-        out = [_dual_lmi(s, Y, W, None, (self.gamma, self.gamma), np.vstack, np.block) for s in self.specs]
-        upper, lower = _i2p_blocks(self.plant, Y, (self.nu, self.nu), np.block)
+        out = [_dual_lmi(s, Y, W, None, _weights("satfmu", self.gamma), np.vstack, np.block) for s in self.specs]
+        upper, lower = _i2p_blocks(self.plant, Y, _weights("satfmu", self.nu), np.block)
         return out + [-upper, lower]
 
 

@@ -52,7 +52,8 @@ def test_bounded_runs_return_the_result_or_say_why_there_is_none(sos_speed: Modu
     assert sos_speed.bounded(lambda: ("ran", 3), generous) == ("ran", 3)
     t0 = time.perf_counter()
     slow = sos_speed.bounded(lambda: time.sleep(30), sos_speed.Limits(seconds=1.0, memory_gib=8.0))
-    assert slow.startswith("did not finish within 1 s"), slow
+    assert slow.reason.startswith("did not finish within 1 s") and slow.stopped, slow
+    assert 1.0 < slow.seconds < 10  # the time it ran: the run takes longer
     assert time.perf_counter() - t0 < 10  # stopped, not waited for (poll every 0.5 s, kill)
 
     def grow() -> None:
@@ -62,13 +63,14 @@ def test_bounded_runs_return_the_result_or_say_why_there_is_none(sos_speed: Modu
             time.sleep(0.01)
 
     hungry = sos_speed.bounded(grow, sos_speed.Limits(seconds=60.0, memory_gib=0.5))
-    assert hungry.startswith("stopped at") and "limit 0.5 GiB" in hungry, hungry
+    assert hungry.reason.startswith("stopped at") and "limit 0.5 GiB" in hungry.reason and hungry.stopped, hungry
 
     def fail() -> None:
         raise ValueError("bad program")
 
-    assert sos_speed.bounded(fail, generous) == "failed: ValueError: bad program"
-    assert sos_speed.bounded(lambda: os._exit(3), generous) == "died with exit code 3"
+    failed, died = sos_speed.bounded(fail, generous), sos_speed.bounded(lambda: os._exit(3), generous)
+    assert failed.reason == "failed: ValueError: bad program" and not failed.stopped  # no bound on its time
+    assert died.reason == "died with exit code 3" and not died.stopped
 
 
 @pytest.mark.parametrize("region", [None, 0.9])
