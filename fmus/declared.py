@@ -3,6 +3,8 @@ checking its keys, with the closest known name for a near miss."""
 from __future__ import annotations
 
 import difflib
+import json
+import math
 import re
 import tomllib
 from pathlib import Path
@@ -43,3 +45,80 @@ def read_toml(path: Path, what: str, error: type[Exception]) -> dict[str, Any]:
         raise error(f"{path}: cannot read {what} file ({exc.strerror})") from None
     except tomllib.TOMLDecodeError as exc:
         raise error(f"{path}: invalid TOML ({exc})") from None
+
+
+_BARE_KEY = re.compile(r"[A-Za-z0-9_-]+")
+INLINE_WIDTH = 100
+"""Longest inline table (characters) :func:`toml_text` writes; a longer one becomes a section."""
+
+
+def _toml_key(key: str) -> str:
+    """A TOML key: bare when it can be, else a basic string (JSON's escapes are TOML's)."""
+    return key if _BARE_KEY.fullmatch(key) else json.dumps(key)
+
+
+def _toml_value(value: Any, where: str) -> str:
+    """A TOML value: string, boolean, integer, float, array or (one-line) inline table."""
+    if isinstance(value, str):
+        return json.dumps(value)
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, float):
+        if not math.isfinite(value):
+            raise ValueError(f"{where}: {value!r} is not finite")
+        return repr(float(value))  # a numpy float's repr is np.float64(...)
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_toml_value(v, where) for v in value) + "]"
+    if isinstance(value, Mapping):
+        return "{ " + ", ".join(f"{_toml_key(k)} = {_toml_value(v, f'{where}.{k}')}" for k, v in value.items()) + " }"
+    raise ValueError(f"{where}: cannot write {type(value).__name__} {value!r} as TOML")
+
+
+def _is_table_array(value: Any) -> bool:
+    return isinstance(value, list) and bool(value) and all(isinstance(v, Mapping) for v in value)
+
+
+def _toml_table(data: Mapping[str, Any], path: list[str], header: str) -> list[str]:
+    """The lines of one table: ``header`` and its plain keys, then its sub-tables and arrays of
+    tables. Its tables are inline when each is a short table of scalars, else all sections (in
+    their order)."""
+    tables = [k for k, v in data.items() if isinstance(v, Mapping)]
+    inline = bool(path) and all(all(not isinstance(x, (Mapping, list)) for x in data[k].values())
+                                and len(_toml_value(data[k], k)) <= INLINE_WIDTH for k in tables)
+    plain, nested = [], []
+    for k, v in data.items():
+        (nested if (isinstance(v, Mapping) and not inline) or _is_table_array(v) else plain).append(k)
+    lines = ([header] if header and (plain or not nested) else []) + \
+        [f"{_toml_key(k)} = {_toml_value(data[k], '.'.join(path + [k]))}" for k in plain]
+    for k in nested:
+        sub, name = data[k], ".".join(_toml_key(p) for p in path + [k])
+        for item in sub if isinstance(sub, list) else [sub]:
+            if lines:
+                lines.append("")
+            lines += _toml_table(item, path + [k], f"[[{name}]]" if isinstance(sub, list) else f"[{name}]")
+    return lines
+
+
+def toml_text(data: Mapping[str, Any], comment: str = "") -> str:
+    """``data`` (plain data as :func:`read_toml` returns it) as TOML text that reads back equal.
+
+    The top-level tables are sections; below them the tables of one table are written inline
+    when each is a table of scalars of at most :data:`INLINE_WIDTH` characters, else all as
+    sections; a list of tables is an array of tables.
+
+    Parameters
+    ----------
+    data : mapping
+        Strings, booleans, integers, finite floats, lists and mappings of those.
+    comment : str
+        Text of a header comment (each line prefixed with ``# ``).
+
+    Raises
+    ------
+    ValueError
+        A value TOML cannot hold (None, a non-finite float), naming its key path.
+    """
+    head = [f"# {line}".rstrip() for line in comment.splitlines()]
+    return "\n".join(head + _toml_table(data, [], "")) + "\n"
