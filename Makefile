@@ -7,7 +7,7 @@ PY := $(VENV)/bin/python
 SATFMU := $(VENV)/bin/satfmu
 STAGE := scripts/stage.sh
 FMU_DIR := build/fmus
-SCENARIOS := mrp_200deg mrp_200deg_sat mrp_320deg_sat mrp_eq44 mrp_200deg_synth mrp_320deg_sat_synth mrp_eq44_synth mrp_90deg_h2 mrp_200deg_h2hinf mrp_320deg_sat_h2hinf mrp_eq44_h2hinf vscmg_seed vscmg_seed_friction cubesat_detumble
+SCENARIOS := mrp_200deg mrp_200deg_sat mrp_320deg_sat mrp_eq44 mrp_200deg_synth mrp_320deg_sat_synth mrp_eq44_synth mrp_90deg_h2 mrp_200deg_h2hinf mrp_320deg_sat_h2hinf mrp_eq44_h2hinf vscmg_seed vscmg_seed_friction cubesat_detumble demeter_row1_det_both demeter_row1_det_theta demeter_row1_det_rate
 # the demo's verification: seed 000's and seed 001's loops, the cubesat detumbling and seed 002's
 # manoeuvre with its native online SDRE controllers (seconds each; every scenario: `make verify`)
 VERIFY_SHORT := mrp_200deg mrp_90deg_h2 cubesat_detumble vscmg_seed

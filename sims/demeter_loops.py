@@ -26,6 +26,11 @@ a gain of 31 and puts a wheel mode at 71 rad/s, and the loop sampled with a held
 unstable above about 1.5 ms (spectral radius 1.0074 at 5 ms). The default is 1 ms over 60 s
 (the transient, where z2 peaks); :func:`linear` gives the design model's responses over the
 whole horizon (the slowest pole is -3e-4 1/s) exactly, as the seed's figures do.
+
+The shipped scenarios ``demeter_row1_det_both``, ``_theta`` and ``_rate`` (sims/scenarios/) are
+:func:`scenario` of the row-1 design with the wheel limits, one per start, written by
+:func:`write_shipped` (``python -m sims.demeter_loops``); ``satfmu run``, ``verify`` and
+``export-ssp`` take them by name.
 """
 from __future__ import annotations
 
@@ -38,6 +43,9 @@ import numpy as np
 from scipy.linalg import expm
 
 from controllers import artifact as artifacts
+from fmus.atomic import write_atomically
+from fmus.declared import toml_text
+from fmus.demeter import WHEEL_MOMENTUM_MAX
 from sims import envelopes as E
 from sims import paths
 from sims.scenario import Scenario, recorded_times
@@ -137,6 +145,11 @@ def linear(artifact: str | Path, *, n: int = 100, seed: int = 0, stop_time: floa
 
 STARTS = {"theta": (True, False), "rate": (False, True), "both": (True, True)}
 """Initial state of each run: (theta(0) = 0.262 rad, theta'(0) = 1.4e-3 rad/s) on the design axis."""
+CAMPAIGN = {"samples": 100, "demo_samples": 10, "seed": 0}
+"""The ``[campaign]`` table of :func:`scenario`: the seed's 100 random loops of Figs 4-5, the
+plants that :func:`run` draws with its defaults (``satfmu figures demeter``)."""
+SHIPPED = "demeter_row1_det"
+"""The design of the shipped scenarios (:func:`write_shipped`): Table 1 row 2 (Det, axis 1, appendage 1)."""
 
 
 def scenario(artifact: str | Path = "demeter_row1_det", *, start: str = "both", limits: str = "wheels",
@@ -157,10 +170,12 @@ def scenario(artifact: str | Path = "demeter_row1_det", *, start: str = "both", 
     Returns
     -------
     Scenario
-        Named ``demeter_<artifact>_<start>`` (``_linear`` without limits); records ``xw``,
-        ``theta``, ``theta_dot`` and ``wheel_saturated`` of the design axis; metrics: peak
-        ``|xw|`` bounded by the certified impulse-to-peak bound times ``|w2|`` (1 or sqrt 2),
-        ``|theta|`` at the end, the time at the momentum limit.
+        Named ``<artifact>_<start>`` (``_linear`` without limits); records ``xw``, ``theta``,
+        ``theta_dot``, the wheel momentum ``h_w`` and ``wheel_saturated`` of the design axis;
+        metrics, each a gate: peak ``|xw|`` <= the certified impulse-to-peak bound times
+        ``|w2|`` (1 or sqrt 2), ``|theta|`` at the end <= theta(0) of the worst case (0.262 rad),
+        peak ``|h_w|`` <= the wheels' momentum limit (0.12 N m s, also without limits), no time
+        at that limit; the ``[campaign]`` table :data:`CAMPAIGN`.
 
     Raises
     ------
@@ -185,25 +200,77 @@ def scenario(artifact: str | Path = "demeter_row1_det", *, start: str = "both", 
         spec = {"kind": "uniform", "low": p.nominal - p.half_width, "high": p.nominal + p.half_width}
         dispersions[fmu_parameter(p, dm, variant)] = {**spec, **({"transform": "square"} if p.kind == "sqrtJ" else {})}
     bound = float(art.certificate["numbers"]["design_i2p_bound"]) * math.hypot(float(on_theta), float(on_rate))
-    xw, theta = f"ctrl.xw[{axis}]", f"plant.theta[{axis}]"
-    name = f"demeter_{art.name}_{start}{'_linear' if limits == 'linear' else ''}"
+    xw, theta, h_w = f"ctrl.xw[{axis}]", f"plant.theta[{axis}]", f"plant.h_w[{axis}]"
+    name = f"{art.name}_{start}{'_linear' if limits == 'linear' else ''}"
     return Scenario.from_dict({
         "name": name, "stop_time": stop_time, "step_size": step_size,
         "description": f"Seed 004 Fig. {5 if start == 'both' else 4}: {art.name} on the flexible plant "
                        f"({'wheel limits' if limits == 'wheels' else 'no limits'}), start {start}, random plants in "
                        "the design's parameter box",
         "reference": "docs/models.md, Seed 004; the artifact's certificate (impulse-to-peak bound w2 -> z2)",
-        "record": [xw, theta, f"plant.theta_dot[{axis}]", f"plant.wheel_saturated[{axis}]"],
+        "record": [xw, theta, f"plant.theta_dot[{axis}]", h_w, f"plant.wheel_saturated[{axis}]"],
         "fmus": {"plant": {"model": "demeter_flexible", "parameters": plant}, "ctrl": {"model": art.name}},
         "connections": [{"from": f"plant.{m}", "to": f"ctrl.{m}"} for m in MEASURED]
         + [{"from": "ctrl.u_c", "to": "plant.u_c"}],
         "metrics": [
             {"name": "peak |z2| = |xw|", "kind": "peak", "signals": [xw], "unit": "N.m.s", "max": bound,
-             "description": "certified impulse-to-peak bound w2 -> z2 times |w2|"},
-            {"name": "|theta| at the end", "kind": "final", "signals": [theta], "unit": "rad"},
+             "description": "the certified impulse-to-peak bound w2 -> z2 times |w2| (certified for the linear "
+                            "loop; with the wheel limits a check)"},
+            {"name": "|theta| at the end", "kind": "final", "signals": [theta], "unit": "rad", "max": THETA_WORST,
+             "description": "within the worst-case initial attitude error (the loop converges slowly: slowest "
+                            "pole -3e-4 1/s; a held command above ~1.5 ms diverges)"},
+            {"name": "peak wheel momentum", "kind": "peak", "signals": [h_w], "unit": "N.m.s",
+             "max": WHEEL_MOMENTUM_MAX, "description": "below the wheels' momentum limit satW (the seed: momentum "
+                                                       "saturation is critical)"},
             {"name": "time at the momentum limit", "kind": "time_in_saturation",
-             "signals": [f"plant.wheel_saturated[{axis}]"], "limit": 0.5, "unit": "s"}],
-        "dispersions": dispersions})
+             "signals": [f"plant.wheel_saturated[{axis}]"], "limit": 0.5, "unit": "s", "max": 0.0}],
+        "dispersions": dispersions, "campaign": dict(CAMPAIGN)})
+
+
+SHIPPED_NOTE = """\
+Generated by `python -m sims.demeter_loops` from
+sims.demeter_loops.scenario("{artifact}", start="{start}"): edit that function (or the artifact)
+and run the command again, not this file; tests/test_demeter_loops.py checks that the two are the
+same scenario.
+Seed 004 Fig. {fig} from {what}.
+Table 1 row 2 (Det, axis 1, appendage 1) on the flexible plant with the wheel limits (5e-3 N m,
+0.12 N m s). `satfmu run` runs the nominal plant of the design; `satfmu campaign scenario` draws
+the design's parameter box ([dispersions]).
+Horizon 60 s at 1 ms: the peak of xw (z2) comes at 11-48 s for plants of the box (40 samples of
+each start measured; nominal plant: 15.6, 23.1, 18.5 s from starts both, theta, rate), so a
+shorter run would cut the transient of Fig. 4. The step stays 1 ms: the loop with the command
+held over the step is unstable above ~1.5 ms (sims/demeter_loops.py). theta converges over ~1e4 s
+(slowest pole -3e-4 1/s): at 60 s it is still near theta(0), and the end gate bounds it by the
+worst-case initial error."""
+FIGURES = {"both": (5, "theta(0) = 0.262 rad and theta'(0) = 1.4e-3 rad/s"),
+           "theta": (4, "impulse on w2 column 1: theta(0) = 0.262 rad"),
+           "rate": (4, "impulse on w2 column 2: theta'(0) = 1.4e-3 rad/s")}
+"""Figure and initial state of each start, for the header of a shipped scenario file."""
+
+
+def shipped_scenario(start: str) -> Scenario:
+    """:func:`scenario` of the shipped artifact :data:`SHIPPED` (its file in
+    :data:`sims.paths.SHIPPED_ARTIFACTS`, not a user's of that name) with the wheel limits."""
+    return scenario(paths.SHIPPED_ARTIFACTS / f"{SHIPPED}.json", start=start)
+
+
+def scenario_text(start: str) -> str:
+    """The shipped TOML file of :func:`shipped_scenario`: a header saying how it was produced,
+    then the declaration (:func:`fmus.declared.toml_text`)."""
+    fig, what = FIGURES[start]
+    note = SHIPPED_NOTE.format(artifact=SHIPPED, start=start, fig=fig, what=what)
+    return toml_text(shipped_scenario(start).to_dict(), note)
+
+
+def write_shipped(folder: Path = paths.SHIPPED_SCENARIOS) -> list[Path]:
+    """Write the shipped scenario files, one per start (``<name>.toml``: ``demeter_row1_det_both``,
+    ``_theta``, ``_rate``); returns their paths."""
+    out = []
+    for start in STARTS:
+        path = Path(folder) / f"{shipped_scenario(start).name}.toml"
+        text = scenario_text(start)
+        out.append(write_atomically(path, lambda tmp, text=text: tmp.write_text(text)))
+    return out
 
 
 def uniform_points(n_rows: int, points: int) -> int:
@@ -344,3 +411,8 @@ def plot(loops: RandomLoops, out_dir: Path) -> list[Path]:
         fig.savefig(path, dpi=120)
         plt.close(fig)
     return paths
+
+
+if __name__ == "__main__":
+    for written in write_shipped():
+        print(written)

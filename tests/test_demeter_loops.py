@@ -1,6 +1,7 @@
 """Seed 004 Figs 4-5 through the FMUs: random closed loops of the DEMETER plant and the row-1 design."""
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -9,6 +10,9 @@ from distributed import Client, LocalCluster
 
 from controllers import polynomial
 from sims import demeter_loops as dl
+from sims import scenario as S
+from sims.cli import main
+from sims.paths import SHIPPED_SCENARIOS
 from synthesis.demeter_variants import THETA_WORST
 
 ART = polynomial.ARTIFACTS / "demeter_row1_det.json"
@@ -52,6 +56,13 @@ def test_the_scenario_disperses_the_design_box_and_bounds_z2_by_the_certificate(
     assert sc.metrics[0].max == pytest.approx(cert * np.sqrt(2), rel=1e-15)
     assert dl.scenario(ART, start="theta").metrics[0].max == pytest.approx(cert, rel=1e-15)
     assert sc.fmus["plant"].parameters["theta_0[1]"] == THETA_WORST
+    # every metric a gate: theta ends within the worst initial error, the wheels below satW, never at it
+    assert [(m.name, m.max) for m in sc.metrics[1:]] == [("|theta| at the end", THETA_WORST),
+                                                          ("peak wheel momentum", 0.12),
+                                                          ("time at the momentum limit", 0.0)]
+    assert (sc.name, dl.scenario(ART, start="rate", limits="linear").name) == ("demeter_row1_det_both",
+                                                                              "demeter_row1_det_rate_linear")
+    assert sc.campaign == {"samples": 100, "demo_samples": 10, "seed": 0}  # the seed's 100 loops
     with pytest.raises(ValueError, match="start must be one of theta, rate, both"):
         dl.scenario(ART, start="omega")
     assert [dl.uniform_points(n, 2001) for n in (60001, 5001, 7, 2)] == [2001, 1251, 7, 2]
@@ -81,3 +92,41 @@ def test_bad_inputs(fmu_dir: Path) -> None:
         dl.run(fmu_dir, ART, limits="none")
     with pytest.raises(ValueError, match="not a DEMETER"):
         dl.linear(polynomial.ARTIFACTS / "mrp_hinf_published.json")
+
+
+SHIPPED = {start: f"demeter_row1_det_{start}" for start in dl.STARTS}
+"""The shipped scenario of each start (sims/scenarios/)."""
+
+
+@pytest.mark.parametrize("start", list(SHIPPED))
+def test_a_shipped_scenario_is_the_scenario_of_the_row1_design(start: str) -> None:
+    """One source of truth: the shipped file is what `python -m sims.demeter_loops` writes from
+    dl.scenario(), text for text, and reads back as the same scenario."""
+    path = SHIPPED_SCENARIOS / f"{SHIPPED[start]}.toml"
+    assert path.read_text() == dl.scenario_text(start), "regenerate it: python -m sims.demeter_loops"
+    assert S.load(SHIPPED[start]).to_dict() == dl.scenario("demeter_row1_det", start=start).to_dict()
+    assert S.load(SHIPPED[start]).to_dict() == dl.shipped_scenario(start).to_dict()
+
+
+def test_write_shipped_writes_one_file_per_start(tmp_path: Path) -> None:
+    written = dl.write_shipped(tmp_path)
+    assert sorted(p.name for p in written) == sorted(f"{name}.toml" for name in SHIPPED.values())
+    assert all(p.read_text() == (SHIPPED_SCENARIOS / p.name).read_text() for p in written)
+
+
+def test_satfmu_run_passes_the_metrics_of_the_shipped_scenarios(fmu_dir: Path, tmp_path: Path) -> None:
+    """The nominal plant, 60 s at 1 ms (0.2 s of simulation each). Measured: peak |xw| 1.2205,
+    0.02363, 0.3750 N m s (bounds 3.628, 2.566, 2.566: the certified i2p bound times |w2|);
+    |theta(60 s)| 0.2367, 0.2395, 0.00411 rad (gate 0.262); peak |h_w| 0.0641, 0.0126, 0.0458 N m s
+    (limit 0.12); never at the momentum limit."""
+    assert main(["run", *SHIPPED.values(), "--fmu-dir", str(fmu_dir), "--out", str(tmp_path)]) == 0
+    measured = {"both": (1.2205, 0.2367, 0.0641), "theta": (0.02363, 0.2395, 0.01264),
+                "rate": (0.3750, 0.004110, 0.04577)}
+    for start, name in SHIPPED.items():
+        summary = json.loads((tmp_path / name / "summary_native.json").read_text())
+        values = {m["name"]: m["value"] for m in summary["metrics"]}
+        assert summary["passed"] and summary["warnings"] == []  # the design's own plant: no mismatch
+        got = (values["peak |z2| = |xw|"], values["|theta| at the end"], values["peak wheel momentum"])
+        # 1e-3 relative: the figures above are rounded to 4 digits
+        assert got == pytest.approx(measured[start], rel=1e-3), start
+        assert values["time at the momentum limit"] == 0.0
