@@ -139,7 +139,7 @@ def test_the_demeter_scenario_passes_verify_in_libcosim_and_ecos(fmu_dir: Path, 
 @pytest.mark.slow
 def test_every_scenario_passes_verify(fmu_dir: Path, tmp_path: Path) -> None:
     # 24 scenarios, about 85 s in all (the three DEMETER ones about 60 s of it, mostly libcosim's
-    # 60,000 steps each): in `make test`
+    # 60,000 steps each): in `make test-all`
     from sims.paths import SHIPPED_SCENARIOS as SCENARIOS
 
     reports = [verify.verify(p.stem, fmu_dir, tmp_path) for p in sorted(SCENARIOS.glob("*.toml"))]
