@@ -6,7 +6,8 @@ whole box on an :class:`~synthesis.lft_plant.AffineDescriptor` (implicit system 
 at the box vertices (the derivation is in its docstring); ``common=True`` is the bound of one
 common Lyapunov matrix. The program's size is estimated before it is built
 (:func:`pdlf_size`, :data:`PDLF_MAX_ENTRIES`). As in :mod:`synthesis.robust_design`, the
-minimization is followed by back-off solves (:data:`~synthesis.robust_design.BACKOFFS`) and a
+minimizer is checked at the backed-off levels (:data:`~synthesis.robust_design.BACKOFFS`), then,
+if it fails, back-off solves follow, and a
 result is ``"optimal"`` only when :func:`verify_pdlf` has re-checked every vertex LMI in numpy;
 when the minimization gives no usable optimum, a bisection on gamma from the nominal loop's
 exact norm (:func:`synthesis.system_norms.hinf_norm`) finds the smallest verified level.
@@ -16,13 +17,12 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, replace
 
-import cvxpy as cp
 import numpy as np
 
-from synthesis import solve_policy
+from synthesis import lmi, solve_policy
 from synthesis.lft_plant import (AffineDescriptor, NotHurwitzError, OptionError, PlantDataError,
                                  ProgramTooLargeError, _check_gain, _check_vertices, _matrix, _sym, box_vertices)
-from synthesis.robust_design import BACKOFFS, EPS, MAX_VERTICES, RobustCheck, _check_eps, _finish_check, _solve
+from synthesis.robust_design import BACKOFFS, EPS, MAX_VERTICES, RobustCheck, _check_eps, _finish_check
 from synthesis.system_norms import hinf_norm
 
 PDLF_MAX_ENTRIES = 10_000_000
@@ -154,18 +154,26 @@ def pdlf_hinf(desc: AffineDescriptor, K, *, common: bool = False, max_vertices: 
                                    f"{max_entries:.3g} (pdlf_size)")
     K = _check_gain(K, desc.m_u, desc.n)
     t0 = time.perf_counter()
-    g = cp.Variable()
-    P0, Pk, F, cons = _pdlf_constraints(desc, K, common, eps, g)
-    prob = cp.Problem(cp.Minimize(g), cons)
+    prog = lmi.LMIProgram()
+    g = prog.variable()
+    P0, Pk, F = _pdlf_constraints(prog, desc, K, common, eps, g)
     info = {"common": common, "n_vertices": 2**desc.n_params, "solve_seconds": 0.0,
             "build_seconds": time.perf_counter() - t0}
-    out = _timed_solve(prob, info)
+    out = _timed_solve(prog, g, False, info)
     info["solver_status"] = out.solver_status
     if out.status == "infeasible":
         return PDLFResult("infeasible", None, None, None, None, None, **info)
     check = None
-    if out.solved and g.value is not None:
-        root = float(np.sqrt(max(float(g.value), 0.0)))
+    if prog.solution.solved:
+        root = float(np.sqrt(max(float(prog.value(g)[0, 0]), 0.0)))
+        n, N = desc.n, desc.n_params
+        P0v = _sym(prog.value(P0))
+        Pkv = np.stack([_sym(prog.value(p)) for p in Pk]) if Pk else np.zeros((N, n, n))
+        for b in BACKOFFS:  # the minimizer itself first: no second solve if it verifies
+            check = verify_pdlf(desc, K, P0v, Pkv, prog.value(F), root * (1 + b))
+            if check.ok:
+                info["solver_status"] += f"; the minimizer verified at back-off {b:g}"
+                return PDLFResult("optimal", root * (1 + b), P0v, Pkv, prog.value(F), check, **info, backoff=b)
         for b in BACKOFFS:
             found, check = _pdlf_at(desc, K, common, root * (1 + b), info, f"back-off {b:g}")
             if found is not None:
@@ -173,8 +181,9 @@ def pdlf_hinf(desc: AffineDescriptor, K, *, common: bool = False, max_vertices: 
     return _pdlf_bisection(desc, K, common, info, check)
 
 
-def _timed_solve(prob: cp.Problem, info: dict) -> solve_policy.SolveOutcome:
-    out = _solve(prob)
+def _timed_solve(prog: lmi.LMIProgram, objective: lmi.Affine, maximize: bool, info: dict
+                 ) -> solve_policy.SolveOutcome:
+    out = prog.solve(objective, maximize=maximize).outcome
     info["solve_seconds"] += out.seconds
     return out
 
@@ -184,18 +193,19 @@ def _pdlf_at(desc: AffineDescriptor, K: np.ndarray, common: bool, gamma: float, 
     """The largest common margin of the PDLF LMIs at level ``gamma`` (bounded by 1), verified:
     ``(result, check)``; result None if the certificate fails :func:`verify_pdlf`."""
     t0 = time.perf_counter()
-    t = cp.Variable()
-    P0, Pk, F, cons = _pdlf_constraints(desc, K, common, t, gamma**2)
-    prob = cp.Problem(cp.Maximize(t), cons + [t <= 1])
+    prog = lmi.LMIProgram()
+    t = prog.variable()
+    P0, Pk, F = _pdlf_constraints(prog, desc, K, common, t, gamma**2)
+    prog.add_nonneg(1.0 - t)
     info["build_seconds"] += time.perf_counter() - t0
-    out = _timed_solve(prob, info)
+    out = _timed_solve(prog, t, True, info)
     info["solver_status"] += f"; {label}: {out.solver_status}"
-    if not out.solved or P0.value is None or t.value is None or t.value <= 0:
+    if not prog.solution.solved or prog.value(t)[0, 0] <= 0:
         return None, None
     n, N = desc.n, desc.n_params
-    P0v = _sym(P0.value)
-    Pkv = np.stack([_sym(p.value) for p in Pk]) if Pk else np.zeros((N, n, n))
-    Fv = np.asarray(F.value)
+    P0v = _sym(prog.value(P0))
+    Pkv = np.stack([_sym(prog.value(p)) for p in Pk]) if Pk else np.zeros((N, n, n))
+    Fv = prog.value(F)
     check = verify_pdlf(desc, K, P0v, Pkv, Fv, gamma)
     if not check.ok:
         return None, check
@@ -237,15 +247,17 @@ def _pdlf_bisection(desc: AffineDescriptor, K: np.ndarray, common: bool, info: d
                    method="bisection")
 
 
-def _pdlf_constraints(desc: AffineDescriptor, K: np.ndarray, common: bool, margin, g) -> tuple:
-    """``(P0, Pk, F, constraints)`` of :func:`pdlf_hinf`, strict by ``margin``, at level ``g``."""
+def _pdlf_constraints(prog: lmi.LMIProgram, desc: AffineDescriptor, K: np.ndarray, common: bool, margin, g
+                      ) -> tuple:
+    """``(P0, Pk, F)`` of :func:`pdlf_hinf`, its LMIs (strict by ``margin``, at level ``g``)
+    added to ``prog``."""
     n, N = desc.n, desc.n_params
-    P0 = cp.Variable((n, n), symmetric=True)
-    Pk = [] if common else [cp.Variable((n, n), symmetric=True) for _ in range(N)]
-    F = cp.Variable((2 * n + desc.n_v + desc.m_w, n + desc.n_v))
-    cons = []
+    P0 = prog.variable((n, n), symmetric=True)
+    Pk = [] if common else [prog.variable((n, n), symmetric=True) for _ in range(N)]
+    F = prog.variable((2 * n + desc.n_v + desc.m_w, n + desc.n_v))
     for v in box_vertices(N):
         P = P0 + sum(d * Pj for d, Pj in zip(v, Pk))
-        L = _pdlf_lmi(desc, K, P, F, g, v, cp.bmat)
-        cons += [P >> margin * np.eye(n), L << -margin * np.eye(L.shape[0])]
-    return P0, Pk, F, cons
+        L = _pdlf_lmi(desc, K, P, F, g, v, lmi.bmat)
+        prog.add_psd(P - margin * np.eye(n))
+        prog.add_psd(-L - margin * np.eye(L.shape[0]))
+    return P0, Pk, F

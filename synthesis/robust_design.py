@@ -111,10 +111,12 @@ Every result returned as ``"optimal"`` has been re-verified without the solver (
 each LMI rebuilt in numpy from the returned matrices (with the returned K), its extreme
 eigenvalue of the right sign with a margin; otherwise ``"unverified"``. An optimal
 interior-point solution lies within the solver's accuracy (about 1e-8 of the largest entry) of
-the boundary, too close for such a check, so every minimization is followed by a back-off solve:
-the levels fixed at ``1 + b`` times the optimum and the smallest strictness margin of all the
-LMIs maximized, for b in :data:`BACKOFFS` until one verifies. The certificate returned is the
-back-off one.
+the boundary, often too close for such a check. So the minimizer is checked first at the levels
+``1 + b`` times the optimum (b in :data:`BACKOFFS`: its LMIs are strict by eps, and raising the
+levels only loosens them); if none verifies, a back-off solve follows: the levels fixed at
+``1 + b`` times the optimum and the smallest strictness margin of all the LMIs maximized, for b
+in :data:`BACKOFFS` until one verifies. The programs are built as arrays for Clarabel
+(:mod:`synthesis.lmi`).
 
 The analysis of a given gain with a parameter-dependent Lyapunov function is
 :mod:`synthesis.pdlf`; the exact norms of sampled loops, for independent checks of every bound,
@@ -127,11 +129,10 @@ import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 
-import cvxpy as cp
 import numpy as np
 import scipy.linalg as sla
 
-from synthesis import solve_policy
+from synthesis import lmi, solve_policy
 from synthesis.lft_plant import (LFTPlant, OptionError, PlantDataError, _block_starts, _check_gain, _check_vertices,
                                  _matrix, _sym, box_vertices)
 
@@ -308,7 +309,7 @@ def _bound(convention: str, level: float) -> float:
 
 def _dual_lmi(s: _Spec, Y, W, mult, weights, stack, bmat):
     """The dual robust LMI of spec ``s`` (must be < 0), rows ``(x', q, z, w)``, built with the
-    array functions given: numpy's (``np.vstack, np.block``) for a check, cvxpy's for the program.
+    array functions given: numpy's (``np.vstack, np.block``) for a check, :mod:`synthesis.lmi`'s for the program.
 
     ``mult = (Qt, St, Rt)`` (ignored when ``n_q = 0``); ``weights = (z side, w side)`` of the
     level (:func:`_weights`), unused without w, z.
@@ -360,39 +361,41 @@ def _vertex_condition(Qt, St, Rt, D: np.ndarray):
     return (V + V.T) / 2
 
 
-def _blockdiag(mats: list, sizes: list[int]):
-    return cp.bmat([[mats[i] if i == j else np.zeros((sizes[i], sizes[j])) for j in range(len(sizes))]
-                    for i in range(len(sizes))])
+def _blockdiag(mats: list, sizes: list[int]) -> lmi.Affine:
+    return lmi.bmat([[mats[i] if i == j else np.zeros((sizes[i], sizes[j])) for j in range(len(sizes))]
+                     for i in range(len(sizes))])
 
 
-def _multiplier_program(plant: LFTPlant, uncertainty: str, deltas: list[np.ndarray], margin):
-    """Constraints (strict by ``margin``) and ``(Qt, St, Rt)`` expressions of one multiplier, plus
-    a function returning the numeric :class:`Multiplier` after the solve."""
+def _multiplier_program(prog: lmi.LMIProgram, plant: LFTPlant, uncertainty: str, deltas: list[np.ndarray], margin):
+    """The ``(Qt, St, Rt)`` expressions of one multiplier, its conditions (strict by ``margin``)
+    added to ``prog``, and a function returning the numeric :class:`Multiplier` after the solve."""
     reps = [int(r) for r in plant.repetitions]
     nq = sum(reps)
     if uncertainty == "norm":
-        S = [cp.Variable((r, r), symmetric=True) for r in reps]
-        U = [cp.Variable((r, r)) if r > 1 else None for r in reps]
+        S = [prog.variable((r, r), symmetric=True) for r in reps]
+        U = [prog.variable((r, r)) if r > 1 else None for r in reps]
         H = [u - u.T if u is not None else np.zeros((1, 1)) for u in U]
-        cons = [s >> margin * np.eye(r) for s, r in zip(S, reps)]
+        for s, r in zip(S, reps):
+            prog.add_psd(s - margin * np.eye(r))
         Qt, St = _blockdiag(S, reps), _blockdiag(H, reps)
 
         def value() -> Multiplier:
-            Q = sla.block_diag(*[_sym(s.value) for s in S])
-            Hs = sla.block_diag(*[u.value - u.value.T if u is not None else np.zeros((1, 1)) for u in U])
+            Q = sla.block_diag(*[_sym(prog.value(s)) for s in S])
+            Hs = sla.block_diag(*[prog.value(h) if isinstance(h, lmi.Affine) else h for h in H])
             return Multiplier("norm", Q, Hs, -Q)
 
-        return cons, (Qt, St, -Qt), value
-    Qt = cp.Variable((nq, nq), symmetric=True)
-    St = cp.Variable((nq, nq))
-    Rt = cp.Variable((nq, nq), symmetric=True)
-    cons = [Qt >> margin * np.eye(nq)]
-    cons += [_vertex_condition(Qt, St, Rt, D) << -margin * np.eye(nq) for D in deltas]
+        return (Qt, St, -Qt), value
+    Qt = prog.variable((nq, nq), symmetric=True)
+    St = prog.variable((nq, nq))
+    Rt = prog.variable((nq, nq), symmetric=True)
+    prog.add_psd(Qt - margin * np.eye(nq))
+    for D in deltas:
+        prog.add_psd(-_vertex_condition(Qt, St, Rt, D) - margin * np.eye(nq))
 
     def value() -> Multiplier:
-        return Multiplier("vertex", _sym(Qt.value), np.asarray(St.value), _sym(Rt.value))
+        return Multiplier("vertex", _sym(prog.value(Qt)), prog.value(St), _sym(prog.value(Rt)))
 
-    return cons, (Qt, St, Rt), value
+    return (Qt, St, Rt), value
 
 
 def _dg_structure_error(mult: Multiplier, reps: np.ndarray) -> float:
@@ -481,8 +484,8 @@ class RobustDesign:
     ``n_vertices``: box
     vertices enumerated (0 with D-G scalings); ``n_multipliers``: scaling pairs (D-G: one per
     block and robust LMI) or full-block multipliers (one per robust LMI). Times in seconds:
-    ``build_seconds`` to build the cvxpy problem, ``solve_seconds`` the wall time of
-    ``Problem.solve`` (canonicalization and Clarabel), both summed over all the solves.
+    ``build_seconds`` to build the LMI programs (:mod:`synthesis.lmi`), ``solve_seconds`` the wall
+    time of Clarabel (set-up and solve), both summed over all the solves.
     ``backoff``: the back-off that verified; ``state_scaling``: None, or T when the certificate
     was found (and ``check`` computed) in the coordinates ``x = diag(T) x_s``: K and Y are given
     in the plant's own coordinates (``Y = diag(T) Y_s diag(T)``).
@@ -509,11 +512,6 @@ class RobustDesign:
     """Plants in the last program of the constraint generation over many plants (None: all)."""
     convention: str = "satfmu"
     """How the levels entered the LMIs (:data:`CONVENTIONS`)."""
-
-
-def _solve(prob: cp.Problem) -> solve_policy.SolveOutcome:
-    """:func:`synthesis.solve_policy.solve_cvxpy`: the synthesis layer's one solve policy."""
-    return solve_policy.solve_cvxpy(prob)
 
 
 def _failed(out: solve_policy.SolveOutcome) -> str:
@@ -551,32 +549,32 @@ def _distinct_i2p(plants: tuple[LFTPlant, ...]) -> list[LFTPlant]:
     return out
 
 
-def _robust_constraints(plants: tuple[LFTPlant, ...], K: np.ndarray | None, specs: list[list[_Spec]],
-                        uncertainty: str, margin, gamma, nu, convention: str = "satfmu"
-                        ) -> tuple[cp.Variable, object, dict, list]:
-    """``(Y, W, multiplier values, constraints)`` of the common-Lyapunov program over every plant
-    (``specs[i]`` of plant i), every LMI strict by ``margin`` (eps, or the variable the back-off
-    maximizes); gamma, nu the program's levels (:func:`_level`), variables or constants (nu None:
-    no impulse-to-peak LMIs)."""
+def _robust_constraints(prog: lmi.LMIProgram, plants: tuple[LFTPlant, ...], K: np.ndarray | None,
+                        specs: list[list[_Spec]], uncertainty: str, margin, gamma, nu, convention: str = "satfmu"
+                        ) -> tuple[lmi.Affine, lmi.Affine, dict]:
+    """``(Y, W, multiplier values)`` of the common-Lyapunov program over every plant (``specs[i]``
+    of plant i), its LMIs added to ``prog``, every one strict by ``margin`` (eps, or the variable
+    the back-off maximizes); gamma, nu the program's levels (:func:`_level`), variables or
+    constants (nu None: no impulse-to-peak LMIs)."""
     n, m = plants[0].A.shape[0], plants[0].Bu.shape[1]
-    Y = cp.Variable((n, n), symmetric=True)
-    W = cp.Variable((m, n)) if K is None else K @ Y
-    cons = [Y >> margin * np.eye(n)]
+    Y = prog.variable((n, n), symmetric=True)
+    W = prog.variable((m, n)) if K is None else K @ Y
+    prog.add_psd(Y - margin * np.eye(n))
     values = {}
     for i, (plant, plant_specs) in enumerate(zip(plants, specs)):
         for s in plant_specs:
             triple = None
             if plant.n_params:
                 deltas = _vertex_deltas(s.plant) if uncertainty == "vertex" else []
-                mcons, triple, values[_key(i, s.name, len(plants))] = _multiplier_program(
-                    s.plant, uncertainty, deltas, margin)
-                cons += mcons
-            L = _dual_lmi(s, Y, W, triple, _weights(convention, gamma), cp.vstack, cp.bmat)
-            cons.append(L << -margin * np.eye(L.shape[0]))
+                triple, values[_key(i, s.name, len(plants))] = _multiplier_program(
+                    prog, s.plant, uncertainty, deltas, margin)
+            L = _dual_lmi(s, Y, W, triple, _weights(convention, gamma), lmi.vstack, lmi.bmat)
+            prog.add_psd(-L - margin * np.eye(L.shape[0]))
     for plant in _distinct_i2p(plants) if nu is not None else ():
-        upper, lower = _i2p_blocks(plant, Y, _weights(convention, nu), cp.bmat)
-        cons += [upper >> margin * np.eye(upper.shape[0]), lower << -margin * np.eye(lower.shape[0])]
-    return Y, W, values, cons
+        upper, lower = _i2p_blocks(plant, Y, _weights(convention, nu), lmi.bmat)
+        prog.add_psd(upper - margin * np.eye(upper.shape[0]))
+        prog.add_psd(-lower - margin * np.eye(lower.shape[0]))
+    return Y, W, values
 
 
 def _verify_plants(plants: tuple[LFTPlant, ...], K, Y, gamma, nu, multipliers: dict[str, Multiplier], *,
@@ -645,14 +643,15 @@ def _phase_one(plants: tuple[LFTPlant, ...], K: np.ndarray | None, *, alpha: flo
     """Y of the region LMIs alone (no H-infinity, no i2p), normalized ``t I <= Y <= I`` with the
     common margin t maximized (at most 1): a bounded problem that the solver answers where the
     full minimization fails; its Y's diagonal gives the coordinates of the retry."""
-    t = cp.Variable()
+    prog = lmi.LMIProgram()
+    t = prog.variable()
     specs = [_specs(p, alpha, beta, False, sector) for p in plants]
-    Y, _, _, cons = _robust_constraints(plants, K, specs, uncertainty, t, None, None)
-    cons[1:1] = [Y << np.eye(Y.shape[0]), t <= 1]  # next to t I <= Y (the solver's path depends on the order)
-    prob = cp.Problem(cp.Maximize(t), cons)
-    if not _solve(prob).solved or Y.value is None:
+    Y, _, _ = _robust_constraints(prog, plants, K, specs, uncertainty, t, None, None)
+    prog.add_psd(np.eye(Y.shape[0]) - Y)
+    prog.add_nonneg(1.0 - t)
+    if not prog.solve(t, maximize=True).solved:
         return None
-    return _sym(Y.value)
+    return _sym(prog.value(Y))
 
 
 def _robust_program(plants: tuple[LFTPlant, ...], K: np.ndarray | None, *, hinf: bool, w_hinf: float,
@@ -664,38 +663,52 @@ def _robust_program(plants: tuple[LFTPlant, ...], K: np.ndarray | None, *, hinf:
     and verify the common-Lyapunov program (options already checked); also the first solve's Y."""
     t0 = time.perf_counter()
     specs = [_specs(p, alpha, beta, hinf, sector) for p in plants]
-    gamma = cp.Variable() if hinf else None
-    nu = cp.Variable()
-    Y, W, _, cons = _robust_constraints(plants, K, specs, uncertainty, eps, gamma, nu, convention)
-    prob = cp.Problem(cp.Minimize(w_i2p * nu + (w_hinf * gamma if hinf else 0)), cons)
+    prog = lmi.LMIProgram()
+    gamma = prog.variable() if hinf else None
+    nu = prog.variable()
+    Y, W, values = _robust_constraints(prog, plants, K, specs, uncertainty, eps, gamma, nu, convention)
+    objective = w_i2p * nu + (w_hinf * gamma if hinf else 0.0)
     build = time.perf_counter() - t0
-    out = _solve(prob)
+    sol = prog.solve(objective)
+    out = sol.outcome
     n_mult = sum(len(s) * (p.n_params if uncertainty == "norm" else min(p.n_params, 1))
                  for p, s in zip(plants, specs))
     info = {"uncertainty": uncertainty,
             "n_vertices": sum(2**p.n_params for p in plants) if uncertainty == "vertex" else 0,
             "n_multipliers": n_mult, "fixed_gain": K is not None, "convention": convention}
-    if not out.solved or Y.value is None:
+    if not sol.solved:
         return RobustDesign(_failed(out), None, None, None, None, {}, None, None, **info,
                             solver_status=out.solver_status, solve_seconds=out.seconds, build_seconds=build), None
-    optimum, Y1 = float(prob.value), _sym(Y.value)
+    optimum, Y1 = sol.objective, _sym(prog.value(Y))
+    g_opt = float(prog.value(gamma)[0, 0]) if hinf else None
+    nu_opt = float(prog.value(nu)[0, 0])
     times = {"solver_status": out.solver_status, "solve_seconds": out.seconds, "build_seconds": build}
+    K1 = np.linalg.solve(Y1, prog.value(W).T).T if K is None else K
+    mults = {k: f() for k, f in values.items()}
+    for b in backoffs:  # the minimizer itself, at the backed-off levels: no second solve if it verifies
+        g = None if g_opt is None else _bound(convention, g_opt * (1 + b))
+        nv = _bound(convention, nu_opt * (1 + b))
+        check = _verify_plants(plants, K1, Y1, g, nv, mults, alpha=alpha, beta=beta, sector=sector,
+                               convention=convention)
+        if check.ok:
+            times["solver_status"] += f"; the minimizer verified at back-off {b:g}"
+            return RobustDesign("optimal", K1, g, nv, Y1, mults, check, optimum, **info, **times, backoff=b), Y1
     mults, check = {}, None
     for b in backoffs:
         t0 = time.perf_counter()
-        g = float(gamma.value) * (1 + b) if hinf else None
-        nv = float(nu.value) * (1 + b)
-        t = cp.Variable()
-        Yb, Wb, values, cons = _robust_constraints(plants, K, specs, uncertainty, t, g, nv, convention)
-        prob = cp.Problem(cp.Maximize(t), cons)
+        g = g_opt * (1 + b) if hinf else None
+        nv = nu_opt * (1 + b)
+        back = lmi.LMIProgram()
+        t = back.variable()
+        Yb, Wb, values = _robust_constraints(back, plants, K, specs, uncertainty, t, g, nv, convention)
         times["build_seconds"] += time.perf_counter() - t0
-        out2 = _solve(prob)
+        out2 = back.solve(t, maximize=True).outcome
         times["solver_status"] += f"; back-off {b:g}: {out2.solver_status}"
         times["solve_seconds"] += out2.seconds
-        if not out2.solved or Yb.value is None:
+        if not back.solution.solved:
             continue
-        Yv = _sym(Yb.value)
-        Kv = np.linalg.solve(Yv, np.asarray(Wb.value).T).T if K is None else K
+        Yv = _sym(back.value(Yb))
+        Kv = np.linalg.solve(Yv, back.value(Wb).T).T if K is None else K
         mults = {k: f() for k, f in values.items()}
         g, nv = (None if g is None else _bound(convention, g)), _bound(convention, nv)
         check = _verify_plants(plants, Kv, Yv, g, nv, mults, alpha=alpha, beta=beta, sector=sector,

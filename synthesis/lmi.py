@@ -1,0 +1,271 @@
+"""Affine matrix expressions and LMI programs, handed to Clarabel as arrays (no modelling layer).
+
+The robust and PDLF programs (:mod:`synthesis.robust_design`, :mod:`synthesis.pdlf`) are small
+matrix inequalities, affine in a few hundred scalars, repeated over many plants or vertices. A
+general modelling layer re-canonicalizes each of them expression by expression (cvxpy spent a
+quarter of the DEMETER table's time there, and added symmetry equalities to every LMI); here an
+:class:`Affine` holds its coefficients as one dense array over the variables it involves, the
+operations are numpy products on that array, and :class:`LMIProgram` writes each inequality
+straight into Clarabel's scaled-svec PSD cone (:mod:`synthesis.conic`).
+
+An :class:`Affine` of shape ``(r, c)`` is ``X(x) = C0 + sum_k x_{v_k} C_k``: ``coef`` has shape
+``(r c, 1 + len(vars))``, row-major entries, column 0 the constant. It supports ``+``, ``-``,
+products with numbers and constant matrices (``M @ X``, ``X @ M``; a 1 x 1 expression times a
+constant matrix), ``X.T``, ``/`` by a number, and :func:`bmat` / :func:`vstack` of expressions
+and constants; numpy arrays on the left defer to it. Products of two expressions are refused
+(they would not be affine).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Sequence
+
+import numpy as np
+import scipy.sparse as sps
+
+from synthesis import solve_policy
+from synthesis.conic import REFUTED, SOLVED, ConicProblem, solve_clarabel, svec_indices, svec_scale
+
+
+class LMIError(ValueError):
+    """A non-affine operation, mismatched shapes, or a value asked before a solve."""
+
+
+def _const(value, shape: tuple[int, int] | None = None) -> np.ndarray:
+    a = np.asarray(value, dtype=float)
+    if a.ndim == 0 and shape is not None:
+        return np.full(shape, float(a))
+    if a.ndim == 1:
+        a = a.reshape(-1, 1) if shape is None or shape[1] == 1 else a.reshape(1, -1)
+    if a.ndim != 2:
+        raise LMIError(f"a constant must be a number or a matrix, got shape {a.shape}")
+    return a
+
+
+class Affine:
+    """An affine matrix expression ``C0 + sum_k x_{vars[k]} C_k`` (module docstring)."""
+
+    __array_ufunc__ = None  # numpy defers ``M @ X``, ``M + X`` to the reflected methods
+    __slots__ = ("shape", "vars", "coef")
+
+    def __init__(self, shape: tuple[int, int], vars: np.ndarray, coef: np.ndarray) -> None:
+        self.shape = (int(shape[0]), int(shape[1]))
+        self.vars = vars
+        self.coef = coef
+
+    @classmethod
+    def constant(cls, value) -> Affine:
+        a = _const(value)
+        return cls(a.shape, np.zeros(0, dtype=np.int64), a.reshape(-1, 1).copy())
+
+    def _c3(self) -> np.ndarray:
+        return self.coef.reshape(self.shape[0], self.shape[1], -1)
+
+    def _lifted(self, vars: np.ndarray) -> np.ndarray:
+        """``coef`` over the (sorted) superset ``vars`` of its variables."""
+        if len(vars) == len(self.vars):
+            return self.coef
+        out = np.zeros((self.coef.shape[0], 1 + len(vars)))
+        out[:, 0] = self.coef[:, 0]
+        out[:, 1 + np.searchsorted(vars, self.vars)] = self.coef[:, 1:]
+        return out
+
+    def __add__(self, other) -> Affine:
+        if isinstance(other, Affine):
+            if other.shape != self.shape:
+                raise LMIError(f"cannot add shapes {self.shape} and {other.shape}")
+            vars = np.union1d(self.vars, other.vars)
+            return Affine(self.shape, vars, self._lifted(vars) + other._lifted(vars))
+        c = _const(other, self.shape)
+        if c.shape != self.shape:
+            raise LMIError(f"cannot add shapes {self.shape} and {c.shape}")
+        coef = self.coef.copy()
+        coef[:, 0] += c.ravel()
+        return Affine(self.shape, self.vars, coef)
+
+    __radd__ = __add__
+
+    def __neg__(self) -> Affine:
+        return Affine(self.shape, self.vars, -self.coef)
+
+    def __sub__(self, other) -> Affine:
+        return self + (-other)
+
+    def __rsub__(self, other) -> Affine:
+        return (-self) + other
+
+    def __mul__(self, other) -> Affine:
+        if isinstance(other, Affine):
+            raise LMIError("a product of two expressions is not affine")
+        c = np.asarray(other, dtype=float)
+        if c.ndim == 0:
+            return Affine(self.shape, self.vars, self.coef * float(c))
+        if self.shape != (1, 1):
+            raise LMIError(f"only a 1 x 1 expression multiplies a matrix, got shape {self.shape}")
+        c = _const(c)
+        return Affine(c.shape, self.vars, np.outer(c.ravel(), self.coef[0]))
+
+    __rmul__ = __mul__
+
+    def __truediv__(self, other) -> Affine:
+        return self * (1.0 / float(other))
+
+    def __matmul__(self, other) -> Affine:
+        if isinstance(other, Affine):
+            raise LMIError("a product of two expressions is not affine")
+        M = _const(other)
+        if M.shape[0] != self.shape[1]:
+            raise LMIError(f"cannot multiply shapes {self.shape} and {M.shape}")
+        out = np.matmul(M.T, self._c3())  # (r, q, nv): row i of X M is M^T applied to X's row i
+        return Affine((self.shape[0], M.shape[1]), self.vars, out.reshape(-1, self.coef.shape[1]))
+
+    def __rmatmul__(self, other) -> Affine:
+        M = _const(other)
+        if M.shape[1] != self.shape[0]:
+            raise LMIError(f"cannot multiply shapes {M.shape} and {self.shape}")
+        out = M @ self.coef.reshape(self.shape[0], -1)
+        return Affine((M.shape[0], self.shape[1]), self.vars, out.reshape(-1, self.coef.shape[1]))
+
+    @property
+    def T(self) -> Affine:
+        c3 = self._c3().transpose(1, 0, 2)
+        return Affine((self.shape[1], self.shape[0]), self.vars, np.ascontiguousarray(c3).reshape(self.coef.shape))
+
+
+def _as_affine(block) -> Affine:
+    return block if isinstance(block, Affine) else Affine.constant(block)
+
+
+def bmat(blocks: Sequence[Sequence[Any]]) -> Affine:
+    """The block matrix of expressions and constants (rows of blocks; sizes must agree)."""
+    grid = [[_as_affine(b) for b in row] for row in blocks]
+    heights = [row[0].shape[0] for row in grid]
+    widths = [b.shape[1] for b in grid[0]]
+    for i, row in enumerate(grid):
+        if len(row) != len(widths) or any(b.shape != (heights[i], widths[j]) for j, b in enumerate(row)):
+            raise LMIError(f"block row {i} does not match the block sizes {heights} x {widths}")
+    vars = np.unique(np.concatenate([b.vars for row in grid for b in row]))
+    out = np.zeros((sum(heights), sum(widths), 1 + len(vars)))
+    r0 = 0
+    for i, row in enumerate(grid):
+        c0 = 0
+        for j, b in enumerate(row):
+            out[r0:r0 + heights[i], c0:c0 + widths[j]] = b._lifted(vars).reshape(heights[i], widths[j], -1)
+            c0 += widths[j]
+        r0 += heights[i]
+    return Affine(out.shape[:2], vars, out.reshape(-1, 1 + len(vars)))
+
+
+def vstack(blocks: Sequence[Any]) -> Affine:
+    """Expressions and constants stacked vertically."""
+    return bmat([[b] for b in blocks])
+
+
+@dataclass
+class LMISolution:
+    """What :meth:`LMIProgram.solve` gave: the ladder's outcome and, when solved, ``x``."""
+
+    outcome: solve_policy.SolveOutcome
+    x: np.ndarray | None
+    objective: float
+
+    @property
+    def solved(self) -> bool:
+        return self.outcome.solved and self.x is not None
+
+
+class LMIProgram:
+    """Variables, LMIs ``M(x) >= 0`` and scalar inequalities ``e(x) >= 0``, as Clarabel's arrays."""
+
+    def __init__(self) -> None:
+        self.n = 0
+        self._psd_rows: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []  # (b, vars, A block)
+        self._psd: list[int] = []
+        self._nonneg: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+        self.solution: LMISolution | None = None
+
+    def variable(self, shape: tuple[int, int] = (1, 1), symmetric: bool = False) -> Affine:
+        """A new matrix variable (``symmetric``: ``r (r + 1) / 2`` scalars, square shape)."""
+        r, c = shape
+        if symmetric:
+            if r != c:
+                raise LMIError(f"a symmetric variable must be square, got {shape}")
+            i, j = np.triu_indices(r)
+            k = np.arange(len(i))
+            coef = np.zeros((r * r, 1 + len(i)))
+            coef[i * r + j, 1 + k] = 1.0
+            coef[j * r + i, 1 + k] = 1.0
+        else:
+            k = np.arange(r * c)
+            coef = np.zeros((r * c, 1 + r * c))
+            coef[k, 1 + k] = 1.0
+        vars = self.n + np.arange(coef.shape[1] - 1, dtype=np.int64)
+        self.n += len(vars)
+        return Affine((r, c), vars, coef)
+
+    def add_psd(self, M: Affine) -> None:
+        """``M(x) >= 0`` (its symmetric part), one PSD cone of order ``M.shape[0]``."""
+        M = _as_affine(M)
+        N = M.shape[0]
+        if M.shape != (N, N):
+            raise LMIError(f"an LMI needs a square matrix, got shape {M.shape}")
+        i, j = svec_indices(N)
+        rows = 0.5 * (M.coef[i * N + j] + M.coef[j * N + i]) * svec_scale(N)[:, None]
+        self._psd_rows.append((rows[:, 0], M.vars, -rows[:, 1:]))
+        self._psd.append(N)
+
+    def add_nonneg(self, e: Affine) -> None:
+        """Every entry of ``e(x) >= 0``."""
+        e = _as_affine(e)
+        self._nonneg.append((e.coef[:, 0], e.vars, -e.coef[:, 1:]))
+
+    def _problem(self, objective: Affine | None) -> ConicProblem:
+        q = np.zeros(self.n)
+        if objective is not None:
+            if objective.shape != (1, 1):
+                raise LMIError(f"the objective must be 1 x 1, got shape {objective.shape}")
+            q[objective.vars] = objective.coef[0, 1:]
+        bs, ri, ci, vi = [], [], [], []
+        row = 0
+        for b, vars, A in self._nonneg + self._psd_rows:
+            r, c = np.nonzero(A)
+            ri.append(row + r)
+            ci.append(vars[c])
+            vi.append(A[r, c])
+            bs.append(b)
+            row += len(b)
+        A = sps.csc_matrix((np.concatenate(vi), (np.concatenate(ri), np.concatenate(ci))), shape=(row, self.n))
+        return ConicProblem(q, A, np.concatenate(bs), 0, sum(len(b) for b, _, _ in self._nonneg), list(self._psd))
+
+    def solve(self, objective: Affine | None = None, *, maximize: bool = False,
+              ladder: Sequence[tuple[str, dict[str, Any]]] = solve_policy.LADDER) -> LMISolution:
+        """Minimize (or maximize) the 1 x 1 ``objective`` (feasibility if None) under the
+        project's solve policy (:mod:`synthesis.solve_policy`); the values are then read with
+        :meth:`value`."""
+        obj = None if objective is None else (-objective if maximize else objective)
+        problem = self._problem(obj)
+        results = []
+
+        def run(solver: str, settings: dict[str, Any]) -> str:
+            if solver != "CLARABEL":
+                raise LMIError(f"LMIProgram solves with Clarabel only, got {solver!r}")
+            results.append(solve_clarabel(problem, **settings))
+            status = results[-1].status
+            if status not in SOLVED.values() and status not in REFUTED.values():
+                raise solve_policy.SolverFailure(status)
+            return status
+
+        outcome = solve_policy.solve_with(run, ladder)
+        x = results[-1].x if outcome.solved else None
+        value = float("nan")
+        if x is not None and objective is not None:
+            value = float(objective.coef[0, 0] + objective.coef[0, 1:] @ x[objective.vars])
+        self.solution = LMISolution(outcome, x, value)
+        return self.solution
+
+    def value(self, e: Affine) -> np.ndarray:
+        """The value of ``e`` at the last solve's solution."""
+        if self.solution is None or self.solution.x is None:
+            raise LMIError("no solution to read: solve first (and check that it solved)")
+        e = _as_affine(e)
+        return (e.coef[:, 0] + e.coef[:, 1:] @ self.solution.x[e.vars]).reshape(e.shape)

@@ -1,0 +1,95 @@
+"""synthesis.lmi: affine matrix expressions against numpy, LMI programs against closed forms."""
+import numpy as np
+import pytest
+import scipy.linalg as sla
+
+from synthesis import lmi
+
+
+def test_operations_match_numpy_at_random_values():
+    """Every operation, evaluated at random variable values, equals numpy's on the values
+    (exact up to rounding: 1e-12 on entries of order 10)."""
+    rng = np.random.default_rng(0)
+    prog = lmi.LMIProgram()
+    Y, W = prog.variable((3, 3), symmetric=True), prog.variable((2, 3))
+    g = prog.variable()
+    A, B, M = rng.normal(size=(3, 3)), rng.normal(size=(3, 2)), rng.normal(size=(4, 3))
+    x = rng.normal(size=prog.n)
+
+    def value(e):
+        return (e.coef[:, 0] + e.coef[:, 1:] @ x[e.vars]).reshape(e.shape)
+
+    Yv, Wv, gv = value(Y), value(W), value(g)[0, 0]
+    assert np.allclose(Yv, Yv.T, atol=0)
+    L = A @ Y + Y @ A.T + B @ W + W.T @ B.T
+    assert np.allclose(value(L), A @ Yv + Yv @ A.T + B @ Wv + Wv.T @ B.T, atol=1e-12)
+    blk = lmi.bmat([[L, M.T], [M, -g * np.eye(4)]])
+    ref = np.block([[A @ Yv + Yv @ A.T + B @ Wv + Wv.T @ B.T, M.T], [M, -gv * np.eye(4)]])
+    assert np.allclose(value(blk), ref, atol=1e-12)
+    assert np.allclose(value(lmi.vstack([Y, W, np.ones((1, 3))])), np.vstack([Yv, Wv, np.ones((1, 3))]), atol=0)
+    assert np.allclose(value((2.0 - Y) / 4 + 0.5 * Y.T), (2.0 - Yv) / 4 + 0.5 * Yv.T, atol=1e-15)
+    assert np.allclose(value(np.float64(3.0) * W - W @ np.eye(3)), 2 * Wv, atol=1e-14)
+
+
+def test_products_of_expressions_and_shape_errors_are_refused():
+    prog = lmi.LMIProgram()
+    Y = prog.variable((2, 2), symmetric=True)
+    g = prog.variable()
+    with pytest.raises(lmi.LMIError, match="not affine"):
+        Y @ Y
+    with pytest.raises(lmi.LMIError, match="not affine"):
+        g * Y
+    with pytest.raises(lmi.LMIError, match="cannot add"):
+        Y + np.ones((3, 3))
+    with pytest.raises(lmi.LMIError, match="cannot multiply"):
+        np.ones((3, 3)) @ Y
+    with pytest.raises(lmi.LMIError, match="block row"):
+        lmi.bmat([[Y, np.zeros((2, 1))], [np.zeros((1, 3))]])
+    with pytest.raises(lmi.LMIError, match="square"):
+        prog.variable((2, 3), symmetric=True)
+    with pytest.raises(lmi.LMIError, match="square"):
+        prog.add_psd(prog.variable((2, 3)))
+    with pytest.raises(lmi.LMIError, match="solve first"):
+        prog.value(Y)
+
+
+def test_lyapunov_program_matches_scipy():
+    """min trace P s.t. A^T P + P A <= -I: P is the Lyapunov solution (the constraint is active),
+    to the solver's accuracy (1e-6 relative, Clarabel's 1e-8 tolerances on this scale)."""
+    rng = np.random.default_rng(1)
+    A = rng.normal(size=(4, 4)) - 3 * np.eye(4)
+    prog = lmi.LMIProgram()
+    P = prog.variable((4, 4), symmetric=True)
+    prog.add_psd(-(A.T @ P + P @ A) - np.eye(4))
+    sol = prog.solve(_trace(P))
+    assert sol.solved
+    ref = sla.solve_continuous_lyapunov(A.T, -np.eye(4))
+    assert np.allclose(prog.value(P), ref, rtol=1e-6, atol=1e-8)
+    assert sol.objective == pytest.approx(np.trace(ref), rel=1e-7)
+
+
+def _trace(P):
+    n = P.shape[0]
+    return sum(np.eye(n)[[i]] @ P @ np.eye(n)[:, [i]] for i in range(n))
+
+
+def test_maximize_and_scalar_inequality():
+    """max t s.t. [[1, t], [t, 1]] >= 0 and t <= 0.5: t = 0.5 (the scalar bound active, 1e-7)."""
+    prog = lmi.LMIProgram()
+    t = prog.variable()
+    prog.add_psd(lmi.bmat([[np.ones((1, 1)), t], [t, np.ones((1, 1))]]))
+    prog.add_nonneg(0.5 - t)
+    sol = prog.solve(t, maximize=True)
+    assert sol.solved and prog.value(t)[0, 0] == pytest.approx(0.5, abs=1e-7)
+
+
+def test_infeasible_program_is_reported():
+    """P >= I and P <= 0 has no solution: Clarabel's certificate, no values."""
+    prog = lmi.LMIProgram()
+    P = prog.variable((2, 2), symmetric=True)
+    prog.add_psd(P - np.eye(2))
+    prog.add_psd(-P)
+    sol = prog.solve()
+    assert not sol.solved and sol.outcome.status == "infeasible"
+    with pytest.raises(lmi.LMIError):
+        prog.value(P)
