@@ -225,6 +225,8 @@ class LMIProgram:
             if objective.shape != (1, 1):
                 raise LMIError(f"the objective must be 1 x 1, got shape {objective.shape}")
             q[objective.vars] = objective.coef[0, 1:]
+        if not self._nonneg and not self._psd_rows:
+            raise LMIError("the program has no constraints")
         bs, ri, ci, vi = [], [], [], []
         row = 0
         for b, vars, A in self._nonneg + self._psd_rows:

@@ -51,6 +51,8 @@ def test_products_of_expressions_and_shape_errors_are_refused():
         prog.add_psd(prog.variable((2, 3)))
     with pytest.raises(lmi.LMIError, match="solve first"):
         prog.value(Y)
+    with pytest.raises(lmi.LMIError, match="no constraints"):
+        prog.solve(g)
 
 
 def test_lyapunov_program_matches_scipy():
