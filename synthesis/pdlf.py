@@ -166,14 +166,12 @@ def pdlf_hinf(desc: AffineDescriptor, K, *, common: bool = False, max_vertices: 
     check = None
     if prog.solution.solved:
         root = float(np.sqrt(max(float(prog.value(g)[0, 0]), 0.0)))
-        n, N = desc.n, desc.n_params
-        P0v = _sym(prog.value(P0))
-        Pkv = np.stack([_sym(prog.value(p)) for p in Pk]) if Pk else np.zeros((N, n, n))
+        P0v, Pkv, Fv = _pdlf_values(prog, desc, P0, Pk, F)
         for b in BACKOFFS:  # the minimizer itself first: no second solve if it verifies
-            check = verify_pdlf(desc, K, P0v, Pkv, prog.value(F), root * (1 + b))
+            check = verify_pdlf(desc, K, P0v, Pkv, Fv, root * (1 + b))
             if check.ok:
                 info["solver_status"] += f"; the minimizer verified at back-off {b:g}"
-                return PDLFResult("optimal", root * (1 + b), P0v, Pkv, prog.value(F), check, **info, backoff=b)
+                return PDLFResult("optimal", root * (1 + b), P0v, Pkv, Fv, check, **info, backoff=b)
         for b in BACKOFFS:
             found, check = _pdlf_at(desc, K, common, root * (1 + b), info, f"back-off {b:g}")
             if found is not None:
@@ -202,14 +200,18 @@ def _pdlf_at(desc: AffineDescriptor, K: np.ndarray, common: bool, gamma: float, 
     info["solver_status"] += f"; {label}: {out.solver_status}"
     if not prog.solution.solved or prog.value(t)[0, 0] <= 0:
         return None, None
-    n, N = desc.n, desc.n_params
-    P0v = _sym(prog.value(P0))
-    Pkv = np.stack([_sym(prog.value(p)) for p in Pk]) if Pk else np.zeros((N, n, n))
-    Fv = prog.value(F)
+    P0v, Pkv, Fv = _pdlf_values(prog, desc, P0, Pk, F)
     check = verify_pdlf(desc, K, P0v, Pkv, Fv, gamma)
     if not check.ok:
         return None, check
     return PDLFResult("optimal", gamma, P0v, Pkv, Fv, check, **info), check
+
+
+def _pdlf_values(prog: lmi.LMIProgram, desc: AffineDescriptor, P0, Pk, F) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(P0, Pk, F)`` at the solution of ``prog`` (``Pk`` zeros, shape (N, n, n), if common)."""
+    n, N = desc.n, desc.n_params
+    Pkv = np.stack([_sym(prog.value(p)) for p in Pk]) if Pk else np.zeros((N, n, n))
+    return _sym(prog.value(P0)), Pkv, prog.value(F)
 
 
 def _pdlf_bisection(desc: AffineDescriptor, K: np.ndarray, common: bool, info: dict,
