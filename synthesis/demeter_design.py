@@ -8,7 +8,8 @@
 2. :func:`synthesis.robust_design.design`: one Lyapunov matrix for H-infinity ``w1 -> z1``,
    impulse-to-peak ``w2 -> z2`` and the pole region ``-10 < Re s < -1e-4``, objective
    ``1 gamma + 100 nu``; D-G scalings for norm-bounded parameters (uncertainty types 1, 3),
-   vertex separators for intervals (type 2);
+   vertex separators for intervals (type 2), or D-G scalings there too when the vertex program
+   is too large for the solver's memory (:func:`robust_multipliers`; three axes: 256 vertices);
 3. deterministic analysis of the closed loop: H-infinity bound with a parameter-dependent
    Lyapunov function on the affine descriptor (:func:`synthesis.pdlf.pdlf_hinf`) and
    the impulse-to-peak bound with a common one (:func:`synthesis.robust_design.i2p_bound`);
@@ -183,6 +184,8 @@ class DeterministicResult:
     seconds: dict[str, float] = field(default_factory=dict)
     obstruction: CoincidentModes | None = None
     """Set when the variant is provably infeasible for any common-Lyapunov design."""
+    note: str = ""
+    """Set when the design or the i2p analysis used D-G scalings in place of vertex separators."""
 
     @property
     def feasible(self) -> bool:
@@ -192,6 +195,20 @@ class DeterministicResult:
 def uncertainty_kind(variant: Variant) -> str:
     """"vertex" for interval parameters (type 2), "norm" otherwise."""
     return "vertex" if variant.uncertainty_type == 2 else "norm"
+
+
+def robust_multipliers(program, kind: str):
+    """``program(kind)`` (a design or an analysis over the box with ``uncertainty=kind``), and
+    the multipliers it used with a note: vertex separators, or D-G scalings when the vertex
+    program exceeds the solver's memory (:class:`~synthesis.lft_plant.ProgramTooLargeError`).
+    D-G scalings certify the same box for real parameters (also time-varying), with a smaller
+    program (one LMI per specification instead of one per vertex) and more conservatism."""
+    try:
+        return program(kind), kind, ""
+    except ProgramTooLargeError as exc:
+        if kind != "vertex":
+            raise
+        return program("norm"), "norm", f"D-G scalings, the vertex program is too large: {exc}"
 
 
 @dataclass
@@ -204,6 +221,8 @@ class Analysis:
     i2p: RobustDesign
     seconds: float
     skipped: str = ""
+    i2p_note: str = ""
+    """Set when the i2p bound used D-G scalings in place of vertex separators (:func:`robust_multipliers`)."""
 
 
 def analyse(dm: DesignModel, K: np.ndarray, T: np.ndarray | None = None) -> Analysis:
@@ -216,12 +235,13 @@ def analyse(dm: DesignModel, K: np.ndarray, T: np.ndarray | None = None) -> Anal
     plant = scaled_lft(dm, T)
     Ks = np.asarray(K, float) * T
     desc = AffineDescriptor.from_lft(plant)
-    i2p = i2p_bound(plant, Ks, alpha=0.0, uncertainty=uncertainty_kind(dm.variant))
+    i2p, _, i2p_note = robust_multipliers(lambda kind: i2p_bound(plant, Ks, alpha=0.0, uncertainty=kind),
+                                          uncertainty_kind(dm.variant))
     try:
         hinf, common, skipped = pdlf_hinf(desc, Ks), pdlf_hinf(desc, Ks, common=True), ""
     except ProgramTooLargeError as exc:
         hinf, common, skipped = None, None, f"H-infinity analysis skipped: {exc}"
-    return Analysis(hinf, common, i2p, time.perf_counter() - t0, skipped)
+    return Analysis(hinf, common, i2p, time.perf_counter() - t0, skipped, i2p_note and f"i2p analysis: {i2p_note}")
 
 
 def deterministic(variant: Variant, *, n_samples: int = 100, seed: int = 0, analysis: bool = True,
@@ -231,12 +251,14 @@ def deterministic(variant: Variant, *, n_samples: int = 100, seed: int = 0, anal
     toolbox's); the analysis does not depend on it."""
     dm = design_model(variant)
     T = state_scale(dm)
-    kind = uncertainty_kind(variant)
+    plant = scaled_lft(dm, T)
     t0 = time.perf_counter()
-    des = design(scaled_lft(dm, T), w_hinf=W_HINF, w_i2p=W_I2P, alpha=ALPHA, beta=BETA, uncertainty=kind,
-                 convention=convention)
+    des, kind, note = robust_multipliers(
+        lambda kind: design(plant, w_hinf=W_HINF, w_i2p=W_I2P, alpha=ALPHA, beta=BETA, uncertainty=kind,
+                            convention=convention), uncertainty_kind(variant))
     out = DeterministicResult(variant, kind, des, None if des.K is None else des.K / T,
-                              seconds={"design": time.perf_counter() - t0}, obstruction=coincident_modes(variant))
+                              seconds={"design": time.perf_counter() - t0}, obstruction=coincident_modes(variant),
+                              note=note and f"design: {note}")
     if out.K is None:
         return out
     if analysis:
@@ -245,6 +267,7 @@ def deterministic(variant: Variant, *, n_samples: int = 100, seed: int = 0, anal
         a = analyse(dm, out.K, T)
         out.analysis_hinf, out.analysis_hinf_common, out.analysis_i2p = a.hinf, a.hinf_common, a.i2p
         out.analysis_skipped = a.skipped
+        out.note = "; ".join(n for n in (out.note, a.i2p_note) if n)
         out.seconds["analysis"] = a.seconds
     t0 = time.perf_counter()
     out.check = sampled_check(dm, out.K, n_samples, seed)

@@ -208,8 +208,10 @@ def sequential_design(variant: Variant, *, scale: float = 0.99, epsilon: float =
     """
     dm = design_model(variant)
     T0 = dd.state_scale(dm)  # the deterministic design's own coordinates (as deterministic())
-    det = design(dd.scaled_lft(dm, T0), w_hinf=dd.W_HINF, w_i2p=dd.W_I2P, alpha=dd.ALPHA, beta=dd.BETA,
-                    uncertainty=dd.uncertainty_kind(variant))
+    plant = dd.scaled_lft(dm, T0)
+    det, _, _ = dd.robust_multipliers(
+        lambda kind: design(plant, w_hinf=dd.W_HINF, w_i2p=dd.W_I2P, alpha=dd.ALPHA, beta=dd.BETA, uncertainty=kind),
+        dd.uncertainty_kind(variant))
     if det.K is None:
         raise ValueError(f"{variant.label}: no deterministic design to start from ({det.status})")
     T = design_scale(dm)

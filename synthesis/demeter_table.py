@@ -68,7 +68,7 @@ def run_row(variant: Variant, method: str, *, n_scenarios: int | None = None, se
         design, K = res.design, res.K
         if K is not None:
             row.det_hinf, row.det_i2p = _value(res.analysis_hinf, "gamma"), _value(res.analysis_i2p, "nu")
-            row.note = res.analysis_skipped
+            row.note = "; ".join(n for n in (res.note, res.analysis_skipped) if n)
         obstruction = res.obstruction
     else:
         res = dr.scenario(variant, n=n_scenarios, seed=seed, analysis=False, convention=convention)
@@ -78,7 +78,8 @@ def run_row(variant: Variant, method: str, *, n_scenarios: int | None = None, se
             a = dd.analyse(dm, K, dr.design_scale(dm))
             row.det_hinf, row.det_i2p = _value(a.hinf, "gamma"), _value(a.i2p, "nu")
         obstruction = dd.coincident_modes(variant)
-        row.note = f"{res.n_samples} scenarios" + (f"; {a.skipped}" if K is not None and a.skipped else "")
+        row.note = "; ".join([f"{res.n_samples} scenarios"] + ([n for n in (a.i2p_note, a.skipped) if n]
+                                                               if K is not None else []))
     row.seconds, row.result = res.seconds["design"], res
     if K is None:
         blocked = obstruction is not None and obstruction.proves_infeasible

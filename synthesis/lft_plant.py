@@ -45,7 +45,7 @@ class TooManyVerticesError(RobustLMIError):
 
 
 class ProgramTooLargeError(RobustLMIError):
-    """A program's estimated size exceeds its limit (checked before anything is built)."""
+    """A program's estimated size exceeds its limit (checked before the solver runs)."""
 
 
 class NotHurwitzError(RobustLMIError):

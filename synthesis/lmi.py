@@ -14,9 +14,16 @@ products with numbers and constant matrices (``M @ X``, ``X @ M``; a 1 x 1 expre
 constant matrix), ``X.T``, ``/`` by a number, and :func:`bmat` / :func:`vstack` of expressions
 and constants; numpy arrays on the left defer to it. Products of two expressions are refused
 (they would not be affine).
+
+Size guard: Clarabel factors its KKT system in memory, and a failed allocation in its Rust
+core aborts the Python process (no exception to catch). Each program therefore keeps an
+estimate of its factor's size as it is built (:meth:`LMIProgram.solver_bytes`) and refuses,
+with :class:`~synthesis.lft_plant.ProgramTooLargeError`, to grow past ``max_bytes`` (default
+:data:`MAX_SOLVER_BYTES`, half the machine's memory), before the solver runs.
 """
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 from typing import Any, Sequence
 
@@ -24,11 +31,32 @@ import numpy as np
 import scipy.sparse as sps
 
 from synthesis import solve_policy
+from synthesis.lft_plant import ProgramTooLargeError
 from synthesis.conic import REFUTED, SOLVED, ConicProblem, solve_clarabel, svec_indices, svec_scale
 
 
 class LMIError(ValueError):
     """A non-affine operation, mismatched shapes, or a value asked before a solve."""
+
+
+def _half_the_memory(default: int = 8 * 2**30) -> int:
+    """Half the physical memory, bytes (``default`` where the OS does not say: Windows)."""
+    try:
+        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") // 2
+    except (AttributeError, ValueError, OSError):
+        return default
+
+
+MAX_SOLVER_BYTES = _half_the_memory()
+"""Default largest :meth:`LMIProgram.solver_bytes` of a program (half the physical memory)."""
+
+BYTES_PER_ENTRY = 64
+"""Bytes of the solver per entry of the estimate of :meth:`LMIProgram.solver_bytes`, fitted on
+Clarabel 0.11 to the largest of three DEMETER programs so that it over-estimates the others:
+105 PSD cones of order up to 32 (9411 rows) over 1070 variables, 1.1e7 entries, used 0.42 GB
+(0.72 estimated); 777 cones up to 51 (182,268 rows) over 3083 variables, 6.1e8 entries, asked
+38.8 GB at once and aborted (38.8 estimated); the two-axis PDLF program, 32 cones of order 48
+and 32 of 16, 1.3e8 entries, over 13 GB when stopped (8.5 estimated)."""
 
 
 def _const(value, shape: tuple[int, int] | None = None) -> np.ndarray:
@@ -177,12 +205,34 @@ class LMISolution:
 class LMIProgram:
     """Variables, LMIs ``M(x) >= 0`` and scalar inequalities ``e(x) >= 0``, as Clarabel's arrays."""
 
-    def __init__(self) -> None:
+    def __init__(self, max_bytes: int | None = None) -> None:
         self.n = 0
+        self.max_bytes = MAX_SOLVER_BYTES if max_bytes is None else int(max_bytes)
+        """Largest :meth:`solver_bytes` accepted (module docstring)."""
         self._psd_rows: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []  # (b, vars, A block)
         self._psd: list[int] = []
         self._nonneg: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+        self._cone_entries = self._rows = 0
         self.solution: LMISolution | None = None
+
+    def solver_bytes(self) -> int:
+        """Estimated memory of Clarabel's factorization of the program as built so far, bytes.
+
+        A PSD cone of ``d = N (N + 1) / 2`` rows puts a dense ``d x d`` block into the KKT
+        matrix, and the factor couples every constraint row to the variables: ``sum d^2 + R n``
+        entries for ``R`` rows and ``n`` variables, times :data:`BYTES_PER_ENTRY` (a fit to
+        measured solves, within 2x above them).
+        """
+        return BYTES_PER_ENTRY * (self._cone_entries + self._rows * self.n)
+
+    def _grow(self, rows: int, dense: bool, what: str) -> None:
+        self._rows += rows
+        self._cone_entries += rows * rows if dense else 0
+        if self.solver_bytes() > self.max_bytes:
+            raise ProgramTooLargeError(
+                f"the LMI program would need about {self.solver_bytes() / 1e9:.3g} GB in the solver "
+                f"({len(self._psd)} PSD cones up to order {max(self._psd, default=0)}, {self.n} variables, "
+                f"at {what}) > max_bytes = {self.max_bytes / 1e9:.3g} GB")
 
     def variable(self, shape: tuple[int, int] = (1, 1), symmetric: bool = False) -> Affine:
         """A new matrix variable (``symmetric``: ``r (r + 1) / 2`` scalars, square shape)."""
@@ -204,7 +254,13 @@ class LMIProgram:
         return Affine((r, c), vars, coef)
 
     def add_psd(self, M: Affine) -> None:
-        """``M(x) >= 0`` (its symmetric part), one PSD cone of order ``M.shape[0]``."""
+        """``M(x) >= 0`` (its symmetric part), one PSD cone of order ``M.shape[0]``.
+
+        Raises
+        ------
+        ProgramTooLargeError
+            If the program would then exceed ``max_bytes`` (:meth:`solver_bytes`).
+        """
         M = _as_affine(M)
         N = M.shape[0]
         if M.shape != (N, N):
@@ -213,11 +269,13 @@ class LMIProgram:
         rows = 0.5 * (M.coef[i * N + j] + M.coef[j * N + i]) * svec_scale(N)[:, None]
         self._psd_rows.append((rows[:, 0], M.vars, -rows[:, 1:]))
         self._psd.append(N)
+        self._grow(len(i), True, f"an LMI of order {N}")
 
     def add_nonneg(self, e: Affine) -> None:
         """Every entry of ``e(x) >= 0``."""
         e = _as_affine(e)
         self._nonneg.append((e.coef[:, 0], e.vars, -e.coef[:, 1:]))
+        self._grow(e.coef.shape[0], False, "a scalar inequality")
 
     def _problem(self, objective: Affine | None) -> ConicProblem:
         q = np.zeros(self.n)

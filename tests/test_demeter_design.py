@@ -174,3 +174,21 @@ def test_shipped_row1_artifact_is_this_design(row1) -> None:
         artifacts.parse({**art.to_json(), "gains": {"gain": 1.0}})
     with pytest.raises(artifacts.ArtifactError, match="finite"):
         artifacts.parse({**art.to_json(), "gains": {"K_theta[1,1]": float("nan")}})
+
+
+def test_vertex_program_too_large_for_memory_falls_back_to_dg_scalings(monkeypatch) -> None:
+    """One axis on intervals: its vertex design program is estimated at 13.4 MB, its D-G one at
+    4.7 MB (synthesis.lmi.LMIProgram.solver_bytes). Under a 10 MB limit the design is the D-G
+    one, named so, and still verified; the two bounds agree within 0.1 % (D-G scalings satisfy
+    the vertex inequality with equality: the vertex design can only be as good or better, and on
+    this box they differ by 8e-4 relative)."""
+    from synthesis import lmi
+
+    v = dv.Variant((1,), (1,), 1, 2)
+    vertex = dd.deterministic(v, n_samples=0, analysis=False)
+    assert vertex.uncertainty == "vertex" and vertex.note == ""
+    monkeypatch.setattr(lmi, "MAX_SOLVER_BYTES", 10_000_000)
+    dg = dd.deterministic(v, n_samples=0, analysis=False)
+    assert dg.uncertainty == "norm" and dg.design.status == "optimal" and dg.design.check.ok
+    assert "design: D-G scalings, the vertex program is too large" in dg.note and "> max_bytes = 0.01 GB" in dg.note
+    assert vertex.design.nu <= dg.design.nu * (1 + 1e-3) and dg.design.nu == pytest.approx(vertex.design.nu, rel=1e-3)

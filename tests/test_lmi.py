@@ -95,3 +95,19 @@ def test_infeasible_program_is_reported():
     assert not sol.solved and sol.outcome.status == "infeasible"
     with pytest.raises(lmi.LMIError):
         prog.value(P)
+
+
+def test_size_guard_refuses_a_program_before_the_solver():
+    """The estimate is sum d^2 + rows x variables entries (exact integers here), and a program
+    past ``max_bytes`` is refused while it is built, naming its size; the default limit is half
+    the machine's memory, so every program of the test suite passes it."""
+    prog = lmi.LMIProgram(max_bytes=10**9)
+    Y = prog.variable((4, 4), symmetric=True)  # 10 variables
+    prog.add_psd(Y)  # 10 svec rows
+    prog.add_nonneg(np.ones((4, 1)) - Y @ np.ones((4, 1)))  # 4 scalar rows
+    assert prog.solver_bytes() == lmi.BYTES_PER_ENTRY * (10 * 10 + (10 + 4) * 10)
+    small = lmi.LMIProgram(max_bytes=lmi.BYTES_PER_ENTRY * 500)
+    X = small.variable((6, 6), symmetric=True)  # 21 variables, 21 rows: 441 + 441 > 500
+    with pytest.raises(lmi.ProgramTooLargeError, match=r"1 PSD cones up to order 6, 21 variables.*> max_bytes"):
+        small.add_psd(X)
+    assert lmi.LMIProgram().max_bytes == lmi.MAX_SOLVER_BYTES >= 2**30
