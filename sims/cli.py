@@ -16,7 +16,7 @@
     satfmu synth cubesat-periodic [--gamma G] [--out ...] [--fmu-dir DIR]
     satfmu synth demeter [--axes 1] [--appendages 1] [--model-type 1] [--uncertainty-type 1] [--no-wheels]
                          [--samples 100] [--name demeter_row1_det] [--out ...] [--fmu-dir DIR]
-    satfmu table1 [--rows 1 2 ...] [--scenarios N] [--out results/table1]
+    satfmu table1 [--rows 1 2 ...] [--scenarios N] [--convention satfmu|romuloc|both] [--compare] [--out results/table1]
     satfmu figures demeter [--artifact demeter_row1_det] [--samples 100] [--stop 60] [--step 0.001] [--fmu-dir DIR]
                            [--out results/demeter]
     satfmu campaign demeter [--artifact demeter_row1_det] [--samples 100000] [--workers 2] [--scheduler tcp://...]
@@ -307,6 +307,13 @@ def _synth_demeter(args: argparse.Namespace) -> int:
 def _table1(args: argparse.Namespace) -> int:
     from sims import demeter_reports
 
+    if args.compare:
+        try:
+            print(f"wrote {demeter_reports.table1_comparison(Path(args.out))}")
+        except (OSError, ValueError) as exc:
+            print(exc)
+            return 1
+        return 0
     print(demeter_reports.table1(Path(args.out), args.rows, scenarios=args.scenarios, progress=_progress,
                                  convention=args.convention).text())
     return 0
@@ -533,8 +540,11 @@ def parser() -> argparse.ArgumentParser:
                     help="rows 1..14 in the seed's order (default all; the 3-axis rows take hours)")
     t1.add_argument("--scenarios", type=int, default=None,
                     help="scenarios per Prob design (default: the Campi-Garatti count, epsilon 0.1, delta 1e-9)")
-    t1.add_argument("--convention", choices=("satfmu", "romuloc"), default="satfmu",
-                    help="LMI forms and objective of the designs: ours or the R-RoMulOC toolbox's (default: satfmu)")
+    t1.add_argument("--convention", choices=("satfmu", "romuloc", "both"), default="satfmu",
+                    help="LMI forms and objective of the designs: ours, the R-RoMulOC toolbox's, or both side by "
+                         "side in sub-folders (default: satfmu)")
+    t1.add_argument("--compare", action="store_true",
+                    help="run nothing: write OUT/table1.md from OUT/romuloc/table1.csv and OUT/satfmu/table1.csv")
     t1.add_argument("--out", default="results/table1", help="folder of table1.md and table1.csv")
     t1.set_defaults(fn=_table1)
     fg = command(sub, "figures", "figures of the seeds' papers from the FMUs")

@@ -39,20 +39,24 @@ class Table1Report:
 
 def table1(out_dir: Path, rows: Sequence[int] | None = None, *, scenarios: int | None = None,
            progress: Progress | None = None, convention: str = "satfmu") -> Table1Report:
-    """Seed 004 Table 1: the selected rows, both methods; the files are rewritten after each row.
+    """Seed 004 Table 1: the selected rows, both methods; the files are rewritten after each row,
+    keeping the rows of earlier runs that this one does not redo.
 
     Parameters
     ----------
     out_dir : Path
-        Receives ``table1.md`` and ``table1.csv``.
+        Receives ``table1.md`` and ``table1.csv``; with ``convention="both"`` each convention's
+        in a sub-folder of its name, and ``table1.md`` the two side by side
+        (:func:`table1_comparison`).
     rows : sequence of int, optional
         Rows 1..14 in the seed's order (default: all; the 3-axis rows take hours).
     scenarios : int, optional
         Sampled plants per Prob design (default: the Campi-Garatti count, epsilon 0.1, delta 1e-9).
     progress : callable, optional
         Called after each row.
-    convention : {"satfmu", "romuloc"}
-        LMI forms and objective of the designs (:func:`synthesis.robust_design.design`).
+    convention : {"satfmu", "romuloc", "both"}
+        LMI forms and objective of the designs (:func:`synthesis.robust_design.design`); "both":
+        each row in the toolbox's convention, then in ours.
 
     Raises
     ------
@@ -69,8 +73,44 @@ def table1(out_dir: Path, rows: Sequence[int] | None = None, *, scenarios: int |
             raise ValueError(f"rows must be in 1..{len(keys)} (the seed's order), got {bad}")
         keys = [keys[r - 1] for r in rows]
     out_dir = Path(out_dir)
-    found = demeter_table.run(keys, n_scenarios=scenarios, progress=progress, out_dir=out_dir, convention=convention)
-    return Table1Report(found, [out_dir / "table1.md", out_dir / "table1.csv"])
+    if convention != "both":
+        found = demeter_table.run(keys, n_scenarios=scenarios, progress=progress, out_dir=out_dir,
+                                  convention=convention)
+        return Table1Report(found, [out_dir / "table1.md", out_dir / "table1.csv"])
+    found = []
+    for i, key in enumerate(keys):
+        for conv in BOTH:
+            found += demeter_table.run([key], n_scenarios=scenarios, out_dir=out_dir / conv, convention=conv)
+        table1_comparison(out_dir)
+        if progress is not None:
+            progress(i + 1, len(keys), f"{key[0].label} {key[1]}")
+    return Table1Report(found, [out_dir / "table1.md"] + [out_dir / c / f for c in BOTH for f in ("table1.md", "table1.csv")])
+
+
+BOTH = ("romuloc", "satfmu")
+"""The conventions of ``table1(convention="both")``, in their order and folder names."""
+
+
+def table1_comparison(out_dir: Path) -> Path:
+    """``out_dir/table1.md``: the rows of ``out_dir/romuloc/table1.csv`` beside those of
+    ``out_dir/satfmu/table1.csv`` (:func:`synthesis.demeter_table.comparison`), without running
+    anything.
+
+    Raises
+    ------
+    FileNotFoundError
+        If either table is missing.
+    ValueError
+        If one is not a Table 1 file.
+    """
+    from synthesis import demeter_table
+
+    toolbox, ours = (demeter_table.read(Path(out_dir) / c / "table1.csv") for c in BOTH)
+    path = Path(out_dir) / "table1.md"
+    path.write_text("Seed 004 Table 1 in the R-RoMulOC toolbox's convention, ours / seed's (ratio), then the same "
+                    "rows in satfmu's convention (i2p N m s, H-infinity rad/(N m), seconds on this machine)\n\n"
+                    + demeter_table.comparison(toolbox, ours) + "\n")
+    return path
 
 
 @dataclass

@@ -10,6 +10,10 @@ parameter-dependent Lyapunov function, impulse-to-peak with a common one:
 :func:`synthesis.demeter_design.analyse`) and probabilistic (worst cases over the log-over-log
 number of samples: :func:`synthesis.demeter_random.analyse`). Units: i2p in N m s per unit
 impulse of w2, H-infinity in rad/(N m); seconds are the design's wall time on this machine.
+
+Each run's rows go to ``table1.csv`` (:func:`write`), merged with the rows already there, so a
+table can be built from several runs (rows or conventions apart); :func:`read` gives them back
+and :func:`comparison` puts the two conventions side by side with each row's ratios to the seed.
 """
 from __future__ import annotations
 
@@ -135,10 +139,24 @@ def markdown(rows: list[Row]) -> str:
     return "\n".join(lines)
 
 
+def _key(row: Row) -> tuple[Variant, str]:
+    return row.variant, row.method
+
+
+def _merged(rows: list[Row], path_csv: Path) -> list[Row]:
+    """``rows`` with those of ``path_csv`` that they do not replace, in the seed's order."""
+    new = {_key(r): r for r in rows}
+    old = [r for r in read(path_csv) if _key(r) not in new] if path_csv.exists() else []
+    order = {k: i for i, k in enumerate(SEED_TABLE1)}
+    return sorted(old + rows, key=lambda r: order.get(_key(r), len(order)))
+
+
 def write(rows: list[Row], out_dir: Path) -> list[Path]:
-    """``table1.md`` and ``table1.csv`` (one line per row, our columns then the seed's)."""
+    """``table1.md`` and ``table1.csv`` (one line per row, our columns then the seed's), with the
+    rows already in ``table1.csv`` that ``rows`` do not replace (same variant and method)."""
     out_dir.mkdir(parents=True, exist_ok=True)
     md, path_csv = out_dir / "table1.md", out_dir / "table1.csv"
+    rows = _merged(rows, path_csv)
     md.write_text("Seed 004 Table 1, ours / seed's (i2p N m s, H-infinity rad/(N m), seconds of the design)\n\n"
                   + markdown(rows) + "\n")
     with path_csv.open("w", newline="") as f:
@@ -151,3 +169,65 @@ def write(rows: list[Row], out_dir: Path) -> list[Path]:
                         r.variant.model_type, r.variant.uncertainty_type, r.method, r.status,
                         *[getattr(r, c) for c in SEED_TABLE1_COLUMNS], r.total_seconds, r.note, *seed])
     return [md, path_csv]
+
+
+def read(path_csv: Path) -> list[Row]:
+    """The rows of a ``table1.csv`` of :func:`write` (without their designs: ``result`` is None).
+
+    Raises
+    ------
+    ValueError
+        If the file is not such a table (a missing column or a value that is not a number).
+    """
+    out = []
+    with Path(path_csv).open(newline="") as f:
+        for i, line in enumerate(csv.DictReader(f), start=2):
+            try:
+                variant = Variant(tuple(map(int, line["axes"].split())), tuple(map(int, line["appendages"].split())),
+                                  int(line["model_type"]), int(line["uncertainty_type"]))
+                values = {c: float(line[c]) for c in SEED_TABLE1_COLUMNS}
+                row = Row(variant, line["method"], line["status"], **values, total_seconds=float(line["total_seconds"]),
+                          note=line["note"], seed=SEED_TABLE1.get((variant, line["method"])))
+            except (KeyError, TypeError, ValueError) as exc:
+                raise ValueError(f"{path_csv}, line {i}: not a Table 1 row ({exc})") from exc
+            out.append(row)
+    return out
+
+
+def _ratio(ours: float, seed: float | None) -> str:
+    if seed is None or not (math.isfinite(ours) and math.isfinite(seed)) or seed == 0:
+        return ""
+    return f" ({ours / seed:.3g})"
+
+
+def comparison(toolbox: list[Row], ours: list[Row]) -> str:
+    """Markdown: every row in the toolbox's convention beside the seed's values, with the ratio
+    ours / seed of the design bounds and of the design time, then our convention's status,
+    design bounds and time for the same row; the wall time of each convention's rows in total."""
+    by_key = {_key(r): r for r in ours}
+    head = ("| axes | appendages | model | unc | method | status | design i2p (ratio) | design Hinf (ratio) | "
+            "det i2p | det Hinf | prob i2p | prob Hinf | design s (ratio) | row s | satfmu: status | design i2p | "
+            "design Hinf | det Hinf | design s | row s | note |")
+    lines = [head, "|" + "---|" * 21]
+    for r in toolbox:
+        seed = r.seed if r.seed is not None else (None,) * len(SEED_TABLE1_COLUMNS)
+        s = dict(zip(SEED_TABLE1_COLUMNS, seed))
+
+        def pair(c: str, ratio: bool = False) -> str:
+            v, sv = getattr(r, c), s[c]
+            return f"{_cell(v)} / {'infeasible' if sv is None else _cell(sv)}" + (_ratio(v, sv) if ratio else "")
+
+        o = by_key.get(_key(r))
+        theirs = ([o.status, *(_cell(getattr(o, c)) for c in ("design_i2p", "design_hinf", "det_hinf", "seconds",
+                                                              "total_seconds"))] if o is not None else ["not run"] + [""] * 5)
+        v = r.variant
+        lines.append(f"| {','.join(map(str, v.axes))} | {','.join(map(str, v.appendages))} | {v.model_type} | "
+                     f"{v.uncertainty_type} | {r.method} | {r.status} | {pair('design_i2p', True)} | "
+                     f"{pair('design_hinf', True)} | {pair('det_i2p')} | {pair('det_hinf')} | {pair('prob_i2p')} | "
+                     f"{pair('prob_hinf')} | {pair('seconds', True)} | {_cell(r.total_seconds)} | "
+                     + " | ".join(theirs) + f" | {r.note} |")
+    totals = [sum(x.total_seconds for x in rows if math.isfinite(x.total_seconds)) for rows in (toolbox, ours)]
+    lines.append("")
+    lines.append(f"Wall time of the rows (designs and analyses): {totals[0]:.0f} s in the toolbox's convention "
+                 f"({len(toolbox)} rows), {totals[1]:.0f} s in ours ({len(ours)} rows).")
+    return "\n".join(lines)

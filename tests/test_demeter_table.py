@@ -75,3 +75,41 @@ def test_row2_in_the_toolbox_convention_has_the_seeds_i2p() -> None:
     assert abs(row.design_i2p / row.seed[0] - 1) < 0.16
     # the analyses bound the same gain as before: sampled <= analysis <= design for the i2p
     assert row.prob_i2p <= row.det_i2p <= row.design_i2p
+
+
+def test_runs_merge_and_both_conventions_side_by_side(tmp_path: Path, capsys) -> None:
+    """Row 4, then row 1 written by a second run, end up in one table in the seed's order, read
+    back equal (a row written again replaces its line); "both" writes each convention's folder
+    and the comparison; --compare rebuilds it from the CSVs alone, and refuses a missing or
+    corrupt one."""
+    det = t1.run([(ROW3, "Det")], out_dir=tmp_path / "one")
+    key = list(SEED_TABLE1)[0]
+    row1 = t1.Row(*key, "feasible", design_i2p=25.33, design_hinf=float("inf"), seconds=29.9, total_seconds=60.0,
+                  note="962 scenarios", seed=SEED_TABLE1[key])
+    t1.write([row1], tmp_path / "one")
+    t1.write([t1.Row(*key, "feasible", design_i2p=25.0, seed=SEED_TABLE1[key])], tmp_path / "one")
+    t1.write([row1], tmp_path / "one")
+    back = t1.read(tmp_path / "one" / "table1.csv")
+    assert [r.method for r in back] == ["Prob", "Det"] and back[1].status == det[0].status == "infeasible (proved)"
+    assert repr(back[0]) == repr(row1) and back[1].note == det[0].note and back[1].result is None  # repr: nan == nan
+    assert main(["table1", "--rows", "4", "--convention", "both", "--out", str(tmp_path / "both")]) == 0
+    text = (tmp_path / "both" / "table1.md").read_text()
+    assert "| 1 | 1,2 | 1 | 1 | Det | infeasible (proved) |" in text and text.count("infeasible (proved)") == 2
+    assert "in the toolbox's convention (1 rows), " in text and "in ours (1 rows)" in text
+    (tmp_path / "both" / "table1.md").unlink()
+    assert main(["table1", "--compare", "--out", str(tmp_path / "both")]) == 0
+    assert (tmp_path / "both" / "table1.md").read_text() == text
+    (tmp_path / "both" / "satfmu" / "table1.csv").write_text("axes,appendages\n1,x\n")
+    assert main(["table1", "--compare", "--out", str(tmp_path / "both")]) == 1
+    assert "line 2: not a Table 1 row" in capsys.readouterr().out
+    assert main(["table1", "--compare", "--out", str(tmp_path / "none")]) == 1
+
+
+def test_ratios_to_the_seed() -> None:
+    """The comparison's ratio is ours / seed's, only where both are finite numbers."""
+    key = list(SEED_TABLE1)[1]  # row 2: seed 22.3, 4.7, ..., 1 s
+    ours = t1.Row(*key, "feasible", design_i2p=25.68, design_hinf=7.47, seconds=0.5, total_seconds=9.0,
+                  seed=SEED_TABLE1[key])
+    text = t1.comparison([ours], [])
+    assert "25.68 / 22.3 (1.15)" in text and "7.47 / 4.7 (1.59)" in text and "0.5 / 1 (0.5)" in text
+    assert "| not run |" in text and "- / 0.41 |" in text  # no ratio where ours is missing
