@@ -84,7 +84,8 @@ def table1(out_dir: Path, rows: Sequence[int] | None = None, *, scenarios: int |
         table1_comparison(out_dir)
         if progress is not None:
             progress(i + 1, len(keys), f"{key[0].label} {key[1]}")
-    return Table1Report(found, [out_dir / "table1.md"] + [out_dir / c / f for c in BOTH for f in ("table1.md", "table1.csv")])
+    return Table1Report(found, [out_dir / "table1.md"] + [out_dir / c / f for c in BOTH
+                                                          for f in ("table1.md", "table1.csv")])
 
 
 BOTH = ("romuloc", "satfmu")

@@ -218,8 +218,8 @@ def comparison(toolbox: list[Row], ours: list[Row]) -> str:
             return f"{_cell(v)} / {'infeasible' if sv is None else _cell(sv)}" + (_ratio(v, sv) if ratio else "")
 
         o = by_key.get(_key(r))
-        theirs = ([o.status, *(_cell(getattr(o, c)) for c in ("design_i2p", "design_hinf", "det_hinf", "seconds",
-                                                              "total_seconds"))] if o is not None else ["not run"] + [""] * 5)
+        cols = ("design_i2p", "design_hinf", "det_hinf", "seconds", "total_seconds")
+        theirs = [o.status, *(_cell(getattr(o, c)) for c in cols)] if o is not None else ["not run"] + [""] * 5
         v = r.variant
         lines.append(f"| {','.join(map(str, v.axes))} | {','.join(map(str, v.appendages))} | {v.model_type} | "
                      f"{v.uncertainty_type} | {r.method} | {r.status} | {pair('design_i2p', True)} | "
