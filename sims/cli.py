@@ -15,7 +15,8 @@
     satfmu synth vscmg-sdre [--grid 23 25] [--max-degree 8] [--cv-tol TOL] [--out ...] [--fmu-dir DIR]
     satfmu synth cubesat-periodic [--gamma G] [--out ...] [--fmu-dir DIR]
     satfmu synth demeter [--axes 1] [--appendages 1] [--model-type 1] [--uncertainty-type 1] [--no-wheels]
-                         [--samples 100] [--name demeter_row1_det] [--out ...] [--fmu-dir DIR]
+                         [--samples 100] [--name demeter_row1_det] [--convention satfmu|romuloc] [--out ...]
+                         [--fmu-dir DIR]
     satfmu table1 [--rows 1 2 ...] [--scenarios N] [--convention satfmu|romuloc|both] [--compare] [--out results/table1]
     satfmu figures demeter [--artifact demeter_row1_det] [--samples 100] [--stop 60] [--step 0.001] [--fmu-dir DIR]
                            [--out results/demeter]
@@ -297,7 +298,8 @@ def _synth_demeter(args: argparse.Namespace) -> int:
 
     try:
         design = designs.design_demeter(args.axes, args.appendages, args.model_type, args.uncertainty_type,
-                                        not args.no_wheels, name=args.name, n_samples=args.samples)
+                                        not args.no_wheels, name=args.name, n_samples=args.samples,
+                                        convention=args.convention)
     except designs.DesignError as exc:
         print(exc)
         return 1
@@ -534,6 +536,8 @@ def parser() -> argparse.ArgumentParser:
     dm.add_argument("--no-wheels", action="store_true", help="design without the wheel dynamics H(s)")
     dm.add_argument("--samples", type=int, default=100, help="sampled plants of the independent check")
     dm.add_argument("--name", default="demeter_row1_det", help="artifact and FMU name")
+    dm.add_argument("--convention", choices=("satfmu", "romuloc"), default="satfmu",
+                    help="LMI forms and objective: ours or the R-RoMulOC toolbox's (default: satfmu)")
     dm.set_defaults(fn=_synth_demeter)
     t1 = command(sub, "table1", "seed 004 Table 1: every row, both methods, beside the seed's numbers")
     t1.add_argument("--rows", type=int, nargs="+", default=None,

@@ -273,7 +273,7 @@ def design_cubesat_periodic(gamma: float | None = None, plant: Spacecraft | None
 
 def design_demeter(axes: Sequence[int] = (1,), appendages: Sequence[int] = (1,), model_type: int = 1,
                    uncertainty_type: int = 1, wheels: bool = True, *, name: str = "demeter_row1_det",
-                   n_samples: int = 100) -> Design:
+                   n_samples: int = 100, convention: str = "satfmu") -> Design:
     """Seed 004: deterministic robust state feedback of a DEMETER variant (Table 1, Det).
 
     Parameters
@@ -290,6 +290,9 @@ def design_demeter(axes: Sequence[int] = (1,), appendages: Sequence[int] = (1,),
         Artifact and controller FMU name.
     n_samples : int
         Sampled plants of the independent check.
+    convention : {"satfmu", "romuloc"}
+        LMI forms and objective of the design (:func:`synthesis.robust_design.design`); the
+        artifact records it.
 
     Raises
     ------
@@ -301,7 +304,7 @@ def design_demeter(axes: Sequence[int] = (1,), appendages: Sequence[int] = (1,),
     from synthesis.demeter_variants import Variant
 
     variant = Variant(tuple(axes), tuple(appendages), model_type, uncertainty_type, wheels)
-    row = demeter_table.run_row(variant, "Det", n_samples=n_samples)
+    row = demeter_table.run_row(variant, "Det", n_samples=n_samples, convention=convention)
     lines = [demeter_table.markdown([row])]
     r = row.result
     if not r.feasible:

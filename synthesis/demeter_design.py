@@ -301,7 +301,9 @@ def artifact_data(result: DeterministicResult, name: str) -> dict:
                            ("analysis_i2p", result.analysis_i2p, "nu")):
         if res is not None and res.status == "optimal":
             numbers[key] = getattr(res, attr)
-    proved = (f"One Lyapunov matrix (quadratic stability, {d.uncertainty} multipliers, re-verified in numpy) "
+    forms = "satfmu's" if d.convention == "satfmu" else "the R-RoMulOC toolbox's"
+    proved = (f"One Lyapunov matrix (quadratic stability, {d.uncertainty} multipliers, {forms} LMI forms and "
+              f"objective, re-verified in numpy) "
               f"for the Fig. 3 design model of {result.variant.label}: closed-loop poles in "
               f"{-BETA:g} < Re s < {-ALPHA:g} 1/s, ||w1 -> z1||_inf < {d.gamma:.6g} rad/(N m), "
               f"impulse-to-peak w2 -> z2 < {d.nu:.6g} N m s, for every parameter in the box (also "
@@ -321,4 +323,4 @@ def artifact_data(result: DeterministicResult, name: str) -> dict:
                            "design_plant": design_record(dm)},
             "design": {"variant": result.variant.to_dict(),
                        "states": dm.state_names, "K": result.K.tolist(),
-                       "weights": {"hinf": W_HINF, "i2p": W_I2P}}}
+                       "weights": {"hinf": W_HINF, "i2p": W_I2P}, "convention": d.convention}}

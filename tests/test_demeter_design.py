@@ -108,6 +108,9 @@ def test_row1_design_gains_drive_the_controller_fmu_parameters(row1) -> None:
     assert gains["K_theta[1,1]"] == pytest.approx(row1.K[0, 0], rel=1e-15)
     assert gains["K_xi[1,1]"] == pytest.approx(row1.K[0, 4], rel=1e-15)
     assert gains["K_theta[2,2]"] == 0.0  # axes not designed stay open
+    data = dd.artifact_data(row1, "demeter_test")  # it says in which convention it was designed
+    assert data["design"]["convention"] == "satfmu" and "satfmu's LMI forms" in data["certificate"]["proved"]
+    assert artifacts.parse(data).design["convention"] == "satfmu"
 
 
 ROW3 = dv.Variant((1,), (1, 2), 1, 1)
