@@ -23,7 +23,9 @@ with :class:`~synthesis.lft_plant.ProgramTooLargeError`, to grow past ``max_byte
 """
 from __future__ import annotations
 
+import logging
 import os
+import time
 from dataclasses import dataclass
 from typing import Any, Sequence
 
@@ -33,6 +35,10 @@ import scipy.sparse as sps
 from synthesis import solve_policy
 from synthesis.lft_plant import ProgramTooLargeError
 from synthesis.conic import REFUTED, SOLVED, ConicProblem, solve_clarabel, svec_indices, svec_scale
+
+
+LOG = logging.getLogger(__name__)
+"""Each solve at DEBUG: its outcome, seconds and size (for cost breakdowns of long runs)."""
 
 
 class LMIError(ValueError):
@@ -315,7 +321,12 @@ class LMIProgram:
                 raise solve_policy.SolverFailure(status)
             return status
 
+        t0 = time.perf_counter()
         outcome = solve_policy.solve_with(run, ladder)
+        LOG.debug("LMI solve: %s in %.3f s (%s), %d PSD cones up to order %d, %d rows, %d variables",
+                  outcome.status, time.perf_counter() - t0,
+                  ", ".join(f"{a.status} {a.seconds:.3f} s" for a in outcome.attempts),
+                  len(self._psd), max(self._psd, default=0), self._rows, self.n)
         x = results[-1].x if outcome.solved else None
         value = float("nan")
         if x is not None and objective is not None:
