@@ -631,11 +631,41 @@ def _rescaled_program(plants: tuple[LFTPlant, ...], K: np.ndarray | None, rescal
                                    None if K is None else K * T, rescale, depth - 1, **options)
     if scaled is None or scaled.status != "optimal":
         return _robust_program(plants, K, backoffs=BACKOFFS[1:], **options)[0]
-    inner = np.ones_like(T) if scaled.state_scaling is None else scaled.state_scaling
-    return replace(scaled, K=scaled.K / T, Y=T[:, None] * scaled.Y * T[None, :], state_scaling=T * inner,
-                   solve_seconds=scaled.solve_seconds + out.solve_seconds,
-                   build_seconds=scaled.build_seconds + out.build_seconds,
-                   solver_status=f"{out.solver_status}; rescaled: {scaled.solver_status}")
+    return _back_to_caller(scaled, T, out, f"{out.solver_status}; rescaled: {scaled.solver_status}")
+
+
+def _back_to_caller(res: RobustDesign, T: np.ndarray, before: RobustDesign, status: str) -> RobustDesign:
+    """``res``, solved in the coordinates ``x = diag(T) x_s``, with K and Y in the caller's, the
+    total ``state_scaling``, and the times of ``before`` (the solves that chose T) added."""
+    inner = np.ones_like(T) if res.state_scaling is None else res.state_scaling
+    return replace(res, K=res.K / T, Y=T[:, None] * res.Y * T[None, :], state_scaling=T * inner,
+                   solve_seconds=res.solve_seconds + before.solve_seconds,
+                   build_seconds=res.build_seconds + before.build_seconds, solver_status=status)
+
+
+def _in_our_coordinates(plants: tuple[LFTPlant, ...], rescale: bool, **options) -> RobustDesign:
+    """A ``"romuloc"`` synthesis in the coordinates where the ``"satfmu"`` design's Y has a unit
+    diagonal (:func:`_rescaled_program` of each; failing either, the toolbox's forms in the
+    caller's coordinates).
+
+    The same Y serves both conventions up to the levels' scale, but the solver's path does not:
+    in the toolbox's forms the constants ``Bw Bw^T`` and ``B2 B2^T`` fix Y's size, which follows
+    the slow momentum mode's Gramian (DEMETER: 10^5 times the stiff states' entries), and the
+    interior-point iterates stall (two-axis rows: NumericalError, or a certificate that fails
+    :func:`verify` at every back-off, in 30 s); ours keeps the levels on both sides of each LMI
+    and converges. In its coordinates the toolbox's program is well scaled: DEMETER row 10 then
+    takes one solve (1.6 s) and its minimizer verifies at the first back-off.
+    """
+    ours = _rescaled_program(plants, None, rescale, **{**options, "convention": "satfmu"})
+    if ours.status == "optimal" and np.all(np.diag(ours.Y) > 0):
+        T = np.sqrt(np.diag(ours.Y))
+        res = _rescaled_program(tuple(p.scale_states(T).balance_channels() for p in plants), None, rescale, **options)
+        if res.status == "optimal":
+            return _back_to_caller(res, T, ours, f"in the satfmu design's coordinates ({ours.solver_status}): "
+                                                 f"{res.solver_status}")
+    plain = _rescaled_program(plants, None, rescale, **options)
+    return replace(plain, solve_seconds=plain.solve_seconds + ours.solve_seconds,
+                   build_seconds=plain.build_seconds + ours.build_seconds)
 
 
 def _phase_one(plants: tuple[LFTPlant, ...], K: np.ndarray | None, *, alpha: float, beta: float | None,
@@ -771,7 +801,9 @@ def design(plant: LFTPlant | Sequence[LFTPlant], K=None, *, w_hinf: float = 1.0,
         Strictness of the LMIs in the solver.
     rescale : bool
         If the certificate fails :func:`verify`, solve once more in the coordinates where the
-        first solve's Y has a unit diagonal (see ``state_scaling`` of the result).
+        first solve's Y has a unit diagonal (see ``state_scaling`` of the result); a
+        ``"romuloc"`` synthesis is solved in the coordinates of the ``"satfmu"`` design
+        (:func:`_in_our_coordinates`; False: in the caller's, once).
     convention : {"satfmu", "romuloc"}
         How the levels enter the LMIs and the objective (module docstring): ours (levels gamma,
         nu on both sides of each LMI) or the R-RoMulOC toolbox's (squared levels on the z side).
@@ -800,6 +832,8 @@ def design(plant: LFTPlant | Sequence[LFTPlant], K=None, *, w_hinf: float = 1.0,
                "uncertainty": uncertainty, "eps": eps, "sector": sector, "convention": convention}
     if len(plants) > SCENARIO_BATCH and not any(p.n_params for p in plants):
         return _constraint_generation(plants, K, rescale, **options)
+    if convention == "romuloc" and K is None and rescale:
+        return _in_our_coordinates(plants, rescale, **options)
     return _rescaled_program(plants, K, rescale, **options)
 
 

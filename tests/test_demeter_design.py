@@ -60,7 +60,9 @@ def test_toolbox_convention_bounds_the_peak_alone() -> None:
     # 2e-3: solver accuracy on this poorly conditioned program plus the back-off (1e-4 on nu^2)
     assert des.nu == pytest.approx(np.sqrt(500.0), rel=2e-3)
     assert des.nu**2 >= 500.0 * (1 - 2e-3)
-    assert 1.9 < des.gamma < 2.1  # measured 1.964
+    # measured 1.897 (solved in the satfmu design's coordinates; 1.964 in these): the objective
+    # weighs gamma^2 1/100 of nu^2, so the solver's stopping point moves it most
+    assert 1.85 < des.gamma < 2.1
     options = {"alpha": dd.ALPHA, "beta": dd.BETA}
     assert not verify(plant, des.K, des.Y, des.gamma, des.nu, {}, convention="satfmu", **options).ok
     A, Bu, B1 = dm.state_space(np.zeros(3))
