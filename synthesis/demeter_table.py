@@ -201,31 +201,37 @@ def _ratio(ours: float, seed: float | None) -> str:
 
 
 def comparison(toolbox: list[Row], ours: list[Row]) -> str:
-    """Markdown: every row in the toolbox's convention beside the seed's values, with the ratio
-    ours / seed of the design bounds and of the design time, then our convention's status,
-    design bounds and time for the same row; the wall time of each convention's rows in total."""
-    by_key = {_key(r): r for r in ours}
+    """Markdown: every row of either list, in the seed's order: in the toolbox's convention
+    beside the seed's values, with the ratio ours / seed of the design bounds and of the design
+    time, then our convention's status, design bounds and time ("not run" where a list lacks the
+    row); the wall time of each convention's rows in total."""
+    tb, ob = {_key(r): r for r in toolbox}, {_key(r): r for r in ours}
+    order = {k: i for i, k in enumerate(SEED_TABLE1)}
+    keys = sorted(set(tb) | set(ob), key=lambda k: order.get(k, len(order)))
     head = ("| axes | appendages | model | unc | method | status | design i2p (ratio) | design Hinf (ratio) | "
             "det i2p | det Hinf | prob i2p | prob Hinf | design s (ratio) | row s | satfmu: status | design i2p | "
             "design Hinf | det Hinf | design s | row s | note |")
     lines = [head, "|" + "---|" * 21]
-    for r in toolbox:
-        seed = r.seed if r.seed is not None else (None,) * len(SEED_TABLE1_COLUMNS)
+    for key in keys:
+        seed = SEED_TABLE1.get(key) or (None,) * len(SEED_TABLE1_COLUMNS)
         s = dict(zip(SEED_TABLE1_COLUMNS, seed))
+        r, o = tb.get(key), ob.get(key)
 
         def pair(c: str, ratio: bool = False) -> str:
             v, sv = getattr(r, c), s[c]
             return f"{_cell(v)} / {'infeasible' if sv is None else _cell(sv)}" + (_ratio(v, sv) if ratio else "")
 
-        o = by_key.get(_key(r))
+        if r is not None:
+            cells = [r.status, pair("design_i2p", True), pair("design_hinf", True), pair("det_i2p"), pair("det_hinf"),
+                     pair("prob_i2p"), pair("prob_hinf"), pair("seconds", True), _cell(r.total_seconds)]
+        else:
+            cells = ["not run"] + [""] * 8
         cols = ("design_i2p", "design_hinf", "det_hinf", "seconds", "total_seconds")
-        theirs = [o.status, *(_cell(getattr(o, c)) for c in cols)] if o is not None else ["not run"] + [""] * 5
-        v = r.variant
+        cells += [o.status, *(_cell(getattr(o, c)) for c in cols)] if o is not None else ["not run"] + [""] * 5
+        v, method = key
+        note = "; ".join(dict.fromkeys(x.note for x in (r, o) if x is not None and x.note))
         lines.append(f"| {','.join(map(str, v.axes))} | {','.join(map(str, v.appendages))} | {v.model_type} | "
-                     f"{v.uncertainty_type} | {r.method} | {r.status} | {pair('design_i2p', True)} | "
-                     f"{pair('design_hinf', True)} | {pair('det_i2p')} | {pair('det_hinf')} | {pair('prob_i2p')} | "
-                     f"{pair('prob_hinf')} | {pair('seconds', True)} | {_cell(r.total_seconds)} | "
-                     + " | ".join(theirs) + f" | {r.note} |")
+                     f"{v.uncertainty_type} | {method} | " + " | ".join(cells) + f" | {note} |")
     totals = [sum(x.total_seconds for x in rows if math.isfinite(x.total_seconds)) for rows in (toolbox, ours)]
     lines.append("")
     lines.append(f"Wall time of the rows (designs and analyses): {totals[0]:.0f} s in the toolbox's convention "
