@@ -655,8 +655,15 @@ def _in_our_coordinates(plants: tuple[LFTPlant, ...], rescale: bool, **options) 
     :func:`verify` at every back-off, in 30 s); ours keeps the levels on both sides of each LMI
     and converges. In its coordinates the toolbox's program is well scaled: DEMETER row 10 then
     takes one solve (1.6 s) and its minimizer verifies at the first back-off.
+
+    An infeasible satfmu program proves this one infeasible: with the levels free, both ask for
+    a Y (and multipliers, and W = K Y) meeting the region LMIs strictly, which are homogeneous in
+    them; scaling such a Y up meets either convention's H-infinity and i2p LMIs at large enough
+    levels (``Bw Bw^T`` and ``Y >= B2 B2^T`` in the toolbox's forms, ``Bw Bw^T / gamma`` in ours).
     """
     ours = _rescaled_program(plants, None, rescale, **{**options, "convention": "satfmu"})
+    if ours.status == "infeasible":  # with free levels both ask for the same Y, up to a scale
+        return replace(ours, convention="romuloc", solver_status=f"the satfmu program: {ours.solver_status}")
     if ours.status == "optimal" and np.all(np.diag(ours.Y) > 0):
         T = np.sqrt(np.diag(ours.Y))
         res = _rescaled_program(tuple(p.scale_states(T).balance_channels() for p in plants), None, rescale, **options)
