@@ -10,9 +10,17 @@ where ``S(N)`` is the cone of N x N positive semidefinite matrices in Clarabel's
 the svec inner product is the trace inner product; :func:`svec_indices`,
 :func:`svec_scale`). :func:`solve_clarabel` hands the arrays to
 ``clarabel.DefaultSolver`` as they are: no modelling layer re-canonicalizes them.
+
+A failed allocation in Clarabel's Rust core aborts the process, with no exception to catch.
+With ``memory_limit``, :func:`solve_clarabel` therefore solves in a forked child whose address
+space is capped at that many bytes above the caller's, and turns the child's death into
+:class:`SolverMemoryError` (where the OS has no ``fork`` or no address-space limit, e.g.
+Windows, it solves in the process).
 """
 from __future__ import annotations
 
+import multiprocessing
+import os
 import time
 from dataclasses import dataclass
 from typing import Any
@@ -70,17 +78,72 @@ def svec_scale(N: int) -> np.ndarray:
     return np.where(i == j, 1.0, np.sqrt(2.0))
 
 
-def solve_clarabel(problem: ConicProblem, **settings: Any) -> ConicResult:
+class SolverMemoryError(MemoryError):
+    """Clarabel ran out of the memory allowed to it (:func:`solve_clarabel`'s ``memory_limit``)."""
+
+
+def _address_space() -> int | None:
+    """This process's virtual memory size, bytes (None where /proc does not say)."""
+    try:
+        with open("/proc/self/statm") as f:
+            return int(f.read().split()[0]) * os.sysconf("SC_PAGE_SIZE")
+    except (OSError, ValueError, AttributeError):
+        return None
+
+
+def _child(problem: ConicProblem, settings: dict[str, Any], limit: int, conn) -> None:
+    import faulthandler
+    import resource
+
+    faulthandler.disable()  # an abort here is the expected answer, not a crash to report
+    resource.setrlimit(resource.RLIMIT_AS, (limit, resource.getrlimit(resource.RLIMIT_AS)[1]))
+    try:
+        conn.send(_solve(problem, settings))
+    except MemoryError:
+        conn.send(SolverMemoryError())
+    except Exception as exc:  # re-raised in the parent (a bad setting, ...)
+        conn.send(exc)
+
+
+def _isolated(problem: ConicProblem, settings: dict[str, Any], memory_limit: int) -> ConicResult:
+    ctx = multiprocessing.get_context("fork")
+    receive, send = ctx.Pipe(duplex=False)
+    child = ctx.Process(target=_child, args=(problem, settings, _address_space() + memory_limit, send))
+    child.start()
+    send.close()
+    try:
+        out = receive.recv()
+    except EOFError:  # the child died without an answer: Clarabel's allocation failed
+        out = SolverMemoryError()
+    child.join()
+    if isinstance(out, SolverMemoryError):
+        raise SolverMemoryError(f"Clarabel needed more than {memory_limit / 1e9:.3g} GB "
+                                f"(its process ended with exit code {child.exitcode})")
+    if isinstance(out, Exception):
+        raise out
+    return out
+
+
+def solve_clarabel(problem: ConicProblem, *, memory_limit: int | None = None, **settings: Any) -> ConicResult:
     """Solve with ``clarabel.DefaultSolver`` on the problem's arrays (no re-formulation).
 
     ``settings`` are attributes of ``clarabel.DefaultSettings`` (e.g. ``tol_feas``);
-    ``verbose`` is off unless given.
+    ``verbose`` is off unless given. ``memory_limit`` (bytes): solve in a child process allowed
+    that much memory (module docstring); None: in this process.
 
     Raises
     ------
     TypeError
         If a setting is not one of Clarabel's.
+    SolverMemoryError
+        If Clarabel needs more than ``memory_limit``.
     """
+    if memory_limit is not None and hasattr(os, "fork") and _address_space() is not None:
+        return _isolated(problem, settings, int(memory_limit))
+    return _solve(problem, settings)
+
+
+def _solve(problem: ConicProblem, settings: dict[str, Any]) -> ConicResult:
     import clarabel
 
     opts = clarabel.DefaultSettings()

@@ -19,7 +19,12 @@ Size guard: Clarabel factors its KKT system in memory, and a failed allocation i
 core aborts the Python process (no exception to catch). Each program therefore keeps an
 estimate of its factor's size as it is built (:meth:`LMIProgram.solver_bytes`) and refuses,
 with :class:`~synthesis.lft_plant.ProgramTooLargeError`, to grow past ``max_bytes`` (default
-:data:`MAX_SOLVER_BYTES`, half the machine's memory), before the solver runs.
+:data:`MAX_SOLVER_BYTES`, half the machine's memory), before the solver runs. The estimate
+follows the factor of a good elimination order; Clarabel's own order can fill far more (row 14's
+vertex i2p analysis: 5.7 GB estimated, a single 12.6 GB allocation asked). So a program estimated
+above :data:`ISOLATE_BYTES` is solved in a child process capped at ``max_bytes``
+(:func:`synthesis.conic.solve_clarabel`'s ``memory_limit``), and running out there is the same
+``ProgramTooLargeError``.
 """
 from __future__ import annotations
 
@@ -34,7 +39,7 @@ import scipy.sparse as sps
 
 from synthesis import solve_policy
 from synthesis.lft_plant import ProgramTooLargeError
-from synthesis.conic import REFUTED, SOLVED, ConicProblem, solve_clarabel, svec_indices, svec_scale
+from synthesis.conic import REFUTED, SOLVED, ConicProblem, SolverMemoryError, solve_clarabel, svec_indices, svec_scale
 
 
 LOG = logging.getLogger(__name__)
@@ -55,6 +60,10 @@ def _half_the_memory(default: int = 8 * 2**30) -> int:
 
 MAX_SOLVER_BYTES = _half_the_memory()
 """Default largest :meth:`LMIProgram.solver_bytes` of a program (half the physical memory)."""
+
+ISOLATE_BYTES = 2**30
+"""Programs estimated above this (bytes) are solved in a child process capped at their
+``max_bytes`` (module docstring); below it a fork would cost more than the risk."""
 
 BYTES_PER_ENTRY = 64
 """Bytes of the solver per entry of the estimate of :meth:`LMIProgram.solver_bytes`, fitted on
@@ -311,11 +320,18 @@ class LMIProgram:
         obj = None if objective is None else (-objective if maximize else objective)
         problem = self._problem(obj)
         results = []
+        limit = self.max_bytes if self.solver_bytes() > ISOLATE_BYTES else None
 
         def run(solver: str, settings: dict[str, Any]) -> str:
             if solver != "CLARABEL":
                 raise LMIError(f"LMIProgram solves with Clarabel only, got {solver!r}")
-            results.append(solve_clarabel(problem, **settings))
+            try:
+                results.append(solve_clarabel(problem, memory_limit=limit, **settings))
+            except SolverMemoryError as exc:
+                raise ProgramTooLargeError(
+                    f"the LMI program ran out of memory in the solver ({len(self._psd)} PSD cones up to order "
+                    f"{max(self._psd, default=0)}, {self.n} variables, {self.solver_bytes() / 1e9:.3g} GB "
+                    f"estimated): {exc}") from exc
             status = results[-1].status
             if status not in SOLVED.values() and status not in REFUTED.values():
                 raise solve_policy.SolverFailure(status)

@@ -1,9 +1,11 @@
 """synthesis.lmi: affine matrix expressions against numpy, LMI programs against closed forms."""
+import os
+
 import numpy as np
 import pytest
 import scipy.linalg as sla
 
-from synthesis import lmi
+from synthesis import conic, lmi
 
 
 def test_operations_match_numpy_at_random_values():
@@ -111,3 +113,37 @@ def test_size_guard_refuses_a_program_before_the_solver():
     with pytest.raises(lmi.ProgramTooLargeError, match=r"1 PSD cones up to order 6, 21 variables.*> max_bytes"):
         small.add_psd(X)
     assert lmi.LMIProgram().max_bytes == lmi.MAX_SOLVER_BYTES >= 2**30
+
+
+def _psd_program(max_bytes: int | None = None) -> tuple[lmi.LMIProgram, lmi.Affine]:
+    """min trace Y s.t. Y >= A (A = diag(1, 2, 3) plus a coupling): optimum trace A = 6."""
+    prog = lmi.LMIProgram(max_bytes=max_bytes)
+    Y = prog.variable((3, 3), symmetric=True)
+    A = np.diag([1.0, 2.0, 3.0]) + 0.1 * (np.ones((3, 3)) - np.eye(3))
+    prog.add_psd(Y - A)
+    return prog, _trace(Y)
+
+
+@pytest.mark.skipif(not hasattr(os, "fork") or conic._address_space() is None,
+                    reason="isolated solves need fork and /proc (Linux)")
+def test_large_programs_solve_in_a_capped_child(monkeypatch):
+    """Above ISOLATE_BYTES a program is solved in a forked child capped at max_bytes: the same
+    answer as in the process (the same solver on the same arrays: to 1e-12), and running out of
+    memory there is ProgramTooLargeError instead of the Rust abort of the whole process (an
+    order-50 cone puts a dense 1275 x 1275 block, 13 MB, into Clarabel's KKT system: a cap of
+    4 MB above the caller cannot hold it). A bad setting still raises in the caller."""
+    here, obj = _psd_program()
+    x_here = here.solve(obj).x
+    monkeypatch.setattr(lmi, "ISOLATE_BYTES", 0)
+    child, obj = _psd_program()
+    sol = child.solve(obj)
+    assert sol.solved and sol.objective == pytest.approx(6.0, abs=1e-6)
+    np.testing.assert_allclose(sol.x, x_here, rtol=0, atol=1e-12)
+    starved = lmi.LMIProgram()
+    Y = starved.variable((50, 50), symmetric=True)
+    starved.add_psd(Y - np.eye(50))
+    starved.max_bytes = 2**22  # lowered after the build: the cap of the child
+    with pytest.raises(lmi.ProgramTooLargeError, match="ran out of memory in the solver"):
+        starved.solve(_trace(Y))
+    with pytest.raises(TypeError, match="unrecognized solver setting"):
+        conic.solve_clarabel(child._problem(obj), memory_limit=2**30, no_such_setting=1)
