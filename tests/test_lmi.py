@@ -115,9 +115,9 @@ def test_size_guard_refuses_a_program_before_the_solver():
     assert lmi.LMIProgram().max_bytes == lmi.MAX_SOLVER_BYTES >= 2**30
 
 
-def _psd_program(max_bytes: int | None = None) -> tuple[lmi.LMIProgram, lmi.Affine]:
+def _psd_program() -> tuple[lmi.LMIProgram, lmi.Affine]:
     """min trace Y s.t. Y >= A (A = diag(1, 2, 3) plus a coupling): optimum trace A = 6."""
-    prog = lmi.LMIProgram(max_bytes=max_bytes)
+    prog = lmi.LMIProgram()
     Y = prog.variable((3, 3), symmetric=True)
     A = np.diag([1.0, 2.0, 3.0]) + 0.1 * (np.ones((3, 3)) - np.eye(3))
     prog.add_psd(Y - A)
