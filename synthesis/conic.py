@@ -12,17 +12,18 @@ the svec inner product is the trace inner product; :func:`svec_indices`,
 ``clarabel.DefaultSolver`` as they are: no modelling layer re-canonicalizes them.
 
 A failed allocation in Clarabel's Rust core aborts the process, with no exception to catch.
-With ``memory_limit``, :func:`solve_clarabel` therefore solves in a forked child whose address
-space is capped at that many bytes above the caller's, and turns the child's death into
-:class:`SolverMemoryError` (where the OS has no ``fork`` or no address-space limit, e.g.
-Windows, it solves in the process).
+With ``memory_limit``, :func:`solve_clarabel` therefore solves in a child interpreter whose
+address space is capped at that many bytes above its own, and turns the child's death into
+:class:`SolverMemoryError` (where the OS has no address-space limit, e.g. Windows, it solves
+in the process).
 """
 from __future__ import annotations
 
-import multiprocessing
 import os
+import sys
 import time
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -91,34 +92,50 @@ def _address_space() -> int | None:
         return None
 
 
-def _child(problem: ConicProblem, settings: dict[str, Any], limit: int, conn) -> None:
-    import faulthandler
+def _serve() -> None:
+    """The child's side of :func:`_isolated`: read ``(problem, settings, memory_limit)`` pickled
+    on stdin, cap the address space that far above this fresh interpreter's, solve, and write
+    the pickled answer (or the exception) to stdout."""
+    import pickle
     import resource
 
-    faulthandler.disable()  # an abort here is the expected answer, not a crash to report
+    import clarabel  # noqa: F401  (loaded before the cap: mapping it is not the solve's memory)
+
+    answer = os.fdopen(os.dup(1), "wb")
+    os.dup2(2, 1)  # anything the solver prints goes to stderr, not into the answer
+    problem, settings, memory_limit = pickle.load(sys.stdin.buffer)
+    limit = _address_space() + memory_limit
     resource.setrlimit(resource.RLIMIT_AS, (limit, resource.getrlimit(resource.RLIMIT_AS)[1]))
     try:
-        conn.send(_solve(problem, settings))
+        out: Any = _solve(problem, settings)
     except MemoryError:
-        conn.send(SolverMemoryError())
+        out = SolverMemoryError()
     except Exception as exc:  # re-raised in the parent (a bad setting, ...)
-        conn.send(exc)
+        out = exc
+    pickle.dump(out, answer)
+    answer.close()
 
 
 def _isolated(problem: ConicProblem, settings: dict[str, Any], memory_limit: int) -> ConicResult:
-    ctx = multiprocessing.get_context("fork")
-    receive, send = ctx.Pipe(duplex=False)
-    child = ctx.Process(target=_child, args=(problem, settings, _address_space() + memory_limit, send))
-    child.start()
-    send.close()
+    """Solve in a new interpreter (not a fork: a fork of a process whose solver thread pool is
+    running deadlocks in the child) whose address space is capped ``memory_limit`` bytes above
+    its own at start (:func:`_serve`)."""
+    import pickle
+    import subprocess
+
+    root = str(Path(__file__).resolve().parents[1])  # the directory holding this package
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [root, os.environ.get("PYTHONPATH")]))}
+    env.pop("PYTHONFAULTHANDLER", None)  # an abort there is the expected answer, not a crash to report
+    run = subprocess.run([sys.executable, "-c", "from synthesis.conic import _serve; _serve()"],
+                         input=pickle.dumps((problem, settings, memory_limit)), capture_output=True, env=env)
     try:
-        out = receive.recv()
-    except EOFError:  # the child died without an answer: Clarabel's allocation failed
-        out = SolverMemoryError()
-    child.join()
+        out = pickle.loads(run.stdout)
+    except (pickle.UnpicklingError, EOFError):  # no answer: the child died (Clarabel's allocation failed)
+        last = run.stderr.decode(errors="replace").strip().splitlines()[-1:]
+        out = SolverMemoryError(f"exit code {run.returncode}{': ' + last[0] if last else ''}")
     if isinstance(out, SolverMemoryError):
         raise SolverMemoryError(f"Clarabel needed more than {memory_limit / 1e9:.3g} GB "
-                                f"(its process ended with exit code {child.exitcode})")
+                                f"(its process ended with {str(out) or 'a memory error'})")
     if isinstance(out, Exception):
         raise out
     return out
@@ -138,7 +155,7 @@ def solve_clarabel(problem: ConicProblem, *, memory_limit: int | None = None, **
     SolverMemoryError
         If Clarabel needs more than ``memory_limit``.
     """
-    if memory_limit is not None and hasattr(os, "fork") and _address_space() is not None:
+    if memory_limit is not None and _address_space() is not None:
         return _isolated(problem, settings, int(memory_limit))
     return _solve(problem, settings)
 

@@ -63,7 +63,7 @@ MAX_SOLVER_BYTES = _half_the_memory()
 
 ISOLATE_BYTES = 2**30
 """Programs estimated above this (bytes) are solved in a child process capped at their
-``max_bytes`` (module docstring); below it a fork would cost more than the risk."""
+``max_bytes`` (module docstring); below it a new interpreter (about 1 s) would cost more than the risk."""
 
 BYTES_PER_ENTRY = 64
 """Bytes of the solver per entry of the estimate of :meth:`LMIProgram.solver_bytes`, fitted on

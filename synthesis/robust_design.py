@@ -634,12 +634,15 @@ def _rescaled_program(plants: tuple[LFTPlant, ...], K: np.ndarray | None, rescal
     return _back_to_caller(scaled, T, out, f"{out.solver_status}; rescaled: {scaled.solver_status}")
 
 
-def _back_to_caller(res: RobustDesign, T: np.ndarray, before: RobustDesign, status: str) -> RobustDesign:
+def _back_to_caller(res: RobustDesign, T: np.ndarray, before: RobustDesign | None = None,
+                    status: str | None = None) -> RobustDesign:
     """``res``, solved in the coordinates ``x = diag(T) x_s``, with K and Y in the caller's, the
     total ``state_scaling``, and the times of ``before`` (the solves that chose T) added."""
     inner = np.ones_like(T) if res.state_scaling is None else res.state_scaling
-    return replace(res, K=res.K / T, Y=T[:, None] * res.Y * T[None, :], state_scaling=T * inner,
-                   solve_seconds=res.solve_seconds + before.solve_seconds,
+    out = replace(res, K=res.K / T, Y=T[:, None] * res.Y * T[None, :], state_scaling=T * inner)
+    if before is None:
+        return out
+    return replace(out, solve_seconds=res.solve_seconds + before.solve_seconds,
                    build_seconds=res.build_seconds + before.build_seconds, solver_status=status)
 
 
@@ -691,13 +694,31 @@ def _phase_one(plants: tuple[LFTPlant, ...], K: np.ndarray | None, *, alpha: flo
     return _sym(prog.value(Y))
 
 
-def _robust_program(plants: tuple[LFTPlant, ...], K: np.ndarray | None, *, hinf: bool, w_hinf: float,
-                    w_i2p: float,
-                    alpha: float, beta: float | None, uncertainty: str, eps: float,
-                    backoffs: tuple[float, ...] = BACKOFFS, sector: float | None = None,
-                    convention: str = "satfmu") -> tuple[RobustDesign, np.ndarray | None]:
-    """Solve (minimize the objective), back off (levels x (1 + b), b in BACKOFFS, largest common margin)
-    and verify the common-Lyapunov program (options already checked); also the first solve's Y."""
+@dataclass
+class _Minimizer:
+    """The solver's minimizer of the common-Lyapunov program: K, Y, the optimal levels (the
+    program's: :func:`_level`), the multipliers, the objective, the times and the result's info."""
+
+    K: np.ndarray
+    Y: np.ndarray
+    gamma: float | None
+    nu: float
+    multipliers: dict[str, Multiplier]
+    optimum: float
+    times: dict
+    info: dict
+
+    def levels(self, convention: str, b: float) -> tuple[float | None, float]:
+        """The bounds (:func:`_bound`) at the levels times ``1 + b``."""
+        g = None if self.gamma is None else _bound(convention, self.gamma * (1 + b))
+        return g, _bound(convention, self.nu * (1 + b))
+
+
+def _minimize(plants: tuple[LFTPlant, ...], K: np.ndarray | None, *, hinf: bool, w_hinf: float, w_i2p: float,
+              alpha: float, beta: float | None, uncertainty: str, eps: float, sector: float | None = None,
+              convention: str = "satfmu") -> _Minimizer | RobustDesign:
+    """Minimize the objective of the common-Lyapunov program (options already checked): the
+    minimizer, or the failed :class:`RobustDesign` when the solver gives no answer."""
     t0 = time.perf_counter()
     specs = [_specs(p, alpha, beta, hinf, sector) for p in plants]
     prog = lmi.LMIProgram()
@@ -715,16 +736,29 @@ def _robust_program(plants: tuple[LFTPlant, ...], K: np.ndarray | None, *, hinf:
             "n_multipliers": n_mult, "fixed_gain": K is not None, "convention": convention}
     if not sol.solved:
         return RobustDesign(_failed(out), None, None, None, None, {}, None, None, **info,
-                            solver_status=out.solver_status, solve_seconds=out.seconds, build_seconds=build), None
-    optimum, Y1 = sol.objective, _sym(prog.value(Y))
-    g_opt = float(prog.value(gamma)[0, 0]) if hinf else None
-    nu_opt = float(prog.value(nu)[0, 0])
-    times = {"solver_status": out.solver_status, "solve_seconds": out.seconds, "build_seconds": build}
-    K1 = np.linalg.solve(Y1, prog.value(W).T).T if K is None else K
-    mults = {k: f() for k, f in values.items()}
+                            solver_status=out.solver_status, solve_seconds=out.seconds, build_seconds=build)
+    Y1 = _sym(prog.value(Y))
+    return _Minimizer(np.linalg.solve(Y1, prog.value(W).T).T if K is None else K, Y1,
+                      float(prog.value(gamma)[0, 0]) if hinf else None, float(prog.value(nu)[0, 0]),
+                      {k: f() for k, f in values.items()}, sol.objective,
+                      {"solver_status": out.solver_status, "solve_seconds": out.seconds, "build_seconds": build}, info)
+
+
+def _robust_program(plants: tuple[LFTPlant, ...], K: np.ndarray | None, *, hinf: bool, w_hinf: float,
+                    w_i2p: float,
+                    alpha: float, beta: float | None, uncertainty: str, eps: float,
+                    backoffs: tuple[float, ...] = BACKOFFS, sector: float | None = None,
+                    convention: str = "satfmu") -> tuple[RobustDesign, np.ndarray | None]:
+    """Solve (minimize the objective), back off (levels x (1 + b), b in BACKOFFS, largest common margin)
+    and verify the common-Lyapunov program (options already checked); also the first solve's Y."""
+    m = _minimize(plants, K, hinf=hinf, w_hinf=w_hinf, w_i2p=w_i2p, alpha=alpha, beta=beta,
+                  uncertainty=uncertainty, eps=eps, sector=sector, convention=convention)
+    if isinstance(m, RobustDesign):
+        return m, None
+    specs = [_specs(p, alpha, beta, hinf, sector) for p in plants]
+    K1, Y1, mults, optimum, times, info = m.K, m.Y, m.multipliers, m.optimum, dict(m.times), m.info
     for b in backoffs:  # the minimizer itself, at the backed-off levels: no second solve if it verifies
-        g = None if g_opt is None else _bound(convention, g_opt * (1 + b))
-        nv = _bound(convention, nu_opt * (1 + b))
+        g, nv = m.levels(convention, b)
         check = _verify_plants(plants, K1, Y1, g, nv, mults, alpha=alpha, beta=beta, sector=sector,
                                convention=convention)
         if check.ok:
@@ -733,8 +767,8 @@ def _robust_program(plants: tuple[LFTPlant, ...], K: np.ndarray | None, *, hinf:
     mults, check = {}, None
     for b in backoffs:
         t0 = time.perf_counter()
-        g = g_opt * (1 + b) if hinf else None
-        nv = nu_opt * (1 + b)
+        g = m.gamma * (1 + b) if hinf else None
+        nv = m.nu * (1 + b)
         back = lmi.LMIProgram()
         t = back.variable()
         Yb, Wb, values = _robust_constraints(back, plants, K, specs, uncertainty, t, g, nv, convention)
@@ -845,42 +879,79 @@ def design(plant: LFTPlant | Sequence[LFTPlant], K=None, *, w_hinf: float = 1.0,
 
 
 SCENARIO_BATCH = 100
-"""Plants in the first program of :func:`_constraint_generation`, and the most plants it adds
-per round."""
+"""The most plants :func:`_constraint_generation` adds per round; :func:`design` solves more
+certain plants than this by constraint generation."""
+
+SCENARIO_FIRST = 10
+"""Plants in the first program of :func:`_constraint_generation`."""
 
 
 def _constraint_generation(plants: tuple[LFTPlant, ...], K: np.ndarray | None, rescale: bool, **options
                            ) -> RobustDesign:
     """The program over many certain plants (scenarios), solved on a growing subset.
 
-    Solve with the first :data:`SCENARIO_BATCH` plants; :func:`verify` every plant at the
-    answer; add the most violated (at most SCENARIO_BATCH) and solve again, until the answer
-    holds for every plant. The whole program has the same optimum up to the back-off: the last
-    subset's optimum is a lower bound of the whole program's (fewer constraints), and the
-    returned certificate, verified on every plant, is feasible for it, at the subset's optimum
-    times ``1 + backoff``. An infeasible subset proves the whole program infeasible. A scenario
-    program has at most as many support constraints as decision variables, so the last subset
-    stays small (DEMETER one axis, 962 scenarios: see ``active_plants``), and the solver never
-    sees the thousands of LMIs at once.
+    Minimize over the first :data:`SCENARIO_FIRST` plants; :func:`verify` every plant at the
+    minimizer (levels at the first of :data:`BACKOFFS`); add the most violated (at most
+    :data:`SCENARIO_BATCH`) and minimize again, in the coordinates where the last minimizer's
+    Y has a unit diagonal (as :func:`_rescaled_program`), until no plant outside the subset is
+    violated. Then the subset's certified solve (:func:`_rescaled_program`: back-off, rescaling)
+    and :func:`verify` of every plant at its answer; plants it violates join the subset and the
+    rounds go on. The whole program has the same optimum up to the back-off: the last subset's
+    optimum is a lower bound of the whole program's (fewer constraints), and the returned
+    certificate, verified on every plant, is feasible for it, at the subset's optimum times
+    ``1 + backoff``. An infeasible subset proves the whole program infeasible. A scenario
+    program has at most as many support constraints as decision variables, so the subset stays
+    small (see ``active_plants``); the rounds before the last take one solve each, and the
+    solver never sees the thousands of LMIs at once.
     """
-    active = list(range(SCENARIO_BATCH))
-    solve_seconds = build_seconds = 0.0
+    convention = options["convention"]
+    check_options = {"alpha": options["alpha"], "beta": options["beta"], "sector": options["sector"],
+                     "convention": convention}
+    T = np.ones(plants[0].A.shape[0])
+    active = list(range(min(SCENARIO_FIRST, len(plants))))
+    seconds = {"solve_seconds": 0.0, "build_seconds": 0.0}
+    status: list[str] = []
+
+    def check_all(K, Y, gamma, nu) -> tuple[list[RobustCheck], list[int]]:
+        """Every plant's check in the coordinates T, and the worst violated outside the subset."""
+        checks = [verify(p.scale_states(T), K, Y, gamma, nu, {}, **check_options) for p in plants]
+        inside = set(active)
+        worst = sorted((c.margin, i) for i, c in enumerate(checks) if not c.ok and i not in inside)
+        return checks, [i for _, i in worst[:SCENARIO_BATCH]]
+
     while True:
-        res = _rescaled_program(tuple(plants[i] for i in active), K, rescale, **options)
-        solve_seconds, build_seconds = solve_seconds + res.solve_seconds, build_seconds + res.build_seconds
-        res = replace(res, solve_seconds=solve_seconds, build_seconds=build_seconds, active_plants=len(active))
+        m = _minimize(tuple(plants[i].scale_states(T) for i in active), None if K is None else K * T, **options)
+        if isinstance(m, _Minimizer):
+            for k in seconds:
+                seconds[k] += m.times[k]
+            status.append(f"{len(active)} plants: {m.times['solver_status']}")
+            g, nv = m.levels(convention, BACKOFFS[0])
+            checks, new = check_all(m.K, m.Y, g, nv)
+            if all(c.ok for c in checks):  # the minimizer is the certificate
+                res = RobustDesign("optimal", m.K, g, nv, m.Y, {}, _merge_checks(checks), m.optimum, **m.info,
+                                   **seconds, solver_status="; ".join(status) + "; the minimizer verified",
+                                   backoff=BACKOFFS[0])
+                return replace(_back_to_caller(res, T), active_plants=len(active))
+            if rescale and np.all(np.diag(m.Y) > 0):
+                T = T * np.sqrt(np.diag(m.Y))
+            if new:
+                active += new
+                continue
+        res = _rescaled_program(tuple(plants[i].scale_states(T) for i in active), None if K is None else K * T,
+                                rescale, **options)
+        for k in seconds:
+            seconds[k] += getattr(res, k)
+        status.append(f"{len(active)} plants, certified: {res.solver_status}")
+        res = replace(res, **seconds, solver_status="; ".join(status), active_plants=len(active))
         if res.status != "optimal":
             return res
-        T = np.ones(res.K.shape[1]) if res.state_scaling is None else res.state_scaling
-        Ks, Ys = res.K * T, res.Y / T[:, None] / T[None, :]  # the coordinates of res.check
-        checks = [verify(p.scale_states(T), Ks, Ys, res.gamma, res.nu, {}, alpha=options["alpha"],
-                         beta=options["beta"], sector=options["sector"], convention=options["convention"])
-                  for p in plants]
-        violated = sorted((c.margin, i) for i, c in enumerate(checks) if not c.ok)
-        if not violated:
-            return replace(res, check=_merge_checks(checks))
-        new = [i for _, i in violated if i not in active][:SCENARIO_BATCH]
-        if not new:  # an active plant fails in the total coordinates (rounding): no certificate
+        res = _back_to_caller(res, T)
+        T = res.state_scaling  # the coordinates of res.check
+        checks, new = check_all(res.K * T, res.Y / T[:, None] / T[None, :], res.gamma, res.nu)
+        if not new:
+            if all(c.ok for c in checks):
+                return replace(res, check=_merge_checks(checks))
+            # an active plant fails in the total coordinates (rounding): no certificate
             return replace(res, status="unverified", K=None, gamma=None, nu=None, Y=None,
                            check=_merge_checks(checks))
         active += new
