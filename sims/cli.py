@@ -676,6 +676,7 @@ def main(argv: list[str] | None = None) -> int:
     import warnings
 
     args = parser().parse_args(argv)
+    _PROGRESS["open"] = False  # a bar left open by an earlier call in this process is not this one's
 
     def one_line(message: Warning | str, category: type[Warning], filename: str, lineno: int, file: Any = None,
                  line: str | None = None) -> None:
