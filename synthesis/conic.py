@@ -57,13 +57,14 @@ class ConicResult:
     """Clarabel's answer: the status (``optimal``, ``optimal_inaccurate``, ``infeasible``,
     ``unbounded``, their ``_inaccurate`` forms, or Clarabel's own word for a failure, e.g.
     ``NumericalError``, ``MaxIterations``), ``x``
-    when a solution is present, ``q^T x`` and Clarabel's wall time (s, setting up and
-    solving)."""
+    when a solution is present, ``q^T x``, Clarabel's wall time (s, setting up and
+    solving) and, with ``x``, the dual ``z`` (one entry per row of ``A``, the cones' order)."""
 
     status: str
     x: np.ndarray | None
     objective: float
     seconds: float
+    z: np.ndarray | None = None
 
 
 def svec_indices(N: int) -> tuple[np.ndarray, np.ndarray]:
@@ -179,6 +180,6 @@ def _solve(problem: ConicProblem, settings: dict[str, Any]) -> ConicResult:
     status = str(sol.status)
     if status in SOLVED:
         x = np.asarray(sol.x, float)
-        return ConicResult(SOLVED[status], x, float(problem.q @ x), seconds)
+        return ConicResult(SOLVED[status], x, float(problem.q @ x), seconds, np.asarray(sol.z, float))
     return ConicResult(REFUTED.get(status, status), None, float("nan"), seconds)
 

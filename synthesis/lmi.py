@@ -32,7 +32,7 @@ import logging
 import os
 import time
 from dataclasses import dataclass
-from typing import Any, Sequence
+from typing import Any, Hashable, Sequence
 
 import numpy as np
 import scipy.sparse as sps
@@ -206,11 +206,13 @@ def vstack(blocks: Sequence[Any]) -> Affine:
 
 @dataclass
 class LMISolution:
-    """What :meth:`LMIProgram.solve` gave: the ladder's outcome and, when solved, ``x``."""
+    """What :meth:`LMIProgram.solve` gave: the ladder's outcome and, when solved, ``x`` and the
+    dual ``z`` (Clarabel's, one entry per constraint row)."""
 
     outcome: solve_policy.SolveOutcome
     x: np.ndarray | None
     objective: float
+    z: np.ndarray | None = None
 
     @property
     def solved(self) -> bool:
@@ -226,6 +228,7 @@ class LMIProgram:
         """Largest :meth:`solver_bytes` accepted (module docstring)."""
         self._psd_rows: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []  # (b, vars, A block)
         self._psd: list[int] = []
+        self._tags: list[Hashable] = []  # one per PSD cone (None: untagged)
         self._nonneg: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
         self._cone_entries = self._rows = 0
         self.solution: LMISolution | None = None
@@ -268,8 +271,9 @@ class LMIProgram:
         self.n += len(vars)
         return Affine((r, c), vars, coef)
 
-    def add_psd(self, M: Affine) -> None:
-        """``M(x) >= 0`` (its symmetric part), one PSD cone of order ``M.shape[0]``.
+    def add_psd(self, M: Affine, tag: Hashable = None) -> None:
+        """``M(x) >= 0`` (its symmetric part), one PSD cone of order ``M.shape[0]``; ``tag`` names
+        it for :meth:`dual_weights`.
 
         Raises
         ------
@@ -284,6 +288,7 @@ class LMIProgram:
         rows = 0.5 * (M.coef[i * N + j] + M.coef[j * N + i]) * svec_scale(N)[:, None]
         self._psd_rows.append((rows[:, 0], M.vars, -rows[:, 1:]))
         self._psd.append(N)
+        self._tags.append(tag)
         self._grow(len(i), True, f"an LMI of order {N}")
 
     def add_nonneg(self, e: Affine) -> None:
@@ -347,8 +352,24 @@ class LMIProgram:
         value = float("nan")
         if x is not None and objective is not None:
             value = float(objective.coef[0, 0] + objective.coef[0, 1:] @ x[objective.vars])
-        self.solution = LMISolution(outcome, x, value)
+        self.solution = LMISolution(outcome, x, value, results[-1].z if x is not None else None)
         return self.solution
+
+    def dual_weights(self) -> dict[Hashable, float]:
+        """Per tag of :meth:`add_psd`, the summed Frobenius norms of its cones' dual matrices at
+        the last solve (the svec's 2-norm: the scaled svec is an isometry). By complementary
+        slackness a cone strictly inside the PSD cone at the optimum has a zero dual: a small
+        weight marks LMIs that do not bind (to the solver's accuracy)."""
+        if self.solution is None or self.solution.z is None:
+            raise LMIError("no dual to read: solve first (and check that it solved)")
+        out: dict[Hashable, float] = {}
+        row = sum(len(b) for b, _, _ in self._nonneg)
+        for N, tag in zip(self._psd, self._tags):
+            d = N * (N + 1) // 2
+            if tag is not None:
+                out[tag] = out.get(tag, 0.0) + float(np.linalg.norm(self.solution.z[row:row + d]))
+            row += d
+        return out
 
     def value(self, e: Affine) -> np.ndarray:
         """The value of ``e`` at the last solve's solution."""

@@ -87,6 +87,24 @@ def test_maximize_and_scalar_inequality():
     assert sol.solved and prog.value(t)[0, 0] == pytest.approx(0.5, abs=1e-7)
 
 
+def test_dual_weights_mark_the_binding_lmis():
+    """min tr P s.t. P >= diag(1, 2) (binds: its dual is I, Frobenius norm sqrt 2) and P >= 0.5 I
+    (slack 0.5: dual 0 to the solver's 1e-8 accuracy); untagged cones are not reported."""
+    prog = lmi.LMIProgram()
+    P = prog.variable((2, 2), symmetric=True)
+    with pytest.raises(lmi.LMIError, match="solve first"):
+        prog.dual_weights()
+    prog.add_psd(P - np.diag([1.0, 2.0]), tag="tight")
+    prog.add_psd(P - 0.5 * np.eye(2), tag="loose")
+    prog.add_psd(P + np.eye(2))
+    e1, e2 = np.array([[1.0, 0.0]]), np.array([[0.0, 1.0]])
+    prog.add_nonneg(10.0 - e1 @ P @ e1.T)  # a scalar row first: the cones' rows start after it
+    assert prog.solve(e1 @ P @ e1.T + e2 @ P @ e2.T).solved
+    w = prog.dual_weights()
+    assert set(w) == {"tight", "loose"}
+    assert w["tight"] == pytest.approx(np.sqrt(2.0), rel=1e-6) and w["loose"] < 1e-6
+
+
 def test_infeasible_program_is_reported():
     """P >= I and P <= 0 has no solution: Clarabel's certificate, no values."""
     prog = lmi.LMIProgram()

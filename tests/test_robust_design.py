@@ -347,8 +347,9 @@ def test_many_scenarios_are_solved_by_constraint_generation(plant, monkeypatch) 
     solve = lmi.LMIProgram.solve
     monkeypatch.setattr(lmi.LMIProgram, "solve", lambda self, *a, **k: solves.append(1) or solve(self, *a, **k))
     gen = design(plants, alpha=ALPHA, beta=BETA)
-    # measured: 10 plants, then the 25 they leave violated; the second minimizer verifies on all
-    # 260, so two solves in all (the rounds before the last take one each)
+    # measured: 10 plants, then the 4 of them that bind and the 25 they leave violated (29); the
+    # second minimizer verifies on all 260, so two solves in all (the rounds before the last
+    # take one each)
     assert gen.status == "optimal" and gen.active_plants <= 50 and len(solves) <= 3
     # the certificate is checked on every plant, not only the active ones
     assert {k.split("/")[0] for k in gen.check.max_eig} == {str(i) for i in range(len(plants))} and gen.check.ok
