@@ -913,7 +913,8 @@ def _constraint_generation(plants: tuple[LFTPlant, ...], K: np.ndarray | None, r
     Minimize over the first :data:`SCENARIO_FIRST` plants; :func:`verify` every plant at the
     minimizer (levels at the first of :data:`BACKOFFS`); if any outside the subset is violated,
     the next subset is the plants whose LMIs bind (dual weight above :data:`SUPPORT_TOL`; a
-    plant left out once stays in when it comes back, so the rounds end) and the most violated
+    plant left out once stays in when it comes back, so the rounds end; if the smaller subset
+    gives no answer, the plants left out are put back) and the most violated
     (at most :data:`SCENARIO_BATCH`), minimized again in the coordinates where the last
     minimizer's Y has a unit diagonal (as :func:`_rescaled_program`). When only plants of the
     subset fail, the back-off solves at the minimizer's levels in those coordinates
@@ -950,9 +951,16 @@ def _constraint_generation(plants: tuple[LFTPlant, ...], K: np.ndarray | None, r
         worst = sorted((c.margin, i) for i, c in enumerate(checks) if not c.ok and i not in inside)
         return checks, [i for _, i in worst[:SCENARIO_BATCH]]
 
+    restore: list[int] = []  # the plants the last round left out
     while True:
         m = _minimize(*subset(T), **options)
         res = None
+        if not isinstance(m, _Minimizer) and m.status != "infeasible" and restore:
+            # no answer without them (DEMETER row 7: NumericalError at 24 plants, not at 39)
+            status.append(f"{len(active)} plants: {m.solver_status}; the {len(restore)} left out put back")
+            account(m)
+            active, restore = restore + active, []
+            continue
         if isinstance(m, _Minimizer):
             account(m)
             status.append(f"{len(active)} plants: {m.times['solver_status']}")
@@ -969,6 +977,7 @@ def _constraint_generation(plants: tuple[LFTPlant, ...], K: np.ndarray | None, r
                 binding = m.support >= SUPPORT_TOL * m.support.max()
                 dropped = {i for i, keep in zip(active, binding) if not keep and i not in left_out}
                 left_out |= dropped
+                restore = sorted(dropped)
                 active = [i for i in active if i not in dropped] + new
                 continue
             res = _back_off(*subset(T), replace(m, times={k: 0.0 for k in seconds} | {"solver_status": ""}),
@@ -991,7 +1000,7 @@ def _constraint_generation(plants: tuple[LFTPlant, ...], K: np.ndarray | None, r
             # an active plant fails in the total coordinates (rounding): no certificate
             return replace(res, status="unverified", K=None, gamma=None, nu=None, Y=None,
                            check=_merge_checks(checks))
-        active += new
+        active, restore = active + new, []
 
 
 def i2p_bound(plant: LFTPlant | Sequence[LFTPlant], K, *, alpha: float = 0.0, uncertainty: str = "norm",

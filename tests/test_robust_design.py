@@ -362,6 +362,30 @@ def test_many_scenarios_are_solved_by_constraint_generation(plant, monkeypatch) 
     assert gen.gamma == pytest.approx(full.gamma, rel=2e-3) and gen.nu == pytest.approx(full.nu, rel=2e-3)
 
 
+def test_plants_left_out_come_back_when_the_smaller_subset_fails(plant, monkeypatch) -> None:
+    """The round after plants are left out (their LMIs do not bind) gives no answer (a solver
+    error, as DEMETER row 7's 24-plant subset): they are put back and the next round solves."""
+    rng = np.random.default_rng(5)
+    plants = [plant.at(d) for d in rng.uniform(-1, 1, (260, plant.n_params))]
+    sizes: list[int] = []
+    minimize = robust_design._minimize
+
+    def failing_second(subset, *a, **k):
+        sizes.append(len(subset))
+        res = minimize(subset, *a, **k)
+        if len(sizes) != 2:
+            return res
+        return RobustDesign("unverified", None, None, None, None, {}, None, None, uncertainty="norm", n_vertices=0,
+                            n_multipliers=0, fixed_gain=False, solver_status="solver error: NumericalError",
+                            solve_seconds=0.0, build_seconds=0.0)
+
+    monkeypatch.setattr(robust_design, "_minimize", failing_second)
+    gen = design(plants, alpha=ALPHA, beta=BETA)
+    # measured (the test above): 10 plants, 4 bind, 25 join: the failed 29 become 35 (10 + 25)
+    assert sizes[:3] == [10, 29, 35] and "the 6 left out put back" in gen.solver_status
+    assert gen.status == "optimal" and gen.check.ok
+
+
 def test_an_infeasible_scenario_subset_ends_the_generation(monkeypatch) -> None:
     monkeypatch.setattr(robust_design, "SCENARIO_BATCH", 3)
     monkeypatch.setattr(robust_design, "SCENARIO_FIRST", 3)
