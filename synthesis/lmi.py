@@ -318,10 +318,12 @@ class LMIProgram:
         return ConicProblem(q, A, np.concatenate(bs), 0, sum(len(b) for b, _, _ in self._nonneg), list(self._psd))
 
     def solve(self, objective: Affine | None = None, *, maximize: bool = False,
-              ladder: Sequence[tuple[str, dict[str, Any]]] = solve_policy.LADDER) -> LMISolution:
+              ladder: Sequence[tuple[str, dict[str, Any]]] | solve_policy.RungMemory = solve_policy.LADDER
+              ) -> LMISolution:
         """Minimize (or maximize) the 1 x 1 ``objective`` (feasibility if None) under the
-        project's solve policy (:mod:`synthesis.solve_policy`); the values are then read with
-        :meth:`value`."""
+        project's solve policy (:mod:`synthesis.solve_policy`; ``ladder`` a sequence of rungs or
+        a :class:`~synthesis.solve_policy.RungMemory` shared by a family of programs); the
+        values are then read with :meth:`value`."""
         obj = None if objective is None else (-objective if maximize else objective)
         problem = self._problem(obj)
         results = []

@@ -125,6 +125,7 @@ are :mod:`synthesis.system_norms`.
 from __future__ import annotations
 
 import itertools
+import logging
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
@@ -135,6 +136,8 @@ import scipy.linalg as sla
 from synthesis import lmi, solve_policy
 from synthesis.lft_plant import (LFTPlant, OptionError, PlantDataError, _block_starts, _check_gain, _check_vertices,
                                  _matrix, _sym, box_vertices)
+
+LOG = logging.getLogger(__name__)
 
 ABS_MARGIN = 1e-9
 """Smallest eigenvalue margin accepted as strict (the solver is asked for ``eps``, default
@@ -605,11 +608,13 @@ RESCALE_DEPTH = 2
 
 
 def _rescaled_program(plants: tuple[LFTPlant, ...], K: np.ndarray | None, rescale: bool, depth: int = RESCALE_DEPTH,
-                      **options) -> RobustDesign:
-    """:func:`_robust_program` at the first back-off; if its certificate fails :func:`verify`,
-    the same again (up to ``depth`` times) in the coordinates where that solve's Y has a unit
-    diagonal (``x = diag(sqrt(Y_ii)) x_s``); failing that, the caller's coordinates with the
-    larger back-offs.
+                      minimizer: _Minimizer | RobustDesign | None = None, **options) -> RobustDesign:
+    """The minimizer certified at the first back-off (:func:`_certified`); if that fails
+    :func:`verify`, the same again (up to ``depth`` times) in the coordinates where the
+    minimizer's Y has a unit diagonal (``x = diag(sqrt(Y_ii)) x_s``); failing that, the larger
+    back-offs at the same minimizer. Each program is minimized once (``minimizer``: its
+    :func:`_minimize` already done by the caller): the solver is deterministic, so solving it
+    again would give the same answer, or the same failure.
 
     A Lyapunov matrix with eigenvalues 10^7 apart (slow modes next to stiff ones) leaves the
     solver's answer just outside the feasible set whatever the back-off; the diagonal scaling
@@ -618,21 +623,35 @@ def _rescaled_program(plants: tuple[LFTPlant, ...], K: np.ndarray | None, rescal
     (DEMETER, one axis, four identical appendages: phase one, then one more rescaling). The
     returned K, Y are in the caller's coordinates; ``state_scaling`` holds the total scale,
     ``check`` and the multipliers in the last coordinates (:meth:`LFTPlant.scale_states`, then
-    :meth:`LFTPlant.balance_channels`).
+    :meth:`LFTPlant.balance_channels`); the status and times are those of every solve made.
     """
-    out, Y1 = _robust_program(plants, K, backoffs=BACKOFFS[:1], **options)
-    if out.status != "unverified":
-        return out
-    if Y1 is None and rescale:  # no answer at all: coordinates from a bounded region-only problem
-        Y1 = _phase_one(plants, K, **options)
-    scaled = None
+    m = _minimize(plants, K, **options) if minimizer is None else minimizer
+    if isinstance(m, _Minimizer):
+        out = _certified(plants, K, m, BACKOFFS[:1], **options)
+        if out.status != "unverified":
+            return out
+        Y1 = m.Y
+    else:
+        out = m
+        if m.status == "infeasible":
+            return m
+        Y1 = _phase_one(plants, K, **options) if rescale and depth > 0 else None  # no answer: region LMIs alone
     if rescale and depth > 0 and Y1 is not None and np.all(np.diag(Y1) > 0):
         T = np.sqrt(np.diag(Y1))
+        LOG.debug("rescaling %d plants: diag(Y) from %.3g to %.3g", len(plants), Y1.diagonal().min(),
+                  Y1.diagonal().max())
         scaled = _rescaled_program(tuple(p.scale_states(T).balance_channels() for p in plants),
                                    None if K is None else K * T, rescale, depth - 1, **options)
-    if scaled is None or scaled.status != "optimal":
-        return _robust_program(plants, K, backoffs=BACKOFFS[1:], **options)[0]
-    return _back_to_caller(scaled, T, out, f"{out.solver_status}; rescaled: {scaled.solver_status}")
+        if scaled.status == "optimal":
+            return _back_to_caller(scaled, T, out, f"{out.solver_status}; rescaled: {scaled.solver_status}")
+        out = replace(out, solver_status=f"{out.solver_status}; rescaled: {scaled.solver_status}",
+                      solve_seconds=out.solve_seconds + scaled.solve_seconds,
+                      build_seconds=out.build_seconds + scaled.build_seconds)
+    if not isinstance(m, _Minimizer):
+        return out
+    so_far = {"solver_status": out.solver_status, "solve_seconds": out.solve_seconds,
+              "build_seconds": out.build_seconds}
+    return _certified(plants, K, replace(m, times=so_far), BACKOFFS[1:], **options)
 
 
 def _back_to_caller(res: RobustDesign, T: np.ndarray, before: RobustDesign | None = None,
@@ -665,7 +684,8 @@ def _in_our_coordinates(plants: tuple[LFTPlant, ...], rescale: bool, **options) 
     them; scaling such a Y up meets either convention's H-infinity and i2p LMIs at large enough
     levels (``Bw Bw^T`` and ``Y >= B2 B2^T`` in the toolbox's forms, ``Bw Bw^T / gamma`` in ours).
     """
-    ours = _rescaled_program(plants, None, rescale, **{**options, "convention": "satfmu"})
+    ours = _rescaled_program(plants, None, rescale, **{**options, "convention": "satfmu",
+                                                       "ladder": solve_policy.RungMemory()})
     if ours.status == "infeasible":  # with free levels both ask for the same Y, up to a scale
         return replace(ours, convention="romuloc", solver_status=f"the satfmu program: {ours.solver_status}")
     if ours.status == "optimal" and np.all(np.diag(ours.Y) > 0):
@@ -720,9 +740,11 @@ class _Minimizer:
 
 def _minimize(plants: tuple[LFTPlant, ...], K: np.ndarray | None, *, hinf: bool, w_hinf: float, w_i2p: float,
               alpha: float, beta: float | None, uncertainty: str, eps: float, sector: float | None = None,
-              convention: str = "satfmu") -> _Minimizer | RobustDesign:
+              convention: str = "satfmu", ladder: solve_policy.RungMemory | None = None
+              ) -> _Minimizer | RobustDesign:
     """Minimize the objective of the common-Lyapunov program (options already checked): the
-    minimizer, or the failed :class:`RobustDesign` when the solver gives no answer."""
+    minimizer, or the failed :class:`RobustDesign` when the solver gives no answer; ``ladder``
+    the rungs shared by the minimizations of one design (default: a fresh ladder)."""
     t0 = time.perf_counter()
     specs = [_specs(p, alpha, beta, hinf, sector) for p in plants]
     prog = lmi.LMIProgram()
@@ -731,7 +753,7 @@ def _minimize(plants: tuple[LFTPlant, ...], K: np.ndarray | None, *, hinf: bool,
     Y, W, values = _robust_constraints(prog, plants, K, specs, uncertainty, eps, gamma, nu, convention)
     objective = w_i2p * nu + (w_hinf * gamma if hinf else 0.0)
     build = time.perf_counter() - t0
-    sol = prog.solve(objective)
+    sol = prog.solve(objective, ladder=solve_policy.LADDER if ladder is None else ladder)
     out = sol.outcome
     n_mult = sum(len(s) * (p.n_params if uncertainty == "norm" else min(p.n_params, 1))
                  for p, s in zip(plants, specs))
@@ -784,23 +806,21 @@ def _back_off(plants: tuple[LFTPlant, ...], K: np.ndarray | None, m: _Minimizer,
     return RobustDesign("unverified", None, None, None, None, mults, check, m.optimum, **m.info, **times)
 
 
-def _robust_program(plants: tuple[LFTPlant, ...], K: np.ndarray | None, *, backoffs: tuple[float, ...] = BACKOFFS,
-                    **options) -> tuple[RobustDesign, np.ndarray | None]:
-    """Solve (minimize the objective), back off (levels x (1 + b), b in BACKOFFS, largest common margin)
-    and verify the common-Lyapunov program (options already checked); also the first solve's Y."""
-    m = _minimize(plants, K, **options)
-    if isinstance(m, RobustDesign):
-        return m, None
+def _certified(plants: tuple[LFTPlant, ...], K: np.ndarray | None, m: _Minimizer, backoffs: tuple[float, ...],
+               **options) -> RobustDesign:
+    """The minimizer ``m`` of the common-Lyapunov program, verified at its levels times
+    ``1 + b`` for b in ``backoffs`` (no second solve if it verifies); failing every b, the
+    back-off solves (:func:`_back_off`). The times and status start from m's."""
     convention = m.info["convention"]
-    for b in backoffs:  # the minimizer itself, at the backed-off levels: no second solve if it verifies
+    for b in backoffs:
         g, nv = m.levels(convention, b)
         check = _verify_plants(plants, m.K, m.Y, g, nv, m.multipliers, alpha=options["alpha"], beta=options["beta"],
                                sector=options.get("sector"), convention=convention)
         if check.ok:
             status = m.times["solver_status"] + f"; the minimizer verified at back-off {b:g}"
             return RobustDesign("optimal", m.K, g, nv, m.Y, m.multipliers, check, m.optimum, **m.info,
-                                **{**m.times, "solver_status": status}, backoff=b), m.Y
-    return _back_off(plants, K, m, backoffs, **options), m.Y
+                                **{**m.times, "solver_status": status}, backoff=b)
+    return _back_off(plants, K, m, backoffs, **options)
 
 
 def _plant_list(plant: LFTPlant | Sequence[LFTPlant], uncertainty: str, max_vertices: int
@@ -884,7 +904,8 @@ def design(plant: LFTPlant | Sequence[LFTPlant], K=None, *, w_hinf: float = 1.0,
     if K is not None:
         K = _check_gain(K, plants[0].Bu.shape[1], plants[0].A.shape[0])
     options = {"hinf": True, "w_hinf": w_hinf, "w_i2p": w_i2p, "alpha": alpha, "beta": beta,
-               "uncertainty": uncertainty, "eps": eps, "sector": sector, "convention": convention}
+               "uncertainty": uncertainty, "eps": eps, "sector": sector, "convention": convention,
+               "ladder": solve_policy.RungMemory()}
     if len(plants) > SCENARIO_BATCH and not any(p.n_params for p in plants):
         return _constraint_generation(plants, K, rescale, **options)
     if convention == "romuloc" and K is None and rescale:
@@ -984,8 +1005,8 @@ def _constraint_generation(plants: tuple[LFTPlant, ...], K: np.ndarray | None, r
                             BACKOFFS, **options)  # m's times already counted
             account(res)
             status.append(f"{len(active)} plants at the minimizer's levels: {res.solver_status.removeprefix('; ')}")
-        if res is None or res.status != "optimal":
-            res = _rescaled_program(*subset(T), rescale, **options)
+        if res is None or res.status != "optimal":  # m: this program's failed minimization, if it was
+            res = _rescaled_program(*subset(T), rescale, minimizer=None if res is not None else m, **options)
             account(res)
             status.append(f"{len(active)} plants, certified: {res.solver_status}")
         res = replace(res, **seconds, solver_status="; ".join(status), active_plants=len(active))
@@ -1023,4 +1044,4 @@ def i2p_bound(plant: LFTPlant | Sequence[LFTPlant], K, *, alpha: float = 0.0, un
     plants = _plant_list(plant, uncertainty, max_vertices)
     K = _check_gain(K, plants[0].Bu.shape[1], plants[0].A.shape[0])
     return _rescaled_program(plants, K, rescale, hinf=False, w_hinf=0.0, w_i2p=1.0, alpha=alpha, beta=None,
-                             uncertainty=uncertainty, eps=eps)
+                             uncertainty=uncertainty, eps=eps, ladder=solve_policy.RungMemory())

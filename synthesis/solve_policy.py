@@ -49,6 +49,39 @@ LADDER: tuple[tuple[str, dict[str, Any]], ...] = (
 
 
 
+class RungMemory:
+    """A ladder for a family of programs (the minimizations of one design, say) that starts at
+    the rung that solved the last of them when the rungs before it failed without a status.
+
+    Programs of one family share their conditioning: DEMETER's two-axis design ends in
+    ``NumericalError`` at the first two rungs in each of its minimizations and solves at the
+    third, 20-150 s a failed rung. Every rung is still tried (the remembered one first, then the
+    others in the ladder's order), so a program that needs another rung still gets it, and it
+    becomes the one remembered.
+
+    Parameters
+    ----------
+    ladder : sequence of (str, dict)
+        The rungs (default :data:`LADDER`).
+    """
+
+    def __init__(self, ladder: Sequence[tuple[str, dict[str, Any]]] = LADDER) -> None:
+        if not ladder:
+            raise ValueError("the solve ladder is empty")
+        self.ladder = tuple(ladder)
+        self.start = 0
+
+    def rungs(self) -> tuple[tuple[str, dict[str, Any]], ...]:
+        """The rungs in the order to try them: the remembered one first."""
+        return self.ladder[self.start:] + self.ladder[:self.start]
+
+    def record(self, outcome: SolveOutcome) -> None:
+        """Remember the rung that solved ``outcome`` after rungs that stopped without a status."""
+        failed = outcome.attempts[:-1]
+        if outcome.solved and failed and all(a.status.startswith("solver error") for a in failed):
+            self.start = (self.start + len(failed)) % len(self.ladder)
+
+
 def ladder_with(settings: dict[str, Any] | None = None) -> tuple[tuple[str, dict[str, Any]], ...]:
     """The ladder of :data:`LADDER` with a caller's Clarabel settings on every rung (a rung's
     own settings win on the rungs after the first: they are what the retry changes).
@@ -111,9 +144,14 @@ class SolveOutcome:
 
     @property
     def solver_status(self) -> str:
-        """The attempts' statuses, ``"; "``-separated, each after the first naming its rung."""
-        parts = [self.attempts[0].status] if self.attempts else []
-        parts += [f"retry {a.solver.lower()}{' ' + _label(a.settings) if a.settings else ''}: {a.status}"
+        """The attempts' statuses, ``"; "``-separated, each after the first naming its rung (the
+        first too when it is not the default rung: a :class:`RungMemory` started there)."""
+        if not self.attempts:
+            return ""
+        first = self.attempts[0]
+        label = _label(first.settings)
+        parts = [f"{first.solver.lower()} {label}: {first.status}" if label else first.status]
+        parts += [f"retry {a.solver.lower()}{' ' + _label(a.settings) if _label(a.settings) else ''}: {a.status}"
                   for a in self.attempts[1:]]
         return "; ".join(parts)
 
@@ -124,11 +162,14 @@ class SolveOutcome:
 
 
 def _label(settings: dict[str, Any]) -> str:
-    return "regularized" if "static_regularization_constant" in settings else "relaxed"
+    """The rung's name in a status: ``regularized``, ``relaxed`` or none (the default tolerances)."""
+    if "static_regularization_constant" in settings:
+        return "regularized"
+    return "relaxed" if all(settings.get(k) == v for k, v in RELAXED_TOLERANCES.items()) else ""
 
 
 def solve_with(run: Callable[[str, dict[str, Any]], str],
-               ladder: Sequence[tuple[str, dict[str, Any]]] = LADDER) -> SolveOutcome:
+               ladder: Sequence[tuple[str, dict[str, Any]]] | RungMemory = LADDER) -> SolveOutcome:
     """Try ``run(solver, settings)`` on each rung of ``ladder`` (the module docstring's rules).
 
     Parameters
@@ -137,13 +178,18 @@ def solve_with(run: Callable[[str, dict[str, Any]], str],
         Solves the program with one solver and its settings and returns the status in cvxpy's
         vocabulary (``"optimal"``, ``"infeasible_inaccurate"``, ...); raises
         :class:`SolverFailure` (or cvxpy's ``SolverError``) when the solver stops without one.
-    ladder : sequence of (str, dict)
-        Solver names and settings, tried in order.
+    ladder : sequence of (str, dict) or RungMemory
+        Solver names and settings, tried in order (a :class:`RungMemory`: in its order, and
+        told the outcome).
 
     Returns
     -------
     SolveOutcome
     """
+    if isinstance(ladder, RungMemory):
+        outcome = solve_with(run, ladder.rungs())
+        ladder.record(outcome)
+        return outcome
     if not ladder:
         raise ValueError("the solve ladder is empty")
     attempts: list[Attempt] = []

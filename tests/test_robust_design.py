@@ -292,11 +292,35 @@ def test_verify_rejects_wrong_certificates(plant, designs) -> None:
     assert not check.ok and check.structure_error == pytest.approx(2e-3)  # S + S^T on the diagonal
 
 
+def test_no_program_is_minimized_twice(plant, monkeypatch) -> None:
+    """With every certificate rejected, the rescalings and back-offs each minimize a new program
+    once (the solver is deterministic: the same program again gives the same answer), and the
+    status names every solve made."""
+    programs: list[bytes] = []
+    minimize, verify_plants = robust_design._minimize, robust_design._verify_plants
+
+    def counted(plants, K, **options):
+        programs.append(np.concatenate([plants[0].A.ravel(), plants[0].Bu.ravel()]).tobytes())
+        return minimize(plants, K, **options)
+
+    def rejected(*args, **kwargs):
+        return dataclasses.replace(verify_plants(*args, **kwargs), margin=-1.0)
+
+    monkeypatch.setattr(robust_design, "_minimize", counted)
+    monkeypatch.setattr(robust_design, "_verify_plants", rejected)
+    d = design(plant, alpha=ALPHA, beta=BETA)
+    assert d.status == "unverified" and d.K is None
+    assert len(programs) == robust_design.RESCALE_DEPTH + 1 == len(set(programs))  # one per coordinates
+    # each level: its back-off at 1e-4; the deepest, then each level up: the larger back-offs
+    assert d.solver_status.count("back-off 0.0001") == robust_design.RESCALE_DEPTH + 1
+    assert d.solver_status.count("back-off 0.01") == robust_design.RESCALE_DEPTH + 1
+
+
 def test_too_many_vertices_is_raised_before_building(plant, monkeypatch) -> None:
     def forbidden(*args, **kwargs):
         raise AssertionError("a program was built")
 
-    monkeypatch.setattr(robust_design, "_robust_program", forbidden)
+    monkeypatch.setattr(robust_design, "_minimize", forbidden)
     with pytest.raises(TooManyVerticesError, match=r"2 uncertain parameters give 2\^2 = 4 .* max_vertices = 2"):
         design(plant, uncertainty="vertex", max_vertices=2)
     with pytest.raises(TooManyVerticesError):

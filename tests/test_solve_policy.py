@@ -51,6 +51,30 @@ def test_solver_status_names_every_rung() -> None:
         sp_.solve_with(run, ladder=())
 
 
+def test_rung_memory_starts_where_the_family_last_solved() -> None:
+    memory = sp_.RungMemory()
+    run, calls = _scripted([sp_.SolverFailure("a"), sp_.SolverFailure("b"), "optimal"])
+    assert sp_.solve_with(run, memory).solved and len(calls) == 3
+    # the next program of the family starts at the regularized rung, named in its status
+    run, calls = _scripted(["optimal"])
+    out = sp_.solve_with(run, memory)
+    assert [c[1] for c in calls] == [sp_.REGULARIZED] and out.solver_status == "clarabel regularized: optimal"
+    # a program that needs another rung still gets every rung, and that one is remembered
+    run, calls = _scripted([sp_.SolverFailure("c"), "optimal"])
+    out = sp_.solve_with(run, memory)
+    assert [c[1] for c in calls] == [sp_.REGULARIZED, {}]
+    assert out.solver_status == "clarabel regularized: solver error: c; retry clarabel: optimal"
+    run, calls = _scripted(["optimal"])
+    sp_.solve_with(run, memory)
+    assert [c[1] for c in calls] == [{}]
+    # an inaccurate certificate before the solve is not a rung that cannot start: no change
+    run, _ = _scripted(["infeasible_inaccurate", "optimal"])
+    sp_.solve_with(run, memory)
+    assert memory.rungs() == sp_.LADDER
+    with pytest.raises(ValueError, match="empty"):
+        sp_.RungMemory(())
+
+
 def test_cvxpy_problems_solve_and_certify_infeasibility() -> None:
     x = cp.Variable(2)
     prob = cp.Problem(cp.Minimize(cp.sum(x)), [x >= 1])
