@@ -606,13 +606,20 @@ def _merge_checks(checks: list[RobustCheck]) -> RobustCheck:
 RESCALE_DEPTH = 2
 """Rescalings :func:`_rescaled_program` may chain (each from the last solve's Lyapunov matrix)."""
 
+RESCALE_SPREAD = 1e4
+"""Ratio of the largest to the smallest diagonal entry of the minimizer's Y above which
+:func:`_rescaled_program` rescales before it tries the larger back-offs (DEMETER row 1: 10^7, no
+back-off verifies; row 12 in the D-G design's coordinates: 10^3, the minimizer's levels verify
+at back-off 1e-3, and the two rescalings that came first took 130 s of 226)."""
+
 
 def _rescaled_program(plants: tuple[LFTPlant, ...], K: np.ndarray | None, rescale: bool, depth: int = RESCALE_DEPTH,
                       minimizer: _Minimizer | RobustDesign | None = None, **options) -> RobustDesign:
     """The minimizer certified at the first back-off (:func:`_certified`); if that fails
     :func:`verify`, the same again (up to ``depth`` times) in the coordinates where the
     minimizer's Y has a unit diagonal (``x = diag(sqrt(Y_ii)) x_s``); failing that, the larger
-    back-offs at the same minimizer. Each program is minimized once (``minimizer``: its
+    back-offs at the same minimizer. When Y's diagonal spans less than :data:`RESCALE_SPREAD`,
+    the larger back-offs come before the rescaling (the scaling is not what fails). Each program is minimized once (``minimizer``: its
     :func:`_minimize` already done by the caller): the solver is deterministic, so solving it
     again would give the same answer, or the same failure.
 
@@ -627,7 +634,9 @@ def _rescaled_program(plants: tuple[LFTPlant, ...], K: np.ndarray | None, rescal
     """
     m = _minimize(plants, K, **options) if minimizer is None else minimizer
     if isinstance(m, _Minimizer):
-        out = _certified(plants, K, m, BACKOFFS[:1], **options)
+        d = np.diag(m.Y)
+        ill = bool(d.min() <= 0 or d.max() > RESCALE_SPREAD * d.min())
+        out = _certified(plants, K, m, BACKOFFS[:1] if ill else BACKOFFS, **options)
         if out.status != "unverified":
             return out
         Y1 = m.Y
@@ -647,7 +656,7 @@ def _rescaled_program(plants: tuple[LFTPlant, ...], K: np.ndarray | None, rescal
         out = replace(out, solver_status=f"{out.solver_status}; rescaled: {scaled.solver_status}",
                       solve_seconds=out.solve_seconds + scaled.solve_seconds,
                       build_seconds=out.build_seconds + scaled.build_seconds)
-    if not isinstance(m, _Minimizer):
+    if not isinstance(m, _Minimizer) or not ill:  # not ill: every back-off already tried
         return out
     so_far = {"solver_status": out.solver_status, "solve_seconds": out.solve_seconds,
               "build_seconds": out.build_seconds}
@@ -667,9 +676,10 @@ def _back_to_caller(res: RobustDesign, T: np.ndarray, before: RobustDesign | Non
 
 
 def _in_our_coordinates(plants: tuple[LFTPlant, ...], rescale: bool, **options) -> RobustDesign:
-    """A ``"romuloc"`` synthesis in the coordinates where the ``"satfmu"`` design's Y has a unit
-    diagonal (:func:`_rescaled_program` of each; failing either, the toolbox's forms in the
-    caller's coordinates).
+    """A ``"romuloc"`` synthesis in the coordinates where a ``"satfmu"`` design's Y has a unit
+    diagonal (:func:`_rescaled_program` of each): with ``"vertex"`` multipliers, first the D-G
+    design's (one LMI per objective instead of one per vertex), then the same multipliers'; failing
+    both, the toolbox's forms in the caller's coordinates.
 
     The same Y serves both conventions up to the levels' scale, but the solver's path does not:
     in the toolbox's forms the constants ``Bw Bw^T`` and ``B2 B2^T`` fix Y's size, which follows
@@ -677,26 +687,43 @@ def _in_our_coordinates(plants: tuple[LFTPlant, ...], rescale: bool, **options) 
     interior-point iterates stall (two-axis rows: NumericalError, or a certificate that fails
     :func:`verify` at every back-off, in 30 s); ours keeps the levels on both sides of each LMI
     and converges. In its coordinates the toolbox's program is well scaled: DEMETER row 10 then
-    takes one solve (1.6 s) and its minimizer verifies at the first back-off.
+    takes one solve (1.6 s) and its minimizer verifies at the first back-off. Any well-scaled
+    coordinates do: the D-G design's Y is within a factor of a few of the vertex design's on
+    the diagonal, and costs a tenth (DEMETER row 12: 8 s instead of 105 s, then the vertex
+    synthesis 87 s in those coordinates).
 
-    An infeasible satfmu program proves this one infeasible: with the levels free, both ask for
-    a Y (and multipliers, and W = K Y) meeting the region LMIs strictly, which are homogeneous in
-    them; scaling such a Y up meets either convention's H-infinity and i2p LMIs at large enough
-    levels (``Bw Bw^T`` and ``Y >= B2 B2^T`` in the toolbox's forms, ``Bw Bw^T / gamma`` in ours).
+    An infeasible satfmu program with the same multipliers proves this one infeasible: with the
+    levels free, both ask for a Y (and multipliers, and W = K Y) meeting the region LMIs
+    strictly, which are homogeneous in them; scaling such a Y up meets either convention's
+    H-infinity and i2p LMIs at large enough levels (``Bw Bw^T`` and ``Y >= B2 B2^T`` in the
+    toolbox's forms, ``Bw Bw^T / gamma`` in ours). The D-G program is more conservative than the
+    vertex one, so its infeasibility proves nothing here.
     """
-    ours = _rescaled_program(plants, None, rescale, **{**options, "convention": "satfmu",
-                                                       "ladder": solve_policy.RungMemory()})
-    if ours.status == "infeasible":  # with free levels both ask for the same Y, up to a scale
-        return replace(ours, convention="romuloc", solver_status=f"the satfmu program: {ours.solver_status}")
-    if ours.status == "optimal" and np.all(np.diag(ours.Y) > 0):
-        T = np.sqrt(np.diag(ours.Y))
-        res = _rescaled_program(tuple(p.scale_states(T).balance_channels() for p in plants), None, rescale, **options)
-        if res.status == "optimal":
-            return _back_to_caller(res, T, ours, f"in the satfmu design's coordinates ({ours.solver_status}): "
-                                                 f"{res.solver_status}")
-    plain = _rescaled_program(plants, None, rescale, **options)
-    return replace(plain, solve_seconds=plain.solve_seconds + ours.solve_seconds,
-                   build_seconds=plain.build_seconds + ours.build_seconds)
+    kinds = ["norm", "vertex"] if options["uncertainty"] == "vertex" else [options["uncertainty"]]
+    spent: list[RobustDesign] = []
+    for kind in kinds:
+        ours = _rescaled_program(plants, None, rescale, **{**options, "convention": "satfmu", "uncertainty": kind,
+                                                           "ladder": solve_policy.RungMemory()})
+        spent.append(ours)
+        if ours.status == "infeasible" and kind == options["uncertainty"]:
+            return replace(_with_times(ours, spent[:-1]), convention="romuloc",
+                           solver_status=f"the satfmu program: {ours.solver_status}")
+        if ours.status == "optimal" and np.all(np.diag(ours.Y) > 0):
+            T = np.sqrt(np.diag(ours.Y))
+            res = _rescaled_program(tuple(p.scale_states(T).balance_channels() for p in plants), None, rescale,
+                                    **options)
+            if res.status == "optimal":
+                return _back_to_caller(res, T, _with_times(ours, spent[:-1]),
+                                       f"in the satfmu {kind} design's coordinates ({ours.solver_status}): "
+                                       f"{res.solver_status}")
+            spent.append(res)
+    return _with_times(_rescaled_program(plants, None, rescale, **options), spent)
+
+
+def _with_times(res: RobustDesign, others: list[RobustDesign]) -> RobustDesign:
+    """``res`` with the solve and build times of ``others`` (the solves made before it) added."""
+    return replace(res, solve_seconds=res.solve_seconds + sum(o.solve_seconds for o in others),
+                   build_seconds=res.build_seconds + sum(o.build_seconds for o in others))
 
 
 def _phase_one(plants: tuple[LFTPlant, ...], K: np.ndarray | None, *, alpha: float, beta: float | None,
@@ -932,15 +959,17 @@ def _constraint_generation(plants: tuple[LFTPlant, ...], K: np.ndarray | None, r
     """The program over many certain plants (scenarios), solved on a changing subset.
 
     Minimize over the first :data:`SCENARIO_FIRST` plants; :func:`verify` every plant at the
-    minimizer (levels at the first of :data:`BACKOFFS`); if any outside the subset is violated,
+    minimizer (levels at each of :data:`BACKOFFS` in turn while only plants of the subset fail:
+    larger levels loosen every LMI); if any outside the subset is violated,
     the next subset is the plants whose LMIs bind (dual weight above :data:`SUPPORT_TOL`; a
     plant left out once stays in when it comes back, so the rounds end; if the smaller subset
     gives no answer, the plants left out are put back) and the most violated
     (at most :data:`SCENARIO_BATCH`), minimized again in the coordinates where the last
     minimizer's Y has a unit diagonal (as :func:`_rescaled_program`). When only plants of the
     subset fail, the back-off solves at the minimizer's levels in those coordinates
-    (:func:`_back_off`; failing them, the subset's certified solve :func:`_rescaled_program`)
-    and :func:`verify` of every plant at the answer; plants it violates join the subset and the
+    (:func:`_back_off`, from the back-off that verified in the last round: DEMETER row 13 failed
+    at 1e-4 and 1e-3 and verified at 1e-2 in each round, 170 to 310 s a solve; failing them, the
+    subset's certified solve :func:`_rescaled_program`) and :func:`verify` of every plant at the answer; plants it violates join the subset and the
     rounds go on. Leaving out plants whose constraints do not bind keeps the optimum (convex
     program, complementary slackness), so each subset's optimum is a lower bound of the whole
     program's, and the returned certificate, verified on every plant, is feasible for it at
@@ -973,6 +1002,7 @@ def _constraint_generation(plants: tuple[LFTPlant, ...], K: np.ndarray | None, r
         return checks, [i for _, i in worst[:SCENARIO_BATCH]]
 
     restore: list[int] = []  # the plants the last round left out
+    first_backoff = 0  # index in BACKOFFS of the back-off solves' first try
     while True:
         m = _minimize(*subset(T), **options)
         res = None
@@ -985,12 +1015,15 @@ def _constraint_generation(plants: tuple[LFTPlant, ...], K: np.ndarray | None, r
         if isinstance(m, _Minimizer):
             account(m)
             status.append(f"{len(active)} plants: {m.times['solver_status']}")
-            g, nv = m.levels(convention, BACKOFFS[0])
-            checks, new = check_all(m.K, m.Y, g, nv)
+            for b in BACKOFFS:  # larger levels only loosen the LMIs: the plants outside stay met
+                g, nv = m.levels(convention, b)
+                checks, new = check_all(m.K, m.Y, g, nv)
+                if new or all(c.ok for c in checks):
+                    break
             if all(c.ok for c in checks):  # the minimizer is the certificate
                 res = RobustDesign("optimal", m.K, g, nv, m.Y, {}, _merge_checks(checks), m.optimum, **m.info,
-                                   **seconds, solver_status="; ".join(status) + "; the minimizer verified",
-                                   backoff=BACKOFFS[0])
+                                   **seconds, solver_status="; ".join(status) + f"; the minimizer verified at "
+                                   f"back-off {b:g}", backoff=b)
                 return replace(_back_to_caller(res, T), active_plants=len(active))
             if rescale and np.all(np.diag(m.Y) > 0):
                 T = T * np.sqrt(np.diag(m.Y))
@@ -1002,8 +1035,10 @@ def _constraint_generation(plants: tuple[LFTPlant, ...], K: np.ndarray | None, r
                 active = [i for i in active if i not in dropped] + new
                 continue
             res = _back_off(*subset(T), replace(m, times={k: 0.0 for k in seconds} | {"solver_status": ""}),
-                            BACKOFFS, **options)  # m's times already counted
+                            BACKOFFS[first_backoff:], **options)  # m's times already counted
             account(res)
+            if res.status == "optimal":  # smaller back-offs failed: the next round starts at this one
+                first_backoff = BACKOFFS.index(res.backoff)
             status.append(f"{len(active)} plants at the minimizer's levels: {res.solver_status.removeprefix('; ')}")
         if res is None or res.status != "optimal":  # m: this program's failed minimization, if it was
             res = _rescaled_program(*subset(T), rescale, minimizer=None if res is not None else m, **options)
