@@ -373,6 +373,23 @@ class AffineDescriptor:
         S = -np.linalg.solve(E, np.hstack([Nd[:, sx], Nd[:, su], Nd[:, sw]]))[:self.n]
         return S[:, :self.n], S[:, self.n:self.n + self.m_u], S[:, self.n + self.m_u:]
 
+    def scale_states(self, T) -> AffineDescriptor:
+        """The same plant in the coordinates ``x_s`` of ``x = diag(T) x_s`` (T > 0, shape (n,)):
+        the ``x'`` and ``x`` columns of N times T, its first n rows (the state equations, as
+        :meth:`from_lft` writes them) divided by T, ``C1`` times T. A gain ``K`` becomes
+        ``K diag(T)``, a Lyapunov matrix ``P`` becomes ``diag(T) P diag(T)``; the H-infinity norm
+        of every loop is unchanged."""
+        T = np.asarray(T, dtype=float)
+        if T.shape != (self.n,) or not np.all(np.isfinite(T) & (T > 0)):
+            raise PlantDataError(f"T must be {self.n} positive scales, got {T}")
+        cols = np.ones(self.N0.shape[1])
+        cols[:2 * self.n] = np.concatenate([T, T])
+        rows = np.ones(self.N0.shape[0])
+        rows[:self.n] = 1.0 / T
+        return AffineDescriptor(self.N0 * rows[:, None] * cols[None, :], self.Nk * rows[None, :, None] * cols,
+                                self.n, self.n_v, self.m_u, self.m_w, self.C1 * T[None, :], self.D1u, self.D11,
+                                self.names)
+
     def loop_constraint(self, K, delta) -> np.ndarray:
         """``M(delta)`` with ``M [x'; x; v; w1] = 0`` the loop ``u = K x``: ``[N_x', N_x + N_u K, N_v, N_w]``."""
         K = _check_gain(K, self.m_u, self.n)
