@@ -26,6 +26,7 @@ from scipy.linalg import matrix_balance
 
 from controllers.artifact import design_plant_record
 from fmus import demeter
+from synthesis import solve_policy
 from synthesis.demeter_variants import RATE_WORST, THETA_WORST, DesignModel, Variant, design_model
 from synthesis.lft_plant import AffineDescriptor, LFTPlant, ProgramTooLargeError
 from synthesis.pdlf import PDLFResult, pdlf_hinf
@@ -238,7 +239,8 @@ def analyse(dm: DesignModel, K: np.ndarray, T: np.ndarray | None = None) -> Anal
     i2p, _, i2p_note = robust_multipliers(lambda kind: i2p_bound(plant, Ks, alpha=0.0, uncertainty=kind),
                                           uncertainty_kind(dm.variant))
     try:
-        hinf, common, skipped = pdlf_hinf(desc, Ks), pdlf_hinf(desc, Ks, common=True), ""
+        rungs = solve_policy.RungMemory()  # both programs of the same loop: the same rung solves
+        hinf, common, skipped = pdlf_hinf(desc, Ks, ladder=rungs), pdlf_hinf(desc, Ks, common=True, ladder=rungs), ""
     except ProgramTooLargeError as exc:
         hinf, common, skipped = None, None, f"H-infinity analysis skipped: {exc}"
     return Analysis(hinf, common, i2p, time.perf_counter() - t0, skipped, i2p_note and f"i2p analysis: {i2p_note}")

@@ -116,7 +116,8 @@ def _pdlf_side(desc: AffineDescriptor) -> int:
 
 
 def pdlf_hinf(desc: AffineDescriptor, K, *, common: bool = False, max_vertices: int = MAX_VERTICES,
-              max_entries: int = PDLF_MAX_ENTRIES, eps: float = EPS, rescale: bool = True) -> PDLFResult:
+              max_entries: int = PDLF_MAX_ENTRIES, eps: float = EPS, rescale: bool = True,
+              ladder: solve_policy.RungMemory | None = None) -> PDLFResult:
     """Upper bound of the closed-loop H-infinity norm w1 -> z1 over the box, ``u = K x``, with a
     parameter-dependent Lyapunov function ``V = x^T P(delta) x``, ``P = P0 + sum delta_k Pk``.
 
@@ -147,7 +148,9 @@ def pdlf_hinf(desc: AffineDescriptor, K, *, common: bool = False, max_vertices: 
     spans 10^7 (DEMETER row 1: 5e-4 to 8e3) leaves every answer just outside the feasible set;
     in those coordinates the minimizer verifies (row 1: 2.7 s and 3.29, where the back-offs and
     the bisection of the plain program took 41 s to certify 3.73). Failing that, the back-off
-    solves, then the bisection, in the caller's coordinates.
+    solves, then the bisection, in the caller's coordinates. ``ladder``: the Clarabel rungs
+    shared by several analyses of the same loop (:class:`~synthesis.solve_policy.RungMemory`;
+    DEMETER: the PDLF and common-P programs both fail twice before the regularized rung).
 
     Raises
     ------
@@ -169,7 +172,8 @@ def pdlf_hinf(desc: AffineDescriptor, K, *, common: bool = False, max_vertices: 
     P0, Pk, F = _pdlf_constraints(prog, desc, K, common, eps, g)
     info = {"common": common, "n_vertices": 2**desc.n_params, "solve_seconds": 0.0,
             "build_seconds": time.perf_counter() - t0}
-    out = _timed_solve(prog, g, False, info)
+    memory = solve_policy.RungMemory() if ladder is None else ladder
+    out = _timed_solve(prog, g, False, info, memory)
     info["solver_status"] = out.solver_status
     if out.status == "infeasible":
         return PDLFResult("infeasible", None, None, None, None, None, **info)
@@ -186,28 +190,28 @@ def pdlf_hinf(desc: AffineDescriptor, K, *, common: bool = False, max_vertices: 
         if rescale and np.all(d > 0):
             T = 1.0 / np.sqrt(d)
             scaled = pdlf_hinf(desc.scale_states(T), K * T, common=common, max_vertices=max_vertices,
-                               max_entries=max_entries, eps=eps, rescale=False)
+                               max_entries=max_entries, eps=eps, rescale=False, ladder=memory)
             info["solver_status"] += f"; rescaled: {scaled.solver_status}"
             for k in ("solve_seconds", "build_seconds"):
                 info[k] += getattr(scaled, k)
             if scaled.status == "optimal":
                 return replace(scaled, **info, state_scaling=T)
         for b in BACKOFFS:
-            found, check = _pdlf_at(desc, K, common, root * (1 + b), info, f"back-off {b:g}")
+            found, check = _pdlf_at(desc, K, common, root * (1 + b), info, f"back-off {b:g}", memory)
             if found is not None:
                 return replace(found, backoff=b)
-    return _pdlf_bisection(desc, K, common, info, check)
+    return _pdlf_bisection(desc, K, common, info, check, memory)
 
 
-def _timed_solve(prog: lmi.LMIProgram, objective: lmi.Affine, maximize: bool, info: dict
-                 ) -> solve_policy.SolveOutcome:
-    out = prog.solve(objective, maximize=maximize).outcome
+def _timed_solve(prog: lmi.LMIProgram, objective: lmi.Affine, maximize: bool, info: dict,
+                 ladder: solve_policy.RungMemory) -> solve_policy.SolveOutcome:
+    out = prog.solve(objective, maximize=maximize, ladder=ladder).outcome
     info["solve_seconds"] += out.seconds
     return out
 
 
-def _pdlf_at(desc: AffineDescriptor, K: np.ndarray, common: bool, gamma: float, info: dict, label: str
-             ) -> tuple[PDLFResult | None, RobustCheck | None]:
+def _pdlf_at(desc: AffineDescriptor, K: np.ndarray, common: bool, gamma: float, info: dict, label: str,
+             ladder: solve_policy.RungMemory) -> tuple[PDLFResult | None, RobustCheck | None]:
     """The largest common margin of the PDLF LMIs at level ``gamma`` (bounded by 1), verified:
     ``(result, check)``; result None if the certificate fails :func:`verify_pdlf`."""
     t0 = time.perf_counter()
@@ -216,7 +220,7 @@ def _pdlf_at(desc: AffineDescriptor, K: np.ndarray, common: bool, gamma: float, 
     P0, Pk, F = _pdlf_constraints(prog, desc, K, common, t, gamma**2)
     prog.add_nonneg(1.0 - t)
     info["build_seconds"] += time.perf_counter() - t0
-    out = _timed_solve(prog, t, True, info)
+    out = _timed_solve(prog, t, True, info, ladder)
     info["solver_status"] += f"; {label}: {out.solver_status}"
     if not prog.solution.solved or prog.value(t)[0, 0] <= 0:
         return None, None
@@ -235,7 +239,7 @@ def _pdlf_values(prog: lmi.LMIProgram, desc: AffineDescriptor, P0, Pk, F) -> tup
 
 
 def _pdlf_bisection(desc: AffineDescriptor, K: np.ndarray, common: bool, info: dict,
-                    check: RobustCheck | None) -> PDLFResult:
+                    check: RobustCheck | None, ladder: solve_policy.RungMemory) -> PDLFResult:
     """Smallest verified PDLF level by bisection on gamma, each level a bounded-margin
     feasibility problem (:func:`_pdlf_at`): the fallback when the minimization of g fails (a
     slow closed-loop mode next to stiff ones leaves Clarabel without a usable optimum, while the
@@ -252,7 +256,7 @@ def _pdlf_bisection(desc: AffineDescriptor, K: np.ndarray, common: bool, info: d
     high = low
     for _ in range(PDLF_MAX_DOUBLINGS):
         high *= 2.0
-        best, check = _pdlf_at(desc, K, common, high, info, f"bisection {high:.6g}")
+        best, check = _pdlf_at(desc, K, common, high, info, f"bisection {high:.6g}", ladder)
         if best is not None:
             break
         low = high
@@ -260,7 +264,7 @@ def _pdlf_bisection(desc: AffineDescriptor, K: np.ndarray, common: bool, info: d
         return PDLFResult("unverified", None, None, None, None, check, **info)
     while high > low * (1 + PDLF_BISECTION_TOL):
         mid = float(np.sqrt(low * high))
-        found, _ = _pdlf_at(desc, K, common, mid, info, f"bisection {mid:.6g}")
+        found, _ = _pdlf_at(desc, K, common, mid, info, f"bisection {mid:.6g}", ladder)
         if found is None:
             low = mid
         else:
