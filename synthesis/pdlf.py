@@ -143,12 +143,14 @@ def pdlf_hinf(desc: AffineDescriptor, K, *, common: bool = False, max_vertices: 
     (``Pk = 0``) is a special case, so the PDLF bound is never larger (up to solver accuracy),
     and the common bound also holds for arbitrarily fast time-varying parameters.
 
-    When the minimizer verifies at no back-off, ``rescale`` solves once more in the coordinates
-    where its P0 has a unit diagonal (``state_scaling`` of the result): a P0 whose diagonal
-    spans 10^7 (DEMETER row 1: 5e-4 to 8e3) leaves every answer just outside the feasible set;
-    in those coordinates the minimizer verifies (row 1: 2.7 s and 3.29, where the back-offs and
-    the bisection of the plain program took 41 s to certify 3.73). Failing that, the back-off
-    solves, then the bisection, in the caller's coordinates. ``ladder``: the Clarabel rungs
+    When the minimizer verifies at no back-off, ``rescale`` minimizes once more in the
+    coordinates where its P0 has a unit diagonal (``state_scaling`` of the result): a P0 whose
+    diagonal spans 10^7 (DEMETER row 1: 5e-4 to 8e3) leaves every answer just outside the
+    feasible set; in those coordinates the minimizer verifies (row 1: 2.7 s and 3.29, where the
+    back-offs and the bisection of the plain program took 41 s to certify 3.73). Failing that,
+    the back-off solves in the caller's coordinates (a first minimizer solved only to a reduced
+    accuracy gives poor coordinates: DEMETER row 2 in our convention), then the bisection in the
+    rescaled ones if that program was solved. ``ladder``: the Clarabel rungs
     shared by several analyses of the same loop (:class:`~synthesis.solve_policy.RungMemory`;
     DEMETER: the PDLF and common-P programs both fail twice before the regularized rung).
 
@@ -166,41 +168,65 @@ def pdlf_hinf(desc: AffineDescriptor, K, *, common: bool = False, max_vertices: 
                                    f"{_pdlf_side(desc)}: size {pdlf_size(desc):.3g} > max_entries = "
                                    f"{max_entries:.3g} (pdlf_size)")
     K = _check_gain(K, desc.m_u, desc.n)
+    info = {"common": common, "n_vertices": 2**desc.n_params, "solve_seconds": 0.0, "build_seconds": 0.0,
+            "solver_status": ""}
+    memory = solve_policy.RungMemory() if ladder is None else ladder
+    first = _minimized(desc, K, common, eps, info, memory)
+    if first.result is not None or first.infeasible:
+        return first.result or PDLFResult("infeasible", None, None, None, None, None, **info)
+    check, at = first.check, (desc, K, None)  # at: the coordinates of the bisection
+    if rescale and first.P0 is not None and np.all(np.diag(first.P0) > 0):
+        T = 1.0 / np.sqrt(np.diag(first.P0))
+        info["solver_status"] += "; rescaled: "
+        second = _minimized(desc.scale_states(T), K * T, common, eps, info, memory)
+        if second.result is not None:
+            return replace(second.result, state_scaling=T)
+        if second.P0 is not None:
+            at = (desc.scale_states(T), K * T, T)
+    if first.root is not None:
+        for b in BACKOFFS:
+            found, check = _pdlf_at(desc, K, common, first.root * (1 + b), info, f"back-off {b:g}", memory)
+            if found is not None:
+                return replace(found, backoff=b)
+    res = _pdlf_bisection(*at[:2], common, info, check, memory)
+    return res if at[2] is None or res.status != "optimal" else replace(res, state_scaling=at[2])
+
+
+@dataclass
+class _Minimum:
+    """:func:`_minimized`'s answer: the verified result, or the minimizer's root, P0 and check."""
+
+    result: PDLFResult | None
+    infeasible: bool = False
+    root: float | None = None
+    P0: np.ndarray | None = None
+    check: RobustCheck | None = None
+
+
+def _minimized(desc: AffineDescriptor, K: np.ndarray, common: bool, eps: float, info: dict,
+               ladder: solve_policy.RungMemory) -> _Minimum:
+    """Minimize g (times and status added to ``info``) and verify the minimizer itself at each
+    of :data:`BACKOFFS` (no second solve if it verifies)."""
     t0 = time.perf_counter()
     prog = lmi.LMIProgram()
     g = prog.variable()
     P0, Pk, F = _pdlf_constraints(prog, desc, K, common, eps, g)
-    info = {"common": common, "n_vertices": 2**desc.n_params, "solve_seconds": 0.0,
-            "build_seconds": time.perf_counter() - t0}
-    memory = solve_policy.RungMemory() if ladder is None else ladder
-    out = _timed_solve(prog, g, False, info, memory)
-    info["solver_status"] = out.solver_status
+    info["build_seconds"] += time.perf_counter() - t0
+    out = _timed_solve(prog, g, False, info, ladder)
+    info["solver_status"] += out.solver_status
     if out.status == "infeasible":
-        return PDLFResult("infeasible", None, None, None, None, None, **info)
+        return _Minimum(None, infeasible=True)
+    if not prog.solution.solved:
+        return _Minimum(None)
+    root = float(np.sqrt(max(float(prog.value(g)[0, 0]), 0.0)))
+    P0v, Pkv, Fv = _pdlf_values(prog, desc, P0, Pk, F)
     check = None
-    if prog.solution.solved:
-        root = float(np.sqrt(max(float(prog.value(g)[0, 0]), 0.0)))
-        P0v, Pkv, Fv = _pdlf_values(prog, desc, P0, Pk, F)
-        for b in BACKOFFS:  # the minimizer itself first: no second solve if it verifies
-            check = verify_pdlf(desc, K, P0v, Pkv, Fv, root * (1 + b))
-            if check.ok:
-                info["solver_status"] += f"; the minimizer verified at back-off {b:g}"
-                return PDLFResult("optimal", root * (1 + b), P0v, Pkv, Fv, check, **info, backoff=b)
-        d = np.diag(P0v)
-        if rescale and np.all(d > 0):
-            T = 1.0 / np.sqrt(d)
-            scaled = pdlf_hinf(desc.scale_states(T), K * T, common=common, max_vertices=max_vertices,
-                               max_entries=max_entries, eps=eps, rescale=False, ladder=memory)
-            info["solver_status"] += f"; rescaled: {scaled.solver_status}"
-            for k in ("solve_seconds", "build_seconds"):
-                info[k] += getattr(scaled, k)
-            if scaled.status == "optimal":
-                return replace(scaled, **info, state_scaling=T)
-        for b in BACKOFFS:
-            found, check = _pdlf_at(desc, K, common, root * (1 + b), info, f"back-off {b:g}", memory)
-            if found is not None:
-                return replace(found, backoff=b)
-    return _pdlf_bisection(desc, K, common, info, check, memory)
+    for b in BACKOFFS:
+        check = verify_pdlf(desc, K, P0v, Pkv, Fv, root * (1 + b))
+        if check.ok:
+            info["solver_status"] += f"; the minimizer verified at back-off {b:g}"
+            return _Minimum(PDLFResult("optimal", root * (1 + b), P0v, Pkv, Fv, check, **info, backoff=b))
+    return _Minimum(None, root=root, P0=P0v, check=check)
 
 
 def _timed_solve(prog: lmi.LMIProgram, objective: lmi.Affine, maximize: bool, info: dict,
