@@ -9,11 +9,7 @@ where ``S(N)`` is the cone of N x N positive semidefinite matrices in Clarabel's
 ``(0,0), (0,1), (1,1), (0,2), (1,2), (2,2), ...``, off-diagonal entries times sqrt 2 (so
 the svec inner product is the trace inner product; :func:`svec_indices`,
 :func:`svec_scale`). :func:`solve_clarabel` hands the arrays to
-``clarabel.DefaultSolver`` as they are: no modelling layer re-canonicalizes them, and factors
-the KKT system with faer's supernodal LDL^T on one thread (:data:`FACTORIZATION`) instead of
-Clarabel's default QDLDL: each PSD cone of order N puts a dense block of N(N+1)/2 rows in the
-KKT matrix, which a supernodal factorization handles as dense blocks (DEMETER row 10's 21-cone
-program of order <= 32: 5.76 s with QDLDL, 1.41 s with faer on one thread, 1.91 s on two).
+``clarabel.DefaultSolver`` as they are: no modelling layer re-canonicalizes them.
 
 A failed allocation in Clarabel's Rust core aborts the process, with no exception to catch.
 With ``memory_limit``, :func:`solve_clarabel` therefore solves in a child interpreter whose
@@ -32,10 +28,6 @@ from typing import Any
 
 import numpy as np
 import scipy.sparse as sps
-
-FACTORIZATION: dict[str, Any] = {"direct_solve_method": "faer", "max_threads": 1}
-"""Clarabel's KKT factorization in :func:`solve_clarabel` (a caller's settings override it): one
-thread is as fast as two on these programs and gives the same iterates on every run."""
 
 SOLVED = {"Solved": "optimal", "AlmostSolved": "optimal_inaccurate"}
 """Clarabel statuses with a solution, and their names in :class:`ConicResult` (those cvxpy
@@ -154,9 +146,8 @@ def solve_clarabel(problem: ConicProblem, *, memory_limit: int | None = None, **
     """Solve with ``clarabel.DefaultSolver`` on the problem's arrays (no re-formulation).
 
     ``settings`` are attributes of ``clarabel.DefaultSettings`` (e.g. ``tol_feas``);
-    ``verbose`` is off and the factorization is :data:`FACTORIZATION` unless given.
-    ``memory_limit`` (bytes): solve in a child process allowed that much memory (module
-    docstring); None: in this process.
+    ``verbose`` is off unless given. ``memory_limit`` (bytes): solve in a child process allowed
+    that much memory (module docstring); None: in this process.
 
     Raises
     ------
@@ -175,7 +166,7 @@ def _solve(problem: ConicProblem, settings: dict[str, Any]) -> ConicResult:
 
     opts = clarabel.DefaultSettings()
     opts.verbose = False
-    for name, value in {**FACTORIZATION, **settings}.items():
+    for name, value in settings.items():
         if not hasattr(opts, name):
             raise TypeError(f"Clarabel: unrecognized solver setting {name!r}")
         setattr(opts, name, value)
