@@ -150,9 +150,9 @@ def pdlf_hinf(desc: AffineDescriptor, K, *, common: bool = False, max_vertices: 
     back-offs and the bisection of the plain program took 41 s to certify 3.73). Failing that,
     the back-off solves in the caller's coordinates (a first minimizer solved only to a reduced
     accuracy gives poor coordinates: DEMETER row 2 in our convention), then the bisection in the
-    rescaled ones if that program was solved. ``ladder``: the Clarabel rungs
-    shared by several analyses of the same loop (:class:`~synthesis.solve_policy.RungMemory`;
-    DEMETER: the PDLF and common-P programs both fail twice before the regularized rung).
+    rescaled ones if that program was solved. ``ladder``: the Clarabel rungs shared by several
+    analyses of the same loop (:class:`~synthesis.solve_policy.RungMemory`; DEMETER: the PDLF
+    and common-P programs both fail twice before the regularized rung).
 
     Raises
     ------
@@ -174,22 +174,24 @@ def pdlf_hinf(desc: AffineDescriptor, K, *, common: bool = False, max_vertices: 
     first = _minimized(desc, K, common, eps, info, memory)
     if first.result is not None or first.infeasible:
         return first.result or PDLFResult("infeasible", None, None, None, None, None, **info)
-    check, at = first.check, (desc, K, None)  # at: the coordinates of the bisection
+    check = first.check
+    bisect_desc, bisect_K, bisect_T = desc, K, None  # the coordinates of the bisection
     if rescale and first.P0 is not None and np.all(np.diag(first.P0) > 0):
         T = 1.0 / np.sqrt(np.diag(first.P0))
+        scaled = desc.scale_states(T)
         info["solver_status"] += "; rescaled: "
-        second = _minimized(desc.scale_states(T), K * T, common, eps, info, memory)
+        second = _minimized(scaled, K * T, common, eps, info, memory)
         if second.result is not None:
             return replace(second.result, state_scaling=T)
         if second.P0 is not None:
-            at = (desc.scale_states(T), K * T, T)
+            bisect_desc, bisect_K, bisect_T = scaled, K * T, T
     if first.root is not None:
         for b in BACKOFFS:
             found, check = _pdlf_at(desc, K, common, first.root * (1 + b), info, f"back-off {b:g}", memory)
             if found is not None:
                 return replace(found, backoff=b)
-    res = _pdlf_bisection(*at[:2], common, info, check, memory)
-    return res if at[2] is None or res.status != "optimal" else replace(res, state_scaling=at[2])
+    res = _pdlf_bisection(bisect_desc, bisect_K, common, info, check, memory)
+    return res if bisect_T is None or res.status != "optimal" else replace(res, state_scaling=bisect_T)
 
 
 @dataclass
