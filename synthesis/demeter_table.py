@@ -19,7 +19,9 @@ from __future__ import annotations
 
 import csv
 import math
+import multiprocessing
 import time
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -104,20 +106,56 @@ def run_row(variant: Variant, method: str, *, n_scenarios: int | None = None, se
     return row
 
 
+def cost_order(keys: list[tuple[Variant, str]]) -> list[tuple[Variant, str]]:
+    """``keys`` with the dearest rows first, for :func:`run` with several jobs: the more axes, the
+    larger the design model (one axis: 6-10 states, two: 16, three: 24), and a scenario design
+    (hundreds to thousands of sampled plants) before the deterministic one of the same variant;
+    ties keep the seed's order. Longest first keeps the last row to finish short."""
+    return sorted(keys, key=lambda k: (-len(k[0].axes), k[1] != "Prob"))
+
+
 def run(selection: list[tuple[Variant, str]] | None = None, *, n_scenarios: int | None = None, seed: int = 0,
-        progress=None, out_dir: Path | None = None, convention: str = "satfmu") -> list[Row]:
-    """Every row of the seed's table (or ``selection``), in its order, designed in ``convention``
-    (:func:`run_row`); with ``out_dir`` the files are rewritten after each row (:func:`write`), so
-    a long run keeps what it has done."""
-    keys = list(SEED_TABLE1) if selection is None else selection
-    out = []
-    for i, (variant, method) in enumerate(keys):
-        out.append(run_row(variant, method, n_scenarios=n_scenarios, seed=seed, convention=convention))
+        progress=None, out_dir: Path | None = None, convention: str = "satfmu", jobs: int = 1) -> list[Row]:
+    """Every row of the seed's table (or ``selection``) designed in ``convention``
+    (:func:`run_row`), in the seed's order; with ``out_dir`` the files are rewritten after each row
+    (:func:`write`), so a long run keeps what it has done.
+
+    ``jobs`` rows run at once, each in a worker process, dearest first (:func:`cost_order`):
+    every LMI solve uses one core (:data:`synthesis.lmi.FACTORIZATION`), so ``jobs`` up to the
+    core count shortens the wall time without slowing a row much. The rows returned keep the
+    selection's order; ``progress`` is called as each one ends. The workers are started by
+    :mod:`multiprocessing`'s "spawn" (the same on Linux and Windows, no threads inherited), which
+    imports the calling script again: a script that calls this with ``jobs > 1`` needs the
+    ``if __name__ == "__main__":`` guard.
+
+    Raises
+    ------
+    ValueError
+        If ``jobs`` is below 1.
+    """
+    keys = list(SEED_TABLE1) if selection is None else list(selection)
+    if not (isinstance(jobs, int) and jobs >= 1):
+        raise ValueError(f"jobs must be an integer >= 1, got {jobs!r}")
+    done: dict[tuple[Variant, str], Row] = {}
+
+    def finished(row: Row) -> None:
+        done[_key(row)] = row
         if out_dir is not None:
-            write(out, out_dir)
+            write(list(done.values()), out_dir)
         if progress is not None:
-            progress(i + 1, len(keys), f"{variant.label} {method}")
-    return out
+            progress(len(done), len(keys), f"{row.variant.label} {row.method}")
+
+    options = {"n_scenarios": n_scenarios, "seed": seed, "convention": convention}
+    if jobs == 1:
+        for variant, method in keys:
+            finished(run_row(variant, method, **options))
+    else:
+        with ProcessPoolExecutor(max_workers=min(jobs, len(keys)) or 1,
+                                 mp_context=multiprocessing.get_context("spawn")) as pool:
+            futures = [pool.submit(run_row, variant, method, **options) for variant, method in cost_order(keys)]
+            for future in as_completed(futures):
+                finished(future.result())
+    return [done[k] for k in keys]
 
 
 def _cell(v: float) -> str:

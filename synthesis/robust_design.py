@@ -275,6 +275,10 @@ def _sector_plant(plant: LFTPlant, theta: float) -> LFTPlant:
                     z((1, 1)), z((1, 2 * n)), tuple((name, 2 * r) for name, r in plant.blocks))
 
 
+ROBUST_LMIS = ("hinf", "alpha", "beta", "sector")
+"""Names of the robust LMIs of :func:`_specs`."""
+
+
 def _specs(plant: LFTPlant, alpha: float, beta: float | None, hinf: bool, sector: float | None = None
            ) -> list[_Spec]:
     """The robust LMIs: "hinf" (if asked), "alpha" (``Re s < -alpha``), "beta" (``Re s > -beta``,
@@ -292,6 +296,18 @@ def _specs(plant: LFTPlant, alpha: float, beta: float | None, hinf: bool, sector
         sp = _sector_plant(plant, sector)
         out.append(_region_spec("sector", sp, sp.A, sp.Bu, sp.Bp, copies=2))
     return out
+
+
+Selection = tuple[frozenset[str], ...] | None
+"""Per plant of a program, the names of its robust LMIs that the program imposes (:func:`_specs`;
+its i2p blocks always): a constraint generation's subset. None: every LMI of every plant."""
+
+
+def _selected_specs(plants: tuple[LFTPlant, ...], alpha: float, beta: float | None, hinf: bool,
+                    sector: float | None, only: Selection) -> list[list[_Spec]]:
+    """:func:`_specs` of each plant, those ``only`` names (all if None)."""
+    return [[s for s in _specs(p, alpha, beta, hinf, sector) if only is None or s.name in only[i]]
+            for i, p in enumerate(plants)]
 
 
 def _weights(convention: str, level) -> tuple:
@@ -512,7 +528,8 @@ class RobustDesign:
     backoff: float | None = None
     state_scaling: np.ndarray | None = None
     active_plants: int | None = None
-    """Plants in the last program of the constraint generation over many plants (None: all)."""
+    """Plants with an LMI in the last program of the constraint generation over many plants (None:
+    all)."""
     convention: str = "satfmu"
     """How the levels entered the LMIs (:data:`CONVENTIONS`)."""
 
@@ -559,7 +576,8 @@ def _robust_constraints(prog: lmi.LMIProgram, plants: tuple[LFTPlant, ...], K: n
     of plant i), its LMIs added to ``prog``, every one strict by ``margin`` (eps, or the variable
     the back-off maximizes); gamma, nu the program's levels (:func:`_level`), variables or
     constants (nu None: no impulse-to-peak LMIs). Each plant's LMIs are tagged with its index
-    (:meth:`lmi.LMIProgram.dual_weights`; the i2p blocks with the plant that carries them)."""
+    ``(plant index, LMI name)`` (:meth:`lmi.LMIProgram.dual_weights`; the i2p blocks
+    ``(i, "i2p")`` with the plant that carries them)."""
     n, m = plants[0].A.shape[0], plants[0].Bu.shape[1]
     Y = prog.variable((n, n), symmetric=True)
     W = prog.variable((m, n)) if K is None else K @ Y
@@ -573,25 +591,42 @@ def _robust_constraints(prog: lmi.LMIProgram, plants: tuple[LFTPlant, ...], K: n
                 triple, values[_key(i, s.name, len(plants))] = _multiplier_program(
                     prog, s.plant, uncertainty, deltas, margin)
             L = _dual_lmi(s, Y, W, triple, _weights(convention, gamma), lmi.vstack, lmi.bmat)
-            prog.add_psd(-L - margin * np.eye(L.shape[0]), tag=i)
+            prog.add_psd(-L - margin * np.eye(L.shape[0]), tag=(i, s.name))
     for i in _distinct_i2p(plants) if nu is not None else ():
         upper, lower = _i2p_blocks(plants[i], Y, _weights(convention, nu), lmi.bmat)
-        prog.add_psd(upper - margin * np.eye(upper.shape[0]), tag=i)
-        prog.add_psd(-lower - margin * np.eye(lower.shape[0]), tag=i)
+        prog.add_psd(upper - margin * np.eye(upper.shape[0]), tag=(i, "i2p"))
+        prog.add_psd(-lower - margin * np.eye(lower.shape[0]), tag=(i, "i2p"))
     return Y, W, values
 
 
 def _verify_plants(plants: tuple[LFTPlant, ...], K, Y, gamma, nu, multipliers: dict[str, Multiplier], *,
-                   alpha: float, beta: float | None, sector: float | None, convention: str) -> RobustCheck:
-    """:func:`verify` at every plant, merged: the smallest margin, names prefixed as :func:`_key`."""
+                   alpha: float, beta: float | None, sector: float | None, convention: str,
+                   only: Selection = None) -> RobustCheck:
+    """:func:`verify` at every plant, merged: the smallest margin, names prefixed as :func:`_key`;
+    with ``only``, each plant's check judged on the robust LMIs the program imposed
+    (:func:`_judged_on`)."""
     options = {"alpha": alpha, "beta": beta, "sector": sector, "convention": convention}
-    if len(plants) == 1:
-        return verify(plants[0], K, Y, gamma, nu, multipliers, **options)
     checks = []
     for i, plant in enumerate(plants):
-        own = {k.split("/", 1)[1]: v for k, v in multipliers.items() if k.startswith(f"{i}/")}
-        checks.append(verify(plant, K, Y, gamma, nu, own, **options))
-    return _merge_checks(checks)
+        own = multipliers if len(plants) == 1 else {k.split("/", 1)[1]: v for k, v in multipliers.items()
+                                                    if k.startswith(f"{i}/")}
+        check = verify(plant, K, Y, gamma, nu, own, **options)
+        checks.append(check if only is None else _judged_on(check, only[i]))
+    return checks[0] if len(plants) == 1 else _merge_checks(checks)
+
+
+def _judged_on(check: RobustCheck, names: frozenset[str]) -> RobustCheck:
+    """``check`` with its margin over the robust LMIs ``names`` and the other matrices (Y, the
+    i2p blocks, the multipliers' conditions) only: the LMIs a program left out are not its to
+    meet. The rounding allowance stays the whole check's."""
+    left_out = {s for s in ROBUST_LMIS if s not in names}
+    max_eig = {k: v for k, v in check.max_eig.items() if k.split("/")[0] not in left_out}
+    min_eig = {k: v for k, v in check.min_eig.items() if k.split("/")[0] not in left_out}
+    allowance = max(ABS_MARGIN, 1e3 * np.finfo(float).eps * check.scale)
+    top = max((float(v.max()) for v in max_eig.values()), default=-np.inf)
+    low = min((float(v.min()) for v in min_eig.values()), default=np.inf)
+    details = [d for d in check.details if d.split("/")[0].split(":")[0] not in left_out]
+    return replace(check, margin=min(-top, low) - allowance, details=details)
 
 
 def _merge_checks(checks: list[RobustCheck]) -> RobustCheck:
@@ -743,8 +778,9 @@ def _phase_one(plants: tuple[LFTPlant, ...], K: np.ndarray | None, *, alpha: flo
 class _Minimizer:
     """The solver's minimizer of the common-Lyapunov program: K, Y, the optimal levels (the
     program's: :func:`_level`), the multipliers, the objective, the times, the result's info
-    and each plant's dual weight (``support``: :meth:`lmi.LMIProgram.dual_weights`, zero where
-    none of its LMIs binds)."""
+    and each LMI's dual weight (``support``: :meth:`lmi.LMIProgram.dual_weights` per
+    ``(plant index, LMI name)``, "i2p" for a plant's i2p blocks; zero where the LMI does not
+    bind)."""
 
     K: np.ndarray
     Y: np.ndarray
@@ -754,7 +790,7 @@ class _Minimizer:
     optimum: float
     times: dict
     info: dict
-    support: np.ndarray
+    support: dict[tuple[int, str], float]
 
     def levels(self, convention: str, b: float) -> tuple[float | None, float]:
         """The bounds (:func:`_bound`) at the levels times ``1 + b``."""
@@ -764,13 +800,14 @@ class _Minimizer:
 
 def _minimize(plants: tuple[LFTPlant, ...], K: np.ndarray | None, *, hinf: bool, w_hinf: float, w_i2p: float,
               alpha: float, beta: float | None, uncertainty: str, eps: float, sector: float | None = None,
-              convention: str = "satfmu", ladder: solve_policy.RungMemory | None = None
+              convention: str = "satfmu", ladder: solve_policy.RungMemory | None = None, only: Selection = None
               ) -> _Minimizer | RobustDesign:
-    """Minimize the objective of the common-Lyapunov program (options already checked): the
-    minimizer, or the failed :class:`RobustDesign` when the solver gives no answer; ``ladder``
-    the rungs shared by the minimizations of one design (default: a fresh ladder)."""
+    """Minimize the objective of the common-Lyapunov program (options already checked; ``only``
+    its robust LMIs, default all): the minimizer, or the failed :class:`RobustDesign` when the
+    solver gives no answer; ``ladder`` the rungs shared by the minimizations of one design
+    (default: a fresh ladder)."""
     t0 = time.perf_counter()
-    specs = [_specs(p, alpha, beta, hinf, sector) for p in plants]
+    specs = _selected_specs(plants, alpha, beta, hinf, sector, only)
     prog = lmi.LMIProgram()
     gamma = prog.variable() if hinf else None
     nu = prog.variable()
@@ -793,18 +830,19 @@ def _minimize(plants: tuple[LFTPlant, ...], K: np.ndarray | None, *, hinf: bool,
                       float(prog.value(gamma)[0, 0]) if hinf else None, float(prog.value(nu)[0, 0]),
                       {k: f() for k, f in values.items()}, sol.objective,
                       {"solver_status": out.solver_status, "solve_seconds": out.seconds, "build_seconds": build}, info,
-                      np.array([weights.get(i, 0.0) for i in range(len(plants))]))
+                      {(i, name): weights.get((i, name), 0.0) for i, plant_specs in enumerate(specs)
+                       for name in [s.name for s in plant_specs] + ["i2p"]})
 
 
 def _back_off(plants: tuple[LFTPlant, ...], K: np.ndarray | None, m: _Minimizer, backoffs: tuple[float, ...], *,
               uncertainty: str, alpha: float, beta: float | None, sector: float | None = None,
-              convention: str = "satfmu", **_) -> RobustDesign:
-    """The back-off solves after the minimizer ``m`` of the same plants (in any state
-    coordinates: the levels do not depend on them): for b in ``backoffs``, the levels fixed at
-    ``1 + b`` times m's, the smallest strictness margin of every LMI maximized and the answer
+              convention: str = "satfmu", only: Selection = None, **_) -> RobustDesign:
+    """The back-off solves after the minimizer ``m`` of the same plants and LMIs (``only``; in any
+    state coordinates: the levels do not depend on them): for b in ``backoffs``, the levels fixed
+    at ``1 + b`` times m's, the smallest strictness margin of every LMI maximized and the answer
     verified; the first that verifies, or ``"unverified"``."""
     times = dict(m.times)
-    specs = [_specs(p, alpha, beta, m.gamma is not None, sector) for p in plants]
+    specs = _selected_specs(plants, alpha, beta, m.gamma is not None, sector, only)
     mults, check = {}, None
     for b in backoffs:
         t0 = time.perf_counter()
@@ -824,7 +862,7 @@ def _back_off(plants: tuple[LFTPlant, ...], K: np.ndarray | None, m: _Minimizer,
         mults = {k: f() for k, f in values.items()}
         g, nv = (None if g is None else _bound(convention, g)), _bound(convention, nv)
         check = _verify_plants(plants, Kv, Yv, g, nv, mults, alpha=alpha, beta=beta, sector=sector,
-                               convention=convention)
+                               convention=convention, only=only)
         if check.ok:
             return RobustDesign("optimal", Kv, g, nv, Yv, mults, check, m.optimum, **m.info, **times, backoff=b)
     return RobustDesign("unverified", None, None, None, None, mults, check, m.optimum, **m.info, **times)
@@ -839,7 +877,7 @@ def _certified(plants: tuple[LFTPlant, ...], K: np.ndarray | None, m: _Minimizer
     for b in backoffs:
         g, nv = m.levels(convention, b)
         check = _verify_plants(plants, m.K, m.Y, g, nv, m.multipliers, alpha=options["alpha"], beta=options["beta"],
-                               sector=options.get("sector"), convention=convention)
+                               sector=options.get("sector"), convention=convention, only=options.get("only"))
         if check.ok:
             status = m.times["solver_status"] + f"; the minimizer verified at back-off {b:g}"
             return RobustDesign("optimal", m.K, g, nv, m.Y, m.multipliers, check, m.optimum, **m.info,
@@ -938,81 +976,124 @@ def design(plant: LFTPlant | Sequence[LFTPlant], K=None, *, w_hinf: float = 1.0,
 
 
 SCENARIO_BATCH = 100
-"""The most plants :func:`_constraint_generation` adds per round; :func:`design` solves more
+"""The most LMIs :func:`_constraint_generation` adds per round; :func:`design` solves more
 certain plants than this by constraint generation."""
 
 SCENARIO_FIRST = 10
-"""Plants in the first program of :func:`_constraint_generation`."""
+"""Plants in the first program of :func:`_constraint_generation` (every LMI of each)."""
 
 SUPPORT_TOL = 1e-4
-"""A plant whose dual weight (:class:`_Minimizer` ``support``) is below this fraction of the
-largest binds none of its LMIs: :func:`_constraint_generation` leaves it out of the next round
-(DEMETER row 1: 9 plants of 110 between 0.03 and 1, the others at 2e-6 to 8e-6, the
-interior-point path's floor)."""
+"""An LMI whose dual weight (:class:`_Minimizer` ``support``) is below this fraction of the
+largest does not bind: :func:`_constraint_generation` leaves it out of the next round (DEMETER
+row 1: 9 plants of 110 between 0.03 and 1, the others at 2e-6 to 8e-6, the interior-point
+path's floor)."""
+
+
+def _lmi_margins(check: RobustCheck) -> dict[str, float]:
+    """Each LMI's margin in one plant's check (as :attr:`RobustCheck.margin`): the robust LMIs
+    by name, ``"i2p"`` the two i2p blocks', ``"Y"`` the Lyapunov matrix's."""
+    allowance = max(ABS_MARGIN, 1e3 * np.finfo(float).eps * check.scale)
+    out = {k: -float(v.max()) - allowance for k, v in check.max_eig.items() if k in ROBUST_LMIS}
+    out["i2p"] = min(float(check.min_eig["i2p/B2"].min()), -float(check.max_eig["i2p/C2"].max())) - allowance
+    out["Y"] = float(check.min_eig["Y"].min()) - allowance
+    return out
+
+
+def _i2p_representatives(plants: tuple[LFTPlant, ...]) -> list[int]:
+    """For each plant, the first plant with the same ``(B2, C2)``: the same i2p blocks."""
+    first: dict[bytes, int] = {}
+    return [first.setdefault(p.B2.tobytes() + p.C2.tobytes() + bytes(str(p.B2.shape + p.C2.shape), "ascii"), i)
+            for i, p in enumerate(plants)]
 
 
 def _constraint_generation(plants: tuple[LFTPlant, ...], K: np.ndarray | None, rescale: bool, **options
                            ) -> RobustDesign:
-    """The program over many certain plants (scenarios), solved on a changing subset.
+    """The program over many certain plants (scenarios), solved on a changing subset of their LMIs.
 
-    Minimize over the first :data:`SCENARIO_FIRST` plants; :func:`verify` every plant at the
-    minimizer (levels at each of :data:`BACKOFFS` in turn while only plants of the subset fail:
-    larger levels loosen every LMI); if any outside the subset is violated, the next subset is
-    the plants whose LMIs bind (dual weight above :data:`SUPPORT_TOL`; a plant left out once
-    stays in when it comes back, so the rounds end; if the smaller subset gives no answer, the
-    plants left out are put back) and the most violated (at most :data:`SCENARIO_BATCH`),
-    minimized again in the coordinates where the last minimizer's Y has a unit diagonal (as
-    :func:`_rescaled_program`). When only plants of the subset fail, the back-off solves at the
-    minimizer's levels in those coordinates (:func:`_back_off`, from the back-off that verified
-    in the last round: DEMETER row 13 failed at 1e-4 and 1e-3 and verified at 1e-2 in each
-    round, 170 to 310 s a solve; failing them, the subset's certified solve
-    :func:`_rescaled_program`) and :func:`verify` of every plant at the answer; plants it
-    violates join the subset and the rounds go on. Leaving out plants whose constraints do not
-    bind keeps the optimum (convex program, complementary slackness), so each subset's optimum
-    is a lower bound of the whole program's, and the returned certificate, verified on every
-    plant, is feasible for it at the last optimum times ``1 + backoff``. An infeasible subset
-    proves the whole program infeasible. A scenario program has at most as many support
-    constraints as decision variables, and in practice far fewer (DEMETER: about 10 plants of
-    962 to 2556), so the solver never sees the thousands of LMIs at once.
+    Each plant brings its robust LMIs (:func:`_specs`: "hinf", "alpha", "beta", "sector") and
+    its i2p blocks ("i2p", one per distinct ``(B2, C2)``); the subset is a set of such
+    ``(plant, LMI)`` pairs. Minimize over every LMI of the first :data:`SCENARIO_FIRST` plants;
+    :func:`verify` every plant at the minimizer (levels at each of :data:`BACKOFFS` in turn
+    while only LMIs of the subset fail: larger levels loosen every LMI); if any outside the
+    subset is violated, the next subset is the LMIs that bind (dual weight above
+    :data:`SUPPORT_TOL`; one left out once stays in when it comes back, so the rounds end; if
+    the smaller subset gives no answer, those left out are put back) and the most violated
+    outside (at most :data:`SCENARIO_BATCH`), minimized again in the coordinates where the last
+    minimizer's Y has a unit diagonal (as :func:`_rescaled_program`). When only LMIs of the
+    subset fail, the back-off solves at the minimizer's levels in those coordinates
+    (:func:`_back_off`, from the back-off that verified in the last round: DEMETER row 13
+    failed at 1e-4 and 1e-3 and verified at 1e-2 in each round; failing them, the subset's
+    certified solve :func:`_rescaled_program`) and :func:`verify` of every plant at the
+    answer; LMIs it violates join the subset and the rounds go on.
+
+    Leaving out LMIs that do not bind keeps the optimum (convex program, complementary
+    slackness), so each subset's optimum is a lower bound of the whole program's, and the
+    returned certificate, verified on every LMI of every plant, is feasible for it at the last
+    optimum times ``1 + backoff``. An infeasible subset proves the whole program infeasible. A
+    scenario program has at most as many support constraints as decision variables, and in
+    practice far fewer, so the solver never sees the thousands of LMIs at once; of a binding
+    plant's LMIs often only one binds (DEMETER row 13: the H-infinity LMI, order 30, or a
+    region LMI, order 24), so the subset of LMIs is a third of the subset of plants.
     """
     convention = options["convention"]
     check_options = {"alpha": options["alpha"], "beta": options["beta"], "sector": options["sector"],
                      "convention": convention}
+    names = [s.name for s in _specs(plants[0], options["alpha"], options["beta"], options["hinf"],
+                                    options["sector"])]
+    rep = _i2p_representatives(plants)
+    first = range(min(SCENARIO_FIRST, len(plants)))
+    active = list(dict.fromkeys([(i, name) for i in first for name in names] + [(rep[i], "i2p") for i in first]))
+    left_out: set[tuple[int, str]] = set()
     T = np.ones(plants[0].A.shape[0])
-    active = list(range(min(SCENARIO_FIRST, len(plants))))
-    left_out: set[int] = set()
     seconds = {"solve_seconds": 0.0, "build_seconds": 0.0}
     status: list[str] = []
 
-    def subset(T: np.ndarray) -> tuple[tuple[LFTPlant, ...], np.ndarray | None]:
-        return tuple(plants[i].scale_states(T) for i in active), None if K is None else K * T
+    def subset(T: np.ndarray) -> tuple[list[int], tuple[LFTPlant, ...], np.ndarray | None, dict]:
+        """The subset's plants (indices; in the coordinates T), gain and solve options."""
+        idx = list(dict.fromkeys(i for i, _ in active))
+        chosen: dict[int, set[str]] = {i: set() for i in idx}
+        for i, name in active:
+            chosen[i].add(name)
+        return (idx, tuple(plants[i].scale_states(T) for i in idx), None if K is None else K * T,
+                {**options, "only": tuple(frozenset(chosen[i]) for i in idx)})
+
+    def size() -> str:
+        return f"{len(active)} LMIs of {len({i for i, _ in active})} plants"
 
     def account(res) -> None:
         for k in seconds:
             seconds[k] += res.times[k] if isinstance(res, _Minimizer) else getattr(res, k)
 
-    def check_all(K, Y, gamma, nu) -> tuple[list[RobustCheck], list[int]]:
-        """Every plant's check in the coordinates T, and the worst violated outside the subset."""
+    def check_all(K, Y, gamma, nu) -> tuple[list[RobustCheck], list[tuple[int, str]]]:
+        """Every plant's check in the coordinates T, and the worst violated LMIs outside the subset
+        (Y > 0 is in every subset)."""
         checks = [verify(p.scale_states(T), K, Y, gamma, nu, {}, **check_options) for p in plants]
         inside = set(active)
-        worst = sorted((c.margin, i) for i, c in enumerate(checks) if not c.ok and i not in inside)
-        return checks, [i for _, i in worst[:SCENARIO_BATCH]]
+        worst = sorted((v, key) for i, c in enumerate(checks) if not c.ok for name, v in _lmi_margins(c).items()
+                       if v <= 0 and name != "Y" and (key := (rep[i] if name == "i2p" else i, name)) not in inside)
+        return checks, list(dict.fromkeys(key for _, key in worst))[:SCENARIO_BATCH]
 
-    restore: list[int] = []  # the plants the last round left out
+    def binding(m: _Minimizer, idx: list[int]) -> set[tuple[int, str]]:
+        top = max(m.support.values())
+        return {(rep[idx[j]] if name == "i2p" else idx[j], name) for (j, name), w in m.support.items()
+                if w >= SUPPORT_TOL * top}
+
+    restore: list[tuple[int, str]] = []  # the LMIs the last round left out
     first_backoff = 0  # index in BACKOFFS of the back-off solves' first try
     while True:
-        m = _minimize(*subset(T), **options)
+        idx, sub, Ks, sub_options = subset(T)
+        m = _minimize(sub, Ks, **sub_options)
         res = None
         if not isinstance(m, _Minimizer) and m.status != "infeasible" and restore:
             # no answer without them (DEMETER row 7: NumericalError at 24 plants, not at 39)
-            status.append(f"{len(active)} plants: {m.solver_status}; the {len(restore)} left out put back")
+            status.append(f"{size()}: {m.solver_status}; the {len(restore)} left out put back")
             account(m)
             active, restore = restore + active, []
             continue
         if isinstance(m, _Minimizer):
             account(m)
-            status.append(f"{len(active)} plants: {m.times['solver_status']}")
-            for b in BACKOFFS:  # larger levels only loosen the LMIs: the plants outside stay met
+            status.append(f"{size()}: {m.times['solver_status']}")
+            for b in BACKOFFS:  # larger levels only loosen the LMIs: those outside stay met
                 g, nv = m.levels(convention, b)
                 checks, new = check_all(m.K, m.Y, g, nv)
                 if new or all(c.ok for c in checks):
@@ -1021,27 +1102,28 @@ def _constraint_generation(plants: tuple[LFTPlant, ...], K: np.ndarray | None, r
                 res = RobustDesign("optimal", m.K, g, nv, m.Y, {}, _merge_checks(checks), m.optimum, **m.info,
                                    **seconds, solver_status="; ".join(status) + f"; the minimizer verified at "
                                    f"back-off {b:g}", backoff=b)
-                return replace(_back_to_caller(res, T), active_plants=len(active))
+                return replace(_back_to_caller(res, T), active_plants=len(idx))
             if rescale and np.all(np.diag(m.Y) > 0):
                 T = T * np.sqrt(np.diag(m.Y))
             if new:
-                binding = m.support >= SUPPORT_TOL * m.support.max()
-                dropped = {i for i, keep in zip(active, binding) if not keep and i not in left_out}
+                keep = binding(m, idx)
+                dropped = {k for k in active if k not in keep and k not in left_out}
                 left_out |= dropped
-                restore = sorted(dropped)
-                active = [i for i in active if i not in dropped] + new
+                restore = [k for k in active if k in dropped]
+                active = [k for k in active if k not in dropped] + new
                 continue
-            res = _back_off(*subset(T), replace(m, times={k: 0.0 for k in seconds} | {"solver_status": ""}),
-                            BACKOFFS[first_backoff:], **options)  # m's times already counted
+            idx, sub, Ks, sub_options = subset(T)
+            res = _back_off(sub, Ks, replace(m, times={k: 0.0 for k in seconds} | {"solver_status": ""}),
+                            BACKOFFS[first_backoff:], **sub_options)  # m's times already counted
             account(res)
             if res.status == "optimal":  # smaller back-offs failed: the next round starts at this one
                 first_backoff = BACKOFFS.index(res.backoff)
-            status.append(f"{len(active)} plants at the minimizer's levels: {res.solver_status.removeprefix('; ')}")
+            status.append(f"{size()} at the minimizer's levels: {res.solver_status.removeprefix('; ')}")
         if res is None or res.status != "optimal":  # m: this program's failed minimization, if it was
-            res = _rescaled_program(*subset(T), rescale, minimizer=None if res is not None else m, **options)
+            res = _rescaled_program(sub, Ks, rescale, minimizer=None if res is not None else m, **sub_options)
             account(res)
-            status.append(f"{len(active)} plants, certified: {res.solver_status}")
-        res = replace(res, **seconds, solver_status="; ".join(status), active_plants=len(active))
+            status.append(f"{size()}, certified: {res.solver_status}")
+        res = replace(res, **seconds, solver_status="; ".join(status), active_plants=len(idx))
         if res.status != "optimal":
             return res
         res = _back_to_caller(res, T)
@@ -1050,7 +1132,7 @@ def _constraint_generation(plants: tuple[LFTPlant, ...], K: np.ndarray | None, r
         if not new:
             if all(c.ok for c in checks):
                 return replace(res, check=_merge_checks(checks))
-            # an active plant fails in the total coordinates (rounding): no certificate
+            # an LMI of the subset fails in the total coordinates (rounding): no certificate
             return replace(res, status="unverified", K=None, gamma=None, nu=None, Y=None,
                            check=_merge_checks(checks))
         active, restore = active + new, []

@@ -78,6 +78,25 @@ def test_row2_in_the_toolbox_convention_has_the_seeds_i2p() -> None:
     assert row.prob_i2p <= row.det_i2p <= row.design_i2p
 
 
+def test_rows_run_at_once(tmp_path: Path, capsys) -> None:
+    """Two rows without a design (about 1 s each) run in two worker processes: the rows in the
+    selection's order, the files written in the seed's; the dearest rows are started first."""
+    keys = [(ROW3, "Det"), (ROW3, "Prob")]
+    rows = t1.run(keys, n_scenarios=5, jobs=2, out_dir=tmp_path)
+    assert [(r.method, r.status) for r in rows] == [("Det", "infeasible (proved)"), ("Prob", "no design (unverified)")]
+    assert "5 scenarios" in rows[1].note and all(r.total_seconds > 0 for r in rows)
+    assert [r.method for r in t1.read(tmp_path / "table1.csv")] == ["Prob", "Det"]
+    order = t1.cost_order(list(SEED_TABLE1))
+    assert order[:2] == [list(SEED_TABLE1)[12], list(SEED_TABLE1)[13]]  # three axes, Prob first
+    assert [len(v.axes) for v, _ in order] == sorted((len(v.axes) for v, _ in order), reverse=True)
+    with pytest.raises(ValueError, match="jobs"):
+        t1.run(keys, jobs=0)
+    assert main(["table1", "--rows", "4", "--jobs", "2", "--out", str(tmp_path / "cli")]) == 0
+    assert "1 rows in " in capsys.readouterr().out
+    with pytest.raises(SystemExit):
+        main(["table1", "--rows", "4", "--jobs", "0", "--out", str(tmp_path)])
+
+
 def test_runs_merge_and_both_conventions_side_by_side(tmp_path: Path, capsys) -> None:
     """Row 4, then row 1 written by a second run, end up in one table in the seed's order, read
     back equal (a row written again replaces its line); "both" writes each convention's folder

@@ -396,14 +396,23 @@ def test_sector_region_bounds_the_damping(plant, designs) -> None:
 def test_many_scenarios_are_solved_by_constraint_generation(plant, monkeypatch) -> None:
     rng = np.random.default_rng(5)
     plants = [plant.at(d) for d in rng.uniform(-1, 1, (260, plant.n_params))]
-    solves = []
+    solves, cones = [], []
     solve = lmi.LMIProgram.solve
-    monkeypatch.setattr(lmi.LMIProgram, "solve", lambda self, *a, **k: solves.append(1) or solve(self, *a, **k))
+
+    def counted(self, *a, **k):
+        solves.append(1)
+        cones.append(len(self._psd))
+        return solve(self, *a, **k)
+
+    monkeypatch.setattr(lmi.LMIProgram, "solve", counted)
     gen = design(plants, alpha=ALPHA, beta=BETA)
-    # measured: 10 plants, then the 4 of them that bind and the 25 they leave violated (29); the
-    # second minimizer verifies on all 260, so two solves in all (the rounds before the last
-    # take one each)
+    # measured: every LMI of 10 plants (hinf, alpha, beta each; 31 with Y and the shared i2p
+    # blocks), then the 6 LMIs that bind and 36 violated ones of 25 more plants; the second
+    # minimizer verifies on all 260, so two solves in all (the rounds before the last take one
+    # each). The second program holds 42 of the 29 plants' 87 robust LMIs: a subset of LMIs, not
+    # of plants
     assert gen.status == "optimal" and gen.active_plants <= 50 and len(solves) <= 3
+    assert cones[0] == 3 * 10 + 3 and cones[-1] < 3 * gen.active_plants  # + Y and the two i2p blocks
     # the certificate is checked on every plant, not only the active ones
     assert {k.split("/")[0] for k in gen.check.max_eig} == {str(i) for i in range(len(plants))} and gen.check.ok
     monkeypatch.setattr(robust_design, "SCENARIO_BATCH", len(plants))  # the whole program in one solve
@@ -413,6 +422,18 @@ def test_many_scenarios_are_solved_by_constraint_generation(plant, monkeypatch) 
     # optimum x (1 + back-off); the solver's 1e-8 gap leaves ~1e-6 relative on either
     assert gen.solver_objective == pytest.approx(full.solver_objective, rel=1e-5)
     assert gen.gamma == pytest.approx(full.gamma, rel=2e-3) and gen.nu == pytest.approx(full.nu, rel=2e-3)
+
+
+def test_a_subset_is_judged_on_its_own_lmis(plant, designs) -> None:
+    """A program of some LMIs of a plant is judged on those (and Y, the i2p blocks): a gain with a
+    failing alpha LMI passes a check of its H-infinity LMI alone, not one that holds alpha."""
+    d = designs["norm"]
+    bad = verify(plant, d.K, d.Y, d.gamma, d.nu, d.multipliers, alpha=ALPHA + 50.0, beta=BETA)
+    assert not bad.ok and bad.max_eig["alpha"].max() > 0 and bad.max_eig["hinf"].max() < 0
+    assert robust_design._judged_on(bad, frozenset({"hinf", "beta"})).ok
+    assert not robust_design._judged_on(bad, frozenset({"hinf", "alpha"})).ok
+    # the multiplier conditions of a left-out LMI go with it
+    assert robust_design._judged_on(bad, frozenset({"hinf"})).margin >= bad.margin
 
 
 def test_scenario_minimizer_is_checked_at_every_back_off(plant, monkeypatch) -> None:
@@ -459,8 +480,11 @@ def test_plants_left_out_come_back_when_the_smaller_subset_fails(plant, monkeypa
 
     monkeypatch.setattr(robust_design, "_minimize", failing_second)
     gen = design(plants, alpha=ALPHA, beta=BETA)
-    # measured (the test above): 10 plants, 4 bind, 25 join: the failed 29 become 35 (10 + 25)
-    assert sizes[:3] == [10, 29, 35] and "the 6 left out put back" in gen.solver_status
+    # measured (the test above): every LMI of 10 plants (31 with the shared i2p blocks), 6 of
+    # them bind, 36 LMIs of 25 more plants join; the failed 42 LMIs of 29 plants become 67 of 35
+    # (the 25 left out back)
+    assert sizes[:3] == [10, 29, 35] and "42 LMIs of 29 plants: solver error" in gen.solver_status
+    assert "the 25 left out put back; 67 LMIs of 35 plants" in gen.solver_status
     assert gen.status == "optimal" and gen.check.ok
 
 
