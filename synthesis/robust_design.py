@@ -1092,12 +1092,14 @@ def _constraint_generation(plants: tuple[LFTPlant, ...], K: np.ndarray | None, r
         if not isinstance(m, _Minimizer) and m.status != "infeasible" and restore:
             # no answer without them (DEMETER row 7: NumericalError at 24 plants, not at 39)
             status.append(f"{size()}: {m.solver_status}; the {len(restore)} left out put back")
+            LOG.info("constraint generation: %s", status[-1])
             account(m)
             active, restore = restore + active, []
             continue
         if isinstance(m, _Minimizer):
             account(m)
             status.append(f"{size()}: {m.times['solver_status']}")
+            LOG.info("constraint generation: %s", status[-1])
             for b in BACKOFFS:  # larger levels only loosen the LMIs: those outside stay met
                 g, nv = m.levels(convention, b)
                 checks, new = check_all(m.K, m.Y, g, nv)
@@ -1124,10 +1126,12 @@ def _constraint_generation(plants: tuple[LFTPlant, ...], K: np.ndarray | None, r
             if res.status == "optimal":  # smaller back-offs failed: the next round starts at this one
                 first_backoff = BACKOFFS.index(res.backoff)
             status.append(f"{size()} at the minimizer's levels: {res.solver_status.removeprefix('; ')}")
+            LOG.info("constraint generation: %s", status[-1])
         if res is None or res.status != "optimal":  # m: this program's failed minimization, if it was
             res = _rescaled_program(sub, Ks, rescale, minimizer=None if res is not None else m, **sub_options)
             account(res)
             status.append(f"{size()}, certified: {res.solver_status}")
+            LOG.info("constraint generation: %s", status[-1])
         res = replace(res, **seconds, solver_status="; ".join(status), active_plants=len(idx))
         if res.status != "optimal":
             return res
