@@ -1065,6 +1065,11 @@ def _constraint_generation(plants: tuple[LFTPlant, ...], K: np.ndarray | None, r
     def size() -> str:
         return f"{len(active)} LMIs of {len({i for i, _ in active})} plants"
 
+    def say(line: str) -> None:
+        """One round's line of the result's ``solver_status``, also logged (INFO)."""
+        status.append(line)
+        LOG.info("constraint generation: %s", line)
+
     def account(res) -> None:
         for k in seconds:
             seconds[k] += res.times[k] if isinstance(res, _Minimizer) else getattr(res, k)
@@ -1091,15 +1096,13 @@ def _constraint_generation(plants: tuple[LFTPlant, ...], K: np.ndarray | None, r
         res = None
         if not isinstance(m, _Minimizer) and m.status != "infeasible" and restore:
             # no answer without them (DEMETER row 7: NumericalError at 24 plants, not at 39)
-            status.append(f"{size()}: {m.solver_status}; the {len(restore)} left out put back")
-            LOG.info("constraint generation: %s", status[-1])
+            say(f"{size()}: {m.solver_status}; the {len(restore)} left out put back")
             account(m)
             active, restore = restore + active, []
             continue
         if isinstance(m, _Minimizer):
             account(m)
-            status.append(f"{size()}: {m.times['solver_status']}")
-            LOG.info("constraint generation: %s", status[-1])
+            say(f"{size()}: {m.times['solver_status']}")
             for b in BACKOFFS:  # larger levels only loosen the LMIs: those outside stay met
                 g, nv = m.levels(convention, b)
                 checks, new = check_all(m.K, m.Y, g, nv)
@@ -1125,13 +1128,11 @@ def _constraint_generation(plants: tuple[LFTPlant, ...], K: np.ndarray | None, r
             account(res)
             if res.status == "optimal":  # smaller back-offs failed: the next round starts at this one
                 first_backoff = BACKOFFS.index(res.backoff)
-            status.append(f"{size()} at the minimizer's levels: {res.solver_status.removeprefix('; ')}")
-            LOG.info("constraint generation: %s", status[-1])
+            say(f"{size()} at the minimizer's levels: {res.solver_status.removeprefix('; ')}")
         if res is None or res.status != "optimal":  # m: this program's failed minimization, if it was
             res = _rescaled_program(sub, Ks, rescale, minimizer=None if res is not None else m, **sub_options)
             account(res)
-            status.append(f"{size()}, certified: {res.solver_status}")
-            LOG.info("constraint generation: %s", status[-1])
+            say(f"{size()}, certified: {res.solver_status}")
         res = replace(res, **seconds, solver_status="; ".join(status), active_plants=len(idx))
         if res.status != "optimal":
             return res
