@@ -46,6 +46,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from controllers import claims
+from fmus.xml_text import xml_problem
 
 if TYPE_CHECKING:
     from fmus.model import Model
@@ -82,6 +83,13 @@ def scheduling_signal(entry: str) -> tuple[str | None, str]:
 
 class ArtifactError(ValueError):
     """An artifact file is missing, not JSON, or violates the schema; the message says where."""
+
+
+MAX_EXPONENT = 64
+"""The largest exponent of a state in a polynomial term (the shipped designs reach 4)."""
+MAX_BYTES = 64 << 20
+"""The largest artifact file read (B): the shipped ones hold up to 70 kB; a gain table of a
+periodic design with thousands of samples stays far below."""
 
 
 @dataclass(frozen=True)
@@ -263,6 +271,9 @@ def _terms(raw: Any, n_states: int, where: str) -> list[Term]:
             raise _fail(w, f"'e' must list {n_states} exponents (one per state)")
         if any(isinstance(v, bool) or not isinstance(v, int) or v < 0 for v in e):
             raise _fail(w, f"exponents must be non-negative integers, got {e}")
+        if max(e, default=0) > MAX_EXPONENT:
+            raise _fail(w, f"exponent {max(e)} is larger than {MAX_EXPONENT} (no controller is of that degree; "
+                           "the generated C could not hold it)")
         out.append(Term(_finite(t["c"], w + ".c"), tuple(e)))
     return out
 
@@ -310,6 +321,25 @@ def _check_named(items: list, label: str, where: str, keys: tuple[str, ...] = ("
             raise _fail(f"{where}.{label}[{i}]", "must be {" + ", ".join(f'"{k}": str' for k in keys) + ", ...}")
 
 
+def _check_texts(data: Any, where: str) -> None:
+    """Refuse a string anywhere in ``data`` (keys too) holding a character that XML 1.0 cannot
+    carry: an artifact's texts become the FMU's descriptions. Walked without recursion."""
+    stack = [(data, where)]
+    while stack:
+        value, at = stack.pop()
+        if isinstance(value, dict):
+            for k, v in value.items():
+                stack.append((k, f"{at} (a key)"))
+                stack.append((v, f"{at}.{k}"))
+        elif isinstance(value, list):
+            stack.extend((v, f"{at}[{i}]") for i, v in enumerate(value))
+        elif isinstance(value, str):
+            problem = xml_problem(value)
+            if problem:
+                raise _fail(at, f"{problem}, a control character that an FMU's model description (XML 1.0) "
+                                "cannot carry")
+
+
 def parse(data: Any, where: str = "artifact") -> Artifact:
     """Validate JSON data and return the artifact.
 
@@ -335,6 +365,7 @@ def _parse(data: Any, where: str) -> Artifact:
     """The artifact of schema-valid JSON data (:func:`parse` without the claims)."""
     if not isinstance(data, dict):
         raise _fail(where, "top level must be a JSON object")
+    _check_texts(data, where)
     if data.get("format") != FORMAT:
         raise _fail(where, f"'format' must be {FORMAT!r}, got {data.get('format')!r}")
     version = data.get("format_version")
@@ -651,14 +682,34 @@ def load(path: str | Path) -> Artifact:
     """
     path = Path(path)
     try:
-        text = path.read_text()
+        if not path.is_file():
+            raise ArtifactError(f"{path}: cannot read artifact ("
+                                + ("not a regular file" if path.exists() else "no such file") + ")")
+        size = path.stat().st_size
+        if size > MAX_BYTES:
+            raise ArtifactError(f"{path}: an artifact of {size} bytes, more than {MAX_BYTES}")
+        text = path.read_bytes()
     except OSError as exc:
         raise ArtifactError(f"{path}: cannot read artifact ({exc.strerror})") from None
+    return parse(decode(text, str(path)), where=str(path))
+
+
+def decode(text: str | bytes, where: str) -> Any:
+    """The JSON value of an artifact's text (``where`` names it in errors).
+
+    Raises
+    ------
+    ArtifactError
+        Larger than :data:`MAX_BYTES`, not UTF-8, not JSON, or nested too deep for Python's parser.
+    """
+    if len(text) > MAX_BYTES:
+        raise ArtifactError(f"{where}: an artifact of {len(text)} bytes, more than {MAX_BYTES}")
     try:
-        data = json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise ArtifactError(f"{path}: not valid JSON ({exc})") from None
-    return parse(data, where=str(path))
+        return json.loads(text)
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise ArtifactError(f"{where}: not valid JSON ({exc})") from None
+    except RecursionError:
+        raise ArtifactError(f"{where}: JSON nested too deep to read (an artifact nests a few levels)") from None
 
 
 def save(artifact: Artifact, path: str | Path) -> None:

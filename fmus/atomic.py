@@ -64,6 +64,11 @@ def write_atomically(path: str | Path, write: Callable[[Path], Any]) -> Path:
         _kill_point("rename", tmp)
         os.replace(tmp, path)
         _kill_point("done", path)
+    except OSError as exc:
+        if exc.filename is not None:
+            raise
+        # a full disk or a quota says "No space left on device" with no file: name the file
+        raise OSError(exc.errno, f"{exc.strerror or exc} (writing {path})", str(path)) from None
     finally:
         tmp.unlink(missing_ok=True)
     return path

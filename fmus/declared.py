@@ -5,7 +5,9 @@ from __future__ import annotations
 import difflib
 import json
 import math
+import os
 import re
+import stat
 import tomllib
 from pathlib import Path
 from typing import Any, Iterable, Mapping
@@ -37,14 +39,29 @@ def check_keys(data: Mapping[str, Any], keys: Iterable[str], where: str, error: 
             raise error(f"{where}: unknown key {k!r}" + (did_you_mean(k, keys) or f" (allowed: {', '.join(keys)})"))
 
 
+MAX_TOML_BYTES = 16 << 20
+"""The largest declaration file read (B): a scenario or spacecraft file is a few kB."""
+
+
 def read_toml(path: Path, what: str, error: type[Exception]) -> dict[str, Any]:
-    """The data of a TOML file; ``error`` says why it cannot be read (``what``: "scenario", ...)."""
+    """The data of a TOML file; ``error`` says why it cannot be read (``what``: "scenario", ...):
+    not a regular file (a FIFO would block, a device never end), larger than
+    :data:`MAX_TOML_BYTES`, not UTF-8, not TOML, or nested too deep for the parser."""
     try:
-        return tomllib.loads(Path(path).read_text())
+        info = os.stat(path)
+        if not stat.S_ISREG(info.st_mode):
+            raise error(f"{path}: cannot read {what} file (not a regular file: a folder, FIFO or device)")
+        if info.st_size > MAX_TOML_BYTES:
+            raise error(f"{path}: a {what} file of {info.st_size} bytes, more than {MAX_TOML_BYTES}")
+        return tomllib.loads(Path(path).read_text(encoding="utf-8"))
     except OSError as exc:
         raise error(f"{path}: cannot read {what} file ({exc.strerror})") from None
+    except UnicodeDecodeError as exc:
+        raise error(f"{path}: {what} file is not UTF-8 text ({exc.reason})") from None
     except tomllib.TOMLDecodeError as exc:
         raise error(f"{path}: invalid TOML ({exc})") from None
+    except RecursionError:
+        raise error(f"{path}: invalid TOML (arrays or tables nested too deep to read)") from None
 
 
 _BARE_KEY = re.compile(r"[A-Za-z0-9_-]+")

@@ -19,10 +19,10 @@ Identity (``docs/fmus-in-your-tool.md``, "GUID, modelName and version"):
 """
 from __future__ import annotations
 
+import copy
 import uuid
 from dataclasses import dataclass
-from xml.dom import minidom
-from xml.etree.ElementTree import Element, SubElement, tostring
+from xml.etree.ElementTree import Element, SubElement, indent, tostring
 
 from fmus import __version__
 from fmus.codegen import KIND_INPUT, KIND_PARAMETER, variable_table
@@ -223,8 +223,12 @@ def _unknown(parent: Element, index: int, deps: list[int]) -> None:
 
 
 def to_xml_bytes(root: Element) -> bytes:
-    """Pretty-printed UTF-8 XML document."""
-    return minidom.parseString(tostring(root, "UTF-8")).toprettyxml(indent="  ", encoding="UTF-8")
+    """Indented UTF-8 XML document. ElementTree writes a line break, tab or carriage return in
+    an attribute as a character reference, so a description keeps its lines (a literal line
+    break in an attribute would read back as a space)."""
+    root = copy.deepcopy(root)
+    indent(root, "  ")
+    return b'<?xml version="1.0" encoding="UTF-8"?>\n' + tostring(root, "unicode").encode() + b"\n"
 
 
 

@@ -255,7 +255,7 @@ def _write_resources(folder: Path, resources: dict[str, bytes] | None) -> None:
             (folder / name).write_bytes(data)
 
 
-SLAVE_SCRIPT = '''"""pythonfmu slave of the satfmu model {name!r} (generated; do not edit)."""
+SLAVE_SCRIPT = '''{docstring}
 import {generated} as _generated
 from satfmu_pyslave import SatfmuSlave
 
@@ -265,7 +265,7 @@ _NAMESPACE = globals()
 
 
 class {cls}(SatfmuSlave):
-    """{description}"""
+    {description}
 
     generated = _generated
 '''
@@ -297,11 +297,15 @@ def build_python(model: Model, dest_dir: Path, resources: dict[str, bytes] | Non
         python_sampler = model.sampler is not None and not model.sampler.is_expression
         if python_sampler:
             shutil.copy(model.sampler.module, proj / f"{codegen.sampler_module_name(model)}.py")
-        (proj / "satfmu_description.xml").write_bytes(to_xml_bytes(desc))
+        description = to_xml_bytes(desc)
+        (proj / "satfmu_description.xml").write_bytes(description)
         _write_resources(proj, resources)  # pythonfmu puts the project files in resources/
         script = root / f"{cls}.py"
-        script.write_text(SLAVE_SCRIPT.format(name=model.name, generated=generated, cls=cls,
-                                              description=model.description))
+        # the texts as Python literals (repr): a description holding quotes, backslashes or
+        # newlines stays a string, never code
+        script.write_text(SLAVE_SCRIPT.format(
+            docstring=repr(f"pythonfmu slave of the satfmu model {model.name!r} (generated; do not edit)."),
+            generated=generated, cls=cls, description=repr(model.description)))
         out = root / "out"
         files = [p for p in proj.iterdir()]
         sys.path.insert(0, str(proj))
@@ -312,13 +316,16 @@ def build_python(model: Model, dest_dir: Path, resources: dict[str, bytes] | Non
             sampler = [codegen.sampler_module_name(model)] if python_sampler else []
             for mod in [cls, generated, "satfmu_pyslave"] + sampler:
                 sys.modules.pop(mod, None)
-        _repack(Path(fmu), dest, _comment(digest, resources))
+        _repack(Path(fmu), dest, _comment(digest, resources), description)
     return dest
 
 
-def _repack(src: Path, dest: Path, comment: bytes) -> None:
-    """Rewrite pythonfmu's zip deterministically (stable timestamps and order)."""
+def _repack(src: Path, dest: Path, comment: bytes, description: bytes) -> None:
+    """Rewrite pythonfmu's zip deterministically (stable timestamps and order), with satfmu's
+    own ``modelDescription.xml`` bytes: pythonfmu writes the same description through minidom,
+    which leaves a line break in an attribute unescaped (it would read back as a space)."""
     with tempfile.TemporaryDirectory() as tmp:
         with zipfile.ZipFile(src) as z:
             z.extractall(tmp)
+        (Path(tmp) / "modelDescription.xml").write_bytes(description)
         _zip_dir(Path(tmp), dest, comment)

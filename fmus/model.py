@@ -22,6 +22,8 @@ from typing import Callable, Literal, Sequence
 import numpy as np
 import sympy as sp
 
+from fmus.xml_text import xml_problem
+
 VariableType = Literal["Real", "Integer", "Boolean"]
 
 #: SI units the project declares, as FMI 2.0 BaseUnit exponents.
@@ -47,6 +49,7 @@ UNITS: dict[str, dict[str, int]] = {
 }
 
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*(\[[0-9]+(,[0-9]+)*\])?$")
+_IDENTIFIER = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 
 
 class ModelDefinitionError(ValueError):
@@ -401,6 +404,15 @@ class Model:
 
     # ------------------------------------------------------------------ checks
     def _validate(self) -> None:
+        if not _IDENTIFIER.match(self.name):
+            raise ModelDefinitionError(f"model name {self.name!r} is not a C identifier (it is the FMU's "
+                                       "modelIdentifier)")
+        for where, text in [("description", self.description)] + [(f"variable {v.name!r}: description", v.description)
+                                                                   for v in self.variables]:
+            problem = xml_problem(text)
+            if problem:
+                raise ModelDefinitionError(f"{self.name}: {where} {problem}, which a model description "
+                                           "(XML 1.0) cannot carry")
         fmu_names = [v.name for v in self.variables]
         # States are internal; an output may carry a state's name, nothing else may.
         symbol_names = [v.name for v in self.parameters + self.inputs] + [s.variable.name for s in self.states]

@@ -31,6 +31,10 @@ from __future__ import annotations
 import csv
 import datetime as dt
 import math
+import os
+import re
+import stat
+import warnings
 from dataclasses import dataclass, field
 from functools import lru_cache
 from pathlib import Path
@@ -238,24 +242,65 @@ def _random(spec: dict, where: str, step_size: float | None
     return (lambda t: draws(t)[0](t)), (lambda grid, unit: draws(grid)[1](grid, unit))
 
 
+MAX_CSV_BYTES = 512 << 20
+"""The largest profile CSV file read (B): a million rows of ten columns is about 100 MB."""
+_MAX_HEADER = 1 << 20
+_COLUMN_NAME = re.compile(r"[A-Za-z_][\w .()\[\]/^*+-]{0,79}")
+
+
+def _header_names(names: list[str]) -> str:
+    """The columns of a header, for an error message: quoted only when every one looks like a
+    column name (a file that is no CSV table is not echoed: its first line may be anything)."""
+    if names and all(_COLUMN_NAME.fullmatch(n) for n in names) and len(names) <= 50:
+        return f"it has {names}"
+    return f"its first line ({len(names)} fields) is no header of column names"
+
+
+def _csv_columns(path: Path, tcol: str, col: str, where: str) -> tuple[np.ndarray, np.ndarray]:
+    """The columns ``tcol`` and ``col`` of the CSV file ``path`` (UTF-8, a byte order mark
+    allowed, a header line of column names), read by numpy's C parser: memory holds the two
+    columns, not the file."""
+    try:
+        info = os.stat(path)
+    except OSError as exc:
+        raise ProfileError(f"{where}: cannot read {path} ({exc.strerror})") from None
+    if not stat.S_ISREG(info.st_mode):
+        raise ProfileError(f"{where}: {path} is not a regular file (a folder, FIFO or device)")
+    if info.st_size > MAX_CSV_BYTES:
+        raise ProfileError(f"{where}: {path} is {info.st_size} bytes, more than the {MAX_CSV_BYTES} a profile "
+                           "CSV may have")
+    try:
+        with open(path, newline="", encoding="utf-8-sig") as fh:
+            first = fh.readline(_MAX_HEADER)
+            if len(first) >= _MAX_HEADER:
+                raise ProfileError(f"{where}: {path}: its first line is longer than {_MAX_HEADER} characters")
+            names = [n.strip() for n in next(csv.reader([first]), [])]
+            if tcol not in names or col not in names:
+                raise ProfileError(f"{where}: {path} needs columns {tcol!r} and {col!r}; {_header_names(names)}")
+            try:
+                with warnings.catch_warnings():  # no rows: said below, not as numpy's warning
+                    warnings.simplefilter("ignore", UserWarning)
+                    data = np.loadtxt(fh, delimiter=",", usecols=(names.index(tcol), names.index(col)), ndmin=2,
+                                      dtype=float, quotechar='"')
+            except (ValueError, IndexError) as exc:
+                row = re.search(r"row (\d+)", str(exc))
+                line = f"line {int(row[1]) + 2}" if row else "a line"
+                raise ProfileError(f"{where}: {path}: {line} has a missing or non-numeric entry in column "
+                                   f"{tcol!r} or {col!r}") from None
+    except UnicodeDecodeError as exc:
+        raise ProfileError(f"{where}: {path} is not UTF-8 text ({exc.reason})") from None
+    except OSError as exc:
+        raise ProfileError(f"{where}: cannot read {path} ({exc.strerror})") from None
+    if len(data) == 0:
+        raise ProfileError(f"{where}: {path} has no rows after its header")
+    return data[:, 0], data[:, 1]
+
+
 def _csv(spec: dict, where: str, base_dir: Path | None) -> Callable[[np.ndarray], np.ndarray]:
     if "file" not in spec or "column" not in spec:
         raise ProfileError(f"{where}: needs 'file' and 'column'")
     path = Path(spec["file"])
     if not path.is_absolute() and base_dir is not None:
         path = base_dir / path
-    try:
-        with open(path, newline="") as fh:
-            rows = list(csv.DictReader(fh))
-    except OSError as exc:
-        raise ProfileError(f"{where}: cannot read {path} ({exc.strerror})") from None
-    tcol, col = spec.get("time_column", "time"), spec["column"]
-    if not rows or tcol not in rows[0] or col not in rows[0]:
-        have = list(rows[0]) if rows else []
-        raise ProfileError(f"{where}: {path} needs columns {tcol!r} and {col!r}; it has {have}")
-    try:
-        times = np.array([float(r[tcol]) for r in rows])
-        values = np.array([float(r[col]) for r in rows])
-    except ValueError as exc:
-        raise ProfileError(f"{where}: {path} has a non-numeric entry ({exc})") from None
+    times, values = _csv_columns(path, spec.get("time_column", "time"), spec["column"], where)
     return _table(times, values, spec.get("interpolation", "linear"), where)

@@ -258,6 +258,7 @@ def run(campaign: Campaign, out_dir: Path, *, scheduler: str | None = None, n_wo
     """
     folder = Path(out_dir) / campaign.name
     with chunk_files.locked(folder, lambda why: warnings.warn(why, CampaignWarning, stacklevel=5)):
+        chunk_files.sweep_partials(folder)  # a killed driver's half-written chunk or record
         record = _claim_folder(folder, campaign)
         todo = _todo(folder, campaign, record)
         if todo:

@@ -275,9 +275,16 @@ def build_all(dest: Path | None = None, backends: tuple[str, ...] = ("native", "
 
 
 def validate(fmu: Path) -> list[str]:
-    """Problems reported by ``fmpy validate`` and ``fmutool -check`` (empty list: clean)."""
+    """Problems reported by ``fmpy validate`` and ``fmutool -check`` (empty list: clean); a file
+    that :func:`fmus.archive.check` refuses is not handed to either (its one problem is why)."""
     from fmpy.validation import validate_fmu
 
+    from fmus import archive
+
+    try:
+        archive.check(fmu, crc=True)
+    except (OSError, archive.UnsafeFmuError) as exc:
+        return [f"satfmu: {exc}"]
     problems = [f"fmpy: {p}" for p in validate_fmu(str(fmu))]
     tool = Path(sys.executable).with_name("fmutool")
     proc = subprocess.run([str(tool), "-input", str(fmu), "-check"], capture_output=True, text=True)

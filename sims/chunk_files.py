@@ -10,6 +10,7 @@ advisory lock of the operating system, released when the driver ends, also when 
 from __future__ import annotations
 
 import contextlib
+import errno
 import hashlib
 import json
 import os
@@ -106,7 +107,17 @@ def locked(folder: Path, waiting: Callable[[str], None]) -> Iterator[None]:
         this one waits for it.
     """
     folder.mkdir(parents=True, exist_ok=True)
-    with open(folder / LOCK, "a+") as fh:
+    try:
+        fh = open(folder / LOCK, "a+")
+    except OSError as exc:
+        if exc.errno not in (errno.EROFS, errno.EACCES, errno.EPERM):
+            raise
+        # a folder that cannot be written (a read-only file system, another user's): no driver
+        # can write there either, so there is nothing to guard; reading it goes on, and a write
+        # that is still needed fails naming its own file
+        yield
+        return
+    with fh:
         if not _acquire(fh, block=False):
             fh.seek(0)
             holder = fh.read().strip() or "unknown"
@@ -122,6 +133,20 @@ def locked(folder: Path, waiting: Callable[[str], None]) -> Iterator[None]:
             fh.seek(0)
             fh.truncate()
             _release(fh)
+
+
+def sweep_partials(folder: Path) -> list[Path]:
+    """Remove the temporary files that writers killed in ``folder`` left (``.<name>.<pid>.<random>
+    .partial<suffix>``, :func:`fmus.atomic.write_atomically`); call it holding :func:`locked`, when
+    no other driver writes there. Returns what it removed."""
+    removed = []
+    for p in folder.glob(".*.partial*"):
+        try:
+            p.unlink()
+        except OSError:  # gone already, or not ours to remove: the next sweep tries again
+            continue
+        removed.append(p)
+    return removed
 
 
 def _acquire(fh: Any, block: bool) -> bool:

@@ -88,9 +88,18 @@ class _Formatter(argparse.ArgumentDefaultsHelpFormatter):
 
 
 def _positive_int(text: str) -> int:
+    """A count of at least one (``--samples``, ``--workers``)."""
     value = int(text)
     if value < 1:
         raise argparse.ArgumentTypeError(f"must be a positive integer, got {text}")
+    return value
+
+
+def _nonnegative_int(text: str) -> int:
+    """A count that may be zero, an index or a seed (``--worst``, ``--sample``, ``--seed``)."""
+    value = int(text)
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be a non-negative integer, got {text}")
     return value
 
 
@@ -463,8 +472,8 @@ def parser() -> argparse.ArgumentParser:
     ve.set_defaults(fn=_verify)
     rb = command(sub, "robustness", "drive every FMU through misuse cases (table of cases x FMUs)")
     rb.add_argument("--fmu", action="append", help="FMU file name in --fmu-dir (repeatable; default: all)")
-    rb.add_argument("--cycles", type=int, default=1000, help="instantiate/free cycles per FMU")
-    rb.add_argument("--flips", type=int, help="single-bit flips per native FMU state, a seeded sample "
+    rb.add_argument("--cycles", type=_positive_int, default=1000, help="instantiate/free cycles per FMU")
+    rb.add_argument("--flips", type=_nonnegative_int, help="single-bit flips per native FMU state, a seeded sample "
                     "(default: every bit)")
     _fmu_dir(rb)
     rb.add_argument("--out", default="results/robustness", help="folder of the report")
@@ -493,13 +502,13 @@ def parser() -> argparse.ArgumentParser:
     hi.add_argument("--sigma-max", type=float, default=0.9, help="L2 region |sigma| <= sigma-max")
     hi.add_argument("--coefficient-limit", type=float, default=1.0, help="bound on every K coefficient")
     hi.add_argument("--torque-budget", type=float, default=6.5, help="largest peak |u_i| on the manoeuvre, N m")
-    hi.add_argument("--samples", type=int, default=20_000, help="random points of the sampled L2 check")
+    hi.add_argument("--samples", type=_positive_int, default=20_000, help="random points of the sampled L2 check")
     hi.set_defaults(fn=_synth_hinf)
     mixed = argparse.ArgumentParser(add_help=False)
     mixed.add_argument("--region", type=float, default=0.45, help="certificate region |sigma| <= r (< 1), any rate")
     mixed.add_argument("--alpha-range", type=float, nargs=2, default=(0.05, 2.0), metavar=("LOW", "HIGH"),
                        help="line-search interval of alpha and beta")
-    mixed.add_argument("--evaluations", type=int, default=12, help="SDPs per line search (alpha, then beta)")
+    mixed.add_argument("--evaluations", type=_positive_int, default=12, help="SDPs per line search (alpha, then beta)")
     h2 = command(designs, "mrp-h2hinf", "seed 001: mixed H2/H-infinity (Theorem 8) at one gamma",
                  parents=[out, craft, mixed])
     h2.add_argument("--gamma", type=float, required=True, help="L2-gain bound w -> sigma (required)")
@@ -508,9 +517,9 @@ def parser() -> argparse.ArgumentParser:
     h2.set_defaults(fn=_synth_h2hinf)
     vs = command(designs, "vscmg-sdre", "seed 002: approximated SDRE (gain fit) and LQ servo artifacts",
                  parents=[out])
-    vs.add_argument("--grid", type=int, nargs=2, default=(23, 25), metavar=("N_Q2", "N_W4"),
+    vs.add_argument("--grid", type=_positive_int, nargs=2, default=(23, 25), metavar=("N_Q2", "N_W4"),
                     help="SDRE grid points over q2 and w4")
-    vs.add_argument("--max-degree", type=int, default=8, help="largest polynomial degree tried")
+    vs.add_argument("--max-degree", type=_positive_int, default=8, help="largest polynomial degree tried")
     vs.add_argument("--cv-tol", type=float, default=None,
                     help="choose the smallest degree with this cross-validated relative error "
                          "(default synthesis.gain_fit.CV_TOL; 0: the smallest error)")
@@ -527,22 +536,22 @@ def parser() -> argparse.ArgumentParser:
     cs.set_defaults(fn=_synth_cubesat)
     dm = command(designs, "demeter",
                  "seed 004: deterministic robust state feedback of a DEMETER variant (Table 1 Det)", parents=[out])
-    dm.add_argument("--axes", type=int, nargs="+", default=[1], help="axes, 1-based")
-    dm.add_argument("--appendages", type=int, nargs="+", default=[1], help="appendages, 1-based")
+    dm.add_argument("--axes", type=_positive_int, nargs="+", default=[1], help="axes, 1-based")
+    dm.add_argument("--appendages", type=_positive_int, nargs="+", default=[1], help="appendages, 1-based")
     dm.add_argument("--model-type", type=int, choices=[1, 2], default=1,
                     help="1: independent appendages, 2: identical")
     dm.add_argument("--uncertainty-type", type=int, choices=[1, 2, 3], default=1,
                     help="1: norm-bounded (D-G), 2: intervals (vertices), 3: inertia norm-bounded")
     dm.add_argument("--no-wheels", action="store_true", help="design without the wheel dynamics H(s)")
-    dm.add_argument("--samples", type=int, default=100, help="sampled plants of the independent check")
+    dm.add_argument("--samples", type=_positive_int, default=100, help="sampled plants of the independent check")
     dm.add_argument("--name", default="demeter_row1_det", help="artifact and FMU name")
     dm.add_argument("--convention", choices=("satfmu", "romuloc"), default="satfmu",
                     help="LMI forms and objective: ours or the R-RoMulOC toolbox's (default: satfmu)")
     dm.set_defaults(fn=_synth_demeter)
     t1 = command(sub, "table1", "seed 004 Table 1: every row, both methods, beside the seed's numbers")
-    t1.add_argument("--rows", type=int, nargs="+", default=None,
+    t1.add_argument("--rows", type=_positive_int, nargs="+", default=None,
                     help="rows 1..14 in the seed's order (default all)")
-    t1.add_argument("--scenarios", type=int, default=None,
+    t1.add_argument("--scenarios", type=_positive_int, default=None,
                     help="scenarios per Prob design (default: the Campi-Garatti count, epsilon 0.1, delta 1e-9)")
     t1.add_argument("--convention", choices=("satfmu", "romuloc", "both"), default="satfmu",
                     help="LMI forms and objective of the designs: ours, the R-RoMulOC toolbox's, or both side by "
@@ -558,8 +567,8 @@ def parser() -> argparse.ArgumentParser:
     figs = fg.add_subparsers(dest="figure", required=True, metavar="NAME")
     fd = command(figs, "demeter", "seed 004 Figs 4-5: random closed loops of the DEMETER FMUs")
     fd.add_argument("--artifact", default="demeter_row1_det", help="artifact name or a .json path")
-    fd.add_argument("--samples", type=int, default=100, help="random plants")
-    fd.add_argument("--seed", type=int, default=0, help="seed of the plant samples")
+    fd.add_argument("--samples", type=_positive_int, default=100, help="random plants")
+    fd.add_argument("--seed", type=_nonnegative_int, default=0, help="seed of the plant samples")
     fd.add_argument("--stop", type=float, default=60.0, help="FMU horizon, s")
     fd.add_argument("--step", type=float, default=1e-3,
                     help="communication step, s (the row-1 design needs <= 1.5 ms; see sims/demeter_loops.py)")
@@ -572,10 +581,10 @@ def parser() -> argparse.ArgumentParser:
     cd = command(kinds, "demeter", "seed 004: closed-loop poles, exact H-infinity and i2p of sampled "
                                    "plants under a design artifact, with the Chernoff statements")
     cd.add_argument("--artifact", default="demeter_row1_det", help="artifact name or a .json path")
-    cd.add_argument("--samples", type=int, default=100_000, help="sampled plants")
-    cd.add_argument("--chunk", type=int, default=5000, help="samples per task and per Parquet file")
-    cd.add_argument("--seed", type=int, default=0, help="root seed (results depend only on seed, chunk, samples)")
-    cd.add_argument("--workers", type=int, default=2, help="local Dask workers (ignored with --scheduler)")
+    cd.add_argument("--samples", type=_positive_int, default=100_000, help="sampled plants")
+    cd.add_argument("--chunk", type=_positive_int, default=5000, help="samples per task and per Parquet file")
+    cd.add_argument("--seed", type=_nonnegative_int, default=0, help="root seed (results depend only on seed, chunk, samples)")
+    cd.add_argument("--workers", type=_positive_int, default=2, help="local Dask workers (ignored with --scheduler)")
     cd.add_argument("--scheduler", default=None,
                     help="address of a running Dask scheduler, tcp://host:port (default: a local cluster)")
     cd.add_argument("--epsilon", type=float, default=0.1, help="accuracy of the statements")
@@ -592,7 +601,7 @@ def parser() -> argparse.ArgumentParser:
                       help="number of samples (default: the scenario's [campaign] samples, the full size)")
     size.add_argument("--demo", action="store_true",
                       help="run the scenario's [campaign] demo_samples, a quick look (default: the full size)")
-    cs.add_argument("--seed", type=int, default=None,
+    cs.add_argument("--seed", type=_nonnegative_int, default=None,
                     help="root seed, sample i depends only on seed and i (default: the scenario's [campaign] seed, "
                          "else 0)")
     cs.add_argument("--chunk", type=_positive_int, default=None,
@@ -602,7 +611,7 @@ def parser() -> argparse.ArgumentParser:
                     help="address of a running Dask scheduler, tcp://host:port (default: a local cluster)")
     cs.add_argument("--backend", choices=backends, default="native", help="default FMU backend")
     cs.add_argument("--confidence", type=float, default=0.95, help="two-sided confidence of the pass-rate intervals")
-    cs.add_argument("--worst", type=int, default=5, help="worst samples listed")
+    cs.add_argument("--worst", type=_nonnegative_int, default=5, help="worst samples listed")
     cs.add_argument("--envelope", action="append", metavar="SIGNAL",
                     help="a recorded signal (base names expand) whose percentile envelope over the samples is kept in "
                          "envelopes.parquet; repeat for more (default: none)")
@@ -622,12 +631,12 @@ def parser() -> argparse.ArgumentParser:
     rp.add_argument("--fmu-dir", default=None,
                     help="where the FMU files are now (default: the folder each run or campaign used)")
     rp.add_argument("--confidence", type=float, default=0.95, help="two-sided confidence of the pass-rate intervals")
-    rp.add_argument("--worst", type=int, default=5, help="worst samples listed per campaign")
+    rp.add_argument("--worst", type=_nonnegative_int, default=5, help="worst samples listed per campaign")
     rp.set_defaults(fn=_report)
     ry = command(sub, "replay", "run one sample of a scenario campaign again, bit for bit, and write its time "
                                 "histories (CSV) and plots")
     ry.add_argument("campaign", metavar="CAMPAIGN_DIR", help="campaign folder (--out/NAME of campaign scenario)")
-    ry.add_argument("--sample", type=int, required=True,
+    ry.add_argument("--sample", type=_nonnegative_int, required=True,
                     help="sample index, 0 .. samples - 1 (the rows' sample column; required, no default)")
     ry.add_argument("--out", default="results/replay",
                     help="folder of the replays; the run goes to OUT/<campaign>-sample<K>/ (default: results/replay)")
@@ -636,8 +645,8 @@ def parser() -> argparse.ArgumentParser:
                          "folder the campaign ran them from, recorded in its campaign.json)")
     ry.set_defaults(fn=_replay)
     dt = command(sub, "detumble", "seed 003: linear Monte Carlo (Fig. 2) and the nonlinear initial-rate sweep")
-    dt.add_argument("--samples", type=int, default=2000, help="Monte Carlo realizations per gain set")
-    dt.add_argument("--seed", type=int, default=0, help="seed of the realizations")
+    dt.add_argument("--samples", type=_positive_int, default=2000, help="Monte Carlo realizations per gain set")
+    dt.add_argument("--seed", type=_nonnegative_int, default=0, help="seed of the realizations")
     dt.add_argument("--rates", type=float, nargs="+",
                     help="initial rates |w(0)|, rad/s (default 17 from 1e-4 to 1)")
     _fmu_dir(dt, "folder of the FMUs (the missing ones are built)")
@@ -660,7 +669,7 @@ def parser() -> argparse.ArgumentParser:
                     help="w4 interval of the one-Y box, rad/s (default: OPERATING_BOX)")
     rg.add_argument("--q2", type=float, nargs=2, default=[0.05, 1.52], metavar=("LO", "HI"), help="map range, rad")
     rg.add_argument("--w4", type=float, nargs=2, default=[-1.8, 1.8], metavar=("LO", "HI"), help="map range, rad/s")
-    rg.add_argument("--cells", type=int, nargs=2, default=[7, 6], metavar=("N_Q2", "N_W4"), help="map cells")
+    rg.add_argument("--cells", type=_positive_int, nargs=2, default=[7, 6], metavar=("N_Q2", "N_W4"), help="map cells")
     rg.add_argument("--out", default="results/vscmg_region", help="directory of region.json and region.png")
     rg.set_defaults(fn=_analyze_region)
     l2 = command(analyses, "l2", "L2 gain of a controller's closed loop: diagonal, sampled, SOS")
@@ -668,7 +677,7 @@ def parser() -> argparse.ArgumentParser:
     l2.add_argument("--rate-max", type=float, default=0.2, help="region |omega_i| <= rate-max, rad/s")
     l2.add_argument("--sigma-max", type=float, default=0.9, help="region |sigma| <= sigma-max")
     l2.add_argument("--kv", type=float, default=1e4, help="kv of the diagonal check (the seed's: 1e4)")
-    l2.add_argument("--samples", type=int, default=200_000, help="random points of the sampled estimate")
+    l2.add_argument("--samples", type=_positive_int, default=200_000, help="random points of the sampled estimate")
     l2.set_defaults(fn=_analyze_l2)
     return top
 

@@ -16,10 +16,12 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from fmpy import calloc, extract, free, read_model_description
+from fmpy import calloc, free
 from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
                        fmi2CallbackFunctions, fmi2CallbackLoggerTYPE)
+
+from fmus import archive
 
 OK, WARNING, DISCARD, ERROR, FATAL, PENDING = 0, 1, 2, 3, 4, 5
 STATUS_NAMES = {OK: "OK", WARNING: "Warning", DISCARD: "Discard", ERROR: "Error", FATAL: "Fatal",
@@ -124,11 +126,13 @@ def abandon(owner: Any) -> None:
 
 
 class UnreadableFmuError(ValueError):
-    """A file that is not a readable FMU (not a zip, no or a broken model description, ...)."""
+    """A file that is not a readable FMU (not a zip, no or a broken model description, an unsafe
+    archive that :mod:`fmus.archive` refuses, ...)."""
 
 
 def open_fmu(path: str | Path) -> tuple[Any, str]:
-    """Read ``path``'s model description and extract the FMU.
+    """Check ``path``'s archive (:func:`fmus.archive.extract`), extract it into a private
+    temporary folder and read its model description from there.
 
     Returns
     -------
@@ -141,13 +145,14 @@ def open_fmu(path: str | Path) -> tuple[Any, str]:
     FileNotFoundError
         If ``path`` does not exist.
     UnreadableFmuError
-        If it is not a readable FMU; the message names the file and what fmpy found.
+        If it is not a readable FMU; the message names the file and what was found.
     """
-    path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"no such FMU: {path}")
     try:
-        md = read_model_description(str(path))
-        return md, str(extract(str(path)))
-    except Exception as exc:  # fmpy raises BadZipFile, KeyError, XML errors ... for a broken file
-        raise UnreadableFmuError(f"{path} is not a readable FMU ({type(exc).__name__}: {exc})") from None
+        extracted = archive.extract(path)
+    except archive.UnsafeFmuError as exc:
+        raise UnreadableFmuError(str(exc)) from None
+    try:
+        return archive.parse_description(extracted.listing.path, extracted.listing.description), str(extracted.folder)
+    except archive.UnsafeFmuError as exc:
+        extracted.close()
+        raise UnreadableFmuError(str(exc)) from None

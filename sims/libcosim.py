@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import subprocess
 import sys
 import tempfile
@@ -99,7 +100,7 @@ def _simulate(ssp: Path, record: Sequence[str], stop_time: float, step_size: flo
         data.setdefault("time", np.asarray(times, np.int64) / NS_PER_S)
     if not refs:
         data["time"] = step_size * np.arange(1, n_steps + 1)
-    data["__inputs__"] = np.array(inputs, dtype=object)
+    data["__inputs__"] = np.array(inputs, dtype=str)
     return data
 
 
@@ -136,14 +137,15 @@ def run(ssp: Path, record: Sequence[str], stop_time: float, step_size: float, st
         spec = json.dumps({"ssp": str(Path(ssp).resolve()), "record": list(record), "stop_time": stop_time,
                            "step_size": step_size, "start_time": start_time, "out": str(out)})
         try:
+            # libcosim extracts the FMUs into TMPDIR: this folder, removed whatever happens
             proc = subprocess.run([sys.executable, "-m", "sims.libcosim", spec], capture_output=True, text=True,
-                                  timeout=timeout)
+                                  timeout=timeout, env={**os.environ, "TMPDIR": tmp})
         except subprocess.TimeoutExpired:
             raise EngineError(f"libcosim did not finish {Path(ssp).name} within {timeout:g} s") from None
         if proc.returncode != 0 or not out.exists():
             text = (proc.stdout + proc.stderr).strip()[-2000:]
             raise EngineError(f"libcosim failed on {Path(ssp).name} (exit code {proc.returncode}):\n{text}")
-        with np.load(out, allow_pickle=True) as z:
+        with np.load(out) as z:
             data = {k: z[k] for k in z.files}
     inputs = set(data.pop("__inputs__").tolist())
     res = np.zeros(len(data["time"]), dtype=[("time", "f8")] + [(q, "f8") for q in record])

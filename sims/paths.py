@@ -55,6 +55,12 @@ def find_artifact(name_or_path: str | Path) -> Path:
     name_or_path : str or Path
         An artifact name (``"mrp_hinf_published"``) or a ``.json`` file.
 
+    Warns
+    -----
+    ShadowedArtifactWarning
+        A user's artifact found by name where a shipped one of that name holds other bytes
+        (once per process and file).
+
     Raises
     ------
     FileNotFoundError
@@ -66,11 +72,35 @@ def find_artifact(name_or_path: str | Path) -> Path:
             return p.resolve()
         raise FileNotFoundError(f"no artifact file {str(p)!r}")
     for folder in artifact_folders():
-        if (folder / f"{p.name}.json").is_file():
-            return folder / f"{p.name}.json"
+        found = folder / f"{p.name}.json"
+        if found.is_file():
+            shipped = SHIPPED_ARTIFACTS / found.name
+            if (folder != SHIPPED_ARTIFACTS and found not in _SHADOWS_REPORTED and shipped.is_file()
+                    and not _same_bytes(found, shipped)):
+                import warnings
+
+                _SHADOWS_REPORTED.add(found)
+                warnings.warn(f"the artifact {found} shadows the shipped artifact {shipped} of the same name "
+                              "(the user's is used; rename it to keep both)", ShadowedArtifactWarning, stacklevel=2)
+            return found
     names = artifact_names()
     raise FileNotFoundError(f"no artifact named {str(name_or_path)!r} in {', '.join(map(str, artifact_folders()))} "
                             f"(known: {', '.join(names)})" + did_you_mean(str(name_or_path), names))
+
+
+class ShadowedArtifactWarning(UserWarning):
+    """A user's artifact has the name of a shipped one (and other contents): it is the one used."""
+
+
+_SHADOWS_REPORTED: set[Path] = set()
+"""The user's artifacts already reported as shadowing a shipped one (once per process each)."""
+
+
+def _same_bytes(a: Path, b: Path) -> bool:
+    try:
+        return a.stat().st_size == b.stat().st_size and a.read_bytes() == b.read_bytes()
+    except OSError:
+        return False
 
 
 def artifact_names() -> list[str]:

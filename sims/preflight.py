@@ -1,7 +1,8 @@
 """Checks of the FMU files a scenario names, made before the master loads them.
 
 :func:`fmu_problem` says what makes a file unusable here: empty, not a zip archive (another
-kind of file, or truncated), a damaged member, no ``modelDescription.xml``, another FMI
+kind of file, or truncated), an archive :func:`fmus.archive.check` refuses (unsafe entries,
+beyond its size limits), a damaged member, no ``modelDescription.xml``, another FMI
 version than 2.0, no co-simulation interface, no binary for this platform, or another model
 than the one the scenario names. :func:`stale_artifact` says when a controller FMU embeds
 another artifact than the file of its name (:func:`sims.paths.find_artifact`) holds now: the
@@ -12,11 +13,10 @@ and a synthesis or an edit that replaced the artifact afterwards leaves a stale 
 from __future__ import annotations
 
 import hashlib
-import zipfile
-import zlib
 from pathlib import Path
 from xml.etree import ElementTree
 
+from fmus import archive
 from sims import catalog, paths
 
 FMI_VERSION = "2.0"
@@ -37,31 +37,23 @@ def fmu_problem(path: Path, model: str | None = None) -> str | None:
     str or None
         The problem as a phrase to follow the file name (``"is empty (0 bytes)"``), or None.
     """
-    from fmpy import platform, read_model_description, sharedLibraryExtension
+    from fmpy import platform, sharedLibraryExtension
 
-    if path.stat().st_size == 0:
-        return "is empty (0 bytes)"
     try:
-        with zipfile.ZipFile(path) as z:
-            names = set(z.namelist())
-            damaged = z.testzip()
-            text = z.read("modelDescription.xml") if "modelDescription.xml" in names else None
-    except (zipfile.BadZipFile, EOFError, zlib.error, OSError) as exc:
-        return f"is not a zip archive (truncated, or another kind of file: {exc})"
-    if damaged is not None:
-        return f"is damaged: its member {damaged} fails its CRC check"
-    if text is None:
-        return "has no modelDescription.xml"
+        listing = archive.check(path, crc=True)
+    except archive.UnsafeFmuError as exc:
+        return exc.problem
     try:
-        version = ElementTree.fromstring(text).get("fmiVersion")
+        version = ElementTree.fromstring(listing.description).get("fmiVersion")
     except ElementTree.ParseError as exc:
         return f"has a modelDescription.xml that is not XML ({exc})"
     if version != FMI_VERSION:
         return f"is an FMI {version} FMU; satfmu runs FMI {FMI_VERSION} co-simulation FMUs"
     try:
-        md = read_model_description(str(path))
-    except Exception as exc:  # fmpy raises XML schema and attribute errors of its own
-        return f"has an invalid modelDescription.xml ({type(exc).__name__}: {exc})"
+        md = archive.parse_description(path, listing.description)
+    except archive.UnsafeFmuError as exc:
+        return exc.problem
+    names = set(listing.names)
     if md.coSimulation is None:
         return "has no co-simulation interface (model exchange only)"
     binary = f"binaries/{platform}/{md.coSimulation.modelIdentifier}{sharedLibraryExtension}"
@@ -74,8 +66,9 @@ def fmu_problem(path: Path, model: str | None = None) -> str | None:
 
 
 def sha256_file(path: Path) -> str:
-    """Hex SHA-256 of a file's bytes."""
-    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+    """Hex SHA-256 of a file's bytes (read in pieces: memory stays small whatever its size)."""
+    with open(path, "rb") as fh:
+        return hashlib.file_digest(fh, "sha256").hexdigest()
 
 
 def stale_artifact(fmu: Path, model: str) -> str | None:

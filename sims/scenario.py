@@ -601,15 +601,15 @@ def validate(data: Any, where: str = "scenario") -> None:
         raise ScenarioError(f"{w}step_size {step:g} s exceeds the run length stop_time - start_time = "
                             f"{stop - start:g} s")
     n_float = (stop - start) / step
-    if abs(n_float - round(n_float)) > 1e-9 * max(1.0, n_float):
-        raise ScenarioError(f"{w}step_size: (stop_time - start_time) / step_size = {n_float:.12g} is not an integer")
     every = data.get("record_every", 1)
     if isinstance(every, bool) or not isinstance(every, int) or every < 1:
         raise ScenarioError(f"{w}record_every: must be an integer >= 1, got {every!r}")
-    if n_float / every > MAX_STEPS:
+    if not n_float / every <= MAX_STEPS:  # an infinite count too (stop_time = 1e308)
         raise ScenarioError(f"{w}stop_time: {n_float:.3g} communication steps, {n_float / every:.3g} recorded, more "
                             f"than {MAX_STEPS:.0e} (the recorded signals alone would need "
                             f"{n_float / every * 8 / 2**30:.3g} GiB per column; record_every thins them)")
+    if abs(n_float - round(n_float)) > 1e-9 * max(1.0, n_float):
+        raise ScenarioError(f"{w}step_size: (stop_time - start_time) / step_size = {n_float:.12g} is not an integer")
     for key in ("connections", "profiles", "metrics", "record"):
         if key in data and not isinstance(data[key], list):
             raise ScenarioError(f"{w}{key}: must be a list (TOML array{' of tables' if key != 'record' else ''}), "
@@ -724,7 +724,7 @@ def nominal_values(scenario: Scenario, fmu_dir: str | Path | None = None, backen
     callable
         (instance or ``"profiles[i]"``, name) -> float or None.
     """
-    from fmpy import read_model_description
+    from fmus import archive
 
     starts: dict[str, dict[str, float]] = {}
 
@@ -738,7 +738,7 @@ def nominal_values(scenario: Scenario, fmu_dir: str | Path | None = None, backen
             return float(given[name])
         if owner not in starts:
             folder = ensure_fmus(scenario, fmu_dir, backend)
-            md = read_model_description(str(fmu_paths(scenario, folder, backend)[owner]))
+            md = archive.read_description(fmu_paths(scenario, folder, backend)[owner])
             starts[owner] = {v.name: float(v.start) for v in md.modelVariables
                              if v.causality in ("parameter", "input") and v.type in ("Real", "Integer")
                              and v.start is not None}

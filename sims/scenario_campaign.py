@@ -43,6 +43,7 @@ from fmus.atomic import write_atomically
 from fmus.profiles import ProfileError
 from sims import envelopes as E
 from sims import metrics as M
+from sims import preflight
 from sims import scenario as S
 from sims.campaign import Campaign, CampaignError, sample_indices
 from sims.master import CoSimulation, MasterError, UnknownVariableError
@@ -307,7 +308,7 @@ def context(scenario: S.Scenario, fmu_dir: Path, backend: str) -> dict[str, Any]
     """What ``campaign.json`` keeps of a scenario campaign (part of its identity): the scenario's
     declaration, the folder its relative paths resolve against, the backend, the FMU folder, and
     each FMU file's name and SHA-256 (another binary is another campaign)."""
-    fmus = {inst: {"file": p.name, "sha256": hashlib.sha256(p.read_bytes()).hexdigest()}
+    fmus = {inst: {"file": p.name, "sha256": preflight.sha256_file(p)}
             for inst, p in S.fmu_paths(scenario, Path(fmu_dir), backend).items()}
     return {"scenario": scenario.to_dict(), "base_dir": str(scenario.folder),
             "path": None if scenario.path is None else str(scenario.path), "backend": backend,

@@ -31,10 +31,10 @@ import re
 import zipfile
 from pathlib import Path
 
-from fmpy import read_model_description
 from fmpy.ssp import ssd as fmpy_ssd
 from lxml import etree
 
+from fmus import archive
 from fmus import export as fmu_export
 from fmus import signals
 from fmus.atomic import write_atomically
@@ -91,8 +91,9 @@ def target_unit(scenario: Scenario, fmu_dir: Path, target: str, backend: str = "
 
 @functools.lru_cache(maxsize=32)
 def _model_description(path: str, mtime_ns: int):
-    """The model description of the FMU ``path`` (read once per file version, ``mtime_ns``)."""
-    return read_model_description(path)
+    """The model description of the FMU ``path`` (:func:`fmus.archive.read_description`, read once
+    per file version, ``mtime_ns``)."""
+    return archive.read_description(path)
 
 
 def signal_components(scenario: Scenario, fmu_dir: Path, table_dir: Path, backend: str = "native"

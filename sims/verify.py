@@ -59,13 +59,13 @@ import re
 import subprocess
 import tempfile
 import time
-import zipfile
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Callable, Sequence
 
 import numpy as np
 
+from fmus import archive
 from fmus.atomic import write_atomically
 from sims import libcosim, paths, ssp
 from fmus.profiles import make as make_profile
@@ -190,7 +190,9 @@ def run_ecos(ssp_path: Path, stop_time: float, step_size: float, timeout: float 
         if variables is not None:
             cmd += ["--csvConfig", str(_ecos_csv_config(variables, Path(tmp) / "csv_config.xml"))]
         try:
-            proc = subprocess.run(cmd, cwd=tmp, capture_output=True, text=True, timeout=timeout)
+            # ecos extracts the SSP and its FMUs into TMPDIR (ecos_ssp_<uuid>, never removed): this folder
+            proc = subprocess.run(cmd, cwd=tmp, capture_output=True, text=True, timeout=timeout,
+                                  env={**os.environ, "TMPDIR": tmp})
         except subprocess.TimeoutExpired:
             raise libcosim.EngineError(f"ecos did not finish {ssp_path.name} within {timeout:g} s") from None
         files = list(Path(tmp).glob("*.csv"))
@@ -277,23 +279,25 @@ def feedthrough_outputs(sim: CoSimulation) -> set[str]:
     return out
 
 
+_SOURCE_BYTES = 16 << 20
+"""The largest generated source read to tell a sampled FMU (B): satfmu's are a few kB."""
+
+
 def _structure(path: Path) -> tuple[bool, int] | None:
     """Whether the satfmu FMU at ``path`` samples, and its number of continuous states: from a
     native FMU's ``sources/model.h`` (``NH`` > 0, ``NX``) or a pythonfmu FMU's generated model
     (a ``SAMPLER``, ``N_STATES``); None for an FMU satfmu did not build."""
-    with zipfile.ZipFile(path) as z:
-        names = z.namelist()
-        if "sources/model.h" in names:
-            text = z.read("sources/model.h")
-            nh = re.search(rb"^#define NH (\d+)$", text, re.MULTILINE)
-            nx = re.search(rb"^#define NX (\d+)$", text, re.MULTILINE)
-            return (int(nh.group(1)) > 0, int(nx.group(1))) if nh and nx else None
-        for name in names:
-            if re.fullmatch(r"resources/satfmu_gen_[^/]*\.py", name):
-                text = z.read(name)
-                nx = re.search(rb"^N_STATES = (\d+)$", text, re.MULTILINE)
-                sampler = re.search(rb"^SAMPLER = None$", text, re.MULTILINE) is None
-                return (sampler, int(nx.group(1))) if nx else None
+    text = archive.read_entry(path, "sources/model.h", _SOURCE_BYTES)
+    if text is not None:
+        nh = re.search(rb"^#define NH (\d+)$", text, re.MULTILINE)
+        nx = re.search(rb"^#define NX (\d+)$", text, re.MULTILINE)
+        return (int(nh.group(1)) > 0, int(nx.group(1))) if nh and nx else None
+    for name in archive.check(path).names:
+        if re.fullmatch(r"resources/satfmu_gen_[^/]*\.py", name):
+            text = archive.read_entry(path, name, _SOURCE_BYTES) or b""
+            nx = re.search(rb"^N_STATES = (\d+)$", text, re.MULTILINE)
+            sampler = re.search(rb"^SAMPLER = None$", text, re.MULTILINE) is None
+            return (sampler, int(nx.group(1))) if nx else None
     return None
 
 

@@ -279,3 +279,16 @@ def test_claim_tolerances_are_the_verifiers_own() -> None:
     defaults = inspect.signature(riccati.riccati_gain).parameters
     assert claims.RICCATI_RES_TOL == defaults["residual_tol"].default
     assert claims.MAX_RE_TOL == defaults["max_re_tol"].default
+
+
+def test_an_exponent_beyond_any_controller_degree_is_refused() -> None:
+    """10**30 is a valid JSON integer; it once passed validation and failed in gcc."""
+    import json
+
+    from controllers import artifact as A
+    from sims import paths
+
+    data = json.loads((paths.SHIPPED_ARTIFACTS / "mrp_hinf_published.json").read_text())
+    data["law"]["terms"][0][0]["e"][0] = 10 ** 30
+    with pytest.raises(A.ArtifactError, match=r"law\.terms\[0\]\[0\]: exponent 10+ is larger than 64"):
+        A.parse(data)

@@ -173,3 +173,19 @@ def test_validate_skips_the_temporary_file_of_a_killed_build(tmp_path: Path, cap
     (tmp_path / ".signal_step.123.0a1b2c3d.partial.fmu").write_bytes(b"half an FMU")
     assert main(["validate", "--fmu-dir", str(tmp_path)]) == 2
     assert f"no FMUs in {tmp_path}" in capsys.readouterr().err
+
+
+def test_a_full_disk_names_the_file(tmp_path: Path) -> None:
+    """ENOSPC carries no file name; the error then says which file could not be written."""
+    import errno
+
+    from fmus.atomic import write_atomically
+
+    def full(tmp: Path) -> None:
+        with open("/dev/full", "wb") as fh:  # every write to it fails with ENOSPC
+            fh.write(b"x")
+            fh.flush()
+
+    with pytest.raises(OSError, match=rf"No space left on device \(writing {tmp_path / 'r.json'}\)") as exc:
+        write_atomically(tmp_path / "r.json", full)
+    assert exc.value.errno == errno.ENOSPC and list(tmp_path.iterdir()) == []

@@ -358,3 +358,36 @@ def test_two_drivers_in_one_folder_wait_for_each_other(tmp_path: Path, cluster) 
     assert_frame_equal(cp.load(folder), serial(matrices(**SMALL)), check_exact=True)
     assert sorted(p.name for p in folder.iterdir() if p.name != "campaign.json") == \
         [".campaign.lock"] + [f"chunk-{k:06d}.parquet" for k in range(4)]  # no temporary file left
+
+
+def test_resume_removes_what_a_killed_driver_left(tmp_path: Path, cluster) -> None:
+    """A SIGKILL between a write and its rename leaves the temporary file; the next driver, which
+    holds the folder's lock, removes every one (none can be another live driver's)."""
+    small = matrices("swept", n=2 * CHUNK)
+    first = cp.run(small, tmp_path, client=cluster[1])
+    folder = tmp_path / "swept"
+    left = [folder / ".chunk-00001.4242.deadbeef.partial.parquet", folder / ".campaign.4242.cafebabe.partial.json"]
+    for p in left:
+        p.write_bytes(b"half a file")
+    assert_frame_equal(cp.run(small, tmp_path, client=cluster[1]), first, check_exact=True)
+    assert not [p for p in left if p.exists()]
+
+
+def test_a_complete_campaign_reads_back_from_a_read_only_file_system(tmp_path: Path, cluster) -> None:
+    """The folder's lock file cannot be created there; a campaign with nothing left to compute
+    needs none (a bind mount made read-only: needs root, as `make test` has in CI)."""
+    small = matrices("readonly", n=2 * CHUNK)
+    first = cp.run(small, tmp_path / "rw", client=cluster[1])
+    (tmp_path / "rw" / "readonly" / chunk_files.LOCK).unlink()
+    ro = tmp_path / "ro"
+    ro.mkdir()
+    mounted = subprocess.run(["mount", "--bind", str(tmp_path / "rw"), str(ro)], capture_output=True)
+    if mounted.returncode != 0:
+        pytest.skip(f"no bind mount here: {mounted.stderr.decode().strip()}")
+    try:
+        subprocess.run(["mount", "-o", "remount,ro,bind", str(ro)], check=True, capture_output=True)
+        with pytest.raises(OSError, match="Read-only file system"):
+            (ro / "probe").write_text("x")
+        assert_frame_equal(cp.run(small, ro, client=cluster[1]), first, check_exact=True)
+    finally:
+        subprocess.run(["umount", str(ro)], capture_output=True)

@@ -226,6 +226,30 @@ def test_build_refuses_a_jobs_count_below_one(capsys: pytest.CaptureFixture) -> 
     assert exc.value.code == 2 and "must be a positive integer" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("argv, option, message", [
+    (["campaign", "demeter", "--samples", "10", "--workers", "0"], "--workers", "positive"),
+    (["campaign", "demeter", "--chunk", "-5"], "--chunk", "positive"),
+    (["campaign", "scenario", "mrp_slew_mc", "--worst", "-1"], "--worst", "non-negative"),
+    (["campaign", "scenario", "mrp_slew_mc", "--seed", "-3"], "--seed", "non-negative"),
+    (["report", "x", "--worst", "-1"], "--worst", "non-negative"),
+    (["robustness", "--cycles", "-1"], "--cycles", "positive"),
+    (["robustness", "--flips", "-2"], "--flips", "non-negative"),
+    (["replay", "x", "--sample", "-1"], "--sample", "non-negative"),
+    (["detumble", "--samples", "0"], "--samples", "positive"),
+    (["figures", "demeter", "--samples", "0"], "--samples", "positive"),
+    (["analyze", "l2", "mrp_hinf_published", "--samples", "0"], "--samples", "positive"),
+    (["table1", "--rows", "0"], "--rows", "positive"),
+])
+def test_counts_below_their_range_are_refused_before_any_work(argv: list[str], option: str, message: str,
+                                                             capsys: pytest.CaptureFixture) -> None:
+    """A count of zero workers once hung ``campaign demeter``; negative counts were accepted with
+    exit 0. argparse refuses them, naming the option."""
+    with pytest.raises(SystemExit) as exc:
+        main(argv)
+    err = capsys.readouterr().err
+    assert exc.value.code == 2 and option in err and f"must be a {message} integer" in err, err
+
+
 def _shipped_digest() -> dict[str, str]:
     import hashlib
 
@@ -324,6 +348,8 @@ BAD_SCENARIOS = [  # (body after the header, the message); the header is a valid
     ("connections = 5", "connections: must be a list"),
     ("record = 5", "record: must be a list"),
     ("stop_time = 1e9", r"more than 1e\+07"),
+    ("stop_time = 1e308", r"stop_time: .*inf communication steps.* more than 1e\+07"),
+    ("x = " + "[" * 1000 + "]" * 1000, r"invalid TOML \(arrays or tables nested too deep to read\)"),
     ("step_size = 0.3", "is not an integer"),
     ("step_size = -0.1", "step_size: must be a finite number > 0"),
     ("stop_time = 0.0", "stop_time: must be a finite number > 0"),

@@ -50,13 +50,17 @@ def _listing(roots: list[Path], skip: Path) -> dict[str, tuple[int, int]]:
 
 
 def _fails(argv: list[str], message: str, tmp_path: Path, capsys: pytest.CaptureFixture,
-           watched: tuple[Path, ...] = ()) -> str:
+           watched: tuple[Path, ...] = (), warned: str | None = None) -> str:
     """Run ``satfmu argv`` (its ``--out`` is tmp_path/out): exit 2, one line matching
-    ``message``, no traceback, no file in --out, nothing changed in tmp_path or ``watched``."""
+    ``message`` (after a warning line matching ``warned``, if given), no traceback, no file in
+    --out, nothing changed in tmp_path or ``watched``."""
     out = tmp_path / "out"
     before = _listing([tmp_path, *watched], out)
     code = main([str(a) for a in argv])
     err = capsys.readouterr().err
+    if warned is not None:
+        first, _, err = err.partition("\n")
+        assert re.search(warned, first), first
     assert code == 2, err
     assert re.search(message, err), err
     assert "Traceback" not in err and len(err.strip().splitlines()) == 1, err
@@ -181,6 +185,10 @@ BAD_ARTIFACTS: dict[str, Callable[[str], tuple[str | None, str]]] = {
           r"bad_ctrl\.json\.gains\.K_theta\[1,1\]: must be a finite number, got nan"),
     "format version": lambda base: (_artifact(base, lambda d: _set(d, ("format_version",), 2)),
                                     r"bad_ctrl\.json: format_version 2 is not supported"),
+    "nested 1e5 deep": lambda base: ("[" * 100_000 + "]" * 100_000,
+                                     r"bad_ctrl\.json: JSON nested too deep to read"),
+    "a control character": lambda base: (_artifact(base, lambda d: _set(d, ("description",), "a\x00b")),
+                                         r"bad_ctrl\.json\.description: holds U\+0000"),
 }
 
 
@@ -239,6 +247,12 @@ def _stale_setup(tmp_path: Path, home: Path, fmu_dir: Path, folder: Path) -> tup
     return f, folder / "mrp_hinf_published.fmu", art
 
 
+def _shadow(command: str, art: Path) -> str:
+    """The warning that the user's artifact ``art`` shadows the shipped one of its name."""
+    return (rf"^satfmu {command}: warning: the artifact {re.escape(str(art))} shadows the shipped artifact "
+            rf"{re.escape(str(SHIPPED / art.name))} of the same name")
+
+
 def _sha(path: Path) -> str:
     return hashlib.sha256(path.read_bytes()).hexdigest()
 
@@ -262,16 +276,17 @@ def test_a_stale_controller_fmu_is_refused_outside_the_cache(command: str, tmp_p
            rf"{re.escape(str(f))}: fmus\.controller\.model: stale FMU: FMU {re.escape(str(fmu))} embeds the artifact "
            rf"sha256:{_sha(SHIPPED / 'mrp_hinf_published.json')[:12]}\.\.\., but the artifact {re.escape(str(art))} is "
            rf"sha256:{_sha(art)[:12]}\.\.\. \(remove the FMU to have it built from the artifact, or pass --allow-stale",
-           tmp_path, capsys)
+           tmp_path, capsys, warned=_shadow(command, art))
 
 
 def test_allow_stale_runs_the_fmu_as_it_is(tmp_path: Path, home: Path, fmu_dir: Path,
                                            capsys: pytest.CaptureFixture) -> None:
-    f, fmu, _ = _stale_setup(tmp_path, home, fmu_dir, tmp_path / "fmus")
+    f, fmu, art = _stale_setup(tmp_path, home, fmu_dir, tmp_path / "fmus")
     before = fmu.read_bytes()
     assert main(["run", str(f), "--fmu-dir", str(tmp_path / "fmus"), "--out", str(tmp_path / "out"),
                  "--allow-stale"]) == 0
-    err = capsys.readouterr().err
+    shadow, _, err = capsys.readouterr().err.partition("\n")
+    assert re.search(_shadow("run", art), shadow), shadow
     assert re.fullmatch(r"satfmu run: warning: .*fmus\.controller\.model: stale FMU run as it is \(allow_stale\): "
                         r"FMU .* embeds the artifact sha256:.*\n", err), err
     assert fmu.read_bytes() == before and (tmp_path / "out" / "pair" / "summary_native.json").is_file()
@@ -281,7 +296,8 @@ def test_a_stale_controller_fmu_in_the_cache_is_rebuilt(tmp_path: Path, home: Pa
                                                         capsys: pytest.CaptureFixture) -> None:
     f, fmu, art = _stale_setup(tmp_path, home, fmu_dir, paths.fmu_cache())
     assert main(["run", str(f), "--out", str(tmp_path / "out")]) == 0
-    err = capsys.readouterr().err
+    shadow, _, err = capsys.readouterr().err.partition("\n")
+    assert re.search(_shadow("run", art), shadow), shadow
     assert re.fullmatch(rf"satfmu run: warning: {re.escape(str(f))}: fmus\.controller\.model: rebuilding the FMU in "
                         rf"the cache: FMU {re.escape(str(fmu))} embeds the artifact sha256:.*, but the artifact "
                         rf"{re.escape(str(art))} is sha256:{_sha(art)[:12]}\.\.\.\n", err), err

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import math
+import os
 from pathlib import Path
 
 import numpy as np
@@ -71,6 +72,57 @@ def test_csv_profile(tmp_path: Path) -> None:
         make({"kind": "csv", "file": "w.csv", "column": "wy"}, base_dir=tmp_path)
     with pytest.raises(ProfileError, match="cannot read"):
         make({"kind": "csv", "file": "nope.csv", "column": "wx"}, base_dir=tmp_path)
+
+
+def test_csv_profile_reads_a_byte_order_mark_and_quoted_names(tmp_path: Path) -> None:
+    """Spreadsheets write a UTF-8 byte order mark and quote the header."""
+    (tmp_path / "w.csv").write_bytes(b'\xef\xbb\xbf"time","wx"\r\n0,0\r\n10,5\r\n')
+    v = make({"kind": "csv", "file": "w.csv", "column": "wx"}, base_dir=tmp_path).sample(np.array([0.0, 4.0]))
+    assert v.tolist() == [0.0, 2.0]
+
+
+@pytest.mark.parametrize("file, message", [
+    ("/dev/zero", "is not a regular file"),
+    ("fifo", "is not a regular file"),
+    (".", "is not a regular file"),
+    ("latin1.csv", r"is not UTF-8 text \(invalid continuation byte\)"),
+    ("bad.csv", r"line 3 has a missing or non-numeric entry in column 'time' or 'wx'"),
+    ("empty.csv", "has no rows after its header"),
+    ("passwd", r"needs columns 'time' and 'wx'; its first line \(1 fields\) is no header of column names$"),
+])
+def test_csv_profile_refuses_what_is_no_table(file: str, message: str, tmp_path: Path) -> None:
+    """Before reading: a FIFO would block forever and /dev/zero never ends. A file that is no
+    CSV table is not quoted back (its first line may be a secret: /etc/passwd's is root's)."""
+    os.mkfifo(tmp_path / "fifo")
+    (tmp_path / "latin1.csv").write_bytes("time,wx\n0,\xe9\n".encode("latin-1"))
+    (tmp_path / "bad.csv").write_text("time,wx\n0,0\n10,abc\n")
+    (tmp_path / "empty.csv").write_text("time,wx\n")
+    (tmp_path / "passwd").write_text("root:x:0:0:root:/root:/bin/bash\ndaemon:x:1:1::/:/bin/sh\n")
+    with pytest.raises(ProfileError, match=message) as exc:
+        make({"kind": "csv", "file": file, "column": "wx"}, base_dir=tmp_path)
+    assert "root:x" not in str(exc.value)
+
+
+def test_csv_profile_memory_stays_near_the_columns_read(tmp_path: Path) -> None:
+    """A 40 MB CSV of six columns once took 18 times its size; numpy's parser holds the two
+    columns read (9.6 MB) and its own chunks. Measured in a child process, whose peak resident
+    memory is its own: the bound is 80 MB above the child's imports (about twice the file)."""
+    import subprocess
+    import sys
+
+    code = f"""
+import resource, numpy as np
+from fmus.profiles import make
+n = 600_000
+with open({str(tmp_path / 'big.csv')!r}, 'w') as f:
+    f.write('time,a,b,c,d,e\\n')
+    np.savetxt(f, np.column_stack([np.arange(n) * 0.01, np.ones((n, 5)) * 1.2345678901]), delimiter=',', fmt='%.10g')
+before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+make({{'kind': 'csv', 'file': {str(tmp_path / 'big.csv')!r}, 'column': 'c'}})
+print((resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before) / 1024)
+"""
+    grown = float(subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout)
+    assert grown < 80, f"{grown:.0f} MB"
 
 
 @pytest.mark.parametrize("spec,message", [

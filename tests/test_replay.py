@@ -142,8 +142,6 @@ def test_bad_input_exits_2_with_one_line_and_writes_nothing(tmp_path: Path, clie
         shutil.copy(fmu_dir / name, own / name)
     _, _, folder = ran(tmp_path, client, own, mrp(), 3)
     out = tmp_path / "out"
-    bad([folder, "--sample", -1], r"sample -1 is not a sample of the campaign .* \(its samples are 0\.\.2\)", out,
-        capsys)
     bad([folder, "--sample", 3], r"sample 3 is not a sample .* 0\.\.2", out, capsys)
     bad([tmp_path / "fmus", "--sample", 0], r"fmus is not a campaign folder \(no campaign\.json\)", out, capsys)
     bad([tmp_path / "nowhere", "--sample", 0], r"nowhere is not a campaign folder", out, capsys)

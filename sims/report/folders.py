@@ -13,7 +13,6 @@ the samples at each time, in the signal's unit).
 """
 from __future__ import annotations
 
-import hashlib
 import json
 import math
 import re
@@ -24,6 +23,7 @@ from typing import Any
 import pandas as pd
 
 from sims import metrics as M
+from sims import preflight
 from sims import scenario as S
 from sims.campaign import Campaign, CampaignError
 from sims.scenario_campaign import Statistics
@@ -60,7 +60,7 @@ class FmuFile:
 
     def current_sha256(self) -> str | None:
         """SHA-256 of the file at :attr:`path` now (hex), None if there is no such file."""
-        return hashlib.sha256(self.path.read_bytes()).hexdigest() if self.path.is_file() else None
+        return preflight.sha256_file(self.path) if self.path.is_file() else None
 
 
 @dataclass(frozen=True)

@@ -112,13 +112,13 @@ def actuator_limits(scenario: S.Scenario, fmus: Mapping[str, FmuFile]) -> list[A
     -------
     list of ActuatorLimit
     """
-    from fmpy import read_model_description
+    from fmus import archive
 
     out = []
     for inst, f in fmus.items():
         try:
-            md = read_model_description(str(f.path))
-        except Exception:  # gone or unreadable: the report's FMU sections say so
+            md = archive.read_description(f.path)
+        except (OSError, archive.UnsafeFmuError):  # gone or unreadable: the report's FMU sections say so
             continue
         variables = {v.name: v for v in md.modelVariables}
         bases = {_INDEX.sub("", n) for n in variables}

@@ -162,14 +162,17 @@ def _campaign_view(camp: CampaignFolder) -> dict[str, Any]:
 
 def _units(camp: CampaignFolder, signals: list[str]) -> dict[str, str]:
     """Unit of each ``instance.variable`` (from its FMU's model description; ``"1"`` if unknown)."""
-    from fmpy import read_model_description
+    from fmus import archive
 
     out, mds = {}, {}
     for s in signals:
         inst, _, name = s.partition(".")
         f = camp.fmus.get(inst)
         if f is not None and inst not in mds and f.path.is_file():
-            mds[inst] = {v.name: v for v in read_model_description(str(f.path)).modelVariables}
+            try:
+                mds[inst] = {v.name: v for v in archive.read_description(f.path).modelVariables}
+            except (OSError, archive.UnsafeFmuError):  # unreadable: its units are unknown ("1")
+                mds[inst] = {}
         v = mds.get(inst, {}).get(name) or next((w for n, w in mds.get(inst, {}).items()
                                                  if limits.base(n) == name), None)
         unit = getattr(v, "unit", None) or getattr(getattr(v, "declaredType", None), "unit", None)

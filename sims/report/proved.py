@@ -8,14 +8,14 @@ that file is no controller of satfmu's and has nothing to report here.
 """
 from __future__ import annotations
 
-import hashlib
 import json
-import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from controllers import artifact as A
+from fmus import archive
+from sims import preflight
 from sims.report.folders import FmuFile
 
 RESOURCE = "resources/artifact.json"
@@ -121,16 +121,10 @@ def read_artifact(path: Path) -> dict[str, Any] | None:
         The file is not a zip archive, or its artifact is not JSON.
     """
     try:
-        with zipfile.ZipFile(path) as z:
-            if RESOURCE not in z.namelist():
-                return None
-            text = z.read(RESOURCE).decode()
-    except (zipfile.BadZipFile, OSError, UnicodeDecodeError) as exc:
+        text = archive.read_entry(path, RESOURCE, A.MAX_BYTES)
+    except (OSError, archive.UnsafeFmuError) as exc:
         raise ValueError(f"{path}: not a readable FMU ({exc})") from None
-    try:
-        return json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise ValueError(f"{path}: {RESOURCE} is not JSON ({exc})") from None
+    return None if text is None else A.decode(text, f"{path}:{RESOURCE}")
 
 
 def claims(fmu: FmuFile) -> Claims | None:
@@ -150,7 +144,7 @@ def claims(fmu: FmuFile) -> Claims | None:
         if fmu.model and _known_controller(fmu.model):
             return Claims(fmu, None, None, f"{fmu.path}: the FMU file is gone; its artifact cannot be read")
         return None
-    sha = hashlib.sha256(fmu.path.read_bytes()).hexdigest()
+    sha = preflight.sha256_file(fmu.path)
     try:
         data = read_artifact(fmu.path)
     except ValueError as exc:

@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from fmus import archive
 from sims.robustness.cases import FAR_FACTOR
 from sims.robustness.instance import NO_RESULT, OK, STATUS_NAMES, Outcome, short
 from sims.robustness.memory import WARMUP_CYCLES, rss_bound_kib
@@ -340,8 +341,10 @@ def run(fmu_dir: Path, fmus: list[str] | None = None, cycles: int = 1000, out: P
 
 
 def _run_path(path: Path, settings: Settings, workdir: Path) -> list[Row]:
-    """:func:`run_fmu` on the FMU file ``path``; an unreadable FMU fails every case."""
+    """:func:`run_fmu` on the FMU file ``path``; an unreadable FMU (:func:`fmus.archive.check`, every
+    entry's CRC included, since the workers extract it) fails every case."""
     try:
+        archive.check(path, crc=True)
         target = describe(path)
     except Exception as exc:  # noqa: BLE001 - an unreadable FMU fails every case
         return [Row(path.stem, "?", c.name, "-", "-", None, "fail",

@@ -2,13 +2,13 @@
 from __future__ import annotations
 
 import math
-import zipfile
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from fmpy import read_model_description
+from fmus import archive
+
 
 NATIVE, PYTHONFMU = "native", "pythonfmu"
 BACKENDS = (NATIVE, PYTHONFMU)
@@ -126,13 +126,12 @@ def _first(variables: Sequence[Var], pred: Callable[[Var], bool]) -> Var | None:
 
 def backend_of(path: Path) -> str:
     """:data:`PYTHONFMU` if the FMU carries pythonfmu's slave module file, else :data:`NATIVE`."""
-    with zipfile.ZipFile(path) as z:
-        return PYTHONFMU if PYTHONFMU_MARKER in z.namelist() else NATIVE
+    return PYTHONFMU if PYTHONFMU_MARKER in archive.check(path).names else NATIVE
 
 
 def describe(path: Path) -> Target:
     """Read ``path``'s model description and choose the variables of the cases."""
-    md = read_model_description(str(path))
+    md = archive.read_description(path)
     variables = [_var(v) for v in md.modelVariables]
     params = [v for v in variables if v.causality == "parameter"]
     real_params = [v for v in params if v.type == "Real"]

@@ -4,25 +4,19 @@ from __future__ import annotations
 import io
 import json
 import os
-import shutil
 import time
 from collections.abc import Sequence
 from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
-from fmpy import extract
-
+from fmus import archive
 from sims.robustness.instance import NO_RESULT, CaseBroken, Instance, Outcome
 from sims.robustness.table import CASE_BY_NAME, Case, Settings
 from sims.robustness.target import Target, describe
 
 ABORT_ENV = "SATFMU_ROBUSTNESS_ABORT"
 """Test hook: a worker calls ``os.abort()`` when it starts the case named in this variable."""
-
-
-def _extract(path: Path) -> str:
-    return str(extract(str(path)))
 
 
 def _run_case(case: Case, target: Target, unzip: str, settings: Settings) -> Outcome:
@@ -52,7 +46,8 @@ def work(path: Path, names: Sequence[str], settings: Settings, results: Path) ->
     """Worker: run the cases ``names`` on the FMU ``path``, appending a JSON line to ``results``
     when each case starts and when it ends (so the parent knows which case a crash hit)."""
     target = describe(path)
-    unzip = _extract(path)
+    extracted = archive.extract(path)
+    unzip = str(extracted.folder)
     abort_on = os.environ.get(ABORT_ENV)
     try:
         with results.open("a") as stream:
@@ -63,5 +58,5 @@ def work(path: Path, names: Sequence[str], settings: Settings, results: Path) ->
                 out = _run_case(CASE_BY_NAME[name], target, unzip, settings)
                 _emit(stream, {"event": "done", "case": name, **asdict(out)})
     finally:
-        shutil.rmtree(unzip, ignore_errors=True)
+        extracted.close()
 
