@@ -41,9 +41,16 @@ def test_jacobi_order_delays_a_feedthrough_controller_by_one_step(fmu_dir: Path)
         sim.run(1.0, 0.05, exchange_order="gauss")
 
 
-def test_scenario_with_profiles_passes_in_libcosim_and_ecos(fmu_dir: Path, tmp_path: Path) -> None:
-    report = verify.verify("mrp_eq44", fmu_dir, tmp_path)
+def test_scenario_with_profiles_passes_in_libcosim_and_ecos(fmu_dir: Path, tmp_path: Path,
+                                                           monkeypatch: pytest.MonkeyPatch) -> None:
+    tmp = tmp_path / "tmp"  # the temporary folder of this process and of the engines' processes
+    tmp.mkdir()
+    monkeypatch.setattr("tempfile.tempdir", str(tmp))
+    monkeypatch.setenv("TMPDIR", str(tmp))
+    report = verify.verify("mrp_eq44", fmu_dir, tmp_path / "out")
     assert report.metrics_passed and report.passed
+    # nothing left behind: the master's extracted FMUs, ecos's ecos_ssp_<uuid>, libcosim's folders
+    assert list(tmp.iterdir()) == []
     by = {c.engine: c for c in report.comparisons}
     assert set(by) == {"libcosim", "ecos"}
     # libcosim: the same binaries in the same order, so rounding only (measured 3e-14 on sigma)
