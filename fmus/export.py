@@ -28,7 +28,7 @@ import zipfile
 import zlib
 from functools import lru_cache
 from pathlib import Path
-from fmus import codegen
+from fmus import archive, codegen
 from fmus.atomic import write_atomically
 from fmus.description import (NATIVE, PYTHON, PYTHON_SUFFIX, WRAPPER_SOURCE, capabilities, model_description,
                               to_xml_bytes)
@@ -109,13 +109,13 @@ def _zip_dir(src: Path, dest: Path, comment: bytes) -> None:
 
 def _recorded(fmu: Path) -> tuple[str, str | None] | None:
     """The build digest and the artifact digest (or None) an FMU built here records; None for
-    no file, not a zip archive, a member failing its CRC, or an FMU built elsewhere."""
+    no file, an archive :func:`fmus.archive.check` refuses (not a zip archive, a member failing
+    its CRC, unsafe entries, beyond its limits), or an FMU built elsewhere."""
     try:
+        archive.check(fmu, crc=True)
         with zipfile.ZipFile(fmu) as z:
             comment = z.comment
-            if z.testzip() is not None:  # a member fails its CRC
-                return None
-    except (OSError, EOFError, zipfile.BadZipFile, zlib.error):  # unreadable or corrupt
+    except (OSError, EOFError, zipfile.BadZipFile, zlib.error, archive.UnsafeFmuError):  # unreadable or corrupt
         return None
     if not comment.startswith(_COMMENT_PREFIX):
         return None
