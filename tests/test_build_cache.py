@@ -149,7 +149,9 @@ def test_source_by_name_and_its_errors(tmp_path: Path, monkeypatch: pytest.Monke
     data["description"] = "the user's own copy"
     paths.user_artifacts().mkdir(parents=True)
     (paths.user_artifacts() / shipped.name).write_text(json.dumps(data))
-    assert catalog.source("cubesat_periodic_published").model.description.startswith("the user's own copy. Designed")
+    with pytest.warns(paths.ShadowedArtifactWarning, match="shadows the shipped artifact"):
+        assert catalog.source("cubesat_periodic_published").model.description.startswith("the user's own copy. "
+                                                                                         "Designed")
 
 
 def test_ensure_builds_only_the_missing_fmus(tmp_path: Path) -> None:
