@@ -316,14 +316,20 @@ def check(path: str | Path, limits: FmuLimits | None = None, crc: bool = False) 
     UnsafeFmuError
         Not a zip archive, or what the module's docstring lists.
     """
-    path = Path(path)
+    with _opened(Path(path), limits) as (z, listing):
+        for info in z.infolist() if crc else ():
+            _read_whole(listing.path, z, info)
+        return listing
+
+
+@contextlib.contextmanager
+def _opened(path: Path, limits: FmuLimits | None) -> Iterator[tuple[zipfile.ZipFile, Listing]]:
+    """The open archive and what :func:`_checked` found in it; a read error (in the block too)
+    becomes :class:`UnsafeFmuError`."""
     limits = limits or FmuLimits.from_environment()
     try:
         with _open_zip(path, limits) as z:
-            listing = _checked(path, z, limits)
-            for info in z.infolist() if crc else ():
-                _read_whole(path, z, info)
-            return listing
+            yield z, _checked(path, z, limits)
     except _READ_ERRORS as exc:
         raise _unreadable(path, exc) from None
 
@@ -396,22 +402,22 @@ def sweep_abandoned(base: str | Path | None = None) -> list[Path]:
     return removed
 
 
-def private_folder(what: str = "fmu") -> Path:
+def private_folder() -> Path:
     """A new folder only this user can enter, in the system's temporary folder, named with this
     process id so that :func:`sweep_abandoned` can remove it after a kill."""
     global _swept
     if not _swept:
         _swept = True
         sweep_abandoned()
-    return Path(tempfile.mkdtemp(prefix=f"satfmu-{what}-{os.getpid()}-"))
+    return Path(tempfile.mkdtemp(prefix=f"{FOLDER_PREFIX}{os.getpid()}-"))
 
 
-def _write_entry(z: zipfile.ZipFile, info: zipfile.ZipInfo, folder: Path) -> int:
-    """Stream one checked entry under ``folder``; returns the bytes written."""
+def _write_entry(z: zipfile.ZipFile, info: zipfile.ZipInfo, folder: Path) -> None:
+    """Stream one checked entry under ``folder``."""
     target = folder.joinpath(*[p for p in info.filename.split("/") if p])
     if info.is_dir():
         target.mkdir(parents=True, exist_ok=True)
-        return 0
+        return
     target.parent.mkdir(parents=True, exist_ok=True)
     written = 0
     fd = os.open(target, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0), 0o600)
@@ -421,7 +427,6 @@ def _write_entry(z: zipfile.ZipFile, info: zipfile.ZipInfo, folder: Path) -> int
             if written > info.file_size:  # zipfile stops at the declared size; never trust that alone
                 raise zipfile.BadZipFile(f"entry {info.filename!r} holds more than its declared {info.file_size} bytes")
             out.write(chunk)
-    return written
 
 
 def extract(path: str | Path, limits: FmuLimits | None = None) -> Extracted:
@@ -448,11 +453,9 @@ def extract(path: str | Path, limits: FmuLimits | None = None) -> Extracted:
         be written (the disk full: the message names the entry); nothing is left behind.
     """
     path = Path(path)
-    limits = limits or FmuLimits.from_environment()
-    folder = private_folder("fmu")
+    folder = private_folder()
     try:
-        with _open_zip(path, limits) as z:
-            listing = _checked(path, z, limits)
+        with _opened(path, limits) as (z, listing):
             for info in z.infolist():
                 try:
                     _write_entry(z, info, folder)
@@ -462,9 +465,6 @@ def extract(path: str | Path, limits: FmuLimits | None = None) -> Extracted:
                     raise _refuse(path, f"has an entry {info.filename!r} that cannot be extracted to {folder} "
                                         f"({exc.strerror or exc})") from None
         return Extracted(listing, folder)
-    except _READ_ERRORS as exc:
-        shutil.rmtree(folder, ignore_errors=True)
-        raise _unreadable(path, exc) from None
     except BaseException:
         shutil.rmtree(folder, ignore_errors=True)
         raise
@@ -531,17 +531,11 @@ def read_entry(path: str | Path, name: str, max_bytes: int, limits: FmuLimits | 
     UnsafeFmuError
         What :func:`check` refuses, an entry larger than ``max_bytes`` or damaged.
     """
-    path = Path(path)
-    limits = limits or FmuLimits.from_environment()
-    try:
-        with _open_zip(path, limits) as z:
-            listing = _checked(path, z, limits)
-            if name not in listing.names:
-                return None
-            info = z.getinfo(name)
-            if info.file_size > max_bytes:
-                raise _refuse(path, f"has an entry {name!r} of {info.file_size} bytes, more than the {max_bytes} "
-                                    "such a file may hold")
-            return z.read(info)
-    except _READ_ERRORS as exc:
-        raise _unreadable(path, exc) from None
+    with _opened(Path(path), limits) as (z, listing):
+        if name not in listing.names:
+            return None
+        info = z.getinfo(name)
+        if info.file_size > max_bytes:
+            raise _refuse(listing.path, f"has an entry {name!r} of {info.file_size} bytes, more than the "
+                                        f"{max_bytes} such a file may hold")
+        return z.read(info)
