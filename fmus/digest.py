@@ -23,7 +23,7 @@ from fmus.model import Model, Sampler
 HERE = Path(__file__).resolve().parent
 
 GENERATOR_FILES = ("codegen.py", "description.py", "digest.py", "export.py", "model.py", "pyslave.py",
-                   "c/fmi2_cosim.c")
+                   "c/fmi2_cosim.c", "c/pythonfmu_shim.c")
 """The files (relative to :mod:`fmus`) whose text shapes a generated FMU."""
 
 
@@ -93,7 +93,7 @@ def build_digest(model: Model, backend: str, resources: dict[str, bytes] | None,
     resources : dict of str to bytes, optional
         The files the FMU carries in ``resources/``.
     toolchain : str
-        Identification of the compiler (name and version) for a native build.
+        Identification of the compilers (name and version) of the build's binaries.
     """
     payload = {"model": model_digest(model), "backend": backend, "generator": generator_digest(),
                "toolchain": toolchain,

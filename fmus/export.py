@@ -6,7 +6,9 @@ and the only file ``<SourceFiles>`` lists, and the generated model header it inc
 compiling every ``.c`` file under ``sources/``), and two binaries compiled here against the FMI
 headers that fmpy ships, concurrently: ``binaries/linux64/<model>.so`` (gcc) and
 ``binaries/win64/<model>.dll`` (the MinGW-w64 cross compiler, :data:`WIN64_CC`). The
-pythonfmu FMU embeds the generated Python module and :mod:`fmus.pyslave`.
+pythonfmu FMU embeds the generated Python module and :mod:`fmus.pyslave`; its binaries are
+satfmu's C layer (``c/pythonfmu_shim.c``, compiled here for both platforms) in front of
+pythonfmu's library, which lies beside them as ``<model>_py_pythonfmu.so`` (``.dll``).
 
 Builds are incremental: every FMU records, as its zip archive's comment, the digest of what
 its build read (:func:`fmus.digest.build_digest`: the model, the resources, the generators,
@@ -38,6 +40,11 @@ from fmus.model import Model
 HERE = Path(__file__).resolve().parent
 WRAPPER = HERE / "c" / WRAPPER_SOURCE
 PYSLAVE = HERE / "pyslave.py"
+SHIM = HERE / "c" / "pythonfmu_shim.c"
+"""satfmu's C layer in front of pythonfmu's library: the pythonfmu FMU's binaries."""
+SHIM_HEADER = "shim_model.h"
+PYTHONFMU_LIBRARY_SUFFIX = "_pythonfmu"
+"""What pythonfmu's library is renamed to in a pythonfmu FMU: ``<model>_py`` + this + ``.so``."""
 _ZIP_DATE = (2020, 1, 1, 0, 0, 0)
 _COMMENT_PREFIX = b"satfmu-build sha256:"
 _ARTIFACT_FIELD = b" artifact sha256:"
@@ -53,7 +60,9 @@ WIN64_CC = "x86_64-w64-mingw32-gcc"
 """The MinGW-w64 cross compiler of the win64 binary (Debian's gcc-mingw-w64-x86-64-posix or
 -win32)."""
 LINK_FLAGS = {
-    "linux64": ("-shared",),
+    # NODELETE: the pythonfmu FMU's C layer registers an exit handler (fmus/c/pythonfmu_shim.c); the
+    # native FMU's library has nothing that unloading would need
+    "linux64": ("-shared", "-Wl,-z,nodelete"),
     # libgcc linked in (the DLL imports only KERNEL32.dll and msvcrt.dll); no time stamp and the
     # fixed image base 0x180000000 (still relocatable), so that the same sources give the same bytes;
     # stripped of the debug sections MinGW-w64's static runtime brings (a quarter of the size)
@@ -168,8 +177,7 @@ def digest_of(model: Model, backend: str, resources: dict[str, bytes] | None = N
               win64_cc: str = WIN64_CC) -> str:
     """The build digest of ``model``'s FMU on ``backend`` (``"native"``, its compilers' identification
     included, or ``"python"``)."""
-    tools = f"{toolchain(cc)}\n{toolchain(win64_cc)}" if backend == "native" else ""
-    return build_digest(model, backend, resources, tools)
+    return build_digest(model, backend, resources, f"{toolchain(cc)}\n{toolchain(win64_cc)}")
 
 
 def build_native(model: Model, dest_dir: Path, resources: dict[str, bytes] | None = None,
@@ -223,9 +231,12 @@ def build_native(model: Model, dest_dir: Path, resources: dict[str, bytes] | Non
     return dest
 
 
-def _compile(name: str, root: Path, compilers: dict[str, str]) -> None:
-    """Compile the FMU's ``root/sources`` into ``root/binaries/<platform>/<name><suffix>`` for each
-    platform (``compilers``: platform -> C compiler), the compilers running concurrently.
+def _compile(name: str, root: Path, compilers: dict[str, str], source: Path = WRAPPER,
+             include: Path | None = None) -> None:
+    """Compile ``source`` (the wrapper in the FMU's ``root/sources``, by default) into
+    ``root/binaries/<platform>/<name><suffix>`` for each platform (``compilers``: platform -> C
+    compiler), the compilers running concurrently; ``include`` holds its generated header
+    (``root/sources`` by default).
 
     Raises
     ------
@@ -233,12 +244,13 @@ def _compile(name: str, root: Path, compilers: dict[str, str]) -> None:
         If a compiler reports an error or a warning; every compiler's messages are given.
     """
     src = root / "sources"
+    include = include or src
     running = {}
     for platform, cc in compilers.items():
         binary = root / "binaries" / platform / f"{name}{SUFFIX[platform]}"
-        binary.parent.mkdir(parents=True)
-        cmd = [cc, *C_FLAGS, *LINK_FLAGS[platform], f"-I{fmi_headers()}", f"-I{src}", "-o", str(binary),
-               str(src / WRAPPER.name), "-lm"]
+        binary.parent.mkdir(parents=True, exist_ok=True)
+        cmd = [cc, *C_FLAGS, *LINK_FLAGS[platform], f"-I{fmi_headers()}", f"-I{include}", "-o", str(binary),
+               str(src / source.name if source == WRAPPER else source), "-lm"]
         running[platform] = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     messages = {platform: proc.communicate()[1] for platform, proc in running.items()}
     failed = [f"{platform} ({compilers[platform]}):\n{messages[platform]}" for platform, proc in running.items()
@@ -271,19 +283,21 @@ class {cls}(SatfmuSlave):
 '''
 
 
-def build_python(model: Model, dest_dir: Path, resources: dict[str, bytes] | None = None) -> Path:
+def build_python(model: Model, dest_dir: Path, resources: dict[str, bytes] | None = None,
+                 cc: str = "gcc", win64_cc: str = WIN64_CC) -> Path:
     """Generate and package the pythonfmu FMU ``<dest_dir>/<model.name>_py.fmu``.
 
     The FMU needs, in the importing tool's Python, only pythonfmu's runtime (which
     it embeds) and the standard library; a model with a Python sampler also needs what its
-    module imports (numpy and scipy for the online SDRE). Nothing is built when the FMU
-    already records this build's digest.
+    module imports (numpy and scipy for the online SDRE). Its binaries are satfmu's C layer
+    (:data:`SHIM`, compiled with ``cc`` and ``win64_cc``) in front of pythonfmu's library.
+    Nothing is built when the FMU already records this build's digest.
     """
     from pythonfmu.builder import FmuBuilder
 
     cls = model.name + PYTHON_SUFFIX
     dest = fmu_path(model, dest_dir, "python")
-    digest = digest_of(model, "python", resources)
+    digest = digest_of(model, "python", resources, cc, win64_cc)
     if built_digest(dest) == digest:
         return dest
     generated = f"satfmu_gen_{model.name}"
@@ -316,16 +330,30 @@ def build_python(model: Model, dest_dir: Path, resources: dict[str, bytes] | Non
             sampler = [codegen.sampler_module_name(model)] if python_sampler else []
             for mod in [cls, generated, "satfmu_pyslave"] + sampler:
                 sys.modules.pop(mod, None)
-        _repack(Path(fmu), dest, _comment(digest, resources), description)
+        _repack(Path(fmu), dest, _comment(digest, resources), description,
+                {"linux64": cc, "win64": win64_cc}, desc.get("guid"))
     return dest
 
 
-def _repack(src: Path, dest: Path, comment: bytes, description: bytes) -> None:
+def _repack(src: Path, dest: Path, comment: bytes, description: bytes, compilers: dict[str, str],
+            guid: str) -> None:
     """Rewrite pythonfmu's zip deterministically (stable timestamps and order), with satfmu's
-    own ``modelDescription.xml`` bytes: pythonfmu writes the same description through minidom,
-    which leaves a line break in an attribute unescaped (it would read back as a space)."""
+    own ``modelDescription.xml`` bytes (pythonfmu writes the same description through minidom,
+    which leaves a line break in an attribute unescaped: it would read back as a space), and with
+    satfmu's C layer (:data:`SHIM`, for the FMU's ``guid``) as the binaries in front of
+    pythonfmu's, which are renamed ``<model>_py_pythonfmu.so`` (``.dll``)."""
     with tempfile.TemporaryDirectory() as tmp:
+        root = Path(tmp) / "fmu"
         with zipfile.ZipFile(src) as z:
-            z.extractall(tmp)
-        (Path(tmp) / "modelDescription.xml").write_bytes(description)
-        _zip_dir(Path(tmp), dest, comment)
+            z.extractall(root)
+        (root / "modelDescription.xml").write_bytes(description)
+        name = src.stem
+        for platform in compilers:
+            binary = root / "binaries" / platform / f"{name}{SUFFIX[platform]}"
+            binary.rename(binary.with_name(f"{name}{PYTHONFMU_LIBRARY_SUFFIX}{SUFFIX[platform]}"))
+        library = f"{name}{PYTHONFMU_LIBRARY_SUFFIX}"
+        (Path(tmp) / SHIM_HEADER).write_text(
+            f'#define SHIM_GUID "{guid}"\n#ifdef _WIN32\n#define SHIM_LIBRARY "{library}{SUFFIX["win64"]}"\n'
+            f'#else\n#define SHIM_LIBRARY "{library}{SUFFIX["linux64"]}"\n#endif\n')
+        _compile(name, root, compilers, SHIM, Path(tmp))
+        _zip_dir(root, dest, comment)

@@ -32,18 +32,22 @@ pythonfmu 0.7.0 writes parameters without variability and omits the
 ModelStructure's InitialUnknowns; :meth:`SatfmuSlave.to_xml` therefore returns
 satfmu's own model description (the same one the native FMU carries).
 
-What this class guards against in pythonfmu 0.7.0 (``docs/pythonfmu.md`` lists the defects it
-cannot guard, each with a reproduction in ``scripts/upstream/``): an empty instance name is
-refused (pythonfmu passes the name on, but not the GUID or the FMU type, so those cannot be
-checked here); the use after free in pythonfmu's library at process exit is avoided
-(:func:`_guard_exit`); a serialized FMU state carries the model's name and this FMU's GUID, a
-format version and a CRC-32, must be the canonical bytes this class writes, and every restored
-state is checked field by field (:meth:`SatfmuSlave._state_problem`).
+Every FMI call reaches this class through satfmu's C layer in front of pythonfmu 0.7.0's library
+(``fmus/c/pythonfmu_shim.c``, the FMU's binary), which guards what pythonfmu's C++ layer does
+wrong before any Python runs (``docs/pythonfmu.md``). This class keeps its side of that layer's
+contract: a refused call logs its reason with fmi2Error and raises (:meth:`SatfmuSlave._reject`,
+which keeps the instance usable; the layer returns fmi2Error); every value reference and type is
+checked here, not by pythonfmu (whose own exceptions cannot be balanced); two value references no
+model declares report the FMI state and the time to that layer (:data:`SHIM_VR_MODE`,
+:data:`SHIM_VR_TIME`); and bytes that are no state of this FMU deserialize to a
+:class:`RefusedState`, which serializes as a NUL byte and the reason. A serialized FMU state
+carries the model's name and this FMU's GUID, a format version and a CRC-32, must be the
+canonical bytes this class writes, and every restored state is checked field by field
+(:meth:`SatfmuSlave._state_problem`).
 """
 from __future__ import annotations
 
 import ast
-import atexit
 import ctypes
 import functools
 import importlib
@@ -58,7 +62,7 @@ from types import ModuleType
 from typing import Any, Callable, Sequence
 from xml.etree.ElementTree import Element, parse
 
-from pythonfmu import Boolean, Fmi2Causality, Fmi2Slave, Fmi2Variability, Integer, Real
+from pythonfmu import Boolean, Fmi2Causality, Fmi2Slave, Fmi2Variability, Integer, Real, String
 from pythonfmu.enums import Fmi2Status
 
 KIND_PARAMETER, KIND_INPUT, KIND_OUTPUT = 0, 1, 2
@@ -80,6 +84,13 @@ STATE_FORMAT = 2
 """Version of the FMU state's layout (:meth:`SatfmuSlave._get_fmu_state`; 1 had no ``inputs_stale``); a
 state of another layout is refused."""
 STATE_MODES = ("Instantiated", "InitializationMode", "StepComplete", "Terminated")
+MODES = STATE_MODES + ("Error",)
+"""The FMI states of an instance, in the order of their numbers at :data:`SHIM_VR_MODE`."""
+SHIM_VR_MODE = 0xFFFFFFFE
+"""Value reference (Integer) at which the C layer reads the FMI state (its index in :data:`MODES`);
+no model declares it and the layer refuses a host's call that names it."""
+SHIM_VR_TIME = 0xFFFFFFFF
+"""Value reference (Real) at which the C layer reads the FMU time, s (as :data:`SHIM_VR_MODE`)."""
 """The states of the FMI state machine an FMU state may hold (after fmi2Fatal no call is allowed)."""
 
 
@@ -344,46 +355,6 @@ def _compensate_pythonfmu_refcount(module_name: str) -> None:
         ctypes.pythonapi.Py_IncRef(ctypes.py_object(module.__dict__))
 
 
-_EXIT_GUARDED: set[str] = set()
-"""Libraries whose pythonfmu interpreter holder :func:`_guard_exit` resets at exit."""
-
-
-def _guard_exit(resources: str | None, model_identifier: str) -> None:
-    """Have this FMU's pythonfmu library reset its interpreter holder before the process exits.
-
-    pythonfmu 0.7.0's library keeps the interpreter holder in a static ``std::shared_ptr``
-    (``pyState``, src/pythonfmu/PySlaveInstance.cpp) that the first fmi2Instantiate fills. At
-    exit, C++ destroys that pointer (an exit handler), and then the library's
-    ``__attribute__((destructor))`` assigns ``nullptr`` to the destroyed pointer: it releases the
-    freed control block once more (valgrind: invalid read in ``finalizePythonInterpreter``), which
-    corrupts the heap and aborts some processes at exit ("corrupted double-linked list",
-    SIGABRT; ``scripts/upstream/exit_without_reset.py``). Unloading the library does not help:
-    it defines STB_GNU_UNIQUE symbols, so glibc never unloads it and its destructor runs at exit
-    whatever the host did. Python runs its atexit handlers before C's exit handlers, so calling
-    the library's exported ``finalizePythonInterpreter`` from one empties the pointer while it
-    is alive; the two later releases then find it empty. The library is the one already loaded
-    from ``<FMU>/binaries/linux64/<model_identifier>.so`` next to ``resources`` (looked up with
-    ``RTLD_NOLOAD``: nothing is loaded); none is found elsewhere, and nothing happens off Linux.
-
-    Only in a Python executable (``sys.orig_argv`` not empty): where pythonfmu started the
-    interpreter itself (a host without Python), that holder's destructor finalizes Python, and
-    the atexit handlers run inside it.
-    """
-    if not (sys.platform.startswith("linux") and sys.orig_argv and resources):
-        return
-    library = os.path.realpath(os.path.join(resources, os.pardir, "binaries", "linux64", model_identifier + ".so"))
-    if library in _EXIT_GUARDED:
-        return
-    try:
-        handle = ctypes.CDLL(library, mode=os.RTLD_NOLOAD | os.RTLD_LAZY)
-        reset = handle.finalizePythonInterpreter
-    except (OSError, AttributeError):  # loaded from elsewhere, or not pythonfmu 0.7.0's library
-        return
-    reset.restype, reset.argtypes = None, []
-    _EXIT_GUARDED.add(library)
-    atexit.register(reset)
-
-
 def _canonical_json(obj: Any) -> str:
     """``obj`` as JSON with sorted keys, no spaces and exact (repr) floats; NaN and inf refused."""
     return json.dumps(obj, sort_keys=True, separators=(",", ":"), allow_nan=False)
@@ -472,6 +443,20 @@ class Instants:
         return k
 
 
+def _unsigned(vrs: Sequence[int]) -> list[int]:
+    """The value references ``vrs`` as unsigned 32-bit integers (pythonfmu passes them as C ints)."""
+    return [vr & 0xFFFFFFFF for vr in vrs]
+
+
+@dataclass(frozen=True)
+class RefusedState:
+    """What bytes that are no state of this FMU deserialize to: the reason, which the C layer
+    reports with fmi2Error (no FMU state is made); :meth:`SatfmuSlave._set_fmu_state` refuses it
+    too."""
+
+    reason: str
+
+
 class SatfmuSlave(Fmi2Slave):
     """pythonfmu slave of a generated satfmu model; subclasses set :attr:`generated`."""
 
@@ -482,7 +467,6 @@ class SatfmuSlave(Fmi2Slave):
         _compensate_pythonfmu_refcount(type(self).__module__)
         if not self.instance_name:  # fmi2Instantiate then returns NULL (the log holds this text)
             raise ValueError("fmi2Instantiate: missing instance name")
-        _guard_exit(self.resources, type(self).__name__)
         gen = self.generated
         self.modelName = type(self).__name__
         self._table = gen.VARIABLES
@@ -599,18 +583,66 @@ class SatfmuSlave(Fmi2Slave):
         self.inputs_stale = False
 
     def _reject(self, message: str) -> None:
-        """Log ``message`` and fail the call (pythonfmu 0.7.0 returns fmi2Fatal for any exception).
+        """Log ``message`` with fmi2Error and fail the call: the FMU's C layer
+        (``fmus/c/pythonfmu_shim.c``) returns fmi2Error for it, and the instance stays usable.
 
-        On an exception pythonfmu's ``handle_py_exception`` releases its references to this
-        instance, its class and its log queue without forgetting them, and releases them
-        again in fmi2FreeInstance (or fmi2Reset): a host that frees the instance after the
-        fmi2Fatal (as :class:`sims.master.CoSimulation` does) crashed. One extra reference
-        each keeps the count balanced; an instance that is never freed stays alive.
+        On an exception pythonfmu 0.7.0's ``handle_py_exception`` releases its references to this
+        instance, its class and its log queue without forgetting them (and returns fmi2Fatal,
+        which the C layer turns into fmi2Error after this logged error); they are released again
+        by later calls and by fmi2FreeInstance. One extra reference each keeps the count balanced.
         """
         self.log(message, Fmi2Status.error, "logStatusError")
         for obj in (self, type(self), self.log_queue):
             ctypes.pythonapi.Py_IncRef(ctypes.py_object(obj))
         raise FmuCallError(message)
+
+    # ------------------------------------------------------------ value access
+    # pythonfmu's own get_*/set_* raise KeyError or TypeError on an unknown reference or a wrong
+    # type, which cannot be balanced as _reject balances its refusals: the references and types
+    # are checked here, with the native FMU's messages. pythonfmu passes each fmi2ValueReference (an
+    # unsigned 32-bit integer) as a C int: those from 2^31 on arrive negative (_unsigned).
+    def _variables(self, fn: str, vrs: Sequence[int], kind: type) -> list[Any]:
+        found = []
+        for vr in _unsigned(vrs):
+            var = self.vars.get(vr)
+            if var is None:
+                self._reject(f"{fn}: unknown value reference {vr}")
+            if not isinstance(var, kind):
+                self._reject(f"{fn}: variable '{var.name}' (value reference {vr}) has another type")
+            found.append(var)
+        return found
+
+    def get_real(self, vrs: Sequence[int]) -> list[float]:
+        if _unsigned(vrs) == [SHIM_VR_TIME]:
+            return [self.time]
+        return [float(v.getter()) for v in self._variables("fmi2GetReal", vrs, Real)]
+
+    def get_integer(self, vrs: Sequence[int]) -> list[int]:
+        if _unsigned(vrs) == [SHIM_VR_MODE]:
+            return [MODES.index(self.mode)]
+        return [int(v.getter()) for v in self._variables("fmi2GetInteger", vrs, Integer)]
+
+    def get_boolean(self, vrs: Sequence[int]) -> list[bool]:
+        return [bool(v.getter()) for v in self._variables("fmi2GetBoolean", vrs, Boolean)]
+
+    def get_string(self, vrs: Sequence[int]) -> list[str]:
+        return [str(v.getter()) for v in self._variables("fmi2GetString", vrs, String)]
+
+    def set_real(self, vrs: Sequence[int], values: Sequence[float]) -> None:
+        for var, value in zip(self._variables("fmi2SetReal", vrs, Real), values):
+            var.setter(value)
+
+    def set_integer(self, vrs: Sequence[int], values: Sequence[int]) -> None:
+        for var, value in zip(self._variables("fmi2SetInteger", vrs, Integer), values):
+            var.setter(value)
+
+    def set_boolean(self, vrs: Sequence[int], values: Sequence[bool]) -> None:
+        for var, value in zip(self._variables("fmi2SetBoolean", vrs, Boolean), values):
+            var.setter(value)
+
+    def set_string(self, vrs: Sequence[int], values: Sequence[str]) -> None:
+        for var, value in zip(self._variables("fmi2SetString", vrs, String), values):
+            var.setter(value)
 
     def _require(self, fn: str, *modes: str) -> None:
         if self.mode not in modes:
@@ -826,23 +858,27 @@ class SatfmuSlave(Fmi2Slave):
         self.outputs_valid = False
 
     @staticmethod
-    def _fmu_state_to_bytes(state: dict[str, Any]) -> bytes:
+    def _fmu_state_to_bytes(state: dict[str, Any] | RefusedState) -> bytes:
+        """The serialized state: its canonical JSON; a NUL byte and the reason for a
+        :class:`RefusedState` (the C layer reads it and refuses the deserialization)."""
+        if isinstance(state, RefusedState):
+            return b"\0" + state.reason.encode("utf-8", "replace")
         return _canonical_json(state).encode()
 
     @classmethod
-    def _fmu_state_from_bytes(cls, data: bytes) -> dict[str, Any]:
+    def _fmu_state_from_bytes(cls, data: bytes) -> dict[str, Any] | RefusedState:
         """Decode and check a serialized FMU state; a buffer that is not a valid state of this
-        model raises (pythonfmu 0.7.0 returns fmi2Fatal with this message)."""
+        model gives a :class:`RefusedState` with the reason (a class method cannot refuse with
+        :meth:`_reject`: it has no instance whose references to balance)."""
         try:
             state = json.loads(data.decode("utf-8"), parse_constant=_refuse_constant)
         except (UnicodeDecodeError, ValueError, RecursionError) as exc:  # json.JSONDecodeError is a ValueError
-            raise ValueError(f"fmi2DeSerializeFMUstate: not a state of this FMU ({type(exc).__name__}: {exc})"
-                             ) from None
+            return RefusedState(f"fmi2DeSerializeFMUstate: not a state of this FMU ({type(exc).__name__}: {exc})")
         problem = cls._state_problem(state)
         if problem is None and cls._fmu_state_to_bytes(state) != data:  # e.g. 1e-05 written 1E-05
             problem = "corrupted state (not the canonical serialization this FMU writes)"
         if problem is not None:
-            raise ValueError(f"fmi2DeSerializeFMUstate: {problem}")
+            return RefusedState(f"fmi2DeSerializeFMUstate: {problem}")
         return state
 
     @classmethod

@@ -1,8 +1,8 @@
 """FMU identity (issue 28, defect 4): GUID, modelName and version of every modelDescription.xml.
 
 The GUID identifies the model description (:func:`fmus.description.description_guid`): the native
-and the pythonfmu FMU of one model differ, two builds of the same sources agree, and the native
-binary requires its own GUID (the pythonfmu twin's is refused). modelName is the model's name for
+and the pythonfmu FMU of one model differ, two builds of the same sources agree, and each FMU
+requires its own GUID (each twin refuses the other's). modelName is the model's name for
 both backends; ``version`` is ``<satfmu version>+<16 hex digits of the model digest>``
 (``docs/fmus-in-your-tool.md``, "GUID, modelName and version").
 """
@@ -150,18 +150,21 @@ def _instantiate(fmu: Path, guid: str) -> tuple[bool, str]:
     return True, callbacks.text()
 
 
-def test_the_native_fmu_refuses_the_guid_of_its_pythonfmu_twin(fmu_dir: Path) -> None:
+def test_each_twin_refuses_the_guid_of_the_other(fmu_dir: Path) -> None:
+    """The native FMU and the pythonfmu FMU of one model each instantiate with their own GUID and
+    refuse the other's with NULL and the reason (the native binary and the pythonfmu FMU's C layer,
+    ``fmus/c/pythonfmu_shim.c``, compare with their own GUID; pythonfmu 0.7.0 alone ignores it,
+    which ``tests/test_pythonfmu_upstream.py`` tracks)."""
     native, python = fmu_dir / "mrp_satellite.fmu", fmu_dir / "mrp_satellite_py.fmu"
-    own, twin = _root(native).get("guid"), _root(python).get("guid")
-    ok, log = _instantiate(native, own)
-    assert ok, f"the native FMU refused its own GUID: {log}"
-    ok, log = _instantiate(native, twin)
-    assert not ok, "the native FMU accepted the pythonfmu FMU's GUID"
-    assert f"GUID '{twin}' does not match '{own}'" in log, log
-    # pythonfmu 0.7.0 never passes the GUID to the slave (docs/pythonfmu.md): the pythonfmu FMU
-    # instantiates with its twin's GUID; tests/test_pythonfmu_upstream.py tracks that defect
-    ok, log = _instantiate(python, own)
-    assert ok, f"pythonfmu now refuses a wrong GUID ({log}): refuse it in fmus/pyslave.py and update the docs"
+    guids = {native: _root(native).get("guid"), python: _root(python).get("guid")}
+    assert guids[native] != guids[python], f"the twins share the GUID {guids[native]}"
+    for fmu, twin in ((native, python), (python, native)):
+        own, other = guids[fmu], guids[twin]
+        ok, log = _instantiate(fmu, own)
+        assert ok, f"{fmu.name} refused its own GUID: {log}"
+        ok, log = _instantiate(fmu, other)
+        assert not ok, f"{fmu.name} accepted the GUID of {twin.name}"
+        assert f"GUID '{other}' does not match '{own}'" in log, f"{fmu.name}: no reason logged: {log}"
 
 
 def test_states_carry_the_guid_and_the_two_backends_reject_each_others(fmu_dir: Path) -> None:

@@ -60,3 +60,21 @@ def test_native_fmus_need_at_most_the_glibc_floor(fmu_dir: Path, tmp_path: Path)
             too_new[fmu.name] = newer
     floor = ".".join(map(str, FLOOR))
     assert not too_new, f"native FMUs needing a glibc newer than {floor} (they do not load on older ones): {too_new}"
+
+
+def test_pythonfmu_c_layer_needs_at_most_the_glibc_floor(fmu_dir: Path, tmp_path: Path) -> None:
+    """The C layer of every pythonfmu FMU (``binaries/linux64/<model>_py.so``, fmus/c/pythonfmu_shim.c)
+    needs no glibc newer than :data:`FLOOR` either (its dl functions bound to GLIBC_2.2.5, not
+    2.34's): it adds nothing to the glibc 2.32 that pythonfmu's own library needs."""
+    python = sorted(fmu_dir.glob(f"*{export.PYTHON_SUFFIX}.fmu"))
+    assert len(python) >= 10, f"only {len(python)} pythonfmu FMUs in {fmu_dir}: the catalog was not built"
+    too_new = {}
+    for fmu in python:
+        with zipfile.ZipFile(fmu) as z:
+            library = Path(z.extract(f"binaries/linux64/{fmu.stem}.so", tmp_path / fmu.stem))
+        needs = glibc_needs(library)
+        assert "dlopen" in needs, f"{fmu.name}: the C layer does not call dlopen (not satfmu's layer?)"
+        newer = {name: ".".join(map(str, v)) for name, v in needs.items() if v > FLOOR}
+        if newer:
+            too_new[fmu.name] = newer
+    assert not too_new, f"pythonfmu C layers needing a glibc newer than the floor: {too_new}"

@@ -360,3 +360,29 @@ def test_win64_under_wine_gives_linux64s_outputs(unpacked: dict[str, Path], linu
         subprocess.run(wineserver, env=env, capture_output=True)
     off = {run: f"{w:.3g}" for run, w in worst.items() if w > 1.0}
     assert not off, f"win64 outputs farther from linux64's than their tolerance, by these factors: {off}"
+
+
+def test_pythonfmu_c_layer_dlls_export_every_fmi2_function(fmu_dir: Path, tmp_path: Path) -> None:
+    """The win64 C layer of every pythonfmu FMU (``binaries/win64/<model>_py.dll``) imports only
+    KERNEL32.dll and msvcrt.dll and exports every co-simulation fmi2 function and nothing else;
+    pythonfmu's own DLL lies beside it (``<model>_py_pythonfmu.dll``)."""
+    python = sorted(fmu_dir.glob(f"*{export.PYTHON_SUFFIX}.fmu"))
+    assert len(python) >= 10, f"only {len(python)} pythonfmu FMUs in {fmu_dir}: the catalog was not built"
+    wrong = {}
+    for fmu in python:
+        with zipfile.ZipFile(fmu) as z:
+            names = set(z.namelist())
+            dll = Path(z.extract(f"binaries/win64/{fmu.stem}.dll", tmp_path / fmu.stem))
+            description = z.read("modelDescription.xml")
+        imports, exports = pe_tables(dll)
+        problems = []
+        if f"binaries/win64/{fmu.stem}{export.PYTHONFMU_LIBRARY_SUFFIX}.dll" not in names:
+            problems.append("no pythonfmu DLL beside it")
+        if not imports or {i.lower() for i in imports} - ALLOWED_IMPORTS:
+            problems.append(f"imports {sorted(imports)}")
+        missing, foreign = needed_functions(description) - exports, {e for e in exports if not e.startswith("fmi2")}
+        if missing or foreign:
+            problems.append(f"missing {sorted(missing)}, not fmi2 {sorted(foreign)}")
+        if problems:
+            wrong[fmu.name] = problems
+    assert not wrong, f"pythonfmu C layer DLLs: {wrong}"

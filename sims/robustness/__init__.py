@@ -27,11 +27,7 @@ host-level cases (the last block): fmi2Instantiate with a resource URI that is n
 or empty instance name, a wrong GUID, fmi2ModelExchange; fmi2SetDebugLogging with a NULL
 category; fmi2SerializeFMUstate into too small a buffer.
 
-Verdicts: ``pass``, ``fail``, ``crash``, ``n/a`` and ``known``: a deviation that the expectation
-lists as today's measured pythonfmu behaviour (:func:`.table.pythonfmu_today`: what pythonfmu
-0.7.0's C++ layer answers before ``fmus/pyslave.py`` runs, a crash included; each with its
-reproduction in ``scripts/upstream/`` and its entry in ``docs/pythonfmu.md``), reported apart so
-the allowance can be removed when pythonfmu is fixed.
+Verdicts: ``pass``, ``fail``, ``crash`` and ``n/a``.
 
 The cases of one FMU run in a child process (``python -m sims.robustness --worker``, :mod:`.worker`),
 which reports each case as it starts and ends. If the child dies (segfault, abort)
@@ -46,18 +42,18 @@ detailed checks of four FMUs):
   nothing, and stay usable: the suite checks that the abused value is unchanged and
   that the normal sequence up to a completed ``fmi2DoStep`` still works (after
   ``fmi2Reset`` when the instance is Terminated or in the error state);
-* pythonfmu FMUs (``fmus/pyslave.py`` in pythonfmu 0.7.0) return **fmi2Fatal** for every
-  rejected call (pythonfmu turns any Python exception into fmi2Fatal), log only with
-  logging on (so the suite instantiates them with ``loggingOn``), and report unknown
-  value references and wrong types with pythonfmu's own exception text. FMI 2.0
-  allows no call after fmi2Fatal, so such an instance is abandoned, never freed.
+* pythonfmu FMUs (``fmus/pyslave.py`` behind satfmu's C layer, ``fmus/c/pythonfmu_shim.c``, in
+  front of pythonfmu 0.7.0's library) meet the same expectations: the layer refuses the invalid
+  host arguments pythonfmu alone crashes on, answers the status functions by the slave's state
+  and reports the slave's refusals as fmi2Error (``docs/pythonfmu.md``). An instance that
+  answered fmi2Fatal would be abandoned, never freed.
 
 Measured differences between the backends (``docs/robustness.md``):
 
 * a huge finite value (1e300) is accepted by both (no declared maximum excludes it); where
   the native model code overflows to inf (and the state check reports it, or an output is
-  +-inf/NaN with fmi2OK), Python may raise OverflowError instead, which pythonfmu reports as
-  fmi2Fatal naming the exception (``cubesat_bdot_py``, ``mrp_hinf_satfmu_py``);
+  +-inf/NaN with fmi2OK), Python may raise OverflowError instead, which the pythonfmu FMU
+  reports as fmi2Error naming the exception (``cubesat_bdot_py``, ``mrp_hinf_satfmu_py``);
 * the FMU state round trip repeats the outputs bit for bit on both backends (pythonfmu
   serializes the state as JSON with repr floats, which round-trip exactly).
 
@@ -69,7 +65,6 @@ folder into ``sys.path`` once more. Measured 2.6 to 4.3 KiB per instantiate/free
 (1000 cycles), hence the pythonfmu bound of :func:`.memory.rss_bound_kib`. The slave objects
 themselves are freed (checked exactly, :func:`.memory.live_slaves`). Native FMUs: 0 KiB.
 """
-from __future__ import annotations
 from __future__ import annotations
 
 from sims.robustness.command import main

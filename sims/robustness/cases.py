@@ -7,7 +7,7 @@ from collections.abc import Callable
 
 from fmpy.fmi1 import FMICallException
 
-from sims.robustness.instance import (ERROR, FATAL, NATIVE, OK, STATUS_NAMES, CaseBroken, Instance, Outcome, bits,
+from sims.robustness.instance import (ERROR, FATAL, OK, STATUS_NAMES, CaseBroken, Instance, Outcome, bits,
                                       chosen, recover, reject, short)
 from sims.robustness.target import Var
 
@@ -54,7 +54,7 @@ def _huge(inst: Instance, var: Var, init_mode: bool) -> Outcome:
     status = inst.set(var, HUGE)
     if status != OK:
         out = Outcome(status=status, log=inst.text(n), detail=f"set rejected: {short(inst.text(n), 200)}")
-        if inst.target.backend == NATIVE and status == ERROR:
+        if status == ERROR:
             recover(inst, out)
         return out
     if init_mode:
@@ -93,7 +93,7 @@ def _step_and_read(inst: Instance, h: float, what: str, finite: bool) -> Outcome
             out.problems.append(f"non-finite outputs {bad}")
     out.log = inst.text(n)
     out.detail = done + (f": {short(out.log, 200)}" if out.status != OK else "")
-    if inst.target.backend == NATIVE and out.status == ERROR:
+    if out.status == ERROR:
         inst.mode = "Error"  # a step may fail after advancing part of the way: recover with fmi2Reset
         recover(inst, out)
     return out

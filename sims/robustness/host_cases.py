@@ -1,12 +1,11 @@
 """The host-level cases of issue 26 item 11: invalid arguments a host may pass to fmi2Instantiate,
 fmi2SetDebugLogging and fmi2SerializeFMUstate.
 
-A native FMU must refuse each one cleanly (fmi2Instantiate: NULL and a message; the others:
-fmi2Error and a message, usable afterwards). pythonfmu 0.7.0 handles several of them in its C++
-layer before satfmu's slave runs, and crashes the host or accepts them there: those rows are
-"known" (:func:`sims.robustness.table.pythonfmu_today`), each with its reproduction in
-``scripts/upstream/`` and its entry in ``docs/pythonfmu.md``. A crash kills the worker; the
-runner records it as CRASH and carries on in a new worker, so these cases come last.
+Every FMU must refuse each one cleanly (fmi2Instantiate: NULL and a message; the others:
+fmi2Error and a message, usable afterwards). pythonfmu 0.7.0 alone crashes the host or accepts
+several of them (``scripts/upstream/``, ``docs/pythonfmu.md``); the pythonfmu FMUs' C layer
+(``fmus/c/pythonfmu_shim.c``) refuses them before pythonfmu sees them. A crash would kill the
+worker; the runner records it as CRASH and carries on in a new worker, so these cases come last.
 
 An fmi2Instantiate case reports fmi2OK when it got an instance (freed at once) and fmi2Error when
 it got NULL.
@@ -20,7 +19,8 @@ from typing import TYPE_CHECKING
 from fmpy.fmi2 import fmi2String
 
 from sims import fmi_host
-from sims.robustness.instance import ERROR, FATAL, NATIVE, OK, PYTHONFMU, Instance, Outcome, reject, recover
+from sims.robustness.instance import ERROR, FATAL, OK, Instance, Outcome, reject, recover
+from sims.robustness.target import NATIVE, PYTHONFMU
 
 if TYPE_CHECKING:
     from sims.robustness.table import Case
@@ -38,7 +38,7 @@ def _instantiate(inst: Instance, name: bytes | None = b"host case", fmu_type: in
     component = inst.slave.fmi2Instantiate(
         name, fmu_type, inst.target.guid.encode() if guid is None else guid,
         Path(inst.slave.unzipDirectory, "resources").as_uri().encode() if resources is None else resources,
-        ctypes.byref(inst.callbacks.functions), 0, inst.target.backend == PYTHONFMU)
+        ctypes.byref(inst.callbacks.functions), 0, 0)
     if component is not None:
         inst.slave.fmi2FreeInstance(component)
     status = OK if component is not None else ERROR
@@ -91,7 +91,7 @@ def small_buffer(inst: Instance) -> Outcome:
             out.problems.append("the truncated state was accepted by fmi2DeSerializeFMUstate")
     if not inst.dead:
         inst.slave.freeFMUstate(state)
-    if inst.target.backend == NATIVE and status == ERROR:
+    if status == ERROR:
         recover(inst, out)
     return out
 
@@ -99,40 +99,29 @@ def small_buffer(inst: Instance) -> Outcome:
 def host_cases() -> tuple[Case, ...]:
     """The cases of this module, with their expectations (the last cases of
     :data:`sims.robustness.table.CASES`)."""
-    from sims.robustness.table import Case, Expect, pythonfmu_today, rejected
+    from sims.robustness.table import Case, Expect, rejected
 
     def refused(fragment: str) -> Expect:
         return Expect((ERROR,), (fragment,), f"NULL + '{fragment}'")
 
-    def upstream(expect: Expect, script: str, got: str | int) -> Expect:
-        """``expect`` with pythonfmu's measured answer ``got`` (a status or "CRASH") known."""
-        return pythonfmu_today(expect, f"pythonfmu 0.7.0's C++ layer (scripts/upstream/{script}) today", (got,))
+    def both(expect: Expect) -> dict[str, Expect]:
+        return {NATIVE: expect, PYTHONFMU: expect}
 
-    name = refused("missing instance name")
     return (
         Case("instantiate: resources no folder", f"fmi2Instantiate with the resource URI {MISSING_RESOURCES.decode()}",
              {NATIVE: Expect((OK,), (), "OK (the native FMU reads no resources)"),
-              PYTHONFMU: upstream(Expect((ERROR,), (), "NULL"), "instantiate_missing_resources.py", "CRASH")},
-             missing_resources),
-        Case("instantiate: NULL name", "fmi2Instantiate with instanceName NULL",
-             {NATIVE: name, PYTHONFMU: upstream(name, "instantiate_null_name.py", "CRASH")}, null_name),
-        Case("instantiate: empty name", 'fmi2Instantiate with instanceName ""', {NATIVE: name, PYTHONFMU: name},
+              PYTHONFMU: refused("is not this FMU's resources folder")}, missing_resources),
+        Case("instantiate: NULL name", "fmi2Instantiate with instanceName NULL", both(refused("missing instance name")),
+             null_name),
+        Case("instantiate: empty name", 'fmi2Instantiate with instanceName ""', both(refused("missing instance name")),
              empty_name),
         Case("instantiate: wrong GUID", f"fmi2Instantiate with the GUID {WRONG_GUID.decode()}",
-             {NATIVE: refused("does not match"),
-              PYTHONFMU: upstream(Expect((ERROR,), (), "NULL"), "instantiate_unchecked_arguments.py", OK)},
-             wrong_guid),
+             both(refused("does not match")), wrong_guid),
         Case("instantiate: fmi2ModelExchange", "fmi2Instantiate of this co-simulation FMU as fmi2ModelExchange",
-             {NATIVE: refused("co-simulation only"),
-              PYTHONFMU: upstream(Expect((ERROR,), (), "NULL"), "instantiate_unchecked_arguments.py", OK)},
-             model_exchange),
+             both(refused("co-simulation only")), model_exchange),
         Case("setDebugLogging: NULL category", "fmi2SetDebugLogging(c, fmi2True, 1, {NULL}) in Instantiated",
-             {NATIVE: rejected(NATIVE, "NULL category"),
-              PYTHONFMU: upstream(Expect((ERROR,), (), "Error"), "set_debug_logging_null_category.py", "CRASH")},
-             null_category),
+             both(rejected("NULL category")), null_category),
         Case("serialize: buffer too small", "fmi2SerializeFMUstate into half the size fmi2SerializedFMUstateSize "
-             "gives (if accepted: the bytes written must not deserialize)",
-             {NATIVE: rejected(NATIVE, "too small"),
-              PYTHONFMU: upstream(Expect((ERROR,), (), "Error"), "serialize_buffer_size.py", OK)}, small_buffer,
-             lambda t: None if t.can_serialize else "canSerializeFMUstate=false"),
+             "gives (if accepted: the bytes written must not deserialize)", both(rejected("too small")),
+             small_buffer, lambda t: None if t.can_serialize else "canSerializeFMUstate=false"),
     )

@@ -16,7 +16,7 @@ from fmpy.fmi2 import fmi2Boolean, fmi2Integer, fmi2Real, fmi2String
 
 from sims.fmi_host import DISCARD
 from sims.robustness.cases import STEPS, _drive, _read_outputs
-from sims.robustness.instance import (ERROR, NATIVE, NO_RESULT, OK, STATUS_NAMES, CaseBroken, Instance, Outcome,
+from sims.robustness.instance import (ERROR, NO_RESULT, OK, STATUS_NAMES, CaseBroken, Instance, Outcome,
                                       recover, short)
 from sims.robustness.target import TIME_ORIGINS, Target
 
@@ -86,7 +86,7 @@ def _huge(inst: Instance, steps: Sequence[float], minimum_period: bool) -> Outco
             notes[-1] += f" ({short(inst.text(n), 120)})"
             if out.status == OK:
                 out.status = status
-            if inst.target.backend == NATIVE and status == ERROR:
+            if status == ERROR:
                 inst.mode = "Error"  # a refused step changes nothing, a failed one leaves the error state
                 recover(inst, out)
     out.log = "\n".join(logs)
@@ -181,7 +181,7 @@ def offset_point(inst: Instance) -> Outcome:
     out.status = next((st for st in statuses if st != ERROR), ERROR)  # the first that is not a refusal
     out.log = "\n".join(logs)
     out.detail = f"at t = {t0:g} s: " + "; ".join(notes)
-    if inst.target.backend == NATIVE and out.status == ERROR:
+    if out.status == ERROR:
         recover(inst, out)
     return out
 
@@ -273,11 +273,8 @@ def _in_error(inst: Instance) -> bool:
 
 
 def reach_error(inst: Instance) -> str:
-    """Drive a native instance into the error state (the first of :data:`ERROR_TRIGGERS` that does);
-    returns "" or why it cannot (pythonfmu: a failed call is fmi2Fatal, after which FMI 2.0 allows
-    no call at all, so there is no error state to query)."""
-    if inst.target.backend != NATIVE:
-        return "pythonfmu reports a failure as fmi2Fatal: no call is allowed afterwards, no error state"
+    """Drive an instance into the error state (the first of :data:`ERROR_TRIGGERS` that does);
+    returns "" or why it cannot."""
     for trigger in range(len(ERROR_TRIGGERS)):
         inst.renew()
         inst.enter()
@@ -322,7 +319,7 @@ def _finite_or_error(inst: Instance, what: str) -> Outcome:
         out.problems.append(f"non-finite outputs {bad} with fmi2OK")
     out.detail = f"{what}: reading the outputs {STATUS_NAMES.get(status)}" + (
         f", non-finite {bad}" if bad else f" {short(out.log, 160)}" if status != OK else ", finite")
-    if inst.target.backend == NATIVE and status == ERROR:
+    if status == ERROR:
         inst.mode = "Error"
         recover(inst, out)
     return out
@@ -337,7 +334,7 @@ def start_at_max(inst: Instance) -> Outcome:
     if status != OK:
         out = Outcome(status=status, log=inst.text(n),
                       detail=f"fmi2ExitInitializationMode at DBL_MAX: {STATUS_NAMES.get(status)}: {short(inst.text(n), 160)}")
-        if inst.target.backend == NATIVE and status == ERROR:
+        if status == ERROR:
             inst.mode = "Error"  # refused in InitializationMode: carry on from a reset
             recover(inst, out)
         return out

@@ -39,9 +39,7 @@ def markdown(report: Report) -> str:
     lines = ["# Robustness of the satfmu FMUs", "", generated, "", report.summary(), "",
              "## Cases and expectations", ""]
     lines += _md_table(["case", "what", "native", "pythonfmu"],
-                       [[c.name, c.what, c.expect[NATIVE].text, c.expect[PYTHONFMU].text
-                         + (f" (known today: {c.expect[PYTHONFMU].today_text})" if c.expect[PYTHONFMU].today_text
-                            else "")] for c in CASES])
+                       [[c.name, c.what, c.expect[NATIVE].text, c.expect[PYTHONFMU].text] for c in CASES])
     for backend in BACKENDS:
         fmus = [f for f in report.fmus if by[(f, CASES[0].name)].backend == backend]
         if fmus:
@@ -53,14 +51,6 @@ def markdown(report: Report) -> str:
         lines += [f"### {name}", ""]
         lines += [f"- `{r.fmu}`: {short(r.detail, 300)}" for r in report.rows if r.case == name
                   and r.verdict != "n/a"] + [""]
-    known = [r for r in report.rows if r.verdict == "known"]
-    lines += ["## Known pythonfmu deviations (today)", "",
-              "Rows whose expectation lists today's measured pythonfmu behaviour (`pythonfmu_today` in "
-              "`sims/robustness/table.py`): deviations from FMI 2.0 in pythonfmu 0.7.0's own C++ layer, "
-              "which `fmus/pyslave.py` cannot change (docs/pythonfmu.md: each with a reproduction script); "
-              "an entry goes when pythonfmu fixes it.", ""]
-    lines += [f"- `{r.fmu}` / {r.case}: {r.got}: {short(r.detail, 300)}" for r in known] or ["None."]
-    lines += [""]
     bad = report.failures + report.crashes
     lines += ["## Failures and crashes", ""]
     lines += [f"- `{r.fmu}` / {r.case}: **{r.verdict.upper()}** {r.detail}" for r in bad] or ["None."]

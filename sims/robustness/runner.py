@@ -53,8 +53,7 @@ class Row:
     log_found : bool or None
         The expected log fragment was found (None when no text was required).
     verdict : str
-        ``pass``, ``fail``, ``crash``, ``n/a`` or ``known`` (a deviation the expectation lists as
-        today's measured pythonfmu behaviour, :func:`sims.robustness.table.pythonfmu_today`).
+        ``pass``, ``fail``, ``crash`` or ``n/a``.
     detail : str
         What happened (measured facts, problems, crash signal and output).
     metrics : dict of str to float
@@ -80,8 +79,6 @@ class Row:
             return "CRASH"
         if self.verdict == "fail":
             return "FAIL: " + short(self.detail, 80)
-        if self.verdict == "known":
-            return "known: " + short(self.got if self.got != "OK" else self.detail, 40)
         if self.case == CYCLES_CASE:
             return f"ok ({self.metrics.get('rss_growth_kib', 0):+.0f} KiB)"
         if self.got != "OK" and self.expected.startswith("OK or"):
@@ -93,27 +90,23 @@ class Row:
 
 def judge(case: Case, target: Target, out: Outcome) -> Row:
     """The row of ``case`` on ``target`` from the worker's outcome: ``fail`` on any deviation from the
-    expectation, ``known`` when every deviation is one the expectation lists as today's."""
+    expectation."""
     expect = case.expect[target.backend]
     if out.not_applicable:
         return Row(target.name, target.backend, case.name, expect.text, "-", None, "n/a", out.not_applicable)
-    problems, known = [], []
-    for p in out.problems:
-        (known if any(p.startswith(k) for k in expect.today_problems) else problems).append(p)
+    problems = list(out.problems)
     if out.status == NO_RESULT:  # the case could not make its call: a failure whatever the reason
         problems = problems or ["no result"]
     elif out.status not in expect.statuses:
         why = f"status {STATUS_NAMES.get(out.status, out.status)}, expected {expect.text}"
-        (known if out.status in expect.today else problems).insert(0, why)
+        problems.insert(0, why)
     found = None
     if out.status not in (OK, NO_RESULT) and out.status in expect.statuses and expect.fragments:
         found = any(f in out.log for f in expect.fragments)
         if not found:
             problems.append(f"log lacks {' / '.join(map(repr, expect.fragments))}: {short(out.log, 200)!r}")
-    if known and not problems:
-        known.insert(0, f"known ({expect.today_text})")
-    detail = "; ".join(problems + known + ([out.detail] if out.detail else [])) or short(out.log, 200)
-    verdict = "fail" if problems else "known" if known else "pass"
+    detail = "; ".join(problems + ([out.detail] if out.detail else [])) or short(out.log, 200)
+    verdict = "fail" if problems else "pass"
     return Row(target.name, target.backend, case.name, expect.text, STATUS_NAMES.get(out.status, str(out.status)),
                found, verdict, detail, dict(out.metrics))
 
@@ -216,11 +209,8 @@ def _crash(target: Target, names: list[str], running: str | None, code: int, res
 
 
 def _bad_row(target: Target, case: str, got: str, verdict: str, detail: str) -> Row:
-    """A row without an outcome (a crash or a time-out): ``known`` if the expectation lists ``got``
-    as today's behaviour."""
+    """A row without an outcome (a crash or a time-out)."""
     expect = CASE_BY_NAME[case].expect[target.backend]
-    if got in expect.today:
-        verdict, detail = "known", f"known ({expect.today_text}); {detail}"
     return Row(target.name, target.backend, case, expect.text, got, None, verdict, detail)
 
 
@@ -292,8 +282,7 @@ class Report:
     def summary(self) -> str:
         """One paragraph: counts, crashes, RSS growth per backend and wall time."""
         parts = [(f"{len(self.fmus)} FMUs x {len(CASES)} cases: {self.count('pass')} pass, "
-                  f"{self.count('fail')} fail, {self.count('crash')} crash, {self.count('n/a')} n/a, "
-                  f"{self.count('known')} known (pythonfmu today)")]
+                  f"{self.count('fail')} fail, {self.count('crash')} crash, {self.count('n/a')} n/a")]
         for backend in BACKENDS:
             growth = self.rss_growth_kib(backend)
             if growth:

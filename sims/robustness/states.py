@@ -4,8 +4,9 @@ Each case serializes the state of an instance after :data:`~sims.robustness.case
 steps, damages the bytes and hands them to ``fmi2DeSerializeFMUstate`` (then, if that accepts
 them, to ``fmi2SetFMUstate``): a damaged state is *accepted* when both return fmi2OK. A native FMU
 must refuse every damaged state with fmi2Error naming what failed and stay usable (the good state
-still restores and the instance steps on); pythonfmu FMUs refuse with fmi2Fatal, after which the
-instance is abandoned and a new one is made for the next damaged state.
+still restores and the instance steps on), a pythonfmu FMU as a native one (its C layer,
+``fmus/c/pythonfmu_shim.c``, reports the slave's refusal). An instance that answered fmi2Fatal
+would be abandoned and a new one made for the next damaged state.
 
 The native layout the forgery of "another model's state" needs (``fmus/c/fmi2_cosim.c``, ``Saved``):
 four little-endian uint32 (magic, format, size, CRC-32 of the record with the CRC field 0), then the
@@ -25,7 +26,8 @@ from collections.abc import Callable, Sequence
 
 from sims import fmi_host
 from sims.robustness.cases import _steps
-from sims.robustness.instance import ERROR, FATAL, NATIVE, OK, STATUS_NAMES, CaseBroken, Instance, Outcome, recover
+from sims.robustness.instance import ERROR, FATAL, OK, STATUS_NAMES, CaseBroken, Instance, Outcome, recover
+from sims.robustness.target import NATIVE
 
 FLIP_SEED = 26
 """Seed of the sampled bit positions when a scan does not flip every bit."""
@@ -82,13 +84,12 @@ def _scan(inst: Instance, good: bytes, damaged: Sequence[tuple[str, bytes]]) -> 
         del inst.log[n:]  # a scan refuses thousands of states: keep only a few messages
         if status == OK:
             accepted.append(label)
-            if inst.target.backend == NATIVE:  # the instance now holds a damaged state: back to the good one
-                if _offer(inst, good) != OK:
-                    raise CaseBroken(f"the good state is refused after accepting {label}")
+            if _offer(inst, good) != OK:  # the instance now holds a damaged state: back to the good one
+                raise CaseBroken(f"the good state is refused after accepting {label}")
             continue
         if len(logs) < MAX_LOGGED:
             logs.append(text)
-        unnamed += inst.target.backend == NATIVE and not ("corrupted state" in text or "not a state" in text)
+        unnamed += not ("corrupted state" in text or "not a state" in text)
     refusals = {s: k for s, k in counts.items() if s != OK}
     status = OK if accepted else next((s for s in refusals if s != ERROR), ERROR)  # the first odd one shows
     parts = ", ".join(f"{k} {STATUS_NAMES.get(s, s)}" for s, k in sorted(counts.items()))
@@ -103,12 +104,12 @@ def _scan(inst: Instance, good: bytes, damaged: Sequence[tuple[str, bytes]]) -> 
 
 
 def _case(damage: Callable[[Instance, bytes], list[tuple[str, bytes]]]) -> Callable[..., Outcome]:
-    """A corrupted-state case: the damaged blobs of ``damage(inst, good)``, then (native) the
-    instance must still restore its good state and step on."""
+    """A corrupted-state case: the damaged blobs of ``damage(inst, good)``, then the instance must
+    still restore its good state and step on."""
     def case(inst: Instance, **settings: int | None) -> Outcome:
         good = _snapshot(inst)
         out = _scan(inst, good, damage(inst, good, **settings))
-        if inst.target.backend == NATIVE and not inst.dead:
+        if not inst.dead:
             if _offer(inst, good) != OK:
                 out.problems.append(f"the good state is refused afterwards: {inst.text()[-200:]!r}")
             else:  # the FMU time is the snapshot's again, which inst.time still holds

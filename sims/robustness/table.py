@@ -8,8 +8,7 @@ from dataclasses import dataclass
 from sims.robustness import cases as c
 from sims.robustness.cases import FAR_FACTOR, STEPS, UNKNOWN_VR
 from sims.robustness.host_cases import host_cases
-from sims.fmi_host import DISCARD
-from sims.robustness.instance import ERROR, FATAL, OK, REJECTED, STATUS_NAMES, Outcome
+from sims.robustness.instance import ERROR, OK, Outcome
 from sims.robustness.memory import RSS_PER_CYCLE_KIB, RSS_SLACK_KIB, cycles
 from sims.robustness.target import BACKENDS, NATIVE, PYTHONFMU, Target
 
@@ -34,38 +33,30 @@ class Expect:
         When the status is not fmi2OK, the log must contain one of these (empty: any text).
     text : str
         Human-readable form for the report.
-    today : tuple of int or str
-        Statuses (or ``"TIMEOUT"``, ``"CRASH"``) the backend shows today instead, measured: the row is ``known``,
-        not ``fail``, until the backend is fixed and this is emptied (see :func:`pythonfmu_today`).
-    today_problems : tuple of str
-        Likewise, beginnings of the problems the backend shows today.
-    today_text : str
-        What is measured today, for the report.
     """
 
     statuses: tuple[int, ...]
     fragments: tuple[str, ...]
     text: str
-    today: tuple[int | str, ...] = ()
-    today_problems: tuple[str, ...] = ()
-    today_text: str = ""
 
 
-def rejected(backend: str, *fragments: str) -> Expect:
-    """A rejected call: fmi2Error (native, then still usable) or fmi2Fatal (pythonfmu), with a message."""
-    status = REJECTED[backend]
-    usable = ", usable after" if backend == NATIVE else ""
-    return Expect((status,), fragments, f"{STATUS_NAMES[status]} + '{fragments[0]}'{usable}")
+def rejected(*fragments: str) -> Expect:
+    """A rejected call: fmi2Error with a message holding one of ``fragments``, the instance still
+    usable."""
+    return Expect((ERROR,), fragments, f"Error + '{fragments[0]}', usable after")
 
 
-def ok_or_clean_error(backend: str, *fragments: str) -> Expect:
-    """Accepted, or rejected with one of ``fragments`` (native: usable afterwards); never a crash."""
-    status = REJECTED[backend]
-    return Expect((OK, status), fragments, f"OK or {STATUS_NAMES[status]} + '{' / '.join(fragments)}'")
+def ok_or_clean_error(*fragments: str) -> Expect:
+    """Accepted, or rejected with one of ``fragments`` (usable afterwards); never a crash."""
+    return Expect((OK, ERROR), fragments, f"OK or Error + '{' / '.join(fragments)}'")
 
 
 def _same(fn: Callable[[str], Expect]) -> dict[str, Expect]:
     return {b: fn(b) for b in BACKENDS}
+
+
+def _both(expect: Expect) -> dict[str, Expect]:
+    return {b: expect for b in BACKENDS}
 
 
 def _needs(attr: str, why: str) -> Callable[[Target], str | None]:
@@ -142,67 +133,65 @@ def _cases() -> tuple[Case, ...]:
     cases = []
     for label, value in (("nan", math.nan), ("+inf", math.inf), ("-inf", -math.inf)):
         cases.append(Case(f"input = {label}", f"setReal of the first Real input to {label} in StepComplete",
-                          _same(lambda b: rejected(b, NON_FINITE)), c.set_input(value), _needs("input", NO_INPUT)))
+                          _both(rejected(NON_FINITE)), c.set_input(value), _needs("input", NO_INPUT)))
     cases.append(Case("input = 1e300", "setReal of the first Real input to 1e300, then a default step",
-                      _same(lambda b: ok_or_clean_error(b, *HUGE_FRAGMENTS[b])), c.huge_input,
+                      _same(lambda b: ok_or_clean_error(*HUGE_FRAGMENTS[b])), c.huge_input,
                       _needs("input", NO_INPUT)))
     for label, value in (("nan", math.nan), ("+inf", math.inf), ("-inf", -math.inf)):
         cases.append(Case(f"parameter = {label}", f"setReal of the first Real parameter to {label} in "
-                          "InitializationMode", _same(lambda b: rejected(b, NON_FINITE)), c.set_parameter(value),
+                          "InitializationMode", _both(rejected(NON_FINITE)), c.set_parameter(value),
                           _needs("parameter", NO_PARAMETER)))
     cases.append(Case("parameter = 1e300", "setReal of the first Real parameter to 1e300 in InitializationMode, "
-                      "then a default step", _same(lambda b: ok_or_clean_error(b, *HUGE_FRAGMENTS[b])),
+                      "then a default step", _same(lambda b: ok_or_clean_error(*HUGE_FRAGMENTS[b])),
                       c.huge_parameter, _needs("parameter", NO_PARAMETER)))
     step_msg = "communicationStepSize must be finite and > 0"
     cases += [
-        Case("doStep h = 0", "fmi2DoStep with a zero step", _same(lambda b: rejected(b, step_msg)), c.step_size(0.0)),
-        Case("doStep h < 0", "fmi2DoStep with minus the default step", _same(lambda b: rejected(b, step_msg)),
+        Case("doStep h = 0", "fmi2DoStep with a zero step", _both(rejected(step_msg)), c.step_size(0.0)),
+        Case("doStep h < 0", "fmi2DoStep with minus the default step", _both(rejected(step_msg)),
              c.step_size(-1.0)),
-        Case("doStep h = nan", "fmi2DoStep with a NaN step", _same(lambda b: rejected(b, step_msg)), c.step_nan),
+        Case("doStep h = nan", "fmi2DoStep with a NaN step", _both(rejected(step_msg)), c.step_nan),
         Case("doStep at wrong time", "fmi2DoStep from t = 1 s while the FMU is at 0 s",
-             _same(lambda b: rejected(b, "differs from the FMU time")), c.step_wrong_time),
+             _both(rejected("differs from the FMU time")), c.step_wrong_time),
         Case(FAR_CASE, "one step of `far_factor` (default 1e4) default step sizes from the default start; "
-             "outputs finite if OK", _same(lambda b: ok_or_clean_error(b, *HUGE_FRAGMENTS[b])), c.far_step,
+             "outputs finite if OK", _same(lambda b: ok_or_clean_error(*HUGE_FRAGMENTS[b])), c.far_step,
              settings=("far_factor",)),
         Case("doStep before init", "fmi2DoStep in Instantiated",
-             _same(lambda b: rejected(b, "must not be called in state Instantiated")), c.step_before_init),
+             _both(rejected("must not be called in state Instantiated")), c.step_before_init),
         Case("getReal before init", "fmi2GetReal of an output in Instantiated",
-             _same(lambda b: rejected(b, "must not be called in state Instantiated")), c.get_before_init,
+             _both(rejected("must not be called in state Instantiated")), c.get_before_init,
              _needs("outputs", "no Real output")),
         Case("exitInit without enter", "fmi2ExitInitializationMode in Instantiated",
-             _same(lambda b: rejected(b, "must not be called in state Instantiated")), c.exit_without_enter),
+             _both(rejected("must not be called in state Instantiated")), c.exit_without_enter),
         Case("exitInit twice", "fmi2ExitInitializationMode in StepComplete",
-             _same(lambda b: rejected(b, "must not be called in state StepComplete")), c.exit_twice),
+             _both(rejected("must not be called in state StepComplete")), c.exit_twice),
         Case("enterInit twice", "fmi2EnterInitializationMode in InitializationMode",
-             _same(lambda b: rejected(b, "must not be called in state InitializationMode")), c.enter_twice),
+             _both(rejected("must not be called in state InitializationMode")), c.enter_twice),
         Case("setupExperiment start = nan", "fmi2SetupExperiment with a NaN start time",
-             _same(lambda b: rejected(b, "non-finite startTime")), c.setup_nan),
+             _both(rejected("non-finite startTime")), c.setup_nan),
         Case("fixed parameter after init", "setting a non-tunable parameter (to its own value) in StepComplete",
-             _same(lambda b: rejected(b, "cannot be set in state StepComplete")), c.parameter_after_init,
+             _both(rejected("cannot be set in state StepComplete")), c.parameter_after_init,
              _needs("fixed", "no non-tunable parameter")),
         Case("set after terminate", "setting an input (else a parameter) to its own value in Terminated",
-             _same(lambda b: rejected(b, "cannot be set in state Terminated")), c.set_after_terminate),
+             _both(rejected("cannot be set in state Terminated")), c.set_after_terminate),
         Case("doStep after terminate", "fmi2DoStep in Terminated",
-             _same(lambda b: rejected(b, "must not be called in state Terminated")), c.step_after_terminate),
+             _both(rejected("must not be called in state Terminated")), c.step_after_terminate),
         Case("parameter < min", "a parameter with a declared min set below it in InitializationMode",
-             _same(lambda b: rejected(b, "outside its range")), c.out_of_range(below=True),
+             _both(rejected("outside its range")), c.out_of_range(below=True),
              _needs("below", "no parameter with a min")),
         Case("parameter > max", "a parameter with a declared max set above it in InitializationMode",
-             _same(lambda b: rejected(b, "outside its range")), c.out_of_range(below=False),
+             _both(rejected("outside its range")), c.out_of_range(below=False),
              _needs("above", "no parameter with a max")),
         # pythonfmu checks the type and the value reference itself: only its own exception text
         Case("setReal on Integer/Boolean", "fmi2SetReal on an Integer or Boolean parameter",
-             {NATIVE: rejected(NATIVE, "has another type"), PYTHONFMU: rejected(PYTHONFMU, "is not of type Real")},
+             _both(rejected("has another type")),
              c.real_on_non_real, _needs("non_real", "no Integer/Boolean parameter")),
         Case("setInteger on Real", "fmi2SetInteger on a Real parameter",
-             {NATIVE: rejected(NATIVE, "has another type"), PYTHONFMU: rejected(PYTHONFMU, "is not of type Integer")},
+             _both(rejected("has another type")),
              c.integer_on_real, _needs("parameter", NO_PARAMETER)),
         Case("setReal unknown vr", f"fmi2SetReal of value reference {UNKNOWN_VR}",
-             {NATIVE: rejected(NATIVE, f"unknown value reference {UNKNOWN_VR}"),
-              PYTHONFMU: rejected(PYTHONFMU, str(UNKNOWN_VR))}, c.unknown_vr("set")),
+             _both(rejected(f"unknown value reference {UNKNOWN_VR}")), c.unknown_vr("set")),
         Case("getReal unknown vr", f"fmi2GetReal of value reference {UNKNOWN_VR}",
-             {NATIVE: rejected(NATIVE, f"unknown value reference {UNKNOWN_VR}"),
-              PYTHONFMU: rejected(PYTHONFMU, str(UNKNOWN_VR))}, c.unknown_vr("get")),
+             _both(rejected(f"unknown value reference {UNKNOWN_VR}")), c.unknown_vr("get")),
         Case("FMU state round trip", f"get (and serialize/deserialize) the state after {STEPS} driven steps, "
              f"step {STEPS} more, restore, repeat: identical outputs",
              _same(lambda b: Expect((OK,), (), "OK, outputs identical bit for bit")), c.state_round_trip,
@@ -216,30 +205,17 @@ def _cases() -> tuple[Case, ...]:
 
 # ============================================================================= issue 26 items 2, 3, 9, 10
 # The native FMUs' limits (fmus/c/fmi2_cosim.c): bounded work per step, checked FMU states, exact
-# time, FMI 2.0 statuses, no non-finite output with fmi2OK. pythonfmu expectations are what FMI 2.0
-# asks of pythonfmu (fmi2Fatal for a refusal); where pythonfmu 0.7.0 does otherwise today (its C++
-# layer, which fmus/pyslave.py cannot change), pythonfmu_today() lists the measured status and the
-# row is "known", not "fail".
+# time, FMI 2.0 statuses, no non-finite output with fmi2OK. The pythonfmu FMUs meet the same
+# expectations: their C layer (fmus/c/pythonfmu_shim.c) guards pythonfmu 0.7.0's C++ layer.
 STATE_FRAGMENTS = ("corrupted state", "not a state of this FMU")
 HUGE_STEP_FRAGMENTS = ("sample instants", "integration substeps", "time resolution", "non-finite",
                        "does not reach a finite later time")
 """Native refusals of a huge step: the work bounds, the time resolution, an overflow of the state."""
-PYTHONFMU_UPSTREAM = "pythonfmu 0.7.0's C++ status functions"
-
-
-def pythonfmu_today(expect: Expect, who: str, statuses: tuple[int | str, ...] = (), problems: tuple[str, ...] = ()
-                    ) -> Expect:
-    """``expect`` with today's measured pythonfmu deviation (``statuses`` and ``problems``) accepted
-    as known, with ``who`` (e.g. :data:`PYTHONFMU_UPSTREAM`) in the report."""
-    got = " / ".join(STATUS_NAMES.get(st, str(st)) if isinstance(st, int) else st for st in statuses)
-    what = "; ".join(x for x in (got, " / ".join(f"'{p}'" for p in problems)) if x)
-    return Expect(expect.statuses, expect.fragments, expect.text, tuple(statuses), tuple(problems),
-                  f"{who}: {what}")
-
-
 def _error_state_applies(target: Target) -> str | None:
-    return None if target.backend == NATIVE else ("pythonfmu reports a failure as fmi2Fatal: no call is allowed "
-                                                 "afterwards, no error state")
+    """Applicability of the error-state cases: decided by running them, not by the model
+    description (n/a when none of :data:`limits.ERROR_TRIGGERS` reaches the error state,
+    :func:`limits.reach_error`)."""
+    return None
 
 
 def _needs_serialize(target: Target) -> str | None:
@@ -251,23 +227,23 @@ def _issue26_cases() -> tuple[Case, ...]:
     from sims.robustness import states as st
 
     cases = []
-    refused = {NATIVE: rejected(NATIVE, *STATE_FRAGMENTS), PYTHONFMU: Expect((FATAL,), (), "Fatal")}
+    refused = rejected(*STATE_FRAGMENTS)
     cases += [
         Case(FLIPS_CASE, "every bit of the serialized state flipped in turn (`--flips N`: a "
              f"seeded sample; pythonfmu: {st.PYTHONFMU_FLIPS} sampled), each deserialized and set: none accepted",
-             {NATIVE: refused[NATIVE], PYTHONFMU: refused[PYTHONFMU]}, st.bit_flips, _needs_serialize,
+             _both(refused), st.bit_flips, _needs_serialize,
              settings=("flips",)),
         Case("FMU state: half zeroed", "the first half, the second half, all of the serialized state zeroed",
-             {NATIVE: refused[NATIVE], PYTHONFMU: refused[PYTHONFMU]}, st.half_zeroed, _needs_serialize),
+             _both(refused), st.half_zeroed, _needs_serialize),
         Case("FMU state: wrong size", "the serialized state one byte short, one byte longer, empty",
-             {NATIVE: rejected(NATIVE, "not a state of this FMU"), PYTHONFMU: refused[PYTHONFMU]}, st.wrong_size,
+             _both(rejected("not a state of this FMU")), st.wrong_size,
              _needs_serialize),
         Case("FMU state: of another model", "a well-formed state of another model (another model identity with a "
-             "valid checksum)", {NATIVE: rejected(NATIVE, "not a state of this FMU"), PYTHONFMU: refused[PYTHONFMU]},
+             "valid checksum)", _both(rejected("not a state of this FMU")),
              st.of_another_model, _needs_serialize),
     ]
-    huge = {NATIVE: ok_or_clean_error(NATIVE, *HUGE_STEP_FRAGMENTS),
-            PYTHONFMU: ok_or_clean_error(PYTHONFMU, *HUGE_STEP_FRAGMENTS, *HUGE_FRAGMENTS[PYTHONFMU])}
+    huge = {NATIVE: ok_or_clean_error(*HUGE_STEP_FRAGMENTS),
+            PYTHONFMU: ok_or_clean_error(*HUGE_STEP_FRAGMENTS, *HUGE_FRAGMENTS[PYTHONFMU])}
     cases += [
         Case(HUGE_CASES[0], "one step of h = 1e9, 1e12, 1e30, DBL_MAX s (each on a new instance): finite outputs "
              f"or refused, each within {lim.STEP_TIME_LIMIT_S:g} s of CPU", huge, lim.huge_steps),
@@ -277,23 +253,21 @@ def _issue26_cases() -> tuple[Case, ...]:
              "with t0) against the same from 0: equal outputs",
              _same(lambda b: Expect((OK,), (), "OK, outputs as from t0 = 0")), lim.large_start),
         Case("doStep 1e-3..1 s off at 1e9", "fmi2DoStep from 1e-3, 1e-2, 0.1, 1 s off the FMU time at t = 1e9 s",
-             _same(lambda b: rejected(b, "differs from the FMU time")), lim.offset_point),
+             _both(rejected("differs from the FMU time")), lim.offset_point),
     ]
     for state in lim.STATUS_STATES:
         native = Expect((OK,), (), "as FMI 2.0: Error outside StepComplete/Terminated, else OK (provided) or "
                         "Discard" if state in ("StepComplete", "Terminated") else "as FMI 2.0: every query Error")
-        applies = _error_state_applies if state == "Error" else always_applies
         cases.append(Case(f"status queries in {state}", f"fmi2Get{{,Real,Integer,Boolean,String}}Status with each "
-                          f"fmi2StatusKind in {state}", {NATIVE: native, PYTHONFMU: pythonfmu_today(
-                              native, PYTHONFMU_UPSTREAM, (OK, DISCARD, ERROR))}, lim.status_queries(state), applies))
+                          f"fmi2StatusKind in {state}", _both(native), lim.status_queries(state),
+                          _error_state_applies if state == "Error" else always_applies))
     cases += [
         Case("terminate in Error", "fmi2Terminate in the error state (reached by a failing computation)",
-             {NATIVE: rejected(NATIVE, "must not be called in state Error"), PYTHONFMU: Expect((FATAL,), (), "Fatal")},
-             lim.terminate_in_error, _error_state_applies),
+             _both(rejected("must not be called in state Error")), lim.terminate_in_error, _error_state_applies),
         Case("start at DBL_MAX", "initialize at t = DBL_MAX s and read the outputs: finite or refused",
-             _same(lambda b: ok_or_clean_error(b, "non-finite", "cannot be counted exactly")), lim.start_at_max),
+             _both(ok_or_clean_error("non-finite", "cannot be counted exactly")), lim.start_at_max),
         Case("time parameters equal", "every unranged time parameter equal (ramp start = stop, ...), "
-             f"{STEPS} steps: outputs finite or refused", _same(lambda b: ok_or_clean_error(b, "non-finite")),
+             f"{STEPS} steps: outputs finite or refused", _both(ok_or_clean_error("non-finite")),
              lim.time_parameters_equal, lim.needs_two_times),
     ]
     return tuple(cases)
