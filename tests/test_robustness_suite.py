@@ -48,7 +48,7 @@ exact integrator."""
 
 FAST_FLIPS = 8
 """Bit flips per FMU state in the fast run (a seeded sample; the full run flips every bit of each
-native state: ~1 s for the largest, demeter_flexible's 10,368 bits)."""
+FMU state: ~1 s for the largest native one, demeter_flexible's 10,368 bits)."""
 
 
 def test_suite_over_one_fmu_of_each_kind(fmu_dir: Path, tmp_path: Path) -> None:
@@ -69,7 +69,7 @@ def test_suite_over_one_fmu_of_each_kind(fmu_dir: Path, tmp_path: Path) -> None:
 
 @pytest.mark.slow
 def test_suite_over_every_fmu(fmu_dir: Path, tmp_path: Path) -> None:
-    """All cases on all FMUs of the session's build, 100 cycles, every bit of each native state flipped:
+    """All cases on all FMUs of the session's build, 100 cycles, every bit of each FMU state flipped:
     no failure, no crash (~7 min on 2 loaded CPUs, most of it the refused bit flips)."""
     report = robustness.run(fmu_dir, cycles=FAST_CYCLES, out=tmp_path / "robustness")
     _check_clean(report, [p.stem for p in fmu_dir.glob("*.fmu")], FAST_CYCLES)

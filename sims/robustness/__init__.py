@@ -17,7 +17,7 @@ abuses are chosen from ``modelDescription.xml`` (:func:`.target.describe`); a ca
 variable does not exist (no input, no ranged parameter, ...) is "n/a".
 
 The limit cases of issue 26 (the second block of :data:`.table.CASES`): every single-bit flip of
-a serialized native state (``--flips N``: a seeded sample), a half-zeroed, resized or foreign
+a serialized state (``--flips N``: a seeded sample), a half-zeroed, resized or foreign
 state; steps of 1e9, 1e12, 1e30 and DBL_MAX s (also at the minimum sample period) within a CPU
 time and a short time limit; start times of 1e9 and 1.4e9 s against the same run from 0 and
 communication points 1 ms to 1 s off at 1e9 s; the five status functions with each

@@ -31,9 +31,6 @@ from sims.robustness.target import NATIVE
 
 FLIP_SEED = 26
 """Seed of the sampled bit positions when a scan does not flip every bit."""
-PYTHONFMU_FLIPS = 32
-"""Bit flips per pythonfmu FMU (a sample, seeded): every refused flip returns fmi2Fatal and costs a
-new instance and its driven steps (~0.1 s), so a full scan (~30,000 bits of JSON) would take an hour."""
 NATIVE_HEADER = struct.Struct("<4I16s")
 """magic, format, size, crc, model identity: the head of a native FMU state."""
 ANOTHER_MODEL = hashlib.sha256(b"satfmu robustness: another model").digest()[:16]
@@ -125,11 +122,11 @@ def _flip(blob: bytes, bit: int) -> bytes:
 
 
 def flips(inst: Instance, good: bytes, flips: int | None) -> list[tuple[str, bytes]]:
-    """Single-bit flips: every bit (``flips`` None, native), else ``flips`` bits sampled with
-    :data:`FLIP_SEED` (pythonfmu: :data:`PYTHONFMU_FLIPS` at most)."""
+    """Single-bit flips: every bit (``flips`` None), else ``flips`` bits sampled with
+    :data:`FLIP_SEED`, on both backends (a pythonfmu FMU refuses one in ~0.02 ms and stays usable:
+    3,376 flips of mrp_satellite_py's 422-byte state refused in 0.07 s)."""
     n_bits = 8 * len(good)
-    want = flips if inst.target.backend == NATIVE else min(flips or PYTHONFMU_FLIPS, PYTHONFMU_FLIPS)
-    bits = range(n_bits) if want is None or want >= n_bits else sorted(random.Random(FLIP_SEED).sample(range(n_bits), want))
+    bits = range(n_bits) if flips is None or flips >= n_bits else sorted(random.Random(FLIP_SEED).sample(range(n_bits), flips))
     return [(f"bit {b}", _flip(good, b)) for b in bits]
 
 

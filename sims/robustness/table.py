@@ -230,7 +230,7 @@ def _issue26_cases() -> tuple[Case, ...]:
     refused = rejected(*STATE_FRAGMENTS)
     cases += [
         Case(FLIPS_CASE, "every bit of the serialized state flipped in turn (`--flips N`: a "
-             f"seeded sample; pythonfmu: {st.PYTHONFMU_FLIPS} sampled), each deserialized and set: none accepted",
+             "seeded sample), each deserialized and set: none accepted",
              _both(refused), st.bit_flips, _needs_serialize,
              settings=("flips",)),
         Case("FMU state: half zeroed", "the first half, the second half, all of the serialized state zeroed",
