@@ -1,6 +1,6 @@
 """Start-up cost of the `satfmu` command line: help, list and version, each as its own process.
 
-Each command runs as ``python -m sims.cli ...`` (so it works without the console script), the
+Each command runs as ``python -m satfmu.sims.cli ...`` (so it works without the console script), the
 commands interleaved and repeated; the script prints the CPU time (the child's user + system,
 from ``os.wait4``) and wall time per command (min and median), and whether the median CPU time
 meets the 0.5 s target of issue 25.
@@ -45,10 +45,10 @@ def main() -> None:
     cpus: dict[str, list[float]] = {k: [] for k in labels}
     for _ in range(args.repeat):
         for label, command in zip(labels, COMMANDS):
-            wall, cpu = _timed([sys.executable, "-m", "sims.cli", *command])
+            wall, cpu = _timed([sys.executable, "-m", "satfmu.sims.cli", *command])
             walls[label].append(wall)
             cpus[label].append(cpu)
-    print(f"satfmu start-up, {args.repeat} runs each, interleaved (python -m sims.cli; target: CPU < {TARGET:g} s):")
+    print(f"satfmu start-up, {args.repeat} runs each, interleaved (python -m satfmu.sims.cli; target: CPU < {TARGET:g} s):")
     print(f"  {'command':<22} {'CPU min':>8} {'median':>7} {'wall min':>9} {'median':>7}  target")
     for k in labels:
         cpu = statistics.median(cpus[k])

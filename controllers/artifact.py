@@ -45,11 +45,11 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from controllers import claims
-from fmus.xml_text import xml_problem
+from satfmu.controllers import claims
+from satfmu.fmus.xml_text import xml_problem
 
 if TYPE_CHECKING:
-    from fmus.model import Model
+    from satfmu.fmus.model import Model
 
 FORMAT = "satfmu-controller"
 FORMAT_VERSION = 1
@@ -168,7 +168,7 @@ def design_plant_record(plant: "Model", names: list[str] | None = None, values: 
 
     Parameters
     ----------
-    plant : fmus.model.Model
+    plant : satfmu.fmus.model.Model
         The plant the design was made for.
     names : list of str, optional
         Parameters the design depends on. Default: those of the plant's SDC form when it
@@ -180,8 +180,8 @@ def design_plant_record(plant: "Model", names: list[str] | None = None, values: 
         ``{name: (low, high)}``: a robust design covers these intervals; a value inside is
         no mismatch.
     """
-    from fmus.digest import model_digest
-    from fmus.model import INTEGRATOR_PARAMETERS
+    from satfmu.fmus.digest import model_digest
+    from satfmu.fmus.model import INTEGRATOR_PARAMETERS
 
     by_name = {v.name: v for v in plant.parameters}
     if names is None:
@@ -343,7 +343,7 @@ def _check_texts(data: Any, where: str) -> None:
 def parse(data: Any, where: str = "artifact") -> Artifact:
     """Validate JSON data and return the artifact.
 
-    Beyond the schema, what the artifact claims is re-checked (:mod:`controllers.claims`): its
+    Beyond the schema, what the artifact claims is re-checked (:mod:`satfmu.controllers.claims`): its
     certificate status against the numbers it records and the matrices it holds, and a gain
     held twice (``design.K`` and ``gains``) for agreement.
 
@@ -601,7 +601,7 @@ class GainArtifact:
          "certificate": {...}, "provenance": {...}, "design": {...} (optional)}
 
     Gains not listed are 0. Which gain names exist is the law's business
-    (:func:`controllers.state_feedback.build` rejects unknown ones).
+    (:func:`satfmu.controllers.state_feedback.build` rejects unknown ones).
     """
 
     name: str
@@ -714,8 +714,8 @@ def decode(text: str | bytes, where: str) -> Any:
 
 def save(artifact: Artifact, path: str | Path) -> None:
     """Write an artifact (re-validated first, so an invalid one is never written), whole or not at
-    all (:func:`fmus.atomic.write_atomically`)."""
-    from fmus.atomic import write_atomically
+    all (:func:`satfmu.fmus.atomic.write_atomically`)."""
+    from satfmu.fmus.atomic import write_atomically
 
     data = artifact.to_json()
     parse(json.loads(json.dumps(data)), where=str(path))

@@ -1,12 +1,12 @@
-"""What an artifact claims, re-checked when it is loaded (:func:`controllers.artifact.parse`).
+"""What an artifact claims, re-checked when it is loaded (:func:`satfmu.controllers.artifact.parse`).
 
-A certificate's status is a claim (:data:`controllers.artifact.CERTIFICATE_STATUS`):
+A certificate's status is a claim (:data:`satfmu.controllers.artifact.CERTIFICATE_STATUS`):
 ``certified`` claims a proof, ``sampled`` that checks on samples passed, ``not_verified``
 nothing. Loading re-checks it from the numbers the artifact records and recomputes what the
 artifact's own matrices allow (each recomputation costs well under a millisecond):
 
 polynomial_state_feedback (``certified``)
-    every SOS check of :func:`synthesis.sos.verify` (``"<name>: min_eig"`` >=
+    every SOS check of :func:`satfmu.synthesis.sos.verify` (``"<name>: min_eig"`` >=
     ``-SOS_EIG_TOL``, ``"<name>: residual"`` <= ``SOS_RES_TOL``); ``psd_margin`` >=
     ``-PSD_MARGIN_TOL`` and ``max real part of eig(Acl(0))`` < 0 when recorded. Recomputed: the
     law's ``P`` is the inverse of ``lyapunov.Q`` (``u = K(x) P x``, ``P = Q^-1``); for a mixed
@@ -17,7 +17,7 @@ polynomial_state_feedback (``certified``)
     <= its certified ``c``.
 servo_gain_schedule
     ``certified``: ``riccati_residual`` <= ``RICCATI_RES_TOL``, ``max_re_shifted`` < 0,
-    ``max_re_closed_loop`` <= ``MAX_RE_TOL`` (:func:`controllers.riccati.riccati_gain`'s
+    ``max_re_closed_loop`` <= ``MAX_RE_TOL`` (:func:`satfmu.controllers.riccati.riccati_gain`'s
     defaults); the SOS region's ``region_eps``, ``region_margin``, ``region_decay_bound`` > 0,
     ``region_trig_max_lyapunov_eig`` < 0 and ``region_trig_max_re_off_p4`` <=
     ``-region_trig_decay_bound``. ``certified`` or ``sampled``: ``frozen_max_re`` <= ``MAX_RE_TOL``.
@@ -30,7 +30,7 @@ linear_state_feedback (``certified``)
     ``design_hinf_bound``, ``analysis_hinf_pdlf``, ``analysis_hinf_common``;
     ``sampled_max_i2p`` <= ``design_i2p_bound``, ``analysis_i2p`` (relative slack
     ``BOUND_RTOL``). Any status: a ``design.K`` gives the artifact's ``gains``
-    (:func:`controllers.state_feedback.gains_of_design`, to ``GAIN_RTOL``): the campaigns
+    (:func:`satfmu.controllers.state_feedback.gains_of_design`, to ``GAIN_RTOL``): the campaigns
     use the first, the FMU the second.
 
 A ``certified`` certificate that records none of its kind's numbers is refused too: nothing
@@ -45,18 +45,18 @@ from typing import Any
 import numpy as np
 
 SOS_EIG_TOL = 1e-6
-"""Most negative admitted smallest Gram eigenvalue of a certified SOS check. :func:`synthesis.sos.verify`
+"""Most negative admitted smallest Gram eigenvalue of a certified SOS check. :func:`satfmu.synthesis.sos.verify`
 admits ``-1e-7 max(1, |G|)``; the Gram scale is not recorded, so this admits scales up to 10."""
 SOS_RES_TOL = 1e-6
 """Largest admitted residual of a certified SOS check (``verify``: ``1e-7 max(1, |p|)``, as above)."""
 PSD_MARGIN_TOL = 1e-9
 """Most negative admitted smallest eigenvalue of the Lyapunov matrices of a mixed H2/H-infinity
-certificate (:attr:`synthesis.h2hinf_sos.Theorem8Result.certified`)."""
+certificate (:attr:`satfmu.synthesis.h2hinf_sos.Theorem8Result.certified`)."""
 RICCATI_RES_TOL = 1e-8
-"""Largest admitted relative Riccati residual (``residual_tol`` of :func:`controllers.riccati.riccati_gain`)."""
+"""Largest admitted relative Riccati residual (``residual_tol`` of :func:`satfmu.controllers.riccati.riccati_gain`)."""
 MAX_RE_TOL = 1e-6
 """Largest admitted real part of a closed loop's eigenvalues, 1/s: a conserved mode sits at 0
-(``max_re_tol`` of :func:`controllers.riccati.riccati_gain`)."""
+(``max_re_tol`` of :func:`satfmu.controllers.riccati.riccati_gain`)."""
 BOUND_RTOL = 1e-6
 """Relative amount by which a sampled value may exceed a proved upper bound: the exact norms of
 the samples are upper bounds within 2e-9, the bounds rounded solver levels."""
@@ -116,7 +116,7 @@ def problems(data: dict[str, Any]) -> list[str]:
     Parameters
     ----------
     data : dict
-        Artifact JSON data whose structure :func:`controllers.artifact.parse` has validated.
+        Artifact JSON data whose structure :func:`satfmu.controllers.artifact.parse` has validated.
 
     Returns
     -------
@@ -236,7 +236,7 @@ def _lyapunov(data: dict[str, Any]) -> list[str]:
 
 def _design_gains(data: dict[str, Any]) -> list[str]:
     """The gains ``design.K`` gives against the artifact's ``gains``, per gain block."""
-    from controllers.state_feedback import gains_of_design
+    from satfmu.controllers.state_feedback import gains_of_design
 
     params = data["provenance"].get("design_plant", {}).get("parameters", {})
     try:

@@ -1,11 +1,11 @@
 """Magnetorquer laws (seed 003): the periodic gain schedule and the B-dot baseline.
 
-Both are sampled laws: an expression sampler (:class:`fmus.model.Sampler`) computes the
+Both are sampled laws: an expression sampler (:class:`satfmu.fmus.model.Sampler`) computes the
 dipole at the sample instants and holds it in between (zero-order hold), so both are
 native FMUs.
 
 - :func:`build_periodic`: ``m = F(k) y`` from a
-  :class:`controllers.artifact.PeriodicArtifact`, sampled every ``sample_period`` at the
+  :class:`satfmu.controllers.artifact.PeriodicArtifact`, sampled every ``sample_period`` at the
   orbit times ``k * sample_period`` (the phase is the parameter ``orbit_time_0``, the orbit
   time at ``t = 0``, as in the plant). The gain in use is the one of the orbit time of the
   instant: ``k = floor(tau / Ts) mod N`` with the artifact's Ts, whatever the sample
@@ -23,9 +23,9 @@ import math
 
 import sympy as sp
 
-from controllers.artifact import INDEX_TOL, PeriodicArtifact
-from fmus import cubesat
-from fmus.model import MIN_SAMPLE_PERIOD as MIN_PERIOD, Model, Output, Sampler, Variable, symbols, vector
+from satfmu.controllers.artifact import INDEX_TOL, PeriodicArtifact
+from satfmu.fmus import cubesat
+from satfmu.fmus.model import MIN_SAMPLE_PERIOD as MIN_PERIOD, Model, Output, Sampler, Variable, symbols, vector
 
 
 def build_periodic(artifact: PeriodicArtifact) -> Model:

@@ -1,6 +1,6 @@
 """Controller "polynomial state feedback": u = sat(p(x)), p a polynomial map from an artifact.
 
-The law's symbolic model is built from a validated :class:`controllers.artifact.ControllerArtifact`;
+The law's symbolic model is built from a validated :class:`satfmu.controllers.artifact.ControllerArtifact`;
 the native and pythonfmu controller FMUs, and the in-process reference, are generated
 from that model. Inputs are the measured states (named as in the artifact, so they
 connect by name to the plant's outputs); outputs are the commands; parameters
@@ -12,8 +12,8 @@ from pathlib import Path
 
 import sympy as sp
 
-from controllers.artifact import ControllerArtifact, Term, load
-from fmus.model import Model, Output, Variable, saturate
+from satfmu.controllers.artifact import ControllerArtifact, Term, load
+from satfmu.fmus.model import Model, Output, Variable, saturate
 
 ARTIFACTS = Path(__file__).resolve().parent / "artifacts"
 

@@ -6,19 +6,19 @@ name); states: the integrals of the tracking errors, advanced by the FMU's integ
 the inputs held over each step; outputs: the commands and the tracking errors
 e = reference - tracked. The servo state is xe = [int e, e, rates].
 
-- :func:`build`: the gain of a :class:`controllers.artifact.ServoArtifact`, polynomials in
+- :func:`build`: the gain of a :class:`satfmu.controllers.artifact.ServoArtifact`, polynomials in
   the scheduling variables (an LQ servo is the degree-0 case, the approximated SDRE of
   seed 002 a fitted polynomial gain). Native and pythonfmu FMUs.
 - :func:`build_online`: the online SDRE of seed 002. The gain is solved and checked
-  (:func:`controllers.riccati.sampled_gain`) at every control instant from the servo's
-  SDC matrices (:func:`controllers.servo_sdc.servo_matrices`, the plant's own factorization) and
+  (:func:`satfmu.controllers.riccati.sampled_gain`) at every control instant from the servo's
+  SDC matrices (:func:`satfmu.controllers.servo_sdc.servo_matrices`, the plant's own factorization) and
   held in between; a rejected solution stops the FMU with the check's message. Native FMU:
   the C twin of the checked solve (``fmus/c/riccati.h``: Hamiltonian sign function, then
   Newton-Kleinman refinement, the same checks and messages); pythonfmu FMU (the cross-check
-  backend): :func:`controllers.riccati.sampled_gain`, scipy's ``solve_continuous_are``.
+  backend): :func:`satfmu.controllers.riccati.sampled_gain`, scipy's ``solve_continuous_are``.
 
 For the VSCMG (``plant == "vscmg"``) the optional friction compensation of
-:func:`fmus.vscmg.friction_compensation` is added (parameter ``compensation_on``, off by
+:func:`satfmu.fmus.vscmg.friction_compensation` is added (parameter ``compensation_on``, off by
 default).
 """
 from __future__ import annotations
@@ -28,11 +28,11 @@ from typing import Sequence
 
 import sympy as sp
 
-from controllers import riccati, servo_sdc
-from controllers.artifact import ServoArtifact, scheduling_signal
-from controllers.polynomial import sympy_polynomial
-from fmus import vscmg
-from fmus.model import MIN_SAMPLE_PERIOD, Model, Output, Sampler, State, Variable, vector
+from satfmu.controllers import riccati, servo_sdc
+from satfmu.controllers.artifact import ServoArtifact, scheduling_signal
+from satfmu.controllers.polynomial import sympy_polynomial
+from satfmu.fmus import vscmg
+from satfmu.fmus.model import MIN_SAMPLE_PERIOD, Model, Output, Sampler, State, Variable, vector
 
 
 def servo_model(name: str, description: str, plant: str, tracked: list[dict], rates: list[dict],

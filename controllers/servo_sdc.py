@@ -7,13 +7,13 @@ e = q_ref - q and the reference held constant in the design model:
     Ae = [[0, I2, 0], [0, 0, -S], [0, 0, A_ww(x)]],   Be = [0; 0; B_w(x)],
 
 S picking (w2, w4) out of w, and A_ww = -M^-1 N_sdc, B_w = M^-1 G from the plant's SDC
-form (:func:`fmus.vscmg.sdc_form`; frictionless, unsaturated). The law is u = -K(x) xe,
+form (:func:`satfmu.fmus.vscmg.sdc_form`; frictionless, unsaturated). The law is u = -K(x) xe,
 K = Re^-1 Be^T P from the Riccati equation of the shifted pair (Ae - eps I, Be)
-(:func:`controllers.riccati.riccati_gain`).
+(:func:`satfmu.controllers.riccati.riccati_gain`).
 
-One definition for both sides: the online SDRE FMU (:func:`controllers.servo.build_online`)
+One definition for both sides: the online SDRE FMU (:func:`satfmu.controllers.servo.build_online`)
 solves its gain from these matrices and weights, and the design side
-(:mod:`synthesis.sdre`, :mod:`synthesis.gain_fit`, :mod:`synthesis.vscmg_region`) grids,
+(:mod:`satfmu.synthesis.sdre`, :mod:`satfmu.synthesis.gain_fit`, :mod:`satfmu.synthesis.vscmg_region`) grids,
 fits and certifies the same law; the servo artifacts carry the same signals.
 """
 from __future__ import annotations
@@ -21,8 +21,8 @@ from __future__ import annotations
 import numpy as np
 import sympy as sp
 
-from fmus import vscmg
-from fmus.model import Model
+from satfmu.fmus import vscmg
+from satfmu.fmus.model import Model
 
 SERVO_STATES = ("int_e2", "int_e4", "e2", "e4", "w1", "w2", "w4")
 """Servo state names; int_e* in rad s, e* in rad, w* in rad/s."""

@@ -1,4 +1,4 @@
-"""Code generation from a :class:`fmus.model.Model`: Python and C of the same expressions.
+"""Code generation from a :class:`satfmu.fmus.model.Model`: Python and C of the same expressions.
 
 Both generators share one lowering step (:func:`lower`): every state, input and
 parameter symbol is replaced by an array element (``x[i]``, ``u[i]``, ``p[i]``),
@@ -20,8 +20,8 @@ import sympy as sp
 from sympy.printing.c import C99CodePrinter
 from sympy.printing.pycode import PythonCodePrinter
 
-from fmus.digest import model_digest
-from fmus.model import TIME_TOL, TIME_TOL_MAX, TIME_ULPS, Model, TableLookup
+from satfmu.fmus.digest import model_digest
+from satfmu.fmus.model import TIME_TOL, TIME_TOL_MAX, TIME_ULPS, Model, TableLookup
 
 KIND_PARAMETER, KIND_INPUT, KIND_OUTPUT = 0, 1, 2
 TYPE_CODES = {"Real": 0, "Integer": 1, "Boolean": 2}
@@ -103,11 +103,11 @@ _LOWERED: dict[str, tuple[LoweredFunction, ...]] = {}
 
 def functions(model: Model) -> list[LoweredFunction]:
     """The generated functions: derivatives, outputs, post_step (identity if absent),
-    sample_arguments for a model with a :class:`fmus.model.Sampler`, and for the exact
+    sample_arguments for a model with a :class:`satfmu.fmus.model.Sampler`, and for the exact
     integrator jacobian (``d rhs / d x`` row-major) and switch_time (``oo`` if not given).
 
     Lowering (common subexpression elimination) is the expensive part of code generation;
-    its result is kept per :func:`fmus.digest.model_digest`, so the C, the Python and the
+    its result is kept per :func:`satfmu.fmus.digest.model_digest`, so the C, the Python and the
     native and pythonfmu FMUs of one model share one lowering."""
     key = model_digest(model)
     if key not in _LOWERED:
@@ -160,7 +160,7 @@ def variable_table(model: Model) -> list[dict]:
 
 
 def guid_bytes(guid: str) -> bytes:
-    """The 16 bytes of an FMU's GUID (``{xxxxxxxx-...}``, :func:`fmus.description.fmu_guid`): the
+    """The 16 bytes of an FMU's GUID (``{xxxxxxxx-...}``, :func:`satfmu.fmus.description.fmu_guid`): the
     model identity the native FMU writes into every FMU state and compares when a state is
     restored (a state of another FMU, even with the same layout, is refused).
 
@@ -208,7 +208,7 @@ class _Py(PythonCodePrinter):
         return f"table_lookup({int(expr.args[0])}, {self._print(expr.args[1])})"
 
 
-# The lookup of fmus.model.Table.evaluate, one time at a time (generated Python and C).
+# The lookup of satfmu.fmus.model.Table.evaluate, one time at a time (generated Python and C).
 _PY_TABLE_LOOKUP = """
 def time_tolerance(t):
     a = abs(t)
@@ -262,7 +262,7 @@ def python_source(model: Model, guid: str) -> str:
     ----------
     model : Model
     guid : str
-        The GUID of the FMU the module goes into (:func:`fmus.description.fmu_guid` of the
+        The GUID of the FMU the module goes into (:func:`satfmu.fmus.description.fmu_guid` of the
         pythonfmu FMU), written as ``GUID``: the slave's FMU states carry it.
 
     Returns
@@ -301,7 +301,7 @@ def load_python(model: Model) -> ModuleType:
     cached = model.__dict__.get("_python_module")
     if cached is not None:
         return cached
-    from fmus.description import PYTHON, fmu_guid  # the description imports this module
+    from satfmu.fmus.description import PYTHON, fmu_guid  # the description imports this module
 
     mod = ModuleType(f"satfmu_generated_{model.name}")
     source = python_source(model, fmu_guid(model, PYTHON))  # the module of the pythonfmu FMU
@@ -400,7 +400,7 @@ def c_source(model: Model, guid: str) -> str:
     ----------
     model : Model
     guid : str
-        The native FMU's GUID (:func:`fmus.description.fmu_guid`): ``MODEL_GUID``, which
+        The native FMU's GUID (:func:`satfmu.fmus.description.fmu_guid`): ``MODEL_GUID``, which
         fmi2Instantiate requires, and ``MODEL_ID``, its 16 bytes (:func:`guid_bytes`), the
         identity of the FMU states.
 
@@ -435,7 +435,7 @@ def c_source(model: Model, guid: str) -> str:
     phase = smp["phase_index"] if smp else None
     lines.append(f"#define P_PHASE {-1 if phase is None else phase}")
     lines.append(f"#define EXACT {int(model.integrator == 'exact')}")
-    lines.append(f"#define TIME_TOL {TIME_TOL!r} /* fmus.model.time_tolerance: relative (times max(1, |t|)), */")
+    lines.append(f"#define TIME_TOL {TIME_TOL!r} /* satfmu.fmus.model.time_tolerance: relative (times max(1, |t|)), */")
     lines.append(f"#define TIME_TOL_MAX {TIME_TOL_MAX!r} /* at most this (s), */")
     lines.append(f"#define TIME_ULPS {float(TIME_ULPS)!r} /* at least this many ulp of |t| */")
     lines.append("static double time_tolerance(double t) {")

@@ -24,11 +24,11 @@ Field ``b_orbit`` (T, orbit frame), by the Integer parameter ``field_model``:
    ``field_x[1..5]`` etc. for [1, sin, cos, sin 2, cos 2] of ``2 pi tau / orbit_period``,
    defaulting to the seed's values with the by constant read as -3.4927 uT (the seed prints
    -34927: a misplaced decimal, an inference; docs/models.md). A Fourier fit of another field
-   (IGRF, :func:`fmus.geomagnetic.fourier_fit`) loads into the same parameters.
+   (IGRF, :func:`satfmu.fmus.geomagnetic.fourier_fit`) loads into the same parameters.
 1. a tilted dipole, ``b = (M / r^3) (3 (m.r) r - m)``, on a circular orbit of the given
    altitude, inclination, RAAN and initial argument of latitude, with the Earth rotating
    under it (:func:`dipole_field_orbit`).
-2. external: the inputs ``b_ext[1..3]`` (an IGRF profile from :mod:`fmus.geomagnetic`
+2. external: the inputs ``b_ext[1..3]`` (an IGRF profile from :mod:`satfmu.fmus.geomagnetic`
    through the master, or any measured field).
 
 Inertia diag(0.005, 0.005, 0.002) kg m^2 (the seed's).
@@ -39,10 +39,10 @@ import sympy as sp
 
 from typing import TYPE_CHECKING
 
-from fmus.model import Model, Output, State, Variable, saturate, states, symbols, vector
+from satfmu.fmus.model import Model, Output, State, Variable, saturate, states, symbols, vector
 
 if TYPE_CHECKING:
-    from fmus.spacecraft import Spacecraft
+    from satfmu.fmus.spacecraft import Spacecraft
 
 INERTIA_SEED_003 = (0.005, 0.005, 0.002)
 """Principal moments of inertia of seed 003, kg m^2."""
@@ -164,7 +164,7 @@ def build(omega_0: tuple[float, float, float] = (0.05, -0.04, 0.03), spacecraft:
     omega_0 : 3 floats
         Default initial body rate, rad/s (the issue's **substitute** tumbling rate; the seed
         gives none).
-    spacecraft : fmus.spacecraft.Spacecraft, optional
+    spacecraft : satfmu.fmus.spacecraft.Spacecraft, optional
         Its principal moments (no products of inertia) give the defaults of ``I_x, I_y,
         I_z`` (default seed 003's); its torque limit does not apply (the actuators are
         magnetorquers, limited by ``m_max``).

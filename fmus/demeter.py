@@ -35,7 +35,7 @@ from functools import lru_cache
 import numpy as np
 import sympy as sp
 
-from fmus.model import Definitions, Model, Output, Variable, states, symbols, vector
+from satfmu.fmus.model import Definitions, Model, Output, Variable, states, symbols, vector
 
 N_AXES = 3
 N_APPENDAGES = 4
@@ -283,7 +283,7 @@ def model() -> Model:
 
 
 def __getattr__(name: str) -> Model:
-    """``fmus.demeter.MODEL``: :func:`model` (so importing this module costs nothing)."""
+    """``satfmu.fmus.demeter.MODEL``: :func:`model` (so importing this module costs nothing)."""
     if name == "MODEL":
         return model()
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

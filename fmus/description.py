@@ -1,4 +1,4 @@
-"""FMI 2.0 modelDescription.xml of a :class:`fmus.model.Model`, for both backends.
+"""FMI 2.0 modelDescription.xml of a :class:`satfmu.fmus.model.Model`, for both backends.
 
 The native FMU and the pythonfmu FMU of one model share this description (only the GUID, the
 modelIdentifier, the capability flags and the native FMU's SourceFiles differ), so their
@@ -7,7 +7,7 @@ variables, value references, units and ModelStructure are identical by construct
 Identity (``docs/fmus-in-your-tool.md``, "GUID, modelName and version"):
 
 * ``guid`` identifies the description: a name-based UUID (:func:`uuid.uuid5` in
-  :data:`GUID_NAMESPACE`) of the model digest (:func:`fmus.digest.model_digest`: the equations,
+  :data:`GUID_NAMESPACE`) of the model digest (:func:`satfmu.fmus.digest.model_digest`: the equations,
   which the description does not show) and the SHA-256 of the description itself with an empty
   ``guid``. The two FMUs of one model therefore have different GUIDs; two builds of the same
   sources the same one; any change of the model or of the description another.
@@ -24,10 +24,10 @@ import uuid
 from dataclasses import dataclass
 from xml.etree.ElementTree import Element, SubElement, indent, tostring
 
-from fmus import __version__
-from fmus.codegen import KIND_INPUT, KIND_PARAMETER, variable_table
-from fmus.digest import model_digest, sha256
-from fmus.model import UNITS, Model
+from satfmu.fmus import __version__
+from satfmu.fmus.codegen import KIND_INPUT, KIND_PARAMETER, variable_table
+from satfmu.fmus.digest import model_digest, sha256
+from satfmu.fmus.model import UNITS, Model
 
 NATIVE, PYTHON = "native", "python"
 """The two backends: the native C FMU and the pythonfmu FMU."""

@@ -3,8 +3,8 @@
 A digest is the SHA-256 of a canonical text of everything that defines a thing, so two
 processes (or two sessions) that build the same model compute the same digest, and any change
 to an expression, a variable's unit or range, a table, a sampler's module file or the
-generators themselves changes it. :mod:`fmus.export` skips a build whose FMU already carries
-the digest of its inputs; :mod:`fmus.codegen` lowers a model once per digest; the GUID is
+generators themselves changes it. :mod:`satfmu.fmus.export` skips a build whose FMU already carries
+the digest of its inputs; :mod:`satfmu.fmus.codegen` lowers a model once per digest; the GUID is
 derived from the model digest.
 """
 from __future__ import annotations
@@ -18,13 +18,13 @@ from typing import Any
 
 import sympy as sp
 
-from fmus.model import Model, Sampler
+from satfmu.fmus.model import Model, Sampler
 
 HERE = Path(__file__).resolve().parent
 
 GENERATOR_FILES = ("codegen.py", "description.py", "digest.py", "export.py", "model.py", "pyslave.py",
                    "c/fmi2_cosim.c", "c/pythonfmu_shim.c")
-"""The files (relative to :mod:`fmus`) whose text shapes a generated FMU."""
+"""The files (relative to :mod:`satfmu.fmus`) whose text shapes a generated FMU."""
 
 
 def sha256(data: bytes) -> str:

@@ -1,21 +1,21 @@
-"""Turn a :class:`fmus.model.Model` into FMI 2.0 co-simulation FMUs (native C and pythonfmu).
+"""Turn a :class:`satfmu.fmus.model.Model` into FMI 2.0 co-simulation FMUs (native C and pythonfmu).
 
 The native FMU carries ``sources/`` (the generic wrapper ``fmi2_cosim.c``, its one ``.c`` file
 and the only file ``<SourceFiles>`` lists, and the generated model header it includes,
-:data:`fmus.codegen.C_HEADER`) so other platforms can rebuild it (``fmpy compile``, or a tool
+:data:`satfmu.fmus.codegen.C_HEADER`) so other platforms can rebuild it (``fmpy compile``, or a tool
 compiling every ``.c`` file under ``sources/``), and two binaries compiled here against the FMI
 headers that fmpy ships, concurrently: ``binaries/linux64/<model>.so`` (gcc) and
 ``binaries/win64/<model>.dll`` (the MinGW-w64 cross compiler, :data:`WIN64_CC`). The
-pythonfmu FMU embeds the generated Python module and :mod:`fmus.pyslave`; its binaries are
+pythonfmu FMU embeds the generated Python module and :mod:`satfmu.fmus.pyslave`; its binaries are
 satfmu's C layer (``c/pythonfmu_shim.c``, compiled here for both platforms) in front of
 pythonfmu's library, which lies beside them as ``<model>_py_pythonfmu.so`` (``.dll``).
 
 Builds are incremental: every FMU records, as its zip archive's comment, the digest of what
-its build read (:func:`fmus.digest.build_digest`: the model, the resources, the generators,
+its build read (:func:`satfmu.fmus.digest.build_digest`: the model, the resources, the generators,
 the compilers), and a build whose destination already carries that digest does nothing. A
 controller FMU also records there the SHA-256 of the artifact it embeds
 (``resources/artifact.json``, :func:`artifact_digest`), which a run compares with the
-artifact file of its name (:mod:`sims.preflight`). The comment reads
+artifact file of its name (:mod:`satfmu.sims.preflight`). The comment reads
 ``satfmu-build sha256:<build digest>[ artifact sha256:<artifact digest>]``. An FMU is written
 under a temporary name and renamed into place, so an interrupted build never leaves a partial
 file under the FMU's name.
@@ -30,12 +30,12 @@ import zipfile
 import zlib
 from functools import lru_cache
 from pathlib import Path
-from fmus import archive, codegen
-from fmus.atomic import write_atomically
-from fmus.description import (NATIVE, PYTHON, PYTHON_SUFFIX, WRAPPER_SOURCE, capabilities, model_description,
+from satfmu.fmus import archive, codegen
+from satfmu.fmus.atomic import write_atomically
+from satfmu.fmus.description import (NATIVE, PYTHON, PYTHON_SUFFIX, WRAPPER_SOURCE, capabilities, model_description,
                               to_xml_bytes)
-from fmus.digest import build_digest, sha256
-from fmus.model import Model
+from satfmu.fmus.digest import build_digest, sha256
+from satfmu.fmus.model import Model
 
 HERE = Path(__file__).resolve().parent
 WRAPPER = HERE / "c" / WRAPPER_SOURCE
@@ -118,7 +118,7 @@ def _zip_dir(src: Path, dest: Path, comment: bytes) -> None:
 
 def _recorded(fmu: Path) -> tuple[str, str | None] | None:
     """The build digest and the artifact digest (or None) an FMU built here records; None for
-    no file, an archive :func:`fmus.archive.check` refuses (not a zip archive, a member failing
+    no file, an archive :func:`satfmu.fmus.archive.check` refuses (not a zip archive, a member failing
     its CRC, unsafe entries, beyond its limits), or an FMU built elsewhere."""
     try:
         archive.check(fmu, crc=True)

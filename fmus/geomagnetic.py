@@ -1,6 +1,6 @@
 """IGRF field along the cubesat's circular orbit, in the orbit frame, and its Fourier fit.
 
-The orbit geometry is the magnetorquer cubesat's own (:func:`fmus.cubesat.orbit_frame`,
+The orbit geometry is the magnetorquer cubesat's own (:func:`satfmu.fmus.cubesat.orbit_frame`,
 lambdified here, never re-derived): argument of latitude ``u = orbit_arg_latitude_0 +
 2 pi tau / orbit_period`` at orbit time ``tau`` (s), the Earth turned by ``earth_rotation_angle_0
 + EARTH_RATE tau`` about the ECI z axis, orbit axes o1 (velocity), o2 (-normal), o3 (nadir).
@@ -15,7 +15,7 @@ epoch for a real ground track).
 
 A least-squares fit of one orbit of field (:func:`fourier_fit`) gives the cubesat's
 ``field_x/y/z[1..5]`` parameters (``field_model = 0``); the profile kind ``igrf`` of
-:mod:`fmus.profiles` feeds the field itself to the ``b_ext`` inputs (``field_model = 2``).
+:mod:`satfmu.fmus.profiles` feeds the field itself to the ``b_ext`` inputs (``field_model = 2``).
 """
 from __future__ import annotations
 
@@ -27,7 +27,7 @@ from functools import cache
 import numpy as np
 import sympy as sp
 
-from fmus.cubesat import (
+from satfmu.fmus.cubesat import (
     EARTH_RADIUS,
     EARTH_RATE,
     FIELD_FOURIER_SEED,
@@ -46,7 +46,7 @@ _POLE_GUARD_DEG = 1e-10  # colatitude kept this far from the poles (ppigrf divid
 
 
 def model_defaults() -> dict[str, float]:
-    """Start values of every cubesat parameter, by name (SI units, as in :data:`fmus.cubesat.MODEL`)."""
+    """Start values of every cubesat parameter, by name (SI units, as in :data:`satfmu.fmus.cubesat.MODEL`)."""
     return {v.name: float(v.start) for v in MODEL.parameters}
 
 
@@ -84,7 +84,7 @@ def orbit_parameters(params: Mapping[str, float] | None = None) -> dict[str, flo
 
 @cache
 def _orbit_frame_numeric() -> Callable[..., list]:
-    """``fmus.cubesat.orbit_frame`` lambdified in (tau, orbit parameters): 3 + 9 expressions."""
+    """``satfmu.fmus.cubesat.orbit_frame`` lambdified in (tau, orbit parameters): 3 + 9 expressions."""
     tau = sp.Symbol("tau", real=True)
     p = {name: sp.Symbol(name, real=True) for name in ORBIT_PARAMETERS}
     u = p["orbit_arg_latitude_0"] + 2 * sp.pi * tau / p["orbit_period"]  # as in dipole_field_orbit
@@ -298,5 +298,5 @@ def fourier_fit(tau: np.ndarray, b: np.ndarray, period: float) -> FourierFit:
 
 
 def seed_fourier_coefficients() -> np.ndarray:
-    """Seed 003's Fourier coefficients (:data:`fmus.cubesat.FIELD_FOURIER_SEED`), (3, 5), T."""
+    """Seed 003's Fourier coefficients (:data:`satfmu.fmus.cubesat.FIELD_FOURIER_SEED`), (3, 5), T."""
     return 1e-6 * np.array([FIELD_FOURIER_SEED[a] for a in FOURIER_AXES], float)

@@ -5,7 +5,7 @@ units, defaults and descriptions, and sympy expressions for the right-hand side,
 the output map and an optional post-step projection (e.g. the MRP shadow set).
 Everything else is generated from it:
 
-- Python source of the same expressions (:mod:`fmus.codegen`), used by the
+- Python source of the same expressions (:mod:`satfmu.fmus.codegen`), used by the
   in-process reference simulation and embedded in the pythonfmu FMU;
 - C source of the same expressions, compiled into the native FMU;
 - the state-dependent coefficient (SDC) form ``f = A(x) x + B(x) v``, checked
@@ -22,7 +22,7 @@ from typing import Callable, Literal, Sequence
 import numpy as np
 import sympy as sp
 
-from fmus.xml_text import xml_problem
+from satfmu.fmus.xml_text import xml_problem
 
 VariableType = Literal["Real", "Integer", "Boolean"]
 
@@ -612,11 +612,11 @@ class Model:
         Raises
         ------
         ModelDefinitionError
-            If the model has :attr:`definitions` (use :func:`fmus.codegen.load_python`).
+            If the model has :attr:`definitions` (use :func:`satfmu.fmus.codegen.load_python`).
         """
         if self.definitions:
             raise ModelDefinitionError(f"model {self.name!r} has definitions; evaluate it with the "
-                                       "generated code (fmus.codegen.load_python)")
+                                       "generated code (satfmu.fmus.codegen.load_python)")
         args = (self.t, self.state_symbols, self.input_symbols, self.parameter_symbols)
         tables = {"TableLookup": lambda k, t: self.tables[int(k)].evaluate(t)}
         return sp.lambdify(args, sp.Matrix(exprs), modules=[tables, "numpy"], cse=True)
@@ -654,7 +654,7 @@ class Model:
         rng = np.random.default_rng(seed)
         p = self.parameter_vector(sdc.assumptions)
         A, B = self.sdc_functions(sdc)
-        from fmus.codegen import load_python  # codegen imports this module
+        from satfmu.fmus.codegen import load_python  # codegen imports this module
 
         f = load_python(self).derivatives
         in_index = [[v.name for v in self.inputs].index(n) for n in sdc.inputs]

@@ -9,7 +9,7 @@ docs/models.md, "Seed 000". State x = [omega (rad/s), sigma (MRP, 1)]:
 
 with the full inertia tensor J (parameters ``I_x, I_y, I_z`` on the diagonal and the
 products ``I_xy, I_xz, I_yz`` off it, kg m^2; defaults from the spacecraft the model is
-built for, :class:`fmus.spacecraft.Spacecraft`; seed 000: diag(15, 16, 12.5)), an
+built for, :class:`satfmu.fmus.spacecraft.Spacecraft`; seed 000: diag(15, 16, 12.5)), an
 optional actuator saturation |u_i| <= u_max (off by default) and optional MRP
 shadow-set switching sigma <- -sigma / |sigma|^2 when |sigma| > 1, applied after
 every integration substep (off by default: the seed does not switch, its 200 deg
@@ -25,8 +25,8 @@ from __future__ import annotations
 import numpy as np
 import sympy as sp
 
-from fmus.model import Model, Output, SDCForm, Variable, saturate, states, symbols, vector
-from fmus.spacecraft import PARAMETERS, SEED_000, Spacecraft
+from satfmu.fmus.model import Model, Output, SDCForm, Variable, saturate, states, symbols, vector
+from satfmu.fmus.spacecraft import PARAMETERS, SEED_000, Spacecraft
 
 INERTIA_SEED_000 = tuple(SEED_000.inertia[i][i] for i in range(3))
 """Principal moments of inertia of seed 000, kg m^2."""
@@ -49,7 +49,7 @@ def build(spacecraft: Spacecraft = SEED_000, omega_0: tuple[float, float, float]
 
     Parameters
     ----------
-    spacecraft : fmus.spacecraft.Spacecraft
+    spacecraft : satfmu.fmus.spacecraft.Spacecraft
         Its inertia tensor gives the defaults of ``I_x ... I_yz`` and its torque limit (if
         any) the default of ``u_max`` (else 5 N m). The model (name ``mrp_satellite``) and
         its FMU are the same for every spacecraft up to these defaults.

@@ -23,7 +23,7 @@ Kinds (times in s, values in the target input's unit):
               orbit_inclination, orbit_raan, orbit_arg_latitude_0, earth_rotation_angle_0
               (= the magnetorquer cubesat's parameters, defaulting to its start values)
               IGRF field along orbit axis ``component`` at orbit time orbit_time_0 + t, T
-              (:func:`fmus.geomagnetic.igrf_orbit_field`), for the cubesat's ``b_ext[i]``
+              (:func:`satfmu.fmus.geomagnetic.igrf_orbit_field`), for the cubesat's ``b_ext[i]``
               inputs with ``field_model = 2``; give the plant the same orbit_period.
 """
 from __future__ import annotations
@@ -42,8 +42,8 @@ from typing import Any, Callable
 
 import numpy as np
 
-from fmus import signals
-from fmus.model import Model, ModelDefinitionError, Table
+from satfmu.fmus import signals
+from satfmu.fmus.model import Model, ModelDefinitionError, Table
 
 Generator = Callable[[np.ndarray, str], tuple[Model, dict[str, float]]]
 """(communication grid (s), unit of the target input) -> the signal-generator model and its
@@ -69,7 +69,7 @@ class Profile:
         return np.broadcast_to(v, np.shape(t)).copy()
 
     def generator(self, times: np.ndarray, unit: str = signals.DIMENSIONLESS) -> tuple[Model, dict[str, float]]:
-        """The signal-generator model (:mod:`fmus.signals`) and its parameter values that give
+        """The signal-generator model (:mod:`satfmu.fmus.signals`) and its parameter values that give
         this profile's values at ``times``, the communication grid (s), declaring ``unit`` (the
         target input's: FMI 2.0 gives each variable one fixed unit) for its output.
 
@@ -169,8 +169,8 @@ _IGRF_ORBIT = ("orbit_period", "orbit_time_0", "orbit_altitude", "orbit_inclinat
 
 
 def _igrf(spec: dict, where: str) -> tuple[Callable[[np.ndarray], np.ndarray], Generator]:
-    # fmus.geomagnetic imports ppigrf and pandas: only when this kind is used
-    from fmus import geomagnetic
+    # satfmu.fmus.geomagnetic imports ppigrf and pandas: only when this kind is used
+    from satfmu.fmus import geomagnetic
 
     unknown = sorted(set(spec) - {"kind", "component", "epoch", "max_degree", *_IGRF_ORBIT})
     if unknown:
@@ -214,7 +214,7 @@ def _igrf(spec: dict, where: str) -> tuple[Callable[[np.ndarray], np.ndarray], G
 def _igrf_field(key: tuple, t_bytes: bytes) -> np.ndarray:
     """IGRF along the orbit at the times ``t_bytes`` (float64), cached: the three components of
     one field usually sample the same grid."""
-    from fmus import geomagnetic
+    from satfmu.fmus import geomagnetic
 
     epoch, degree, tau0, orbit = key
     b = geomagnetic.igrf_orbit_field(tau0 + np.frombuffer(t_bytes), epoch, dict(orbit), max_degree=degree)

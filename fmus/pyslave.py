@@ -1,7 +1,7 @@
 """Runtime of satfmu's pythonfmu FMUs, and the Python RK4 shared with reference simulations.
 
 This file is copied verbatim into every pythonfmu FMU (as ``resources/satfmu_pyslave.py``)
-next to the generated model module (:func:`fmus.codegen.python_source`), so at run
+next to the generated model module (:func:`satfmu.fmus.codegen.python_source`), so at run
 time it may import only the standard library and pythonfmu. It implements the same
 behaviour as the generic C wrapper ``fmus/c/fmi2_cosim.c``, in the same arithmetic order (both
 give the same outputs bit for bit, ``tests/test_pythonfmu_parity.py``): RK4 with held inputs,
@@ -9,7 +9,7 @@ give the same outputs bit for bit, ``tests/test_pythonfmu_parity.py``): RK4 with
 :class:`ExactFlow`), the post-step map, value checks
 (finite, in range, right causality), the co-simulation call order, and FMU state.
 
-A model with a sampler (:class:`fmus.model.Sampler`) also holds values computed at the
+A model with a sampler (:class:`satfmu.fmus.model.Sampler`) also holds values computed at the
 start and at the instants ``t_k = k * period - phase`` (``t0 + k * period`` without a phase), ``k``
 an integer count, never an accumulated time (:class:`Instants`): a step is integrated in segments
 between instants. Every sample is taken from the inputs set for the step being taken: an instant
@@ -77,7 +77,7 @@ MAX_STEP_PYTHON_SAMPLES = 10_000
 SDRE solves a Riccati equation per instant (~0.5 to 5 ms, so at most ~5 to 50 s per step); the far
 step of the robustness suite (1e4 default steps, one instant each) is the longest the project
 takes. The native FMU of such a model (its C routine) has the same bound
-(``fmus.codegen.MAX_STEP_ROUTINE_SAMPLES``)."""
+(``satfmu.fmus.codegen.MAX_STEP_ROUTINE_SAMPLES``)."""
 INDEX_LIMIT = 2 ** 52
 """Sample counts stay below this: exact integers in a double, as the native FMU keeps them."""
 STATE_FORMAT = 2
@@ -405,7 +405,7 @@ class Instants:
         The experiment's start time, s.
     tolerance : callable
         ``t -> s``: two times closer than this at ``t`` are one instant (the generated module's
-        ``time_tolerance``, :func:`fmus.model.time_tolerance`).
+        ``time_tolerance``, :func:`satfmu.fmus.model.time_tolerance`).
     """
 
     period: float

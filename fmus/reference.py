@@ -3,7 +3,7 @@
 Both run the SAME sampled-data loop as the co-simulation master: the controller
 output is computed from the plant state at each communication point and held over
 the step. They evaluate the same generated code as the FMUs
-(:func:`fmus.codegen.load_python`), so they check the FMU machinery (wrapper,
+(:func:`satfmu.fmus.codegen.load_python`), so they check the FMU machinery (wrapper,
 master, integrator), not a second copy of the dynamics.
 
 - :func:`closed_loop_solve_ivp`: scipy's adaptive RK45/DOP853 at tight tolerances, the
@@ -19,9 +19,9 @@ from typing import Callable
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from fmus import codegen
-from fmus.model import Model
-from fmus.pyslave import rk4_step, substep_count
+from satfmu.fmus import codegen
+from satfmu.fmus.model import Model
+from satfmu.fmus.pyslave import rk4_step, substep_count
 
 
 @dataclass

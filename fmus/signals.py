@@ -3,13 +3,13 @@
 Each generator has one output ``y``, a function of time and of its parameters, and no inputs.
 The analytic kinds are generic models, built once, with the signal's constants as FMU
 parameters; a sampled signal (a table, a CSV column, a random sequence, a field sampled along
-an orbit) is a :class:`fmus.model.Table` compiled into its own model. The same expressions give
-the master's in-process profile (:func:`evaluate`, used by :mod:`fmus.profiles`), the generated
+an orbit) is a :class:`satfmu.fmus.model.Table` compiled into its own model. The same expressions give
+the master's in-process profile (:func:`evaluate`, used by :mod:`satfmu.fmus.profiles`), the generated
 Python and the C of the native FMU, so a scenario run with its profiles as FMUs (an SSP file in
 another tool) sees the very values the master sets.
 
 Units: FMI 2.0 gives every variable one fixed unit, so a generator is made for the unit of
-the input it drives (``unit``, from the target FMU's model description: :func:`sims.ssp.target_unit`);
+the input it drives (``unit``, from the target FMU's model description: :func:`satfmu.sims.ssp.target_unit`);
 ``y`` and the value parameters (``value``, ``before``, ``after``, ``amplitude``, ``offset``)
 declare it. Unit ``"1"`` (dimensionless) gives the catalog's generic FMUs ``signal_<kind>``; another
 unit gives ``signal_<kind>__<unit tag>`` (:func:`model_name`, e.g. ``signal_step__N_m`` for N.m),
@@ -19,7 +19,7 @@ Kinds:
 
 ``signal_constant``     y = value
 ``signal_step``         y = before until ``step_time``, then after (a jump at ``step_time``, to
-                        the time tolerance :data:`fmus.model.TIME_TOL`); the parameter is not
+                        the time tolerance :data:`satfmu.fmus.model.TIME_TOL`); the parameter is not
                         called ``time``, the name of the independent variable in result files
                         and in Modelica
 ``signal_sinusoid``     y = offset + amplitude sin(2 pi frequency_Hz t + phase_rad), the
@@ -35,7 +35,7 @@ Kinds:
 An output that is not finite all the same (an overflow: a ramp so short that its second
 derivative exceeds 1.8e308) is refused by the native FMU with fmi2Error, never returned with
 fmi2OK (``fmus/c/fmi2_cosim.c``).
-``signal_table_<hash>`` the table (:class:`fmus.model.Table`), ``"previous"`` or ``"linear"``
+``signal_table_<hash>`` the table (:class:`satfmu.fmus.model.Table`), ``"previous"`` or ``"linear"``
 """
 from __future__ import annotations
 
@@ -47,7 +47,7 @@ from typing import Callable
 import numpy as np
 import sympy as sp
 
-from fmus.model import UNITS, Model, Output, Table, TableLookup, Variable, time_tolerance
+from satfmu.fmus.model import UNITS, Model, Output, Table, TableLookup, Variable, time_tolerance
 
 OUTPUT = "y"
 """Name of every generator's output."""
@@ -78,7 +78,7 @@ def model_name(kind: str, unit: str = DIMENSIONLESS) -> str:
 
 def _check_unit(unit: str) -> None:
     if unit not in UNITS:
-        raise ValueError(f"a signal's unit must be one of fmus.model.UNITS, got {unit!r}")
+        raise ValueError(f"a signal's unit must be one of satfmu.fmus.model.UNITS, got {unit!r}")
 
 
 def _model(kind: str, unit: str, description: str, parameters: list[Variable], y: sp.Expr,

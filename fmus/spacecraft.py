@@ -1,6 +1,6 @@
 """A spacecraft description: name, inertia tensor, actuator limits (TOML, dict or Python).
 
-The plant builders (:func:`fmus.mrp_satellite.build`) and every design of the MRP
+The plant builders (:func:`satfmu.fmus.mrp_satellite.build`) and every design of the MRP
 satellite take one, so that a controller is designed for *your* spacecraft. A TOML file::
 
     name = "my_sat"
@@ -24,7 +24,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from fmus.declared import check_keys, read_toml
+from satfmu.fmus.declared import check_keys, read_toml
 
 SYMMETRY_RTOL = 1e-9
 """Largest ``|J - J^T|`` relative to ``max |J|`` accepted as symmetric (rounding of a CAD export)."""

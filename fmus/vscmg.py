@@ -44,7 +44,7 @@ from dataclasses import dataclass
 
 import sympy as sp
 
-from fmus.model import Definitions, Model, Output, SDCForm, State, Variable, is_set, saturate
+from satfmu.fmus.model import Definitions, Model, Output, SDCForm, State, Variable, is_set, saturate
 
 INERTIAS_ECP750 = {"KA": 0.0670, "KB": 0.0297, "IC": 0.0092, "JC": 0.0230, "KC": 0.0220,
                    "ID": 0.0148, "JD": 0.0273}

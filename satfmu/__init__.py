@@ -1,7 +1,7 @@
 """satfmu: spacecraft attitude control plants and controllers as FMI 2.0 co-simulation FMUs.
 
 The public API, for scripts and tests (the implementation lives in the packages
-``fmus`` <- ``controllers`` <- ``synthesis`` <- ``sims``; these are its stable names):
+``satfmu.fmus`` <- ``satfmu.controllers`` <- ``satfmu.synthesis`` <- ``satfmu.sims``; these are its stable names):
 
 Your spacecraft and its plant
     :class:`Spacecraft` (name, inertia tensor, torque limit; ``Spacecraft.from_toml``),
@@ -46,26 +46,26 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Iterable, Mapping
 
 if TYPE_CHECKING:
-    from controllers.artifact import Artifact
-    from fmus.model import Model
-    from fmus.spacecraft import Spacecraft
-    from sims.scenario import Result, Scenario
+    from satfmu.controllers.artifact import Artifact
+    from satfmu.fmus.model import Model
+    from satfmu.fmus.spacecraft import Spacecraft
+    from satfmu.sims.scenario import Result, Scenario
 
 _EXPORTS = {
-    "Spacecraft": "fmus.spacecraft", "SpacecraftError": "fmus.spacecraft", "SEED_000": "fmus.spacecraft",
-    "Scenario": "sims.scenario", "FmuSpec": "sims.scenario", "Connection": "sims.scenario",
-    "Metric": "sims.scenario", "Result": "sims.scenario", "ScenarioError": "sims.scenario",
-    "DesignMismatchWarning": "sims.scenario", "StaleFmuWarning": "sims.scenario",
-    "Dispersions": "sims.dispersions", "DispersionError": "sims.dispersions",
-    "run_campaign": "sims.scenario_campaign", "CampaignResult": "sims.scenario_campaign",
-    "Statistics": "sims.scenario_campaign",
-    "write_report": "sims.report", "ReportError": "sims.report",
-    "replay": "sims.scenario_campaign",
-    "Design": "sims.designs", "DesignError": "sims.designs", "design_hinf": "sims.designs",
-    "design_h2hinf": "sims.designs", "design_vscmg_sdre": "sims.designs",
-    "design_cubesat_periodic": "sims.designs", "design_demeter": "sims.designs",
-    "fmu_cache": "sims.paths", "user_artifacts": "sims.paths", "find_artifact": "sims.paths",
-    "manoeuvre": "synthesis.two_step",
+    "Spacecraft": "satfmu.fmus.spacecraft", "SpacecraftError": "satfmu.fmus.spacecraft", "SEED_000": "satfmu.fmus.spacecraft",
+    "Scenario": "satfmu.sims.scenario", "FmuSpec": "satfmu.sims.scenario", "Connection": "satfmu.sims.scenario",
+    "Metric": "satfmu.sims.scenario", "Result": "satfmu.sims.scenario", "ScenarioError": "satfmu.sims.scenario",
+    "DesignMismatchWarning": "satfmu.sims.scenario", "StaleFmuWarning": "satfmu.sims.scenario",
+    "Dispersions": "satfmu.sims.dispersions", "DispersionError": "satfmu.sims.dispersions",
+    "run_campaign": "satfmu.sims.scenario_campaign", "CampaignResult": "satfmu.sims.scenario_campaign",
+    "Statistics": "satfmu.sims.scenario_campaign",
+    "write_report": "satfmu.sims.report", "ReportError": "satfmu.sims.report",
+    "replay": "satfmu.sims.scenario_campaign",
+    "Design": "satfmu.sims.designs", "DesignError": "satfmu.sims.designs", "design_hinf": "satfmu.sims.designs",
+    "design_h2hinf": "satfmu.sims.designs", "design_vscmg_sdre": "satfmu.sims.designs",
+    "design_cubesat_periodic": "satfmu.sims.designs", "design_demeter": "satfmu.sims.designs",
+    "fmu_cache": "satfmu.sims.paths", "user_artifacts": "satfmu.sims.paths", "find_artifact": "satfmu.sims.paths",
+    "manoeuvre": "satfmu.synthesis.two_step",
 }
 _FUNCTIONS = {"run", "build", "mrp_plant", "cubesat_plant", "load_artifact"}
 __all__ = sorted([*_EXPORTS, *_FUNCTIONS, "__version__"])
@@ -74,7 +74,7 @@ __all__ = sorted([*_EXPORTS, *_FUNCTIONS, "__version__"])
 def run(scenario: "Scenario | Mapping[str, Any] | str | Path", fmu_dir: str | Path | None = None,
         backend: str = "native", out_dir: str | Path | None = None, strict: bool = False,
         design_rtol: float | None = None, allow_stale: bool = False) -> "Result":
-    """Run a scenario and evaluate its metrics (:func:`sims.scenario.run`).
+    """Run a scenario and evaluate its metrics (:func:`satfmu.sims.scenario.run`).
 
     Parameters
     ----------
@@ -102,7 +102,7 @@ def run(scenario: "Scenario | Mapping[str, Any] | str | Path", fmu_dir: str | Pa
         ``.passed``, ``.metrics``, ``.results`` (structured array), ``.plot(path)``,
         ``.write(folder)``.
     """
-    from sims import scenario as _scenario
+    from satfmu.sims import scenario as _scenario
 
     return _scenario.run(scenario, fmu_dir, backend, out_dir, strict, design_rtol, allow_stale)
 
@@ -128,7 +128,7 @@ def build(names: Iterable[str] | None = None, fmu_dir: str | Path | None = None,
     list of Path
         The FMU files.
     """
-    from sims import catalog, paths
+    from satfmu.sims import catalog, paths
 
     folder = paths.fmu_cache() if fmu_dir is None else Path(fmu_dir)
     if names is None:
@@ -150,10 +150,10 @@ def mrp_plant(spacecraft: "Spacecraft | None" = None) -> "Model":
 
     Returns
     -------
-    fmus.model.Model
+    satfmu.fmus.model.Model
         The symbolic model that designs take and FMUs are generated from.
     """
-    from fmus import mrp_satellite
+    from satfmu.fmus import mrp_satellite
 
     return mrp_satellite.MODEL if spacecraft is None else mrp_satellite.build(spacecraft)
 
@@ -172,7 +172,7 @@ def cubesat_plant(spacecraft: "Spacecraft | None" = None) -> "Model":
     ValueError
         If the spacecraft has products of inertia.
     """
-    from fmus import cubesat
+    from satfmu.fmus import cubesat
 
     return cubesat.MODEL if spacecraft is None else cubesat.build(spacecraft=spacecraft)
 
@@ -190,11 +190,11 @@ def load_artifact(name_or_path: str | Path) -> "Artifact":
     ------
     FileNotFoundError
         Unknown name (with the closest one) or missing file.
-    controllers.artifact.ArtifactError
+    satfmu.controllers.artifact.ArtifactError
         Not JSON or not a valid artifact (the message names the key).
     """
-    from controllers import artifact
-    from sims import paths
+    from satfmu.controllers import artifact
+    from satfmu.sims import paths
 
     return artifact.load(paths.find_artifact(name_or_path))
 

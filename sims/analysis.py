@@ -18,7 +18,7 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
-from sims import paths
+from satfmu.sims import paths
 
 Progress = Callable[[int, int, str], None]
 """``progress(done, total, message)``."""
@@ -29,7 +29,7 @@ class SweepReport:
     """What :func:`h2hinf_sweep` computed and wrote."""
 
     rows: list
-    """:class:`synthesis.h2hinf_sos.SweepRow` per gamma and variant (lambda inf: none certified)."""
+    """:class:`satfmu.synthesis.h2hinf_sos.SweepRow` per gamma and variant (lambda inf: none certified)."""
     csv: str
     """The rows as CSV text (the content of ``files["csv"]``)."""
     files: dict[str, Path] = field(default_factory=dict)
@@ -59,8 +59,8 @@ def h2hinf_sweep(out_dir: Path, gammas: Sequence[float] = (1.0, 0.8, 0.7, 0.6, 0
     progress : callable, optional
         Called after each SDP search.
     """
-    from sims import plots
-    from synthesis import h2hinf_sos
+    from satfmu.sims import plots
+    from satfmu.synthesis import h2hinf_sos
 
     rows = h2hinf_sos.sweep(list(gammas), bounds=tuple(alpha_range), max_evaluations=evaluations,
                             progress=progress, region=region)
@@ -80,11 +80,11 @@ class RegionReport:
 
     artifact: str
     box: Any
-    """:class:`synthesis.vscmg_region.BoxCertificate` of the one-Y box."""
+    """:class:`satfmu.synthesis.vscmg_region.BoxCertificate` of the one-Y box."""
     checks: dict[str, float]
     """The true sin/cos model's samples on the box and the cosine enclosure's errors."""
     cells: list
-    """:class:`~synthesis.vscmg_region.BoxCertificate` of each map cell."""
+    """:class:`~satfmu.synthesis.vscmg_region.BoxCertificate` of each map cell."""
     files: dict[str, Path] = field(default_factory=dict)
 
     def text(self) -> str:
@@ -109,9 +109,9 @@ def vscmg_region(out_dir: Path, artifact: str | Path = "vscmg_sdre_approx", *,
     out_dir : Path
         Receives ``region.json`` and ``region.png``.
     artifact : str or Path
-        Artifact name (:func:`sims.paths.find_artifact`) or ``.json`` path of a servo.
+        Artifact name (:func:`satfmu.sims.paths.find_artifact`) or ``.json`` path of a servo.
     box_q2, box_w4 : (float, float), optional
-        The one-Y box, rad and rad/s (default: :data:`synthesis.vscmg_region.OPERATING_BOX`).
+        The one-Y box, rad and rad/s (default: :data:`satfmu.synthesis.vscmg_region.OPERATING_BOX`).
     q2, w4 : (float, float)
         Range of the map, rad and rad/s.
     cells : (int, int)
@@ -119,11 +119,11 @@ def vscmg_region(out_dir: Path, artifact: str | Path = "vscmg_sdre_approx", *,
     progress : callable, optional
         Called after each cell.
     """
-    from controllers import artifact as artifacts
-    from sims import plots
-    from fmus.profiles import make
-    from synthesis import vscmg_region as vr
-    from synthesis.sdre import SEED_REFERENCE_PROFILES, simulate_servo
+    from satfmu.controllers import artifact as artifacts
+    from satfmu.sims import plots
+    from satfmu.fmus.profiles import make
+    from satfmu.synthesis import vscmg_region as vr
+    from satfmu.synthesis.sdre import SEED_REFERENCE_PROFILES, simulate_servo
 
     art = artifacts.load(paths.find_artifact(artifact))
     loop = vr.ClosedLoop.build(art)
@@ -150,7 +150,7 @@ class L2Report:
 
     controller: str
     region: Any
-    """:class:`synthesis.l2_gain.Region` of the sampled and SOS estimates."""
+    """:class:`satfmu.synthesis.l2_gain.Region` of the sampled and SOS estimates."""
     kv: float
     """kv of the diagonal check at a fixed kv."""
     diagonal: tuple[float, float]
@@ -158,9 +158,9 @@ class L2Report:
     diagonal_best: tuple[float, float]
     """The smallest c over kv on the diagonal, and its kv."""
     sampled: Any
-    """:class:`synthesis.l2_gain.SampledGain` on the region."""
+    """:class:`satfmu.synthesis.l2_gain.SampledGain` on the region."""
     sos: Any | None
-    """:class:`synthesis.l2_gain.SOSGain` on the region, or None when no certificate exists."""
+    """:class:`satfmu.synthesis.l2_gain.SOSGain` on the region, or None when no certificate exists."""
     sos_error: str = ""
     """Why there is no SOS certificate."""
 
@@ -193,7 +193,7 @@ def l2(controller: str | Path, *, rate_max: float = 0.2, sigma_max: float = 0.9,
     Parameters
     ----------
     controller : str or Path
-        Artifact name (:func:`sims.paths.find_artifact`) or ``.json`` path.
+        Artifact name (:func:`satfmu.sims.paths.find_artifact`) or ``.json`` path.
     rate_max : float
         Region ``|omega_i| <= rate_max``, rad/s.
     sigma_max : float
@@ -203,9 +203,9 @@ def l2(controller: str | Path, *, rate_max: float = 0.2, sigma_max: float = 0.9,
     samples : int
         Random points of the sampled estimate.
     """
-    from controllers import artifact as artifacts
-    from synthesis import l2_gain
-    from synthesis.sos import SOSError
+    from satfmu.controllers import artifact as artifacts
+    from satfmu.synthesis import l2_gain
+    from satfmu.synthesis.sos import SOSError
 
     form = l2_gain.hji_form(artifacts.load(paths.find_artifact(controller)))
     region = l2_gain.Region(rate_max, sigma_max)

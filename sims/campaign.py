@@ -6,15 +6,15 @@ A campaign draws its samples chunk by chunk.  Chunk ``k`` covers the sample indi
 ``(seed, chunk, n)``: never on the number of workers or on the order in which chunks
 complete.  With the :func:`sample_indices` sampler the samples are the global indices and
 the task draws sample ``i`` from ``(seed, i)`` itself: its values do not depend on the chunk
-size either (:mod:`sims.scenario_campaign`).  The task is vectorized (one call per chunk) and
+size either (:mod:`satfmu.sims.scenario_campaign`).  The task is vectorized (one call per chunk) and
 returns one column per metric.
 
 :func:`run` submits the chunks to a Dask cluster and, in the driver, writes each completed
 chunk to its own Parquet file (``chunk-000042.parquet``, whole or not at all:
-:func:`fmus.atomic.write_atomically`), then its SHA-256 into the campaign record
+:func:`satfmu.fmus.atomic.write_atomically`), then its SHA-256 into the campaign record
 ``campaign.json`` (also written whole).  The record holds the campaign's identity (n, seed,
 chunk, task, sampler) and a chunk file's Parquet metadata the digest of that identity and its
-chunk index (:mod:`sims.chunk_files`).  An interrupted campaign is resumed by running it again:
+chunk index (:mod:`satfmu.sims.chunk_files`).  An interrupted campaign is resumed by running it again:
 a chunk is used as it is only if the record has its checksum, its file has that checksum and
 its metadata names this campaign and this chunk; any other chunk is computed (again), with a
 :class:`CampaignWarning` naming the chunk and why when a file or a record entry was there
@@ -48,9 +48,9 @@ import numpy as np
 import pandas as pd
 from distributed import Client, LocalCluster, as_completed
 
-from fmus.atomic import write_atomically
-from fmus.declared import check_safe_name
-from sims import chunk_files
+from satfmu.fmus.atomic import write_atomically
+from satfmu.fmus.declared import check_safe_name
+from satfmu.sims import chunk_files
 
 Task = Callable[[np.ndarray], dict[str, np.ndarray]]
 Sampler = Callable[[np.random.Generator, int], np.ndarray]
@@ -58,6 +58,10 @@ Progress = Callable[[int, int], None]
 
 _META = "campaign.json"
 _IDENTITY = ("n", "seed", "chunk", "task", "sampler", "context")
+IDENTITY_FORMAT = 2
+"""Version of the identity a record holds: 2 names modules without the ``satfmu.`` prefix of the
+layers (:func:`_module_name`; a record without ``identity_format`` was written before they moved
+under ``satfmu``: its function names still match, the digests of its callable objects do not)."""
 
 
 class CampaignError(ValueError):
@@ -135,13 +139,25 @@ class Campaign:
                 "context": self.context}
 
 
+def _module_name(module: str) -> str:
+    """``module`` as a campaign identity names it: a satfmu layer without the ``satfmu.`` prefix
+    (``satfmu.sims.scenario_campaign`` is ``sims.scenario_campaign``), so that the identities of
+    campaigns written before the layers moved under ``satfmu`` (0.1.0) still match."""
+    head, _, rest = module.partition(".")
+    return rest if head == "satfmu" and rest.split(".")[0] in _LAYERS else module
+
+
+_LAYERS = ("fmus", "controllers", "synthesis", "sims")
+
+
 def _qualified_name(fn: Callable) -> str:
-    """``module.qualname`` of a function; for a callable object, of its class plus a digest of
-    its pickled state (two tasks of one class with other settings are other campaigns)."""
+    """``module.qualname`` of a function (:func:`_module_name`); for a callable object, of its
+    class plus a digest of its pickled state (two tasks of one class with other settings are
+    other campaigns)."""
     if hasattr(fn, "__qualname__"):
-        return f"{fn.__module__}.{fn.__qualname__}"
+        return f"{_module_name(fn.__module__)}.{fn.__qualname__}"
     digest = hashlib.sha256(pickle.dumps(fn, protocol=4)).hexdigest()[:16]
-    return f"{type(fn).__module__}.{type(fn).__qualname__}:{digest}"
+    return f"{_module_name(type(fn).__module__)}.{type(fn).__qualname__}:{digest}"
 
 
 def chunk_range(campaign: Campaign, k: int) -> range:
@@ -271,12 +287,20 @@ def _claim_folder(folder: Path, campaign: Campaign) -> dict[str, Any]:
     """The record of the folder (``campaign.json``, created if missing) after checking that it
     holds this campaign; its ``chunks`` maps each recorded chunk index (str) to its SHA-256."""
     meta = folder / _META
-    record = {"name": campaign.name, **campaign.identity(), "n_chunks": campaign.n_chunks, "chunks": {}}
+    record = {"name": campaign.name, **campaign.identity(), "identity_format": IDENTITY_FORMAT,
+              "n_chunks": campaign.n_chunks, "chunks": {}}
     if not meta.exists():
         _write_record(folder, record)
         return record
     stored = read_record(folder)
     differ = [key for key in _IDENTITY if stored.get(key) != record[key]]
+    moved = [k for k in differ if k in ("task", "sampler") and ":" in record[k]
+             and str(stored.get(k)).split(":")[0] == record[k].split(":")[0]]
+    if differ and moved == differ and "identity_format" not in stored:
+        raise CampaignError(f"{folder} holds a campaign written before satfmu's modules moved under the satfmu "
+                            f"package: the digest of its {' and '.join(moved)} object named the old module paths, "
+                            "so whether it is this campaign cannot be told; run it in another folder (another name "
+                            "or out_dir) or delete this one")
     if differ:
         shown = [k for k in differ if k != "context"]
         parts = ([f"stored { {k: stored.get(k) for k in shown} }, now { {k: record[k] for k in shown} }"]
@@ -544,7 +568,7 @@ def summarize(df: pd.DataFrame, column: str, *, level: float | None = None, epsi
     for label, value in (("epsilon", epsilon), ("delta", delta)):
         if not 0.0 < value < 1.0:
             raise CampaignError(f"{label} must be in (0, 1), got {value!r}")
-    from synthesis import probabilistic as pr
+    from satfmu.synthesis import probabilistic as pr
 
     values = df[column].to_numpy(dtype=np.float64)
     if values.size == 0:
@@ -589,7 +613,7 @@ class FmuTask:
 
     def _simulate(self, row: np.ndarray) -> dict[str, np.ndarray] | None:
         """Recorded signals (plus ``time``, s) of one fresh co-simulation, None if an FMU failed."""
-        from sims.master import CoSimulation, FmuCallError
+        from satfmu.sims.master import CoSimulation, FmuCallError
 
         with CoSimulation(self.fmus) as sim:
             for source, target in self.connections:
@@ -627,7 +651,7 @@ def fmu_task(fmus: dict[str, str], connections: list[tuple[str, str]],
     -------
     FmuTask
         ``task(samples) -> {metric: array}``; a sample whose run raises
-        :class:`~sims.master.FmuCallError` gets NaN for every metric.
+        :class:`~satfmu.sims.master.FmuCallError` gets NaN for every metric.
     """
     return FmuTask({k: str(v) for k, v in fmus.items()}, [tuple(c) for c in connections], parameters,
                    float(stop_time), float(step_size), dict(metrics), list(record))

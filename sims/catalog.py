@@ -17,11 +17,11 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Callable, Iterable, TypeVar
 from pathlib import Path
 
-from sims import paths
+from satfmu.sims import paths
 
 if TYPE_CHECKING:
-    from controllers.artifact import Artifact
-    from fmus.model import Model
+    from satfmu.controllers.artifact import Artifact
+    from satfmu.fmus.model import Model
 
 T = TypeVar("T")
 R = TypeVar("R")
@@ -44,35 +44,35 @@ def _plant(module: str) -> Callable[[], FmuSource]:
 
 
 def _online_sdre(name: str) -> FmuSource:
-    from controllers import servo
+    from satfmu.controllers import servo
 
     return FmuSource(servo.build_online(name), {})
 
 
 def _backstepping() -> FmuSource:
-    from controllers import backstepping
+    from satfmu.controllers import backstepping
 
     return FmuSource(backstepping.build(), {})
 
 
 def _bdot() -> FmuSource:
-    from controllers import magnetic
+    from satfmu.controllers import magnetic
 
     return FmuSource(magnetic.build_bdot(), {})
 
 
 def _signal(kind: str) -> FmuSource:
-    from fmus import signals
+    from satfmu.fmus import signals
 
     return FmuSource(signals.GENERIC[kind](), {}, ("native",))
 
 
 PLANTS: dict[str, Callable[[], FmuSource]] = {
-    "mrp_satellite": _plant("fmus.mrp_satellite"), "vscmg": _plant("fmus.vscmg"),
-    "magnetorquer_cubesat": _plant("fmus.cubesat"), "demeter_flexible": _plant("fmus.demeter")}
+    "mrp_satellite": _plant("satfmu.fmus.mrp_satellite"), "vscmg": _plant("satfmu.fmus.vscmg"),
+    "magnetorquer_cubesat": _plant("satfmu.fmus.cubesat"), "demeter_flexible": _plant("satfmu.fmus.demeter")}
 """Plant model name -> its source (built on call)."""
 SIGNALS = ("signal_constant", "signal_step", "signal_sinusoid", "signal_cosine_ramp")
-"""Model names of the generic signal generators (:data:`fmus.signals.GENERIC`, ``signal_<kind>``)."""
+"""Model names of the generic signal generators (:data:`satfmu.fmus.signals.GENERIC`, ``signal_<kind>``)."""
 GENERIC: dict[str, Callable[[], FmuSource]] = {
     "vscmg_sdre_online": functools.partial(_online_sdre, "vscmg_sdre_online"),
     "vscmg_sdre_online_w1free": functools.partial(_online_sdre, "vscmg_sdre_online_w1free"),
@@ -85,7 +85,7 @@ and of the generic signal generators (native only: a scenario's profiles as FMUs
 def sources() -> list[FmuSource]:
     """Plants first, then the controllers of the shipped artifacts (the DEMETER state feedback
     of Table 1 row 1 among them, every gain a parameter), then :data:`GENERIC`."""
-    from controllers import polynomial
+    from satfmu.controllers import polynomial
 
     out = [make() for make in PLANTS.values()]
     out += [artifact_source(path) for path in polynomial.shipped_artifacts()]
@@ -99,7 +99,7 @@ def source(name: str) -> FmuSource:
     ----------
     name : str
         A plant or generic model name (:data:`PLANTS`, :data:`GENERIC`), or the name of a
-        controller artifact, looked up by :func:`sims.paths.find_artifact` (the user's
+        controller artifact, looked up by :func:`satfmu.sims.paths.find_artifact` (the user's
         artifacts first, then the shipped ones).
 
     Raises
@@ -166,15 +166,15 @@ def ensure(fmu_dir: Path, names: Iterable[str], backend: str = "native", rebuild
 
 def artifact_source(path: Path) -> FmuSource:
     """The controller of the artifact file ``path``: its FMUs embed the file's own bytes as
-    ``resources/artifact.json`` and record their SHA-256 (:func:`fmus.export.artifact_digest`),
-    which a run compares with the file (:mod:`sims.preflight`).
+    ``resources/artifact.json`` and record their SHA-256 (:func:`satfmu.fmus.export.artifact_digest`),
+    which a run compares with the file (:mod:`satfmu.sims.preflight`).
 
     Raises
     ------
-    controllers.artifact.ArtifactError
+    satfmu.controllers.artifact.ArtifactError
         If the file is missing, not JSON, or not a valid artifact.
     """
-    from controllers import artifact as artifacts
+    from satfmu.controllers import artifact as artifacts
 
     path = Path(path)
     # the bytes first: a file replaced before it is loaded leaves a recorded digest that is not
@@ -187,8 +187,8 @@ def controller_source(art: Artifact, data: bytes | None = None) -> FmuSource:
     """The controller model of an artifact (by its kind) and the artifact as its resource
     (``data``, the bytes of its file, or its JSON form); the model's description (the FMU's)
     ends with the plant it was designed for."""
-    from controllers import artifact as artifacts
-    from controllers import magnetic, polynomial, servo, state_feedback
+    from satfmu.controllers import artifact as artifacts
+    from satfmu.controllers import magnetic, polynomial, servo, state_feedback
 
     if isinstance(art, artifacts.ServoArtifact):
         model = servo.build(art)
@@ -208,8 +208,8 @@ def controller_source(art: Artifact, data: bytes | None = None) -> FmuSource:
 
 
 def builder(backend: str) -> Callable[..., Path]:
-    """``fmus.export.build_native`` or ``build_python``."""
-    from fmus import export
+    """``satfmu.fmus.export.build_native`` or ``build_python``."""
+    from satfmu.fmus import export
 
     return {"native": export.build_native, "python": export.build_python}[backend]
 
@@ -248,18 +248,18 @@ def build_all(dest: Path | None = None, backends: tuple[str, ...] = ("native", "
     """Build every FMU into ``dest``, in parallel processes.
 
     An FMU whose file already records its build's digest is not rebuilt
-    (:func:`fmus.export.built_digest`), so a second call on unchanged models only reads digests.
+    (:func:`satfmu.fmus.export.built_digest`), so a second call on unchanged models only reads digests.
 
     Parameters
     ----------
     dest : Path, optional
-        Folder of the FMUs (default: :func:`sims.paths.fmu_cache`).
+        Folder of the FMUs (default: :func:`satfmu.sims.paths.fmu_cache`).
     backends : tuple of {"native", "python"}
     jobs : int, optional
         Worker processes (default: the number of CPUs); 1, or a platform without ``fork``,
         builds in this process.
     """
-    from fmus import export
+    from satfmu.fmus import export
 
     dest = paths.fmu_cache() if dest is None else Path(dest)
     plan = [(src, b) for src in sources() for b in ("native", "python") if b in backends and b in src.backends]
@@ -276,10 +276,10 @@ def build_all(dest: Path | None = None, backends: tuple[str, ...] = ("native", "
 
 def validate(fmu: Path) -> list[str]:
     """Problems reported by ``fmpy validate`` and ``fmutool -check`` (empty list: clean); a file
-    that :func:`fmus.archive.check` refuses is not handed to either (its one problem is why)."""
+    that :func:`satfmu.fmus.archive.check` refuses is not handed to either (its one problem is why)."""
     from fmpy.validation import validate_fmu
 
-    from fmus import archive
+    from satfmu.fmus import archive
 
     try:
         archive.check(fmu, crc=True)
@@ -301,5 +301,5 @@ def validate(fmu: Path) -> list[str]:
 
 def validate_all(fmus: list[Path], jobs: int | None = None) -> list[list[str]]:
     """:func:`validate` of each FMU, in parallel processes (default: one per CPU); the problems
-    in the order of ``fmus``."""
+    in the order of ``satfmu.fmus``."""
     return _fork_map(validate, list(fmus), jobs)

@@ -2,7 +2,7 @@
 
 Each chunk file (``chunk-000042.parquet``) holds in its Parquet key-value metadata, under
 :data:`METADATA_KEY`, ``{"identity": <digest of the campaign's identity>, "chunk": k}``; the
-campaign record (``campaign.json``, :mod:`sims.campaign`) holds the SHA-256 of every chunk file
+campaign record (``campaign.json``, :mod:`satfmu.sims.campaign`) holds the SHA-256 of every chunk file
 it has written. :func:`chunk_problem` says why a file cannot be used as chunk ``k`` of a
 campaign. :func:`locked` gives one driver at a time a campaign folder (``.campaign.lock``, an
 advisory lock of the operating system, released when the driver ends, also when it is killed).
@@ -36,7 +36,7 @@ LOCK = ".campaign.lock"
 
 
 def identity_digest(identity: dict[str, Any]) -> str:
-    """SHA-256 (hex) of a campaign identity (:meth:`sims.campaign.Campaign.identity`), key order aside."""
+    """SHA-256 (hex) of a campaign identity (:meth:`satfmu.sims.campaign.Campaign.identity`), key order aside."""
     return hashlib.sha256(json.dumps(identity, sort_keys=True).encode()).hexdigest()
 
 
@@ -137,7 +137,7 @@ def locked(folder: Path, waiting: Callable[[str], None]) -> Iterator[None]:
 
 def sweep_partials(folder: Path) -> list[Path]:
     """Remove the temporary files that writers killed in ``folder`` left (``.<name>.<pid>.<random>
-    .partial<suffix>``, :func:`fmus.atomic.write_atomically`); call it holding :func:`locked`, when
+    .partial<suffix>``, :func:`satfmu.fmus.atomic.write_atomically`); call it holding :func:`locked`, when
     no other driver writes there. Returns what it removed."""
     removed = []
     for p in folder.glob(".*.partial*"):

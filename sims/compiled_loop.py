@@ -1,6 +1,6 @@
 """The master's step loop compiled: ``sims/c/cosim_loop.c``, built with gcc, called through ctypes.
 
-:class:`sims.master.CoSimulation` prepares a run in Python (instantiation, parameters,
+:class:`satfmu.sims.master.CoSimulation` prepares a run in Python (instantiation, parameters,
 initialization, the transfer plan, the profile values, the recorded variables) and then
 steps either in Python or here, through the fmi2 function pointers of the libraries fmpy
 loaded. Both loops make the same FMI calls with the same values in the same order, so
@@ -8,7 +8,7 @@ their results are identical bit for bit (tests/test_compiled_loop.py runs every 
 scenario both ways); the Python loop stays the reference and the fallback.
 
 The shared library is compiled on first use (``gcc -O2 -shared -fPIC``, about 0.2 s) into
-``<satfmu home>/lib/cosim_loop-<digest>.so`` (:func:`sims.paths.home`), named by the SHA-256
+``<satfmu home>/lib/cosim_loop-<digest>.so`` (:func:`satfmu.sims.paths.home`), named by the SHA-256
 of the C source and of the compile command, written whole (temporary name, then rename),
 and reused by every later run; ``satfmu build`` compiles it ahead. Without a C compiler
 :func:`library` returns None and the master steps in Python.
@@ -34,7 +34,7 @@ from typing import Any
 
 import numpy as np
 
-from fmus.atomic import write_atomically
+from satfmu.fmus.atomic import write_atomically
 
 SOURCE = Path(__file__).resolve().parent / "c" / "cosim_loop.c"
 """The C source of the loop."""
@@ -86,7 +86,7 @@ class _Plan(ctypes.Structure):
 def library_path(cc: str = "gcc") -> Path:
     """Where the compiled loop is kept: ``<home>/lib/cosim_loop-<digest>.so``, the digest over
     the source, the compiler's name, the flags and the platform."""
-    from sims.paths import home
+    from satfmu.sims.paths import home
 
     return home() / "lib" / f"cosim_loop-{_digest(cc)}.so"
 

@@ -2,9 +2,9 @@
 
 - :func:`table1`: the rows of the seed's Table 1, both methods, beside the seed's numbers;
 - :func:`figures`: Figs 4-5, random closed loops through the FMUs (with and without the wheel
-  limits) and on the design model (:mod:`sims.demeter_loops`);
+  limits) and on the design model (:mod:`satfmu.sims.demeter_loops`);
 - :func:`campaign`: closed-loop poles, exact H-infinity and impulse-to-peak of sampled plants
-  under a design, on Dask (:mod:`sims.campaign`), with the worst-case and Chernoff statements.
+  under a design, on Dask (:mod:`satfmu.sims.campaign`), with the worst-case and Chernoff statements.
 
 Each report's ``text()`` is what the command line prints.
 """
@@ -16,7 +16,7 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
-from sims import catalog, demeter_loops
+from satfmu.sims import catalog, demeter_loops
 
 Progress = Callable[[int, int, str], None]
 """``progress(done, total, message)``."""
@@ -27,7 +27,7 @@ class Table1Report:
     """The rows :func:`table1` computed, the files it wrote and its wall time."""
 
     rows: list
-    """:class:`synthesis.demeter_table.Row` per selected row and method."""
+    """:class:`satfmu.synthesis.demeter_table.Row` per selected row and method."""
     files: list[Path]
     seconds: float = 0.0
     """Wall time of the whole run, s."""
@@ -36,7 +36,7 @@ class Table1Report:
 
     def text(self) -> str:
         """The table in Markdown, the wall time and the files written."""
-        from synthesis import demeter_table
+        from satfmu.synthesis import demeter_table
 
         rows = sum(r.total_seconds for r in self.rows)
         return (demeter_table.markdown(self.rows) + f"\n{len(self.rows)} rows in {self.seconds:.0f} s of wall time "
@@ -62,10 +62,10 @@ def table1(out_dir: Path, rows: Sequence[int] | None = None, *, scenarios: int |
     progress : callable, optional
         Called after each row.
     convention : {"satfmu", "romuloc", "both"}
-        LMI forms and objective of the designs (:func:`synthesis.robust_design.design`); "both":
+        LMI forms and objective of the designs (:func:`satfmu.synthesis.robust_design.design`); "both":
         every row in the toolbox's convention, then every row in ours.
     jobs : int
-        Rows run at once, each in its own process (:func:`synthesis.demeter_table.run`); on this
+        Rows run at once, each in its own process (:func:`satfmu.synthesis.demeter_table.run`); on this
         project's 2-core machine ``jobs=2`` runs the whole table in about half the rows' summed
         time.
 
@@ -76,8 +76,8 @@ def table1(out_dir: Path, rows: Sequence[int] | None = None, *, scenarios: int |
     """
     import time
 
-    from synthesis import demeter_table
-    from synthesis.demeter_variants import SEED_TABLE1
+    from satfmu.synthesis import demeter_table
+    from satfmu.synthesis.demeter_variants import SEED_TABLE1
 
     t0 = time.perf_counter()
     keys = list(SEED_TABLE1)
@@ -106,7 +106,7 @@ BOTH = ("romuloc", "satfmu")
 
 def table1_comparison(out_dir: Path) -> Path:
     """``out_dir/table1.md``: the rows of ``out_dir/romuloc/table1.csv`` beside those of
-    ``out_dir/satfmu/table1.csv`` (:func:`synthesis.demeter_table.comparison`), without running
+    ``out_dir/satfmu/table1.csv`` (:func:`satfmu.synthesis.demeter_table.comparison`), without running
     anything.
 
     Raises
@@ -116,7 +116,7 @@ def table1_comparison(out_dir: Path) -> Path:
     ValueError
         If one is not a Table 1 file.
     """
-    from synthesis import demeter_table
+    from satfmu.synthesis import demeter_table
 
     toolbox, ours = (demeter_table.read(Path(out_dir) / c / "table1.csv") for c in BOTH)
     path = Path(out_dir) / "table1.md"
@@ -159,9 +159,9 @@ def figures(fmu_dir: Path, out_dir: Path, artifact: str | Path = "demeter_row1_d
             seed: int = 0, stop_time: float = 60.0, step_size: float = 1e-3,
             linear_stop_time: float = 10000.0) -> FiguresReport:
     """Seed 004 Figs 4-5 through the FMUs (with and without wheel limits: scenario campaigns of
-    :func:`sims.demeter_loops.scenario`) and on the design model (the same plants, exactly).
+    :func:`satfmu.sims.demeter_loops.scenario`) and on the design model (the same plants, exactly).
 
-    The plant and controller FMUs missing from ``fmu_dir`` are built first (:func:`sims.catalog.ensure`).
+    The plant and controller FMUs missing from ``fmu_dir`` are built first (:func:`satfmu.sims.catalog.ensure`).
 
     Parameters
     ----------
@@ -170,7 +170,7 @@ def figures(fmu_dir: Path, out_dir: Path, artifact: str | Path = "demeter_row1_d
     out_dir : Path
         Receives the PNG files.
     artifact : str or Path
-        DEMETER design artifact: name (:func:`sims.paths.find_artifact`) or ``.json`` path.
+        DEMETER design artifact: name (:func:`satfmu.sims.paths.find_artifact`) or ``.json`` path.
     samples : int
         Random plants.
     seed : int
@@ -178,7 +178,7 @@ def figures(fmu_dir: Path, out_dir: Path, artifact: str | Path = "demeter_row1_d
     stop_time : float
         FMU horizon, s.
     step_size : float
-        Communication step, s (the row-1 design needs <= 1.5 ms; :mod:`sims.demeter_loops`).
+        Communication step, s (the row-1 design needs <= 1.5 ms; :mod:`satfmu.sims.demeter_loops`).
     linear_stop_time : float
         Design-model horizon, s.
     """
@@ -205,7 +205,7 @@ class CampaignReport:
     results: Any
     """The samples (``pandas.DataFrame``, one row per sample)."""
     summaries: list
-    """:class:`sims.campaign.Summary` of each result column."""
+    """:class:`satfmu.sims.campaign.Summary` of each result column."""
 
     def text(self) -> str:
         """The statements of every column."""
@@ -218,14 +218,14 @@ def campaign(out_dir: Path, artifact: str | Path = "demeter_row1_det", *, sample
              progress: Callable[[int, int], None] | None = None) -> CampaignReport:
     """Seed 004 Monte Carlo: poles, exact H-infinity and i2p of sampled plants under a design.
 
-    Resumable: running it again skips the chunks already written (:func:`sims.campaign.run`).
+    Resumable: running it again skips the chunks already written (:func:`satfmu.sims.campaign.run`).
 
     Parameters
     ----------
     out_dir : Path
         Folder of the campaign folders.
     artifact : str or Path
-        DEMETER design artifact: name (:func:`sims.paths.find_artifact`) or ``.json`` path.
+        DEMETER design artifact: name (:func:`satfmu.sims.paths.find_artifact`) or ``.json`` path.
     samples : int
         Sampled plants.
     seed : int
@@ -243,9 +243,9 @@ def campaign(out_dir: Path, artifact: str | Path = "demeter_row1_det", *, sample
     progress : callable, optional
         ``progress(done, total)`` in chunks.
     """
-    from sims import campaign as campaigns
-    from synthesis import demeter_design as dd
-    from synthesis import demeter_random as dr
+    from satfmu.sims import campaign as campaigns
+    from satfmu.synthesis import demeter_design as dd
+    from satfmu.synthesis import demeter_random as dr
 
     art, variant = demeter_loops.load_design(artifact)
     task = dr.ClosedLoopSamples(variant, np.array(art.design["K"]))

@@ -1,10 +1,10 @@
 """One function per design method of the five seed papers, each returning a :class:`Design`.
 
 A design is made for a plant (seed 000 and 001: any spacecraft, via
-:class:`fmus.spacecraft.Spacecraft`), re-verified independently of its solver by the
+:class:`satfmu.fmus.spacecraft.Spacecraft`), re-verified independently of its solver by the
 synthesis module, and returned with its artifacts (JSON data, validated) and a text
 report. :meth:`Design.write` saves the artifacts, by default into the user's folder
-(:func:`sims.paths.user_artifacts`, never the shipped artifacts), and optionally builds
+(:func:`satfmu.sims.paths.user_artifacts`, never the shipped artifacts), and optionally builds
 their controller FMUs. ``satfmu synth NAME`` is a thin layer over :data:`DESIGNS`.
 """
 from __future__ import annotations
@@ -14,8 +14,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Sequence
 
-from fmus.model import Model
-from fmus.spacecraft import Spacecraft
+from satfmu.fmus.model import Model
+from satfmu.fmus.spacecraft import Spacecraft
 
 Progress = Callable[[int, int, str], None]
 """``progress(done, total, message)``."""
@@ -34,7 +34,7 @@ class Design:
     method : str
         Registry name (``"mrp-hinf"``, ...).
     artifacts : list of dict
-        Controller artifacts (format of :mod:`controllers.artifact`), validated.
+        Controller artifacts (format of :mod:`satfmu.controllers.artifact`), validated.
     report : str
         The method's summary (tables, certificate, checks), as the CLI prints it.
     result : object
@@ -63,7 +63,7 @@ class Design:
         Parameters
         ----------
         folder : path, optional
-            Default :func:`sims.paths.user_artifacts` (scenarios find artifacts there by
+            Default :func:`satfmu.sims.paths.user_artifacts` (scenarios find artifacts there by
             name before the shipped ones).
         fmu_dir : path, optional
             Build the controller FMUs (``backends``) here.
@@ -73,8 +73,8 @@ class Design:
         list of Path
             The artifact files, then the FMUs built.
         """
-        from controllers import artifact as artifacts
-        from sims import catalog, paths
+        from satfmu.controllers import artifact as artifacts
+        from satfmu.sims import catalog, paths
 
         out_dir = paths.user_artifacts() if folder is None else Path(folder)
         out_dir.mkdir(parents=True, exist_ok=True)
@@ -91,7 +91,7 @@ class Design:
 
 
 def _mrp_plant(plant: Model | Spacecraft | None) -> Model:
-    from fmus import mrp_satellite
+    from satfmu.fmus import mrp_satellite
 
     if plant is None:
         return mrp_satellite.MODEL
@@ -107,14 +107,14 @@ def design_hinf(plant: Model | Spacecraft | None = None, *, name: str = "mrp_hin
 
     Parameters
     ----------
-    plant : Spacecraft or fmus.model.Model, optional
+    plant : Spacecraft or satfmu.fmus.model.Model, optional
         Your spacecraft (its inertia tensor, products included) or an MRP satellite model;
         default seed 000's satellite.
     name : str
         Artifact and controller FMU name.
     start : dict, optional
         Start of the manoeuvre each iterate is judged on, as plant parameters
-        (:func:`synthesis.two_step.manoeuvre` builds one from an axis and an angle); default
+        (:func:`satfmu.synthesis.two_step.manoeuvre` builds one from an axis and an angle); default
         seed 000's 200 deg start.
     torque_budget : float
         Largest acceptable peak |u_i| on that manoeuvre, N m.
@@ -128,7 +128,7 @@ def design_hinf(plant: Model | Spacecraft | None = None, *, name: str = "mrp_hin
         Bound on every gain coefficient (program units).
     decay_rates : sequence of float, optional
         The iteration's schedule of certified decay rates, 1/s (default
-        :data:`synthesis.two_step.DECAY_RATES`; fewer rates are faster).
+        :data:`satfmu.synthesis.two_step.DECAY_RATES`; fewer rates are faster).
     n_samples : int
         Random points of the sampled L2 estimate per iterate.
     progress : callable, optional
@@ -136,10 +136,10 @@ def design_hinf(plant: Model | Spacecraft | None = None, *, name: str = "mrp_hin
 
     Raises
     ------
-    synthesis.sos.SOSError
+    satfmu.synthesis.sos.SOSError
         If no iterate is accepted.
     """
-    from synthesis import l2_gain, two_step
+    from satfmu.synthesis import l2_gain, two_step
 
     model = _mrp_plant(plant)
     result = two_step.two_step(model, region=region, l2_region=l2_gain.Region(rate_max, sigma_max),
@@ -158,7 +158,7 @@ def design_h2hinf(gamma: float, plant: Model | Spacecraft | None = None, *, name
     ----------
     gamma : float
         L2-gain bound w -> sigma to certify (N m -> 1).
-    plant : Spacecraft or fmus.model.Model, optional
+    plant : Spacecraft or satfmu.fmus.model.Model, optional
         Default seed 000's satellite (seed 001 uses the same plant).
     name : str
         Artifact and controller FMU name.
@@ -178,7 +178,7 @@ def design_h2hinf(gamma: float, plant: Model | Spacecraft | None = None, *, name
     DesignError
         If no design is certified at ``gamma`` or the closed-loop check fails.
     """
-    from synthesis import h2hinf_sos
+    from satfmu.synthesis import h2hinf_sos
 
     model = _mrp_plant(plant)
     found = h2hinf_sos.search(gamma, variant, bounds=tuple(alpha_range), max_evaluations=evaluations,
@@ -209,16 +209,16 @@ def design_vscmg_sdre(grid: tuple[int, int] = (23, 25), max_degree: int = 8, cv_
         Largest polynomial degree of the fit tried.
     cv_tol : float, optional
         Choose the smallest degree with this cross-validated relative error (default
-        :data:`synthesis.gain_fit.CV_TOL`; 0: the smallest error).
+        :data:`satfmu.synthesis.gain_fit.CV_TOL`; 0: the smallest error).
     region : bool
         Solve the SOS stability region (without it the artifact stays "sampled").
 
     Raises
     ------
-    synthesis.gain_fit.FitVerificationError
+    satfmu.synthesis.gain_fit.FitVerificationError
         If the fit fails its check against the plant's own factorization.
     """
-    from synthesis import gain_fit
+    from satfmu.synthesis import gain_fit
 
     tol = {} if cv_tol is None else {"cv_tol": cv_tol if cv_tol > 0 else None}
     result, approx, lq = gain_fit.synthesize(*grid, degrees=range(1, max_degree + 1), region=region, **tol)
@@ -251,8 +251,8 @@ def design_cubesat_periodic(gamma: float | None = None, plant: Spacecraft | None
     ValueError
         If the spacecraft has products of inertia.
     """
-    from fmus import cubesat
-    from synthesis import cubesat_periodic as cp
+    from satfmu.fmus import cubesat
+    from satfmu.synthesis import cubesat_periodic as cp
 
     r = cp.synthesize(gamma, inertia=None if plant is None else cubesat.principal_moments(plant))
     lo, hi, n = r.bracket
@@ -291,7 +291,7 @@ def design_demeter(axes: Sequence[int] = (1,), appendages: Sequence[int] = (1,),
     n_samples : int
         Sampled plants of the independent check.
     convention : {"satfmu", "romuloc"}
-        LMI forms and objective of the design (:func:`synthesis.robust_design.design`); the
+        LMI forms and objective of the design (:func:`satfmu.synthesis.robust_design.design`); the
         artifact records it.
 
     Raises
@@ -299,9 +299,9 @@ def design_demeter(axes: Sequence[int] = (1,), appendages: Sequence[int] = (1,),
     DesignError
         If the variant is infeasible (with the obstruction when one is proved).
     """
-    from synthesis import demeter_design as dd
-    from synthesis import demeter_table
-    from synthesis.demeter_variants import Variant
+    from satfmu.synthesis import demeter_design as dd
+    from satfmu.synthesis import demeter_table
+    from satfmu.synthesis.demeter_variants import Variant
 
     variant = Variant(tuple(axes), tuple(appendages), model_type, uncertainty_type, wheels)
     row = demeter_table.run_row(variant, "Det", n_samples=n_samples, convention=convention)

@@ -1,7 +1,7 @@
 """Seed 003's detumbling campaigns: the linear sampled model (Fig. 2) and the nonlinear plant sweep.
 
 - :func:`linear_campaign`: the seed's own setting. The discrete periodic rate model with
-  the multiplicative noises (:func:`synthesis.cubesat_periodic.system`), two orbits from
+  the multiplicative noises (:func:`satfmu.synthesis.cubesat_periodic.system`), two orbits from
   w(0), seeded Monte Carlo realizations of each gain set, the exact mean square beside the
   Monte Carlo one, and the ESMS spectral radius that predicts its decay per orbit.
 - :func:`sweep`: the controller FMUs on the nonlinear plant FMU through the master (the
@@ -19,7 +19,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from sims import scenario as scenarios
+from satfmu.sims import scenario as scenarios
 
 SCENARIO = "cubesat_detumble"
 CONTROLLERS = {"periodic LMI (satfmu)": ("lmi_plant", "lmi"), "periodic LMI (published)": ("pub_plant", "pub"),
@@ -58,7 +58,7 @@ def linear_campaign(gains: dict[str, np.ndarray], n_runs: int = 2000, seed: int 
     ValueError
         If n_runs < 2 or orbits < 1.
     """
-    from synthesis import cubesat_periodic, periodic_hinf as ph
+    from satfmu.synthesis import cubesat_periodic, periodic_hinf as ph
 
     if n_runs < 2 or orbits < 1:
         raise ValueError("need n_runs >= 2 and orbits >= 1")
@@ -195,7 +195,7 @@ def run(fmu_dir: Path, out_dir: Path, *, samples: int = 2000, seed: int = 0,
         ) -> DetumbleReport:
     """Seed 003 Fig. 2 on the linear model (:func:`linear_campaign`) and the nonlinear sweep (:func:`sweep`).
 
-    The scenario's FMUs missing from ``fmu_dir`` are built first (:func:`sims.scenario.ensure_fmus`).
+    The scenario's FMUs missing from ``fmu_dir`` are built first (:func:`satfmu.sims.scenario.ensure_fmus`).
 
     Parameters
     ----------
@@ -212,8 +212,8 @@ def run(fmu_dir: Path, out_dir: Path, *, samples: int = 2000, seed: int = 0,
     progress : callable, optional
         Called after each rate of the sweep.
     """
-    from controllers import artifact as artifacts
-    from sims import paths, plots
+    from satfmu.controllers import artifact as artifacts
+    from satfmu.sims import paths, plots
 
     gains = {label: artifacts.load(paths.find_artifact(name)).gains for label, name in GAIN_SETS.items()}
     out_dir = Path(out_dir)

@@ -45,7 +45,7 @@ within ``half_angle_deg`` of the nominal one.
 ``inertia`` scales each nominal principal moment by an independent factor uniform on
 ``[1 - relative, 1 + relative]`` and, with ``axis_rotation_deg > 0``, turns the principal
 axes by a cone rotation of that half-angle (the plant must then have products of inertia
-``I_xy, I_xz, I_yz``). A draw that is not a rigid body (:class:`fmus.spacecraft.Spacecraft`:
+``I_xy, I_xz, I_yz``). A draw that is not a rigid body (:class:`satfmu.fmus.spacecraft.Spacecraft`:
 symmetric positive definite, triangle inequality) is drawn again from the same generator,
 so it stays deterministic. It writes ``I_x, I_y, I_z`` and, when the plant has them, the
 products.
@@ -66,9 +66,9 @@ import numpy as np
 from scipy import stats
 from scipy.spatial.transform import Rotation
 
-from fmus.declared import check_keys, did_you_mean
-from fmus.spacecraft import PARAMETERS as INERTIA_PARAMETERS
-from fmus.spacecraft import Spacecraft, SpacecraftError
+from satfmu.fmus.declared import check_keys, did_you_mean
+from satfmu.fmus.spacecraft import PARAMETERS as INERTIA_PARAMETERS
+from satfmu.fmus.spacecraft import Spacecraft, SpacecraftError
 
 Nominal = Callable[[str, str], "float | None"]
 """(instance or ``"profiles[i]"``, parameter or field) -> its nominal value, or None if it has none."""
@@ -334,7 +334,7 @@ class Dispersions:
         nominal : callable, optional
             (instance or ``"profiles[i]"``, name) -> nominal value or None if there is no such
             parameter; needed by a ``normal`` without ``mean``, a cone, an inertia and an
-            attitude without a parameter base (:func:`sims.scenario.nominal_values`).
+            attitude without a parameter base (:func:`satfmu.sims.scenario.nominal_values`).
 
         Returns
         -------

@@ -1,7 +1,7 @@
 """The FMI 2.0 host harness over fmpy: status names, log capture, calls that return a status.
 
-One harness for every host in the project (the co-simulation master :mod:`sims.master`, the
-robustness suite :mod:`sims.robustness` and the FMU tests): the logger callback records each
+One harness for every host in the project (the co-simulation master :mod:`satfmu.sims.master`, the
+robustness suite :mod:`satfmu.sims.robustness` and the FMU tests): the logger callback records each
 message an FMU passes with the instance name, status and category (:class:`Callbacks`);
 :func:`attempt` calls one of fmpy's ``FMU2Slave`` methods and returns the FMI status instead of
 raising; :func:`call` makes a raw ``fmi2*`` call with the instance's component; :func:`abandon`
@@ -21,7 +21,7 @@ from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
                        fmi2CallbackFunctions, fmi2CallbackLoggerTYPE)
 
-from fmus import archive
+from satfmu.fmus import archive
 
 OK, WARNING, DISCARD, ERROR, FATAL, PENDING = 0, 1, 2, 3, 4, 5
 STATUS_NAMES = {OK: "OK", WARNING: "Warning", DISCARD: "Discard", ERROR: "Error", FATAL: "Fatal",
@@ -127,11 +127,11 @@ def abandon(owner: Any) -> None:
 
 class UnreadableFmuError(ValueError):
     """A file that is not a readable FMU (not a zip, no or a broken model description, an unsafe
-    archive that :mod:`fmus.archive` refuses, ...)."""
+    archive that :mod:`satfmu.fmus.archive` refuses, ...)."""
 
 
 def open_fmu(path: str | Path) -> tuple[Any, str]:
-    """Check ``path``'s archive (:func:`fmus.archive.extract`), extract it into a private
+    """Check ``path``'s archive (:func:`satfmu.fmus.archive.extract`), extract it into a private
     temporary folder and read its model description from there.
 
     Returns

@@ -1,9 +1,9 @@
 """libcosim (Open Simulation Platform, PyPI ``libcosimpy``) as a second co-simulation engine.
 
-:func:`run` loads an SSP file (:mod:`sims.ssp`) into libcosim and records variables at every
+:func:`run` loads an SSP file (:mod:`satfmu.sims.ssp`) into libcosim and records variables at every
 communication point. libcosim runs in a child process (:func:`run`): it is C++ behind ctypes,
 and an error inside a pythonfmu FMU's step, or a malformed file, ends the whole process, which
-must not be ours. The child is this module (``python -m sims.libcosim``), which writes the
+must not be ours. The child is this module (``python -m satfmu.sims.libcosim``), which writes the
 samples to an ``.npz`` file. The child drives libcosim as libcosim's own tools do: all steps in
 one ``step(n)`` call, the variables recorded by a time-series observer inside libcosim, so
 no Python runs between two steps.
@@ -11,11 +11,11 @@ no Python runs between two steps.
 Times in libcosim are integer nanoseconds: the step size is rounded to 1 ns, and a step that
 is not a whole number of nanoseconds is refused. libcosim's fixed-step algorithm exchanges
 data after each step in Jacobi order (every output is read, then every input set), so
-:meth:`sims.master.CoSimulation.run` with ``exchange="jacobi"`` is the run to compare with.
+:meth:`satfmu.sims.master.CoSimulation.run` with ``exchange="jacobi"`` is the run to compare with.
 The observer samples each point right after the step, before the exchange: an input shows the
 value used over the step that ended (:func:`run` shifts inputs back to the master's
 convention), and a direct-feedthrough output the value it passes on, computed from the
-previous point's inputs (the master records it from the new inputs; :mod:`sims.verify`
+previous point's inputs (the master records it from the new inputs; :mod:`satfmu.sims.verify`
 aligns the two).
 """
 from __future__ import annotations
@@ -138,7 +138,7 @@ def run(ssp: Path, record: Sequence[str], stop_time: float, step_size: float, st
                            "step_size": step_size, "start_time": start_time, "out": str(out)})
         try:
             # libcosim extracts the FMUs into TMPDIR: this folder, removed whatever happens
-            proc = subprocess.run([sys.executable, "-m", "sims.libcosim", spec], capture_output=True, text=True,
+            proc = subprocess.run([sys.executable, "-m", "satfmu.sims.libcosim", spec], capture_output=True, text=True,
                                   timeout=timeout, env={**os.environ, "TMPDIR": tmp})
         except subprocess.TimeoutExpired:
             raise EngineError(f"libcosim did not finish {Path(ssp).name} within {timeout:g} s") from None
@@ -157,7 +157,7 @@ def run(ssp: Path, record: Sequence[str], stop_time: float, step_size: float, st
 
 def main(argv: list[str] | None = None) -> int:
     """Child process: run the JSON job of ``argv[0]`` and write its samples."""
-    parser = argparse.ArgumentParser(prog="python -m sims.libcosim")
+    parser = argparse.ArgumentParser(prog="python -m satfmu.sims.libcosim")
     parser.add_argument("job", help="JSON: ssp, record, stop_time, step_size, start_time, out")
     job = json.loads(parser.parse_args(argv).job)
     try:

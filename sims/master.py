@@ -19,7 +19,7 @@ Inputs are therefore held constant over each communication step (zero-order hold
 input after each step, as libcosim and ecos do: a direct-feedthrough output (a static
 controller) then passes on a value computed from the inputs of the previous communication
 point, a delay of one step. The default order has no such delay; the Jacobi order reproduces
-another engine's run (:mod:`sims.verify`). The recorded value of such an output is the one
+another engine's run (:mod:`satfmu.sims.verify`). The recorded value of such an output is the one
 computed from the new inputs, in either order.
 Value references and ctypes buffers are prepared once; each step makes one
 ``fmi2GetReal``/``fmi2SetReal`` call per FMU and direction.
@@ -39,9 +39,9 @@ from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import FMU2Slave
 from threadpoolctl import ThreadpoolController
 
-from fmus.declared import did_you_mean
-from fmus.profiles import Profile
-from sims import fmi_host
+from satfmu.fmus.declared import did_you_mean
+from satfmu.fmus.profiles import Profile
+from satfmu.sims import fmi_host
 
 
 ONE_THREAD = 1
@@ -202,7 +202,7 @@ class CoSimulation:
         self.connections: list[tuple[str, str]] = []
         self.profiles: list[tuple[str, Profile]] = []
         self.mismatches: list[str] = []
-        """Design mismatches of its controllers, as found by :func:`sims.scenario.design_mismatches`."""
+        """Design mismatches of its controllers, as found by :func:`satfmu.sims.scenario.design_mismatches`."""
         self._callbacks = fmi_host.Callbacks(self._receive)
         for name, path in fmus.items():
             path = Path(path)
@@ -386,7 +386,7 @@ class CoSimulation:
             output read before any input is set (see the module docstring). Initialization
             propagates in feedthrough order either way (as libcosim's does).
         engine : {"auto", "compiled", "python"}
-            Who runs the step loop: the compiled loop (:mod:`sims.compiled_loop`), the
+            Who runs the step loop: the compiled loop (:mod:`satfmu.sims.compiled_loop`), the
             Python loop, or the compiled one when a C compiler is there (default). Both
             make the same calls with the same values: the results are identical.
         record_every : int
@@ -427,7 +427,7 @@ class CoSimulation:
         lib = None
         if engine != "python":
             if self._loop is None:
-                from sims import compiled_loop
+                from satfmu.sims import compiled_loop
 
                 self._loop = compiled_loop.library() or False
             lib = self._loop or None
@@ -570,8 +570,8 @@ class CoSimulation:
     def _compiled_steps(self, lib: Any, comps: list[Component], transfers: list[_Transfer],
                         prof_bufs: dict[str, Any], rec_bufs: dict[str, Any], times: np.ndarray, step_size: float,
                         jacobi: bool, record_every: int, data: np.ndarray) -> None:
-        """The step loop in C (:mod:`sims.compiled_loop`); a failed call raises as :meth:`_call` does."""
-        from sims.compiled_loop import StepPlan
+        """The step loop in C (:mod:`satfmu.sims.compiled_loop`); a failed call raises as :meth:`_call` does."""
+        from satfmu.sims.compiled_loop import StepPlan
 
         index = {c.name: i for i, c in enumerate(comps)}
         plan = StepPlan(

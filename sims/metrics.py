@@ -100,7 +100,7 @@ class MetricResult:
 
 
 def summaries_markdown(summaries: Sequence[dict[str, Any]]) -> str:
-    """Scenario run summaries (``sims.scenario.Result.summary()``) as a Markdown table, one row per metric."""
+    """Scenario run summaries (``satfmu.sims.scenario.Result.summary()``) as a Markdown table, one row per metric."""
     lines = ["| scenario | backend | metric | value | unit | bounds | result |", "|---|---|---|---|---|---|---|"]
     for s in summaries:
         for m in s["metrics"]:

@@ -11,7 +11,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from fmus.declared import did_you_mean
+from satfmu.fmus.declared import did_you_mean
 
 SHIPPED_SCENARIOS = Path(__file__).resolve().parent / "scenarios"
 """Folder of the scenarios shipped with satfmu (``*.toml``)."""

@@ -121,7 +121,7 @@ def region_map(cells: Sequence, path: Path, boxes: Sequence = (), trajectory: tu
 def detumble_linear(runs: Sequence, path: Path, title: str = "") -> None:
     """Seed 003 Fig. 2 analogue: rates and dipoles at the sampling instants of the linear model.
 
-    ``runs`` are :class:`sims.detumble.LinearRun`: per gain set, the exact RMS rate, the Monte
+    ``runs`` are :class:`satfmu.sims.detumble.LinearRun`: per gain set, the exact RMS rate, the Monte
     Carlo one, the 10-90 % band of |w(k)| and the median |m(k)|, against orbit time (min).
     """
     fig, (ax_w, ax_m) = plt.subplots(2, 1, sharex=True, figsize=(8, 6))
@@ -147,7 +147,7 @@ def detumble_linear(runs: Sequence, path: Path, title: str = "") -> None:
 
 
 def detumble_sweep(rows: Sequence, path: Path, title: str = "") -> None:
-    """|w(2 orbits)| / |w(0)| and dipole effort against |w(0)| per controller (:class:`sims.detumble.SweepRow`)."""
+    """|w(2 orbits)| / |w(0)| and dipole effort against |w(0)| per controller (:class:`satfmu.sims.detumble.SweepRow`)."""
     fig, (ax_r, ax_e) = plt.subplots(2, 1, sharex=True, figsize=(8, 6))
     for label in dict.fromkeys(r.controller for r in rows):
         mine = sorted((r for r in rows if r.controller == label), key=lambda r: r.w0)

@@ -1,14 +1,14 @@
 """Checks of the FMU files a scenario names, made before the master loads them.
 
 :func:`fmu_problem` says what makes a file unusable here: empty, not a zip archive (another
-kind of file, or truncated), an archive :func:`fmus.archive.check` refuses (unsafe entries,
+kind of file, or truncated), an archive :func:`satfmu.fmus.archive.check` refuses (unsafe entries,
 beyond its size limits), a damaged member, no ``modelDescription.xml``, another FMI
 version than 2.0, no co-simulation interface, no binary for this platform, or another model
 than the one the scenario names. :func:`stale_artifact` says when a controller FMU embeds
-another artifact than the file of its name (:func:`sims.paths.find_artifact`) holds now: the
-FMU records the SHA-256 of the artifact it was built from (:func:`fmus.export.artifact_digest`),
+another artifact than the file of its name (:func:`satfmu.sims.paths.find_artifact`) holds now: the
+FMU records the SHA-256 of the artifact it was built from (:func:`satfmu.fmus.export.artifact_digest`),
 and a synthesis or an edit that replaced the artifact afterwards leaves a stale pair.
-:func:`sims.scenario.ensure_fmus` acts on both (rebuild in the FMU cache, error elsewhere).
+:func:`satfmu.sims.scenario.ensure_fmus` acts on both (rebuild in the FMU cache, error elsewhere).
 """
 from __future__ import annotations
 
@@ -16,8 +16,8 @@ import hashlib
 from pathlib import Path
 from xml.etree import ElementTree
 
-from fmus import archive
-from sims import catalog, paths
+from satfmu.fmus import archive
+from satfmu.sims import catalog, paths
 
 FMI_VERSION = "2.0"
 
@@ -81,7 +81,7 @@ def stale_artifact(fmu: Path, model: str) -> str | None:
         E.g. ``"FMU .../x.fmu embeds the artifact sha256:1a2b3c4d5e6f..., but
         .../artifacts/x.json is sha256:9f8e7d6c5b4a..."``.
     """
-    from fmus.export import artifact_digest
+    from satfmu.fmus.export import artifact_digest
 
     if model in catalog.PLANTS or model in catalog.GENERIC:  # models of their own, no artifact
         return None

@@ -47,7 +47,7 @@ outputs by the trapezoidal rule, FMU inputs (held over each step, e.g. ``plant.u
 left rectangle.
 
 A ``[dispersions]`` table declares what each Monte Carlo sample draws (syntax:
-:mod:`sims.dispersions`); :meth:`Scenario.sample` is the scenario of one sample. A
+:mod:`satfmu.sims.dispersions`); :meth:`Scenario.sample` is the scenario of one sample. A
 ``[campaign]`` table gives the campaign's default size and seed (what ``satfmu campaign
 scenario`` runs without ``--samples`` or ``--seed``)::
 
@@ -70,16 +70,16 @@ from typing import Any, Callable, Mapping
 
 import numpy as np
 
-from fmus.atomic import write_atomically
-from fmus.declared import check_keys, check_safe_name, did_you_mean, read_toml
-from fmus.profiles import Profile
-from fmus.profiles import make as make_profile
-from sims import metrics as M
-from sims import preflight
-from sims.dispersions import DispersionError, Dispersions, Overrides
-from sims.master import (CoSimulation, UnknownVariableError, WiringError, communication_times, recorded_steps,
+from satfmu.fmus.atomic import write_atomically
+from satfmu.fmus.declared import check_keys, check_safe_name, did_you_mean, read_toml
+from satfmu.fmus.profiles import Profile
+from satfmu.fmus.profiles import make as make_profile
+from satfmu.sims import metrics as M
+from satfmu.sims import preflight
+from satfmu.sims.dispersions import DispersionError, Dispersions, Overrides
+from satfmu.sims.master import (CoSimulation, UnknownVariableError, WiringError, communication_times, recorded_steps,
                          start_value)
-from sims.paths import BACKENDS, SHIPPED_SCENARIOS
+from satfmu.sims.paths import BACKENDS, SHIPPED_SCENARIOS
 
 _TOP = ("name", "description", "stop_time", "step_size", "start_time", "fmus", "connections",
         "profiles", "record", "metrics", "plot", "reference", "verify", "dispersions", "campaign", "record_every")
@@ -215,7 +215,7 @@ class Scenario:
     connections : list of Connection
     profiles : list of dict
         Signals of time fed to inputs: ``{"to": "plant.w_d[1]", "kind": "step", ...}``
-        (kinds of :mod:`fmus.profiles`).
+        (kinds of :mod:`satfmu.fmus.profiles`).
     record : list of str
         Variables to record (``"instance.variable"``, base names expand).
     metrics : list of Metric
@@ -232,7 +232,7 @@ class Scenario:
     path : Path, optional
         The TOML file it was read from.
     dispersions : Dispersions or dict, optional
-        What each Monte Carlo sample draws (the ``[dispersions]`` table, :mod:`sims.dispersions`);
+        What each Monte Carlo sample draws (the ``[dispersions]`` table, :mod:`satfmu.sims.dispersions`);
         :meth:`sample` gives the scenario of one sample.
     campaign : dict
         The ``[campaign]`` table: default ``samples``, ``demo_samples`` and ``seed`` of the
@@ -431,7 +431,7 @@ class Result:
     results : numpy structured array
         One row per communication time: ``time`` (s) and every recorded
         ``instance.variable`` (its unit: :attr:`units`).
-    metrics : list of sims.metrics.MetricResult
+    metrics : list of satfmu.sims.metrics.MetricResult
         Name, value, unit, bounds and pass/fail of each metric.
     files : dict of str to Path
         What :meth:`write` wrote (csv, plot, summary, l2_ratio_plot).
@@ -491,7 +491,7 @@ class Result:
 
     def plot(self, path: str | Path) -> Path:
         """Plot the recorded signals (the scenario's panels) to a PNG file; returns its path."""
-        from sims import plots
+        from satfmu.sims import plots
 
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
@@ -507,7 +507,7 @@ class Result:
         of the run needs beside the summary: the scenario's declaration
         (:meth:`Scenario.to_dict`), the folder its relative paths resolve against, the backend,
         the FMU folder and each FMU file's name and SHA-256
-        (:func:`sims.scenario_campaign.context`), and the unit of every recorded column.
+        (:func:`satfmu.sims.scenario_campaign.context`), and the unit of every recorded column.
 
         The files of an earlier run of the same scenario and backend are removed first, every
         file is written whole (temporary name, then rename) and the summary comes last: a
@@ -521,7 +521,7 @@ class Result:
         if self.panels:  # a run that records nothing has nothing to plot
             files["plot"] = write_atomically(folder / f"{stem}.png", self.plot)
         if self.l2_curves:
-            from sims import plots  # matplotlib: only for a run that plots
+            from satfmu.sims import plots  # matplotlib: only for a run that plots
 
             files["l2_ratio_plot"] = folder / f"{stem}_l2_ratio.png"
             bounds = {m.name: m.max for m in self.metrics}
@@ -529,7 +529,7 @@ class Result:
                 self.results["time"], {n: (c, bounds[n]) for n, c in self.l2_curves.items()}, tmp,
                 title=f"{self.name}: truncated L2 ratio over T"))
         if self.scenario is not None and self.fmu_dir is not None:
-            from sims.scenario_campaign import context
+            from satfmu.sims.scenario_campaign import context
 
             files["scenario"] = folder / f"scenario_{self.backend}.json"
             record = {**context(self.scenario, self.fmu_dir, self.backend), "units": self.units}
@@ -724,7 +724,7 @@ def nominal_values(scenario: Scenario, fmu_dir: str | Path | None = None, backen
     callable
         (instance or ``"profiles[i]"``, name) -> float or None.
     """
-    from fmus import archive
+    from satfmu.fmus import archive
 
     starts: dict[str, dict[str, float]] = {}
 
@@ -803,7 +803,7 @@ def profiles(scenario: Scenario) -> list[tuple[str, Profile]]:
 
     Raises
     ------
-    fmus.profiles.ProfileError
+    satfmu.fmus.profiles.ProfileError
     """
     where = scenario.path.name if scenario.path else scenario.name
     return [(p["to"], make_profile({k: v for k, v in p.items() if k != "to"}, f"{where}: profiles[{i}]",
@@ -848,7 +848,7 @@ def design_mismatches(scenario: Scenario, sim: CoSimulation, rtol: float | None 
     Parameters
     ----------
     rtol : float, optional
-        Relative tolerance (default :data:`controllers.artifact.DESIGN_RTOL`).
+        Relative tolerance (default :data:`satfmu.controllers.artifact.DESIGN_RTOL`).
 
     Returns
     -------
@@ -856,7 +856,7 @@ def design_mismatches(scenario: Scenario, sim: CoSimulation, rtol: float | None 
         One line per controller and plant instance, e.g. ``"controller (mrp_hinf_published)
         on plant: I_x = 100 (designed for 15), ..."``.
     """
-    from controllers import artifact as artifacts
+    from satfmu.controllers import artifact as artifacts
 
     out = []
     for cname, comp in sim.components.items():
@@ -1011,7 +1011,7 @@ def simulate(scenario: Scenario, fmu_dir: Path, backend: str = "native", strict:
     ------
     ScenarioError
         What :func:`wire` refuses.
-    sims.master.MasterError
+    satfmu.sims.master.MasterError
         An FMU call failed (its log lines in the message).
     """
     sim = wire(scenario, fmu_dir, backend, strict, design_rtol)
@@ -1040,9 +1040,9 @@ def resimulate(scenario: Scenario, sim: CoSimulation) -> np.ndarray:
     ------
     ScenarioError
         A start value of the wrong type or outside its declared range.
-    fmus.profiles.ProfileError
+    satfmu.fmus.profiles.ProfileError
         A profile field its kind refuses.
-    sims.master.MasterError
+    satfmu.sims.master.MasterError
         An FMU call failed.
     """
     where = str(scenario.path) if scenario.path else f"scenario {scenario.name!r}"
@@ -1148,7 +1148,7 @@ def run(scenario: "str | Path | Mapping[str, Any] | Scenario", fmu_dir: str | Pa
     scenario : Scenario, dict, str or Path
         A scenario, its plain data, a TOML file or a shipped scenario's name.
     fmu_dir : path, optional
-        Folder of the FMUs named by ``model`` (default :func:`sims.paths.fmu_cache`); FMUs
+        Folder of the FMUs named by ``model`` (default :func:`satfmu.sims.paths.fmu_cache`); FMUs
         missing there are built into it first (:func:`ensure_fmus`).
     backend : {"native", "python"}
         Default backend of the instances.
@@ -1172,7 +1172,7 @@ def run(scenario: "str | Path | Mapping[str, Any] | Scenario", fmu_dir: str | Pa
     ScenarioError
         An invalid scenario (key path named), an unusable or stale FMU, a name no FMU has,
         a wiring the master refuses, a strict mismatch.
-    sims.master.MasterError
+    satfmu.sims.master.MasterError
         An FMU call failed (its log lines in the message).
     """
     sc = load(scenario)
@@ -1196,10 +1196,10 @@ def ensure_fmus(scenario: Scenario, fmu_dir: str | Path | None, backend: str, al
 
     An FMU named by ``model`` and missing is built into the folder (plants by model name,
     controllers from their artifact, found in the user's folder before the shipped ones).
-    An FMU present is checked (:mod:`sims.preflight`): a readable FMI 2.0 co-simulation FMU
+    An FMU present is checked (:mod:`satfmu.sims.preflight`): a readable FMI 2.0 co-simulation FMU
     of that model with a binary for this platform and, for a controller, embedding the
     artifact file of its name as that file is now. In the FMU cache
-    (:func:`sims.paths.fmu_cache`, satfmu's own folder) an FMU failing that is rebuilt, with
+    (:func:`satfmu.sims.paths.fmu_cache`, satfmu's own folder) an FMU failing that is rebuilt, with
     a :class:`StaleFmuWarning`; in any other folder it is an error (files there are the
     user's, never replaced), or, for a stale controller with ``allow_stale``, a
     :class:`StaleFmuWarning` and the FMU is used as it is. An FMU named by ``path`` is
@@ -1212,8 +1212,8 @@ def ensure_fmus(scenario: Scenario, fmu_dir: str | Path | None, backend: str, al
         ``path`` FMU, an unknown model name (with the closest one), an artifact that cannot
         be built, an unusable or stale FMU outside the cache.
     """
-    from sims import catalog
-    from sims.paths import fmu_cache
+    from satfmu.sims import catalog
+    from satfmu.sims.paths import fmu_cache
 
     folder = fmu_cache() if fmu_dir is None else Path(fmu_dir).resolve()
     cache = folder == fmu_cache()

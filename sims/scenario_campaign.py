@@ -1,15 +1,15 @@
 """Monte Carlo campaigns of a scenario with ``[dispersions]``, and their statistics.
 
-:func:`campaign` makes a :class:`~sims.campaign.Campaign` whose samples are the global
-sample indices (:func:`sims.campaign.sample_indices`): sample ``i`` runs
-``scenario.sample(seed, i)`` through :func:`sims.scenario.simulate` and
-:func:`sims.scenario.evaluate`, the path of :func:`sims.scenario.run`, so its row depends on
+:func:`campaign` makes a :class:`~satfmu.sims.campaign.Campaign` whose samples are the global
+sample indices (:func:`satfmu.sims.campaign.sample_indices`): sample ``i`` runs
+``scenario.sample(seed, i)`` through :func:`satfmu.sims.scenario.simulate` and
+:func:`satfmu.sims.scenario.evaluate`, the path of :func:`satfmu.sims.scenario.run`, so its row depends on
 ``(seed, i)`` only, not on the chunk size, the workers or the order of the chunks. A worker
-process wires the scenario's :class:`~sims.master.CoSimulation` once
+process wires the scenario's :class:`~satfmu.sims.master.CoSimulation` once
 (:meth:`ScenarioTask.simulation`) and runs every sample through it
-(:func:`sims.scenario.resimulate`): the FMU instances are reset between samples, the step
-loop is the compiled one (:mod:`sims.compiled_loop`), and a row equals that of
-:func:`sims.scenario.run` of the sampled scenario bit for bit.
+(:func:`satfmu.sims.scenario.resimulate`): the FMU instances are reset between samples, the step
+loop is the compiled one (:mod:`satfmu.sims.compiled_loop`), and a row equals that of
+:func:`satfmu.sims.scenario.run` of the sampled scenario bit for bit.
 
 Columns of a row (all float64, as every campaign chunk): ``sample`` (global index), one per
 metric (its value in the metric's unit, NaN for a sample that did not run; an infinite
@@ -39,16 +39,16 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
-from fmus.atomic import write_atomically
-from fmus.profiles import ProfileError
-from sims import envelopes as E
-from sims import metrics as M
-from sims import preflight
-from sims import scenario as S
-from sims.campaign import Campaign, CampaignError, sample_indices
-from sims.master import CoSimulation, MasterError, UnknownVariableError
+from satfmu.fmus.atomic import write_atomically
+from satfmu.fmus.profiles import ProfileError
+from satfmu.sims import envelopes as E
+from satfmu.sims import metrics as M
+from satfmu.sims import preflight
+from satfmu.sims import scenario as S
+from satfmu.sims.campaign import Campaign, CampaignError, sample_indices
+from satfmu.sims.master import CoSimulation, MasterError, UnknownVariableError
 
-FAILURES = {0: "ran", 1: "an FMU call or the master failed (sims.master.MasterError)",
+FAILURES = {0: "ran", 1: "an FMU call or the master failed (satfmu.sims.master.MasterError)",
             2: "the sampled scenario was refused (ScenarioError or ProfileError, e.g. a start value outside "
                "its declared range, a profile field its kind refuses)",
             3: "a recorded signal is not finite (NaN or infinite: the run diverged)"}
@@ -72,12 +72,12 @@ class ScenarioTask:
     seed : int
         Campaign seed (>= 0).
     fmu_dir : str
-        FMU folder, every FMU of the scenario present (:func:`sims.scenario.check`).
+        FMU folder, every FMU of the scenario present (:func:`satfmu.sims.scenario.check`).
     backend : {"native", "python"}
     dispersed : tuple of (str, str)
         (instance or ``"profiles[i]"``, parameter or field) of each dispersed value column.
     envelopes : tuple of str
-        Recorded scalar signals whose time history each row keeps (:mod:`sims.envelopes`).
+        Recorded scalar signals whose time history each row keeps (:mod:`satfmu.sims.envelopes`).
     trace_steps : tuple of int
         The recorded rows (communication points) of those histories.
     """
@@ -98,7 +98,7 @@ class ScenarioTask:
 
     @property
     def trace_columns(self) -> list[str]:
-        """The columns of the kept time histories (:func:`sims.envelopes.trace_columns`)."""
+        """The columns of the kept time histories (:func:`satfmu.sims.envelopes.trace_columns`)."""
         return [c for s in self.envelopes for c in E.trace_columns(s, len(self.trace_steps))]
 
     def __call__(self, samples: np.ndarray) -> dict[str, np.ndarray]:
@@ -158,7 +158,7 @@ _KEEP = 2
 _WIRED: dict[str, CoSimulation] = {}
 """This process's wired masters by task digest, least recently used first."""
 _NOMINAL: dict[int, Any] = {}
-"""The nominal values (:func:`sims.scenario.nominal_values`) of each kept master's scenario, read
+"""The nominal values (:func:`satfmu.sims.scenario.nominal_values`) of each kept master's scenario, read
 once, by ``id`` of the master."""
 
 
@@ -190,9 +190,9 @@ def _value(sampled: S.Scenario, owner: str, name: str) -> Any:
 def campaign(scenario: "str | Path | Mapping[str, Any] | S.Scenario", n: int, seed: int = 0, chunk: int | None = None,
              name: str | None = None, fmu_dir: str | Path | None = None, backend: str = "native",
              envelopes: Sequence[str] = (), points: int = E.POINTS) -> Campaign:
-    """The Monte Carlo campaign of a scenario's ``[dispersions]`` (run it with :func:`sims.campaign.run`).
+    """The Monte Carlo campaign of a scenario's ``[dispersions]`` (run it with :func:`satfmu.sims.campaign.run`).
 
-    The nominal scenario is checked first (:func:`sims.scenario.check`: its FMUs are built
+    The nominal scenario is checked first (:func:`satfmu.sims.scenario.check`: its FMUs are built
     when missing, its wiring and start values checked), so a sample can fail only by its
     dispersed values or its run.
 
@@ -214,22 +214,22 @@ def campaign(scenario: "str | Path | Mapping[str, Any] | S.Scenario", n: int, se
     backend : {"native", "python"}
     envelopes : sequence of str
         Recorded signals (base names expand) whose time history every row keeps at ``points``
-        times, for percentile envelopes (:mod:`sims.envelopes`).
+        times, for percentile envelopes (:mod:`satfmu.sims.envelopes`).
     points : int
         Time points kept per signal and sample, >= 2 (at most the run's communication points).
 
     Returns
     -------
     Campaign
-        Its task is a :class:`ScenarioTask`, its sampler :func:`sims.campaign.sample_indices`.
+        Its task is a :class:`ScenarioTask`, its sampler :func:`satfmu.sims.campaign.sample_indices`.
 
     Raises
     ------
     ScenarioError
         The scenario has no dispersions, names a column twice (a metric called ``sample``,
         ``passed`` or ``failed``), an envelope signal it does not record, or
-        :func:`sims.scenario.check` refuses it.
-    sims.campaign.CampaignError
+        :func:`satfmu.sims.scenario.check` refuses it.
+    satfmu.sims.campaign.CampaignError
         An invalid n, seed, chunk, name or points.
     """
     sc = _canonical(S.load(scenario))
@@ -332,7 +332,7 @@ def reopen(folder: str | Path, fmu_dir: str | Path | None = None) -> Campaign:
         Not a scenario campaign's folder, or its FMUs are not the files it ran (another SHA-256:
         a replay would not be the campaign's run).
     """
-    from sims.campaign import read_record
+    from satfmu.sims.campaign import read_record
 
     folder = Path(folder)
     record = read_record(folder)
@@ -456,7 +456,7 @@ def _metric_statistics(name: str, unit: str, passed: np.ndarray, values: np.ndar
 
 def statistics(scenario: "str | Path | Mapping[str, Any] | S.Scenario", df: pd.DataFrame, confidence: float = 0.95,
                k: int = 5) -> Statistics:
-    """The statistics of a scenario campaign's rows (:func:`sims.campaign.load`).
+    """The statistics of a scenario campaign's rows (:func:`satfmu.sims.campaign.load`).
 
     Parameters
     ----------
@@ -511,7 +511,7 @@ class CampaignResult:
         histories), sorted by ``sample``.
     statistics : Statistics
     envelopes : pandas.DataFrame or None
-        The percentile envelopes of the kept time histories (:func:`sims.envelopes.envelopes`;
+        The percentile envelopes of the kept time histories (:func:`satfmu.sims.envelopes.envelopes`;
         also in the folder's ``envelopes.parquet``), None if the campaign keeps none.
     """
 
@@ -564,7 +564,7 @@ def run_campaign(scenario: "str | Path | Mapping[str, Any] | S.Scenario", n: int
     -------
     CampaignResult
     """
-    from sims import campaign as C
+    from satfmu.sims import campaign as C
 
     sc = S.load(scenario)
     camp = campaign(sc, n, seed=seed, chunk=chunk, name=name, fmu_dir=fmu_dir, backend=backend, envelopes=envelopes,
@@ -599,15 +599,15 @@ def campaign_row(folder: str | Path, sample: int) -> pd.Series | None:
     -------
     pandas.Series or None
         The row's columns (:func:`campaign` module docstring), only the chunk holding it read
-        and verified (:func:`sims.chunk_files.chunk_problem`).
+        and verified (:func:`satfmu.sims.chunk_files.chunk_problem`).
 
     Raises
     ------
     CampaignError
         Not a campaign folder.
     """
-    from sims import campaign as C
-    from sims import chunk_files
+    from satfmu.sims import campaign as C
+    from satfmu.sims import chunk_files
 
     folder = Path(folder)
     record = C.read_record(folder)
@@ -634,11 +634,11 @@ def replay(folder: str | Path, sample: int, out_dir: str | Path | None = None,
 
     The campaign is read back from ``campaign.json`` (:func:`reopen`: its scenario declaration,
     seed, backend, and FMU files whose SHA-256 must be the ones the campaign ran); sample
-    ``sample`` is ``scenario.sample(seed, sample)`` run by :func:`sims.scenario.run`, the path of
+    ``sample`` is ``scenario.sample(seed, sample)`` run by :func:`satfmu.sims.scenario.run`, the path of
     the campaign's own runs, so its metrics equal the campaign row's exactly. When the chunk that
     holds the row is recorded, the replay is compared with it: a metric or dispersed value that
     differs (e.g. other numpy/scipy versions drawing other dispersed values) is reported by a
-    :class:`sims.campaign.CampaignWarning` naming the columns.
+    :class:`satfmu.sims.campaign.CampaignWarning` naming the columns.
 
     A sample the campaign recorded as failed fails the same way: the same exception, with the
     message :func:`explain` gives.
@@ -651,7 +651,7 @@ def replay(folder: str | Path, sample: int, out_dir: str | Path | None = None,
         Global sample index, ``0 <= sample < n`` (the row's ``sample`` column).
     out_dir : path, optional
         Write the run into ``out_dir/<campaign name>-sample<sample>/`` (:func:`replay_folder`):
-        the time histories as CSV, the plots and the summary as :meth:`sims.scenario.Result.write`
+        the time histories as CSV, the plots and the summary as :meth:`satfmu.sims.scenario.Result.write`
         writes them, and ``sample.json`` (campaign, seed, sample, dispersed values and the
         sampled scenario's declaration). Default: nothing written.
     fmu_dir : path, optional
@@ -670,10 +670,10 @@ def replay(folder: str | Path, sample: int, out_dir: str | Path | None = None,
     ScenarioError
         The sampled scenario is refused (a dispersed value outside its declared range, ...):
         the campaign's failure code 2.
-    sims.master.MasterError
+    satfmu.sims.master.MasterError
         An FMU call failed (failure code 1).
     """
-    from sims.campaign import CampaignWarning
+    from satfmu.sims.campaign import CampaignWarning
 
     folder = Path(folder)
     camp = reopen(folder, fmu_dir)

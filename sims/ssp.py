@@ -8,15 +8,15 @@ Platform) the default experiment carries the fixed communication step as an
 ``com.opensimulationplatform`` annotation (``osp:FixedStepAlgorithm baseStepSize``, s), which
 libcosim needs and other tools ignore.
 
-Everything is resolved as the master resolves it (:class:`sims.master.CoSimulation`: base
+Everything is resolved as the master resolves it (:class:`satfmu.sims.master.CoSimulation`: base
 names expanded index by index, causality and type checked, parameter values checked and
-converted by :func:`sims.master.start_value`), so an exported file is the scenario the master
+converted by :func:`satfmu.sims.master.start_value`), so an exported file is the scenario the master
 runs. The file is validated against the SSP 1.0 schemas that fmpy ships
 (``SystemStructureDescription.xsd``, and each parameter set against
 ``SystemStructureParameterValues.xsd``, which the SSD schema leaves unchecked) before it is
 written.
 
-Each disturbance profile becomes a signal-generator component (:mod:`fmus.signals`, native)
+Each disturbance profile becomes a signal-generator component (:mod:`satfmu.fmus.signals`, native)
 named ``signal_<instance>_<variable>`` and connected to the input it drives, its output declaring
 that input's unit (:func:`target_unit`, read from the target FMU: FMI 2.0 gives each variable one
 fixed unit): the dimensionless generic ones (constant, step, sinusoid, cosine ramp) are taken
@@ -34,14 +34,14 @@ from pathlib import Path
 from fmpy.ssp import ssd as fmpy_ssd
 from lxml import etree
 
-from fmus import archive
-from fmus import export as fmu_export
-from fmus import signals
-from fmus.atomic import write_atomically
-from fmus.description import xml_value
-from sims.master import CoSimulation, start_value
-from sims import catalog
-from sims.scenario import Scenario, ScenarioError, check, fmu_paths, grid, load, profiles
+from satfmu.fmus import archive
+from satfmu.fmus import export as fmu_export
+from satfmu.fmus import signals
+from satfmu.fmus.atomic import write_atomically
+from satfmu.fmus.description import xml_value
+from satfmu.sims.master import CoSimulation, start_value
+from satfmu.sims import catalog
+from satfmu.sims.scenario import Scenario, ScenarioError, check, fmu_paths, grid, load, profiles
 
 NS = {"ssd": "http://ssp-standard.org/SSP1/SystemStructureDescription",
       "ssc": "http://ssp-standard.org/SSP1/SystemStructureCommon",
@@ -91,7 +91,7 @@ def target_unit(scenario: Scenario, fmu_dir: Path, target: str, backend: str = "
 
 @functools.lru_cache(maxsize=32)
 def _model_description(path: str, mtime_ns: int):
-    """The model description of the FMU ``path`` (:func:`fmus.archive.read_description`, read once
+    """The model description of the FMU ``path`` (:func:`satfmu.fmus.archive.read_description`, read once
     per file version, ``mtime_ns``)."""
     return archive.read_description(path)
 
@@ -108,7 +108,7 @@ def signal_components(scenario: Scenario, fmu_dir: Path, table_dir: Path, backen
 
     Raises
     ------
-    fmus.profiles.ProfileError
+    satfmu.fmus.profiles.ProfileError
         An invalid profile.
     SspError
         A target that is not a variable of the scenario's FMUs.
@@ -142,7 +142,7 @@ def system_structure(scenario: Scenario, fmu_dir: Path, backend: str = "native",
     ------
     SspError
         Two different FMU files with one name, an instance name taken twice, or a schema failure.
-    FileNotFoundError, sims.master.MasterError, fmus.profiles.ProfileError
+    FileNotFoundError, satfmu.sims.master.MasterError, satfmu.fmus.profiles.ProfileError
         A missing FMU, an unknown variable, a wrong connection, parameter or profile (as the master).
     """
     d = scenario.data
@@ -227,7 +227,7 @@ def export(name_or_path: "str | Path | Scenario", fmu_dir: str | Path | None, ou
            allow_stale: bool = False) -> Path:
     """Write the scenario as ``out`` (a ``.ssp`` file; a directory gets ``<scenario>.ssp``).
 
-    The scenario is checked as a run checks it (:func:`sims.scenario.check`: the FMU files,
+    The scenario is checked as a run checks it (:func:`satfmu.sims.scenario.check`: the FMU files,
     missing ones built, and the wiring) before anything is written, and an earlier file of
     that name is removed first: a refused or failed export leaves no file (:func:`write`).
 
@@ -249,8 +249,8 @@ def target(scenario: Scenario, out: Path) -> Path:
 
 
 def write(scenario: Scenario, fmu_dir: Path, out: Path, backend: str = "native") -> Path:
-    """Write a scenario :func:`sims.scenario.check` accepted as an SSP file (:func:`target`),
-    whole or not at all (:func:`fmus.atomic.write_atomically`).
+    """Write a scenario :func:`satfmu.sims.scenario.check` accepted as an SSP file (:func:`target`),
+    whole or not at all (:func:`satfmu.fmus.atomic.write_atomically`).
 
     Raises
     ------

@@ -2,11 +2,11 @@
 
 For one scenario :func:`verify`
 
-1. writes its SSP file (:mod:`sims.ssp`: the FMUs, the profiles as signal-generator FMUs,
+1. writes its SSP file (:mod:`satfmu.sims.ssp`: the FMUs, the profiles as signal-generator FMUs,
    connections, parameter values);
 2. runs it in our master twice: in its own feedthrough order (the scenario's metrics are
    evaluated on this run) and in Jacobi order (every output read before any input is set);
-3. runs the SSP file in libcosim (:mod:`sims.libcosim`, Open Simulation Platform) and in the
+3. runs the SSP file in libcosim (:mod:`satfmu.sims.libcosim`, Open Simulation Platform) and in the
    ecos command-line host (a C++ program, no Python in the loop);
 4. compares every Real output of every FMU with the master's Jacobi run, the exchange order
    both other engines use (measured: they agree with it to rounding).
@@ -65,12 +65,12 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from fmus import archive
-from fmus.atomic import write_atomically
-from sims import libcosim, paths, ssp
-from fmus.profiles import make as make_profile
-from sims.master import CoSimulation
-from sims.scenario import Scenario, check, evaluate, fmu_paths, load, recorded
+from satfmu.fmus import archive
+from satfmu.fmus.atomic import write_atomically
+from satfmu.sims import libcosim, paths, ssp
+from satfmu.fmus.profiles import make as make_profile
+from satfmu.sims.master import CoSimulation
+from satfmu.sims.scenario import Scenario, check, evaluate, fmu_paths, load, recorded
 
 
 @dataclass(frozen=True)
@@ -361,7 +361,7 @@ def sampled_order_check(scenario: Scenario, fmu_dir: Path, backend: str, res_ft:
         Default FMU backend of the scenario's instances.
     res_ft : numpy.ndarray
         The master's feedthrough-order run of the scenario, every communication point, recording
-        every Real input and output of ``controllers`` and the inputs they drive.
+        every Real input and output of ``satfmu.controllers`` and the inputs they drive.
     controllers : sequence of str
         The sampled controller instances (:func:`sampled_fmu`).
 
@@ -441,7 +441,7 @@ def verify(name_or_path: "str | Path | Scenario", fmu_dir: Path, out_dir: Path, 
         Scenario.
     fmu_dir : Path
         Folder of the FMUs; the missing ones are built, and the scenario is checked as a run
-        checks it (:func:`sims.scenario.check`) before its SSP file is written.
+        checks it (:func:`satfmu.sims.scenario.check`) before its SSP file is written.
     out_dir : Path
         Receives ``<scenario>.ssp``.
     backend : {"native", "python"}
@@ -453,7 +453,7 @@ def verify(name_or_path: "str | Path | Scenario", fmu_dir: Path, out_dir: Path, 
 
     Raises
     ------
-    sims.scenario.ScenarioError
+    satfmu.sims.scenario.ScenarioError
         What a run refuses.
     """
     scenario = load(name_or_path)
@@ -462,7 +462,7 @@ def verify(name_or_path: "str | Path | Scenario", fmu_dir: Path, out_dir: Path, 
 
 def _verify(scenario: Scenario, fmu_dir: Path, out_dir: Path, backend: str, engines: tuple[str, ...]
             ) -> ScenarioReport:
-    """:func:`verify` of a scenario :func:`sims.scenario.check` accepted."""
+    """:func:`verify` of a scenario :func:`satfmu.sims.scenario.check` accepted."""
     d = scenario.data
     target = ssp.target(scenario, out_dir)
     target.unlink(missing_ok=True)
@@ -592,7 +592,7 @@ def verify_all(fmu_dir: Path, out_dir: Path, names: Sequence[str | Path] = (), b
                progress: Callable[[int, int, str], None] | None = None, allow_stale: bool = False) -> VerifyRun:
     """:func:`verify` of each scenario, then :func:`write` of all the reports.
 
-    Every scenario is checked first as a run checks it (:func:`sims.scenario.check`: the FMUs
+    Every scenario is checked first as a run checks it (:func:`satfmu.sims.scenario.check`: the FMUs
     a scenario names that are missing from ``fmu_dir`` are built, each FMU and the wiring are
     checked), so a bad one stops the run before any work. The report of an earlier
     run in ``out_dir`` is removed first: a folder with a report holds a complete run.
@@ -616,7 +616,7 @@ def verify_all(fmu_dir: Path, out_dir: Path, names: Sequence[str | Path] = (), b
 
     Raises
     ------
-    sims.scenario.ScenarioError
+    satfmu.sims.scenario.ScenarioError
         What a run refuses.
     """
     scenarios = [load(name) for name in list(names) or [p.stem for p in paths.shipped_scenarios()]]

@@ -35,7 +35,7 @@ gives them, as the SOS layer's solutions always said)."""
 REFUTED = {"PrimalInfeasible": "infeasible", "DualInfeasible": "unbounded",
            "AlmostPrimalInfeasible": "infeasible_inaccurate", "AlmostDualInfeasible": "unbounded_inaccurate"}
 """Clarabel's certificates of infeasibility or unboundedness (clean, or to a reduced accuracy), in
-the words of :mod:`synthesis.solve_policy`."""
+the words of :mod:`satfmu.synthesis.solve_policy`."""
 
 
 @dataclass
@@ -127,7 +127,7 @@ def _isolated(problem: ConicProblem, settings: dict[str, Any], memory_limit: int
     root = str(Path(__file__).resolve().parents[1])  # the directory holding this package
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [root, os.environ.get("PYTHONPATH")]))}
     env.pop("PYTHONFAULTHANDLER", None)  # an abort there is the expected answer, not a crash to report
-    run = subprocess.run([sys.executable, "-c", "from synthesis.conic import _serve; _serve()"],
+    run = subprocess.run([sys.executable, "-c", "from satfmu.synthesis.conic import _serve; _serve()"],
                          input=pickle.dumps((problem, settings, memory_limit)), capture_output=True, env=env)
     try:
         out = pickle.loads(run.stdout)

@@ -1,6 +1,6 @@
 """Seed 003's instance of Theorem 2: the cubesat's rate subsystem, sampled every 15 min.
 
-The design model comes from the plant's own definition (:data:`fmus.cubesat.MODEL`):
+The design model comes from the plant's own definition (:data:`satfmu.fmus.cubesat.MODEL`):
 ``B(t) = d omega' / d m`` at ``q = [0 0 0 1]``, ``omega = 0``, the Fourier field, saturation
 off (seed eq. 7: rows ``[0, 200 bz, -200 by]``, ...). With a dipole held over each sample
 ``[k Ts, (k+1) Ts]`` and A = 0 (the gyroscopic term is quadratic), the exact discretization is
@@ -19,9 +19,9 @@ from dataclasses import dataclass, field
 import numpy as np
 import sympy as sp
 
-from controllers.artifact import FORMAT, FORMAT_VERSION, PERIODIC_KIND, design_plant_record
-from fmus import cubesat
-from synthesis.periodic_hinf import (LMICheck, PeriodicDesign, PeriodicSystem, analyze, bisect_gamma, design,
+from satfmu.controllers.artifact import FORMAT, FORMAT_VERSION, PERIODIC_KIND, design_plant_record
+from satfmu.fmus import cubesat
+from satfmu.synthesis.periodic_hinf import (LMICheck, PeriodicDesign, PeriodicSystem, analyze, bisect_gamma, design,
                                      gamma_min, ms_spectral_radius)
 
 TS_SEED = 900.0

@@ -1,18 +1,18 @@
 """Deterministic robust design and analysis of a DEMETER variant (seed 004, sections 4.1, 5.1).
 
-:func:`deterministic` runs the seed's pipeline on one :class:`~synthesis.demeter_variants.Variant`:
+:func:`deterministic` runs the seed's pipeline on one :class:`~satfmu.synthesis.demeter_variants.Variant`:
 
-1. the design model's LFT (:meth:`~synthesis.demeter_variants.DesignModel.lft`) in scaled
+1. the design model's LFT (:meth:`~satfmu.synthesis.demeter_variants.DesignModel.lft`) in scaled
    coordinates ``x = T x_s`` (:func:`state_scale`: the states' sizes, balanced, so the LMIs'
    entries are of comparable size; gains, bounds and poles do not depend on T);
-2. :func:`synthesis.robust_design.design`: one Lyapunov matrix for H-infinity ``w1 -> z1``,
+2. :func:`satfmu.synthesis.robust_design.design`: one Lyapunov matrix for H-infinity ``w1 -> z1``,
    impulse-to-peak ``w2 -> z2`` and the pole region ``-10 < Re s < -1e-4``, objective
    ``1 gamma + 100 nu``; D-G scalings for norm-bounded parameters (uncertainty types 1, 3),
    vertex separators for intervals (type 2), or D-G scalings there too when the vertex program
    is too large for the solver's memory (:func:`robust_multipliers`; three axes: 256 vertices);
 3. deterministic analysis of the closed loop: H-infinity bound with a parameter-dependent
-   Lyapunov function on the affine descriptor (:func:`synthesis.pdlf.pdlf_hinf`) and
-   the impulse-to-peak bound with a common one (:func:`synthesis.robust_design.i2p_bound`);
+   Lyapunov function on the affine descriptor (:func:`satfmu.synthesis.pdlf.pdlf_hinf`) and
+   the impulse-to-peak bound with a common one (:func:`satfmu.synthesis.robust_design.i2p_bound`);
 4. an independent sampled check: ``n`` plants drawn in the box, closed-loop poles, exact
    H-infinity norms and impulse-to-peak values against the bounds.
 """
@@ -24,14 +24,14 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.linalg import matrix_balance
 
-from controllers.artifact import design_plant_record
-from fmus import demeter
-from synthesis import solve_policy
-from synthesis.demeter_variants import RATE_WORST, THETA_WORST, DesignModel, Variant, design_model
-from synthesis.lft_plant import AffineDescriptor, LFTPlant, ProgramTooLargeError
-from synthesis.pdlf import PDLFResult, pdlf_hinf
-from synthesis.robust_design import RobustDesign, design, i2p_bound
-from synthesis.system_norms import hinf_norm, impulse_to_peak
+from satfmu.controllers.artifact import design_plant_record
+from satfmu.fmus import demeter
+from satfmu.synthesis import solve_policy
+from satfmu.synthesis.demeter_variants import RATE_WORST, THETA_WORST, DesignModel, Variant, design_model
+from satfmu.synthesis.lft_plant import AffineDescriptor, LFTPlant, ProgramTooLargeError
+from satfmu.synthesis.pdlf import PDLFResult, pdlf_hinf
+from satfmu.synthesis.robust_design import RobustDesign, design, i2p_bound
+from satfmu.synthesis.system_norms import hinf_norm, impulse_to_peak
 
 ALPHA = 1e-4
 """Pole region: Re s < -ALPHA, 1/s (seed: region('plane', -1e-4))."""
@@ -66,7 +66,7 @@ def state_scale(dm: DesignModel) -> np.ndarray:
 
 def scaled_lft(dm: DesignModel, T: np.ndarray) -> LFTPlant:
     """The design model's LFT in the coordinates ``x_s = T^-1 x``, each uncertainty channel
-    balanced (:meth:`synthesis.lft_plant.LFTPlant.balance_channels`)."""
+    balanced (:meth:`satfmu.synthesis.lft_plant.LFTPlant.balance_channels`)."""
     return LFTPlant(**dm.lft()).scale_states(T).balance_channels()
 
 
@@ -201,7 +201,7 @@ def uncertainty_kind(variant: Variant) -> str:
 def robust_multipliers(program, kind: str):
     """``program(kind)`` (a design or an analysis over the box with ``uncertainty=kind``), and
     the multipliers it used with a note: vertex separators, or D-G scalings when the vertex
-    program exceeds the solver's memory (:class:`~synthesis.lft_plant.ProgramTooLargeError`).
+    program exceeds the solver's memory (:class:`~satfmu.synthesis.lft_plant.ProgramTooLargeError`).
     D-G scalings certify the same box for real parameters (also time-varying), with a smaller
     program (one LMI per specification instead of one per vertex) and more conservatism."""
     try:
@@ -228,7 +228,7 @@ class Analysis:
 
 def analyse(dm: DesignModel, K: np.ndarray, T: np.ndarray | None = None) -> Analysis:
     """H-infinity bounds with a parameter-dependent and with a common Lyapunov function (on the
-    LFT's descriptor; skipped above :data:`synthesis.pdlf.PDLF_MAX_ENTRIES`) and the
+    LFT's descriptor; skipped above :data:`satfmu.synthesis.pdlf.PDLF_MAX_ENTRIES`) and the
     impulse-to-peak bound of ``u = K x`` (physical units), in the coordinates ``x = T x_s``
     (default :func:`state_scale`)."""
     t0 = time.perf_counter()
@@ -249,7 +249,7 @@ def analyse(dm: DesignModel, K: np.ndarray, T: np.ndarray | None = None) -> Anal
 def deterministic(variant: Variant, *, n_samples: int = 100, seed: int = 0, analysis: bool = True,
                   convention: str = "satfmu") -> DeterministicResult:
     """Design, analyse and check one variant (see the module docstring); the design's LMIs and
-    objective in ``convention`` (:func:`synthesis.robust_design.design`: ours, or the R-RoMulOC
+    objective in ``convention`` (:func:`satfmu.synthesis.robust_design.design`: ours, or the R-RoMulOC
     toolbox's); the analysis does not depend on it."""
     dm = design_model(variant)
     T = state_scale(dm)
@@ -320,7 +320,7 @@ def artifact_data(result: DeterministicResult, name: str) -> dict:
                         for i in range(3)],
             "gains": dm.fmu_gains(result.K),
             "certificate": {"status": "certified", "proved": proved, "region": box, "numbers": numbers},
-            "provenance": {"source": "satfmu synth demeter (synthesis.demeter_design.deterministic)",
+            "provenance": {"source": "satfmu synth demeter (satfmu.synthesis.demeter_design.deterministic)",
                            "seed": "004, Table 1 Det", "coupling_L": "substitute (docs/models.md)",
                            "design_plant": design_record(dm)},
             "design": {"variant": result.variant.to_dict(),

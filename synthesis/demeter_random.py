@@ -1,22 +1,22 @@
 """Randomized design and analysis of a DEMETER variant (seed 004, sections 4.2, 5.2).
 
 - :func:`scenario`: the scenario approach. The design LMIs of
-  :func:`synthesis.demeter_design.deterministic` (one Lyapunov matrix; H-infinity ``w1 -> z1``,
+  :func:`satfmu.synthesis.demeter_design.deterministic` (one Lyapunov matrix; H-infinity ``w1 -> z1``,
   impulse-to-peak ``w2 -> z2``, pole region; objective ``1 gamma + 100 nu``) imposed at N plants
   drawn uniformly in the parameter box, N from the Campi-Garatti bound for the program's
-  decision variables (:func:`synthesis.probabilistic.scenario_samples`): with confidence
+  decision variables (:func:`satfmu.synthesis.probabilistic.scenario_samples`): with confidence
   ``1 - delta`` the design violates the specs on a set of plants of probability at most epsilon.
   The program is solved in the coordinates where the nominal design's Lyapunov matrix has a unit
   diagonal (without that, Clarabel fails on this stiff loop; see the README), by constraint
-  generation over the plants (:func:`synthesis.robust_design.design`: the same optimum, with a
+  generation over the plants (:func:`satfmu.synthesis.robust_design.design`: the same optimum, with a
   few hundred plants in the solver instead of thousands).
 - :func:`analyse`: the probabilistic analysis of a gain: closed-loop poles, exact H-infinity
   norms and impulse-to-peak values of N sampled plants, all vectorized, with the log-over-log
   worst-case statement (N = 132 at the seed's epsilon 0.1, delta 1e-6).
 - :class:`ClosedLoopSamples`: the same per-sample values as a pure, picklable task for
-  :mod:`sims.campaign` (Chernoff campaigns of 1e5 samples on Dask).
+  :mod:`satfmu.sims.campaign` (Chernoff campaigns of 1e5 samples on Dask).
 - :func:`sequential_design`: the sequential randomized method
-  (:func:`synthesis.sequential.sequential`) started from the deterministic design, at levels
+  (:func:`satfmu.synthesis.sequential.sequential`) started from the deterministic design, at levels
   below its own.
 """
 from __future__ import annotations
@@ -26,12 +26,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from synthesis import demeter_design as dd
-from synthesis import probabilistic as pr
-from synthesis import sequential as sq
-from synthesis.demeter_variants import DesignModel, Variant, design_model
-from synthesis.lft_plant import OptionError
-from synthesis.robust_design import RobustDesign, design
+from satfmu.synthesis import demeter_design as dd
+from satfmu.synthesis import probabilistic as pr
+from satfmu.synthesis import sequential as sq
+from satfmu.synthesis.demeter_variants import DesignModel, Variant, design_model
+from satfmu.synthesis.lft_plant import OptionError
+from satfmu.synthesis.robust_design import RobustDesign, design
 
 SCENARIO_EPSILON, SCENARIO_DELTA = 0.1, 1e-9
 """The scenario design's violation level and confidence (docs/models.md: N = 962 for row 1)."""
@@ -40,7 +40,7 @@ ANALYSIS_EPSILON, ANALYSIS_DELTA = 0.1, 1e-6
 
 
 def design_scale(dm: DesignModel) -> np.ndarray:
-    """State scale of the randomized programs: :func:`synthesis.demeter_design.state_scale` times
+    """State scale of the randomized programs: :func:`satfmu.synthesis.demeter_design.state_scale` times
     the square root of the nominal design's Lyapunov diagonal (unit diagonal at the nominal)."""
     T = dd.state_scale(dm)
     nominal = design(dd.scaled_lft(dm, T).at(np.zeros(len(dm.parameters))), w_hinf=dd.W_HINF,
@@ -75,7 +75,7 @@ class Analysis:
 @dataclass(frozen=True)
 class BoxSampler:
     """Parameter vectors uniform in ``[-1, 1]^n_params`` (the order of
-    :meth:`~synthesis.demeter_variants.DesignModel.sample`): a picklable campaign sampler."""
+    :meth:`~satfmu.synthesis.demeter_variants.DesignModel.sample`): a picklable campaign sampler."""
 
     n_params: int
 
@@ -159,9 +159,9 @@ def scenario(variant: Variant, *, epsilon: float = SCENARIO_EPSILON, delta: floa
              sample_bound: str = "campi-garatti") -> ScenarioResult:
     """Scenario design of ``variant`` (module docstring).
 
-    ``n`` overrides the sample count, otherwise :func:`synthesis.probabilistic.scenario_samples`
+    ``n`` overrides the sample count, otherwise :func:`satfmu.synthesis.probabilistic.scenario_samples`
     with ``sample_bound`` (``"campi-garatti"``, exact; ``"romuloc"``, the toolbox's); the LMIs
-    and the objective in ``convention`` (:func:`synthesis.robust_design.design`).
+    and the objective in ``convention`` (:func:`satfmu.synthesis.robust_design.design`).
     """
     dm = design_model(variant)
     d = n_decision(dm)
@@ -198,7 +198,7 @@ class SequentialDesign:
 def sequential_design(variant: Variant, *, scale: float = 0.99, epsilon: float = ANALYSIS_EPSILON,
                       delta: float = ANALYSIS_DELTA, max_updates: int = 200, seed: int = 0) -> SequentialDesign:
     """Lower the deterministic design's levels (gamma, nu) by ``scale`` and look for a gain that
-    meets them on all but a fraction epsilon of the plants (:func:`synthesis.sequential.sequential`,
+    meets them on all but a fraction epsilon of the plants (:func:`satfmu.synthesis.sequential.sequential`,
     from the deterministic (Y, W), which meets the unscaled levels on the whole box).
 
     Raises

@@ -1,14 +1,14 @@
 """Table 1 of seed 004: every row's variant by both methods, the seed's numbers beside ours.
 
-For each (variant, method) of :data:`synthesis.demeter_variants.SEED_TABLE1`:
+For each (variant, method) of :data:`satfmu.synthesis.demeter_variants.SEED_TABLE1`:
 
-- ``"Det"``: :func:`synthesis.demeter_design.deterministic` (D-G scalings or vertex separators);
-- ``"Prob"``: :func:`synthesis.demeter_random.scenario` (Campi-Garatti sample count);
+- ``"Det"``: :func:`satfmu.synthesis.demeter_design.deterministic` (D-G scalings or vertex separators);
+- ``"Prob"``: :func:`satfmu.synthesis.demeter_random.scenario` (Campi-Garatti sample count);
 
 then, for the gain found, the seed's two analyses: deterministic (H-infinity with a
 parameter-dependent Lyapunov function, impulse-to-peak with a common one:
-:func:`synthesis.demeter_design.analyse`) and probabilistic (worst cases over the log-over-log
-number of samples: :func:`synthesis.demeter_random.analyse`). Units: i2p in N m s per unit
+:func:`satfmu.synthesis.demeter_design.analyse`) and probabilistic (worst cases over the log-over-log
+number of samples: :func:`satfmu.synthesis.demeter_random.analyse`). Units: i2p in N m s per unit
 impulse of w2, H-infinity in rad/(N m); seconds are the design's wall time on this machine.
 
 Each run's rows go to ``table1.csv`` (:func:`write`), merged with the rows already there, so a
@@ -25,9 +25,9 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from synthesis import demeter_design as dd
-from synthesis import demeter_random as dr
-from synthesis.demeter_variants import SEED_TABLE1, SEED_TABLE1_COLUMNS, Variant, design_model
+from satfmu.synthesis import demeter_design as dd
+from satfmu.synthesis import demeter_random as dr
+from satfmu.synthesis.demeter_variants import SEED_TABLE1, SEED_TABLE1_COLUMNS, Variant, design_model
 
 METHODS = ("Prob", "Det")
 
@@ -64,7 +64,7 @@ def run_row(variant: Variant, method: str, *, n_scenarios: int | None = None, se
             convention: str = "satfmu") -> Row:
     """Design and analyse one row (module docstring). ``n_scenarios`` overrides the scenario count;
     ``n_samples`` plants are checked after a Det design (``result.check``); the designs' LMIs and
-    objective in ``convention`` (:func:`synthesis.robust_design.design`)."""
+    objective in ``convention`` (:func:`satfmu.synthesis.robust_design.design`)."""
     if method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")
     t0 = time.perf_counter()
@@ -121,7 +121,7 @@ def run(selection: list[tuple[Variant, str]] | None = None, *, n_scenarios: int 
     (:func:`write`), so a long run keeps what it has done.
 
     ``jobs`` rows run at once, each in a worker process, dearest first (:func:`cost_order`):
-    every LMI solve uses one core (:data:`synthesis.lmi.FACTORIZATION`), so ``jobs`` up to the
+    every LMI solve uses one core (:data:`satfmu.synthesis.lmi.FACTORIZATION`), so ``jobs`` up to the
     core count shortens the wall time without slowing a row much. The rows returned keep the
     selection's order; ``progress`` is called as each one ends. The workers are started by
     :mod:`multiprocessing`'s "spawn" (the same on Linux and Windows, no threads inherited), which

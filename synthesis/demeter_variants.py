@@ -37,8 +37,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from controllers import state_feedback as sf
-from fmus import demeter
+from satfmu.controllers import state_feedback as sf
+from satfmu.fmus import demeter
 
 PSEUDO_INTEGRATOR_POLE = 1e-3
 """a of the input pseudo-integrator 1/(s + a), 1/s (seed section 3)."""
@@ -221,7 +221,7 @@ class DesignModel:
         return sol[..., :n], sol[..., n:n + m], sol[..., n + m:]
 
     def direct(self, delta: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The same design model built the direct way: eq. (4) by :func:`fmus.demeter.second_order`
+        """The same design model built the direct way: eq. (4) by :func:`satfmu.fmus.demeter.second_order`
         with the reduced coupling, a full inverse of M, then the augmentation (the check of the
         descriptor and the LFT)."""
         v = self.values(delta)
@@ -252,7 +252,7 @@ class DesignModel:
 
 
     def lft(self) -> dict[str, np.ndarray | tuple]:
-        """The LFT of the design model (matrices of :class:`synthesis.lft_plant.LFTPlant`).
+        """The LFT of the design model (matrices of :class:`satfmu.synthesis.lft_plant.LFTPlant`).
 
         Each ``N_k = U_k V_k`` (SVD, rank ``r_k``) gives the channel ``p_k = delta_k q_k``,
         ``q_k = V_k xi``; solving ``N0 xi + sum U_k p_k = 0`` for ``(x', v)`` gives
@@ -282,7 +282,7 @@ class DesignModel:
         return {**out, "blocks": tuple(blocks)}
 
     def fmu_gains(self, K: np.ndarray) -> dict[str, float]:
-        """Parameters of the state-feedback FMU (:mod:`controllers.state_feedback`) for the gain
+        """Parameters of the state-feedback FMU (:mod:`satfmu.controllers.state_feedback`) for the gain
         ``u = K x`` on this design model's states (unselected axes: zero command).
 
         Raises

@@ -4,12 +4,12 @@ The SDRE gain K(x) (2x7) is solved on a grid over (q2, w4) with the seed's w1-fr
 evaluated at w2 := 0 (so the gain depends on q2 and w4 only), and every entry is fitted by
 a 2-D polynomial in (sin q2, w4) of total degree d by least squares; d is the smallest
 degree whose k-fold cross-validated error is within :data:`CV_TOL`. The controller then
-evaluates polynomials instead of solving a Riccati equation (:mod:`controllers.servo`).
+evaluates polynomials instead of solving a Riccati equation (:mod:`satfmu.controllers.servo`).
 The LQ servo is the constant gain at the start state.
 
 Why sin q2 and a tolerance rather than the best cross-validated degree: the closed loop
 is then polynomial in (sin q2, cos q2, w4), which is what the SOS stability region of
-:mod:`synthesis.vscmg_region` needs (the seed's section 4 variable a = sin q2), and the
+:mod:`satfmu.synthesis.vscmg_region` needs (the seed's section 4 variable a = sin q2), and the
 fit is more accurate in sin q2 at every degree (CV error 1.4e-3 at degree 4 against
 2.3e-3 in q2). Degrees beyond the tolerance buy accuracy the tracking does not need while
 the SOS certificate's Gram matrices grow with the square of the degree.
@@ -21,10 +21,10 @@ from itertools import combinations_with_replacement
 
 import numpy as np
 
-from controllers.artifact import SERVO_KIND, FORMAT, FORMAT_VERSION, design_plant_record
-from controllers.servo_sdc import OUTPUTS, RATES, TRACKED
-from fmus import vscmg
-from synthesis.sdre import Servo
+from satfmu.controllers.artifact import SERVO_KIND, FORMAT, FORMAT_VERSION, design_plant_record
+from satfmu.controllers.servo_sdc import OUTPUTS, RATES, TRACKED
+from satfmu.fmus import vscmg
+from satfmu.synthesis.sdre import Servo
 
 Q2_RANGE = (0.15, 1.25)
 """Gimbal-2 angle range of the grid, rad (covers the seed's pi/18 to 1 + pi/18; substitute)."""
@@ -89,7 +89,7 @@ class GainFit:
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
         """K (2x7) at the plant state x = [q1, q2, q4, w1, w2, w4] (the law of
-        :func:`synthesis.sdre.simulate_servo`)."""
+        :func:`satfmu.synthesis.sdre.simulate_servo`)."""
         return self.evaluate(np.array([[np.sin(x[1]), x[5]]]))[0]
 
 
@@ -163,7 +163,7 @@ class FitVerificationError(RuntimeError):
 OFFGRID_TOL = 2e-2
 """Largest off-grid error of a fit (relative to the largest gain entry) :func:`verify` accepts.
 It catches a broken fit (wrong grid, extrapolation); the closed-loop consequences of the
-approximation are checked by the simulation and proved by :mod:`synthesis.vscmg_region`.
+approximation are checked by the simulation and proved by :mod:`satfmu.synthesis.vscmg_region`.
 The shipped degree-4 fit's worst point, a corner at q2 = 0.22 rad, w4 = -0.58 rad/s, is 1.0e-2."""
 
 
@@ -174,7 +174,7 @@ def verify(result: GainFit, servo: Servo, max_re_tol: float = 1e-6) -> dict[str,
       fit never saw) against the polynomials: largest and RMS relative error.
     - Frozen closed loop: the largest real part of the eigenvalues of Ae(x) - Be(x) K_fit(x)
       at the grid points and the midpoints, 1/s. The conserved p4 keeps one eigenvalue at 0,
-      so the bound is ``max_re_tol`` (as :func:`controllers.riccati.riccati_gain`).
+      so the bound is ``max_re_tol`` (as :func:`satfmu.controllers.riccati.riccati_gain`).
     - Closed-loop simulation of the fitted law on the seed's manoeuvre (frictionless plant,
       10 ms hold): errors at 15 s (rad) and peak torques (N m) against issue 11's bounds
       (|e2| < 1 mrad, |e4| < 0.1 mrad, |T1| < 0.6, |T2| < 2.4 N m).
@@ -184,8 +184,8 @@ def verify(result: GainFit, servo: Servo, max_re_tol: float = 1e-6) -> dict[str,
     FitVerificationError
         Naming every bound that failed.
     """
-    from fmus.profiles import make
-    from synthesis.sdre import SEED_REFERENCE_PROFILES, simulate_servo
+    from satfmu.fmus.profiles import make
+    from satfmu.synthesis.sdre import SEED_REFERENCE_PROFILES, simulate_servo
 
     sq = np.unique(result.grid[:, 0])
     w4 = np.unique(result.grid[:, 1])
@@ -232,7 +232,7 @@ def approximated_sdre_data(result: GainFit, servo: Servo, checks: dict[str, floa
             "region": f"q2 in {list(Q2_RANGE)} rad, w4 in {list(W4_RANGE)} rad/s, w2 = 0",
             "numbers": {"fit_max_rel_error": result.max_rel_error, "fit_rms_rel_error": result.rms_rel_error,
                         **checks}}
-    prov = {"source": "satfmu synthesis.gain_fit (seed 002 section 3.2)", "factorization": servo.factorization,
+    prov = {"source": "satfmu satfmu.synthesis.gain_fit (seed 002 section 3.2)", "factorization": servo.factorization,
             "freeze_w2": servo.freeze_w2, "eps": servo.eps, "Q": np.diag(servo.Q).tolist(),
             "R": np.diag(servo.R).tolist()}
     return _servo_data(name, "Approximated SDRE servo of the VSCMG (seed 002): polynomial gains in sin q2, w4",
@@ -248,7 +248,7 @@ def lq_data(servo: Servo, x0: np.ndarray, name: str = "vscmg_lq_servo") -> dict:
             "region": f"design state q2 = {x0[1]:.6g} rad, rest",
             "numbers": {"riccati_residual": check.residual, "max_re_closed_loop": check.max_re,
                         "max_re_shifted": check.max_re_shifted}}
-    prov = {"source": "satfmu synthesis.gain_fit.lq_data (substitute baseline, seed 002 section 5.1)",
+    prov = {"source": "satfmu satfmu.synthesis.gain_fit.lq_data (substitute baseline, seed 002 section 5.1)",
             "factorization": servo.factorization, "eps": servo.eps, "x0": list(map(float, x0))}
     return _servo_data(name, "LQ servo of the VSCMG designed at the start state (seed 002 baseline)",
                        gain, cert, prov)
@@ -266,20 +266,20 @@ def synthesize(n_q2: int = 23, n_w4: int = 25, degrees: range = range(1, 9), cv_
     fitted in sin q2 and w4 with the degree rule of :func:`fit`);
     the fit is verified by :func:`verify` with the plant's own factorization on the same
     grid before its data is returned. With ``region`` the SOS stability region of
-    :mod:`synthesis.vscmg_region` is solved on its operating box and the certificate says
+    :mod:`satfmu.synthesis.vscmg_region` is solved on its operating box and the certificate says
     what it proved (status ``certified`` only if it holds).
 
     Raises
     ------
-    FitVerificationError, controllers.riccati.RiccatiCheckError
+    FitVerificationError, satfmu.controllers.riccati.RiccatiCheckError
     """
     servo = Servo("w1_free", freeze_w2=True)
     result = fit(*sdre_grid(servo, n_q2, n_w4), degrees=degrees, cv_tol=cv_tol)
     checks = verify(result, servo)
     approx = approximated_sdre_data(result, servo, checks)
     if region:
-        from controllers.artifact import parse
-        from synthesis import vscmg_region
+        from satfmu.controllers.artifact import parse
+        from satfmu.synthesis import vscmg_region
 
         cert, trig = vscmg_region.certify_operating_box(parse(approx))
         approx["certificate"] = vscmg_region.artifact_certificate(approx["certificate"], cert, trig)

@@ -59,11 +59,11 @@ import sympy as sp
 from scipy.integrate import solve_ivp
 from scipy.optimize import minimize_scalar
 
-from controllers import artifact as artifacts
-from fmus import codegen, mrp_satellite
-from fmus.model import Model
-from synthesis.polynomial import Poly, PolyMatrix, monomials
-from synthesis.sos import Check, SOSError, SOSProgram, SOSSolution, check_numbers, verify
+from satfmu.controllers import artifact as artifacts
+from satfmu.fmus import codegen, mrp_satellite
+from satfmu.fmus.model import Model
+from satfmu.synthesis.polynomial import Poly, PolyMatrix, monomials
+from satfmu.synthesis.sos import Check, SOSError, SOSProgram, SOSSolution, check_numbers, verify
 
 X0_200 = np.array([0.0, 0.0, 0.0, 0.5992, -0.7976, 0.6517])
 """Seed 000's 200 deg rest-to-rest start (docs/models.md's x(0), outside every certifiable region)."""
@@ -268,7 +268,7 @@ def theorem8(gamma: float, alpha: float, beta: float, variant: str = "slack", re
     ValueError
         On invalid scalars, degrees, variant or weights, or a model whose conditions do
         not reduce to x~ after the actuated rows are cancelled.
-    synthesis.sos.SOSError
+    satfmu.synthesis.sos.SOSError
         If the program is infeasible at these values.
     """
     model = mrp_satellite.MODEL if model is None else model
@@ -518,7 +518,7 @@ def closed_loop_check(result: Theorem8Result, stop_time: float = 300.0,
 
 def artifact_data(result: Theorem8Result, name: str, check: ClosedLoopCheck,
                   model: Model | None = None) -> dict[str, Any]:
-    """Controller artifact (format of :mod:`controllers.artifact`, form "polynomial").
+    """Controller artifact (format of :mod:`satfmu.controllers.artifact`, form "polynomial").
 
     Status "certified" needs the SOS checks and the closed-loop check to pass.
     """
@@ -544,5 +544,5 @@ def artifact_data(result: Theorem8Result, name: str, check: ClosedLoopCheck,
             "h2": {"lambda": result.lam, "x0": result.x0.tolist(), "sublevel_set_in_region": result.h2_proved},
             "Xinf": result.Xinf.tolist(), "F": result.F.tolist(),
         },
-        provenance={"source": "satfmu synthesis.h2hinf_sos.theorem8 (seed 001 Theorem 8)",
+        provenance={"source": "satfmu satfmu.synthesis.h2hinf_sos.theorem8 (seed 001 Theorem 8)",
                     "solver": result.solution.solver, "timings_s": result.timings})

@@ -33,11 +33,11 @@ import numpy as np
 import scipy.sparse as sps
 import sympy as sp
 
-from controllers import artifact as artifacts
-from fmus import mrp_satellite
-from fmus.model import Model
-from synthesis.polynomial import Poly, PolyMatrix, monomials
-from synthesis.sos import Check, SOSProgram, SOSSolution, check_numbers, verify
+from satfmu.controllers import artifact as artifacts
+from satfmu.fmus import mrp_satellite
+from satfmu.fmus.model import Model
+from satfmu.synthesis.polynomial import Poly, PolyMatrix, monomials
+from satfmu.synthesis.sos import Check, SOSProgram, SOSSolution, check_numbers, verify
 
 
 @dataclass
@@ -73,9 +73,9 @@ def theorem1(model: Model | None = None, k_degree: int = 2, rate_margin: float =
 
     Parameters
     ----------
-    model : fmus.model.Model, optional
+    model : satfmu.fmus.model.Model, optional
         The plant (default: seed 000's MRP satellite). Design for your own spacecraft with
-        ``fmus.mrp_satellite.build(spacecraft)``. Its SDC input matrix must be
+        ``satfmu.fmus.mrp_satellite.build(spacecraft)``. Its SDC input matrix must be
         ``B_u = [G; 0]`` with a constant invertible ``G`` (3 x 3).
     k_degree : int
         Degree of every entry of K(x).
@@ -99,7 +99,7 @@ def theorem1(model: Model | None = None, k_degree: int = 2, rate_margin: float =
 
     Raises
     ------
-    synthesis.sos.SOSError
+    satfmu.synthesis.sos.SOSError
         If the program is infeasible (e.g. a strict margin globally).
     ValueError
         Bad arguments (checked before any program is built).
@@ -208,7 +208,7 @@ def _check_arguments(n: int, m: int, k_degree: int, region: float | None, decay_
 
 
 def artifact_data(result: Theorem1Result, name: str, model: Model | None = None) -> dict[str, Any]:
-    """Controller artifact (JSON data, format of :mod:`controllers.artifact`) of a design for
+    """Controller artifact (JSON data, format of :mod:`satfmu.controllers.artifact`) of a design for
     ``model`` (the plant it was designed for; default seed 000's MRP satellite), which the
     artifact records (model, parameter values, digest).
 
@@ -222,5 +222,5 @@ def artifact_data(result: Theorem1Result, name: str, model: Model | None = None)
         lyapunov={"Q": result.Q.tolist(), "note": "V = x^T Q^-1 x"},
         certificate={"status": "certified" if result.certified else "not_verified",
                      "proved": result.proved, "region": result.region, "numbers": check_numbers(result.checks)},
-        provenance={"source": "satfmu synthesis.hinf_sos.theorem1 (seed 000 eq. 23)",
+        provenance={"source": "satfmu satfmu.synthesis.hinf_sos.theorem1 (seed 000 eq. 23)",
                     "solver": result.solution.solver, "timings_s": result.timings})

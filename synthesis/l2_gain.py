@@ -37,11 +37,11 @@ import scipy.sparse as sps
 import sympy as sp
 from scipy.optimize import minimize, minimize_scalar
 
-from controllers.artifact import ControllerArtifact
-from fmus import mrp_satellite
-from fmus.model import Model
-from synthesis.polynomial import Poly
-from synthesis.sos import Check, SOSError, SOSProgram, verify
+from satfmu.controllers.artifact import ControllerArtifact
+from satfmu.fmus import mrp_satellite
+from satfmu.fmus.model import Model
+from satfmu.synthesis.polynomial import Poly
+from satfmu.synthesis.sos import Check, SOSError, SOSProgram, verify
 
 KV_GRID = np.logspace(-2, 9, 111)
 """Default kv search grid (log-spaced; refined by a bounded scalar search)."""
@@ -426,11 +426,11 @@ def sos_gain(form: HJIForm, region: Region, kv: float | None = None, multiplier_
     unless ``kv`` is given. The optimum of each program sits on the boundary of the SOS
     cone, so the certificate is re-solved at ``alpha (1 - backoff)`` with ``beta`` fixed to
     ``(1 - backoff)`` times its optimum: a strictly feasible point the verification
-    (:func:`synthesis.sos.verify`) can check with margin. ``c`` is reported for that point.
+    (:func:`satfmu.synthesis.sos.verify`) can check with margin. ``c`` is reported for that point.
 
     Raises
     ------
-    synthesis.sos.SOSError
+    satfmu.synthesis.sos.SOSError
         If no ``kv`` admits a certificate, e.g. the decay of ``V`` is only semi-definite
         (``H = |z|^2 > 0`` where ``dV/dt = 0``, for every c).
     """

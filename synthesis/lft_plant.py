@@ -11,8 +11,8 @@ Plant (:class:`LFTPlant`), continuous time, in linear-fractional form::
 The parameters range over the box ``[-1, 1]^N``; :func:`box_vertices` lists its ``2^N``
 vertices. The same plant as an implicit system affine in ``delta`` (:class:`AffineDescriptor`,
 ``N(delta) [x'; x; v; u; w1] = 0``, :meth:`AffineDescriptor.from_lft`) is the form of the
-parameter-dependent Lyapunov analysis (:mod:`synthesis.pdlf`). The robust design on the LFT is
-:mod:`synthesis.robust_design`; exact norms of sampled systems are :mod:`synthesis.system_norms`.
+parameter-dependent Lyapunov analysis (:mod:`satfmu.synthesis.pdlf`). The robust design on the LFT is
+:mod:`satfmu.synthesis.robust_design`; exact norms of sampled systems are :mod:`satfmu.synthesis.system_norms`.
 
 The input errors of these four modules are defined here: :class:`RobustLMIError` (a
 ``ValueError``) and its subclasses :class:`PlantDataError`, :class:`DeltaError`,

@@ -1,12 +1,12 @@
 """Affine matrix expressions and LMI programs, handed to Clarabel as arrays (no modelling layer).
 
-The robust and PDLF programs (:mod:`synthesis.robust_design`, :mod:`synthesis.pdlf`) are small
+The robust and PDLF programs (:mod:`satfmu.synthesis.robust_design`, :mod:`satfmu.synthesis.pdlf`) are small
 matrix inequalities, affine in a few hundred scalars, repeated over many plants or vertices. A
 general modelling layer re-canonicalizes each of them expression by expression (cvxpy spent a
 quarter of the DEMETER table's time there, and added symmetry equalities to every LMI); here an
 :class:`Affine` holds its coefficients as one dense array over the variables it involves, the
 operations are numpy products on that array, and :class:`LMIProgram` writes each inequality
-straight into Clarabel's scaled-svec PSD cone (:mod:`synthesis.conic`).
+straight into Clarabel's scaled-svec PSD cone (:mod:`satfmu.synthesis.conic`).
 
 An :class:`Affine` of shape ``(r, c)`` is ``X(x) = C0 + sum_k x_{v_k} C_k``: ``coef`` has shape
 ``(r c, 1 + len(vars))``, row-major entries, column 0 the constant. It supports ``+``, ``-``,
@@ -18,12 +18,12 @@ and constants; numpy arrays on the left defer to it. Products of two expressions
 Size guard: Clarabel factors its KKT system in memory, and a failed allocation in its Rust
 core aborts the Python process (no exception to catch). Each program therefore keeps an
 estimate of its factor's size as it is built (:meth:`LMIProgram.solver_bytes`) and refuses,
-with :class:`~synthesis.lft_plant.ProgramTooLargeError`, to grow past ``max_bytes`` (default
+with :class:`~satfmu.synthesis.lft_plant.ProgramTooLargeError`, to grow past ``max_bytes`` (default
 :data:`MAX_SOLVER_BYTES`, half the machine's memory), before the solver runs. The estimate
 follows the factor of a good elimination order; Clarabel's own order can fill far more (row 14's
 vertex i2p analysis: 5.7 GB estimated, a single 12.6 GB allocation asked). So a program estimated
 above :data:`ISOLATE_BYTES` is solved in a child process capped at ``max_bytes``
-(:func:`synthesis.conic.solve_clarabel`'s ``memory_limit``), and running out there is the same
+(:func:`satfmu.synthesis.conic.solve_clarabel`'s ``memory_limit``), and running out there is the same
 ``ProgramTooLargeError``.
 """
 from __future__ import annotations
@@ -37,9 +37,9 @@ from typing import Any, Hashable, Sequence
 import numpy as np
 import scipy.sparse as sps
 
-from synthesis import solve_policy
-from synthesis.lft_plant import ProgramTooLargeError
-from synthesis.conic import REFUTED, SOLVED, ConicProblem, SolverMemoryError, solve_clarabel, svec_indices, svec_scale
+from satfmu.synthesis import solve_policy
+from satfmu.synthesis.lft_plant import ProgramTooLargeError
+from satfmu.synthesis.conic import REFUTED, SOLVED, ConicProblem, SolverMemoryError, solve_clarabel, svec_indices, svec_scale
 
 
 LOG = logging.getLogger(__name__)
@@ -328,8 +328,8 @@ class LMIProgram:
               ladder: Sequence[tuple[str, dict[str, Any]]] | solve_policy.RungMemory = solve_policy.LADDER
               ) -> LMISolution:
         """Minimize (or maximize) the 1 x 1 ``objective`` (feasibility if None) under the
-        project's solve policy (:mod:`synthesis.solve_policy`; ``ladder`` a sequence of rungs or
-        a :class:`~synthesis.solve_policy.RungMemory` shared by a family of programs); the
+        project's solve policy (:mod:`satfmu.synthesis.solve_policy`; ``ladder`` a sequence of rungs or
+        a :class:`~satfmu.synthesis.solve_policy.RungMemory` shared by a family of programs); the
         values are then read with :meth:`value`."""
         obj = None if objective is None else (-objective if maximize else objective)
         problem = self._problem(obj)

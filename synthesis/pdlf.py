@@ -1,16 +1,16 @@
 """Robust H-infinity analysis of a state feedback with a parameter-dependent Lyapunov function.
 
 :func:`pdlf_hinf` bounds the closed-loop H-infinity norm ``w1 -> z1`` of ``u = K x`` over the
-whole box on an :class:`~synthesis.lft_plant.AffineDescriptor` (implicit system affine in
+whole box on an :class:`~satfmu.synthesis.lft_plant.AffineDescriptor` (implicit system affine in
 ``delta``), with ``V = x^T P(delta) x``, ``P(delta) = P0 + sum_k delta_k Pk``, by dilated LMIs
 at the box vertices (the derivation is in its docstring); ``common=True`` is the bound of one
 common Lyapunov matrix. The program's size is estimated before it is built
-(:func:`pdlf_size`, :data:`PDLF_MAX_ENTRIES`). As in :mod:`synthesis.robust_design`, the
-minimizer is checked at the backed-off levels (:data:`~synthesis.robust_design.BACKOFFS`), then,
+(:func:`pdlf_size`, :data:`PDLF_MAX_ENTRIES`). As in :mod:`satfmu.synthesis.robust_design`, the
+minimizer is checked at the backed-off levels (:data:`~satfmu.synthesis.robust_design.BACKOFFS`), then,
 if it fails, back-off solves follow, and a
 result is ``"optimal"`` only when :func:`verify_pdlf` has re-checked every vertex LMI in numpy;
 when the minimization gives no usable optimum, a bisection on gamma from the nominal loop's
-exact norm (:func:`synthesis.system_norms.hinf_norm`) finds the smallest verified level.
+exact norm (:func:`satfmu.synthesis.system_norms.hinf_norm`) finds the smallest verified level.
 """
 from __future__ import annotations
 
@@ -19,11 +19,11 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from synthesis import lmi, solve_policy
-from synthesis.lft_plant import (AffineDescriptor, NotHurwitzError, OptionError, PlantDataError,
+from satfmu.synthesis import lmi, solve_policy
+from satfmu.synthesis.lft_plant import (AffineDescriptor, NotHurwitzError, OptionError, PlantDataError,
                                  ProgramTooLargeError, _check_gain, _check_vertices, _matrix, _sym, box_vertices)
-from synthesis.robust_design import BACKOFFS, EPS, MAX_VERTICES, RobustCheck, _check_eps, _finish_check
-from synthesis.system_norms import hinf_norm
+from satfmu.synthesis.robust_design import BACKOFFS, EPS, MAX_VERTICES, RobustCheck, _check_eps, _finish_check
+from satfmu.synthesis.system_norms import hinf_norm
 
 PDLF_MAX_ENTRIES = 10_000_000
 """Default largest :func:`pdlf_size` accepted by :func:`pdlf_hinf`. Measured on this machine
@@ -41,14 +41,14 @@ class PDLFResult:
     """Result of :func:`pdlf_hinf`.
 
     ``gamma``: the certified bound of ``||w1 -> z1||_inf`` over the box (sqrt of the minimized
-    ``g``, times ``1 + backoff``: :data:`~synthesis.robust_design.BACKOFFS`; with ``method ==
+    ``g``, times ``1 + backoff``: :data:`~satfmu.synthesis.robust_design.BACKOFFS`; with ``method ==
     "bisection"`` the smallest level verified by the bisection, within
     :data:`PDLF_BISECTION_TOL` of the smallest it could not verify); ``P0``, ``Pk`` (shape (N,
     n, n), zeros if ``common``) the Lyapunov matrix ``P(delta) = P0 + sum delta_k Pk[k]``; ``F``
     the slack, shape (2 n + n_v + m_w, n + n_v). With ``state_scaling`` (T) the certificate
     holds in the coordinates ``x = diag(T) x_s``: ``verify_pdlf(desc.scale_states(T), K * T, P0,
     Pk, F, gamma)`` (:meth:`AffineDescriptor.scale_states`; gamma does not depend on them).
-    Status and times as :class:`~synthesis.robust_design.RobustDesign`.
+    Status and times as :class:`~satfmu.synthesis.robust_design.RobustDesign`.
     """
 
     status: str
@@ -151,7 +151,7 @@ def pdlf_hinf(desc: AffineDescriptor, K, *, common: bool = False, max_vertices: 
     the back-off solves in the caller's coordinates (a first minimizer solved only to a reduced
     accuracy gives poor coordinates: DEMETER row 2 in our convention), then the bisection in the
     rescaled ones if that program was solved. ``ladder``: the Clarabel rungs shared by several
-    analyses of the same loop (:class:`~synthesis.solve_policy.RungMemory`; DEMETER: the PDLF
+    analyses of the same loop (:class:`~satfmu.synthesis.solve_policy.RungMemory`; DEMETER: the PDLF
     and common-P programs both fail twice before the regularized rung).
 
     Raises

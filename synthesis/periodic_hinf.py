@@ -35,7 +35,7 @@ from dataclasses import dataclass, field
 import cvxpy as cp
 import numpy as np
 
-from synthesis import solve_policy
+from satfmu.synthesis import solve_policy
 
 
 class PeriodicSystemError(ValueError):

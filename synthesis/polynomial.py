@@ -10,7 +10,7 @@ A :class:`PolyMatrix` holds all its entries' terms in one table (the entry of ea
 beside its exponent row and coefficients), so a matrix product, a sum or a quadratic
 form is a few array operations whatever the matrix size: a product pairs every term of
 row ``i`` of the left factor with every term of column ``j`` of the right one by index
-arithmetic, adds their exponent keys (:mod:`synthesis.exponents`) and merges equal
+arithmetic, adds their exponent keys (:mod:`satfmu.synthesis.exponents`) and merges equal
 ``(entry, exponent)`` keys with one sparse summation.
 """
 from __future__ import annotations
@@ -23,7 +23,7 @@ import numpy as np
 import scipy.sparse as sps
 import sympy as sp
 
-from synthesis.exponents import keys, weights
+from satfmu.synthesis.exponents import keys, weights
 
 
 def monomials(n: int, max_degree: int, min_degree: int = 0) -> np.ndarray:

@@ -20,10 +20,10 @@ Control of Uncertain Systems*, 2nd ed., Springer 2013, chapters 8 and 12):
   the R-RoMulOC toolbox (its ``scensamplenb``), ``N = ceil(1.58 / epsilon (ln(1/delta) + d))``
   (1055 for the same row), a sufficient count that is larger than the exact one.
 
-The exact values per sample come from :mod:`synthesis.system_norms`, vectorized over the sample
-axis: :func:`~synthesis.system_norms.hinf_norm` runs the Boyd-Balakrishnan/Bruinsma-Steinbuch
+The exact values per sample come from :mod:`satfmu.synthesis.system_norms`, vectorized over the sample
+axis: :func:`~satfmu.synthesis.system_norms.hinf_norm` runs the Boyd-Balakrishnan/Bruinsma-Steinbuch
 iteration on every sample at once (batched Hamiltonian eigenvalues and frequency responses; a
-sample leaves the batch when it converges), and :func:`~synthesis.system_norms.impulse_to_peak`
+sample leaves the batch when it converges), and :func:`~satfmu.synthesis.system_norms.impulse_to_peak`
 propagates a stack of systems.
 """
 from __future__ import annotations
@@ -34,7 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.stats import binom
 
-from synthesis.lft_plant import OptionError
+from satfmu.synthesis.lft_plant import OptionError
 
 
 def _check_eps_delta(epsilon: float, delta: float) -> None:

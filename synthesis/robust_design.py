@@ -1,6 +1,6 @@
 """Robust multi-objective state feedback by LMIs over real parametric uncertainty (R-ROMULOC seed).
 
-The plant is an :class:`~synthesis.lft_plant.LFTPlant` (its module docstring gives the
+The plant is an :class:`~satfmu.synthesis.lft_plant.LFTPlant` (its module docstring gives the
 linear-fractional form and the box of the parameters).
 
 Design (:func:`design`): ``u = K x``, ``K = W Y^-1``, one Lyapunov matrix ``Y = P^-1 > 0``
@@ -116,11 +116,11 @@ the boundary, often too close for such a check. So the minimizer is checked firs
 levels only loosens them); if none verifies, a back-off solve follows: the levels fixed at
 ``1 + b`` times the optimum and the smallest strictness margin of all the LMIs maximized, for b
 in :data:`BACKOFFS` until one verifies. The programs are built as arrays for Clarabel
-(:mod:`synthesis.lmi`).
+(:mod:`satfmu.synthesis.lmi`).
 
 The analysis of a given gain with a parameter-dependent Lyapunov function is
-:mod:`synthesis.pdlf`; the exact norms of sampled loops, for independent checks of every bound,
-are :mod:`synthesis.system_norms`.
+:mod:`satfmu.synthesis.pdlf`; the exact norms of sampled loops, for independent checks of every bound,
+are :mod:`satfmu.synthesis.system_norms`.
 """
 from __future__ import annotations
 
@@ -133,8 +133,8 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import scipy.linalg as sla
 
-from synthesis import lmi, solve_policy
-from synthesis.lft_plant import (LFTPlant, OptionError, PlantDataError, _block_starts, _check_gain, _check_vertices,
+from satfmu.synthesis import lmi, solve_policy
+from satfmu.synthesis.lft_plant import (LFTPlant, OptionError, PlantDataError, _block_starts, _check_gain, _check_vertices,
                                  _matrix, _sym, box_vertices)
 
 LOG = logging.getLogger(__name__)
@@ -333,7 +333,7 @@ def _bound(convention: str, level: float) -> float:
 
 def _dual_lmi(s: _Spec, Y, W, mult, weights, stack, bmat):
     """The dual robust LMI of spec ``s`` (must be < 0), rows ``(x', q, z, w)``, built with the
-    array functions given: numpy's (``np.vstack, np.block``) for a check, :mod:`synthesis.lmi`'s for the program.
+    array functions given: numpy's (``np.vstack, np.block``) for a check, :mod:`satfmu.synthesis.lmi`'s for the program.
 
     ``mult = (Qt, St, Rt)`` (ignored when ``n_q = 0``); ``weights = (z side, w side)`` of the
     level (:func:`_weights`), unused without w, z.
@@ -508,7 +508,7 @@ class RobustDesign:
     ``n_vertices``: box
     vertices enumerated (0 with D-G scalings); ``n_multipliers``: scaling pairs (D-G: one per
     block and robust LMI) or full-block multipliers (one per robust LMI). Times in seconds:
-    ``build_seconds`` to build the LMI programs (:mod:`synthesis.lmi`), ``solve_seconds`` the wall
+    ``build_seconds`` to build the LMI programs (:mod:`satfmu.synthesis.lmi`), ``solve_seconds`` the wall
     time of Clarabel (set-up and solve), both summed over all the solves.
     ``backoff``: the back-off that verified; ``state_scaling``: None, or T when the certificate
     was found (and ``check`` computed) in the coordinates ``x = diag(T) x_s``: K and Y are given

@@ -1,10 +1,10 @@
 """SDRE optimal servo of the VSCMG (seed 002, eq. 5-12): checked gains and the in-process loop.
 
 The servo's signals, its augmented SDC model xe' = Ae(x) xe + Be(x) u and the seed's
-weights are defined with the controllers (:mod:`controllers.servo_sdc`), where the online
+weights are defined with the controllers (:mod:`satfmu.controllers.servo_sdc`), where the online
 SDRE FMU uses them too. Here: :class:`Servo`, the numerical Ae, Be at a plant state and
 the gain K = Re^-1 Be^T P of the shifted pair (Ae - eps I, Be)
-(:func:`controllers.riccati.riccati_gain`, checked at every call), and
+(:func:`satfmu.controllers.riccati.riccati_gain`, checked at every call), and
 :func:`simulate_servo`, a servo law in closed loop with the plant's generated code.
 """
 from __future__ import annotations
@@ -15,10 +15,10 @@ from typing import Callable
 import numpy as np
 import sympy as sp
 
-from controllers.riccati import RiccatiCheck, RiccatiCheckError, riccati_gain
-from controllers.servo_sdc import EPS, PLANT_STATES, Q_SEED, R_SEED, servo_matrices, servo_state
-from fmus import vscmg
-from fmus.model import Model
+from satfmu.controllers.riccati import RiccatiCheck, RiccatiCheckError, riccati_gain
+from satfmu.controllers.servo_sdc import EPS, PLANT_STATES, Q_SEED, R_SEED, servo_matrices, servo_state
+from satfmu.fmus import vscmg
+from satfmu.fmus.model import Model
 
 
 @dataclass
@@ -28,7 +28,7 @@ class Servo:
     Parameters
     ----------
     factorization : str
-        One of :data:`fmus.vscmg.FACTORIZATIONS`.
+        One of :data:`satfmu.fmus.vscmg.FACTORIZATIONS`.
     Q, R : arrays
         Weights (default the seed's).
     eps : float
@@ -69,7 +69,7 @@ class Servo:
 
         Raises
         ------
-        controllers.riccati.RiccatiCheckError
+        satfmu.controllers.riccati.RiccatiCheckError
             If the Riccati solution at ``x`` fails a check (the message gives the state).
         """
         A, B = self.matrices(x)
@@ -89,7 +89,7 @@ SEED_REFERENCE_PROFILES = {
                "after": float(1 + np.pi / 18)},
     "q4_ref": {"kind": "cosine_ramp", "start": 4.0, "stop": 8.0, "before": 0.0, "after": 1.0},
 }
-"""Seed 002 eq. (24)-(25) as profile declarations (:func:`fmus.profiles.make`; the scenarios
+"""Seed 002 eq. (24)-(25) as profile declarations (:func:`satfmu.fmus.profiles.make`; the scenarios
 declare the same)."""
 
 
@@ -114,19 +114,19 @@ def simulate_servo(gain: Callable[[np.ndarray], np.ndarray], reference: Callable
     """A servo u = -K(x) xe on the plant's generated code, u held over each control period.
 
     ``gain(x)`` gives K (2x7) at the plant state x: a :class:`Servo` (online SDRE) or a
-    fitted gain (:class:`synthesis.gain_fit.GainFit`). ``reference(t)`` gives
+    fitted gain (:class:`satfmu.synthesis.gain_fit.GainFit`). ``reference(t)`` gives
     [q2_ref, q4_ref] (rad) at the times ``t`` (s), shape (len(t), 2).
 
-    The plant is advanced with the FMUs' RK4 (:func:`fmus.pyslave.rk4_step`) and the
+    The plant is advanced with the FMUs' RK4 (:func:`satfmu.fmus.pyslave.rk4_step`) and the
     integral of the error by e held over the period, as the controller FMU does.
 
     Raises
     ------
-    controllers.riccati.RiccatiCheckError
+    satfmu.controllers.riccati.RiccatiCheckError
         At the first state whose Riccati solution fails a check (online SDRE).
     """
-    from fmus import codegen
-    from fmus.pyslave import rk4_step, substep_count
+    from satfmu.fmus import codegen
+    from satfmu.fmus.pyslave import rk4_step, substep_count
 
     gen = codegen.load_python(model)
     p = model.parameter_vector(plant_params)

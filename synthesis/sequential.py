@@ -1,6 +1,6 @@
 """Sequential randomized design: subgradient updates and probabilistic validation (seed 004, 4.2).
 
-The same specs as :func:`synthesis.robust_design.design` at fixed levels (gamma, nu): one
+The same specs as :func:`satfmu.synthesis.robust_design.design` at fixed levels (gamma, nu): one
 Lyapunov matrix, the dual LMIs of H-infinity ``w1 -> z1``, of the pole region and of the
 impulse-to-peak bound, in the variables ``x = (Y, W)``, ``K = W Y^-1``. For a plant at delta
 let ``v(x, delta)`` be the largest eigenvalue over those LMIs (each written as ``L(x) < 0``)
@@ -28,8 +28,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from synthesis.lft_plant import LFTPlant, OptionError, _sym
-from synthesis.robust_design import _dual_lmi, _i2p_blocks, _specs, _weights
+from satfmu.synthesis.lft_plant import LFTPlant, OptionError, _sym
+from satfmu.synthesis.robust_design import _dual_lmi, _i2p_blocks, _specs, _weights
 
 Sampler = Callable[[np.random.Generator, int], np.ndarray]
 

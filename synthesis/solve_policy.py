@@ -1,8 +1,8 @@
 """One solve policy for every conic program of the synthesis layer (SOS, robust and periodic LMIs).
 
-The SOS layer (:meth:`synthesis.sos.SOSProgram.solve`, Clarabel on its own arrays) runs it through
+The SOS layer (:meth:`satfmu.synthesis.sos.SOSProgram.solve`, Clarabel on its own arrays) runs it through
 :func:`solve_with` and :func:`ladder_with`, and so do the robust and PDLF LMIs
-(:meth:`synthesis.lmi.LMIProgram.solve`); the periodic LMIs (cvxpy problems) go through
+(:meth:`satfmu.synthesis.lmi.LMIProgram.solve`); the periodic LMIs (cvxpy problems) go through
 :func:`solve_cvxpy`.
 
 A program is solved by trying the rungs of a *ladder* (solver and settings) in turn:

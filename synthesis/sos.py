@@ -2,17 +2,17 @@
 
 Layers (each a function or class with a test):
 
-1. :mod:`synthesis.polynomial`: polynomials with affine decision-variable coefficients.
+1. :mod:`satfmu.synthesis.polynomial`: polynomials with affine decision-variable coefficients.
 2. :class:`SOSProgram`: decision variables and polynomials, scalar SOS constraints
    ``p(x) = z(x)^T G z(x), G >= 0`` on a pruned monomial basis ``z``, SOS-matrix
    constraints (``v^T M(x) v`` SOS in ``(x, v)``), S-procedure multipliers for ball and
    box regions, linear and PSD constraints.
 3. :meth:`SOSProgram.conic_problem`: the whole program as one conic problem
-   (:mod:`synthesis.conic`) over ``x = (y, svec G_1, ..., svec G_p)``; the coefficient
+   (:mod:`satfmu.synthesis.conic`) over ``x = (y, svec G_1, ..., svec G_p)``; the coefficient
    matching of every SOS constraint is one sparse linear map, assembled at once from
-   integer keys of the exponent rows (:mod:`synthesis.exponents`).
+   integer keys of the exponent rows (:mod:`satfmu.synthesis.exponents`).
 4. :meth:`SOSProgram.solve`: Clarabel on those arrays, under the solve policy of
-   :mod:`synthesis.solve_policy`; returns a :class:`SOSSolution` with
+   :mod:`satfmu.synthesis.solve_policy`; returns a :class:`SOSSolution` with
    the decision values and Gram matrices.
 5. :func:`verify`: re-checks each SOS constraint without the solver and without the
    program's matching map: minimum eigenvalue of the Gram matrix, the coefficients of
@@ -30,11 +30,11 @@ from typing import Any, Sequence
 import numpy as np
 import scipy.sparse as sps
 
-from synthesis.conic import ConicProblem, ConicResult, solve_clarabel, svec_indices, svec_scale
-from synthesis.exponents import keys
-from synthesis.polynomial import Poly, PolyMatrix, monomials, quadratic_form
-from synthesis.sign_symmetry import symmetry_blocks
-from synthesis.solve_policy import solve_with, ladder_with
+from satfmu.synthesis.conic import ConicProblem, ConicResult, solve_clarabel, svec_indices, svec_scale
+from satfmu.synthesis.exponents import keys
+from satfmu.synthesis.polynomial import Poly, PolyMatrix, monomials, quadratic_form
+from satfmu.synthesis.sign_symmetry import symmetry_blocks
+from satfmu.synthesis.solve_policy import solve_with, ladder_with
 
 
 class SOSError(RuntimeError):
@@ -109,7 +109,7 @@ class SOSConstraint:
     region: str = "global"
     blocks: list[np.ndarray] = field(default_factory=list)
     """Indices into ``basis`` of the diagonal blocks ``G`` may be restricted to (the sign
-    symmetries of ``poly``, :mod:`synthesis.sign_symmetry`); one block ``arange(N)`` when none
+    symmetries of ``poly``, :mod:`satfmu.synthesis.sign_symmetry`); one block ``arange(N)`` when none
     separates the basis, none when the basis is empty."""
 
 
@@ -163,7 +163,7 @@ class SOSProgram:
         checkable certificate is wanted and the basis has no forced-zero monomials).
         ``sign_symmetry``: split each Gram matrix into the diagonal blocks the sign symmetries
         of its polynomial allow (lossless: the program is feasible with the blocks if and only
-        if it is without them; :mod:`synthesis.sign_symmetry`); off, one block per constraint."""
+        if it is without them; :mod:`satfmu.synthesis.sign_symmetry`); off, one block per constraint."""
         self.n_vars = n_vars
         self.gram_margin = gram_margin
         self.sign_symmetry = sign_symmetry
@@ -290,7 +290,7 @@ class SOSProgram:
         then one PSD cone per Gram block (``G_block - gram_margin I``; one block per Gram
         matrix unless sign symmetries split it) and per constant PSD block (its symmetric
         part). Gram entries are the variables ``G_ij``, ``i <= j`` within a block, in
-        :func:`synthesis.conic.svec_indices` order.
+        :func:`satfmu.synthesis.conic.svec_indices` order.
         """
         cones, n = self._gram_layout()
         match, rhs = coefficient_matching(self.sos, cones, n)
@@ -328,7 +328,7 @@ class SOSProgram:
         """Minimize ``objective @ y`` (feasibility if None) subject to all constraints.
 
         Clarabel gets the arrays of :meth:`conic_problem` as they are (no re-formulation),
-        under the project's solve policy (:mod:`synthesis.solve_policy`): ``settings``
+        under the project's solve policy (:mod:`satfmu.synthesis.solve_policy`): ``settings``
         (Clarabel's, e.g. ``tol_feas``) first, then the policy's relaxed and regularized
         rungs when Clarabel stops without a solution or a clean certificate.
 
@@ -382,7 +382,7 @@ def coefficient_matching(constraints: Sequence[SOSConstraint], cones: Sequence[t
     the diagonal); one row ``c0 + C y = 0`` per term of ``p`` no Gram entry reaches (every
     term of a constraint with an empty basis: ``p = 0``). Assembled at once:
     every ``(constraint, exponent row)``, of the Gram products and of the polynomials, gets
-    an integer key (:func:`synthesis.exponents.keys`); the Gram monomials are the unique
+    an integer key (:func:`satfmu.synthesis.exponents.keys`); the Gram monomials are the unique
     keys and each term of ``p`` finds its row by ``searchsorted``.
 
     Returns

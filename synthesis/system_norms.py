@@ -8,16 +8,16 @@
 - :func:`impulse_to_peak`: ``max_t sigma_max(C e^(A t) B)`` on a time grid, by exact
   propagation, batched the same way.
 
-They are the independent checks of the LMI bounds of :mod:`synthesis.robust_design` and
-:mod:`synthesis.pdlf` on sampled plants, and the per-sample values of the randomized analysis
-(:mod:`synthesis.probabilistic`). Bad input raises the errors of :mod:`synthesis.lft_plant`.
+They are the independent checks of the LMI bounds of :mod:`satfmu.synthesis.robust_design` and
+:mod:`satfmu.synthesis.pdlf` on sampled plants, and the per-sample values of the randomized analysis
+(:mod:`satfmu.synthesis.probabilistic`). Bad input raises the errors of :mod:`satfmu.synthesis.lft_plant`.
 """
 from __future__ import annotations
 
 import numpy as np
 import scipy.linalg as sla
 
-from synthesis.lft_plant import NotHurwitzError, OptionError, PlantDataError
+from satfmu.synthesis.lft_plant import NotHurwitzError, OptionError, PlantDataError
 
 
 def _system_stack(A, B, C, D=None) -> tuple[np.ndarray, ...]:

@@ -12,13 +12,13 @@ Here the gain knob is the certified decay rate ``lambda`` of Theorem 1 on ``|sig
 finite). Each iterate is judged by
 
 - ``c``: the smallest L2 gain with an SOS certificate of ``H <= 0`` on the L2 region
-  (:func:`synthesis.l2_gain.sos_gain`), beside the sampled and diagonal estimates;
+  (:func:`satfmu.synthesis.l2_gain.sos_gain`), beside the sampled and diagonal estimates;
 - the response: a rest-to-rest manoeuvre (default seed 000's 200 deg start; reference loop
   of the FMUs' sampled-data RK4), whose peak torque must stay within ``torque_budget`` and
   whose attitude error must be below ``final_tolerance_deg`` at the horizon (120 s).
 
 Every step is made for the plant passed in (default seed 000's satellite; your own with
-``fmus.mrp_satellite.build(spacecraft)``): Theorem 1 on its SDC form, the L2 gain and the
+``satfmu.fmus.mrp_satellite.build(spacecraft)``): Theorem 1 on its SDC form, the L2 gain and the
 response of its closed loop, and the artifact records it.
 
 An iterate is accepted when its design and its ``c`` are certified, its response passes
@@ -36,12 +36,12 @@ from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
-from controllers import polynomial
-from controllers.artifact import parse
-from fmus import mrp_satellite, reference
-from fmus.model import Model
-from synthesis import hinf_sos, l2_gain
-from synthesis.sos import SOSError, check_numbers
+from satfmu.controllers import polynomial
+from satfmu.controllers.artifact import parse
+from satfmu.fmus import mrp_satellite, reference
+from satfmu.fmus.model import Model
+from satfmu.synthesis import hinf_sos, l2_gain
+from satfmu.synthesis.sos import SOSError, check_numbers
 
 DECAY_RATES = tuple(0.0025 * np.sqrt(2.0) ** k for k in range(10))
 """Default schedule of certified decay rates lambda, 1/s (geometric, factor sqrt 2)."""
@@ -131,7 +131,7 @@ class TwoStepResult:
             "diagonal_c": best.diagonal[0] if best.diagonal else None,
             "diagonal_kv": best.diagonal[1] if best.diagonal else None,
         }
-        data["provenance"]["source"] = "satfmu synth mrp-hinf (synthesis.two_step, seed 000 section 4)"
+        data["provenance"]["source"] = "satfmu synth mrp-hinf (satfmu.synthesis.two_step, seed 000 section 4)"
         data["provenance"]["settings"] = {k: (v.to_json() if hasattr(v, "to_json") else v)
                                           for k, v in self.settings.items()}
         data["provenance"]["iterations"] = [{k: _json_value(v) for k, v in it.row().items()}
@@ -166,12 +166,12 @@ def two_step(plant: Model | None = None, region: float = 0.9,
 
     Parameters
     ----------
-    plant : fmus.model.Model, optional
+    plant : satfmu.fmus.model.Model, optional
         The MRP satellite to design for (default seed 000's; yours:
-        ``fmus.mrp_satellite.build(spacecraft)``).
+        ``satfmu.fmus.mrp_satellite.build(spacecraft)``).
     region : float
         Theorem 1 certificate region ``|sigma| <= region`` (< 1).
-    l2_region : synthesis.l2_gain.Region
+    l2_region : satfmu.synthesis.l2_gain.Region
         Region on which the L2 gain is certified and sampled.
     coefficient_limit : float
         Bound on every coefficient of K (program units).
@@ -191,7 +191,7 @@ def two_step(plant: Model | None = None, region: float = 0.9,
 
     Raises
     ------
-    synthesis.sos.SOSError
+    satfmu.synthesis.sos.SOSError
         If no iterate is accepted.
     """
     decay_rates = [float(v) for v in decay_rates]

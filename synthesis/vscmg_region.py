@@ -1,7 +1,7 @@
 """SOS stability region of the approximated SDRE servo's closed loop (seed 002, section 4), re-posed.
 
 The closed loop is ``Acl(x) = Ae(x) - Be(x) K(sin q2, w4)``: ``Ae``, ``Be`` the servo's
-w1-free SDC at w2 := 0 (:func:`controllers.servo_sdc.servo_matrices`, the SDC the gain fits)
+w1-free SDC at w2 := 0 (:func:`satfmu.controllers.servo_sdc.servo_matrices`, the SDC the gain fits)
 and ``K`` the artifact's polynomials. The seed's conditions (13)-(20) ask for ``P > 0`` and
 ``Acl P + P Acl^T < 0`` on a box, with ``cos q2 ~ 1 - sin^2 q2 / 2``. As printed they cannot
 hold: the conserved gimbal-4 momentum ``p4 = m(a) . w`` (``m`` the gimbal-4 row of the mass
@@ -30,7 +30,7 @@ other than the conserved-p4 mode at 0 decays at least at ``eps / (2 lambda_max(Y
 the scaled coordinates), with one common Lyapunov matrix ``Y``: the seed's "robust
 stability" of the frozen SDC loop. It is not a proof for the nonlinear plant (the SDC
 freezes w2 := 0, and p changes with q2). Each certificate is re-checked without the solver:
-Gram eigenvalues and residuals (:func:`synthesis.sos.verify`), a bound turning them into a
+Gram eigenvalues and residuals (:func:`satfmu.synthesis.sos.verify`), a bound turning them into a
 margin on the box (:func:`_rigorous_margin`), and the Lyapunov inequality and the decay
 rate on samples of the true trigonometric model (:func:`trig_check`).
 """
@@ -45,14 +45,14 @@ import numpy as np
 import scipy.linalg as sla
 import sympy as sp
 
-from controllers.artifact import ServoArtifact
-from controllers.polynomial import sympy_polynomial
-from controllers.servo_sdc import servo_matrices
-from fmus import vscmg
-from fmus.model import Model
-from synthesis.polynomial import Poly, PolyMatrix, monomials
-from synthesis.sdre import Servo
-from synthesis.sos import Check, SOSError, SOSProgram, verify
+from satfmu.controllers.artifact import ServoArtifact
+from satfmu.controllers.polynomial import sympy_polynomial
+from satfmu.controllers.servo_sdc import servo_matrices
+from satfmu.fmus import vscmg
+from satfmu.fmus.model import Model
+from satfmu.synthesis.polynomial import Poly, PolyMatrix, monomials
+from satfmu.synthesis.sdre import Servo
+from satfmu.synthesis.sos import Check, SOSError, SOSProgram, verify
 
 OPERATING_BOX = ((0.17, 1.24), (-0.6, 0.6))
 """(q2 rad, w4 rad/s) box of the seed's manoeuvre (docs/models.md **substitute** bounds)."""
@@ -143,7 +143,7 @@ class BoxCertificate:
     """The outcome of :func:`certify` on one box.
 
     ``certified``: the SOS program was solved with ``eps > 0``, every constraint passed
-    :func:`synthesis.sos.verify` and the rigorous margin is positive. ``Y`` is in the servo
+    :func:`satfmu.synthesis.sos.verify` and the rigorous margin is positive. ``Y`` is in the servo
     state's own coordinates (``V = xe^T Y xe``); ``decay`` is the guaranteed decay rate of the
     frozen modes off p4, 1/s.
     """
@@ -340,7 +340,7 @@ def artifact_certificate(fit_certificate: dict[str, Any], cert: BoxCertificate, 
                     **{f"region_{k}": v for k, v in cos_errors(cert.q2).items()}})
     region = f"q2 in {list(cert.q2)} rad, w4 in {list(cert.w4)} rad/s (any w1, w2: the SDC freezes w2 := 0)"
     if ok:
-        proved = (f"SOS certificate (synthesis.vscmg_region): on the box, every frozen closed loop Ae - Be K_fit "
+        proved = (f"SOS certificate (satfmu.synthesis.vscmg_region): on the box, every frozen closed loop Ae - Be K_fit "
                   f"of the w1-free SDC at w2 = 0 has its modes off the conserved-p4 mode decaying at >= "
                   f"{cert.decay:.3g} 1/s, with one common Lyapunov matrix; exact in sin/cos (enclosure), "
                   f"re-verified (Gram eigenvalues, residuals, margin {cert.margin:.3g}, "

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from sims import catalog
+from satfmu.sims import catalog
 
 ROOT = Path(__file__).resolve().parents[1]
 PUBLISHED = ROOT / "controllers" / "artifacts" / "mrp_hinf_published.json"
@@ -28,10 +28,10 @@ def pytest_unconfigure(config: pytest.Config) -> None:
 
 @pytest.fixture(scope="session")
 def fmu_dir() -> Path:
-    """``build/fmus`` with every FMU of the catalog (:func:`sims.catalog.build_all`).
+    """``build/fmus`` with every FMU of the catalog (:func:`satfmu.sims.catalog.build_all`).
 
     The FMUs ``make build`` wrote are reused: an FMU is rebuilt only when it does not record
-    the digest of its model, resources and generators (:mod:`fmus.digest`), so the tests
+    the digest of its model, resources and generators (:mod:`satfmu.fmus.digest`), so the tests
     always run the FMUs of the current source tree. Tests only read this folder."""
     dest = ROOT / "build" / "fmus"
     catalog.build_all(dest)

@@ -49,6 +49,6 @@ def test_version_and_unknown_name():
 
 
 def test_names_are_the_implementations():
-    from sims import scenario
+    from satfmu.sims import scenario
 
     assert satfmu.Scenario is scenario.Scenario and satfmu.Result is scenario.Result

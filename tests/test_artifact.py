@@ -10,8 +10,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from controllers import artifact, claims, polynomial, riccati
-from fmus import codegen
+from satfmu.controllers import artifact, claims, polynomial, riccati
+from satfmu.fmus import codegen
 from tests.conftest import PUBLISHED
 
 
@@ -285,8 +285,8 @@ def test_an_exponent_beyond_any_controller_degree_is_refused() -> None:
     """10**30 is a valid JSON integer; it once passed validation and failed in gcc."""
     import json
 
-    from controllers import artifact as A
-    from sims import paths
+    from satfmu.controllers import artifact as A
+    from satfmu.sims import paths
 
     data = json.loads((paths.SHIPPED_ARTIFACTS / "mrp_hinf_published.json").read_text())
     data["law"]["terms"][0][0]["e"][0] = 10 ** 30

@@ -1,4 +1,4 @@
-"""Writers killed at every write (SIGKILL through fmus.atomic's test hook): the files under their
+"""Writers killed at every write (SIGKILL through satfmu.fmus.atomic's test hook): the files under their
 final names are the previous ones or the new complete ones, never empty or partial, and the next
 run detects an artifact written without the FMUs that embed it."""
 from __future__ import annotations
@@ -14,14 +14,14 @@ from pathlib import Path
 
 import pytest
 
-from fmus import export
-from fmus.atomic import KILL_ENV, PHASES
+from satfmu.fmus import export
+from satfmu.fmus.atomic import KILL_ENV, PHASES
 
 ROOT = Path(__file__).resolve().parents[1]
 WRITER = """
 import sys
 from pathlib import Path
-from fmus.atomic import write_atomically
+from satfmu.fmus.atomic import write_atomically
 for i in range(3):
     write_atomically(Path(sys.argv[1]) / f"f{i}.txt", lambda tmp, i=i: tmp.write_text(f"new {i} " * 100))
 """
@@ -34,7 +34,7 @@ def _satfmu(home: Path, *argv: str, kill: str | None = None) -> subprocess.Compl
     env.pop(KILL_ENV, None)
     if kill is not None:
         env[KILL_ENV] = kill
-    return subprocess.run([sys.executable, "-m", "sims.cli", *argv], env=env, cwd=home, capture_output=True,
+    return subprocess.run([sys.executable, "-m", "satfmu.sims.cli", *argv], env=env, cwd=home, capture_output=True,
                           text=True, timeout=600)
 
 
@@ -168,7 +168,7 @@ def test_a_killed_build_leaves_whole_fmus(n: int, phase: str, fmu_dir: Path, tmp
 
 
 def test_validate_skips_the_temporary_file_of_a_killed_build(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
-    from sims.cli import main
+    from satfmu.sims.cli import main
 
     (tmp_path / ".signal_step.123.0a1b2c3d.partial.fmu").write_bytes(b"half an FMU")
     assert main(["validate", "--fmu-dir", str(tmp_path)]) == 2
@@ -179,7 +179,7 @@ def test_a_full_disk_names_the_file(tmp_path: Path) -> None:
     """ENOSPC carries no file name; the error then says which file could not be written."""
     import errno
 
-    from fmus.atomic import write_atomically
+    from satfmu.fmus.atomic import write_atomically
 
     def full(tmp: Path) -> None:
         with open("/dev/full", "wb") as fh:  # every write to it fails with ENOSPC

@@ -1,4 +1,4 @@
-"""Monte Carlo campaigns on Dask (sims.campaign): bit-for-bit reproducibility, resume, loss of a
+"""Monte Carlo campaigns on Dask (satfmu.sims.campaign): bit-for-bit reproducibility, resume, loss of a
 worker, damaged and foreign chunks, two drivers in one folder, the probabilistic bounds, and a
 campaign of co-simulated FMUs."""
 from __future__ import annotations
@@ -20,12 +20,12 @@ import pytest
 from distributed import Client, LocalCluster
 from pandas.testing import assert_frame_equal
 
-from controllers import artifact
-from fmus import demeter, export
-from sims import campaign as cp
-from sims import catalog, chunk_files
-from sims.campaign import Campaign, CampaignError, CampaignWarning
-from synthesis.demeter_variants import Variant, design_model
+from satfmu.controllers import artifact
+from satfmu.fmus import demeter, export
+from satfmu.sims import campaign as cp
+from satfmu.sims import catalog, chunk_files
+from satfmu.sims.campaign import Campaign, CampaignError, CampaignWarning
+from satfmu.synthesis.demeter_variants import Variant, design_model
 from tests.campaign_tasks import (abscissa, decay_time, matrix_column, normal_matrices, short_column,
                                   slow_abscissa)
 
@@ -321,7 +321,7 @@ def test_a_chunk_of_another_campaign_is_never_adopted(tmp_path: Path, cluster) -
 DRIVER = """
 import json, sys, time, warnings
 from pathlib import Path
-from sims import campaign as cp
+from satfmu.sims import campaign as cp
 from tests import campaign_tasks as ct
 out, scheduler, me = Path(sys.argv[1]), sys.argv[2], sys.argv[3]
 (out / f"ready-{me}").touch()
@@ -391,3 +391,42 @@ def test_a_complete_campaign_reads_back_from_a_read_only_file_system(tmp_path: P
         assert_frame_equal(cp.run(small, ro, client=cluster[1]), first, check_exact=True)
     finally:
         subprocess.run(["umount", str(ro)], capture_output=True)
+
+
+# ----------------------------------------------------------------------------- identity across the move
+def _old_record(folder: Path, campaign: cp.Campaign, **identity: str) -> None:
+    """A campaign.json as satfmu 0.1 wrote it (no identity_format), with one chunk recorded."""
+    folder.mkdir(parents=True)
+    record = {"name": campaign.name, **campaign.identity(), **identity, "n_chunks": campaign.n_chunks,
+              "chunks": {"0": "0" * 64}}
+    (folder / "campaign.json").write_text(json.dumps(record))
+
+
+def test_identity_names_satfmu_modules_without_the_package_prefix() -> None:
+    """A function of a satfmu layer is named as before the layers moved under ``satfmu``
+    (``sims.catalog.builder``), so records written then still match; other modules keep theirs."""
+    assert cp._qualified_name(catalog.builder) == "sims.catalog.builder"
+    assert catalog.builder.__module__ == "satfmu.sims.catalog"
+    assert cp._qualified_name(abscissa) == "tests.campaign_tasks.abscissa"
+
+
+def test_a_record_from_before_the_move_resumes_with_function_tasks(tmp_path: Path) -> None:
+    """A 0.1 record naming a function task ``sims.x.f`` (no identity_format) is this campaign:
+    its recorded chunks are kept."""
+    campaign = cp.Campaign(name="moved", task=catalog.builder, n=4, seed=1, chunk=2, sampler=cp.sample_indices)
+    # the names 0.1 wrote (its modules were sims.catalog and sims.campaign)
+    _old_record(tmp_path / "moved", campaign, task="sims.catalog.builder", sampler="sims.campaign.sample_indices")
+    record = cp._claim_folder(tmp_path / "moved", campaign)
+    assert record["chunks"] == {"0": "0" * 64}
+
+
+def test_a_record_from_before_the_move_with_a_task_object_is_refused_saying_why(tmp_path: Path) -> None:
+    """A callable object's digest pickled the old module paths: such a 0.1 record cannot be
+    matched, and the message says so (not merely "another campaign")."""
+    task = cp.FmuTask(fmus={}, connections=[], parameters=abscissa, stop_time=1.0, step_size=0.1, metrics={},
+                      record=[])
+    campaign = cp.Campaign(name="obj", task=task, n=4, seed=1, chunk=2, sampler=cp.sample_indices)
+    old_name = campaign.identity()["task"].split(":")[0] + ":" + "f" * 16
+    _old_record(tmp_path / "obj", campaign, task=old_name)
+    with pytest.raises(CampaignError, match="written before satfmu's modules moved under the satfmu package"):
+        cp._claim_folder(tmp_path / "obj", campaign)

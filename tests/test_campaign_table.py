@@ -7,9 +7,9 @@ from pathlib import Path
 import pytest
 from distributed import Client
 
-from sims import scenario as S
-from sims import scenario_campaign as SC
-from sims.cli import main
+from satfmu.sims import scenario as S
+from satfmu.sims import scenario_campaign as SC
+from satfmu.sims.cli import main
 from tests.test_scenario_campaign import client, mrp, toml  # noqa: F401 (client: the module's Dask fixture)
 
 

@@ -10,8 +10,8 @@ from pathlib import Path
 
 import pytest
 
-from sims import catalog, cli, paths
-from sims.cli import main
+from satfmu.sims import catalog, cli, paths
+from satfmu.sims.cli import main
 
 
 def test_run_passes_and_writes_summary(fmu_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
@@ -78,7 +78,7 @@ def test_list_shows_shipped_scenarios(capsys: pytest.CaptureFixture) -> None:
 
 @pytest.mark.parametrize("argv", [["--help"], ["list"]])
 def test_help_and_list_import_no_numerical_library(argv: list[str]) -> None:
-    # `satfmu --help` and `satfmu list` start fast: only the standard library and sims.paths
+    # `satfmu --help` and `satfmu list` start fast: only the standard library and satfmu.sims.paths
     code = ("import sys\nfrom sims import cli\ntry:\n    cli.main(sys.argv[1:])\nexcept SystemExit:\n    pass\n"
             "print([m for m in ('sympy', 'numpy', 'fmpy', 'scipy') if m in sys.modules])")
     proc = subprocess.run([sys.executable, "-c", code, *argv], capture_output=True, text=True, check=True,
@@ -146,8 +146,8 @@ def test_analyze_groups_the_analyses(capsys: pytest.CaptureFixture) -> None:
 
 def test_commands_without_the_demeter_plant_do_not_build_its_model() -> None:
     # a fresh process: `satfmu list` imports the whole CLI, and the DEMETER model (about 4 s of
-    # sympy) is built only on first use of fmus.demeter.MODEL
-    code = ("import sys; from sims.cli import main; from fmus import demeter; "
+    # sympy) is built only on first use of satfmu.fmus.demeter.MODEL
+    code = ("import sys; from satfmu.sims.cli import main; from fmus import demeter; "
             "rc = main(['list']); print(rc, demeter.model.cache_info().currsize)")
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
                           cwd=Path(__file__).resolve().parents[1])
@@ -198,7 +198,7 @@ def test_synth_vscmg_certifies_the_chosen_fit(tmp_path: Path, capsys: pytest.Cap
     assert code == 0 and "<- chosen" in capsys.readouterr().out
     approx = json.loads((tmp_path / "vscmg_sdre_approx.json").read_text())
     # the smallest degree within CV_TOL = 2e-3 (CV error 1.4e-3 at degree 4 on the 23 x 25 grid),
-    # and the SOS region holds on the operating box (synthesis.vscmg_region)
+    # and the SOS region holds on the operating box (satfmu.synthesis.vscmg_region)
     assert approx["certificate"]["status"] == "certified" and approx["fit"]["degree"] == 4
     assert approx["certificate"]["numbers"]["region_trig_max_lyapunov_eig"] < 0
     assert (tmp_path / "vscmg_lq_servo.json").is_file()
@@ -253,7 +253,7 @@ def test_counts_below_their_range_are_refused_before_any_work(argv: list[str], o
 def _shipped_digest() -> dict[str, str]:
     import hashlib
 
-    from sims.paths import SHIPPED_ARTIFACTS
+    from satfmu.sims.paths import SHIPPED_ARTIFACTS
 
     return {f.name: hashlib.sha256(f.read_bytes()).hexdigest() for f in sorted(SHIPPED_ARTIFACTS.glob("*.json"))}
 
@@ -264,7 +264,7 @@ SYNTH_DEFAULT_RUNS = [["cubesat-periodic"], ["mrp-hinf"], ["mrp-h2hinf", "--gamm
 
 def test_synth_writes_to_the_user_folder_by_default(tmp_path, monkeypatch):
     """Every synth command's default --out is the user's artifact folder, never the shipped one."""
-    from sims import cli, paths
+    from satfmu.sims import cli, paths
 
     monkeypatch.setenv("SATFMU_HOME", str(tmp_path))
     for argv in SYNTH_DEFAULT_RUNS:
@@ -277,7 +277,7 @@ def _synth_with_defaults(argv: list[str], home: Path) -> None:
     import subprocess
 
     env = {**os.environ, "SATFMU_HOME": str(home), "OPENBLAS_NUM_THREADS": "1"}
-    done = subprocess.run([sys.executable, "-m", "sims.cli", "synth", *argv, "--fmu-dir", ""], env=env,
+    done = subprocess.run([sys.executable, "-m", "satfmu.sims.cli", "synth", *argv, "--fmu-dir", ""], env=env,
                           capture_output=True, text=True, timeout=3600)
     assert done.returncode == 0, done.stdout + done.stderr
     assert list((home / "artifacts").glob("*.json")), "no artifact written to the user folder"
@@ -323,7 +323,7 @@ def test_synth_mrp_hinf_designs_for_the_spacecraft_file(tmp_path: Path, capsys: 
                                                          monkeypatch: pytest.MonkeyPatch) -> None:
     """The CLI passes the spacecraft, the manoeuvre (angle, axis) and the budget to the design;
     the design itself is replaced by a recorder (the real one runs in the examples' tests)."""
-    from sims import designs
+    from satfmu.sims import designs
 
     seen = {}
 
@@ -421,7 +421,7 @@ def test_commands_refuse_an_artifact_that_contradicts_its_claims(argv: list[str]
                                                                  value: float, message: str, tmp_path: Path,
                                                                  monkeypatch: pytest.MonkeyPatch,
                                                                  capsys: pytest.CaptureFixture) -> None:
-    from controllers import polynomial
+    from satfmu.controllers import polynomial
 
     data = json.loads((paths.SHIPPED_ARTIFACTS / f"{name}.json").read_text())
     target = data

@@ -20,9 +20,9 @@ from typing import Callable
 
 import pytest
 
-from fmus import export
-from sims import paths, preflight
-from sims.cli import main
+from satfmu.fmus import export
+from satfmu.sims import paths, preflight
+from satfmu.sims.cli import main
 from tests.test_cli import BAD_SCENARIOS, _bad_scenario
 
 SHIPPED = paths.SHIPPED_ARTIFACTS

@@ -8,10 +8,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from controllers import polynomial
-from fmus import export, mrp_satellite, reference
-from sims import scenario
-from sims.master import CoSimulation
+from satfmu.controllers import polynomial
+from satfmu.fmus import export, mrp_satellite, reference
+from satfmu.sims import scenario
+from satfmu.sims.master import CoSimulation
 from tests.conftest import PUBLISHED, SIGMA_200
 
 STATE = [f"plant.omega[{i}]" for i in (1, 2, 3)] + [f"plant.sigma[{i}]" for i in (1, 2, 3)]

@@ -9,8 +9,8 @@ import pytest
 import sympy as sp
 from fmpy import simulate_fmu
 
-from fmus import cubesat
-from fmus.codegen import load_python
+from satfmu.fmus import cubesat
+from satfmu.fmus.codegen import load_python
 
 MODEL = cubesat.MODEL
 INERTIA = np.array(cubesat.INERTIA_SEED_003)

@@ -6,14 +6,14 @@ import numpy as np
 import pytest
 from scipy.linalg import null_space
 
-from controllers import artifact as artifacts
-from controllers import polynomial, state_feedback
-from synthesis import demeter_design as dd
-from synthesis import demeter_variants as dv
-from synthesis.lft_plant import LFTPlant
-from synthesis.pdlf import PDLF_BISECTION_TOL
-from synthesis.robust_design import design, verify
-from synthesis.system_norms import hinf_norm, impulse_to_peak
+from satfmu.controllers import artifact as artifacts
+from satfmu.controllers import polynomial, state_feedback
+from satfmu.synthesis import demeter_design as dd
+from satfmu.synthesis import demeter_variants as dv
+from satfmu.synthesis.lft_plant import LFTPlant
+from satfmu.synthesis.pdlf import PDLF_BISECTION_TOL
+from satfmu.synthesis.robust_design import design, verify
+from satfmu.synthesis.system_norms import hinf_norm, impulse_to_peak
 
 ROW1 = dv.Variant((1,), (1,), 1, 1)
 
@@ -183,11 +183,11 @@ def test_shipped_row1_artifact_is_this_design(row1) -> None:
 
 def test_vertex_program_too_large_for_memory_falls_back_to_dg_scalings(monkeypatch) -> None:
     """One axis on intervals: its vertex design program is estimated at 13.4 MB, its D-G one at
-    4.7 MB (synthesis.lmi.LMIProgram.solver_bytes). Under a 10 MB limit the design is the D-G
+    4.7 MB (satfmu.synthesis.lmi.LMIProgram.solver_bytes). Under a 10 MB limit the design is the D-G
     one, named so, and still verified; the two bounds agree within 0.1 % (D-G scalings satisfy
     the vertex inequality with equality: the vertex design can only be as good or better, and on
     this box they differ by 8e-4 relative)."""
-    from synthesis import lmi
+    from satfmu.synthesis import lmi
 
     v = dv.Variant((1,), (1,), 1, 2)
     vertex = dd.deterministic(v, n_samples=0, analysis=False)

@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 from distributed import Client, LocalCluster
 
-from controllers import polynomial
-from sims import demeter_loops as dl
-from sims import scenario as S
-from sims.cli import main
-from sims.paths import SHIPPED_SCENARIOS
-from synthesis.demeter_variants import THETA_WORST
+from satfmu.controllers import polynomial
+from satfmu.sims import demeter_loops as dl
+from satfmu.sims import scenario as S
+from satfmu.sims.cli import main
+from satfmu.sims.paths import SHIPPED_SCENARIOS
+from satfmu.synthesis.demeter_variants import THETA_WORST
 
 ART = polynomial.ARTIFACTS / "demeter_row1_det.json"
 
@@ -100,10 +100,10 @@ SHIPPED = {start: f"demeter_row1_det_{start}" for start in dl.STARTS}
 
 @pytest.mark.parametrize("start", list(SHIPPED))
 def test_a_shipped_scenario_is_the_scenario_of_the_row1_design(start: str) -> None:
-    """One source of truth: the shipped file is what `python -m sims.demeter_loops` writes from
+    """One source of truth: the shipped file is what `python -m satfmu.sims.demeter_loops` writes from
     dl.scenario(), text for text, and reads back as the same scenario."""
     path = SHIPPED_SCENARIOS / f"{SHIPPED[start]}.toml"
-    assert path.read_text() == dl.scenario_text(start), "regenerate it: python -m sims.demeter_loops"
+    assert path.read_text() == dl.scenario_text(start), "regenerate it: python -m satfmu.sims.demeter_loops"
     assert S.load(SHIPPED[start]).to_dict() == dl.scenario("demeter_row1_det", start=start).to_dict()
     assert S.load(SHIPPED[start]).to_dict() == dl.shipped_scenario(start).to_dict()
 

@@ -7,8 +7,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sims import detumble
-from synthesis import cubesat_periodic as cp
+from satfmu.sims import detumble
+from satfmu.synthesis import cubesat_periodic as cp
 
 
 def test_linear_campaign_mean_square_is_the_exact_one_and_decays_like_the_seeds_fig_2() -> None:

@@ -10,9 +10,9 @@ import pytest
 from scipy import stats
 from scipy.spatial.transform import Rotation
 
-from fmus.spacecraft import SEED_000, Spacecraft
-from sims import scenario as S
-from sims.dispersions import DispersionError, Dispersions
+from satfmu.fmus.spacecraft import SEED_000, Spacecraft
+from satfmu.sims import scenario as S
+from satfmu.sims.dispersions import DispersionError, Dispersions
 from tests.conftest import SIGMA_200
 
 Z = 5.0

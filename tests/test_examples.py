@@ -57,5 +57,5 @@ def test_satfmu_run_works_from_any_folder(user, tmp_path):
     elsewhere = tmp_path / "elsewhere"
     elsewhere.mkdir()
     rel = os.path.relpath(work / "my_scenario.toml", elsewhere)
-    out = _run([sys.executable, "-m", "sims.cli", "run", rel], elsewhere, env).stdout
+    out = _run([sys.executable, "-m", "satfmu.sims.cli", "run", rel], elsewhere, env).stdout
     assert "PASS my_60deg_with_a_kick" in out

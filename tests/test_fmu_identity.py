@@ -1,6 +1,6 @@
 """FMU identity (issue 28, defect 4): GUID, modelName and version of every modelDescription.xml.
 
-The GUID identifies the model description (:func:`fmus.description.description_guid`): the native
+The GUID identifies the model description (:func:`satfmu.fmus.description.description_guid`): the native
 and the pythonfmu FMU of one model differ, two builds of the same sources agree, and each FMU
 requires its own GUID (each twin refuses the other's). modelName is the model's name for
 both backends; ``version`` is ``<satfmu version>+<16 hex digits of the model digest>``
@@ -21,9 +21,9 @@ import pytest
 from fmpy import extract, read_model_description
 from fmpy.fmi2 import FMU2Slave
 
-from fmus import __version__, codegen, description, export, mrp_satellite, signals
-from fmus.digest import model_digest
-from sims import fmi_host
+from satfmu.fmus import __version__, codegen, description, export, mrp_satellite, signals
+from satfmu.fmus.digest import model_digest
+from satfmu.sims import fmi_host
 
 ROOT = Path(__file__).resolve().parents[1]
 VERSION = re.compile(re.escape(__version__) + r"\+[0-9a-f]{16}")
@@ -97,7 +97,7 @@ def test_the_guid_identifies_the_description() -> None:
 _BUILD = """
 import sys
 from pathlib import Path
-from sims import catalog
+from satfmu.sims import catalog
 dest = Path(sys.argv[1])
 for backend in ("native", "python"):
     catalog.ensure(dest, ["mrp_satellite", "cubesat_periodic_published"], backend)
@@ -176,7 +176,7 @@ def test_states_carry_the_guid_and_the_two_backends_reject_each_others(fmu_dir: 
     assert gen.GUID == description.fmu_guid(model, description.PYTHON) == built, "the module's GUID is not its FMU's"
     state = {"model": gen.NAME, "guid": description.fmu_guid(model, description.NATIVE), "format": 1,
              "content": {}, "crc32": 0}
-    from fmus.pyslave import SatfmuSlave
+    from satfmu.fmus.pyslave import SatfmuSlave
 
     class Slave(SatfmuSlave):
         generated = gen

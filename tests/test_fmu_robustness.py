@@ -31,7 +31,7 @@ import pytest
 from fmpy import extract, read_model_description
 from fmpy.fmi2 import FMU2Slave, fmi2Error, fmi2Fatal, fmi2FMUstate
 
-from sims import fmi_host
+from satfmu.sims import fmi_host
 
 
 PLANT, PLANT_PY = "mrp_satellite.fmu", "mrp_satellite_py.fmu"
@@ -146,7 +146,7 @@ class Instance:
 
     def free(self) -> None:
         """fmi2FreeInstance, unless the instance returned fmi2Fatal (after which FMI 2.0 allows
-        no call at all). The library stays loaded (as in sims.master)."""
+        no call at all). The library stays loaded (as in satfmu.sims.master)."""
         if self.dead:
             fmi_host.abandon(self)
         elif self.live:
@@ -158,7 +158,7 @@ class Instance:
 def fmus(fmu_dir: Path) -> Iterator[dict[str, Fmu]]:
     """The four FMUs, extracted once per session.
 
-    ``fmu_dir`` (tests/conftest.py) is the session's ``sims.catalog.build_all`` output in a
+    ``fmu_dir`` (tests/conftest.py) is the session's ``satfmu.sims.catalog.build_all`` output in a
     pytest tmp dir, built from the current tree and shared with the other test modules.
     """
     out = {}
@@ -540,7 +540,7 @@ def test_native_corrupted_serialized_state_is_rejected(make, file: str, kind: st
     magic, fmt, size, crc, ident = HEADER.unpack_from(good)
     assert (magic, fmt, size) == (STATE_MAGIC, STATE_FORMAT, len(good))
     assert crc == zlib.crc32(HEADER.pack(magic, fmt, size, 0, ident) + good[HEADER.size:])
-    # the identity is the bytes of this FMU's GUID (fmus.codegen.guid_bytes)
+    # the identity is the bytes of this FMU's GUID (satfmu.fmus.codegen.guid_bytes)
     assert ident.hex() == inst.fmu.md.guid.strip("{}").replace("-", "")
     assert struct.unpack_from("<d", good, TIME_AT)[0] == 0.1  # the FMU time after the step
     bad, what = _corrupt(kind, good, marker)
@@ -700,7 +700,7 @@ def test_wrong_guid(make, file: str) -> None:
 
 # ----------------------------------------------------------------------------- pythonfmu after a refusal
 def test_pythonfmu_free_after_refusal_does_not_crash(fmus: dict[str, Fmu]) -> None:
-    """A host that frees a pythonfmu instance after a rejected call (sims.master does, in its
+    """A host that frees a pythonfmu instance after a rejected call (satfmu.sims.master does, in its
     ``finally``) must not crash. pythonfmu 0.7.0 releases the instance's Python objects on the
     exception and again in fmi2FreeInstance; fmus/pyslave.py balances that for the calls it
     rejects (which the C layer reports as fmi2Error). 30 cycles in a child process (a segfault
@@ -764,7 +764,7 @@ def test_native_bdot_step_at_minimum_period_is_bounded(native) -> None:
     """control_period at its declared minimum (1 ms): a 100 s step spans 1e5 instants and finishes
     (the issue: > 10 s at 1e-6 s); 2000 s spans 2e6 > 1e6 and is refused naming the count."""
     inst = native(BDOT)
-    assert float(inst.vars["control_period"].min) == 1e-3  # fmus.model.MIN_SAMPLE_PERIOD
+    assert float(inst.vars["control_period"].min) == 1e-3  # satfmu.fmus.model.MIN_SAMPLE_PERIOD
     inst.initialize({"control_period": 1e-3})
     started = time.process_time()
     inst.ok("doStep", 0.0, 100.0)

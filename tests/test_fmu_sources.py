@@ -4,7 +4,7 @@ A tool without Python rebuilds a native FMU for its platform from ``sources/``: 
 every ``.c`` file there, one by one, and link the objects; others (fmpy, FMI tools honouring the
 model description) compile the files ``<SourceFiles>`` lists. Both must work: every ``.c`` file an
 FMU ships compiles on its own, with the build's warnings-as-errors flags
-(:data:`fmus.export.C_FLAGS`), and the library linked from them gives the shipped binary's
+(:data:`satfmu.fmus.export.C_FLAGS`), and the library linked from them gives the shipped binary's
 outputs bit for bit (same compiler, same flags).
 """
 from __future__ import annotations
@@ -20,8 +20,8 @@ import pytest
 from fmpy import read_model_description
 from fmpy.fmi2 import FMU2Slave
 
-from fmus import export
-from sims import fmi_host
+from satfmu.fmus import export
+from satfmu.sims import fmi_host
 
 MODELS = ("mrp_satellite", "mrp_hinf_published", "signal_sinusoid")
 """A plant (RK4), a controller (an expression sampler, integer powers) and a signal generator."""

@@ -4,9 +4,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from controllers import artifact, servo
-from fmus import codegen
-from synthesis import gain_fit, sdre
+from satfmu.controllers import artifact, servo
+from satfmu.fmus import codegen
+from satfmu.synthesis import gain_fit, sdre
 
 
 @pytest.fixture(scope="module")

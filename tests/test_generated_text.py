@@ -15,9 +15,9 @@ from pathlib import Path
 
 import pytest
 
-from controllers import artifact as A
-from fmus import archive
-from sims import catalog, paths
+from satfmu.controllers import artifact as A
+from satfmu.fmus import archive
+from satfmu.sims import catalog, paths
 
 BASE = json.loads((paths.SHIPPED_ARTIFACTS / "mrp_hinf_published.json").read_text())
 
@@ -93,7 +93,7 @@ def test_a_text_xml_cannot_carry_is_refused_with_its_key(field: str, char: str) 
 
 
 def test_a_model_name_is_a_c_identifier() -> None:
-    from fmus.model import Model, ModelDefinitionError
+    from satfmu.fmus.model import Model, ModelDefinitionError
 
     with pytest.raises(ModelDefinitionError, match=r"model name 'a\*/b' is not a C identifier"):
         Model(name="a*/b", description="", states=[], inputs=[], parameters=[], outputs=[])

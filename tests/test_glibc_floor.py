@@ -13,7 +13,7 @@ import subprocess
 import zipfile
 from pathlib import Path
 
-from fmus import export
+from satfmu.fmus import export
 
 FLOOR = (2, 14)
 """Newest glibc symbol version a native FMU may need (memcpy@GLIBC_2.14)."""

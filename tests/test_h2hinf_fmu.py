@@ -11,10 +11,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from controllers import artifact as artifacts
-from controllers import polynomial
-from fmus import mrp_satellite, reference
-from sims import scenario
+from satfmu.controllers import artifact as artifacts
+from satfmu.controllers import polynomial
+from satfmu.fmus import mrp_satellite, reference
+from satfmu.sims import scenario
 
 ARTIFACT = artifacts.load(polynomial.ARTIFACTS / "mrp_h2hinf_satfmu.json")
 NUMBERS = ARTIFACT.certificate["numbers"]

@@ -1,10 +1,13 @@
-"""The implementation packages are layered fmus <- controllers <- synthesis <- sims.
+"""The implementation packages are layered fmus <- controllers <- synthesis <- sims, all under
+the one import package ``satfmu`` (``satfmu.fmus`` ... ``satfmu.sims``; the repository keeps them as
+top-level folders, pyproject.toml's package-dir installs them there).
 
 A module may import only from its own package or a lower one (:data:`LAYERS`, lowest first).
 Every import is checked, wherever it stands (module level, inside a function, under
-``if TYPE_CHECKING:``): ``import a.b``, ``from a import b`` and relative imports. Other
-top-level packages (a ``satfmu`` facade, tests/, bench/, examples/) are not layers and are
-not checked.
+``if TYPE_CHECKING:``): ``import a.b``, ``from a import b`` and relative imports. The ``satfmu``
+facade, tests/, bench/, examples/ and scripts/ are not layers. No Python file of the repository
+imports a layer by its bare folder name (``import sims``): a module would then be loaded twice,
+under two names.
 """
 from __future__ import annotations
 
@@ -13,8 +16,11 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 
+PACKAGE = "satfmu"
 LAYERS = ("fmus", "controllers", "synthesis", "sims")
-"""The implementation packages, lowest first."""
+"""The implementation packages (``satfmu.<layer>``, folders of the repository), lowest first."""
+PYTHON_FOLDERS = (PACKAGE, *LAYERS, "tests", "bench", "examples", "scripts")
+"""The repository's folders of Python files."""
 
 
 def imported_modules(tree: ast.AST, package: str, is_package: bool) -> list[tuple[int, str]]:
@@ -36,32 +42,51 @@ def imported_modules(tree: ast.AST, package: str, is_package: bool) -> list[tupl
             else:
                 name = node.module or ""
             # ``from .. import synthesis`` names the imported modules only in its aliases
-            found += [(node.lineno, name)] if name else [(node.lineno, a.name) for a in node.names]
+            if name in ("", PACKAGE):
+                found += [(node.lineno, f"{name}.{a.name}".lstrip(".")) for a in node.names]
+            else:
+                found += [(node.lineno, name)]
     return found
+
+
+def layer(name: str) -> str | None:
+    """The layer of the absolute module name ``name`` (``satfmu.sims.cli``: sims), or None."""
+    parts = name.split(".")
+    return parts[1] if len(parts) > 1 and parts[0] == PACKAGE and parts[1] in LAYERS else None
 
 
 def violations(source: str, module: str, where: str, is_package: bool = False) -> list[str]:
     """``where:line: import`` for every import in ``source`` (the text of ``module``, a dotted
-    name whose first part is one of :data:`LAYERS`) of a layer above the module's own."""
-    own = LAYERS.index(module.split(".")[0])
+    name ``satfmu.<layer>...`` or any other) of a layer above the module's own, and of a layer by
+    its bare name."""
+    own = layer(module)
     tree = ast.parse(source, filename=where)
     lines = source.splitlines()
     out = []
     for lineno, name in imported_modules(tree, module, is_package):
-        top = name.split(".")[0]
-        if top in LAYERS and LAYERS.index(top) > own:
-            out.append(f"{where}:{lineno}: {lines[lineno - 1].strip()} ({module} imports {top}, a higher layer)")
+        text = lines[lineno - 1].strip()
+        if name.split(".")[0] in LAYERS:
+            out.append(f"{where}:{lineno}: {text} (imports {name.split('.')[0]} by its bare name: import it as "
+                       f"{PACKAGE}.{name})")
+        elif own is not None and layer(name) is not None and LAYERS.index(layer(name)) > LAYERS.index(own):
+            out.append(f"{where}:{lineno}: {text} ({module} imports {layer(name)}, a higher layer)")
     return out
 
 
-def tree_violations(root: Path = ROOT) -> list[str]:
-    """:func:`violations` of every .py file of the four packages under ``root``."""
+def module_name(rel: Path) -> tuple[str, bool]:
+    """The import name of the repository file ``rel`` and whether it is a package's __init__.py."""
+    is_package = rel.name == "__init__.py"
+    parts = rel.parent.parts if is_package else rel.with_suffix("").parts
+    return ".".join((PACKAGE, *parts) if parts[0] in LAYERS else parts), is_package
+
+
+def tree_violations(root: Path = ROOT, folders: tuple[str, ...] = LAYERS) -> list[str]:
+    """:func:`violations` of every .py file of ``folders`` under ``root``."""
     out = []
-    for layer in LAYERS:
-        for path in sorted((root / layer).rglob("*.py")):
+    for folder in folders:
+        for path in sorted((root / folder).rglob("*.py")):
             rel = path.relative_to(root)
-            is_package = path.name == "__init__.py"
-            module = ".".join(rel.parent.parts if is_package else rel.with_suffix("").parts)
+            module, is_package = module_name(rel)
             out += violations(path.read_text(encoding="utf-8"), module, str(rel), is_package)
     return out
 
@@ -72,41 +97,52 @@ def test_no_module_imports_a_higher_layer() -> None:
     assert not found, "imports of a higher layer:\n" + "\n".join(found)
 
 
+def test_no_file_imports_a_layer_by_its_bare_name() -> None:
+    """Every Python file of the repository imports the layers as ``satfmu.<layer>``."""
+    found = tree_violations(folders=PYTHON_FOLDERS)
+    assert sum(1 for f in PYTHON_FOLDERS for _ in (ROOT / f).rglob("*.py")) > 150  # the tree was found
+    assert not found, "bare imports of a layer:\n" + "\n".join(found)
+
+
 def test_the_checker_catches_every_kind_of_import(tmp_path: Path) -> None:
     source = """\
 from __future__ import annotations
 import numpy
 from typing import TYPE_CHECKING
-from fmus import model
-import controllers.riccati
-from controllers.artifact import parse
+from satfmu.fmus import model
+import satfmu.controllers.riccati
+from satfmu.controllers.artifact import parse
 from . import polynomial
 import satfmu
 if TYPE_CHECKING:
-    from sims.master import CoSimulation
+    from satfmu.sims.master import CoSimulation
 def f():
-    import synthesis.sos as sos
+    import satfmu.synthesis.sos as sos
     from ..sims import cli
     from .. import synthesis
 """
-    found = violations(source, "controllers.law", "controllers/law.py")
+    found = violations(source, "satfmu.controllers.law", "controllers/law.py")
     assert [v.split(" (")[0] for v in found] == [
-        "controllers/law.py:10: from sims.master import CoSimulation",
-        "controllers/law.py:12: import synthesis.sos as sos",
+        "controllers/law.py:10: from satfmu.sims.master import CoSimulation",
+        "controllers/law.py:12: import satfmu.synthesis.sos as sos",
         "controllers/law.py:13: from ..sims import cli",
         "controllers/law.py:14: from .. import synthesis"]
     # relative imports resolve from a package's __init__.py, and the lowest layer imports nothing
-    assert violations("from .sub import x\nfrom ..controllers import y\n", "fmus", "fmus/__init__.py",
+    assert violations("from .sub import x\nfrom ..controllers import y\n", "satfmu.fmus", "fmus/__init__.py",
                       is_package=True) == ["fmus/__init__.py:2: from ..controllers import y "
-                                           "(fmus imports controllers, a higher layer)"]
-    assert violations("from ..synthesis import sos\n", "sims.scenarios.x", "sims/scenarios/x.py") == []
+                                           "(satfmu.fmus imports controllers, a higher layer)"]
+    assert violations("from ..synthesis import sos\n", "satfmu.sims.scenarios.x", "sims/scenarios/x.py") == []
+    # a bare layer name is refused everywhere, the facade and tests included
+    assert [v.split(" (")[0] for v in violations("import sims\nfrom fmus.model import Model\nimport satfmu.sims\n",
+                                                 "tests.test_x", "tests/test_x.py")] == [
+        "tests/test_x.py:1: import sims", "tests/test_x.py:2: from fmus.model import Model"]
     # on a tree: every offending file and line is listed, the top layer is free
-    for rel, text in {"fmus/a.py": "import os\n\ndef g():\n    from controllers import servo\n",
-                      "fmus/c/b.py": "from sims.cli import main\n",
-                      "controllers/ok.py": "from fmus import model\n",
-                      "sims/top.py": "import synthesis, controllers, fmus\n"}.items():
+    for rel, text in {"fmus/a.py": "import os\n\ndef g():\n    from satfmu.controllers import servo\n",
+                      "fmus/c/b.py": "from satfmu.sims.cli import main\n",
+                      "controllers/ok.py": "from satfmu.fmus import model\n",
+                      "sims/top.py": "from satfmu import synthesis, controllers, fmus\n"}.items():
         (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
         (tmp_path / rel).write_text(text)
     (tmp_path / "synthesis").mkdir()
     assert [v.split(" (")[0] for v in tree_violations(tmp_path)] == [
-        "fmus/a.py:4: from controllers import servo", "fmus/c/b.py:1: from sims.cli import main"]
+        "fmus/a.py:4: from satfmu.controllers import servo", "fmus/c/b.py:1: from satfmu.sims.cli import main"]

@@ -1,11 +1,11 @@
-"""synthesis.lmi: affine matrix expressions against numpy, LMI programs against closed forms."""
+"""satfmu.synthesis.lmi: affine matrix expressions against numpy, LMI programs against closed forms."""
 import os
 
 import numpy as np
 import pytest
 import scipy.linalg as sla
 
-from synthesis import conic, lmi
+from satfmu.synthesis import conic, lmi
 
 
 def test_operations_match_numpy_at_random_values():

@@ -12,10 +12,10 @@ import sympy as sp
 from fmpy import extract, read_model_description, simulate_fmu
 from fmpy.fmi2 import FMU2Slave
 
-from controllers import artifact as artifacts
-from controllers import magnetic
-from controllers.polynomial import ARTIFACTS
-from fmus.model import Model, ModelDefinitionError, Sampler, Variable
+from satfmu.controllers import artifact as artifacts
+from satfmu.controllers import magnetic
+from satfmu.controllers.polynomial import ARTIFACTS
+from satfmu.fmus.model import Model, ModelDefinitionError, Sampler, Variable
 
 PERIODIC = "cubesat_periodic_satfmu"
 ART = artifacts.load(ARTIFACTS / f"{PERIODIC}.json")

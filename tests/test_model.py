@@ -5,9 +5,9 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from fmus import codegen, mrp_satellite
-from fmus.description import fmu_guid
-from fmus.model import Model, ModelDefinitionError, Output, Variable, states, symbols
+from satfmu.fmus import codegen, mrp_satellite
+from satfmu.fmus.description import fmu_guid
+from satfmu.fmus.model import Model, ModelDefinitionError, Output, Variable, states, symbols
 
 MODEL = mrp_satellite.MODEL
 

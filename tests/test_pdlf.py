@@ -6,11 +6,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from synthesis import pdlf
-from synthesis.lft_plant import PlantDataError, ProgramTooLargeError, TooManyVerticesError
-from synthesis.pdlf import PDLFResult, pdlf_hinf, pdlf_size, verify_pdlf
-from synthesis.robust_design import design
-from synthesis.system_norms import hinf_norm
+from satfmu.synthesis import pdlf
+from satfmu.synthesis.lft_plant import PlantDataError, ProgramTooLargeError, TooManyVerticesError
+from satfmu.synthesis.pdlf import PDLFResult, pdlf_hinf, pdlf_size, verify_pdlf
+from satfmu.synthesis.robust_design import design
+from satfmu.synthesis.system_norms import hinf_norm
 from tests.robust_plants import ALPHA, BETA, descriptor_plant, lft_plant, samples
 
 

@@ -7,11 +7,11 @@ import numpy as np
 import pytest
 from scipy.integrate import quad
 
-from controllers import artifact as artifacts
-from controllers.polynomial import ARTIFACTS
-from fmus import cubesat
-from synthesis import cubesat_periodic as cp
-from synthesis import periodic_hinf as ph
+from satfmu.controllers import artifact as artifacts
+from satfmu.controllers.polynomial import ARTIFACTS
+from satfmu.fmus import cubesat
+from satfmu.synthesis import cubesat_periodic as cp
+from satfmu.synthesis import periodic_hinf as ph
 
 
 @pytest.fixture(scope="module")

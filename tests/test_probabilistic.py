@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 from scipy.stats import binom
 
-from synthesis import demeter_design as dd
-from synthesis import demeter_random as dr
-from synthesis import probabilistic as pr
-from synthesis import sequential as sq
-from synthesis.demeter_variants import Variant, design_model
-from synthesis.lft_plant import OptionError
+from satfmu.synthesis import demeter_design as dd
+from satfmu.synthesis import demeter_random as dr
+from satfmu.synthesis import probabilistic as pr
+from satfmu.synthesis import sequential as sq
+from satfmu.synthesis.demeter_variants import Variant, design_model
+from satfmu.synthesis.lft_plant import OptionError
 
 ROW1 = Variant((1,), (1,), 1, 1)
 
@@ -123,7 +123,7 @@ def test_closed_loop_task_is_pure_and_picklable(scen) -> None:
 
 
 def test_campaign_command_states_the_chernoff_bounds(tmp_path, capsys) -> None:
-    from sims.cli import main
+    from satfmu.sims.cli import main
 
     args = ["campaign", "demeter", "--samples", "300", "--chunk", "150", "--workers", "1", "--out", str(tmp_path)]
     assert main(args) == 0
@@ -142,8 +142,8 @@ def test_campaign_of_a_design_unstable_for_some_samples(tmp_path, capsys) -> Non
     states how many samples are unstable instead of dying on the infinite H-infinity norms."""
     import json
 
-    from sims.cli import main
-    from sims.paths import SHIPPED_ARTIFACTS
+    from satfmu.sims.cli import main
+    from satfmu.sims.paths import SHIPPED_ARTIFACTS
 
     data = json.loads((SHIPPED_ARTIFACTS / "demeter_row1_det.json").read_text())
     data["name"] = "demeter_row1_k3"
@@ -156,7 +156,7 @@ def test_campaign_of_a_design_unstable_for_some_samples(tmp_path, capsys) -> Non
             "--out", str(tmp_path)]
     assert main(args) == 0
     out = capsys.readouterr().out
-    from sims import campaign
+    from satfmu.sims import campaign
 
     df = campaign.load(tmp_path / "demeter_row1_k3-n200-s0")
     n_unstable = int((df["max_real_pole"] >= 0).sum())

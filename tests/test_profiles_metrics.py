@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from fmus.profiles import ProfileError, make
-from sims import metrics as M
+from satfmu.fmus.profiles import ProfileError, make
+from satfmu.sims import metrics as M
 
 T = np.arange(0.0, 10.0001, 0.5)
 
@@ -112,7 +112,7 @@ def test_csv_profile_memory_stays_near_the_columns_read(tmp_path: Path) -> None:
 
     code = f"""
 import resource, numpy as np
-from fmus.profiles import make
+from satfmu.fmus.profiles import make
 n = 600_000
 with open({str(tmp_path / 'big.csv')!r}, 'w') as f:
     f.write('time,a,b,c,d,e\\n')

@@ -5,7 +5,7 @@ import time
 
 import pytest
 
-from sims import cli
+from satfmu.sims import cli
 
 
 def test_the_bar_gives_the_rate_and_the_time_left_from_the_new_chunks(capsys: pytest.CaptureFixture,

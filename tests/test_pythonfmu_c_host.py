@@ -20,7 +20,7 @@ import pytest
 import pythonfmu
 from fmpy import read_model_description
 
-from fmus import export
+from satfmu.fmus import export
 from tests.test_win64 import compile_host, read_rows, run_fmpy, write_plan
 
 MODEL = "mrp_satellite_py"

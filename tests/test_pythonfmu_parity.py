@@ -23,7 +23,7 @@ import pytest
 from fmpy import extract, read_model_description
 from fmpy.fmi2 import FMU2Slave
 
-from sims import fmi_host
+from satfmu.sims import fmi_host
 
 MODELS = {"cubesat_bdot": 1.0, "cubesat_periodic_satfmu": 900.0, "demeter_flexible": 0.1, "mrp_satellite": 0.05,
           "magnetorquer_cubesat": 1.0}
@@ -167,7 +167,7 @@ def test_integer_powers_are_products_in_both_languages() -> None:
     last bit now and then (the drift of issue 28, defect 7)."""
     import sympy as sp
 
-    from fmus import codegen
+    from satfmu.fmus import codegen
 
     x, y = sp.symbols("x y")
     c, py = codegen._C(), codegen._Py()
@@ -185,7 +185,7 @@ def test_whole_scenarios_identical(fmu_dir: Path, name: str) -> None:
     exception: their native FMU solves the Riccati equation in C, the pythonfmu one with scipy
     (gains within 6.2e-9 of each other, tests/test_riccati_native.py); measured 1.25e-8 of the
     largest command."""
-    from sims import scenario
+    from satfmu.sims import scenario
 
     native, python = (scenario.run(name, fmu_dir, backend=b).results for b in ("native", "python"))
     online = [n for n in native.dtype.names if n.startswith("online")]

@@ -1,4 +1,4 @@
-"""`satfmu replay` and :func:`sims.scenario_campaign.replay`: one sample of a scenario campaign run
+"""`satfmu replay` and :func:`satfmu.sims.scenario_campaign.replay`: one sample of a scenario campaign run
 again, bit for bit, with its time histories; bad input refused with one line and nothing written."""
 from __future__ import annotations
 
@@ -14,10 +14,10 @@ import pandas as pd
 import pytest
 from distributed import Client
 
-from sims import campaign as C
-from sims import scenario as S
-from sims import scenario_campaign as SC
-from sims.cli import main
+from satfmu.sims import campaign as C
+from satfmu.sims import scenario as S
+from satfmu.sims import scenario_campaign as SC
+from satfmu.sims.cli import main
 from tests.test_scenario_campaign import SEED, client, mrp  # noqa: F401 (client: the module's Dask fixture)
 
 U_MAX = {"plant.u_max": {"kind": "uniform", "low": -5.0, "high": 5.0}}  # N m; declared min 0: < 0 is refused
@@ -157,7 +157,7 @@ def test_bad_input_exits_2_with_one_line_and_writes_nothing(tmp_path: Path, clie
 
 def test_a_demeter_campaign_folder_is_refused(tmp_path: Path, client: Client, capsys: pytest.CaptureFixture) -> None:
     """A campaign folder of `campaign demeter` (no scenario in its campaign.json) is not replayed."""
-    from sims import demeter_reports
+    from satfmu.sims import demeter_reports
 
     report = demeter_reports.campaign(tmp_path / "campaigns", samples=20, chunk=10,
                                       scheduler=client.scheduler.address, name="demeter")

@@ -1,4 +1,4 @@
-"""The report page (sims.report, `satfmu report`): its numbers against the rows and statistics
+"""The report page (satfmu.sims.report, `satfmu report`): its numbers against the rows and statistics
 computed here independently, its sections, bad input, and the page rendered in a real browser
 (Debian's chromium driven by selenium).
 
@@ -25,14 +25,14 @@ import pytest
 from distributed import Client, LocalCluster
 from scipy import stats
 
-from sims import campaign as C
-from sims import scenario as S
-from sims import scenario_campaign as SC
-from sims.cli import main
-from sims.paths import SHIPPED_ARTIFACTS, SHIPPED_SCENARIOS
-from sims.report import ReportError, build_report, limits, provenance
-from sims.report.folders import read_folder
-from sims.report.page import number, percent
+from satfmu.sims import campaign as C
+from satfmu.sims import scenario as S
+from satfmu.sims import scenario_campaign as SC
+from satfmu.sims.cli import main
+from satfmu.sims.paths import SHIPPED_ARTIFACTS, SHIPPED_SCENARIOS
+from satfmu.sims.report import ReportError, build_report, limits, provenance
+from satfmu.sims.report.folders import read_folder
+from satfmu.sims.report.page import number, percent
 
 SEED = 3
 N = 8

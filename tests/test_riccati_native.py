@@ -1,5 +1,5 @@
 """The native online SDRE's Riccati solver (fmus/c/riccati.h) against its Python twin
-(controllers.riccati, scipy's solve_continuous_are): same gains, same checks, same refusals.
+(satfmu.controllers.riccati, scipy's solve_continuous_are): same gains, same checks, same refusals.
 
 The header is compiled here with the FMU build's flags (warnings are errors) into a small
 library with a two-function shim, for the seed 002 servo's dimensions (n = 7, m = 2) and a
@@ -14,9 +14,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from controllers import riccati, servo
-from fmus import codegen, export
-from synthesis import sdre
+from satfmu.controllers import riccati, servo
+from satfmu.fmus import codegen, export
+from satfmu.synthesis import sdre
 
 HEADER_DIR = Path(export.__file__).resolve().parent / "c"
 _SHIM = """#define SAMPLER_N {n}
@@ -75,7 +75,7 @@ def _manoeuvre_arguments(name: str) -> np.ndarray:
     names = [v.name for v in online.inputs]
     p = online.parameter_vector().tolist() + [0.0] * len(online.sampler.held)
     refs = [sdre.SEED_REFERENCE_PROFILES[r] for r in ("q2_ref", "q4_ref")]
-    from fmus.profiles import make
+    from satfmu.fmus.profiles import make
 
     run = sdre.simulate_servo(sdre.Servo(), lambda t: np.stack([make(r).sample(t) for r in refs], axis=1),
                               plant_params={"friction_on": 0})

@@ -1,4 +1,4 @@
-"""The robustness suite of ``sims.robustness`` over every built FMU, and that it reports failures.
+"""The robustness suite of ``satfmu.sims.robustness`` over every built FMU, and that it reports failures.
 
 The suite runs each FMU's cases in child processes; these tests check its verdicts (0 failures
 and 0 crashes on the FMUs built from the current tree) and that a broken FMU, an FMU that
@@ -13,8 +13,8 @@ from pathlib import Path
 
 import pytest
 
-from sims import robustness
-from sims.robustness import CASES, CYCLES_CASE, NATIVE, PYTHONFMU, Report, rss_bound_kib
+from satfmu.sims import robustness
+from satfmu.sims.robustness import CASES, CYCLES_CASE, NATIVE, PYTHONFMU, Report, rss_bound_kib
 
 FAST_CYCLES = 100
 """Instantiate/free cycles of the fast run (1000 take ~2 min more, mostly demeter_flexible_py at
@@ -23,7 +23,7 @@ PLANT = "mrp_satellite.fmu"
 
 
 def _check_clean(report: Report, fmus: list[str], cycles: int) -> None:
-    """Every FMU of ``fmus`` ran every case, with no failure, no crash and RSS within bound."""
+    """Every FMU of ``satfmu.fmus`` ran every case, with no failure, no crash and RSS within bound."""
     bad = [f"{r.fmu} / {r.case}: {r.verdict} {r.detail}" for r in report.failures + report.crashes]
     assert not bad, "\n".join(bad)
     # discovery: every FMU asked for is covered, each with one row per case

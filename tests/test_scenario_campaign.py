@@ -1,4 +1,4 @@
-"""Monte Carlo campaigns of a dispersed scenario (sims.scenario_campaign) and `satfmu campaign scenario`."""
+"""Monte Carlo campaigns of a dispersed scenario (satfmu.sims.scenario_campaign) and `satfmu campaign scenario`."""
 from __future__ import annotations
 
 import tomllib
@@ -12,11 +12,11 @@ import pytest
 from distributed import Client, LocalCluster
 from scipy import stats
 
-from sims import campaign as C
-from sims import scenario as S
-from sims import scenario_campaign as SC
-from sims.cli import main
-from sims.paths import SHIPPED_SCENARIOS
+from satfmu.sims import campaign as C
+from satfmu.sims import scenario as S
+from satfmu.sims import scenario_campaign as SC
+from satfmu.sims.cli import main
+from satfmu.sims.paths import SHIPPED_SCENARIOS
 
 SEED = 3
 DISPERSIONS = {"plant.omega_0[1]": {"kind": "uniform", "low": -0.01, "high": 0.01},  # rad/s
@@ -205,7 +205,7 @@ def test_a_campaign_killed_mid_run_resumes_to_the_same_rows_and_statistics(tmp_p
     data = {**mrp(), "name": "killed"}
     scenario = toml(tmp_path / "killed.toml", data)
     n, out = 12, tmp_path / "out"
-    argv = [sys.executable, "-m", "sims.cli", "campaign", "scenario", str(scenario), "--samples", str(n),
+    argv = [sys.executable, "-m", "satfmu.sims.cli", "campaign", "scenario", str(scenario), "--samples", str(n),
             "--chunk", "1", "--workers", "1", "--seed", str(SEED), "--fmu-dir", str(fmu_dir), "--out", str(out)]
     proc = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
     folder = out / f"killed-n{n}-s{SEED}"
@@ -255,7 +255,7 @@ def test_envelopes_are_the_percentiles_of_the_sampled_runs(tmp_path: Path, clien
     """Envelopes of plant.phi over 6 samples, 8 time points: the percentiles (numpy, independently)
     of the samples' own runs at those times; a refused sample (negative u_max) is left out; the
     table is in the folder; a signal not recorded and points < 2 are refused."""
-    from sims import envelopes as E
+    from satfmu.sims import envelopes as E
 
     data = mrp(dispersions={**DISPERSIONS, "plant.u_max": {"kind": "uniform", "low": -5.0, "high": 5.0}})
     res = SC.run_campaign(data, 6, tmp_path, seed=SEED, chunk=3, fmu_dir=fmu_dir, scheduler=client.scheduler.address,

@@ -4,10 +4,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from controllers.riccati import RiccatiCheckError, riccati_gain
-from controllers.servo_sdc import Q_SEED, R_SEED
-from fmus.profiles import make
-from synthesis import sdre
+from satfmu.controllers.riccati import RiccatiCheckError, riccati_gain
+from satfmu.controllers.servo_sdc import Q_SEED, R_SEED
+from satfmu.fmus.profiles import make
+from satfmu.synthesis import sdre
 
 
 def seed_references(t: np.ndarray) -> np.ndarray:

@@ -8,10 +8,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sims import scenario as S
-from sims import scenario_campaign as SC
-from sims.dispersions import Attitude, Distribution, Inertia
-from sims.paths import shipped_scenarios
+from satfmu.sims import scenario as S
+from satfmu.sims import scenario_campaign as SC
+from satfmu.sims.dispersions import Attitude, Distribution, Inertia
+from satfmu.sims.paths import shipped_scenarios
 
 CAMPAIGNS = [p.stem for p in shipped_scenarios() if "dispersions" in tomllib.loads(p.read_text())]
 """Every shipped scenario with [dispersions]: a shipped campaign."""

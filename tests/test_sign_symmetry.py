@@ -4,8 +4,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from synthesis.polynomial import monomials
-from synthesis.sign_symmetry import gf2_null_space, sign_symmetries, symmetry_blocks
+from satfmu.synthesis.polynomial import monomials
+from satfmu.synthesis.sign_symmetry import gf2_null_space, sign_symmetries, symmetry_blocks
 
 
 def test_null_space_is_exact_and_complete() -> None:

@@ -15,10 +15,10 @@ import numpy as np
 import pytest
 from fmpy import read_model_description
 
-from fmus import export, signals
-from fmus.model import ModelDefinitionError, Table
-from fmus.profiles import ProfileError, make
-from sims.master import CoSimulation, communication_times
+from satfmu.fmus import export, signals
+from satfmu.fmus.model import ModelDefinitionError, Table
+from satfmu.fmus.profiles import ProfileError, make
+from satfmu.sims.master import CoSimulation, communication_times
 
 STOP, STEP = 10.0, 0.05
 GRID = communication_times(0.0, STEP, round(STOP / STEP))
@@ -55,7 +55,7 @@ def test_generator_fmu_reproduces_the_profile_on_the_grid(case: str, tmp_path: P
 
 def test_step_at_a_communication_point_jumps_there_despite_rounding() -> None:
     # 0.1 * 3 = 0.30000000000000004 and 3 * 0.1 vs 0.3: the jump must land on the point whose
-    # time rounds either side of 0.3 (time tolerance 1e-9 s there, fmus.model.time_tolerance)
+    # time rounds either side of 0.3 (time tolerance 1e-9 s there, satfmu.fmus.model.time_tolerance)
     prof = make({"kind": "step", "time": 0.3, "before": 0.0, "after": 1.0})
     assert prof.sample(np.array([0.1 * 3, 0.3 - 1e-15, 0.3 - 1e-6]))[:2].tolist() == [1.0, 1.0]
     assert prof.sample(np.array([0.3 - 1e-6]))[0] == 0.0
@@ -91,7 +91,7 @@ def test_bad_tables_are_refused(times: list, values: list, mode: str, message: s
 
 
 def test_table_lookup_index_is_checked() -> None:
-    from fmus.model import Model, Output, TableLookup, Variable
+    from satfmu.fmus.model import Model, Output, TableLookup, Variable
 
     with pytest.raises(ModelDefinitionError, match="reads no table"):
         Model("bad", "", [], [], [], [Output(Variable("y"), TableLookup(1, Model.t))],

@@ -5,7 +5,7 @@ import cvxpy as cp
 import numpy as np
 import pytest
 
-from synthesis import solve_policy as sp_
+from satfmu.synthesis import solve_policy as sp_
 
 
 def _scripted(statuses: list[str | Exception]):

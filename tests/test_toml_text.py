@@ -1,4 +1,4 @@
-"""fmus.declared.toml_text: plain data as TOML text that reads back equal."""
+"""satfmu.fmus.declared.toml_text: plain data as TOML text that reads back equal."""
 from __future__ import annotations
 
 import tomllib
@@ -7,9 +7,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from fmus.declared import toml_text
-from sims import scenario as S
-from sims.paths import shipped_scenarios
+from satfmu.fmus.declared import toml_text
+from satfmu.sims import scenario as S
+from satfmu.sims.paths import shipped_scenarios
 
 
 @pytest.mark.parametrize("path", shipped_scenarios(), ids=lambda p: p.stem)

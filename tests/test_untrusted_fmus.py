@@ -4,7 +4,7 @@ Each command runs in a child process of its own (tests/untrusted_driver.py) over
 with TMPDIR pointing into the test's folder: every class must be refused with its reason
 named, within a second, with nothing written outside a temporary folder (the zip slip targets
 stay absent) and TMPDIR empty afterwards, and the process's peak memory (its own and its
-children's) under 300 MB. And :mod:`fmus.archive` itself: its limits, its messages, the
+children's) under 300 MB. And :mod:`satfmu.fmus.archive` itself: its limits, its messages, the
 extraction folder always removed.
 """
 from __future__ import annotations
@@ -21,7 +21,7 @@ from pathlib import Path
 
 import pytest
 
-from fmus import archive
+from satfmu.fmus import archive
 from tests import malicious_fmus as M
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -52,7 +52,7 @@ COMMANDS = {
                  "{fmu_dir}", "--out", "{out}"],
 }
 """Every command that opens an FMU of a folder (``replay`` and ``report`` read the FMUs a
-campaign folder names, by the same path: :func:`fmus.archive.read_description`)."""
+campaign folder names, by the same path: :func:`satfmu.fmus.archive.read_description`)."""
 
 PEAK_MB = 300
 """The issue's bound on memory, for the command's process and its largest child."""

@@ -9,8 +9,8 @@ import pytest
 import sympy as sp
 from fmpy import simulate_fmu
 
-from fmus import codegen, vscmg
-from fmus.model import Model
+from satfmu.fmus import codegen, vscmg
+from satfmu.fmus.model import Model
 
 MODEL = vscmg.MODEL
 INERTIA = vscmg.INERTIAS_ECP750
@@ -57,7 +57,7 @@ def test_mass_matrix_and_momenta_are_the_public_model() -> None:
 
 
 def test_model_definitions_cannot_use_undeclared_symbols() -> None:
-    from fmus.model import Definitions, ModelDefinitionError, State, Variable
+    from satfmu.fmus.model import Definitions, ModelDefinitionError, State, Variable
 
     d = Definitions()
     d("twice", 2 * sp.Symbol("nowhere", real=True))
@@ -127,7 +127,7 @@ def test_pythonfmu_and_native_agree_with_friction_saturation_and_disturbance(pla
 def test_friction_mode_is_frozen_over_a_substep_and_matches_an_exact_integration() -> None:
     # The RK4 substep against DOP853 on the same substeps (mode frozen, post-step applied):
     # they differ by integration error only, through break-away, sliding and a stop.
-    from fmus.pyslave import rk4_step
+    from satfmu.fmus.pyslave import rk4_step
 
     gen = codegen.load_python(MODEL)
     p = MODEL.parameter_vector().tolist()

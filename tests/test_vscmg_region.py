@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from controllers import artifact
-from controllers.polynomial import ARTIFACTS
-from sims import plots
-from synthesis import vscmg_region as vr
+from satfmu.controllers import artifact
+from satfmu.controllers.polynomial import ARTIFACTS
+from satfmu.sims import plots
+from satfmu.synthesis import vscmg_region as vr
 
 
 @pytest.fixture(scope="module")

@@ -3,7 +3,7 @@
 ``python -m tests.untrusted_driver JOB.json`` reads the job (the command's arguments with
 ``{fmu_dir}`` and ``{out}`` placeholders, the FMU folder, the malicious files by class, the
 folder TMPDIR points to), puts each malicious file in the FMU folder as ``mrp_satellite.fmu``,
-runs the command in this process (:func:`sims.cli.main`) and writes, for each class, the exit
+runs the command in this process (:func:`satfmu.sims.cli.main`) and writes, for each class, the exit
 code, stderr, stdout's tail, the wall time, what was left in TMPDIR and the process's peak
 resident memory so far; at the end its peak and its largest child's (ru_maxrss of the children,
 which includes what each inherited from this process when it was forked: an upper bound). The first class runs twice and its first run is not timed (imports).
@@ -37,7 +37,7 @@ def _left_in(folder: Path) -> list[str]:
 
 def main(job_file: str) -> int:
     """Run the job; write the results beside the job file (``.out.json``)."""
-    from sims.cli import main as satfmu
+    from satfmu.sims.cli import main as satfmu
 
     job = json.loads(Path(job_file).read_text())
     fmu_dir, tmp = Path(job["fmu_dir"]), Path(job["tmpdir"])

@@ -39,7 +39,7 @@
  * so a repeated sample at one instant gives the same result as a single one. fmus/pyslave.py
  * does the same.
  *
- * Time: two times closer than time_tolerance(t) (model.h, fmus.model.time_tolerance: 1e-9 |t|,
+ * Time: two times closer than time_tolerance(t) (model.h, satfmu.fmus.model.time_tolerance: 1e-9 |t|,
  * at most 1 us, at least 8 ulp of |t|) are one instant (a sample instant and a step end, a
  * breakpoint). fmi2DoStep refuses a currentCommunicationPoint farther than point_tol (8 ulp of
  * the larger of 1 s, |t| and |start|: what double precision forces when a master computes

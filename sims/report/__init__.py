@@ -12,14 +12,14 @@
 - what was proved: the claims of the artifact each controller FMU embeds;
 - the provenance: satfmu's version and commit, the FMU files' SHA-256, the machine.
 
-Modules: :mod:`~sims.report.folders` (reading the folders), :mod:`~sims.report.limits`
-(requirement and actuator-limit lines), :mod:`~sims.report.figures` (matplotlib, inline SVG),
-:mod:`~sims.report.proved` (artifact claims), :mod:`~sims.report.provenance`,
-:mod:`~sims.report.page` (the HTML, from the Jinja2 template ``page.html.j2``).
+Modules: :mod:`~satfmu.sims.report.folders` (reading the folders), :mod:`~satfmu.sims.report.limits`
+(requirement and actuator-limit lines), :mod:`~satfmu.sims.report.figures` (matplotlib, inline SVG),
+:mod:`~satfmu.sims.report.proved` (artifact claims), :mod:`~satfmu.sims.report.provenance`,
+:mod:`~satfmu.sims.report.page` (the HTML, from the Jinja2 template ``page.html.j2``).
 """
 from __future__ import annotations
 
-from sims.report.folders import ReportError
-from sims.report.page import build_report, write_report
+from satfmu.sims.report.folders import ReportError
+from satfmu.sims.report.page import build_report, write_report
 
 __all__ = ["ReportError", "build_report", "write_report"]

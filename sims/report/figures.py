@@ -17,8 +17,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from sims import scenario as S  # noqa: E402
-from sims.report.limits import Line, base  # noqa: E402
+from satfmu.sims import scenario as S  # noqa: E402
+from satfmu.sims.report.limits import Line, base  # noqa: E402
 
 REQUIREMENT = "#c0392b"
 """Colour of requirement lines (a metric's bounds)."""
@@ -83,7 +83,7 @@ def time_histories(results: pd.DataFrame, units: Mapping[str, str], lines: Calla
     units : dict of str to str
         Unit of each column.
     lines : callable
-        Base name (``plant.omega``) -> its :class:`~sims.report.limits.Line` list.
+        Base name (``plant.omega``) -> its :class:`~satfmu.sims.report.limits.Line` list.
     title : str
 
     Returns
@@ -198,7 +198,7 @@ def scatter(rows: pd.DataFrame, metrics: Sequence[S.Metric], dispersed: Sequence
     str
         An ``<svg>`` element: a row of panels per metric, a column per dispersed value.
     """
-    from sims import metrics as M
+    from satfmu.sims import metrics as M
 
     fig, axes = plt.subplots(len(metrics), len(dispersed), figsize=(max(6.5, 2.6 * len(dispersed) + 0.8),
                                                                     2.3 * len(metrics) + 0.4),
@@ -239,11 +239,11 @@ def envelopes(df: pd.DataFrame, signals: Mapping[str, Mapping[float, str]], unit
     df : pandas.DataFrame
         ``time`` (s) and ``<signal>:p<percentile>`` columns.
     signals : dict
-        Signal -> percentile (%) -> column (:func:`sims.report.folders.envelope_signals`).
+        Signal -> percentile (%) -> column (:func:`satfmu.sims.report.folders.envelope_signals`).
     units : dict of str to str
         Unit of each signal.
     lines : callable
-        Base name -> its :class:`~sims.report.limits.Line` list.
+        Base name -> its :class:`~satfmu.sims.report.limits.Line` list.
     title : str
 
     Returns
@@ -289,7 +289,7 @@ def compare_strips(series: Mapping[str, np.ndarray], metric: S.Metric) -> str:
         An ``<svg>`` element. Non-finite values (a settling time never reached, a sample that
         did not run) are counted in the row's label, not drawn.
     """
-    from sims import metrics as M
+    from satfmu.sims import metrics as M
 
     labels = list(series)
     fig, ax = plt.subplots(figsize=(8.5, 0.75 * len(labels) + 1.1))

@@ -24,8 +24,8 @@ import re
 from dataclasses import dataclass
 from typing import Mapping
 
-from sims import scenario as S
-from sims.report.folders import FmuFile
+from satfmu.sims import scenario as S
+from satfmu.sims.report.folders import FmuFile
 
 _INDEX = re.compile(r"\[[\d,]+\]$")
 
@@ -112,7 +112,7 @@ def actuator_limits(scenario: S.Scenario, fmus: Mapping[str, FmuFile]) -> list[A
     -------
     list of ActuatorLimit
     """
-    from fmus import archive
+    from satfmu.fmus import archive
 
     out = []
     for inst, f in fmus.items():

@@ -17,13 +17,13 @@ import jinja2
 import numpy as np
 from markupsafe import Markup
 
-from fmus.atomic import write_atomically
-from sims import metrics as M
-from sims import scenario as S
-from sims.report import figures, limits, proved
-from sims.report.folders import (CampaignFolder, Folder, ReportError, RunFolder, envelope_signals, read_folder)
-from sims.report.provenance import Provenance, collect
-from sims.scenario_campaign import FAILURES, PERCENTILES, MetricStatistics
+from satfmu.fmus.atomic import write_atomically
+from satfmu.sims import metrics as M
+from satfmu.sims import scenario as S
+from satfmu.sims.report import figures, limits, proved
+from satfmu.sims.report.folders import (CampaignFolder, Folder, ReportError, RunFolder, envelope_signals, read_folder)
+from satfmu.sims.report.provenance import Provenance, collect
+from satfmu.sims.scenario_campaign import FAILURES, PERCENTILES, MetricStatistics
 
 
 def number(value: Any) -> str:
@@ -55,7 +55,7 @@ def bounds(metric: S.Metric | M.MetricResult) -> str:
 
 @dataclass(frozen=True)
 class StatisticsRow:
-    """A row of a campaign's statistics table (:class:`sims.scenario_campaign.MetricStatistics`).
+    """A row of a campaign's statistics table (:class:`satfmu.sims.scenario_campaign.MetricStatistics`).
 
     Parameters
     ----------
@@ -69,7 +69,7 @@ class StatisticsRow:
 
     @property
     def percentiles(self) -> list[float | None]:
-        """The metric's value at each of :data:`~sims.scenario_campaign.PERCENTILES` (None: no finite value)."""
+        """The metric's value at each of :data:`~satfmu.sims.scenario_campaign.PERCENTILES` (None: no finite value)."""
         return [self.statistics.percentiles.get(p) for p in PERCENTILES]
 
 
@@ -162,7 +162,7 @@ def _campaign_view(camp: CampaignFolder) -> dict[str, Any]:
 
 def _units(camp: CampaignFolder, signals: list[str]) -> dict[str, str]:
     """Unit of each ``instance.variable`` (from its FMU's model description; ``"1"`` if unknown)."""
-    from fmus import archive
+    from satfmu.fmus import archive
 
     out, mds = {}, {}
     for s in signals:
@@ -232,7 +232,7 @@ def build_report(folders: Sequence[str | Path], fmu_dir: str | Path | None = Non
     worst : int
         How many worst samples of each campaign to list, >= 0.
     provenance : Provenance, optional
-        Default :func:`sims.report.provenance.collect` (now, this process).
+        Default :func:`satfmu.sims.report.provenance.collect` (now, this process).
 
     Returns
     -------
@@ -241,7 +241,7 @@ def build_report(folders: Sequence[str | Path], fmu_dir: str | Path | None = Non
     Raises
     ------
     ReportError
-        No folder, a bad confidence or count, or a folder :func:`~sims.report.folders.read_folder` refuses.
+        No folder, a bad confidence or count, or a folder :func:`~satfmu.sims.report.folders.read_folder` refuses.
     """
     if not folders:
         raise ReportError("no folder to report on")

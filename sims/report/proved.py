@@ -1,9 +1,9 @@
 """What was proved: the design artifact a controller FMU embeds, and its claims.
 
 A controller FMU carries the artifact it was built from as ``resources/artifact.json``
-(:func:`controllers.artifact.resource`); it is read from the FMU's zip archive as it is (no
-synthesis is run again) and validated with :func:`controllers.artifact.parse`, which also
-re-checks the claims against the numbers recorded (:mod:`controllers.claims`). An FMU without
+(:func:`satfmu.controllers.artifact.resource`); it is read from the FMU's zip archive as it is (no
+synthesis is run again) and validated with :func:`satfmu.controllers.artifact.parse`, which also
+re-checks the claims against the numbers recorded (:mod:`satfmu.controllers.claims`). An FMU without
 that file is no controller of satfmu's and has nothing to report here.
 """
 from __future__ import annotations
@@ -13,10 +13,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from controllers import artifact as A
-from fmus import archive
-from sims import preflight
-from sims.report.folders import FmuFile
+from satfmu.controllers import artifact as A
+from satfmu.fmus import archive
+from satfmu.sims import preflight
+from satfmu.sims.report.folders import FmuFile
 
 RESOURCE = "resources/artifact.json"
 """Where a controller FMU keeps its artifact."""
@@ -138,7 +138,7 @@ def claims(fmu: FmuFile) -> Claims | None:
     -------
     Claims or None
         With ``problem`` set when the file is gone, unreadable or its artifact is refused
-        (the message of :func:`controllers.artifact.parse`).
+        (the message of :func:`satfmu.controllers.artifact.parse`).
     """
     if not fmu.path.is_file():
         if fmu.model and _known_controller(fmu.model):
@@ -160,7 +160,7 @@ def claims(fmu: FmuFile) -> Claims | None:
 
 def _known_controller(model: str) -> bool:
     """Whether ``model`` names a controller artifact (shipped or the user's)."""
-    from sims import paths
+    from satfmu.sims import paths
 
     try:
         paths.find_artifact(model)

@@ -84,7 +84,7 @@ def collect() -> Provenance:
     -------
     Provenance
     """
-    import sims
+    from satfmu import sims
 
     versions = {}
     for name in LIBRARIES:

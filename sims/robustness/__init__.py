@@ -29,7 +29,7 @@ category; fmi2SerializeFMUstate into too small a buffer.
 
 Verdicts: ``pass``, ``fail``, ``crash`` and ``n/a``.
 
-The cases of one FMU run in a child process (``python -m sims.robustness --worker``, :mod:`.worker`),
+The cases of one FMU run in a child process (``python -m satfmu.sims.robustness --worker``, :mod:`.worker`),
 which reports each case as it starts and ends. If the child dies (segfault, abort)
 the case it was running is recorded as CRASH and the remaining cases continue in a
 new child; a case that does not finish within its time limit is killed and FAILs.
@@ -67,12 +67,12 @@ themselves are freed (checked exactly, :func:`.memory.live_slaves`). Native FMUs
 """
 from __future__ import annotations
 
-from sims.robustness.command import main
-from sims.robustness.memory import rss_bound_kib
-from sims.robustness.runner import Report, Row, run
-from sims.robustness.table import CASES, CYCLES_CASE, FAR_CASE, Case, Settings, always_applies
-from sims.robustness.target import BACKENDS, NATIVE, PYTHONFMU
-from sims.robustness.worker import ABORT_ENV
+from satfmu.sims.robustness.command import main
+from satfmu.sims.robustness.memory import rss_bound_kib
+from satfmu.sims.robustness.runner import Report, Row, run
+from satfmu.sims.robustness.table import CASES, CYCLES_CASE, FAR_CASE, Case, Settings, always_applies
+from satfmu.sims.robustness.target import BACKENDS, NATIVE, PYTHONFMU
+from satfmu.sims.robustness.worker import ABORT_ENV
 
 __all__ = ["ABORT_ENV", "BACKENDS", "CASES", "CYCLES_CASE", "FAR_CASE", "NATIVE", "PYTHONFMU", "Case", "Report", "Row",
            "Settings", "always_applies", "main", "rss_bound_kib", "run"]

@@ -1,6 +1,6 @@
-"""``python -m sims.robustness``: the suite's command line (also the workers' entry point)."""
+"""``python -m satfmu.sims.robustness``: the suite's command line (also the workers' entry point)."""
 import sys
 
-from sims.robustness.command import main
+from satfmu.sims.robustness.command import main
 
 sys.exit(main())

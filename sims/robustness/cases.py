@@ -1,4 +1,4 @@
-"""The worker side of the cases: each drives one :class:`~sims.robustness.instance.Instance`."""
+"""The worker side of the cases: each drives one :class:`~satfmu.sims.robustness.instance.Instance`."""
 from __future__ import annotations
 
 import math
@@ -7,9 +7,9 @@ from collections.abc import Callable
 
 from fmpy.fmi1 import FMICallException
 
-from sims.robustness.instance import (ERROR, FATAL, OK, STATUS_NAMES, CaseBroken, Instance, Outcome, bits,
+from satfmu.sims.robustness.instance import (ERROR, FATAL, OK, STATUS_NAMES, CaseBroken, Instance, Outcome, bits,
                                       chosen, recover, reject, short)
-from sims.robustness.target import Var
+from satfmu.sims.robustness.target import Var
 
 HUGE = 1e300
 """A finite but huge value (no declared range of the project's inputs excludes it)."""

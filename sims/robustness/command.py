@@ -1,20 +1,20 @@
-"""Command line of the suite (``satfmu robustness``, ``python -m sims.robustness``)."""
+"""Command line of the suite (``satfmu robustness``, ``python -m satfmu.sims.robustness``)."""
 from __future__ import annotations
 
 import argparse
 import sys
 from pathlib import Path
 
-from sims.robustness.cases import FAR_FACTOR
-from sims.robustness.runner import run
-from sims.robustness.report import markdown
-from sims.robustness.table import Settings
-from sims.robustness.target import discover
-from sims.robustness.worker import work
+from satfmu.sims.robustness.cases import FAR_FACTOR
+from satfmu.sims.robustness.runner import run
+from satfmu.sims.robustness.report import markdown
+from satfmu.sims.robustness.table import Settings
+from satfmu.sims.robustness.target import discover
+from satfmu.sims.robustness.worker import work
 
 
 def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="python -m sims.robustness", description="Drive every FMU through misuse cases (cases x FMUs, each FMU in a child process).")
+    p = argparse.ArgumentParser(prog="python -m satfmu.sims.robustness", description="Drive every FMU through misuse cases (cases x FMUs, each FMU in a child process).")
     p.add_argument("--fmu-dir", type=Path, default=Path("build/fmus"), help="folder of the FMUs (every *.fmu)")
     p.add_argument("--fmu", action="append", help="test only this FMU (repeatable; name with or without .fmu)")
     p.add_argument("--cycles", type=int, default=1000, help="instantiate/free cycles of the memory case")

@@ -18,12 +18,12 @@ from typing import TYPE_CHECKING
 
 from fmpy.fmi2 import fmi2String
 
-from sims import fmi_host
-from sims.robustness.instance import ERROR, FATAL, OK, Instance, Outcome, reject, recover
-from sims.robustness.target import NATIVE, PYTHONFMU
+from satfmu.sims import fmi_host
+from satfmu.sims.robustness.instance import ERROR, FATAL, OK, Instance, Outcome, reject, recover
+from satfmu.sims.robustness.target import NATIVE, PYTHONFMU
 
 if TYPE_CHECKING:
-    from sims.robustness.table import Case
+    from satfmu.sims.robustness.table import Case
 
 FMI2_MODEL_EXCHANGE, FMI2_CO_SIMULATION = 0, 1
 WRONG_GUID = b"{00000000-0000-0000-0000-000000000000}"
@@ -98,8 +98,8 @@ def small_buffer(inst: Instance) -> Outcome:
 
 def host_cases() -> tuple[Case, ...]:
     """The cases of this module, with their expectations (the last cases of
-    :data:`sims.robustness.table.CASES`)."""
-    from sims.robustness.table import Case, Expect, rejected
+    :data:`satfmu.sims.robustness.table.CASES`)."""
+    from satfmu.sims.robustness.table import Case, Expect, rejected
 
     def refused(fragment: str) -> Expect:
         return Expect((ERROR,), (fragment,), f"NULL + '{fragment}'")

@@ -9,9 +9,9 @@ from typing import Any
 
 from fmpy.fmi2 import FMU2Slave, fmi2Boolean, fmi2Integer, fmi2Real, fmi2ValueReference
 
-from sims import fmi_host
-from sims.fmi_host import ERROR, FATAL, OK, STATUS_NAMES as _FMI_STATUS_NAMES
-from sims.robustness.target import Target, Var
+from satfmu.sims import fmi_host
+from satfmu.sims.fmi_host import ERROR, FATAL, OK, STATUS_NAMES as _FMI_STATUS_NAMES
+from satfmu.sims.robustness.target import Target, Var
 
 NO_RESULT = -1
 """Outcome status of a case that failed before or without the call under test."""

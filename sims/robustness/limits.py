@@ -1,8 +1,8 @@
 """The limit cases of issue 26 (items 2, 9, 10): huge steps, large start times, status queries in
 every state, fmi2Terminate in the error state, outputs at extreme times and degenerate times.
 
-Each case drives one :class:`~sims.robustness.instance.Instance`; the parent judges the outcome
-against :data:`sims.robustness.table.CASES`.
+Each case drives one :class:`~satfmu.sims.robustness.instance.Instance`; the parent judges the outcome
+against :data:`satfmu.sims.robustness.table.CASES`.
 """
 from __future__ import annotations
 
@@ -14,11 +14,11 @@ from collections.abc import Callable, Sequence
 
 from fmpy.fmi2 import fmi2Boolean, fmi2Integer, fmi2Real, fmi2String
 
-from sims.fmi_host import DISCARD
-from sims.robustness.cases import STEPS, _drive, _read_outputs
-from sims.robustness.instance import (ERROR, NO_RESULT, OK, STATUS_NAMES, CaseBroken, Instance, Outcome,
+from satfmu.sims.fmi_host import DISCARD
+from satfmu.sims.robustness.cases import STEPS, _drive, _read_outputs
+from satfmu.sims.robustness.instance import (ERROR, NO_RESULT, OK, STATUS_NAMES, CaseBroken, Instance, Outcome,
                                       recover, short)
-from sims.robustness.target import TIME_ORIGINS, Target
+from satfmu.sims.robustness.target import TIME_ORIGINS, Target
 
 DBL_MAX = sys.float_info.max
 HUGE_STEPS = (1e9, 1e12, 1e30, DBL_MAX)

@@ -5,8 +5,8 @@ import gc
 import time
 from pathlib import Path
 
-from sims.robustness.instance import ERROR, OK, CaseBroken, Instance, Outcome
-from sims.robustness.target import NATIVE, PYTHONFMU
+from satfmu.sims.robustness.instance import ERROR, OK, CaseBroken, Instance, Outcome
+from satfmu.sims.robustness.target import NATIVE, PYTHONFMU
 
 WARMUP_CYCLES = 20
 """Instantiate/free cycles before the RSS baseline (allocator pools, ctypes and fmpy caches)."""

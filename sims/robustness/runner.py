@@ -13,14 +13,14 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from fmus import archive
-from sims.robustness.cases import FAR_FACTOR
-from sims.robustness.instance import NO_RESULT, OK, STATUS_NAMES, Outcome, short
-from sims.robustness.memory import WARMUP_CYCLES, rss_bound_kib
-from sims.robustness.report import write
-from sims.robustness.table import (CASE_BY_NAME, CASES, CYCLES_CASE, FAR_CASE, FLIPS_CASE, FULL_SCAN_BITS,
+from satfmu.fmus import archive
+from satfmu.sims.robustness.cases import FAR_FACTOR
+from satfmu.sims.robustness.instance import NO_RESULT, OK, STATUS_NAMES, Outcome, short
+from satfmu.sims.robustness.memory import WARMUP_CYCLES, rss_bound_kib
+from satfmu.sims.robustness.report import write
+from satfmu.sims.robustness.table import (CASE_BY_NAME, CASES, CYCLES_CASE, FAR_CASE, FLIPS_CASE, FULL_SCAN_BITS,
                                    HUGE_CASES, Case, Settings)
-from sims.robustness.target import BACKENDS, Target, describe, discover
+from satfmu.sims.robustness.target import BACKENDS, Target, describe, discover
 
 CASE_TIMEOUT_S = 120.0
 """Time limit of one case in s (the cases other than the far step, the cycles and the bit-flip scans
@@ -149,11 +149,11 @@ side 5x slower with OpenBLAS's default threads than with one each)."""
 
 def _start_worker(target: Target, names: list[str], settings: Settings, results: Path, output: Path
                   ) -> subprocess.Popen:
-    """``python -m sims.robustness --worker`` on ``names``: events to ``results``, its stdout and
+    """``python -m satfmu.sims.robustness --worker`` on ``names``: events to ``results``, its stdout and
     stderr to ``output``; its FMU extraction goes next to them (removed by the parent even if the
     worker crashes)."""
     results.unlink(missing_ok=True)
-    argv = [sys.executable, "-m", "sims.robustness", "--worker", str(target.path), "--results", str(results),
+    argv = [sys.executable, "-m", "satfmu.sims.robustness", "--worker", str(target.path), "--results", str(results),
             "--cycles", str(settings.cycles), "--far-factor", repr(settings.far_factor),
             *(["--flips", str(settings.flips)] if settings.flips is not None else []), *names]
     with output.open("w") as log:
@@ -296,12 +296,12 @@ class Report:
 
 def run(fmu_dir: Path, fmus: list[str] | None = None, cycles: int = 1000, out: Path | None = None, *,
         far_factor: float = FAR_FACTOR, flips: int | None = None) -> Report:
-    """Run every case on every FMU of ``fmu_dir`` (or on ``fmus``), each FMU in child processes.
+    """Run every case on every FMU of ``fmu_dir`` (or on ``satfmu.fmus``), each FMU in child processes.
 
     Parameters
     ----------
     fmu_dir : Path
-        Folder of the FMUs; every ``*.fmu`` in it is tested unless ``fmus`` is given.
+        Folder of the FMUs; every ``*.fmu`` in it is tested unless ``satfmu.fmus`` is given.
     fmus : list of str, optional
         FMU names (with or without ``.fmu``) to test instead.
     cycles : int
@@ -330,7 +330,7 @@ def run(fmu_dir: Path, fmus: list[str] | None = None, cycles: int = 1000, out: P
 
 
 def _run_path(path: Path, settings: Settings, workdir: Path) -> list[Row]:
-    """:func:`run_fmu` on the FMU file ``path``; an unreadable FMU (:func:`fmus.archive.check`, every
+    """:func:`run_fmu` on the FMU file ``path``; an unreadable FMU (:func:`satfmu.fmus.archive.check`, every
     entry's CRC included, since the workers extract it) fails every case."""
     try:
         archive.check(path, crc=True)

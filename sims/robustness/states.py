@@ -1,6 +1,6 @@
 """The corrupted-state cases: damaged serialized FMU states must be refused (issue 26 item 3).
 
-Each case serializes the state of an instance after :data:`~sims.robustness.cases.STEPS` driven
+Each case serializes the state of an instance after :data:`~satfmu.sims.robustness.cases.STEPS` driven
 steps, damages the bytes and hands them to ``fmi2DeSerializeFMUstate`` (then, if that accepts
 them, to ``fmi2SetFMUstate``): a damaged state is *accepted* when both return fmi2OK. A native FMU
 must refuse every damaged state with fmi2Error naming what failed and stay usable (the good state
@@ -10,7 +10,7 @@ would be abandoned and a new one made for the next damaged state.
 
 The native layout the forgery of "another model's state" needs (``fmus/c/fmi2_cosim.c``, ``Saved``):
 four little-endian uint32 (magic, format, size, CRC-32 of the record with the CRC field 0), then the
-16 bytes of the GUID (:func:`fmus.codegen.guid_bytes`). The pythonfmu one
+16 bytes of the GUID (:func:`satfmu.fmus.codegen.guid_bytes`). The pythonfmu one
 (``fmus/pyslave.py``): canonical JSON (sorted keys, no spaces) of ``model``, ``guid``, ``format``,
 ``content`` and ``crc32``, the CRC-32 of the canonical JSON of the other four.
 """
@@ -24,10 +24,10 @@ import uuid
 import zlib
 from collections.abc import Callable, Sequence
 
-from sims import fmi_host
-from sims.robustness.cases import _steps
-from sims.robustness.instance import ERROR, FATAL, OK, STATUS_NAMES, CaseBroken, Instance, Outcome, recover
-from sims.robustness.target import NATIVE
+from satfmu.sims import fmi_host
+from satfmu.sims.robustness.cases import _steps
+from satfmu.sims.robustness.instance import ERROR, FATAL, OK, STATUS_NAMES, CaseBroken, Instance, Outcome, recover
+from satfmu.sims.robustness.target import NATIVE
 
 FLIP_SEED = 26
 """Seed of the sampled bit positions when a scan does not flip every bit."""

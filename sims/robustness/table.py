@@ -5,12 +5,12 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from sims.robustness import cases as c
-from sims.robustness.cases import FAR_FACTOR, STEPS, UNKNOWN_VR
-from sims.robustness.host_cases import host_cases
-from sims.robustness.instance import ERROR, OK, Outcome
-from sims.robustness.memory import RSS_PER_CYCLE_KIB, RSS_SLACK_KIB, cycles
-from sims.robustness.target import BACKENDS, NATIVE, PYTHONFMU, Target
+from satfmu.sims.robustness import cases as c
+from satfmu.sims.robustness.cases import FAR_FACTOR, STEPS, UNKNOWN_VR
+from satfmu.sims.robustness.host_cases import host_cases
+from satfmu.sims.robustness.instance import ERROR, OK, Outcome
+from satfmu.sims.robustness.memory import RSS_PER_CYCLE_KIB, RSS_SLACK_KIB, cycles
+from satfmu.sims.robustness.target import BACKENDS, NATIVE, PYTHONFMU, Target
 
 CYCLES_CASE = "instantiate/free cycles"
 FAR_CASE = "doStep far beyond default"
@@ -223,8 +223,8 @@ def _needs_serialize(target: Target) -> str | None:
 
 
 def _issue26_cases() -> tuple[Case, ...]:
-    from sims.robustness import limits as lim
-    from sims.robustness import states as st
+    from satfmu.sims.robustness import limits as lim
+    from satfmu.sims.robustness import states as st
 
     cases = []
     refused = rejected(*STATE_FRAGMENTS)

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from fmus import archive
+from satfmu.fmus import archive
 
 
 NATIVE, PYTHONFMU = "native", "pythonfmu"
@@ -45,7 +45,7 @@ class Var:
 
 
 SAMPLE_PERIODS = ("control_period", "sample_period")
-"""Names of the sample-period parameters of the project's sampled FMUs (fmus.model.Sampler.period:
+"""Names of the sample-period parameters of the project's sampled FMUs (satfmu.fmus.model.Sampler.period:
 controllers/magnetic.py, controllers/servo.py); the huge-step cases also run at its declared minimum."""
 TIME_ORIGINS = {"step_time": 1.0, "start": 1.0, "stop": 1.0, "orbit_time_0": -1.0}
 """Parameters that place an FMU's time-dependent behaviour on the time axis, with the sign of their

@@ -10,10 +10,10 @@ from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
-from fmus import archive
-from sims.robustness.instance import NO_RESULT, CaseBroken, Instance, Outcome
-from sims.robustness.table import CASE_BY_NAME, Case, Settings
-from sims.robustness.target import Target, describe
+from satfmu.fmus import archive
+from satfmu.sims.robustness.instance import NO_RESULT, CaseBroken, Instance, Outcome
+from satfmu.sims.robustness.table import CASE_BY_NAME, Case, Settings
+from satfmu.sims.robustness.target import Target, describe
 
 ABORT_ENV = "SATFMU_ROBUSTNESS_ABORT"
 """Test hook: a worker calls ``os.abort()`` when it starts the case named in this variable."""
