@@ -51,7 +51,8 @@ def main() -> None:
     ap.add_argument("--samples", type=int, default=10_000, help="campaign size (default: 10000)")
     ap.add_argument("--chunk", type=int, default=250, help="samples per chunk (default: 250)")
     ap.add_argument("--repeat", type=int, default=20, help="bare runs timed (default: 20)")
-    ap.add_argument("--repeat-campaign", type=int, default=1, help="rounds of the 1- and 2-worker campaigns (default: 1)")
+    ap.add_argument("--repeat-campaign", type=int, default=1,
+                    help="rounds of the 1- and 2-worker campaigns (default: 1)")
     ap.add_argument("--fmu-dir", type=Path, default=paths.fmu_cache(),
                     help="FMU folder, brought up to date first (default: the user's FMU cache)")
     args = ap.parse_args()
@@ -100,7 +101,8 @@ def main() -> None:
         print(f"{w:>8d} {min(walls[w]):8.2f} ({statistics.median(walls[w]):6.2f}) {min(runs[w]):8.2f} "
               f"({statistics.median(runs[w]):6.2f}) {args.samples / min(runs[w]):10.0f}")
     print(f"speed-up on 2 workers (target >= 1.8): end to end {min(walls[1]) / min(walls[2]):.2f}x, the samples "
-          f"alone {min(runs[1]) / min(runs[2]):.2f}x (medians {statistics.median(walls[1]) / statistics.median(walls[2]):.2f}x, "
+          f"alone {min(runs[1]) / min(runs[2]):.2f}x (medians "
+          f"{statistics.median(walls[1]) / statistics.median(walls[2]):.2f}x, "
           f"{statistics.median(runs[1]) / statistics.median(runs[2]):.2f}x); {args.samples} samples on 2 workers in "
           f"{min(walls[2]):.1f} s end to end (target < 120 s); rows of 1 and 2 workers identical: "
           f"{rows[1].equals(rows[2])}")

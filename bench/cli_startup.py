@@ -48,7 +48,8 @@ def main() -> None:
             wall, cpu = _timed([sys.executable, "-m", "satfmu.sims.cli", *command])
             walls[label].append(wall)
             cpus[label].append(cpu)
-    print(f"satfmu start-up, {args.repeat} runs each, interleaved (python -m satfmu.sims.cli; target: CPU < {TARGET:g} s):")
+    print(f"satfmu start-up, {args.repeat} runs each, interleaved "
+          f"(python -m satfmu.sims.cli; target: CPU < {TARGET:g} s):")
     print(f"  {'command':<22} {'CPU min':>8} {'median':>7} {'wall min':>9} {'median':>7}  target")
     for k in labels:
         cpu = statistics.median(cpus[k])

@@ -181,7 +181,8 @@ def main() -> None:
     ap.add_argument("--scenarios", nargs="+", default=["mrp_200deg", "cubesat_detumble"],
                     help="shipped scenarios with native FMUs only (default: mrp_200deg cubesat_detumble)")
     ap.add_argument("--fmu-dir", type=Path, default=paths.fmu_cache(),
-                    help="FMU folder, brought up to date first (default: the user's FMU cache, satfmu.sims.paths.fmu_cache())")
+                    help="FMU folder, brought up to date first (default: the user's FMU cache, "
+                         "satfmu.sims.paths.fmu_cache())")
     args = ap.parse_args()
     fmu_dir = args.fmu_dir.resolve()
     catalog.build_all(fmu_dir)  # nothing to do when `satfmu build` ran on this tree

@@ -24,7 +24,8 @@ normal with 0.1 rad/s deviation; references q + normal 0.05 rad; fixed ``--seed`
   fmi2DoStep and before setting the new inputs would make it solve a second time per step,
   with the stale inputs;
 - the closed loops: the shipped scenarios ``vscmg_seed`` and ``vscmg_seed_friction`` run with
-  native FMUs, the two online SDRE controllers native, then pythonfmu; the largest difference of the online SDRE loops' plant
+  native FMUs, the two online SDRE controllers native, then pythonfmu; the largest difference of
+  the online SDRE loops' plant
   states (q2, q4, rad) and commands (T1, T2, N m) between the two, and each run's wall time.
 
 Each timing is the best of ``--repeat`` runs, in this one process, reported as

@@ -120,7 +120,8 @@ def _via_cvxpy(problem: Any, **settings: Any) -> Any:
         i, j = svec_indices(N)
         off, unscale = i != j, 1.0 / svec_scale(N)
         U = sps.csr_matrix((np.concatenate([unscale, unscale[off]]),
-                            (np.concatenate([j * N + i, (i * N + j)[off]]), np.concatenate([np.arange(d), np.flatnonzero(off)]))),
+                            (np.concatenate([j * N + i, (i * N + j)[off]]),
+                             np.concatenate([np.arange(d), np.flatnonzero(off)]))),
                            shape=(N * N, d))  # scaled svec -> full matrix, column-major
         S = cp.reshape(U @ b[end:end + d] - (U @ A[end:end + d]) @ x, (N, N), order="F")
         cons.append((S + S.T) / 2 >> 0)
@@ -207,7 +208,8 @@ def main(argv: list[str] | None = None) -> None:
         med = {t: {k: statistics.median(r[k] for r in runs[p, t]) for k in keys} for t in trees}
         for t in trees:
             if t != "this":
-                print(f"{'median ' + t + ' / this':>24}" + "".join(f"{med[t][k] / med['this'][k]:>15.2f}x" for k in keys))
+                print(f"{'median ' + t + ' / this':>24}"
+                      + "".join(f"{med[t][k] / med['this'][k]:>15.2f}x" for k in keys))
 
 
 if __name__ == "__main__":

@@ -500,14 +500,16 @@ def drake_theorem8(bases: list[np.ndarray], gamma: float, alpha: float, beta: fl
     sos = []
     for M, a in ((M2, alpha), (Minf, beta)):
         M = M + margin * np.diag(np.concatenate([np.ones(n), np.full(n, a), np.ones(M.shape[0] - 2 * n)]))
-        S = -np.array([[M[max(i, j), min(i, j)] for j in range(len(M))] for i in range(len(M))])  # from the lower triangle
+        S = -np.array([[M[max(i, j), min(i, j)] for j in range(len(M))]
+                       for i in range(len(M))])  # from the lower triangle
         sos += _add_sos_matrix(prog, S, xt, v, bases_it, [ball], 0, range(2 * n))
     lmis = [X2 - margin * np.eye(n), Xinf - margin * np.eye(n),
             np.block([[np.array([[lam]]), x0[None, :]], [x0[:, None], X2]])]
     for L in lmis:
         prog.AddLinearMatrixInequalityConstraint(L)
     prog.AddLinearCost(lam)
-    layout = ([("matrix", F), ("sym", X2), ("sym", Xinf)] + [("poly", (Y[i, j], xt, 1)) for i in range(m) for j in range(n)]
+    layout = ([("matrix", F), ("sym", X2), ("sym", Xinf)]
+              + [("poly", (Y[i, j], xt, 1)) for i in range(m) for j in range(n)]
               + [("var", lam), ("poly", (sos[0].p, xt, 0)), ("poly", (sos[2].p, xt, 0))])
     options = {"tol_feas": 1e-10, "tol_gap_abs": 1e-10, "tol_gap_rel": 1e-10}
     return DrakeProgram(prog, sos, layout, lmis, [], lam, options, radius)
@@ -1021,7 +1023,8 @@ def main(argv: list[str] | None = None) -> None:
     all_programs = programs()
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=5, help="interleaved rounds (default: 5)")
-    ap.add_argument("--programs", nargs="+", choices=[p.key for p in all_programs], default=[p.key for p in all_programs])
+    ap.add_argument("--programs", nargs="+", choices=[p.key for p in all_programs],
+                    default=[p.key for p in all_programs])
     ap.add_argument("--sospy-rounds", type=int, default=1,
                     help="rounds SumOfSquares.py takes part in (default: 1; 0: left out)")
     ap.add_argument("--sospy-limit", type=float, default=600.0,
@@ -1037,7 +1040,8 @@ def main(argv: list[str] | None = None) -> None:
         raise SystemExit("Drake is not installed: pip install -e '.[bench]'") from None
     import clarabel
 
-    print(f"satfmu: Clarabel {clarabel.__version__} (Python wheel, our arrays handed to it directly), linear algebra: faer, "
+    print(f"satfmu: Clarabel {clarabel.__version__} (Python wheel, our arrays handed to it directly), "
+          f"linear algebra: faer, "
           f"multithreaded (the wheel's default){'; satfmu qdldl: QDLDL' if args.qdldl else ''}\n"
           f"Drake {metadata.version('drake')}: Clarabel through ClarabelSolver, linear algebra: QDLDL, one thread "
           f"(Drake builds Clarabel without faer and does not pass direct_solve_method)\n"
@@ -1045,7 +1049,8 @@ def main(argv: list[str] | None = None) -> None:
           f"{metadata.version('picos')}")
     t0 = time.perf_counter()
     limits = Limits(args.sospy_limit, args.sospy_memory)
-    rows = [bench(p, args.repeat, args.sospy_rounds, args.qdldl, limits) for p in all_programs if p.key in args.programs]
+    rows = [bench(p, args.repeat, args.sospy_rounds, args.qdldl, limits) for p in all_programs
+            if p.key in args.programs]
     names = ["satfmu"] + (["satfmu qdldl"] if args.qdldl else []) + ["Drake", "SumOfSquares.py"]
     print(f"\n{'program':15}{'Gram sizes':>24}" + "".join(f"{n:>16}" for n in names)
           + f"{'ours/Drake':>11}{'ours/sos.py':>12}\n{'':39}{'(median s, end to end, verification included)':>48}")

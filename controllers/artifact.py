@@ -662,7 +662,8 @@ def _provenance(data: dict, where: str) -> dict[str, Any]:
         for k, v in _get(rec, "parameters", dict, w).items():
             _finite(v, f"{w}.parameters.{k}")
         for k, v in rec.get("ranges", {}).items():
-            if not (isinstance(v, list) and len(v) == 2 and _finite(v[0], f"{w}.ranges.{k}") <= _finite(v[1], f"{w}.ranges.{k}")):
+            if not (isinstance(v, list) and len(v) == 2
+                    and _finite(v[0], f"{w}.ranges.{k}") <= _finite(v[1], f"{w}.ranges.{k}")):
                 raise _fail(f"{w}.ranges.{k}", "must be [low, high] with low <= high")
     return prov
 

@@ -199,7 +199,8 @@ def _description_problem(text: bytes, limits: FmuLimits) -> str | None:
     except UnicodeDecodeError as exc:
         return f"has a {DESCRIPTION} that is not UTF-8 (byte {exc.start}), as FMI 2.0 requires"
     if "<!DOCTYPE" in decoded or "<!ENTITY" in decoded:
-        return f"has a {DESCRIPTION} that declares a document type or entities, which an FMI model description never needs"
+        return (f"has a {DESCRIPTION} that declares a document type or entities, "
+                "which an FMI model description never needs")
     n = decoded.count("<ScalarVariable")
     if n > limits.max_variables:
         return (f"has a {DESCRIPTION} of {n} variables, more than {limits.max_variables} "

@@ -242,7 +242,8 @@ static double table_lookup(int k, double t) {
     }
     i = lo > 0 ? lo - 1 : 0;
     if (tb->previous) return tb->values[i];
-    return tb->values[i] + (tb->values[i + 1] - tb->values[i]) * ((t - tb->times[i]) / (tb->times[i + 1] - tb->times[i]));
+    return tb->values[i] + (tb->values[i + 1] - tb->values[i]) * \
+((t - tb->times[i]) / (tb->times[i + 1] - tb->times[i]));
 }
 """
 
@@ -439,7 +440,8 @@ def c_source(model: Model, guid: str) -> str:
     lines.append(f"#define TIME_TOL_MAX {TIME_TOL_MAX!r} /* at most this (s), */")
     lines.append(f"#define TIME_ULPS {float(TIME_ULPS)!r} /* at least this many ulp of |t| */")
     lines.append("static double time_tolerance(double t) {")
-    lines.append("    return fmax(fmin(TIME_TOL * fmax(1.0, fabs(t)), TIME_TOL_MAX), TIME_ULPS * DBL_EPSILON * fabs(t));")
+    lines.append("    return fmax(fmin(TIME_TOL * fmax(1.0, fabs(t)), TIME_TOL_MAX), "
+                 "TIME_ULPS * DBL_EPSILON * fabs(t));")
     lines.append("}")
     lines.append("static const unsigned char MODEL_ID[16] = {" + ", ".join(f"0x{b:02x}" for b in guid_bytes(guid))
                  + "}; /* in every FMU state */")
@@ -473,7 +475,8 @@ def c_source(model: Model, guid: str) -> str:
     if model.sampler is None:  # the wrapper calls it only when NH > 0
         generated = generated + [LoweredFunction("sample_arguments", [], [])]
     if model.sampler is not None and model.sampler.c_header is not None:
-        lines.append(f"#define MAX_STEP_INSTANTS {float(MAX_STEP_ROUTINE_SAMPLES)!r} /* a routine's instants per step */")
+        lines.append(f"#define MAX_STEP_INSTANTS {float(MAX_STEP_ROUTINE_SAMPLES)!r} "
+                     "/* a routine's instants per step */")
         lines += [f"#define SAMPLER_{k.upper()} {v!r}" for k, v in model.sampler.options.items()]
         lines.append(f'#include "{model.sampler.c_header}"')
     for f in generated:

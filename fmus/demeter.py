@@ -265,7 +265,8 @@ def build() -> Model:
     outputs += [Output(Variable(f"wheel_saturated[{i + 1}]", "1", f"Wheel {i + 1} at its momentum limit "
                                 "(1) or not (0)"), sp.Piecewise((1, sp.And(on, sp.Abs(hw[i]) >= Hm)), (0, True)))
                 for i in range(3)]
-    params = list(jvars.values()) + [v for row in lvars for v in row] + zvars + wvars + [wheels_on, t_max, h_max, wn, zw]
+    params = (list(jvars.values()) + [v for row in lvars for v in row] + zvars + wvars
+              + [wheels_on, t_max, h_max, wn, zw])
     return Model(
         name="demeter_flexible",
         description="DEMETER satellite, linearized attitude with 4 flexible appendages and 3 reaction "

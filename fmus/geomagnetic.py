@@ -188,7 +188,8 @@ def igrf_orbit_field(tau: np.ndarray | float, epoch: _dt.datetime | _dt.date,
     date = epoch_datetime(epoch)
     first, last = igrf_validity()
     if not first <= date <= last:
-        raise ValueError(f"epoch {date:%Y-%m-%d} is outside the IGRF coefficients ({first:%Y-%m-%d} to {last:%Y-%m-%d})")
+        raise ValueError(f"epoch {date:%Y-%m-%d} is outside the IGRF coefficients "
+                         f"({first:%Y-%m-%d} to {last:%Y-%m-%d})")
 
     r_hat, c_oi = orbit_geometry(t, p)
     to_ecef = _rot3(p["earth_rotation_angle_0"] + EARTH_RATE * t)

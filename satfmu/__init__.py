@@ -52,7 +52,8 @@ if TYPE_CHECKING:
     from satfmu.sims.scenario import Result, Scenario
 
 _EXPORTS = {
-    "Spacecraft": "satfmu.fmus.spacecraft", "SpacecraftError": "satfmu.fmus.spacecraft", "SEED_000": "satfmu.fmus.spacecraft",
+    "Spacecraft": "satfmu.fmus.spacecraft", "SpacecraftError": "satfmu.fmus.spacecraft",
+    "SEED_000": "satfmu.fmus.spacecraft",
     "Scenario": "satfmu.sims.scenario", "FmuSpec": "satfmu.sims.scenario", "Connection": "satfmu.sims.scenario",
     "Metric": "satfmu.sims.scenario", "Result": "satfmu.sims.scenario", "ScenarioError": "satfmu.sims.scenario",
     "DesignMismatchWarning": "satfmu.sims.scenario", "StaleFmuWarning": "satfmu.sims.scenario",

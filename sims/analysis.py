@@ -166,7 +166,8 @@ class L2Report:
 
     def text(self) -> str:
         """The three estimates, one per line."""
-        (c_pub, kv_pub), (c_diag, kv_diag), smp, label = self.diagonal, self.diagonal_best, self.sampled, self.region.label
+        (c_pub, kv_pub), (c_diag, kv_diag), smp, label = (self.diagonal, self.diagonal_best, self.sampled,
+                                                          self.region.label)
         found = f"c >= {smp.c:.4f} at kv = {smp.kv:.4g}" if math.isfinite(smp.c) else "no finite c for any kv"
         lines = [f"{self.controller}: L2 gain c from the HJI inequality, V = kv x^T P x, z = sigma",
                  f"  diagonal x1=...=x6 in [-10, 10] (seed 000's method): c = {c_pub:.4f} at kv = {kv_pub:g}; "
@@ -181,7 +182,8 @@ class L2Report:
         else:
             lines.append(f"  SOS certificate of H <= 0 on {label}: c <= {g.c:.4f} at kv = {g.kv:.4g} "
                          f"({'certified' if g.certified else 'NOT certified'}: min Gram eigenvalue "
-                         f"{min(ch.min_eig for ch in g.checks):.2e}, residual {max(ch.residual for ch in g.checks):.2e}; "
+                         f"{min(ch.min_eig for ch in g.checks):.2e}, residual "
+                         f"{max(ch.residual for ch in g.checks):.2e}; "
                          f"{g.n_programs} SDPs, {g.timings['solve']:.1f} s)")
         return "\n".join(lines)
 

@@ -33,7 +33,8 @@
 
 ``--fmu-dir`` defaults to the user's FMU cache (:func:`satfmu.sims.paths.fmu_cache`, under
 ``$SATFMU_HOME``); ``run``, ``export-ssp``, ``verify``, ``figures`` and ``detumble`` build the
-FMUs missing there (:func:`satfmu.sims.catalog.ensure`), ``satfmu build`` brings every FMU up to date and compiles the co-simulation loop
+FMUs missing there (:func:`satfmu.sims.catalog.ensure`), ``satfmu build`` brings every FMU up to date
+and compiles the co-simulation loop
 (:mod:`satfmu.sims.compiled_loop`).
 A controller is named by its artifact (the user's artifacts first, then the shipped ones) or a
 ``.json`` path.
@@ -583,7 +584,8 @@ def parser() -> argparse.ArgumentParser:
     cd.add_argument("--artifact", default="demeter_row1_det", help="artifact name or a .json path")
     cd.add_argument("--samples", type=_positive_int, default=100_000, help="sampled plants")
     cd.add_argument("--chunk", type=_positive_int, default=5000, help="samples per task and per Parquet file")
-    cd.add_argument("--seed", type=_nonnegative_int, default=0, help="root seed (results depend only on seed, chunk, samples)")
+    cd.add_argument("--seed", type=_nonnegative_int, default=0,
+                    help="root seed (results depend only on seed, chunk, samples)")
     cd.add_argument("--workers", type=_positive_int, default=2, help="local Dask workers (ignored with --scheduler)")
     cd.add_argument("--scheduler", default=None,
                     help="address of a running Dask scheduler, tcp://host:port (default: a local cluster)")

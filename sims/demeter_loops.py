@@ -119,7 +119,8 @@ def load_design(artifact: str | Path) -> tuple[artifacts.GainArtifact, Variant]:
     dm = design_model(variant)
     if K.shape != (dm.na, dm.n) or not np.all(np.isfinite(K)):
         raise ValueError(f"{path}: design.K: must be a finite {dm.na} x {dm.n} matrix (inputs x states of "
-                         f"{variant.label}), got shape {K.shape}{'' if np.all(np.isfinite(K)) else ' with non-finite entries'}")
+                         f"{variant.label}), got shape {K.shape}"
+                         f"{'' if np.all(np.isfinite(K)) else ' with non-finite entries'}")
     return art, variant
 
 

@@ -83,7 +83,8 @@ def _finish(fig: plt.Figure, ax: plt.Axes, path: Path, xlabel: str, ylabel: str,
     plt.close(fig)
 
 
-def region_map(cells: Sequence, path: Path, boxes: Sequence = (), trajectory: tuple[np.ndarray, np.ndarray] | None = None,
+def region_map(cells: Sequence, path: Path, boxes: Sequence = (),
+               trajectory: tuple[np.ndarray, np.ndarray] | None = None,
                title: str = "") -> None:
     """A stability-region map over (q2, w4) like seed 002's Fig. 2: certified cells (objects
     with ``q2``, ``w4`` intervals and ``certified``, ``decay``) shaded by their decay bound,
@@ -104,7 +105,8 @@ def region_map(cells: Sequence, path: Path, boxes: Sequence = (), trajectory: tu
     for k, b in enumerate(boxes):
         (q0, q1), (w0, w1) = b.q2, b.w4
         ax.add_patch(Rectangle((q0, w0), q1 - q0, w1 - w0, fill=False, edgecolor="C3" if b.certified else "k", lw=2,
-                               label=f"box {'certified' if b.certified else 'NOT certified'} (one Y)" if k == 0 else None))
+                               label=(f"box {'certified' if b.certified else 'NOT certified'} (one Y)" if k == 0
+                                      else None)))
     if trajectory is not None:
         ax.plot(*trajectory, color="C0", lw=1.5, label="seed manoeuvre (q2, w4)")
     ax.plot([], [], "s", color=cmap(0.6), label="cell certified (shade: decay bound)")
@@ -147,7 +149,8 @@ def detumble_linear(runs: Sequence, path: Path, title: str = "") -> None:
 
 
 def detumble_sweep(rows: Sequence, path: Path, title: str = "") -> None:
-    """|w(2 orbits)| / |w(0)| and dipole effort against |w(0)| per controller (:class:`satfmu.sims.detumble.SweepRow`)."""
+    """|w(2 orbits)| / |w(0)| and dipole effort against |w(0)| per controller
+    (:class:`satfmu.sims.detumble.SweepRow`)."""
     fig, (ax_r, ax_e) = plt.subplots(2, 1, sharex=True, figsize=(8, 6))
     for label in dict.fromkeys(r.controller for r in rows):
         mine = sorted((r for r in rows if r.controller == label), key=lambda r: r.w0)

@@ -296,7 +296,8 @@ class Scenario:
             out["connections"] = [{"from": c.source, "to": c.target} for c in self.connections]
         if self.metrics:
             defaults = _fields(Metric("", "", []))
-            out["metrics"] = [{k: v for k, v in _fields(m).items() if k in ("name", "kind", "signals") or v != defaults[k]}
+            out["metrics"] = [{k: v for k, v in _fields(m).items()
+                               if k in ("name", "kind", "signals") or v != defaults[k]}
                               for m in self.metrics]
         if self.dispersions is not None:
             out["dispersions"] = dict(self.dispersions.data)
@@ -543,7 +544,8 @@ class Result:
 def _fields(obj: Any) -> dict[str, Any]:
     """A dataclass's fields, one level deep (``dataclasses.asdict`` copies recursively: ten times the
     cost, for the plain data these hold)."""
-    return {f.name: (lambda v: v.copy() if isinstance(v, (dict, list)) else v)(getattr(obj, f.name)) for f in fields(obj)}
+    return {f.name: (lambda v: v.copy() if isinstance(v, (dict, list)) else v)(getattr(obj, f.name))
+            for f in fields(obj)}
 
 
 def clear_outputs(folder: Path, name: str, backend: str) -> None:

@@ -340,7 +340,8 @@ def reopen(folder: str | Path, fmu_dir: str | Path | None = None) -> Campaign:
     if "scenario" not in ctx:
         raise CampaignError(f"{folder}: not the folder of a scenario campaign (campaign.json holds no scenario)")
     path = None if ctx.get("path") is None else Path(ctx["path"])
-    sc = S.Scenario.from_dict(ctx["scenario"], ctx["base_dir"], str(path) if path else f"scenario {ctx['scenario']['name']!r}",
+    sc = S.Scenario.from_dict(ctx["scenario"], ctx["base_dir"],
+                              str(path) if path else f"scenario {ctx['scenario']['name']!r}",
                               path)
     task_dir = fmu_dir if fmu_dir is not None else ctx["fmu_dir"]
     env = ctx.get("envelopes") or {}

@@ -184,7 +184,8 @@ def run_ecos(ssp_path: Path, stop_time: float, step_size: float, timeout: float 
         ecos failed (exit code and output), timed out, or wrote no CSV.
     """
     with tempfile.TemporaryDirectory(prefix="satfmu_ecos_") as tmp:
-        cmd = [str(ecos_binary()), "simulate", "--path", str(Path(ssp_path).resolve()), "--stopTime", repr(stop_time + step_size / 2),
+        cmd = [str(ecos_binary()), "simulate", "--path", str(Path(ssp_path).resolve()),
+               "--stopTime", repr(stop_time + step_size / 2),
                "--stepSize", repr(step_size), "--noParallel", "-l", "warn"]
         cmd += [] if alone else ["--parameterSet", ssp.PARAMETER_SET]
         if variables is not None:
@@ -537,7 +538,8 @@ def markdown(reports: list[ScenarioReport]) -> str:
             what = so.error or f"{so.max_deviation:.3g} ({so.worst_variable or 'no signal'})"
             if so.unchecked:
                 what += f"; not checked (continuous states): {', '.join(so.unchecked)}"
-            lines.append(f"| {r.scenario} | master, sampled controllers {', '.join(so.controllers) or '(none checked)'}: Jacobi order "
+            lines.append(f"| {r.scenario} | master, sampled controllers "
+                         f"{', '.join(so.controllers) or '(none checked)'}: Jacobi order "
                          f"vs feedthrough order one step later | {r.n_points} points | {what} | | "
                          f"{'pass' if so.passed else 'FAIL'} |")
         for c in r.comparisons:

@@ -198,7 +198,8 @@ def synthesize(gamma: float | None = None, bisect: bool = True,
     pub = analyze(sys_, PUBLISHED_GAINS)
     minutes = gamma_min(system(sigma=sigma, parameters=parameters, time_unit=60.0))
     numbers = {
-        "gamma_min": best.gamma, "gamma_design": level, "seed_gamma_feasible": float(design(sys_, GAMMA_SEED) is not None),
+        "gamma_min": best.gamma, "gamma_design": level,
+        "seed_gamma_feasible": float(design(sys_, GAMMA_SEED) is not None),
         "gamma_min_t_in_minutes": minutes.gamma if minutes else np.nan,
         "max_block_eig": float(found.check.block_max_eig.max()), "min_y_eig": float(found.check.y_min_eig.min()),
         "ms_spectral_radius": ms_spectral_radius(sys_, found.F), "max_abs_gain": float(np.abs(found.F).max()),

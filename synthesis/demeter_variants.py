@@ -86,7 +86,8 @@ class Variant:
     wheels: bool = True
 
     def __post_init__(self) -> None:
-        for name, sel, top in (("axes", self.axes, demeter.N_AXES), ("appendages", self.appendages, demeter.N_APPENDAGES)):
+        for name, sel, top in (("axes", self.axes, demeter.N_AXES),
+                               ("appendages", self.appendages, demeter.N_APPENDAGES)):
             if not sel or len(set(sel)) != len(sel) or any(not isinstance(i, (int, np.integer)) or not 1 <= i <= top
                                                           for i in sel):
                 raise VariantError(f"{name} must be distinct integers in 1..{top}, got {sel!r}")
@@ -199,7 +200,8 @@ class DesignModel:
         """delta as shape (N,), or (S, N) with ``stack``; finite and in the box."""
         d = np.asarray(delta, float)
         d = d.reshape(-1, len(self.parameters)) if stack and d.ndim == 2 else d.reshape(-1)
-        if d.shape[-1:] != (len(self.parameters),) or not np.all(np.isfinite(d)) or np.abs(d).max(initial=0) > 1 + 1e-12:
+        if (d.shape[-1:] != (len(self.parameters),) or not np.all(np.isfinite(d))
+                or np.abs(d).max(initial=0) > 1 + 1e-12):
             raise VariantError(f"delta must be {len(self.parameters)} finite numbers in [-1, 1] "
                                f"{'per row ' if stack else ''}, got shape {np.shape(delta)}")
         return d
@@ -339,7 +341,8 @@ def parameters(variant: Variant) -> list[UncertainParameter]:
     modes = "norm-bounded" if variant.uncertainty_type == 1 else "uniform"
     out = []
     for k, i in enumerate(ax):
-        lo, hi = np.sqrt((1 - INERTIA_DIAGONAL_SPREAD) * demeter.J0[i, i]), np.sqrt((1 + INERTIA_DIAGONAL_SPREAD) * demeter.J0[i, i])
+        lo, hi = (np.sqrt((1 - INERTIA_DIAGONAL_SPREAD) * demeter.J0[i, i]),
+                  np.sqrt((1 + INERTIA_DIAGONAL_SPREAD) * demeter.J0[i, i]))
         out.append(UncertainParameter(f"sqrtJ{i + 1}{i + 1}", "sqrtJ", (k,), (lo + hi) / 2, (hi - lo) / 2, inertia))
     for k1 in range(len(ax)):
         for k2 in range(k1 + 1, len(ax)):
@@ -405,13 +408,19 @@ def _assemble(variant: Variant, params: list[UncertainParameter], groups: list[l
 
     # kinematic rows: theta' = theta_dot ; eta' = eta_dot
     for i in range(na):
-        add(r, XD + th[i], 1.0); add(r, X + thd[i], -1.0); r += 1
+        add(r, XD + th[i], 1.0)
+        add(r, X + thd[i], -1.0)
+        r += 1
     for j in range(nr):
-        add(r, XD + eta[j], 1.0); add(r, X + etad[j], -1.0); r += 1
+        add(r, XD + eta[j], 1.0)
+        add(r, X + etad[j], -1.0)
+        r += 1
     # c_i - S_i theta''_i = 0
     for i in range(na):
         s0, sw, k = coef("sqrtJ", (i,))
-        add(r, V + c_v[i], 1.0); add(r, XD + thd[i], -s0, k, -sw); r += 1
+        add(r, V + c_v[i], 1.0)
+        add(r, XD + thd[i], -s0, k, -sw)
+        r += 1
     # rigid: S_i (c_i + sum_j L_r[i,j] eta''_j) + sum_{l != i} J_il theta''_l - tau_i - w1_i = 0
     for i in range(na):
         s0, sw, k = coef("sqrtJ", (i,))
@@ -432,24 +441,40 @@ def _assemble(variant: Variant, params: list[UncertainParameter], groups: list[l
     for j in range(nr):
         w0, ww, kw = coef("omega", (int(mode_group[j]),))
         z0, zw, kz = coef("zeta", (int(mode_group[j]),))
-        add(r, V + g_v[j], 1.0); add(r, X + eta[j], -w0, kw, -ww); add(r, X + etad[j], -2 * z0, kz, -2 * zw); r += 1
+        add(r, V + g_v[j], 1.0)
+        add(r, X + eta[j], -w0, kw, -ww)
+        add(r, X + etad[j], -2 * z0, kz, -2 * zw)
+        r += 1
     # flex: sum_i L_r[i,j] c_i + eta''_j + omega g_j = 0
     for j in range(nr):
         w0, ww, kw = coef("omega", (int(mode_group[j]),))
         for i in range(na):
             add(r, V + c_v[i], L_r[i, j])
-        add(r, XD + etad[j], 1.0); add(r, V + g_v[j], w0, kw, ww); r += 1
+        add(r, XD + etad[j], 1.0)
+        add(r, V + g_v[j], w0, kw, ww)
+        r += 1
     # integrator, pseudo-integrator, wheel
     for i in range(na):
-        add(r, XD + xi[i], 1.0); add(r, X + th[i], -1.0); r += 1
+        add(r, XD + xi[i], 1.0)
+        add(r, X + th[i], -1.0)
+        r += 1
     for i in range(na):
-        add(r, XD + xw[i], 1.0); add(r, X + xw[i], PSEUDO_INTEGRATOR_POLE); add(r, U + i, -1.0); r += 1
+        add(r, XD + xw[i], 1.0)
+        add(r, X + xw[i], PSEUDO_INTEGRATOR_POLE)
+        add(r, U + i, -1.0)
+        r += 1
     if wheels:
         wn2, cw = _wheel_coefficients()
         for i in range(na):
-            add(r, XD + y[i], 1.0); add(r, X + yd[i], -1.0); r += 1
+            add(r, XD + y[i], 1.0)
+            add(r, X + yd[i], -1.0)
+            r += 1
         for i in range(na):
-            add(r, XD + yd[i], 1.0); add(r, X + y[i], wn2); add(r, X + yd[i], cw); add(r, U + i, -wn2); r += 1
+            add(r, XD + yd[i], 1.0)
+            add(r, X + y[i], wn2)
+            add(r, X + yd[i], cw)
+            add(r, U + i, -wn2)
+            r += 1
     assert r == rows, (r, rows)
     names = sf.design_states(variant.axes, nr, wheels)
     C1 = np.zeros((na, n))

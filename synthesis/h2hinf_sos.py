@@ -398,7 +398,8 @@ def search(gamma: float, variant: str = "slack", bounds: tuple[float, float] = (
         if len(evaluations) >= max_evaluations:
             return _REJECTED
         if progress is not None:
-            progress(len(evaluations), max_evaluations, f"{variant}, gamma = {gamma:g}: alpha = {a:.3g}, beta = {b:.3g}")
+            progress(len(evaluations), max_evaluations,
+                     f"{variant}, gamma = {gamma:g}: alpha = {a:.3g}, beta = {b:.3g}")
         try:
             r: Theorem8Result | None = theorem8(gamma, a, b, variant, **kwargs)
         except SOSError:

@@ -39,7 +39,8 @@ import scipy.sparse as sps
 
 from satfmu.synthesis import solve_policy
 from satfmu.synthesis.lft_plant import ProgramTooLargeError
-from satfmu.synthesis.conic import REFUTED, SOLVED, ConicProblem, SolverMemoryError, solve_clarabel, svec_indices, svec_scale
+from satfmu.synthesis.conic import (REFUTED, SOLVED, ConicProblem, SolverMemoryError, solve_clarabel, svec_indices,
+                                    svec_scale)
 
 
 LOG = logging.getLogger(__name__)

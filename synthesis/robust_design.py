@@ -134,7 +134,8 @@ import numpy as np
 import scipy.linalg as sla
 
 from satfmu.synthesis import lmi, solve_policy
-from satfmu.synthesis.lft_plant import (LFTPlant, OptionError, PlantDataError, _block_starts, _check_gain, _check_vertices,
+from satfmu.synthesis.lft_plant import (LFTPlant, OptionError, PlantDataError, _block_starts,
+                                 _check_gain, _check_vertices,
                                  _matrix, _sym, box_vertices)
 
 LOG = logging.getLogger(__name__)

@@ -127,7 +127,8 @@ class TwoStepResult:
             "c": best.c, "method": "SOS certificate of H(x) <= 0 (S-procedure on the region), V = kv x^T P x",
             "region": region.label, "kv": best.sos.kv, "q2": 1.0,
             "checks": check_numbers(best.sos.checks),
-            "sampled_c": _json_value(best.sampled.c), "sampled_kv": best.sampled.kv, "sampled_points": best.sampled.n_samples,
+            "sampled_c": _json_value(best.sampled.c), "sampled_kv": best.sampled.kv,
+            "sampled_points": best.sampled.n_samples,
             "diagonal_c": best.diagonal[0] if best.diagonal else None,
             "diagonal_kv": best.diagonal[1] if best.diagonal else None,
         }

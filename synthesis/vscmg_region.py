@@ -315,7 +315,8 @@ def region_data(loop: ClosedLoop, box: BoxCertificate, trig: dict[str, float], c
     the cos errors, and every cell of the map."""
     return {"artifact": loop.artifact.name, "formulation": __doc__.split("What a certificate proves")[0].strip(),
             "variables": {"q2": "rad", "w4": "rad/s", "decay": "1/s"},
-            "box": {**box.to_json(), "trig_check": trig, "cos": cos_errors(box.q2)}, "cells": [c.to_json() for c in cells]}
+            "box": {**box.to_json(), "trig_check": trig, "cos": cos_errors(box.q2)},
+            "cells": [c.to_json() for c in cells]}
 
 
 def certify_operating_box(artifact: ServoArtifact) -> tuple[BoxCertificate, dict[str, float]]:
@@ -340,7 +341,8 @@ def artifact_certificate(fit_certificate: dict[str, Any], cert: BoxCertificate, 
                     **{f"region_{k}": v for k, v in cos_errors(cert.q2).items()}})
     region = f"q2 in {list(cert.q2)} rad, w4 in {list(cert.w4)} rad/s (any w1, w2: the SDC freezes w2 := 0)"
     if ok:
-        proved = (f"SOS certificate (satfmu.synthesis.vscmg_region): on the box, every frozen closed loop Ae - Be K_fit "
+        proved = (f"SOS certificate (satfmu.synthesis.vscmg_region): on the box, "
+                  f"every frozen closed loop Ae - Be K_fit "
                   f"of the w1-free SDC at w2 = 0 has its modes off the conserved-p4 mode decaying at >= "
                   f"{cert.decay:.3g} 1/s, with one common Lyapunov matrix; exact in sin/cos (enclosure), "
                   f"re-verified (Gram eigenvalues, residuals, margin {cert.margin:.3g}, "

@@ -13,7 +13,8 @@ import satfmu
 
 def test_import_is_cheap():
     """``import satfmu`` loads no implementation package (names are imported on first use)."""
-    code = "import sys, satfmu; print(sorted(m for m in ('sympy', 'numpy', 'fmpy', 'sims', 'fmus') if m in sys.modules))"
+    code = ("import sys, satfmu; print(sorted(m for m in ('sympy', 'numpy', 'fmpy', 'sims', 'fmus') "
+            "if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "[]"
 

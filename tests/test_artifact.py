@@ -207,9 +207,11 @@ DOCTORED = [
      r"largest difference 0\.000129859 at K_xi\[1,1\]: gains 0, design\.K gives -0\.000129859"),
     ("demeter_row1_det", "design states reordered", lambda d: d["design"]["states"].reverse(),
      r"design\.states: .* are not the variant's design states"),
-    ("demeter_row1_det", "coupling L not recorded", lambda d: d["provenance"]["design_plant"]["parameters"].pop("L[1,2]"),
+    ("demeter_row1_det", "coupling L not recorded",
+     lambda d: d["provenance"]["design_plant"]["parameters"].pop("L[1,2]"),
      r"lacks the coupling L\[1,2\] the design used"),
-    ("demeter_row1_det", "sampled pole 1.5", _numbers("sampled_max_real_pole", 1.5), r"sampled_max_real_pole'\] = 1\.5"),
+    ("demeter_row1_det", "sampled pole 1.5", _numbers("sampled_max_real_pole", 1.5),
+     r"sampled_max_real_pole'\] = 1\.5"),
     ("demeter_row1_det", "sampled H-infinity norm above the proved bound", _numbers("sampled_max_hinf", 100.0),
      r"sampled_max_hinf'\] = 100: above the bound analysis_hinf_pdlf = 83\.2965"),
 ]

@@ -129,7 +129,8 @@ def test_build_all_builds_in_parallel_then_does_nothing(tmp_path: Path, monkeypa
 
 
 def test_importing_the_catalog_builds_no_model() -> None:
-    code = "import sys; from sims import catalog; print([m for m in ('sympy', 'satfmu.fmus.vscmg') if m in sys.modules])"
+    code = ("import sys; from sims import catalog; "
+            "print([m for m in ('sympy', 'satfmu.fmus.vscmg') if m in sys.modules])")
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
                           cwd=Path(__file__).resolve().parents[1])
     assert proc.stdout.strip() == "[]"

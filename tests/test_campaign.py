@@ -289,7 +289,8 @@ def test_resume_computes_a_damaged_chunk_again_and_names_it(tmp_path: Path, clus
         cp.load(folder)  # load alone never hands out a damaged chunk
     kept = {k: cp.chunk_path(folder, k).stat().st_mtime_ns for k in (0, 1, 3)}
     computed: list[int] = []
-    with pytest.warns(CampaignWarning, match=r"chunk 2 \(chunk-000002\.parquet\) " + message + r".*: computing it again"):
+    with pytest.warns(CampaignWarning,
+                      match=r"chunk 2 \(chunk-000002\.parquet\) " + message + r".*: computing it again"):
         df = cp.run(campaign, tmp_path, client=cluster[1], progress=lambda done, total: computed.append(done))
     assert_frame_equal(df, reference, check_exact=True)  # exact: the chunk's own draws again
     assert computed == [4]  # chunk 2 only

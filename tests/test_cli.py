@@ -356,12 +356,14 @@ BAD_SCENARIOS = [  # (body after the header, the message); the header is a valid
     ('[[metrics]]\nname = "m"\nkind = "peak"\nsignals = ["plant.phi"]\nmax = "200"', r"metrics\[0\]\.max: must be"),
     ('[fmus.plant]\npath = "zero.fmu"', r"fmus\.plant\.path: FMU file .*zero.fmu is empty \(0 bytes\)"),
     ('[fmus.plant]\nmodel = "mrp_satellite"\nparameters = "x"', "parameters: must be a table"),
-    ('[fmus.plant]\nmodel = "mrp_satelite"', r"fmus\.plant\.model: no FMU mrp_satelite.fmu .*did you mean 'mrp_satellite'"),
+    ('[fmus.plant]\nmodel = "mrp_satelite"',
+     r"fmus\.plant\.model: no FMU mrp_satelite.fmu .*did you mean 'mrp_satellite'"),
     ('[fmus.plant]\nmodel = "../mrp_satellite"', r"fmus\.plant\.model: '\.\./mrp_satellite' is not a safe folder name"),
     # refused by the master at run time before, now by the checks of run and export-ssp alike
     ('[fmus.ctrl]\nmodel = "mrp_hinf_published"\n[[connections]]\nfrom = "ctrl.u"\nto = "ctrl.omega"',
      r"connections: algebraic loop through direct feedthrough: ctrl.u\[1\] => ctrl.omega\[1\]"),
-    ('[[connections]]\nfrom = "plant.omega"\nto = "plant.u"\n[[profiles]]\nto = "plant.u[2]"\nkind = "constant"\nvalue = 1.0',
+    ('[[connections]]\nfrom = "plant.omega"\nto = "plant.u"\n[[profiles]]\nto = "plant.u[2]"\n'
+     'kind = "constant"\nvalue = 1.0',
      r"profiles\[0\]: input plant.u\[2\] is driven twice \(by connections\[0\] and by profiles\[0\]\)"),
     ('[[connections]]\nfrom = "plant.u"\nto = "plant.u"', r"connections\[0\]: plant.u\[1\] is a input, not an output"),
     ('[[profiles]]\nto = "plant.omega[1]"\nkind = "constant"\nvalue = 1.0',
@@ -409,9 +411,11 @@ DOCTORED = [
     (["campaign", "demeter", "--artifact", "{file}", "--samples", "10", "--out", "{out}"], "demeter_row1_det",
      ("certificate", "numbers", "sampled_max_real_pole"), 1.5, "['sampled_max_real_pole'] = 1.5: status 'certified'"),
     (["build", "--fmu-dir", "{out}", "--backend", "native"], "cubesat_periodic_satfmu",
-     ("certificate", "numbers", "ms_spectral_radius"), 1.5, "['ms_spectral_radius'] = 1.5: status 'certified' needs < 1"),
+     ("certificate", "numbers", "ms_spectral_radius"), 1.5,
+     "['ms_spectral_radius'] = 1.5: status 'certified' needs < 1"),
     (["build", "--fmu-dir", "{out}", "--backend", "native"], "vscmg_lq_servo",
-     ("certificate", "numbers", "riccati_residual"), 10.0, "['riccati_residual'] = 10: status 'certified' needs <= 1e-08"),
+     ("certificate", "numbers", "riccati_residual"), 10.0,
+     "['riccati_residual'] = 10: status 'certified' needs <= 1e-08"),
 ]
 
 

@@ -111,7 +111,8 @@ BAD_FMUS: dict[str, tuple[Callable[[Path], bytes], str]] = {
     "FMI 3.0": (lambda d: _rezip((d / "mrp_satellite.fmu").read_bytes(), edit=lambda n, b: b.replace(
         b'fmiVersion="2.0"', b'fmiVersion="3.0"') if n == "modelDescription.xml" else b),
                 r"is an FMI 3.0 FMU; satfmu runs FMI 2.0 co-simulation FMUs"),
-    "no binary": (lambda d: _rezip((d / "mrp_satellite.fmu").read_bytes(), keep=lambda n: not n.startswith("binaries/")),
+    "no binary": (lambda d: _rezip((d / "mrp_satellite.fmu").read_bytes(),
+                                   keep=lambda n: not n.startswith("binaries/")),
                   r"has no binary for this platform \(binaries/linux64/mrp_satellite.so; its binaries: none\)"),
     "another model": (lambda d: (d / "vscmg.fmu").read_bytes(), r"holds the model 'vscmg', not 'mrp_satellite'"),
 }
@@ -263,8 +264,10 @@ def test_fmus_record_the_artifact_they_embed(fmu_dir: Path) -> None:
     for fmu in (fmu_dir / "mrp_hinf_published.fmu", fmu_dir / "mrp_hinf_published_py.fmu"):
         with zipfile.ZipFile(fmu) as z:
             assert z.read("resources/artifact.json") == shipped.read_bytes()
-            assert z.comment == f"satfmu-build sha256:{export.built_digest(fmu)} artifact sha256:{_sha(shipped)}".encode()
-        assert export.artifact_digest(fmu) == _sha(shipped) and preflight.stale_artifact(fmu, "mrp_hinf_published") is None
+            assert z.comment == (f"satfmu-build sha256:{export.built_digest(fmu)} "
+                                 f"artifact sha256:{_sha(shipped)}").encode()
+        assert (export.artifact_digest(fmu) == _sha(shipped)
+                and preflight.stale_artifact(fmu, "mrp_hinf_published") is None)
     assert export.artifact_digest(fmu_dir / "mrp_satellite.fmu") is None  # a plant embeds no artifact
 
 

@@ -161,7 +161,8 @@ def test_a_scenario_records_every_nth_point_and_its_metrics_read_them(fmu_dir: P
     data = tomllib.loads((SHIPPED_SCENARIOS / "mrp_200deg.toml").read_text())
     full = S.run(S.Scenario.from_dict(data), fmu_dir)
     thin_sc = S.Scenario.from_dict({**data, "record_every": 8})
-    assert thin_sc.to_dict()["record_every"] == 8 and S.recorded_times(thin_sc).tolist() == full.results["time"][::8].tolist()
+    assert (thin_sc.to_dict()["record_every"] == 8
+            and S.recorded_times(thin_sc).tolist() == full.results["time"][::8].tolist())
     thin = S.run(thin_sc, fmu_dir, out_dir=tmp_path)
     assert len(thin.results) == 301 and thin.results.tobytes() == full.results[::8].tobytes()
     assert thin.metric("attitude angle at 120 s").value == full.metric("attitude angle at 120 s").value

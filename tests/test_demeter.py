@@ -163,7 +163,8 @@ def test_design_model_descriptor_equals_direct_model() -> None:
     # reduced coupling and a full inverse of M. 1e-12 relative: two solves of the same equations.
     rng = np.random.default_rng(11)
     for var in (ROW1, dv.Variant((1,), (1, 2), 1, 1), dv.Variant((1,), (1, 2, 3, 4), 2, 1),
-                dv.Variant((1, 2), (1, 2), 2, 2), dv.Variant((1, 2, 3), (1, 2), 2, 2), dv.Variant((1, 2), (1,), 1, 1, False)):
+                dv.Variant((1, 2), (1, 2), 2, 2), dv.Variant((1, 2, 3), (1, 2), 2, 2),
+                dv.Variant((1, 2), (1,), 1, 1, False)):
         dm = dv.design_model(var)
         for d in dm.sample(4, rng):
             got, ref = dm.state_space(d), dm.direct(d)
@@ -296,4 +297,5 @@ def test_closed_loop_fmus_equal_the_sampled_data_reference(fmu_dir: Path) -> Non
 def _plant_matrices(params: dict[str, float]) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     J = np.array([[params[f"J[{min(i, j) + 1},{max(i, j) + 1}]"] for j in range(3)] for i in range(3)])
     L = np.array([[params[f"L[{i + 1},{j + 1}]"] for j in range(8)] for i in range(3)])
-    return J, L, np.array([params[f"zeta[{k}]"] for k in (1, 2, 3, 4)]), np.array([params[f"omega[{k}]"] for k in (1, 2, 3, 4)])
+    return (J, L, np.array([params[f"zeta[{k}]"] for k in (1, 2, 3, 4)]),
+            np.array([params[f"omega[{k}]"] for k in (1, 2, 3, 4)]))

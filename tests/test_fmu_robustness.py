@@ -301,7 +301,8 @@ def _order_case(inst: Instance, case: str) -> str:
     if case == "doStep before initialization":
         text = inst.rejected("doStep", 0.0, 0.1, contains=("fmi2DoStep", "Instantiated"))
     elif case == "getReal in Instantiated":
-        text = inst.rejected("getReal", [inst.vr(inst.fmu.output)], contains=("must not be called in state Instantiated",))
+        text = inst.rejected("getReal", [inst.vr(inst.fmu.output)],
+                             contains=("must not be called in state Instantiated",))
     elif case == "exit without enter":
         text = inst.rejected("exitInitializationMode", contains=("fmi2ExitInitializationMode", "Instantiated"))
     elif case == "fixed parameter after init":

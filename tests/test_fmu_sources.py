@@ -136,4 +136,5 @@ def test_sources_rebuild_gives_shipped_outputs(shipped: dict, model: str, way: s
     _rebuild(unzipped, sources)
     rebuilt = _run(unzipped)
     assert any(y != 0.0 for row in expected for y in row), "the run drives no output: the comparison proves nothing"
-    assert rebuilt == expected, f"{model}: the library rebuilt from sources/ ({way}) gives other outputs than the shipped one"
+    assert rebuilt == expected, (f"{model}: the library rebuilt from sources/ ({way}) gives other outputs "
+                                 "than the shipped one")

@@ -68,7 +68,8 @@ def test_degree_1_coefficients_are_the_shc_file_values_at_2020() -> None:
     assert math.degrees(lon) == pytest.approx(-72.68, abs=0.01)  # ... at 72.68 W
     # The model's substitute dipole is this one to the digits it carries.
     assert cubesat.DIPOLE_MOMENT == pytest.approx(m, rel=0.003)
-    assert cubesat.DIPOLE_POLE[0] == pytest.approx(colat, abs=0.003) and cubesat.DIPOLE_POLE[1] == pytest.approx(lon, abs=1e-3)
+    assert (cubesat.DIPOLE_POLE[0] == pytest.approx(colat, abs=0.003)
+            and cubesat.DIPOLE_POLE[1] == pytest.approx(lon, abs=1e-3))
 
 
 ORBITS = {
@@ -193,7 +194,8 @@ def test_fourier_fit_of_one_orbit_of_igrf_next_to_the_seed() -> None:
     fit = fourier_fit(tau, b, T)
     seed = seed_fourier_coefficients()
     mean = np.mean(np.linalg.norm(b, axis=1))
-    print(f"\nFourier fit of one orbit of IGRF (2020-01-01, default orbit): rms residual {fit.rms_residual * 1e6:.3f} uT,"
+    print(f"\nFourier fit of one orbit of IGRF (2020-01-01, default orbit): rms residual "
+          f"{fit.rms_residual * 1e6:.3f} uT,"
           f" max {fit.max_residual * 1e6:.3f} uT (mean |b| {mean * 1e6:.2f} uT)")
     print("uT      " + " ".join(f"{n:>16s}" for n in ("1", "S1", "C1", "S2", "C2")))
     for k, a in enumerate("xyz"):

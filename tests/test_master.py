@@ -78,7 +78,8 @@ def test_causality_and_double_drive(tmp_path: Path, fmu_dir: Path) -> None:
     twice = ('[[connections]]\nfrom = "controller.u"\nto = "plant.u"\n'
              '[[profiles]]\nto = "plant.u[1]"\nkind = "constant"\nvalue = 1.0\n')
     with pytest.raises(scenario.ScenarioError,
-                       match=r"profiles\[0\]: input plant.u\[1\] is driven twice \(by connections\[0\] and by profiles\[0\]\)"):
+                       match=r"profiles\[0\]: input plant.u\[1\] is driven twice "
+                             r"\(by connections\[0\] and by profiles\[0\]\)"):
         _run(tmp_path, fmu_dir, twice)
 
 
@@ -94,9 +95,11 @@ def test_scenario_file_errors(tmp_path: Path) -> None:
     with pytest.raises(scenario.ScenarioError, match=r"metrics\[0\]\.kind: must be one of"):
         scenario.load(_write(tmp_path, BASE + '[[metrics]]\nname = "x"\nkind = "maximum"\nsignals = ["plant.phi"]\n'))
     with pytest.raises(scenario.ScenarioError, match="needs 'tolerance'"):
-        scenario.load(_write(tmp_path, BASE + '[[metrics]]\nname = "x"\nkind = "settling_time"\nsignals = ["plant.phi"]\n'))
+        scenario.load(_write(tmp_path, BASE + '[[metrics]]\nname = "x"\nkind = "settling_time"\n'
+                                              'signals = ["plant.phi"]\n'))
     with pytest.raises(scenario.ScenarioError, match="needs 'versus'"):
-        scenario.load(_write(tmp_path, BASE + '[[metrics]]\nname = "x"\nkind = "max_difference"\nsignals = ["plant.phi"]\n'))
+        scenario.load(_write(tmp_path, BASE + '[[metrics]]\nname = "x"\nkind = "max_difference"\n'
+                                              'signals = ["plant.phi"]\n'))
 
 
 def test_missing_fmu_file(tmp_path: Path) -> None:

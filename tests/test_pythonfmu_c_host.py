@@ -53,7 +53,8 @@ def setup(fmu_dir: Path, tmp_path_factory: pytest.TempPathFactory) -> tuple[Path
 def _run(setup: tuple[Path, Path, dict[str, str]], library: str, wrapper: tuple[str, ...] = ()
          ) -> subprocess.CompletedProcess:
     host, folder, env = setup
-    return subprocess.run([*wrapper, str(host), str(folder / "binaries" / "linux64" / library), str(folder / "plan.txt")],
+    return subprocess.run([*wrapper, str(host), str(folder / "binaries" / "linux64" / library),
+                           str(folder / "plan.txt")],
                           capture_output=True, text=True, env=env, timeout=300)
 
 

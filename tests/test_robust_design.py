@@ -208,7 +208,8 @@ def _toolbox_lmi(plant: LFTPlant, alpha: float, beta: float, w_i2p: float, eps: 
     peak = cp.bmat([[-g_i2p * np.eye(1), C2 @ P], [P @ C2.T, -P]])
     I = np.eye(n)
     cons = [P >> eps * I, (hinf + hinf.T) / 2 << -eps * np.eye(n + 2), AP + AP.T + 2 * alpha * P << -eps * I,
-            -(AP + AP.T) - 2 * beta * P << -eps * I, P - B2 @ B2.T >> eps * I, (peak + peak.T) / 2 << -eps * np.eye(n + 1)]
+            -(AP + AP.T) - 2 * beta * P << -eps * I, P - B2 @ B2.T >> eps * I,
+            (peak + peak.T) / 2 << -eps * np.eye(n + 1)]
     prob = cp.Problem(cp.Minimize(g_inf + w_i2p * g_i2p), cons)
     prob.solve(solver=cp.CLARABEL)
     return float(prob.value)

@@ -83,7 +83,8 @@ def test_failures_on_every_rung_say_what_each_returned(monkeypatch) -> None:
     import satfmu.synthesis.sos as sos
     from satfmu.synthesis.conic import ConicResult
 
-    monkeypatch.setattr(sos, "solve_clarabel", lambda problem, **s: ConicResult("MaxIterations", None, float("nan"), 0.0))
+    monkeypatch.setattr(sos, "solve_clarabel",
+                        lambda problem, **s: ConicResult("MaxIterations", None, float("nan"), 0.0))
     prog = SOSProgram(2)
     prog.add_sos(Poly.from_sympy(x**2 + y**2, [x, y]), "p")
     with pytest.raises(SOSError, match=r"not solved \(failed\): MaxIterations; retry clarabel relaxed: "

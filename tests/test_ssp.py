@@ -82,7 +82,8 @@ def test_sampled_profiles_are_compiled_into_the_file(fmu_dir: Path, tmp_path: Pa
     assert len(tables) == 1
     # an instance name the generators need is refused
     f2 = _scenario(tmp_path, '[fmus.plant]\nmodel = "mrp_satellite"\n[fmus.signal_plant_u_1]\n'
-                             'model = "mrp_satellite"\n[[profiles]]\nto = "plant.u[1]"\nkind = "constant"\nvalue = 1.0\n')
+                             'model = "mrp_satellite"\n[[profiles]]\nto = "plant.u[1]"\n'
+                             'kind = "constant"\nvalue = 1.0\n')
     with pytest.raises(ssp.SspError, match="taken"):
         ssp.export(f2, fmu_dir, tmp_path / "out")
 
@@ -94,10 +95,12 @@ def _scenario(tmp_path: Path, text: str) -> Path:
 
 
 @pytest.mark.parametrize("body, message", [
-    ('parameters = { "sigma_0[1]" = "x" }', r"fmus\.plant\.parameters\.sigma_0\[1\]: plant.sigma_0\[1\] is Real; got 'x'"),
+    ('parameters = { "sigma_0[1]" = "x" }',
+     r"fmus\.plant\.parameters\.sigma_0\[1\]: plant.sigma_0\[1\] is Real; got 'x'"),
     ("parameters = { nope = 1.0 }", r"fmus\.plant\.parameters\.nope: FMU instance 'plant' .*has no variable 'nope'"),
     ('[[connections]]\nfrom = "plant.u"\nto = "plant.u"', r"connections\[0\]: plant.u\[1\] is a input, not an output"),
-    ("model = 'no_such_model'", r"fmus\.plant\.model: no FMU no_such_model.fmu in .*, and it cannot be built: no model or "
+    ("model = 'no_such_model'", r"fmus\.plant\.model: no FMU no_such_model.fmu in .*, "
+                               r"and it cannot be built: no model or "
                                r"artifact named 'no_such_model'"),
 ], ids=["type", "unknown", "causality", "model"])
 def test_bad_scenarios_fail_as_in_the_run(body: str, message: str, fmu_dir: Path, tmp_path: Path) -> None:

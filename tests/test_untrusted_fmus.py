@@ -32,7 +32,8 @@ REASONS = {
     "symlink": r"has an entry 'resources/passwd' that is a symbolic link",
     "device": r"has an entry 'resources/null' that is a device, FIFO or socket",
     "bomb in the description": r"has a modelDescription\.xml of 1073\d+ bytes, more than",
-    "bomb in a resource": r"has an entry 'resources/table\.txt' that expands \d+ bytes to 2146\d+ \(more than 200 times",
+    "bomb in a resource": (r"has an entry 'resources/table\.txt' that expands \d+ bytes to 2146\d+ "
+                           r"\(more than 200 times"),
     "size that lies": r"is damaged: its entry 'resources/small\.txt' fails its check \(Bad CRC-32",
     "1e5 entries": r"holds 100005 entries, more than 10000",
     "3e5 variables": r"has a modelDescription\.xml of 300030 variables, more than 100000",

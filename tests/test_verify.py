@@ -157,7 +157,8 @@ def test_sampled_fmus_are_recognized_in_both_backends(fmu_dir: Path) -> None:
     for name in ("cubesat_bdot", "cubesat_periodic_satfmu"):
         assert verify.sampled_fmu(fmu_dir / f"{name}.fmu") and verify.sampled_fmu(fmu_dir / f"{name}_py.fmu")
     # a routine sampler: the C Riccati routine (native) and its Python twin
-    assert verify.sampled_fmu(fmu_dir / "vscmg_sdre_online.fmu") and verify.sampled_fmu(fmu_dir / "vscmg_sdre_online_py.fmu")
+    assert (verify.sampled_fmu(fmu_dir / "vscmg_sdre_online.fmu")
+            and verify.sampled_fmu(fmu_dir / "vscmg_sdre_online_py.fmu"))
     # its servo integrators are continuous states: listed, not checked
     sc = load("vscmg_seed")
     assert verify._sampled_controllers(sc, verify.fmu_paths(sc, fmu_dir, "native")) == (

@@ -290,7 +290,8 @@ def test_linux_host_gives_fmpys_outputs(unpacked: dict[str, Path], linux_host: P
         fmpy_rows = run_fmpy(folder)
         assert len(host_rows) == STEPS + 1, f"{name}: {len(host_rows)} rows from the host, {STEPS + 1} expected"
         assert host_rows == fmpy_rows, f"{name}: the linux64 host and fmpy give other outputs on the same plan"
-        assert any(y != 0.0 for row in host_rows for y in row[1:]), f"{name}: every output is 0: the plan proves nothing"
+        assert any(y != 0.0 for row in host_rows for y in row[1:]), (f"{name}: every output is 0: "
+                                                                      "the plan proves nothing")
 
 
 def tolerances(folder: Path) -> list[tuple[float, float]]:
@@ -352,7 +353,8 @@ def test_win64_under_wine_gives_linux64s_outputs(unpacked: dict[str, Path], linu
                     code = subprocess.run([_wine(), str(windows_host), rf"binaries\win64\{name}.dll",
                                            "plan_win64.txt", *flags], cwd=folder, env=env, stdout=out, stderr=err,
                                           timeout=300).returncode
-                assert code == 0, f"{name} ({mode}): the win64 host failed under wine:\n{(folder / 'err.txt').read_text()}"
+                assert code == 0, (f"{name} ({mode}): the win64 host failed under wine:\n"
+                                   f"{(folder / 'err.txt').read_text()}")
                 got = read_rows((folder / "out.txt").read_text())
                 assert len(got) == len(expected), f"{name} ({mode}): {len(got)} rows, {len(expected)} on linux64"
                 worst[f"{name} ({mode})"] = excess(got, expected, allowed)

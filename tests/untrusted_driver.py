@@ -6,7 +6,8 @@ folder TMPDIR points to), puts each malicious file in the FMU folder as ``mrp_sa
 runs the command in this process (:func:`satfmu.sims.cli.main`) and writes, for each class, the exit
 code, stderr, stdout's tail, the wall time, what was left in TMPDIR and the process's peak
 resident memory so far; at the end its peak and its largest child's (ru_maxrss of the children,
-which includes what each inherited from this process when it was forked: an upper bound). The first class runs twice and its first run is not timed (imports).
+which includes what each inherited from this process when it was forked: an upper bound). The first
+class runs twice and its first run is not timed (imports).
 """
 from __future__ import annotations
 

@@ -4,7 +4,8 @@ Modules: :mod:`.target` (the FMU and the variables a case abuses), :mod:`.instan
 instance in a worker), :mod:`.cases`, :mod:`.memory`, :mod:`.states` (corrupted FMU states) and
 :mod:`.limits` (huge steps, large start times, status queries, extreme times) and
 :mod:`.host_cases` (invalid fmi2Instantiate, fmi2SetDebugLogging and fmi2SerializeFMUstate
-arguments) (what each case does), :mod:`.table` (the cases and their expectations per backend), :mod:`.worker` (the child
+arguments) (what each case does), :mod:`.table` (the cases and their expectations per backend),
+:mod:`.worker` (the child
 process), :mod:`.runner` (the parent: workers, crashes, time-outs, :class:`Report`),
 :mod:`.report` (Markdown and CSV), :mod:`.command` (the command line).
 
@@ -12,7 +13,8 @@ Every ``*.fmu`` of a folder is driven through fmpy's low-level FMI 2.0 API
 (``fmpy.fmi2.FMU2Slave``, raw ``fmi2*`` calls so the exact status is seen) with
 non-finite and huge values, bad step sizes, calls outside the co-simulation state
 machine, out-of-range and wrong-type sets, unknown value references, an FMU state
-round trip and many instantiate/free cycles (:data:`.table.CASES`, run by the functions of :mod:`.cases` and :mod:`.memory`). The variables a case
+round trip and many instantiate/free cycles (:data:`.table.CASES`, run by the functions of
+:mod:`.cases` and :mod:`.memory`). The variables a case
 abuses are chosen from ``modelDescription.xml`` (:func:`.target.describe`); a case whose
 variable does not exist (no input, no ranged parameter, ...) is "n/a".
 

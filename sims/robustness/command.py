@@ -14,7 +14,9 @@ from satfmu.sims.robustness.worker import work
 
 
 def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="python -m satfmu.sims.robustness", description="Drive every FMU through misuse cases (cases x FMUs, each FMU in a child process).")
+    p = argparse.ArgumentParser(prog="python -m satfmu.sims.robustness",
+                                description="Drive every FMU through misuse cases "
+                                            "(cases x FMUs, each FMU in a child process).")
     p.add_argument("--fmu-dir", type=Path, default=Path("build/fmus"), help="folder of the FMUs (every *.fmu)")
     p.add_argument("--fmu", action="append", help="test only this FMU (repeatable; name with or without .fmu)")
     p.add_argument("--cycles", type=int, default=1000, help="instantiate/free cycles of the memory case")

@@ -66,7 +66,8 @@ def _huge(inst: Instance, steps: Sequence[float], minimum_period: bool) -> Outco
             period = inst.target.period
             assert period is not None and period.min is not None  # the parent runs the case only then
             if inst.set(period, period.min) != OK:
-                raise CaseBroken(f"setting '{period.name}' to its minimum {period.min:g} s failed: {inst.text()[-200:]!r}")
+                raise CaseBroken(f"setting '{period.name}' to its minimum {period.min:g} s failed: "
+                                 f"{inst.text()[-200:]!r}")
         inst.exit()
         n = len(inst.log)
         started = time.process_time()
@@ -333,7 +334,8 @@ def start_at_max(inst: Instance) -> Outcome:
     status = inst.call("ExitInitializationMode")
     if status != OK:
         out = Outcome(status=status, log=inst.text(n),
-                      detail=f"fmi2ExitInitializationMode at DBL_MAX: {STATUS_NAMES.get(status)}: {short(inst.text(n), 160)}")
+                      detail=f"fmi2ExitInitializationMode at DBL_MAX: {STATUS_NAMES.get(status)}: "
+                             f"{short(inst.text(n), 160)}")
         if status == ERROR:
             inst.mode = "Error"  # refused in InitializationMode: carry on from a reset
             recover(inst, out)

@@ -35,7 +35,8 @@ def markdown(report: Report) -> str:
                  f"far step {report.settings.far_factor:g} x default, bit flips: {flips} of each FMU state) on "
                  f"{datetime.now(UTC):%Y-%m-%d %H:%M} UTC; the package docstring of `sims/robustness/` describes "
                  "the cases and the two backends. Regenerate it with `satfmu build --fmu-dir build/fmus` and "
-                 f"`python -m satfmu.sims.robustness --fmu-dir build/fmus --cycles {report.settings.cycles} --out docs/robustness`.")
+                 f"`python -m satfmu.sims.robustness --fmu-dir build/fmus --cycles {report.settings.cycles} "
+                 "--out docs/robustness`.")
     lines = ["# Robustness of the satfmu FMUs", "", generated, "", report.summary(), "",
              "## Cases and expectations", ""]
     lines += _md_table(["case", "what", "native", "pythonfmu"],

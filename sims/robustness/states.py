@@ -126,14 +126,16 @@ def flips(inst: Instance, good: bytes, flips: int | None) -> list[tuple[str, byt
     :data:`FLIP_SEED`, on both backends (a pythonfmu FMU refuses one in ~0.02 ms and stays usable:
     3,376 flips of mrp_satellite_py's 422-byte state refused in 0.07 s)."""
     n_bits = 8 * len(good)
-    bits = range(n_bits) if flips is None or flips >= n_bits else sorted(random.Random(FLIP_SEED).sample(range(n_bits), flips))
+    bits = (range(n_bits) if flips is None or flips >= n_bits
+            else sorted(random.Random(FLIP_SEED).sample(range(n_bits), flips)))
     return [(f"bit {b}", _flip(good, b)) for b in bits]
 
 
 def zeroed(inst: Instance, good: bytes) -> list[tuple[str, bytes]]:
     """The first half, the second half and all of the buffer zeroed."""
     half = len(good) // 2
-    return [("first half zeroed", bytes(half) + good[half:]), ("second half zeroed", good[:half] + bytes(len(good) - half)),
+    return [("first half zeroed", bytes(half) + good[half:]),
+            ("second half zeroed", good[:half] + bytes(len(good) - half)),
             ("all zeroed", bytes(len(good)))]
 
 
