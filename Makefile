@@ -20,7 +20,7 @@ DEMO_CAMPAIGNS := mrp_slew_mc mrp_slew_mc_synth mrp_slew_mc_h2hinf
 # (set on some machines) would forbid, so make's commands run without it.
 unexport PYTHONDONTWRITEBYTECODE
 
-.PHONY: demo test test-all build validate verify bench clean system-deps browser-deps wine-deps bench-deps
+.PHONY: demo test test-all lint build validate verify bench clean system-deps browser-deps wine-deps bench-deps
 
 # Debian's libtbb12 is needed by the ecos co-simulation host (ecospy), and its MinGW-w64 cross compiler
 # (x86_64-w64-mingw32-gcc) builds every native FMU's win64 DLL; installed once, guarded, checked again
@@ -111,7 +111,11 @@ verify: build
 # thread per worker (spinning BLAS pools of two workers oversubscribe the CPUs)
 PYTEST := env OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 $(PY) -m pytest -q -n auto --dist loadfile
 
-test: build browser-deps
+# the code's habits, configured in pyproject.toml: ruff (style and pyflakes), zero findings
+lint: $(VENV)/.installed
+	@$(STAGE) ruff $(VENV)/bin/ruff check .
+
+test: build browser-deps lint
 	@$(STAGE) --show tests $(PYTEST)
 
 # the bench extra (Drake, SumOfSquares.py): `make test-all` runs the tests that pose our SOS programs in

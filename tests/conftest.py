@@ -4,9 +4,11 @@ from __future__ import annotations
 import os
 import shutil
 import tempfile
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
+from distributed import Client, LocalCluster
 
 from satfmu.sims import catalog
 
@@ -36,3 +38,12 @@ def fmu_dir() -> Path:
     dest = ROOT / "build" / "fmus"
     catalog.build_all(dest)
     return dest
+
+
+@pytest.fixture(scope="module")
+def client() -> Iterator[Client]:
+    """A Dask client of one in-process worker with one thread (the FMUs run in this process), one
+    per test module."""
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=False, dashboard_address=":0") as lc, \
+            Client(lc) as cl:
+        yield cl

@@ -10,7 +10,7 @@ from distributed import Client
 from satfmu.sims import scenario as S
 from satfmu.sims import scenario_campaign as SC
 from satfmu.sims.cli import main
-from tests.test_scenario_campaign import client, mrp, toml  # noqa: F401 (client: the module's Dask fixture)
+from tests.test_scenario_campaign import mrp, toml
 
 
 def with_campaign(table: object, **changes: object) -> dict:

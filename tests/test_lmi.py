@@ -1,5 +1,4 @@
 """satfmu.synthesis.lmi: affine matrix expressions against numpy, LMI programs against closed forms."""
-import os
 
 import numpy as np
 import pytest

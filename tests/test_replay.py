@@ -18,7 +18,7 @@ from satfmu.sims import campaign as C
 from satfmu.sims import scenario as S
 from satfmu.sims import scenario_campaign as SC
 from satfmu.sims.cli import main
-from tests.test_scenario_campaign import SEED, client, mrp  # noqa: F401 (client: the module's Dask fixture)
+from tests.test_scenario_campaign import SEED, mrp
 
 U_MAX = {"plant.u_max": {"kind": "uniform", "low": -5.0, "high": 5.0}}  # N m; declared min 0: < 0 is refused
 

@@ -15,14 +15,13 @@ import re
 import shutil
 import subprocess
 import tomllib
-from collections.abc import Iterator
 from pathlib import Path
 
 import lxml.html
 import numpy as np
 import pandas as pd
 import pytest
-from distributed import Client, LocalCluster
+from distributed import Client
 from scipy import stats
 
 from satfmu.sims import campaign as C
@@ -51,14 +50,6 @@ def scenario_data(controller: str) -> dict:
     metrics.append({"name": "peak rate", "kind": "peak", "signals": ["plant.omega"], "unit": "rad/s", "max": 0.2})
     return {**data, "name": f"r_{controller}", "stop_time": 2.0, "dispersions": DISPERSIONS, "metrics": metrics,
             "fmus": {**data["fmus"], "controller": {"model": controller, "parameters": {"saturation_on": False}}}}
-
-
-@pytest.fixture(scope="module")
-def client() -> Iterator[Client]:
-    """One in-process worker with one thread (FMUs run in this process)."""
-    with LocalCluster(n_workers=1, threads_per_worker=1, processes=False, dashboard_address=":0") as lc, \
-            Client(lc) as cl:
-        yield cl
 
 
 @pytest.fixture(scope="module")

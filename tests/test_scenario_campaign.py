@@ -3,13 +3,12 @@ from __future__ import annotations
 
 import tomllib
 import warnings
-from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
-from distributed import Client, LocalCluster
+from distributed import Client
 from scipy import stats
 
 from satfmu.sims import campaign as C
@@ -50,14 +49,6 @@ def toml(path: Path, data: dict) -> Path:
     lines.append("[dispersions]\n" + "\n".join(f'"{k}" = {value(v)}' for k, v in data["dispersions"].items()))
     path.write_text("\n".join(lines) + "\n")
     return path
-
-
-@pytest.fixture(scope="module")
-def client() -> Iterator[Client]:
-    """One in-process worker with one thread (FMUs run in this process)."""
-    with LocalCluster(n_workers=1, threads_per_worker=1, processes=False, dashboard_address=":0") as lc, \
-            Client(lc) as cl:
-        yield cl
 
 
 def rows(tmp_path: Path, client: Client, fmu_dir: Path, data: dict, n: int, chunk: int

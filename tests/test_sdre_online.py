@@ -8,7 +8,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from satfmu.controllers import servo
 from satfmu.fmus import export
 from satfmu.fmus.model import Model, ModelDefinitionError, Sampler, Variable
 from satfmu.fmus.profiles import make

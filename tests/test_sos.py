@@ -3,7 +3,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-import scipy.sparse as sps
 import sympy as sp
 
 from satfmu.synthesis.polynomial import Poly, PolyMatrix, monomials, quadratic_form

@@ -8,7 +8,6 @@ that file is no controller of satfmu's and has nothing to report here.
 """
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
