@@ -47,6 +47,7 @@ import numpy as np
 
 from satfmu.controllers import claims
 from satfmu.fmus.xml_text import xml_problem
+from satfmu.fmus.errors import ArtifactError
 
 if TYPE_CHECKING:
     from satfmu.fmus.model import Model
@@ -79,10 +80,6 @@ def scheduling_signal(entry: str) -> tuple[str | None, str]:
         raise ValueError(f"scheduling entry {entry!r} must be a signal name or one of "
                          f"{[f + '(name)' for f in SCHEDULING_FUNCTIONS]}")
     return (m["f"], m["inner"]) if m["f"] else (None, m["plain"])
-
-
-class ArtifactError(ValueError):
-    """An artifact file is missing, not JSON, or violates the schema; the message says where."""
 
 
 MAX_EXPONENT = 64

@@ -18,10 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.linalg import LinAlgError, solve_continuous_are
-
-
-class RiccatiCheckError(RuntimeError):
-    """The Riccati solve failed or its solution does not pass the checks."""
+from satfmu.fmus.errors import RiccatiCheckError
 
 
 @dataclass(frozen=True)

@@ -45,6 +45,7 @@ import zlib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Iterator
+from satfmu.fmus.errors import UnsafeFmuError
 
 DESCRIPTION = "modelDescription.xml"
 FOLDER_PREFIX = "satfmu-fmu-"
@@ -55,24 +56,6 @@ _EOCD64 = b"PK\x06\x06"
 _CONTROL = re.compile(r"[\x00-\x1f\x7f]")
 _DRIVE = re.compile(r"^[A-Za-z]:")
 _UNIX = 3  # ZipInfo.create_system of an archive made on Unix: external_attr >> 16 holds st_mode
-
-
-class UnsafeFmuError(ValueError):
-    """An FMU file that satfmu refuses to read: not a zip archive, an unsafe entry, or beyond
-    a limit of :class:`FmuLimits`. The message names the file, the entry and the limit.
-
-    Attributes
-    ----------
-    path : Path
-        The file.
-    problem : str
-        The message without the file, a phrase to follow its name (``"has no modelDescription.xml"``).
-    """
-
-    def __init__(self, path: Path, problem: str) -> None:
-        super().__init__(f"{path} {problem}")
-        self.path = path
-        self.problem = problem
 
 
 @dataclass(frozen=True)

@@ -36,6 +36,7 @@ from satfmu.fmus.description import (NATIVE, PYTHON, PYTHON_SUFFIX, WRAPPER_SOUR
                               to_xml_bytes)
 from satfmu.fmus.digest import build_digest, sha256
 from satfmu.fmus.model import Model
+from satfmu.fmus.errors import FmuBuildError
 
 HERE = Path(__file__).resolve().parent
 WRAPPER = HERE / "c" / WRAPPER_SOURCE
@@ -76,10 +77,6 @@ _INSTALL = {WIN64_CC: "install Debian's gcc-mingw-w64-x86-64-posix or -win32 (ma
 # the macros of a compiler's headers that name the C library version (part of toolchain)
 _RUNTIME_MACROS = ("__GLIBC__", "__GLIBC_MINOR__", "__MINGW64_VERSION_MAJOR", "__MINGW64_VERSION_MINOR",
                    "__MINGW64_VERSION_BUGFIX")
-
-
-class FmuBuildError(RuntimeError):
-    """Compiling or packaging an FMU failed."""
 
 
 def fmi_headers() -> Path:

@@ -23,6 +23,7 @@ import numpy as np
 import sympy as sp
 
 from satfmu.fmus.xml_text import xml_problem
+from satfmu.fmus.errors import ModelDefinitionError
 
 VariableType = Literal["Real", "Integer", "Boolean"]
 
@@ -50,10 +51,6 @@ UNITS: dict[str, dict[str, int]] = {
 
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*(\[[0-9]+(,[0-9]+)*\])?$")
 _IDENTIFIER = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
-
-
-class ModelDefinitionError(ValueError):
-    """A model definition is inconsistent (names, units, shapes, symbols)."""
 
 
 @dataclass(frozen=True)

@@ -44,14 +44,11 @@ import numpy as np
 
 from satfmu.fmus import signals
 from satfmu.fmus.model import Model, ModelDefinitionError, Table
+from satfmu.fmus.errors import ProfileError
 
 Generator = Callable[[np.ndarray, str], tuple[Model, dict[str, float]]]
 """(communication grid (s), unit of the target input) -> the signal-generator model and its
 parameter values."""
-
-
-class ProfileError(ValueError):
-    """A profile declaration is invalid; the message names the profile and the field."""
 
 
 @dataclass(frozen=True)

@@ -371,10 +371,10 @@ def _refuse_constant(name: str) -> float:
     raise ValueError(f"non-finite number {name} (never written by this FMU)")
 
 
-class FmuCallError(RuntimeError):
-    """An FMI call was rejected (bad value, wrong call order); the message names the variable."""
-
-
+class CallRefused(RuntimeError):
+    """Raised inside the FMU when it refuses an FMI call (bad value, wrong call order); the message
+    names the variable. The FMU's C layer turns it into fmi2Error; a host never sees this class
+    (satfmu's master raises :class:`satfmu.fmus.errors.FmuCallError`)."""
 
 
 def point_tolerance(ulps: int, t: float, start: float) -> float:
@@ -594,7 +594,7 @@ class SatfmuSlave(Fmi2Slave):
         self.log(message, Fmi2Status.error, "logStatusError")
         for obj in (self, type(self), self.log_queue):
             ctypes.pythonapi.Py_IncRef(ctypes.py_object(obj))
-        raise FmuCallError(message)
+        raise CallRefused(message)
 
     # ------------------------------------------------------------ value access
     # pythonfmu's own get_*/set_* raise KeyError or TypeError on an unknown reference or a wrong

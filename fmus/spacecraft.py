@@ -25,6 +25,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from satfmu.fmus.declared import check_keys, read_toml
+from satfmu.fmus.errors import SpacecraftError
 
 SYMMETRY_RTOL = 1e-9
 """Largest ``|J - J^T|`` relative to ``max |J|`` accepted as symmetric (rounding of a CAD export)."""
@@ -32,10 +33,6 @@ PARAMETERS = {"I_x": (0, 0), "I_y": (1, 1), "I_z": (2, 2), "I_xy": (0, 1), "I_xz
 """Plant parameter name -> entry of the inertia tensor it holds."""
 _KEYS = ("name", "description", "inertia", "actuators")
 _ACTUATOR_KEYS = ("torque_limit",)
-
-
-class SpacecraftError(ValueError):
-    """A spacecraft description is missing, malformed or not physical; the message names the key."""
 
 
 @dataclass(frozen=True)

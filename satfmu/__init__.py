@@ -36,6 +36,10 @@ Designs (one per method of the five seed papers; each returns a :class:`Design` 
     :func:`design_demeter` (seed 004); :class:`DesignError`.
 Artifacts
     :func:`load_artifact`, :func:`find_artifact`, :func:`user_artifacts`.
+Errors and warnings
+    Every error satfmu raises on purpose is a :class:`SatfmuError` (each also keeps its built-in
+    base: :class:`ScenarioError` is a ``ValueError``, :class:`DesignError` a ``RuntimeError``),
+    every warning a :class:`SatfmuWarning`; all are exported here (:mod:`satfmu.fmus.errors`).
 
 Names are imported on first use, so ``import satfmu`` is fast.
 """
@@ -52,17 +56,23 @@ if TYPE_CHECKING:
     from satfmu.sims.scenario import Result, Scenario
 
 _EXPORTS = {
-    "Spacecraft": "satfmu.fmus.spacecraft", "SpacecraftError": "satfmu.fmus.spacecraft",
-    "SEED_000": "satfmu.fmus.spacecraft",
+    # every error and warning satfmu raises, under SatfmuError and SatfmuWarning (satfmu.fmus.errors)
+    **{name: "satfmu.fmus.errors" for name in (
+        "SatfmuError", "SatfmuWarning", "ModelDefinitionError", "ProfileError", "SpacecraftError", "UnsafeFmuError",
+        "FmuBuildError", "ArtifactError", "RiccatiCheckError", "LMIError", "SOSError", "SolverMemoryError",
+        "SolverFailure", "FitVerificationError", "PeriodicSystemError", "RobustLMIError", "PlantDataError",
+        "DeltaError", "TooManyVerticesError", "ProgramTooLargeError", "NotHurwitzError", "OptionError",
+        "VariantError", "MasterError", "UnknownVariableError", "WiringError", "FmuCallError", "UnreadableFmuError",
+        "EngineError", "ScenarioError", "DesignMismatchWarning", "StaleFmuWarning", "SspError", "DispersionError",
+        "CampaignError", "CampaignWarning", "DesignError", "ShadowedArtifactWarning", "ReportError")},
+    "Spacecraft": "satfmu.fmus.spacecraft", "SEED_000": "satfmu.fmus.spacecraft",
     "Scenario": "satfmu.sims.scenario", "FmuSpec": "satfmu.sims.scenario", "Connection": "satfmu.sims.scenario",
-    "Metric": "satfmu.sims.scenario", "Result": "satfmu.sims.scenario", "ScenarioError": "satfmu.sims.scenario",
-    "DesignMismatchWarning": "satfmu.sims.scenario", "StaleFmuWarning": "satfmu.sims.scenario",
-    "Dispersions": "satfmu.sims.dispersions", "DispersionError": "satfmu.sims.dispersions",
+    "Metric": "satfmu.sims.scenario", "Result": "satfmu.sims.scenario",
+    "Dispersions": "satfmu.sims.dispersions",
     "run_campaign": "satfmu.sims.scenario_campaign", "CampaignResult": "satfmu.sims.scenario_campaign",
-    "Statistics": "satfmu.sims.scenario_campaign",
-    "write_report": "satfmu.sims.report", "ReportError": "satfmu.sims.report",
-    "replay": "satfmu.sims.scenario_campaign",
-    "Design": "satfmu.sims.designs", "DesignError": "satfmu.sims.designs", "design_hinf": "satfmu.sims.designs",
+    "Statistics": "satfmu.sims.scenario_campaign", "replay": "satfmu.sims.scenario_campaign",
+    "write_report": "satfmu.sims.report",
+    "Design": "satfmu.sims.designs", "design_hinf": "satfmu.sims.designs",
     "design_h2hinf": "satfmu.sims.designs", "design_vscmg_sdre": "satfmu.sims.designs",
     "design_cubesat_periodic": "satfmu.sims.designs", "design_demeter": "satfmu.sims.designs",
     "fmu_cache": "satfmu.sims.paths", "user_artifacts": "satfmu.sims.paths", "find_artifact": "satfmu.sims.paths",

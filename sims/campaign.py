@@ -51,6 +51,7 @@ from distributed import Client, LocalCluster, as_completed
 from satfmu.fmus.atomic import write_atomically
 from satfmu.fmus.declared import check_safe_name
 from satfmu.sims import chunk_files
+from satfmu.fmus.errors import CampaignError, CampaignWarning
 
 Task = Callable[[np.ndarray], dict[str, np.ndarray]]
 Sampler = Callable[[np.random.Generator, int], np.ndarray]
@@ -62,15 +63,6 @@ IDENTITY_FORMAT = 2
 """Version of the identity a record holds: 2 names modules without the ``satfmu.`` prefix of the
 layers (:func:`_module_name`; a record without ``identity_format`` was written before they moved
 under ``satfmu``: its function names still match, the digests of its callable objects do not)."""
-
-
-class CampaignError(ValueError):
-    """Invalid campaign, task output or result folder; the message says what and where."""
-
-
-class CampaignWarning(UserWarning):
-    """A chunk of a campaign folder is recomputed (the message names it and says why), or the
-    folder is in use by another driver and this one waits."""
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -76,6 +76,7 @@ from importlib import metadata
 from pathlib import Path
 from typing import Any
 
+from satfmu.fmus.errors import SatfmuError
 from satfmu.sims import paths
 
 
@@ -311,7 +312,9 @@ def _synth_demeter(args: argparse.Namespace) -> int:
                                         not args.no_wheels, name=args.name, n_samples=args.samples,
                                         convention=args.convention)
     except designs.DesignError as exc:
-        print(exc)
+        if exc.__cause__ is not None:  # bad input or an error of a step: exit 2 as any other
+            raise
+        print(exc)  # the variant is infeasible: exit 1
         return 1
     return _write_design(design, args)
 
@@ -703,7 +706,7 @@ def main(argv: list[str] | None = None) -> int:
         except Exception as exc:  # every user error: one line, exit 2 (1 means a metric missed its bound)
             if getattr(args, "debug", False):
                 raise
-            expected = isinstance(exc, (ValueError, KeyError, RuntimeError, OSError))
+            expected = isinstance(exc, (SatfmuError, ValueError, KeyError, RuntimeError, OSError))
             detail = "" if expected else f"{type(exc).__name__}: "
             hint = "" if expected else " (--debug shows the traceback)"
             newline, _PROGRESS["open"] = "\n" if _PROGRESS["open"] else "", False

@@ -1,4 +1,5 @@
-"""One function per design method of the five seed papers, each returning a :class:`Design`.
+"""One function per design method of the five seed papers, each returning a :class:`Design` and
+failing with :class:`DesignError` only.
 
 A design is made for a plant (seed 000 and 001: any spacecraft, via
 :class:`satfmu.fmus.spacecraft.Spacecraft`), re-verified independently of its solver by the
@@ -9,20 +10,48 @@ their controller FMUs. ``satfmu synth NAME`` is a thin layer over :data:`DESIGNS
 """
 from __future__ import annotations
 
+import functools
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Sequence
+from typing import Any, Callable, ParamSpec, Sequence
 
 from satfmu.fmus.model import Model
 from satfmu.fmus.spacecraft import Spacecraft
+from satfmu.fmus.errors import DesignError, SatfmuError
 
 Progress = Callable[[int, int, str], None]
 """``progress(done, total, message)``."""
 
+_P = ParamSpec("_P")
 
-class DesignError(RuntimeError):
-    """A design could not be made or failed its independent check; nothing is saved."""
+
+def fails_with_design_error(design: Callable[_P, "Design"]) -> Callable[_P, "Design"]:
+    """``design`` failing with :class:`DesignError` only: any other exception it raises (bad input,
+    a solver's or a check's error) becomes one with the same message, the original chained as its
+    ``__cause__`` (for a class outside satfmu's errors the message starts with the class name).
+
+    Parameters
+    ----------
+    design : callable
+        A design function returning a :class:`Design`.
+
+    Returns
+    -------
+    callable
+        The function with the same signature and docstring.
+    """
+    @functools.wraps(design)
+    def guarded(*args: _P.args, **kwargs: _P.kwargs) -> Design:
+        try:
+            return design(*args, **kwargs)
+        except DesignError:
+            raise
+        except Exception as exc:
+            detail = str(exc) if isinstance(exc, SatfmuError) else f"{type(exc).__name__}: {exc}"
+            raise DesignError(detail) from exc
+
+    return guarded
 
 
 @dataclass
@@ -95,9 +124,15 @@ def _mrp_plant(plant: Model | Spacecraft | None) -> Model:
 
     if plant is None:
         return mrp_satellite.MODEL
-    return mrp_satellite.build(plant) if isinstance(plant, Spacecraft) else plant
+    if isinstance(plant, Spacecraft):
+        return mrp_satellite.build(plant)
+    if not isinstance(plant, Model) or plant.name != mrp_satellite.MODEL.name:
+        raise DesignError(f"plant must be a satfmu.Spacecraft or an MRP satellite model (satfmu.mrp_plant), "
+                          f"got {plant!r:.80}")
+    return plant
 
 
+@fails_with_design_error
 def design_hinf(plant: Model | Spacecraft | None = None, *, name: str = "mrp_hinf_satfmu",
                 start: dict[str, float] | None = None, torque_budget: float = 6.5, horizon: float = 120.0,
                 region: float = 0.9, rate_max: float = 0.2, sigma_max: float = 0.9,
@@ -136,8 +171,8 @@ def design_hinf(plant: Model | Spacecraft | None = None, *, name: str = "mrp_hin
 
     Raises
     ------
-    satfmu.synthesis.sos.SOSError
-        If no iterate is accepted.
+    DesignError
+        If no iterate is accepted, or on bad input (the cause chained).
     """
     from satfmu.synthesis import l2_gain, two_step
 
@@ -149,6 +184,7 @@ def design_hinf(plant: Model | Spacecraft | None = None, *, name: str = "mrp_hin
     return Design("mrp-hinf", [result.artifact_data(name)], result.table(), result)
 
 
+@fails_with_design_error
 def design_h2hinf(gamma: float, plant: Model | Spacecraft | None = None, *, name: str = "mrp_h2hinf_satfmu",
                   variant: str = "slack", region: float = 0.45, alpha_range: tuple[float, float] = (0.05, 2.0),
                   evaluations: int = 12, progress: Progress | None = None) -> Design:
@@ -176,7 +212,8 @@ def design_h2hinf(gamma: float, plant: Model | Spacecraft | None = None, *, name
     Raises
     ------
     DesignError
-        If no design is certified at ``gamma`` or the closed-loop check fails.
+        If no design is certified at ``gamma``, the closed-loop check fails, or on bad input (the
+        cause chained).
     """
     from satfmu.synthesis import h2hinf_sos
 
@@ -196,6 +233,7 @@ def design_h2hinf(gamma: float, plant: Model | Spacecraft | None = None, *, name
     return Design("mrp-h2hinf", [h2hinf_sos.artifact_data(r, name, check, model)], report, r)
 
 
+@fails_with_design_error
 def design_vscmg_sdre(grid: tuple[int, int] = (23, 25), max_degree: int = 8, cv_tol: float | None = None,
                       region: bool = True) -> Design:
     """Seed 002: the approximated SDRE servo (polynomial gain fit, SOS stability region) and the
@@ -215,11 +253,15 @@ def design_vscmg_sdre(grid: tuple[int, int] = (23, 25), max_degree: int = 8, cv_
 
     Raises
     ------
-    satfmu.synthesis.gain_fit.FitVerificationError
-        If the fit fails its check against the plant's own factorization.
+    DesignError
+        If the fit fails its check against the plant's own factorization
+        (:class:`satfmu.fmus.errors.FitVerificationError` chained), or on bad input.
     """
     from satfmu.synthesis import gain_fit
 
+    if (not isinstance(grid, (tuple, list)) or len(grid) != 2
+            or not all(isinstance(n, int) and not isinstance(n, bool) and n >= 2 for n in grid)):
+        raise DesignError(f"grid must be two integers >= 2 (SDRE grid points over q2 and w4), got {grid!r:.80}")
     tol = {} if cv_tol is None else {"cv_tol": cv_tol if cv_tol > 0 else None}
     result, approx, lq = gain_fit.synthesize(*grid, degrees=range(1, max_degree + 1), region=region, **tol)
     cert = approx["certificate"]
@@ -228,6 +270,7 @@ def design_vscmg_sdre(grid: tuple[int, int] = (23, 25), max_degree: int = 8, cv_
     return Design("vscmg-sdre", [approx, lq], report, result)
 
 
+@fails_with_design_error
 def design_cubesat_periodic(gamma: float | None = None, plant: Spacecraft | None = None, *,
                             name: str = "cubesat_periodic_satfmu",
                             published_name: str = "cubesat_periodic_published") -> Design:
@@ -246,10 +289,9 @@ def design_cubesat_periodic(gamma: float | None = None, plant: Spacecraft | None
 
     Raises
     ------
-    RuntimeError
-        If Theorem 2 is infeasible at ``gamma``.
-    ValueError
-        If the spacecraft has products of inertia.
+    DesignError
+        If Theorem 2 is infeasible at ``gamma``, or the spacecraft has products of inertia (the
+        cause chained).
     """
     from satfmu.fmus import cubesat
     from satfmu.synthesis import cubesat_periodic as cp
@@ -271,6 +313,7 @@ def design_cubesat_periodic(gamma: float | None = None, plant: Spacecraft | None
     return Design("cubesat-periodic", data, "\n".join(lines), r)
 
 
+@fails_with_design_error
 def design_demeter(axes: Sequence[int] = (1,), appendages: Sequence[int] = (1,), model_type: int = 1,
                    uncertainty_type: int = 1, wheels: bool = True, *, name: str = "demeter_row1_det",
                    n_samples: int = 100, convention: str = "satfmu") -> Design:
@@ -297,7 +340,8 @@ def design_demeter(axes: Sequence[int] = (1,), appendages: Sequence[int] = (1,),
     Raises
     ------
     DesignError
-        If the variant is infeasible (with the obstruction when one is proved).
+        If the variant is infeasible (with the obstruction when one is proved), or on bad input
+        (the cause chained).
     """
     from satfmu.synthesis import demeter_design as dd
     from satfmu.synthesis import demeter_table

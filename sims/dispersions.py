@@ -69,6 +69,7 @@ from scipy.spatial.transform import Rotation
 from satfmu.fmus.declared import check_keys, did_you_mean
 from satfmu.fmus.spacecraft import PARAMETERS as INERTIA_PARAMETERS
 from satfmu.fmus.spacecraft import Spacecraft, SpacecraftError
+from satfmu.fmus.errors import DispersionError
 
 Nominal = Callable[[str, str], "float | None"]
 """(instance or ``"profiles[i]"``, parameter or field) -> its nominal value, or None if it has none."""
@@ -89,10 +90,6 @@ MAX_REDRAWS = 1000
 _PROFILE = re.compile(r"profiles\[(\d+)\]\.([A-Za-z_][A-Za-z0-9_]*)")
 _ATTITUDE = ("instance", "kind", "half_angle_deg", "mrp", "quaternion")
 _INERTIA = ("instance", "relative", "axis_rotation_deg")
-
-
-class DispersionError(ValueError):
-    """A dispersion declaration is invalid or cannot be drawn; the message names the key path."""
 
 
 def _number(v: Any, where: str) -> float:

@@ -22,6 +22,7 @@ from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFr
                        fmi2CallbackFunctions, fmi2CallbackLoggerTYPE)
 
 from satfmu.fmus import archive
+from satfmu.fmus.errors import UnreadableFmuError
 
 OK, WARNING, DISCARD, ERROR, FATAL, PENDING = 0, 1, 2, 3, 4, 5
 STATUS_NAMES = {OK: "OK", WARNING: "Warning", DISCARD: "Discard", ERROR: "Error", FATAL: "Fatal",
@@ -123,11 +124,6 @@ def abandon(owner: Any) -> None:
     """Keep ``owner`` (an instance that returned fmi2Fatal, with its callbacks) alive for the
     life of the process and never call it again, as FMI 2.0 requires."""
     _ABANDONED.append(owner)
-
-
-class UnreadableFmuError(ValueError):
-    """A file that is not a readable FMU (not a zip, no or a broken model description, an unsafe
-    archive that :mod:`satfmu.fmus.archive` refuses, ...)."""
 
 
 def open_fmu(path: str | Path) -> tuple[Any, str]:

@@ -30,12 +30,9 @@ from pathlib import Path
 from typing import Sequence
 
 import numpy as np
+from satfmu.fmus.errors import EngineError
 
 NS_PER_S = 1_000_000_000
-
-
-class EngineError(RuntimeError):
-    """libcosim failed, or its process ended abnormally; the message holds its output."""
 
 
 def nanoseconds(seconds: float, what: str) -> int:

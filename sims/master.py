@@ -42,6 +42,7 @@ from threadpoolctl import ThreadpoolController
 from satfmu.fmus.declared import did_you_mean
 from satfmu.fmus.profiles import Profile
 from satfmu.sims import fmi_host
+from satfmu.fmus.errors import FmuCallError, MasterError, UnknownVariableError, WiringError
 
 
 ONE_THREAD = 1
@@ -49,25 +50,6 @@ ONE_THREAD = 1
 (``satfmu run vscmg_seed`` with its online SDRE controllers as pythonfmu FMUs, which solve a
 7-state Riccati equation per 0.01 s sample through the host's numpy/scipy): 10.1-11.5 s CPU with OpenBLAS's
 default threads, 6.0-6.3 s with one, the same wall time."""
-
-
-class MasterError(RuntimeError):
-    """Base class of co-simulation errors."""
-
-
-class UnknownVariableError(MasterError, KeyError):
-    """A name refers to no FMU or no variable; the message names it and what exists."""
-
-    def __str__(self) -> str:  # KeyError would quote the message
-        return str(self.args[0])
-
-
-class WiringError(MasterError):
-    """A connection or profile target is invalid (types, causality, driven twice, loops)."""
-
-
-class FmuCallError(MasterError):
-    """An FMU returned fmi2Error/fmi2Fatal; the message holds the FMU's own log lines."""
 
 
 def start_value(comp: "Component", name: str, value: Any) -> tuple[Any, float | int | bool]:

@@ -12,6 +12,7 @@ import os
 from pathlib import Path
 
 from satfmu.fmus.declared import did_you_mean
+from satfmu.fmus.errors import ShadowedArtifactWarning
 
 SHIPPED_SCENARIOS = Path(__file__).resolve().parent / "scenarios"
 """Folder of the scenarios shipped with satfmu (``*.toml``)."""
@@ -86,10 +87,6 @@ def find_artifact(name_or_path: str | Path) -> Path:
     names = artifact_names()
     raise FileNotFoundError(f"no artifact named {str(name_or_path)!r} in {', '.join(map(str, artifact_folders()))} "
                             f"(known: {', '.join(names)})" + did_you_mean(str(name_or_path), names))
-
-
-class ShadowedArtifactWarning(UserWarning):
-    """A user's artifact has the name of a shipped one (and other contents): it is the one used."""
 
 
 _SHADOWS_REPORTED: set[Path] = set()

@@ -80,6 +80,7 @@ from satfmu.sims.dispersions import DispersionError, Dispersions, Overrides
 from satfmu.sims.master import (CoSimulation, UnknownVariableError, WiringError, communication_times, recorded_steps,
                          start_value)
 from satfmu.sims.paths import BACKENDS, SHIPPED_SCENARIOS
+from satfmu.fmus.errors import DesignMismatchWarning, ScenarioError, StaleFmuWarning
 
 _TOP = ("name", "description", "stop_time", "step_size", "start_time", "fmus", "connections",
         "profiles", "record", "metrics", "plot", "reference", "verify", "dispersions", "campaign", "record_every")
@@ -93,21 +94,6 @@ CAMPAIGN_KEYS = {"samples": 1, "demo_samples": 1, "seed": 0}
 """Keys of a scenario's ``[campaign]`` table -> the least integer each takes."""
 _NEEDS = {"settling_time": "tolerance", "time_in_saturation": "limit", "l2_ratio": "disturbances",
           "max_difference": "versus"}
-
-
-class ScenarioError(ValueError):
-    """A scenario is missing, malformed, or refers to something that does not exist; the message
-    names the key path (``mine.toml: connections[2].from: ...``)."""
-
-
-class DesignMismatchWarning(UserWarning):
-    """A scenario pairs a controller with a plant whose parameters differ from its design plant."""
-
-
-class StaleFmuWarning(UserWarning):
-    """A controller FMU embeds another artifact than the file of its name holds now (rebuilt in
-    the FMU cache; run as it is elsewhere with ``allow_stale``), or an unusable FMU in the FMU
-    cache was rebuilt."""
 
 
 @dataclass

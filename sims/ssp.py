@@ -41,7 +41,8 @@ from satfmu.fmus.atomic import write_atomically
 from satfmu.fmus.description import xml_value
 from satfmu.sims.master import CoSimulation, start_value
 from satfmu.sims import catalog
-from satfmu.sims.scenario import Scenario, ScenarioError, check, fmu_paths, grid, load, profiles
+from satfmu.sims.scenario import Scenario, check, fmu_paths, grid, load, profiles
+from satfmu.fmus.errors import SspError
 
 NS = {"ssd": "http://ssp-standard.org/SSP1/SystemStructureDescription",
       "ssc": "http://ssp-standard.org/SSP1/SystemStructureCommon",
@@ -53,10 +54,6 @@ SCHEMA_DIR = Path(fmpy_ssd.__file__).parent / "schema"
 PARAMETER_SET = "scenario"
 """Name of every component's parameter set: ecos applies the sets of one name
 (``--parameterSet scenario``); libcosim applies each component's inline set."""
-
-
-class SspError(ScenarioError):
-    """The scenario cannot be written as an SSP file, or the file fails the SSP schema."""
 
 
 def _q(name: str) -> str:

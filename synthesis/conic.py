@@ -28,6 +28,7 @@ from typing import Any
 
 import numpy as np
 import scipy.sparse as sps
+from satfmu.fmus.errors import SolverMemoryError
 
 SOLVED = {"Solved": "optimal", "AlmostSolved": "optimal_inaccurate"}
 """Clarabel statuses with a solution, and their names in :class:`ConicResult` (those cvxpy
@@ -78,10 +79,6 @@ def svec_scale(N: int) -> np.ndarray:
     """1 on the diagonal, sqrt 2 off it, in :func:`svec_indices` order."""
     i, j = svec_indices(N)
     return np.where(i == j, 1.0, np.sqrt(2.0))
-
-
-class SolverMemoryError(MemoryError):
-    """Clarabel ran out of the memory allowed to it (:func:`solve_clarabel`'s ``memory_limit``)."""
 
 
 def _address_space() -> int | None:

@@ -39,6 +39,7 @@ import numpy as np
 
 from satfmu.controllers import state_feedback as sf
 from satfmu.fmus import demeter
+from satfmu.fmus.errors import VariantError
 
 PSEUDO_INTEGRATOR_POLE = 1e-3
 """a of the input pseudo-integrator 1/(s + a), 1/s (seed section 3)."""
@@ -55,10 +56,6 @@ LFT_ROUNDING = 1e-13
 SEED_TABLE1_COLUMNS = ("design_i2p", "design_hinf", "det_i2p", "det_hinf", "prob_i2p", "prob_hinf", "seconds")
 """Columns of the seed's Table 1: design bounds, deterministic analysis, probabilistic analysis
 (i2p then H-infinity each), seconds."""
-
-
-class VariantError(ValueError):
-    """A variant selects axes, appendages or types that do not exist."""
 
 
 @dataclass(frozen=True)

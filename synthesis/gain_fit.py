@@ -25,6 +25,7 @@ from satfmu.controllers.artifact import SERVO_KIND, FORMAT, FORMAT_VERSION, desi
 from satfmu.controllers.servo_sdc import OUTPUTS, RATES, TRACKED
 from satfmu.fmus import vscmg
 from satfmu.synthesis.sdre import Servo
+from satfmu.fmus.errors import FitVerificationError
 
 Q2_RANGE = (0.15, 1.25)
 """Gimbal-2 angle range of the grid, rad (covers the seed's pi/18 to 1 + pi/18; substitute)."""
@@ -154,10 +155,6 @@ def _servo_data(name: str, description: str, gain: list, certificate: dict, prov
     if fit_info:
         data["fit"] = fit_info
     return data
-
-
-class FitVerificationError(RuntimeError):
-    """The fitted gain failed a check made independently of the fit."""
 
 
 OFFGRID_TOL = 2e-2

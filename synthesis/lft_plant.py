@@ -25,35 +25,8 @@ import itertools
 from dataclasses import dataclass
 
 import numpy as np
-
-
-class RobustLMIError(ValueError):
-    """Base class of the input errors of the robust LMI modules (this module's docstring)."""
-
-
-class PlantDataError(RobustLMIError):
-    """A plant, descriptor, gain or system has wrong shapes or non-finite entries."""
-
-
-class DeltaError(RobustLMIError):
-    """A parameter vector has the wrong length, is not finite, is outside [-1, 1], or the
-    system is ill posed (singular) there."""
-
-
-class TooManyVerticesError(RobustLMIError):
-    """The box has more vertices than ``max_vertices``."""
-
-
-class ProgramTooLargeError(RobustLMIError):
-    """A program's estimated size exceeds its limit (checked before the solver runs)."""
-
-
-class NotHurwitzError(RobustLMIError):
-    """The H-infinity norm was asked for an unstable system."""
-
-
-class OptionError(RobustLMIError):
-    """A design option (weights, region, eps, uncertainty kind) is invalid."""
+from satfmu.fmus.errors import (DeltaError, NotHurwitzError as NotHurwitzError, OptionError, PlantDataError,
+    ProgramTooLargeError as ProgramTooLargeError, RobustLMIError as RobustLMIError, TooManyVerticesError)
 
 
 def _matrix(name: str, value) -> np.ndarray:

@@ -41,6 +41,7 @@ from satfmu.synthesis import solve_policy
 from satfmu.synthesis.lft_plant import ProgramTooLargeError
 from satfmu.synthesis.conic import (REFUTED, SOLVED, ConicProblem, SolverMemoryError, solve_clarabel, svec_indices,
                                     svec_scale)
+from satfmu.fmus.errors import LMIError
 
 
 LOG = logging.getLogger(__name__)
@@ -52,10 +53,6 @@ supernodal LDL^T, which handles the dense block that each PSD cone of order N pu
 matrix (N(N+1)/2 rows) as dense blocks, on one thread. DEMETER row 10's 21-cone program of
 order <= 32, two interleaved runs: 1.51 / 1.84 s on one thread, 2.14 / 2.27 s with Clarabel's
 default (``"auto"``: faer on every core), 6.16 / 6.93 s with QDLDL."""
-
-
-class LMIError(ValueError):
-    """A non-affine operation, mismatched shapes, or a value asked before a solve."""
 
 
 def _half_the_memory(default: int = 8 * 2**30) -> int:

@@ -36,10 +36,7 @@ import cvxpy as cp
 import numpy as np
 
 from satfmu.synthesis import solve_policy
-
-
-class PeriodicSystemError(ValueError):
-    """A periodic system or gain sequence has wrong shapes or non-finite entries."""
+from satfmu.fmus.errors import PeriodicSystemError
 
 
 @dataclass(frozen=True)

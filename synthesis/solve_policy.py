@@ -36,6 +36,7 @@ from dataclasses import dataclass
 from typing import Any, Callable, Sequence
 
 import cvxpy as cp
+from satfmu.fmus.errors import SolverFailure
 
 RELAXED_TOLERANCES = {"tol_gap_abs": 1e-6, "tol_gap_rel": 1e-6, "tol_feas": 1e-7, "tol_ktratio": 1e-5}
 """Clarabel tolerances of the second rung (the defaults are 1e-8)."""
@@ -46,7 +47,6 @@ REGULARIZED = {**RELAXED_TOLERANCES, "static_regularization_constant": 1e-7}
 LADDER: tuple[tuple[str, dict[str, Any]], ...] = (
     ("CLARABEL", {}), ("CLARABEL", RELAXED_TOLERANCES), ("CLARABEL", REGULARIZED))
 """The default ladder: (solver, settings) tried in turn."""
-
 
 
 class RungMemory:
@@ -101,10 +101,6 @@ FINAL = ("infeasible", "unbounded")
 """Statuses that end the ladder with a certificate."""
 INACCURATE_CERTIFICATES = ("infeasible_inaccurate", "unbounded_inaccurate")
 """Certificates that go to the next rung, and count as infeasibility if no rung solves."""
-
-
-class SolverFailure(RuntimeError):
-    """A solver stopped without a status (a numerical error): the next rung is tried."""
 
 
 @dataclass(frozen=True)

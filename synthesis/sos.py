@@ -35,10 +35,7 @@ from satfmu.synthesis.exponents import keys
 from satfmu.synthesis.polynomial import Poly, PolyMatrix, monomials, quadratic_form
 from satfmu.synthesis.sign_symmetry import symmetry_blocks
 from satfmu.synthesis.solve_policy import solve_with, ladder_with
-
-
-class SOSError(RuntimeError):
-    """The program is infeasible, the solver failed, or the input is invalid."""
+from satfmu.fmus.errors import SOSError
 
 
 def _in_hull(points: np.ndarray, targets: np.ndarray) -> np.ndarray:

@@ -185,6 +185,7 @@ def test_seed_003_design_for_your_own_cubesat():
     assert (rec["I_x"], rec["I_y"], rec["I_z"]) == (0.01, 0.012, 0.004)
     # 6.67 on 1/0.005 = 200: the same 3.3 % of 1/0.01 = 100 is 3.335
     assert art.provenance["sigma"][0] == pytest.approx(3.335)
-    with pytest.raises(ValueError, match="principal axes"):
+    with pytest.raises(designs.DesignError, match="principal axes") as refused:
         designs.design_cubesat_periodic(plant=Spacecraft("skewed", [[0.01, 0.001, 0], [0.001, 0.012, 0],
                                                                     [0, 0, 0.004]]))
+    assert isinstance(refused.value.__cause__, ValueError)  # the cubesat model's refusal, chained

@@ -27,14 +27,11 @@ from satfmu.sims import preflight
 from satfmu.sims import scenario as S
 from satfmu.sims.campaign import Campaign, CampaignError
 from satfmu.sims.scenario_campaign import Statistics
+from satfmu.fmus.errors import ReportError
 
 ENVELOPES = "envelopes.parquet"
 """File name of a campaign's percentile envelopes (optional)."""
 _ENVELOPE_COLUMN = re.compile(r"^(?P<signal>[A-Za-z_][\w.]*(?:\[\d+(?:,\d+)*\])?):p(?P<p>\d+(?:\.\d+)?)$")
-
-
-class ReportError(ValueError):
-    """A folder a report cannot be made from; the message names the folder or file and why."""
 
 
 @dataclass(frozen=True)

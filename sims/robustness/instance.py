@@ -12,6 +12,7 @@ from fmpy.fmi2 import FMU2Slave, fmi2Boolean, fmi2Integer, fmi2Real, fmi2ValueRe
 from satfmu.sims import fmi_host
 from satfmu.sims.fmi_host import ERROR, FATAL, OK, STATUS_NAMES as _FMI_STATUS_NAMES
 from satfmu.sims.robustness.target import Target, Var
+from satfmu.fmus.errors import CaseBroken
 
 NO_RESULT = -1
 """Outcome status of a case that failed before or without the call under test."""
@@ -22,10 +23,6 @@ def short(text: str, n: int) -> str:
     """``text`` on one line, cut to ``n`` characters."""
     text = " ".join(text.split())
     return text if len(text) <= n else text[:n - 3] + "..."
-
-
-class CaseBroken(Exception):
-    """A call the case needed (not the one under test) failed: the case FAILs with this message."""
 
 
 class Instance:
