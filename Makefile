@@ -20,7 +20,7 @@ DEMO_CAMPAIGNS := mrp_slew_mc mrp_slew_mc_synth mrp_slew_mc_h2hinf
 # (set on some machines) would forbid, so make's commands run without it.
 unexport PYTHONDONTWRITEBYTECODE
 
-.PHONY: demo test test-all lint build validate verify bench clean system-deps browser-deps wine-deps bench-deps
+.PHONY: demo test test-all lint docs build validate verify bench clean system-deps browser-deps wine-deps bench-deps
 
 # Debian's libtbb12 is needed by the ecos co-simulation host (ecospy), and its MinGW-w64 cross compiler
 # (x86_64-w64-mingw32-gcc) builds every native FMU's win64 DLL; installed once, guarded, checked again
@@ -116,6 +116,11 @@ PYTEST := env OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 $(PY) -
 lint: $(VENV)/.installed
 	@$(STAGE) ruff $(VENV)/bin/ruff check .
 	@$(STAGE) mypy $(PY) scripts/typecheck.py
+
+# the documentation site: README walkthrough, docs/*.md and the API reference from the docstrings, in
+# build/docs (open build/docs/index.html); nitpicky, every warning an error (tests/test_docs.py builds it too)
+docs: $(VENV)/.installed
+	@$(STAGE) docs $(VENV)/bin/sphinx-build -q -W --keep-going -n -b html docs build/docs
 
 test: build browser-deps lint
 	@$(STAGE) --show tests $(PYTEST)

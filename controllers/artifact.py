@@ -70,6 +70,17 @@ _SCHEDULING = re.compile(r"^(?:(?P<f>[a-z]+)\((?P<inner>\w+)\)|(?P<plain>\w+))$"
 def scheduling_signal(entry: str) -> tuple[str | None, str]:
     """``(function, signal)`` of a scheduling entry ``"name"`` or ``"sin(name)"``/``"cos(name)"``.
 
+    Parameters
+    ----------
+    entry : str
+        One entry of a servo artifact's ``scheduling`` list: a signal name (``"q2"``) or a
+        function of :data:`SCHEDULING_FUNCTIONS` applied to one (``"sin(q2)"``).
+
+    Returns
+    -------
+    tuple of (str or None, str)
+        The function's name (None for a plain signal) and the signal's name.
+
     Raises
     ------
     ValueError
@@ -91,14 +102,38 @@ periodic design with thousands of samples stays far below."""
 
 @dataclass(frozen=True)
 class Term:
-    """One monomial ``c * prod x_j^e_j``."""
+    """One monomial ``c * prod x_j^e_j``.
+
+    Attributes
+    ----------
+    c : float
+        The coefficient, in the unit of the output the term belongs to (per unit of the
+        variables' product).
+    e : tuple of int
+        The exponent of each variable (a state, or a scheduling variable of a servo gain), one
+        per variable, non-negative.
+    """
 
     c: float
     e: tuple[int, ...]
 
 
 def evaluate_terms(terms: list[Term], x: np.ndarray) -> np.ndarray:
-    """``sum c prod x_j^e_j`` over the last axis of ``x``."""
+    """``sum c prod x_j^e_j`` over the last axis of ``x``.
+
+    Parameters
+    ----------
+    terms : list of Term
+        The polynomial, one :class:`Term` per monomial (an empty list is the zero polynomial).
+    x : numpy.ndarray, shape (..., n)
+        Values of the variables, one per entry of the last axis (``n`` = the length of each
+        term's ``e``).
+
+    Returns
+    -------
+    numpy.ndarray, shape (...)
+        The polynomial at each point of ``x``.
+    """
     val = np.zeros(x.shape[:-1])
     for t in terms:
         val = val + t.c * np.prod(x ** np.array(t.e), axis=-1)
@@ -107,7 +142,35 @@ def evaluate_terms(terms: list[Term], x: np.ndarray) -> np.ndarray:
 
 @dataclass
 class ControllerArtifact:
-    """A validated polynomial state-feedback controller artifact."""
+    """A validated polynomial state-feedback controller artifact.
+
+    Attributes
+    ----------
+    name : str
+        The controller's name, lower_snake_case (it becomes the FMU's modelIdentifier).
+    description : str
+        One-line description of the controller.
+    plant : str
+        Model name of the plant it is designed for (``"mrp_satellite"``).
+    states : list of dict
+        The controller's inputs, the plant's states: ``{"name": str, "unit": str}`` each, in the
+        order of the law's variables.
+    outputs : list of dict
+        The controller's outputs, the plant's command inputs: ``{"name": str, "unit": str,
+        "description": str}`` each.
+    terms : list of list of Term
+        The law expanded to ``u_i = sum of terms``, one list per output (both forms end up here).
+    law : dict
+        The law as the file gives it (``{"form": "polynomial", ...}`` or ``{"form":
+        "gain_times_lyapunov", ...}``), written back by :meth:`to_json`.
+    certificate : dict
+        What was proved: ``status`` (one of :data:`CERTIFICATE_STATUS`), ``proved``, ``region``
+        and ``numbers``.
+    provenance : dict
+        Where the law came from: ``source`` and ``design_plant`` (:func:`design_plant_record`).
+    lyapunov : dict, optional
+        ``{"Q": matrix}`` of the certificate's Lyapunov function; empty when the file has none.
+    """
 
     name: str
     description: str
@@ -122,7 +185,23 @@ class ControllerArtifact:
     lyapunov: dict[str, Any] = field(default_factory=dict)
 
     def evaluate(self, x: np.ndarray) -> np.ndarray:
-        """``u(x)`` without saturation; ``x`` of shape (n_states,) or (n, n_states)."""
+        """``u(x)`` without saturation; ``x`` of shape (n_states,) or (n, n_states).
+
+        Parameters
+        ----------
+        x : numpy.ndarray, shape (n_states,) or (n, n_states)
+            The plant state, or ``n`` of them, in the units of ``states``.
+
+        Returns
+        -------
+        numpy.ndarray, shape (n_outputs,) or (n, n_outputs)
+            The commands, in the units of ``outputs``.
+
+        Raises
+        ------
+        ValueError
+            If the last axis of ``x`` is not one entry per state.
+        """
         x = np.asarray(x, float)
         if x.shape[-1] != len(self.states):
             raise ValueError(f"artifact {self.name!r}: x has {x.shape[-1]} entries, expected {len(self.states)}")
@@ -143,7 +222,31 @@ def new_data(plant: "Model", name: str, description: str, law: dict[str, Any], c
              provenance: dict[str, Any], lyapunov: dict[str, Any] | None = None) -> dict[str, Any]:
     """JSON data of a new artifact for a state feedback of ``plant``: its states are the
     controller's inputs and its command inputs ``u[i]`` the controller's outputs; the
-    provenance records ``plant`` (:func:`design_plant_record`)."""
+    provenance records ``plant`` (:func:`design_plant_record`).
+
+    Parameters
+    ----------
+    plant : satfmu.fmus.model.Model
+        The plant the state feedback is designed for.
+    name : str
+        The artifact's name, lower_snake_case (the controller FMU's modelIdentifier).
+    description : str
+        One-line description of the controller.
+    law : dict
+        The law, ``{"form": "polynomial", "terms": ...}`` or ``{"form": "gain_times_lyapunov",
+        "K": ..., "P": ...}`` (the module's schema).
+    certificate : dict
+        ``{"status": ..., "proved": str, "region": str, "numbers": {str: float}}``.
+    provenance : dict
+        ``{"source": str, ...}``; ``design_plant`` is added from ``plant``.
+    lyapunov : dict, optional
+        ``{"Q": matrix}`` of the certificate's Lyapunov function; left out when not given.
+
+    Returns
+    -------
+    dict
+        The artifact's JSON data (not validated: :func:`parse` does that).
+    """
     states = [{"name": s.variable.name, "unit": s.variable.unit} for s in plant.states]
     outputs = [{"name": v.name, "unit": v.unit, "description": v.description}
                for v in plant.inputs if v.base_name == "u"]
@@ -344,6 +447,19 @@ def parse(data: Any, where: str = "artifact") -> Artifact:
     certificate status against the numbers it records and the matrices it holds, and a gain
     held twice (``design.K`` and ``gains``) for agreement.
 
+    Parameters
+    ----------
+    data : Any
+        The decoded JSON (a dict of one of the four kinds, anything else is refused).
+    where : str, optional
+        What ``data`` is called in error messages (the file's path when loaded from one).
+
+    Returns
+    -------
+    Artifact
+        A :class:`ControllerArtifact`, :class:`ServoArtifact`, :class:`PeriodicArtifact` or
+        :class:`GainArtifact`, by the data's ``kind``.
+
     Raises
     ------
     ArtifactError
@@ -440,6 +556,34 @@ class ServoArtifact:
 
     The servo state is ``xe = [int e_1 .. int e_m, e_1 .. e_m, rates]`` with
     ``e_i = reference_i - tracked_i``.
+
+    Attributes
+    ----------
+    name : str
+        The controller's name, lower_snake_case (the FMU's modelIdentifier).
+    description : str
+        One-line description of the controller.
+    plant : str
+        Model name of the plant it is designed for (``"vscmg"``).
+    tracked : list of dict
+        The tracked plant outputs, ``{"name": plant output, "reference": input name, "unit": str}``
+        each.
+    rates : list of dict
+        The plant outputs fed back directly, ``{"name": plant output, "unit": str}`` each.
+    scheduling : list of str
+        The scheduling variables, each a tracked or rate name or ``"sin(name)"``/``"cos(name)"``
+        (:func:`scheduling_signal`).
+    outputs : list of dict
+        The controller's outputs, ``{"name": str, "unit": str, "description": str}`` each.
+    gain : list of list of list of Term
+        ``K(s)``: per output, per servo state, a polynomial in the scheduling variables.
+    certificate : dict
+        What was proved: ``status``, ``proved``, ``region`` and ``numbers``.
+    provenance : dict
+        Where the gain came from: ``source`` and ``design_plant``.
+    fit : dict, optional
+        How a fitted gain was fitted (degree, scheduling, cross-validation,
+        :mod:`satfmu.synthesis.gain_fit`); empty when the file has none.
     """
 
     name: str
@@ -458,6 +602,17 @@ class ServoArtifact:
         """The scheduling variables from measured ``signals`` (name -> value or array):
         shape (n_sched,) or (n, n_sched), the argument of :meth:`gain_at`.
 
+        Parameters
+        ----------
+        signals : dict
+            ``{signal name: value}`` of the measured tracked and rate signals (rad, rad/s), each a
+            float or an array of shape (n,); other keys are ignored.
+
+        Returns
+        -------
+        numpy.ndarray, shape (n_sched,) or (n, n_sched)
+            The scheduling variables, in the order of ``scheduling``.
+
         Raises
         ------
         KeyError
@@ -471,12 +626,24 @@ class ServoArtifact:
         return np.stack(cols, axis=-1)
 
     def gain_at(self, s: np.ndarray) -> np.ndarray:
-        """K at scheduling values ``s`` (shape (n_sched,) or (n, n_sched)) -> (..., n_out, n_servo)."""
+        """K at scheduling values ``s`` (shape (n_sched,) or (n, n_sched)) -> (..., n_out, n_servo).
+
+        Parameters
+        ----------
+        s : numpy.ndarray, shape (n_sched,) or (n, n_sched)
+            Scheduling variables, e.g. from :meth:`scheduling_values`.
+
+        Returns
+        -------
+        numpy.ndarray, shape (n_out, n_servo) or (n, n_out, n_servo)
+            The gain ``K(s)``.
+        """
         s = np.asarray(s, float)
         return np.stack([np.stack([evaluate_terms(entry, s) for entry in row], axis=-1) for row in self.gain],
                         axis=-2)
 
     def to_json(self) -> dict[str, Any]:
+        """The artifact as JSON-ready data (kind ``"servo_gain_schedule"``)."""
         data = {"format": FORMAT, "format_version": FORMAT_VERSION, "kind": SERVO_KIND, "name": self.name,
                 "description": self.description, "plant": self.plant, "tracked": self.tracked,
                 "rates": self.rates, "scheduling": self.scheduling, "outputs": self.outputs,
@@ -527,6 +694,31 @@ class PeriodicArtifact:
          "certificate": {...}, "provenance": {...}, "design": {...} (optional)}
 
     The gain in use at orbit time ``tau`` is ``F(k)``, ``k = floor(tau / Ts) mod N``.
+
+    Attributes
+    ----------
+    name : str
+        The controller's name, lower_snake_case (the FMU's modelIdentifier).
+    description : str
+        One-line description of the controller.
+    plant : str
+        Model name of the plant it is designed for (``"cubesat"``).
+    inputs : list of dict
+        The measured plant outputs ``y``, ``{"name": plant output, "unit": str}`` each.
+    outputs : list of dict
+        The controller's outputs ``u``, ``{"name": str, "unit": str, "description": str}`` each.
+    sample_period : float
+        ``Ts``, the hold period of each gain (s).
+    schedule_period : float
+        ``N * Ts``, the period of the schedule (s): the orbit period.
+    gains : numpy.ndarray, shape (N, n_outputs, n_inputs)
+        ``F(0), ..., F(N-1)``, in the units of ``outputs`` per unit of ``inputs``.
+    certificate : dict
+        What was proved: ``status``, ``proved``, ``region`` and ``numbers``.
+    provenance : dict
+        Where the gains came from: ``source`` and ``design_plant``.
+    design : dict, optional
+        Data of the design (levels, analysis); empty when the file has none.
     """
 
     name: str
@@ -547,10 +739,23 @@ class PeriodicArtifact:
         return len(self.gains)
 
     def gain_index(self, tau: np.ndarray | float) -> np.ndarray:
-        """Index k of the gain in use at orbit time ``tau`` (s)."""
+        """Index k of the gain in use at orbit time ``tau`` (s).
+
+        Parameters
+        ----------
+        tau : float or numpy.ndarray
+            Orbit time (s), a scalar or an array of any shape.
+
+        Returns
+        -------
+        numpy.ndarray of int
+            ``floor(tau / Ts) mod N`` (:data:`INDEX_TOL` of a sample added before the floor), of the
+            shape of ``tau``.
+        """
         return np.floor(np.asarray(tau, float) / self.sample_period + INDEX_TOL).astype(int) % self.n_samples
 
     def to_json(self) -> dict[str, Any]:
+        """The artifact as JSON-ready data (kind ``"periodic_gain_schedule"``)."""
         data = {"format": FORMAT, "format_version": FORMAT_VERSION, "kind": PERIODIC_KIND, "name": self.name,
                 "description": self.description, "plant": self.plant, "inputs": self.inputs,
                 "outputs": self.outputs, "sample_period": self.sample_period,
@@ -599,6 +804,26 @@ class GainArtifact:
 
     Gains not listed are 0. Which gain names exist is the law's business
     (:func:`satfmu.controllers.state_feedback.build` rejects unknown ones).
+
+    Attributes
+    ----------
+    name : str
+        The controller's name, lower_snake_case (the FMU's modelIdentifier).
+    description : str
+        One-line description of the controller.
+    plant : str
+        Model name of the plant it is designed for (``"demeter"``).
+    outputs : list of dict
+        The controller's outputs, ``{"name": str, "unit": str, "description": str}`` each.
+    gains : dict
+        ``{"K_block[i,j]": value}``, the nonzero gains (in the output's unit per unit of the state).
+    certificate : dict
+        What was proved: ``status``, ``proved``, ``region`` and ``numbers``.
+    provenance : dict
+        Where the gains came from: ``source`` and ``design_plant``.
+    design : dict, optional
+        Data of the design (variant, states, ``K``, weights); empty when the file has none. When
+        it holds ``K``, :mod:`satfmu.controllers.claims` checks that ``gains`` agree with it.
     """
 
     name: str
@@ -611,6 +836,7 @@ class GainArtifact:
     design: dict[str, Any] = field(default_factory=dict)
 
     def to_json(self) -> dict[str, Any]:
+        """The artifact as JSON-ready data (kind ``"linear_state_feedback"``)."""
         data = {"format": FORMAT, "format_version": FORMAT_VERSION, "kind": GAIN_KIND, "name": self.name,
                 "description": self.description, "plant": self.plant, "outputs": self.outputs,
                 "gains": self.gains, "certificate": self.certificate, "provenance": self.provenance}
@@ -666,12 +892,33 @@ def _provenance(data: dict, where: str) -> dict[str, Any]:
 
 
 def resource(artifact: Artifact) -> dict[str, bytes]:
-    """The artifact as a file for an FMU's ``resources/`` (traceability)."""
+    """The artifact as a file for an FMU's ``resources/`` (traceability).
+
+    Parameters
+    ----------
+    artifact : Artifact
+        The artifact the FMU is built from.
+
+    Returns
+    -------
+    dict
+        ``{"artifact.json": bytes}``, the artifact's JSON (indented, UTF-8).
+    """
     return {"artifact.json": (json.dumps(artifact.to_json(), indent=1) + "\n").encode()}
 
 
 def load(path: str | Path) -> Artifact:
     """Read and validate an artifact file.
+
+    Parameters
+    ----------
+    path : str or Path
+        The artifact's JSON file (at most :data:`MAX_BYTES`).
+
+    Returns
+    -------
+    Artifact
+        The artifact, of the class its ``kind`` names (:func:`parse`).
 
     Raises
     ------
@@ -695,6 +942,13 @@ def load(path: str | Path) -> Artifact:
 def decode(text: str | bytes, where: str) -> Any:
     """The JSON value of an artifact's text (``where`` names it in errors).
 
+    Parameters
+    ----------
+    text : str or bytes
+        The artifact's text (bytes are decoded as UTF-8).
+    where : str
+        What the text is called in error messages (its file's path).
+
     Raises
     ------
     ArtifactError
@@ -712,7 +966,20 @@ def decode(text: str | bytes, where: str) -> Any:
 
 def save(artifact: Artifact, path: str | Path) -> None:
     """Write an artifact (re-validated first, so an invalid one is never written), whole or not at
-    all (:func:`satfmu.fmus.atomic.write_atomically`)."""
+    all (:func:`satfmu.fmus.atomic.write_atomically`).
+
+    Parameters
+    ----------
+    artifact : Artifact
+        The artifact to write.
+    path : str or Path
+        The JSON file to write (replaced when it exists).
+
+    Raises
+    ------
+    ArtifactError
+        If the artifact does not validate (:func:`parse`); nothing is written.
+    """
     from satfmu.fmus.atomic import write_atomically
 
     data = artifact.to_json()

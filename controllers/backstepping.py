@@ -28,7 +28,21 @@ GAINS = {"c1": 5.0, "c2": 5.0}
 
 
 def build(name: str = "vscmg_backstepping") -> Model:
-    """Symbolic model of the backstepping controller (native and pythonfmu FMUs)."""
+    """Symbolic model of the backstepping controller (native and pythonfmu FMUs).
+
+    Parameters
+    ----------
+    name : str, optional
+        The model's name (the FMU's modelIdentifier).
+
+    Returns
+    -------
+    Model
+        Inputs: the measured ``q2``, ``q4`` (rad), their references and derivatives and the
+        rates ``w1``, ``w2``, ``w4`` (rad/s); outputs: the torques ``T1``, ``T2`` (N m) and the tracking errors
+        (rad); parameters: the plant's inertias, the gains ``c1``, ``c2`` of each angle (1/s,
+        default :data:`GAINS`) and the friction compensation.
+    """
     start = vscmg.measured_defaults()
     q2, q4 = (Variable(n, "rad", f"Measured {n}", start[n]) for n in ("q2", "q4"))
     rates = [Variable(f"w{a}", "rad/s", f"Measured w{a}", start[f"w{a}"]) for a in vscmg.AXES]

@@ -15,7 +15,7 @@ native FMUs.
   (:func:`bdot_gain`). The derivative is the finite difference of the unit field
   direction between the last two samples of the magnetometer (the inputs ``b_body``), the
   dipole held until the next sample; the first sample (and any sample with no field
-  measured, |b| below ``b_min``) gives m = 0.
+  measured, ``|b|`` below ``b_min``) gives m = 0.
 """
 from __future__ import annotations
 
@@ -29,7 +29,20 @@ from satfmu.fmus.model import MIN_SAMPLE_PERIOD as MIN_PERIOD, Model, Output, Sa
 
 
 def build_periodic(artifact: PeriodicArtifact) -> Model:
-    """Symbolic model of the periodic gain schedule described by ``artifact``."""
+    """Symbolic model of the periodic gain schedule described by ``artifact``.
+
+    Parameters
+    ----------
+    artifact : PeriodicArtifact
+        The validated schedule: its ``inputs`` (the measured plant outputs) become the model's
+        inputs, its ``outputs`` (the dipoles, A m^2) the model's outputs, its gains the law.
+
+    Returns
+    -------
+    Model
+        The sampled law, with parameters ``sample_period`` (s, default the artifact's) and
+        ``orbit_time_0`` (s), and the output ``gain_index``.
+    """
     inputs = [Variable(v["name"], v["unit"], f"Measured {v['name']}") for v in artifact.inputs]
     period = Variable("sample_period", "s", "Sample period of the zero-order hold (the schedule keeps the "
                       f"design's {artifact.sample_period:g} s per gain)", artifact.sample_period, min=MIN_PERIOD)
@@ -75,7 +88,19 @@ def bdot_gain(orbit_period: float = cubesat.ORBIT_PERIOD_SEED, inclination: floa
 
 
 def build_bdot(name: str = "cubesat_bdot") -> Model:
-    """Symbolic model of the sampled B-dot law (inputs ``b_body[1..3]``, outputs ``m[1..3]``)."""
+    """Symbolic model of the sampled B-dot law (inputs ``b_body[1..3]``, outputs ``m[1..3]``).
+
+    Parameters
+    ----------
+    name : str, optional
+        The model's name (the FMU's modelIdentifier).
+
+    Returns
+    -------
+    Model
+        Inputs ``b_body[1..3]`` (T), outputs ``m[1..3]`` (A m^2), parameters ``bdot_gain``
+        (N m s, default :func:`bdot_gain`), ``control_period`` (s) and ``b_min`` (T).
+    """
     b_in = vector("b_body", 3, "T", "Measured field along body axis {i} (magnetometer)")
     gain = Variable("bdot_gain", "N.m.s", "Gain k_w of m = -(k_w/|b|) d(b/|b|)/dt (default: 2 n (1 + sin i) "
                     "J_min of the seed's cubesat and orbit)", bdot_gain(), min=0.0)

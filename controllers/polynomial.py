@@ -12,14 +12,28 @@ from pathlib import Path
 
 import sympy as sp
 
-from satfmu.controllers.artifact import ControllerArtifact, Term, load
+from satfmu.controllers.artifact import KIND, ControllerArtifact, Term, load
+from satfmu.fmus.errors import ArtifactError
 from satfmu.fmus.model import Model, Output, Variable, saturate
 
 ARTIFACTS = Path(__file__).resolve().parent / "artifacts"
 
 
 def build(artifact: ControllerArtifact) -> Model:
-    """Symbolic model of the controller described by ``artifact``."""
+    """Symbolic model of the controller described by ``artifact``.
+
+    Parameters
+    ----------
+    artifact : ControllerArtifact
+        The validated polynomial state feedback: its ``states`` become the model's inputs, its
+        ``outputs`` the model's outputs, its ``terms`` the law.
+
+    Returns
+    -------
+    Model
+        The law ``u = sat(p(x))``, with the parameters ``saturation_on`` and ``u_max`` (in the
+        unit of the first output, default 5).
+    """
     inputs = [Variable(s["name"], s["unit"], f"Measured plant state {s['name']}") for s in artifact.states]
     sat_on = Variable("saturation_on", "1", "Clip every command to +-u_max", 0, "Boolean")
     u_max = Variable("u_max", artifact.outputs[0]["unit"], "Command limit per output (when saturation_on)",
@@ -35,7 +49,20 @@ def build(artifact: ControllerArtifact) -> Model:
 
 
 def sympy_polynomial(terms: list[Term], variables: list[sp.Symbol]) -> sp.Expr:
-    """``sum c prod v_j^e_j`` with every coefficient at full double precision."""
+    """``sum c prod v_j^e_j`` with every coefficient at full double precision.
+
+    Parameters
+    ----------
+    terms : list of Term
+        The polynomial's monomials.
+    variables : list of sympy.Symbol
+        One symbol per variable, in the order of each term's exponents ``e``.
+
+    Returns
+    -------
+    sympy.Expr
+        The polynomial (0 for no terms).
+    """
     return sp.Add(*[sp.Float(t.c, 17) * sp.Mul(*[v ** e for v, e in zip(variables, t.e)]) for t in terms])
 
 
@@ -45,5 +72,24 @@ def shipped_artifacts() -> list[Path]:
 
 
 def load_model(path: str | Path) -> Model:
-    """Load, validate and build the controller model of an artifact file."""
-    return build(load(path))
+    """Load, validate and build the controller model of an artifact file.
+
+    Parameters
+    ----------
+    path : str or Path
+        The artifact's JSON file, of kind ``polynomial_state_feedback``.
+
+    Returns
+    -------
+    Model
+        The controller's model (:func:`build`).
+
+    Raises
+    ------
+    ArtifactError
+        If the file is not a valid artifact, or is one of another kind than ``polynomial_state_feedback``.
+    """
+    artifact = load(path)
+    if not isinstance(artifact, ControllerArtifact):
+        raise ArtifactError(f"{path}: not a {KIND!r} artifact (a {type(artifact).__name__}), no polynomial law")
+    return build(artifact)

@@ -98,7 +98,7 @@ def riccati_gain(A: np.ndarray, B: np.ndarray, Q: np.ndarray, R: np.ndarray, eps
     K = np.linalg.solve(R, B.T @ P)
     res = As.T @ P + P @ As + Q - P @ B @ K
     check = RiccatiCheck(
-        residual=float(np.linalg.norm(res) / max(1.0, np.linalg.norm(Q), np.linalg.norm(P))),
+        residual=float(np.linalg.norm(res) / max(1.0, float(np.linalg.norm(Q)), float(np.linalg.norm(P)))),
         min_eig_P=float(np.min(np.linalg.eigvalsh((P + P.T) / 2))),
         max_re_shifted=float(np.max(np.linalg.eigvals(As - B @ K).real)),
         max_re=float(np.max(np.linalg.eigvals(A - B @ K).real)),

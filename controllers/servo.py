@@ -42,6 +42,38 @@ def servo_model(name: str, description: str, plant: str, tracked: list[dict], ra
 
     ``gain`` may use the tracked and rate symbols (by name), ``parameters`` and the
     sampler's held values.
+
+    Parameters
+    ----------
+    name : str
+        The model's name (the FMU's modelIdentifier).
+    description : str
+        The model's description.
+    plant : str
+        Model name of the plant; for ``"vscmg"`` the measured inputs start at the plant's
+        defaults and the friction compensation is added.
+    tracked : list of dict
+        The tracked plant outputs, ``{"name": str, "reference": str, "unit": str}`` each: an input
+        for the measurement, one for the reference, a state for the error's integral and an
+        output ``e_<name>`` each.
+    rates : list of dict
+        The rates fed back, ``{"name": str, "unit": str}`` each (inputs).
+    outputs : list of dict
+        The commands, ``{"name": str, "unit": str, "description": str}`` each (``description``
+        optional), one per row of ``gain``.
+    gain : list of list of sympy.Expr
+        ``K``, shape (n_outputs, 2 n_tracked + n_rates): the law is ``u = -K xe``.
+    parameters : sequence of Variable, optional
+        Parameters the gain uses (weights, inertias, periods), besides the compensation's.
+    sampler : Sampler, optional
+        The sampler whose held values the gain reads (an online gain); None for none.
+    extra_outputs : sequence of Output, optional
+        Outputs appended after the commands and the tracking errors (monitors).
+
+    Returns
+    -------
+    Model
+        The servo, integrals of the tracking errors as states (rad s).
     """
     start = vscmg.measured_defaults() if plant == vscmg.MODEL.name else {}
     tracked_v = [Variable(t["name"], t["unit"], f"Measured {t['name']}", start.get(t["name"], 0.0)) for t in tracked]
@@ -71,7 +103,19 @@ def servo_model(name: str, description: str, plant: str, tracked: list[dict], ra
 
 
 def build(artifact: ServoArtifact) -> Model:
-    """Symbolic model of the gain-scheduled servo described by ``artifact``."""
+    """Symbolic model of the gain-scheduled servo described by ``artifact``.
+
+    Parameters
+    ----------
+    artifact : ServoArtifact
+        The validated servo: its signals, and its gain as polynomials in the scheduling
+        variables.
+
+    Returns
+    -------
+    Model
+        The servo of :func:`servo_model` with the gain ``K(s)`` of the artifact.
+    """
     sched = []
     for entry in artifact.scheduling:
         f, signal = scheduling_signal(entry)
@@ -91,10 +135,26 @@ def build_online(name: str = "vscmg_sdre_online") -> Model:
     """Symbolic model of the VSCMG's online SDRE servo (seed 002, eq. 5-12), one of
     :data:`ONLINE_VARIANTS`.
 
-    Parameters (besides the plant inertias the SDC uses and the compensation's):
+    The model's parameters (besides the plant inertias the SDC uses and the compensation's):
     ``control_period`` (s), ``Q[1..7]`` and ``R[1..2]`` (the diagonals of Qe, Re, default the
     seed's) and ``riccati_eps`` (1/s). Extra outputs: the relative residual and the largest
     closed-loop real part (1/s) of the solution in use.
+
+    Parameters
+    ----------
+    name : str, optional
+        A key of :data:`ONLINE_VARIANTS`: the model's name, which selects the SDC factorization
+        and whether w2 is frozen at 0.
+
+    Returns
+    -------
+    Model
+        The servo of :func:`servo_model` with the gain held by a routine sampler.
+
+    Raises
+    ------
+    KeyError
+        If ``name`` is not one of :data:`ONLINE_VARIANTS`.
     """
     factorization, freeze_w2 = ONLINE_VARIANTS[name]
     Ae, Be = servo_sdc.servo_matrices(vscmg.MODEL, factorization, freeze_w2)

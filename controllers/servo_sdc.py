@@ -47,7 +47,24 @@ OUTPUTS = [{"name": "T1", "unit": "N.m", "description": "Rotor-1 motor torque co
 def servo_matrices(model: Model = vscmg.MODEL, factorization: str = "gyro_on_w2", freeze_w2: bool = False
                    ) -> tuple[sp.Matrix, sp.Matrix]:
     """Symbolic Ae(x) (7x7) and Be(x) (7x2) in the plant's state and parameter symbols
-    (with ``freeze_w2``, evaluated at w2 = 0: the seed's setting for the approximation)."""
+    (with ``freeze_w2``, evaluated at w2 = 0: the seed's setting for the approximation).
+
+    Parameters
+    ----------
+    model : Model, optional
+        A VSCMG model of :func:`satfmu.fmus.vscmg.build` (default: the plant,
+        ``satfmu.fmus.vscmg.MODEL``): its symbols appear in the matrices.
+    factorization : {"gyro_on_w2", "w1_free"}, optional
+        The SDC factorization of the gyroscopic torques (:func:`satfmu.fmus.vscmg.model_sdc`).
+    freeze_w2 : bool, optional
+        Substitute w2 = 0 in both matrices.
+
+    Returns
+    -------
+    tuple of sympy.Matrix
+        ``(Ae, Be)``, shapes (7, 7) and (7, 2), for the servo state :data:`SERVO_STATES` and
+        ``u = [T1, T2]`` (N m).
+    """
     sdc = vscmg.model_sdc(model, factorization)
     Ae = sp.zeros(7, 7)
     Ae[0, 2] = Ae[1, 3] = 1
@@ -62,7 +79,22 @@ def servo_matrices(model: Model = vscmg.MODEL, factorization: str = "gyro_on_w2"
 
 
 def servo_state(x: np.ndarray, integrals: np.ndarray, reference: np.ndarray) -> np.ndarray:
-    """xe from the plant state x = [q1, q2, q4, w1, w2, w4], int e and q_ref = [q2_ref, q4_ref]."""
+    """xe from the plant state x = [q1, q2, q4, w1, w2, w4], int e and q_ref = [q2_ref, q4_ref].
+
+    Parameters
+    ----------
+    x : numpy.ndarray, shape (6,)
+        The plant state ``[q1, q2, q4, w1, w2, w4]`` (rad, rad/s).
+    integrals : numpy.ndarray, shape (2,)
+        The integrals of the tracking errors ``[int e2, int e4]`` (rad s).
+    reference : numpy.ndarray, shape (2,)
+        The references ``[q2_ref, q4_ref]`` (rad).
+
+    Returns
+    -------
+    numpy.ndarray, shape (7,)
+        ``xe = [int e2, int e4, e2, e4, w1, w2, w4]`` with ``e = q_ref - q``.
+    """
     x = np.asarray(x, float)
     e = np.asarray(reference, float) - x[[1, 2]]
     return np.concatenate([np.asarray(integrals, float), e, x[3:6]])

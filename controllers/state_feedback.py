@@ -43,6 +43,23 @@ def build(gains: dict[str, float] | None = None, name: str = "demeter_state_feed
           description: str = "State feedback on the DEMETER design model (seed 004, Fig. 3)") -> Model:
     """The controller model; ``gains`` (``"K_theta[1,1]"``: value, ...) set the parameter defaults.
 
+    Parameters
+    ----------
+    gains : dict, optional
+        ``{"K_block[i,j]": value}`` of blocks of :data:`GAIN_BLOCKS`, in the block's unit; the
+        gains not given default to 0 (so does every gain without ``gains``).
+    name : str, optional
+        The model's name (the FMU's modelIdentifier).
+    description : str, optional
+        The model's description.
+
+    Returns
+    -------
+    Model
+        Inputs: the measured plant signals; states: ``xi[1..3]`` (rad s) and ``xw[1..3]``
+        (N m s); outputs: ``u_c[1..3]`` (N m) and the states; parameters: every gain and
+        ``pseudo_integrator_pole`` (1/s).
+
     Raises
     ------
     KeyError
@@ -81,7 +98,20 @@ def build(gains: dict[str, float] | None = None, name: str = "demeter_state_feed
 def flexible_groups(appendages: Sequence[int], model_type: int) -> list[list[int]]:
     """Plant flexible coordinates (0-based, of the 8) of each group sharing omega and zeta: one
     group per appendage (its bending and torsion) for ``model_type`` 1, one group of every
-    selected appendage for ``model_type`` 2 (identical appendages)."""
+    selected appendage for ``model_type`` 2 (identical appendages).
+
+    Parameters
+    ----------
+    appendages : sequence of int
+        Selected appendages, 1-based (each has two flexible coordinates).
+    model_type : {1, 2}
+        The design model's type: 1, one group per appendage; 2, one group of all.
+
+    Returns
+    -------
+    list of list of int
+        The coordinates of each group.
+    """
     cols = [[2 * (a - 1), 2 * (a - 1) + 1] for a in appendages]
     return [sum(cols, [])] if model_type == 2 else cols
 
@@ -89,7 +119,20 @@ def flexible_groups(appendages: Sequence[int], model_type: int) -> list[list[int
 def reduce_coupling(L_g: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Reduced coupling and projection of one group: ``(L_r, Q)`` with ``L_g eta = L_r (Q eta)``,
     ``L_r = (L_g L_g^T)^(1/2)`` and ``Q = L_r^-1 L_g`` (orthonormal rows) when the group has
-    more coordinates than axes, else ``(L_g, I)``."""
+    more coordinates than axes, else ``(L_g, I)``.
+
+    Parameters
+    ----------
+    L_g : numpy.ndarray, shape (n_axes, n_coords)
+        Coupling of the group's flexible coordinates to the selected axes (dimensionless).
+
+    Returns
+    -------
+    L_r : numpy.ndarray, shape (n_axes, n_reduced)
+        Reduced coupling, ``n_reduced = min(n_axes, n_coords)``.
+    Q : numpy.ndarray, shape (n_reduced, n_coords)
+        Projection onto the reduced coordinates.
+    """
     na, nc = L_g.shape
     if nc <= na:
         return L_g.copy(), np.eye(nc)
@@ -134,7 +177,23 @@ def reduction(axes: Sequence[int], groups: list[list[int]], L: np.ndarray
 
 def design_states(axes: Sequence[int], n_reduced: int, wheels: bool) -> list[str]:
     """Names of the design model's states, in order: per axis theta, theta', then the reduced
-    flexible coordinates eta_r and their rates, then per axis xi, xw (and the wheel's y, y')."""
+    flexible coordinates eta_r and their rates, then per axis xi, xw (and the wheel's y, y').
+
+    Parameters
+    ----------
+    axes : sequence of int
+        Selected axes, 1-based.
+    n_reduced : int
+        Number of reduced flexible coordinates (rows of ``Q`` of :func:`reduction`).
+    wheels : bool
+        The design model has the wheel states (torque and its rate per axis).
+
+    Returns
+    -------
+    list of str
+        ``theta[a]``, ``theta_dot[a]``, ``eta_r[j]``, ``eta_r_dot[j]``, ``xi[a]``, ``xw[a]`` and,
+        with ``wheels``, ``wheel_torque[a]``, ``wheel_torque_rate[a]``.
+    """
     names = ([f"theta[{a}]" for a in axes] + [f"theta_dot[{a}]" for a in axes]
              + [f"eta_r[{j + 1}]" for j in range(n_reduced)] + [f"eta_r_dot[{j + 1}]" for j in range(n_reduced)]
              + [f"xi[{a}]" for a in axes] + [f"xw[{a}]" for a in axes])
@@ -206,6 +265,7 @@ def gains_of_design(design: dict[str, Any], L: np.ndarray) -> dict[str, float]:
         if (not isinstance(sel, list) or not sel or len(set(sel)) != len(sel)
                 or any(isinstance(i, bool) or not isinstance(i, int) or not 1 <= i <= top for i in sel)):
             raise ValueError(f"variant.{key}: must be distinct integers in 1..{top}, got {sel!r}")
+    assert isinstance(axes, list) and isinstance(appendages, list)  # the loop above checked both
     if variant.get("model_type") not in (1, 2) or not isinstance(variant.get("wheels"), bool):
         raise ValueError(f"variant: model_type must be 1 or 2 and wheels true or false, got {variant!r}")
     _, Q, _ = reduction(axes, flexible_groups(appendages, variant["model_type"]), L)

@@ -11,7 +11,7 @@ What is refused, with the entry named:
 - an entry whose name is absolute (``/x``, ``C:x``, ``\\\\host\\x``), holds a ``..`` component,
   a backslash, a NUL or another control character, or repeats an earlier entry's name;
 - an entry that is a symbolic link, a device, a FIFO or a socket (Unix mode bits of the entry);
-- encrypted entries and compression methods Python's :mod:`zipfile` cannot read;
+- encrypted entries and compression methods Python's ``zipfile`` cannot read;
 - more entries, more uncompressed bytes in all, a larger ``modelDescription.xml``, a higher
   compression ratio of a large entry or more model variables than :class:`FmuLimits` allows;
 - a model description that is not UTF-8 or declares a document type or entities (an FMI 2.0
@@ -371,9 +371,21 @@ _swept = False
 
 def sweep_abandoned(base: str | Path | None = None) -> list[Path]:
     """Remove the extraction folders of processes that no longer run (killed before they could
-    clean up) from ``base`` (default: the system's temporary folder); returns what it removed."""
+    clean up) from ``base`` (default: the system's temporary folder); returns what it removed.
+
+    Parameters
+    ----------
+    base : str or Path, optional
+        The folder to sweep, where the ``satfmu-fmu-<pid>-<random>`` folders are; default: the
+        system's temporary folder (``tempfile.gettempdir()``).
+
+    Returns
+    -------
+    list of Path
+        The folders removed.
+    """
     base = Path(base or tempfile.gettempdir())
-    removed = []
+    removed: list[Path] = []
     try:
         candidates = [p for p in base.iterdir() if p.name.startswith(FOLDER_PREFIX)]
     except OSError:
@@ -481,7 +493,25 @@ def read_description(path: str | Path, limits: FmuLimits | None = None) -> Any:
 
 def parse_description(path: Path, text: bytes) -> Any:
     """fmpy's model description of the checked ``modelDescription.xml`` bytes ``text`` of the FMU
-    ``path`` (named in errors)."""
+    ``path`` (named in errors).
+
+    Parameters
+    ----------
+    path : Path
+        The FMU file the description comes from; only named in the error message.
+    text : bytes
+        The ``modelDescription.xml`` of that FMU, already checked (:func:`check`).
+
+    Returns
+    -------
+    fmpy.model_description.ModelDescription
+        What fmpy's ``read_model_description`` reads from it.
+
+    Raises
+    ------
+    UnsafeFmuError
+        If fmpy refuses the description (schema, attribute or XML error).
+    """
     from fmpy import read_model_description
 
     buffer = io.BytesIO()

@@ -29,7 +29,20 @@ TYPE_CODES = {"Real": 0, "Integer": 1, "Boolean": 2}
 
 @dataclass(frozen=True)
 class LoweredFunction:
-    """Expressions of one generated function after array substitution and CSE."""
+    """Expressions of one generated function after array substitution and CSE.
+
+    Attributes
+    ----------
+    name : str
+        Name of the generated function (``"derivatives"``, ``"outputs"``, ``"post_step"``,
+        ``"sample_arguments"``, ``"jacobian"``, ``"switch_time"``).
+    temporaries : list of tuple of (sympy.Symbol, sympy.Expr)
+        Assignments computed before the results, in dependency order: the common
+        subexpressions (``c_0``, ``c_1``, ...) and the model definitions used (``d_k``).
+    results : list of sympy.Expr
+        One expression per value the function returns, in the array symbols (``x[i]``,
+        ``u[i]``, ``p[i]``, ...) and the temporaries.
+    """
 
     name: str
     temporaries: list[tuple[sp.Symbol, sp.Expr]]
@@ -60,6 +73,24 @@ def lower(model: Model, name: str, exprs: Sequence[sp.Expr], previous_is_current
     ``previous_is_current`` reads the substep-start state as the current state (outputs).
     The model's definitions that ``exprs`` use (directly or through other definitions)
     become temporaries too, ordered so every temporary follows what it uses.
+
+    Parameters
+    ----------
+    model : Model
+        The model whose state, previous-state, input, parameter, held and defined symbols
+        are replaced.
+    name : str
+        Name of the generated function (``"derivatives"``, ``"outputs"``, ...).
+    exprs : sequence of sympy.Expr
+        The expressions the function returns, in the model's symbols.
+    previous_is_current : bool, optional
+        Replace the substep-start state symbols (:attr:`satfmu.fmus.model.Model.previous_symbols`) by the
+        current state ``x[i]`` as well (for outputs and sampler arguments). Default False.
+
+    Returns
+    -------
+    LoweredFunction
+        The temporaries and results in array elements.
     """
     subs = _array_substitution(model)
     if previous_is_current:
@@ -108,7 +139,18 @@ def functions(model: Model) -> list[LoweredFunction]:
 
     Lowering (common subexpression elimination) is the expensive part of code generation;
     its result is kept per :func:`satfmu.fmus.digest.model_digest`, so the C, the Python and the
-    native and pythonfmu FMUs of one model share one lowering."""
+    native and pythonfmu FMUs of one model share one lowering.
+
+    Parameters
+    ----------
+    model : Model
+        The model to generate code for.
+
+    Returns
+    -------
+    list of LoweredFunction
+        The functions, in the order above.
+    """
     key = model_digest(model)
     if key not in _LOWERED:
         _LOWERED[key] = tuple(_lower_all(model))
@@ -132,7 +174,20 @@ def _lower_all(model: Model) -> list[LoweredFunction]:
 
 
 def sampler_table(model: Model) -> dict | None:
-    """The sampler's run-time description (plain data), or None."""
+    """The sampler's run-time description (plain data), or None.
+
+    Parameters
+    ----------
+    model : Model
+        The model; None is returned when it has no :class:`satfmu.fmus.model.Sampler`.
+
+    Returns
+    -------
+    dict or None
+        ``module`` (embedded module name, None for an expression sampler), ``function``,
+        ``options``, ``period_index`` and ``phase_index`` (indices into the parameters) and
+        ``n_held`` (number of held values).
+    """
     smp = model.sampler
     if smp is None:
         return None
@@ -143,12 +198,42 @@ def sampler_table(model: Model) -> dict | None:
 
 
 def sampler_module_name(model: Model) -> str:
-    """Name under which the sampler's module file is embedded in the FMU."""
-    return f"satfmu_sampler_{Path(model.sampler.module).stem}"  # type: ignore[union-attr]
+    """Name under which the sampler's module file is embedded in the FMU.
+
+    Parameters
+    ----------
+    model : Model
+        A model whose sampler calls a function of a Python module file.
+
+    Returns
+    -------
+    str
+        ``satfmu_sampler_<module file stem>``.
+
+    Raises
+    ------
+    ValueError
+        If the model has no sampler or its sampler has no Python module.
+    """
+    if model.sampler is None or model.sampler.module is None:
+        raise ValueError(f"{model.name}: no Python sampler module")
+    return f"satfmu_sampler_{Path(model.sampler.module).stem}"
 
 
 def variable_table(model: Model) -> list[dict]:
-    """FMU variables in value-reference order, as plain data (shared by both backends)."""
+    """FMU variables in value-reference order, as plain data (shared by both backends).
+
+    Parameters
+    ----------
+    model : Model
+        The model whose parameters, inputs and outputs become FMU variables (in that order).
+
+    Returns
+    -------
+    list of dict
+        One row per variable: ``vr``, ``name``, ``kind`` (``KIND_PARAMETER``, ``KIND_INPUT``,
+        ``KIND_OUTPUT``), ``index`` (within its kind), ``type``, ``start``, ``min``, ``max``.
+    """
     rows = []
     kinds = ([(KIND_PARAMETER, i, v) for i, v in enumerate(model.parameters)]
              + [(KIND_INPUT, i, v) for i, v in enumerate(model.inputs)]
@@ -178,7 +263,8 @@ def guid_bytes(guid: str) -> bytes:
 
 
 MAX_PRODUCT_POWER = 8
-"""Integer powers x**n with 2 <= |n| <= this are printed as products, identically in C and Python."""
+"""Integer powers ``x**n`` with ``2 <= |n| <= MAX_PRODUCT_POWER`` are printed as products, identically in C and
+Python."""
 
 
 def _product_power(printer: C99CodePrinter | PythonCodePrinter, expr: sp.Pow, one: str) -> str | None:
@@ -298,6 +384,16 @@ def load_python(model: Model) -> ModuleType:
     """Compile :func:`python_source` into a module object (for in-process simulation).
 
     The module is cached on the model object: code generation runs once per model.
+
+    Parameters
+    ----------
+    model : Model
+        The model to simulate in process.
+
+    Returns
+    -------
+    types.ModuleType
+        The generated module (the one embedded in the model's pythonfmu FMU).
     """
     cached = model.__dict__.get("_python_module")
     if cached is not None:
@@ -359,14 +455,36 @@ sampler, so both FMUs of a model refuse the same steps (the expression samplers'
 
 
 def require_c_form(model: Model) -> None:
-    """Raise ``ValueError`` if the model has no C form (it samples a Python function with no C twin)."""
+    """Raise ``ValueError`` if the model has no C form (it samples a Python function with no C twin).
+
+    Parameters
+    ----------
+    model : Model
+        The model to check before building its native FMU.
+
+    Raises
+    ------
+    ValueError
+        If the model's sampler calls a Python function with no C routine.
+    """
     if model.sampler is not None and not model.sampler.has_c_form:
         raise ValueError(f"model {model.name!r} samples a Python function ({model.sampler.function}) with no C "
                          "routine; it has no native FMU, build its pythonfmu FMU")
 
 
 def c_headers(model: Model) -> list[Path]:
-    """The library headers (``fmus/c/``) the model's C code includes, to ship in ``sources/``."""
+    """The library headers (``fmus/c/``) the model's C code includes, to ship in ``sources/``.
+
+    Parameters
+    ----------
+    model : Model
+        The model whose native FMU is built.
+
+    Returns
+    -------
+    list of Path
+        The sampler's C header, or nothing when the model has none.
+    """
     path = model.sampler.c_header_path if model.sampler is not None else None
     return [path] if path is not None else []
 

@@ -81,13 +81,34 @@ def quaternion_rotation(q: sp.Matrix) -> sp.Matrix:
     """Rotation matrix C(q) (orbit to body) of the quaternion ``[q1 q2 q3 q4]``, q4 scalar.
 
     For a unit quaternion C is orthogonal; with the seed's W, ``dC/dt = -[omega_bo x] C``.
+
+    Parameters
+    ----------
+    q : sympy.Matrix
+        The quaternion ``[q1, q2, q3, q4]`` (4 elements, 1), vector part first, q4 scalar.
+
+    Returns
+    -------
+    sympy.Matrix
+        The 3 x 3 orbit-to-body rotation matrix (equal to the rotation for a unit quaternion).
     """
     v, s = sp.Matrix(q[:3]), q[3]
     return (s**2 - (v.T * v)[0]) * sp.eye(3) + 2 * v * v.T - 2 * s * _skew(v)
 
 
 def kinematics_matrix(w: sp.Matrix) -> sp.Matrix:
-    """The seed's W(omega) of q' = (1/2) W(omega) q (eq. 6)."""
+    """The seed's W(omega) of q' = (1/2) W(omega) q (eq. 6).
+
+    Parameters
+    ----------
+    w : sympy.Matrix
+        The body rate ``omega`` relative to the orbit frame, 3 components in body axes, rad/s.
+
+    Returns
+    -------
+    sympy.Matrix
+        The 4 x 4 matrix W(omega).
+    """
     wx, wy, wz = w
     return sp.Matrix([[0, wz, -wy, wx], [-wz, 0, wx, wy], [wy, -wx, 0, wz], [-wx, -wy, -wz, 0]])
 
@@ -110,6 +131,22 @@ def orbit_frame(u: sp.Expr, inclination: sp.Expr, raan: sp.Expr) -> tuple[sp.Mat
 
     Returns ``(r_hat, C_oi)``: the position direction in inertial (ECI) axes and the matrix
     whose rows are the orbit axes o1 (velocity), o2 (-normal), o3 (nadir) in ECI.
+
+    Parameters
+    ----------
+    u : sympy.Expr
+        Argument of latitude (angle from the ascending node along the orbit), rad.
+    inclination : sympy.Expr
+        Orbit inclination, rad.
+    raan : sympy.Expr
+        Right ascension of the ascending node, rad.
+
+    Returns
+    -------
+    r_hat : sympy.Matrix
+        Unit position vector (3 x 1) in ECI axes.
+    C_oi : sympy.Matrix
+        3 x 3 rotation from ECI to the orbit frame.
     """
     to_eci = (_rot1(inclination) * _rot3(raan)).T  # perifocal-like orbit plane -> ECI
     r_hat = to_eci * sp.Matrix([sp.cos(u), sp.sin(u), 0])
@@ -126,6 +163,21 @@ def dipole_field_orbit(tau: sp.Expr, p: dict[str, sp.Expr]) -> sp.Matrix:
     earth_rotation_angle_0, orbit_period`` to expressions (symbols or numbers). The pole
     direction rotates with the Earth (angle ``earth_rotation_angle_0 + EARTH_RATE tau`` about
     the ECI z axis); the moment points from the north geomagnetic pole to the south one.
+
+    Parameters
+    ----------
+    tau : sympy.Expr
+        Orbit time (``orbit_time_0 + t``), s.
+    p : dict of str to sympy.Expr
+        The orbit and dipole parameters named above: ``dipole_moment`` (T m^3),
+        ``dipole_colatitude``, ``dipole_longitude`` (rad), ``orbit_altitude`` (m),
+        ``orbit_inclination``, ``orbit_raan``, ``orbit_arg_latitude_0``,
+        ``earth_rotation_angle_0`` (rad) and ``orbit_period`` (s).
+
+    Returns
+    -------
+    sympy.Matrix
+        The field (3 x 1) along the orbit axes o1, o2, o3, T.
     """
     n = 2 * sp.pi / p["orbit_period"]
     u = p["orbit_arg_latitude_0"] + n * tau
@@ -140,6 +192,17 @@ def dipole_field_orbit(tau: sp.Expr, p: dict[str, sp.Expr]) -> sp.Matrix:
 
 def principal_moments(spacecraft: "Spacecraft | None") -> tuple[float, float, float]:
     """``(I_x, I_y, I_z)`` of a spacecraft whose body axes are principal (default seed 003's), kg m^2.
+
+    Parameters
+    ----------
+    spacecraft : Spacecraft or None
+        The spacecraft (:class:`satfmu.fmus.spacecraft.Spacecraft`); None gives seed 003's
+        :data:`INERTIA_SEED_003`.
+
+    Returns
+    -------
+    tuple of float
+        The three principal moments of inertia, kg m^2.
 
     Raises
     ------

@@ -18,7 +18,22 @@ SAFE_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,99}")
 
 
 def check_safe_name(name: Any, where: str, error: type[Exception]) -> str:
-    """``name`` if it is a safe folder name (:data:`SAFE_NAME`), else raise ``error``."""
+    """``name`` if it is a safe folder name (:data:`SAFE_NAME`), else raise ``error``.
+
+    Parameters
+    ----------
+    name : object
+        The declared name; anything but a ``str`` is refused.
+    where : str
+        Where the name comes from (``"campaign name"``, ``"<file>: name"``), the message's prefix.
+    error : type of Exception
+        The exception class raised with the message (``ScenarioError``, ``CampaignError``, ...).
+
+    Returns
+    -------
+    str
+        ``name``, unchanged.
+    """
     if not isinstance(name, str) or not SAFE_NAME.fullmatch(name) or ".." in name:
         raise error(f"{where}: {name!r} is not a safe folder name (letters, digits, '.', '_', '-'; first a "
                     f"letter or digit; no '..'; at most 100 characters)")
@@ -26,13 +41,38 @@ def check_safe_name(name: Any, where: str, error: type[Exception]) -> str:
 
 
 def did_you_mean(word: str, choices: Iterable[str]) -> str:
-    """``"; did you mean 'x'?"`` for the closest of ``choices`` to ``word``, or ``""``."""
+    """``"; did you mean 'x'?"`` for the closest of ``choices`` to ``word``, or ``""``.
+
+    Parameters
+    ----------
+    word : str
+        The unknown word (a misspelled key or name).
+    choices : iterable of str
+        The known words (``difflib.get_close_matches`` picks the closest).
+
+    Returns
+    -------
+    str
+        The hint, to append to an error message, or ``""`` when no choice is close.
+    """
     close = difflib.get_close_matches(word, list(choices), n=1)
     return f"; did you mean {close[0]!r}?" if close else ""
 
 
 def check_keys(data: Mapping[str, Any], keys: Iterable[str], where: str, error: type[Exception]) -> None:
-    """Raise ``error`` naming the first key of ``data`` not in ``keys`` (with the closest one, or the list)."""
+    """Raise ``error`` naming the first key of ``data`` not in ``keys`` (with the closest one, or the list).
+
+    Parameters
+    ----------
+    data : mapping of str to object
+        The declared table (a TOML table or its plain-data equivalent).
+    keys : iterable of str
+        The keys allowed in it.
+    where : str
+        Where the table comes from, the message's prefix.
+    error : type of Exception
+        The exception class raised with the message.
+    """
     keys = list(keys)
     for k in data:
         if k not in keys:
@@ -46,7 +86,22 @@ MAX_TOML_BYTES = 16 << 20
 def read_toml(path: Path, what: str, error: type[Exception]) -> dict[str, Any]:
     """The data of a TOML file; ``error`` says why it cannot be read (``what``: "scenario", ...):
     not a regular file (a FIFO would block, a device never end), larger than
-    :data:`MAX_TOML_BYTES`, not UTF-8, not TOML, or nested too deep for the parser."""
+    :data:`MAX_TOML_BYTES`, not UTF-8, not TOML, or nested too deep for the parser.
+
+    Parameters
+    ----------
+    path : Path
+        The TOML file.
+    what : str
+        What the file declares (``"scenario"``, ``"spacecraft"``, ...), named in the message.
+    error : type of Exception
+        The exception class raised when the file cannot be read.
+
+    Returns
+    -------
+    dict of str to object
+        The parsed document (``tomllib.loads``).
+    """
     try:
         info = os.stat(path)
         if not stat.S_ISREG(info.st_mode):
@@ -104,7 +159,8 @@ def _toml_table(data: Mapping[str, Any], path: list[str], header: str) -> list[s
     tables = [k for k, v in data.items() if isinstance(v, Mapping)]
     inline = bool(path) and all(all(not isinstance(x, (Mapping, list)) for x in data[k].values())
                                 and len(_toml_value(data[k], k)) <= INLINE_WIDTH for k in tables)
-    plain, nested = [], []
+    plain: list[str] = []
+    nested: list[str] = []
     for k, v in data.items():
         (nested if (isinstance(v, Mapping) and not inline) or _is_table_array(v) else plain).append(k)
     lines = ([header] if header and (plain or not nested) else []) + \
@@ -129,8 +185,8 @@ def toml_text(data: Mapping[str, Any], comment: str = "") -> str:
     ----------
     data : mapping
         Strings, booleans, integers, finite floats, lists and mappings of those.
-    comment : str
-        Text of a header comment (each line prefixed with ``# ``).
+    comment : str, optional
+        Text of a header comment (each line prefixed with ``#`` and a space); default none.
 
     Raises
     ------

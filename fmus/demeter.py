@@ -77,6 +77,19 @@ the step that ends exactly at the bound)."""
 def sqrt_inertia(J: np.ndarray, exact: bool = False) -> np.ndarray:
     """The root S of J in eq. (4): diag(sqrt(J_ii)) as in the seed, or the symmetric root.
 
+    Parameters
+    ----------
+    J : numpy.ndarray, shape (3, 3)
+        Inertia matrix of the body, kg m^2 (any square size is accepted).
+    exact : bool, optional
+        Return the symmetric positive definite root ``V diag(sqrt(w)) V^T`` instead of the
+        seed's ``diag(sqrt(J_ii))``. Default False.
+
+    Returns
+    -------
+    numpy.ndarray, shape (3, 3)
+        The root S, kg^(1/2) m.
+
     Raises
     ------
     ValueError
@@ -104,6 +117,9 @@ def second_order(J: np.ndarray, S: np.ndarray, L: np.ndarray, zeta: np.ndarray, 
     zeta, omega : array, shape (nf / 2,), or (nf,) with ``pairs=False``
         Damping ratio and natural frequency (rad/s) of each appendage (bending and torsion
         share them), or of each coordinate.
+    pairs : bool, optional
+        ``zeta`` and ``omega`` give one value per appendage, repeated for its two coordinates
+        (default True); False: one value per flexible coordinate.
 
     Returns
     -------
@@ -133,6 +149,29 @@ def state_space(J: np.ndarray, L: np.ndarray, zeta: np.ndarray, omega: np.ndarra
 
     Built with a full inverse of M (independent of the FMU's Schur-complement route);
     ``zeta``, ``omega`` as in :func:`second_order`.
+
+    Parameters
+    ----------
+    J : numpy.ndarray, shape (na, na)
+        Inertia matrix, kg m^2.
+    L : numpy.ndarray, shape (na, nf)
+        Coupling of the flexible coordinates (appendage-major: bending, torsion of each).
+    zeta : numpy.ndarray, shape (nf / 2,), or (nf,) with ``pairs=False``
+        Damping ratio of each appendage (or coordinate).
+    omega : numpy.ndarray, shape (nf / 2,), or (nf,) with ``pairs=False``
+        Natural frequency of each appendage (or coordinate), rad/s.
+    exact_root : bool, optional
+        Use the symmetric root of J for S instead of the seed's ``diag(sqrt(J_ii))``
+        (:func:`sqrt_inertia`). Default False.
+    pairs : bool, optional
+        One ``zeta``, ``omega`` per appendage (default True) or per coordinate.
+
+    Returns
+    -------
+    A : numpy.ndarray, shape (2 (na + nf), 2 (na + nf))
+        State matrix, states ordered (theta, theta', eta, eta').
+    B : numpy.ndarray, shape (2 (na + nf), na)
+        Input matrix of the body torque ``tau`` (N m).
     """
     M, C, K, F = second_order(J, sqrt_inertia(J, exact_root), L, zeta, omega, pairs)
     n = M.shape[0]
@@ -151,7 +190,23 @@ def state_space(J: np.ndarray, L: np.ndarray, zeta: np.ndarray, omega: np.ndarra
 
 
 def wheel_state_space(wn: float = WHEEL_WN, zw: float = WHEEL_ZETA) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """One wheel without limits, states (h_w, h_f, h_f'): ``x' = A x + B u_c``, torque ``C x``."""
+    """One wheel without limits, states (h_w, h_f, h_f'): ``x' = A x + B u_c``, torque ``C x``.
+
+    Parameters
+    ----------
+    wn : float, optional
+        Natural frequency of the wheel dynamics H(s), rad/s; default :data:`WHEEL_WN`.
+    zw : float, optional
+        Damping ratio of H(s); default :data:`WHEEL_ZETA`.
+
+    Returns
+    -------
+    A : numpy.ndarray, shape (3, 3)
+    B : numpy.ndarray, shape (3, 1)
+        Input matrix of the torque command ``u_c`` (N m).
+    C : numpy.ndarray, shape (1, 3)
+        Output matrix of the applied torque ``h_f'`` (N m).
+    """
     A = np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 1.0], [wn**2, -wn**2, -2 * zw * wn]])
     return A, np.array([[1.0], [0.0], [0.0]]), np.array([[0.0, 0.0, 1.0]])
 
@@ -159,7 +214,29 @@ def wheel_state_space(wn: float = WHEEL_WN, zw: float = WHEEL_ZETA) -> tuple[np.
 def parameter_values(J: np.ndarray | None = None, L: np.ndarray | None = None,
                      zeta: np.ndarray | None = None, omega: np.ndarray | None = None) -> dict[str, float]:
     """FMU parameter names and values of a concrete plant (defaults: nominal J0, substitute L,
-    interval midpoints)."""
+    interval midpoints).
+
+    Parameters
+    ----------
+    J : numpy.ndarray, shape (3, 3), optional
+        Inertia matrix, kg m^2 (its upper triangle is used); default :data:`J0`.
+    L : numpy.ndarray, shape (3, 8), optional
+        Coupling matrix; default :data:`L_SUBSTITUTE`.
+    zeta : numpy.ndarray, shape (4,), optional
+        Damping ratio of each appendage; default the midpoint of :data:`ZETA_RANGE`.
+    omega : numpy.ndarray, shape (4,), optional
+        Natural frequency of each appendage, rad/s; default the midpoint of :data:`OMEGA_RANGE`.
+
+    Returns
+    -------
+    dict of str to float
+        Values by FMU parameter name (``"J[1,2]"``, ``"L[2,5]"``, ``"zeta[3]"``, ``"omega[4]"``).
+
+    Raises
+    ------
+    ValueError
+        If a matrix or vector has the wrong shape.
+    """
     J = J0 if J is None else np.asarray(J, float)
     L = L_SUBSTITUTE if L is None else np.asarray(L, float)
     zeta = np.full(N_APPENDAGES, ZETA_NOMINAL) if zeta is None else np.asarray(zeta, float)
@@ -181,7 +258,7 @@ def build() -> Model:
     """The symbolic flexible DEMETER model (3 axes, 4 appendages, 3 reaction wheels)."""
     jvars = {(i, j): Variable(f"J[{i + 1},{j + 1}]", "kg.m2",
                               f"Inertia {'moment' if i == j else 'product'} J{i + 1}{j + 1}",
-                              start=float(J0[i, j]), **({"min": 1e-6} if i == j else {}))
+                              start=float(J0[i, j]), min=1e-6 if i == j else None)
              for i, j in _upper()}
     lvars = [[Variable(f"L[{i + 1},{j + 1}]", "1",
                        f"Coupling of flexible coordinate {j + 1} (appendage {j // 2 + 1} "

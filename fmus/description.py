@@ -6,7 +6,7 @@ variables, value references, units and ModelStructure are identical by construct
 
 Identity (``docs/fmus-in-your-tool.md``, "GUID, modelName and version"):
 
-* ``guid`` identifies the description: a name-based UUID (:func:`uuid.uuid5` in
+* ``guid`` identifies the description: a name-based UUID (``uuid.uuid5`` in
   :data:`GUID_NAMESPACE`) of the model digest (:func:`satfmu.fmus.digest.model_digest`: the equations,
   which the description does not show) and the SHA-256 of the description itself with an empty
   ``guid``. The two FMUs of one model therefore have different GUIDs; two builds of the same
@@ -51,7 +51,25 @@ LOG_CATEGORIES = {
 
 @dataclass(frozen=True)
 class Capabilities:
-    """CoSimulation attributes that differ between the backends."""
+    """CoSimulation attributes that differ between the backends.
+
+    Attributes
+    ----------
+    model_identifier : str
+        The ``modelIdentifier``: the model's name (native) or the name and :data:`PYTHON_SUFFIX`
+        (pythonfmu); also the FMU's file name and its binaries' name.
+    needs_execution_tool : bool, optional
+        ``needsExecutionTool``: True for a pythonfmu FMU (it needs a Python interpreter).
+        Default False.
+    can_get_and_set_fmu_state : bool, optional
+        ``canGetAndSetFMUstate``. Default True.
+    can_serialize_fmu_state : bool, optional
+        ``canSerializeFMUstate``. Default True.
+    generation_tool : str, optional
+        ``generationTool`` of the description. Default ``"satfmu <version>"``.
+    source_files : tuple of str, optional
+        The files ``<SourceFiles>`` lists (a native FMU's wrapper); none for a pythonfmu FMU.
+    """
 
     model_identifier: str
     needs_execution_tool: bool = False
@@ -95,6 +113,16 @@ def model_version(model: Model) -> str:
     The same for both backends; it changes with the satfmu release and with the model (its
     equations, variables, defaults, tables, sampler), so two FMUs of one version were built
     from the same model by the same satfmu.
+
+    Parameters
+    ----------
+    model : Model
+        The model of the FMU.
+
+    Returns
+    -------
+    str
+        The version text.
     """
     return f"{__version__}+{model_digest(model)[:VERSION_DIGEST_DIGITS]}"
 
@@ -129,6 +157,18 @@ def fmu_guid(model: Model, backend: str) -> str:
 
     Cached on the model object (never changed after construction): the description is built
     once per model and backend.
+
+    Parameters
+    ----------
+    model : Model
+        The model of the FMU.
+    backend : {"native", "python"}
+        The FMU's backend: the native C FMU or the pythonfmu FMU.
+
+    Returns
+    -------
+    str
+        ``{xxxxxxxx-xxxx-5xxx-yxxx-xxxxxxxxxxxx}``.
     """
     cache = model.__dict__.setdefault("_fmu_guids", {})
     if backend not in cache:
@@ -138,7 +178,20 @@ def fmu_guid(model: Model, backend: str) -> str:
 
 def xml_value(value: float | int | bool, vtype: str) -> str:
     """``value`` as the XML text of an FMI/SSP attribute of type ``vtype`` (Real, Integer,
-    Boolean); Reals as the shortest text that reads back as the same double."""
+    Boolean); Reals as the shortest text that reads back as the same double.
+
+    Parameters
+    ----------
+    value : float or int or bool
+        The value, in the variable's unit.
+    vtype : {"Real", "Integer", "Boolean"}
+        The FMI type of the attribute.
+
+    Returns
+    -------
+    str
+        ``"true"``/``"false"``, an integer, or ``repr`` of the float.
+    """
     if vtype == "Boolean":
         return "true" if value else "false"
     if vtype == "Integer":
@@ -147,7 +200,20 @@ def xml_value(value: float | int | bool, vtype: str) -> str:
 
 
 def model_description(model: Model, caps: Capabilities) -> Element:
-    """The modelDescription element tree, its ``guid`` :func:`description_guid` of itself."""
+    """The modelDescription element tree, its ``guid`` :func:`description_guid` of itself.
+
+    Parameters
+    ----------
+    model : Model
+        The model: its variables, units, default experiment and output dependencies.
+    caps : Capabilities
+        The backend's CoSimulation attributes (:func:`capabilities`).
+
+    Returns
+    -------
+    xml.etree.ElementTree.Element
+        The ``fmiModelDescription`` root element.
+    """
     root = Element("fmiModelDescription", {
         "fmiVersion": "2.0", "modelName": model.name, "guid": "",
         "description": model.description, "version": model_version(model), "generationTool": caps.generation_tool,
@@ -225,7 +291,19 @@ def _unknown(parent: Element, index: int, deps: list[int]) -> None:
 def to_xml_bytes(root: Element) -> bytes:
     """Indented UTF-8 XML document. ElementTree writes a line break, tab or carriage return in
     an attribute as a character reference, so a description keeps its lines (a literal line
-    break in an attribute would read back as a space)."""
+    break in an attribute would read back as a space).
+
+    Parameters
+    ----------
+    root : xml.etree.ElementTree.Element
+        The ``fmiModelDescription`` element (:func:`model_description`); not changed (a copy
+        is indented).
+
+    Returns
+    -------
+    bytes
+        The ``modelDescription.xml`` file's content, with its XML declaration.
+    """
     root = copy.deepcopy(root)
     indent(root, "  ")
     return b'<?xml version="1.0" encoding="UTF-8"?>\n' + tostring(root, "unicode").encode() + b"\n"

@@ -28,7 +28,18 @@ GENERATOR_FILES = ("codegen.py", "description.py", "digest.py", "export.py", "mo
 
 
 def sha256(data: bytes) -> str:
-    """Hex SHA-256 of ``data``."""
+    """Hex SHA-256 of ``data``.
+
+    Parameters
+    ----------
+    data : bytes
+        The bytes to hash.
+
+    Returns
+    -------
+    str
+        The 64 hex digits of the digest.
+    """
     return hashlib.sha256(data).hexdigest()
 
 
@@ -61,6 +72,16 @@ def model_digest(model: Model) -> str:
     """Hex SHA-256 of every field of ``model`` (expressions, variables, tables, sampler).
 
     Cached on the model object, which is never changed after construction.
+
+    Parameters
+    ----------
+    model : Model
+        The model; its sampler's module and C header files count by their content.
+
+    Returns
+    -------
+    str
+        The 64 hex digits of the digest.
     """
     cached = model.__dict__.get("_digest")
     if cached is None:

@@ -1,6 +1,7 @@
-"""Every error and warning of satfmu, under one base of each: catch :class:`SatfmuError` for any
-refusal satfmu states (bad input, a design that cannot be certified, an FMU that fails), and filter
-:class:`SatfmuWarning` for any of its warnings.
+"""Every error and warning of satfmu, under one base of each: catch
+:class:`~satfmu.fmus.errors.SatfmuError` for any refusal satfmu states (bad input, a design that
+cannot be certified, an FMU that fails), and filter :class:`~satfmu.fmus.errors.SatfmuWarning` for
+any of its warnings.
 
 Each class also keeps the built-in base it had (``ValueError`` for bad input, ``RuntimeError`` for a
 failed computation, ``KeyError``, ``MemoryError``), so ``except ValueError`` still catches what it

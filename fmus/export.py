@@ -131,7 +131,18 @@ def _recorded(fmu: Path) -> tuple[str, str | None] | None:
 
 def built_digest(fmu: Path) -> str | None:
     """The build digest an FMU built here records, or None (no file, not a zip archive, built
-    elsewhere)."""
+    elsewhere).
+
+    Parameters
+    ----------
+    fmu : Path
+        The FMU file (it need not exist).
+
+    Returns
+    -------
+    str or None
+        The hex digest (:func:`satfmu.fmus.digest.build_digest`) in the archive's comment.
+    """
     recorded = _recorded(fmu)
     return None if recorded is None else recorded[0]
 
@@ -139,7 +150,18 @@ def built_digest(fmu: Path) -> str | None:
 def artifact_digest(fmu: Path) -> str | None:
     """The SHA-256 (hex) of the artifact a controller FMU built here embeds (the bytes of
     ``resources/artifact.json``, those of the artifact file it was built from), or None (not a
-    controller, not built here, unreadable)."""
+    controller, not built here, unreadable).
+
+    Parameters
+    ----------
+    fmu : Path
+        The controller FMU file (it need not exist).
+
+    Returns
+    -------
+    str or None
+        The hex digest in the archive's comment.
+    """
     recorded = _recorded(fmu)
     return None if recorded is None else recorded[1]
 
@@ -149,6 +171,16 @@ def toolchain(cc: str) -> str:
     """The C compiler's identification, part of a native build's digest: ``cc --version``'s first
     line and the version of the C library its headers declare (glibc, or the MinGW-w64 runtime,
     whose math functions are linked into the win64 DLL).
+
+    Parameters
+    ----------
+    cc : str
+        The compiler's command (``"gcc"``, :data:`WIN64_CC`).
+
+    Returns
+    -------
+    str
+        ``"<cc>: <first line of --version>; <C library version macros>"``.
 
     Raises
     ------
@@ -166,14 +198,54 @@ def toolchain(cc: str) -> str:
 
 
 def fmu_path(model: Model, dest_dir: Path, backend: str) -> Path:
-    """Where the FMU of ``model`` on ``backend`` (``"native"`` or ``"python"``) goes in ``dest_dir``."""
+    """Where the FMU of ``model`` on ``backend`` (``"native"`` or ``"python"``) goes in ``dest_dir``.
+
+    Parameters
+    ----------
+    model : Model
+        The model of the FMU.
+    dest_dir : Path
+        The folder of the FMUs.
+    backend : {"native", "python"}
+        The backend; a pythonfmu FMU's name ends in ``_py``.
+
+    Returns
+    -------
+    Path
+        ``<dest_dir>/<model.name>.fmu`` or ``<dest_dir>/<model.name>_py.fmu``.
+    """
     return Path(dest_dir) / f"{model.name}{PYTHON_SUFFIX if backend == 'python' else ''}.fmu"
 
 
 def digest_of(model: Model, backend: str, resources: dict[str, bytes] | None = None, cc: str = "gcc",
               win64_cc: str = WIN64_CC) -> str:
     """The build digest of ``model``'s FMU on ``backend`` (``"native"``, its compilers' identification
-    included, or ``"python"``)."""
+    included, or ``"python"``).
+
+    Parameters
+    ----------
+    model : Model
+        The model of the FMU.
+    backend : {"native", "python"}
+        The FMU's backend.
+    resources : dict of str to bytes, optional
+        Extra files for ``resources/`` (e.g. the controller artifact JSON), by name.
+    cc : str, optional
+        C compiler of the linux64 binary. Default ``"gcc"``.
+    win64_cc : str, optional
+        C cross compiler of the win64 binary. Default :data:`WIN64_CC`.
+
+    Returns
+    -------
+    str
+        The hex digest (:func:`satfmu.fmus.digest.build_digest`), the compilers' identification
+        (:func:`toolchain`) included.
+
+    Raises
+    ------
+    FmuBuildError
+        If a compiler is not found.
+    """
     return build_digest(model, backend, resources, f"{toolchain(cc)}\n{toolchain(win64_cc)}")
 
 
@@ -184,13 +256,15 @@ def build_native(model: Model, dest_dir: Path, resources: dict[str, bytes] | Non
     Parameters
     ----------
     model : Model
+        The model; it must have a C form (no Python sampler).
     dest_dir : Path
+        The folder the FMU is written to.
     resources : dict of str to bytes, optional
         Extra files for ``resources/`` (e.g. the controller artifact JSON).
-    cc : str
-        C compiler of the linux64 binary.
-    win64_cc : str
-        C cross compiler of the win64 binary (MinGW-w64).
+    cc : str, optional
+        C compiler of the linux64 binary. Default ``"gcc"``.
+    win64_cc : str, optional
+        C cross compiler of the win64 binary (MinGW-w64). Default :data:`WIN64_CC`.
 
     Returns
     -------
@@ -212,7 +286,7 @@ def build_native(model: Model, dest_dir: Path, resources: dict[str, bytes] | Non
     if built_digest(dest) == digest:
         return dest
     desc = model_description(model, capabilities(model, NATIVE))
-    model_h = codegen.c_source(model, desc.get("guid"))  # the binary requires this description's GUID
+    model_h = codegen.c_source(model, desc.attrib["guid"])  # the binary requires this description's GUID
     with tempfile.TemporaryDirectory(prefix="satfmu_") as tmp:
         root = Path(tmp)
         src = root / "sources"
@@ -289,6 +363,24 @@ def build_python(model: Model, dest_dir: Path, resources: dict[str, bytes] | Non
     module imports (numpy and scipy for the online SDRE). Its binaries are satfmu's C layer
     (:data:`SHIM`, compiled with ``cc`` and ``win64_cc``) in front of pythonfmu's library.
     Nothing is built when the FMU already records this build's digest.
+
+    Parameters
+    ----------
+    model : Model
+        The model; a Python sampler's module file is embedded too.
+    dest_dir : Path
+        The folder the FMU is written to.
+    resources : dict of str to bytes, optional
+        Extra files for ``resources/`` (e.g. the controller artifact JSON), by name.
+    cc : str, optional
+        C compiler of the linux64 binary (the C layer). Default ``"gcc"``.
+    win64_cc : str, optional
+        C cross compiler of the win64 binary (MinGW-w64). Default :data:`WIN64_CC`.
+
+    Returns
+    -------
+    Path
+        The FMU.
     """
     from pythonfmu.builder import FmuBuilder
 
@@ -303,11 +395,12 @@ def build_python(model: Model, dest_dir: Path, resources: dict[str, bytes] | Non
         proj = root / "project"
         proj.mkdir()
         desc = model_description(model, capabilities(model, PYTHON))
-        (proj / f"{generated}.py").write_text(codegen.python_source(model, desc.get("guid")))
+        (proj / f"{generated}.py").write_text(codegen.python_source(model, desc.attrib["guid"]))
         shutil.copy(PYSLAVE, proj / "satfmu_pyslave.py")
-        python_sampler = model.sampler is not None and not model.sampler.is_expression
-        if python_sampler:
-            shutil.copy(model.sampler.module, proj / f"{codegen.sampler_module_name(model)}.py")
+        sampler_file = None if model.sampler is None or model.sampler.is_expression else model.sampler.module
+        python_sampler = sampler_file is not None
+        if sampler_file is not None:
+            shutil.copy(sampler_file, proj / f"{codegen.sampler_module_name(model)}.py")
         description = to_xml_bytes(desc)
         (proj / "satfmu_description.xml").write_bytes(description)
         _write_resources(proj, resources)  # pythonfmu puts the project files in resources/
@@ -328,7 +421,7 @@ def build_python(model: Model, dest_dir: Path, resources: dict[str, bytes] | Non
             for mod in [cls, generated, "satfmu_pyslave"] + sampler:
                 sys.modules.pop(mod, None)
         _repack(Path(fmu), dest, _comment(digest, resources), description,
-                {"linux64": cc, "win64": win64_cc}, desc.get("guid"))
+                {"linux64": cc, "win64": win64_cc}, desc.attrib["guid"])
     return dest
 
 

@@ -46,7 +46,7 @@ _POLE_GUARD_DEG = 1e-10  # colatitude kept this far from the poles (ppigrf divid
 
 
 def model_defaults() -> dict[str, float]:
-    """Start values of every cubesat parameter, by name (SI units, as in :data:`satfmu.fmus.cubesat.MODEL`)."""
+    """Start values of every cubesat parameter, by name (SI units, as in ``satfmu.fmus.cubesat.MODEL``)."""
     return {v.name: float(v.start) for v in MODEL.parameters}
 
 
@@ -134,7 +134,23 @@ def _rot3(angle: np.ndarray) -> np.ndarray:
 
 
 def epoch_datetime(epoch: _dt.datetime | _dt.date) -> _dt.datetime:
-    """``epoch`` as a naive UTC datetime (a date: its midnight; an aware datetime: converted)."""
+    """``epoch`` as a naive UTC datetime (a date: its midnight; an aware datetime: converted).
+
+    Parameters
+    ----------
+    epoch : datetime.datetime or datetime.date
+        The epoch of the field coefficients; a naive datetime is taken as UTC.
+
+    Returns
+    -------
+    datetime.datetime
+        The naive UTC datetime.
+
+    Raises
+    ------
+    ValueError
+        If ``epoch`` is neither a datetime nor a date.
+    """
     if isinstance(epoch, _dt.datetime):
         if epoch.tzinfo is not None:
             epoch = epoch.astimezone(_dt.UTC).replace(tzinfo=None)
@@ -212,7 +228,20 @@ def igrf_orbit_field(tau: np.ndarray | float, epoch: _dt.datetime | _dt.date,
 
 
 def fourier_basis(tau: np.ndarray, period: float) -> np.ndarray:
-    """The cubesat's Fourier terms [1, sin, cos, sin 2, cos 2] of ``2 pi tau / period``, (n, 5)."""
+    """The cubesat's Fourier terms [1, sin, cos, sin 2, cos 2] of ``2 pi tau / period``, (n, 5).
+
+    Parameters
+    ----------
+    tau : numpy.ndarray, shape (n,)
+        Orbit times, s.
+    period : float
+        Period of the terms, s (the cubesat's ``orbit_period``).
+
+    Returns
+    -------
+    numpy.ndarray, shape (n, 5)
+        The five terms at each time.
+    """
     w = 2 * np.pi * np.asarray(tau, float) / period
     return np.stack([np.ones_like(w), np.sin(w), np.cos(w), np.sin(2 * w), np.cos(2 * w)], -1)
 
@@ -239,7 +268,18 @@ class FourierFit:
     max_residual: float
 
     def evaluate(self, tau: np.ndarray | float) -> np.ndarray:
-        """The fitted field at orbit times ``tau`` (s), (n, 3), T."""
+        """The fitted field at orbit times ``tau`` (s), (n, 3), T.
+
+        Parameters
+        ----------
+        tau : float or numpy.ndarray, shape (n,)
+            Orbit times, s (a scalar is one time).
+
+        Returns
+        -------
+        numpy.ndarray, shape (n, 3)
+            The field along the orbit axes, T.
+        """
         return fourier_basis(_as_tau(tau), self.period) @ self.coefficients.T
 
     def fmu_parameters(self, with_period: bool = True) -> dict[str, float]:
@@ -247,6 +287,16 @@ class FourierFit:
 
         With ``with_period`` (default) also ``orbit_period``: the coefficients hold only with
         the period they were fitted for. Use with ``field_model = 0``.
+
+        Parameters
+        ----------
+        with_period : bool, optional
+            Include ``orbit_period`` (s), the fit's period. Default True.
+
+        Returns
+        -------
+        dict of str to float
+            The 15 coefficients (T), and the period (s) with ``with_period``.
         """
         out = {f"field_{a}[{i + 1}]": float(self.coefficients[k, i])
                for k, a in enumerate(FOURIER_AXES) for i in range(5)}

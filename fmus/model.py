@@ -95,7 +95,17 @@ class Variable:
 
 @dataclass(frozen=True)
 class State:
-    """A continuous state; its initial value is the parameter ``initial``."""
+    """A continuous state; its initial value is the parameter ``initial``.
+
+    Attributes
+    ----------
+    variable : Variable
+        The state itself (name, unit, description); internal to the FMU unless an output
+        carries it.
+    initial : Variable
+        The parameter holding the initial value (e.g. ``omega_0[1]`` of ``omega[1]``), same
+        unit.
+    """
 
     variable: Variable
     initial: Variable
@@ -107,7 +117,15 @@ class State:
 
 @dataclass(frozen=True)
 class Output:
-    """An output variable and the expression that computes it."""
+    """An output variable and the expression that computes it.
+
+    Attributes
+    ----------
+    variable : Variable
+        The FMU output variable.
+    expression : sympy.Expr
+        Its value, in the model's time, state, input, parameter, held and defined symbols.
+    """
 
     variable: Variable
     expression: sp.Expr
@@ -119,6 +137,18 @@ class SDCForm:
 
     ``inputs`` names the model inputs forming ``v``; ``assumptions`` substitutes
     parameters (e.g. saturation off) under which the identity holds.
+
+    Attributes
+    ----------
+    A : sympy.Matrix
+        ``A(x)``, shape (nx, nx), in the model's state and parameter symbols.
+    B : sympy.Matrix
+        ``B(x)``, shape (nx, nv), in the model's state and parameter symbols.
+    inputs : tuple of str
+        Names of the model inputs forming ``v``, in the column order of ``B``.
+    assumptions : dict of str to float, optional
+        Parameter values (by name) under which ``f = A x + B v`` holds, e.g.
+        ``{"saturation_on": 0.0}``. Default none.
     """
 
     A: sp.Matrix
@@ -140,20 +170,20 @@ class Sampler:
 
     The instants are the start time and every time ``t`` with ``t + phase`` a multiple of
     the period (without a phase: ``start + k * period``). At each instant the FMU evaluates
-    :attr:`arguments` at the current time, state, inputs, parameters and held values (the
+    ``arguments`` at the current time, state, inputs, parameters and held values (the
     ones of the previous instant) and holds the result until the next instant:
 
-    - an *expression sampler* (no :attr:`module`): the held values ARE the arguments, one
+    - an *expression sampler* (no ``module``): the held values ARE the arguments, one
       expression each. Native and pythonfmu FMUs (a periodic gain schedule, a sampled
       B-dot law);
     - a *routine sampler*: a routine computes the held values from the arguments (an online
       SDRE law holds its gain this way: the Riccati solve is no expression). Its Python form,
-      ``function(arguments, **options)`` of the module file :attr:`module`, runs in pythonfmu
-      FMUs and in process; its C form, :attr:`c_function` of the header :attr:`c_header` in
+      ``function(arguments, **options)`` of the module file ``module``, runs in pythonfmu
+      FMUs and in process; its C form, ``c_function`` of the header ``c_header`` in
       ``fmus/c/``, in native FMUs (a model without it has no native FMU). The two are twins
       that the tests hold to a stated agreement.
 
-    The expressions of the model read the held values through the symbols of :attr:`held`.
+    The expressions of the model read the held values through the symbols of ``held``.
 
     Parameters
     ----------
@@ -176,7 +206,7 @@ class Sampler:
         Name of the model parameter giving the phase of the instants, s (an orbit time at
         ``t = 0``, say, so that the instants fall on orbit times ``k * period``).
     c_header : str, optional
-        File name, in ``fmus/c/``, of the C header defining :attr:`c_function`; a native FMU
+        File name, in ``fmus/c/``, of the C header defining ``c_function``; a native FMU
         carries it in ``sources/``. Its code reads the options as macros ``SAMPLER_<KEY>``
         (upper case, integer or float values).
     c_function : str, optional
@@ -217,6 +247,8 @@ class Sampler:
 
         if self.module is None:
             return list
+        if self.function is None:
+            raise ModelDefinitionError(f"sampler module {self.module!r}: no function named")
         spec = importlib.util.spec_from_file_location(f"satfmu_sampler_{id(self)}", self.module)
         if spec is None or spec.loader is None:
             raise ModelDefinitionError(f"sampler module {self.module!r} cannot be loaded")
@@ -229,7 +261,7 @@ TIME_TOL = 1e-9
 """Relative time tolerance (times ``max(1, |t|)``, within the bounds of :func:`time_tolerance`): two
 times closer than this are one instant. Generated C and Python use it for sample instants, table
 breakpoints and switching times, so an FMU driven at ``t0 + k h`` and a master sampling
-``t0 + h k`` (or adding ``h`` step by step: ~1e5 steps drift by 1e-9 |t|) agree at every jump."""
+``t0 + h k`` (or adding ``h`` step by step: ~1e5 steps drift by ``1e-9 |t|``) agree at every jump."""
 TIME_TOL_MAX = 1e-6
 """The largest time tolerance, s: at Unix times (1.4e9 s) a relative 1e-9 would merge instants 1.4 s
 apart; 1 us keeps every instant of a sampled FMU (control periods from 1 ms on) distinct and is
@@ -241,18 +273,40 @@ TIME_ULPS = 8
 
 def time_tolerance(t: sp.Expr) -> sp.Expr:
     """The time tolerance at time ``t`` (a sympy expression), s:
-    ``max(min(TIME_TOL max(1, |t|), TIME_TOL_MAX), TIME_ULPS eps |t|)`` with eps = 2^-52."""
+    ``max(min(TIME_TOL max(1, |t|), TIME_TOL_MAX), TIME_ULPS eps |t|)`` with eps = 2^-52.
+
+    Parameters
+    ----------
+    t : sympy.Expr
+        The time, s.
+
+    Returns
+    -------
+    sympy.Expr
+        The tolerance, s.
+    """
     return sp.Max(sp.Min(TIME_TOL * sp.Max(1, sp.Abs(t)), TIME_TOL_MAX), TIME_ULPS * 2.0**-52 * sp.Abs(t))
 
 
 def time_tolerance_of(t: np.ndarray | float) -> np.ndarray:
-    """:func:`time_tolerance` of numbers (numpy), s."""
+    """:func:`time_tolerance` of numbers (numpy), s.
+
+    Parameters
+    ----------
+    t : float or numpy.ndarray
+        Times, s (any shape).
+
+    Returns
+    -------
+    numpy.ndarray
+        The tolerance at each time, s, same shape as ``t``.
+    """
     a = np.abs(np.asarray(t, float))
     return np.maximum(np.minimum(TIME_TOL * np.maximum(1.0, a), TIME_TOL_MAX), TIME_ULPS * 2.0**-52 * a)
 
 
 class TableLookup(sp.Function):
-    """``TableLookup(k, t)``: the model's table ``k`` (:attr:`Model.tables`) at ``t``."""
+    """``TableLookup(k, t)``: the model's table ``k`` (``Model.tables``) at ``t``."""
 
     nargs = 2
 
@@ -265,6 +319,15 @@ class Table:
     ``"previous"`` holds each value from its breakpoint on (a breakpoint within
     :func:`time_tolerance` ahead counts as reached); ``"linear"`` interpolates between breakpoints.
     The numpy :meth:`evaluate`, the generated Python and the generated C use one formula.
+
+    Attributes
+    ----------
+    times : tuple of float
+        Breakpoints, strictly increasing (s for a time table).
+    values : tuple of float
+        The value at each breakpoint, in the unit of the quantity tabulated.
+    interpolation : {"linear", "previous"}, optional
+        Linear between breakpoints (default) or each value held from its breakpoint on.
 
     Raises
     ------
@@ -291,7 +354,18 @@ class Table:
         object.__setattr__(self, "values", tuple(map(float, v)))
 
     def evaluate(self, t: np.ndarray | float) -> np.ndarray:
-        """Values at ``t`` (any shape)."""
+        """Values at ``t`` (any shape).
+
+        Parameters
+        ----------
+        t : float or numpy.ndarray
+            Where to evaluate (s for a time table), any shape.
+
+        Returns
+        -------
+        numpy.ndarray
+            The interpolated values, same shape as ``t``.
+        """
         tt, v = np.asarray(self.times), np.asarray(self.values)
         t = np.asarray(t, float)
         if self.interpolation == "previous":
@@ -529,7 +603,18 @@ class Model:
 
     @staticmethod
     def previous(state_name: str) -> sp.Symbol:
-        """The symbol of state ``state_name`` at the start of the integration substep."""
+        """The symbol of state ``state_name`` at the start of the integration substep.
+
+        Parameters
+        ----------
+        state_name : str
+            Name of the state variable (``"omega[1]"``).
+
+        Returns
+        -------
+        sympy.Symbol
+            The real symbol ``previous(<state_name>)``.
+        """
         return sp.Symbol(f"previous({state_name})", real=True)
 
     @property
@@ -550,10 +635,21 @@ class Model:
         return np.array([float(v.start) for v in self.parameters])
 
     def input_defaults(self) -> np.ndarray:
+        """Default input vector (start values, Booleans as 0/1), in input order."""
         return np.array([float(v.start) for v in self.inputs])
 
     def parameter_vector(self, overrides: dict[str, float] | None = None) -> np.ndarray:
         """Parameter vector with named overrides.
+
+        Parameters
+        ----------
+        overrides : dict of str to float, optional
+            Values by parameter name, replacing the defaults (each in its parameter's unit).
+
+        Returns
+        -------
+        numpy.ndarray, shape (n_parameters,)
+            The values in parameter order (Booleans as 0/1).
 
         Raises
         ------
@@ -569,13 +665,36 @@ class Model:
         return p
 
     def initial_state(self, p: np.ndarray) -> np.ndarray:
-        """Initial state read from the parameter vector ``p``."""
+        """Initial state read from the parameter vector ``p``.
+
+        Parameters
+        ----------
+        p : numpy.ndarray, shape (n_parameters,)
+            Parameter vector (:meth:`parameter_vector`), holding each state's initial-value
+            parameter.
+
+        Returns
+        -------
+        numpy.ndarray, shape (n_states,)
+            The initial state, in state order.
+        """
         index = {v.name: i for i, v in enumerate(self.parameters)}
         return np.array([p[index[s.initial.name]] for s in self.states])
 
     def free_symbols(self, expr: sp.Expr) -> set[sp.Symbol]:
-        """Free symbols of ``expr`` with :attr:`definitions` and held values followed to the
-        variables they use (a held value is sampled from the inputs of its instant)."""
+        """Free symbols of ``expr`` with ``definitions`` and held values followed to the
+        variables they use (a held value is sampled from the inputs of its instant).
+
+        Parameters
+        ----------
+        expr : sympy.Expr
+            An expression in the model's symbols.
+
+        Returns
+        -------
+        set of sympy.Symbol
+            Time, state, previous-state, input and parameter symbols it depends on.
+        """
         free = set(sp.sympify(expr).free_symbols)
         for sym, e in reversed(self.definitions):
             if sym in free:
@@ -606,10 +725,21 @@ class Model:
     def lambdify(self, exprs: sp.Matrix | Sequence[sp.Expr]) -> Callable[..., np.ndarray]:
         """Vectorized numpy function ``f(t, x, u, p)`` of expressions in this model's symbols.
 
+        Parameters
+        ----------
+        exprs : sympy.Matrix or sequence of sympy.Expr
+            Expressions in the model's time, state, input and parameter symbols (and
+            ``TableLookup`` of its tables).
+
+        Returns
+        -------
+        callable
+            ``f(t, x, u, p)``, returning the expressions' values as a column matrix.
+
         Raises
         ------
         ModelDefinitionError
-            If the model has :attr:`definitions` (use :func:`satfmu.fmus.codegen.load_python`).
+            If the model has ``definitions`` (use :func:`satfmu.fmus.codegen.load_python`).
         """
         if self.definitions:
             raise ModelDefinitionError(f"model {self.name!r} has definitions; evaluate it with the "
@@ -620,7 +750,23 @@ class Model:
 
     def sdc_functions(self, sdc: SDCForm | None = None
                       ) -> tuple[Callable[..., np.ndarray], Callable[..., np.ndarray]]:
-        """Numpy functions ``A(x, p)`` and ``B(x, p)`` of the SDC form (default: :attr:`sdc`)."""
+        """Numpy functions ``A(x, p)`` and ``B(x, p)`` of the SDC form (default: ``sdc``).
+
+        Parameters
+        ----------
+        sdc : SDCForm, optional
+            The form to evaluate; default the model's own ``sdc``.
+
+        Returns
+        -------
+        A, B : callable
+            Functions of the state and parameter vectors.
+
+        Raises
+        ------
+        ModelDefinitionError
+            If no form is given and the model declares none.
+        """
         sdc = sdc or self._require_sdc()
         args = (self.state_symbols, self.parameter_symbols)
         return (sp.lambdify(args, sdc.A, modules="numpy", cse=True),
@@ -629,7 +775,17 @@ class Model:
     def sdc_residual_symbolic(self, sdc: SDCForm | None = None) -> sp.Matrix:
         """``A(x) x + B(x) v - f(x, u)`` simplified; zero when the SDC form is exact.
 
-        ``sdc`` checks another factorization of this model than :attr:`sdc`.
+        ``sdc`` checks another factorization of this model than its own.
+
+        Parameters
+        ----------
+        sdc : SDCForm, optional
+            The form to check; default the model's own ``sdc``.
+
+        Returns
+        -------
+        sympy.Matrix
+            The residual (nx x 1), under the form's assumptions.
         """
         sdc = sdc or self._require_sdc()
         subs = {sp.Symbol(k, real=True): v for k, v in sdc.assumptions.items()}
@@ -638,7 +794,21 @@ class Model:
         return sp.simplify(sdc.A * x + sdc.B * v - self.expand(self.rhs.subs(subs), subs))
 
     def expand(self, expr: sp.Basic, subs: dict | None = None) -> sp.Basic:
-        """``expr`` with the :attr:`definitions` it uses substituted (each after ``subs``)."""
+        """``expr`` with the ``definitions`` it uses substituted (each after ``subs``).
+
+        Parameters
+        ----------
+        expr : sympy.Basic
+            An expression in the model's symbols.
+        subs : dict, optional
+            Substitutions (symbol to value) applied to each definition before it replaces its
+            symbol.
+
+        Returns
+        -------
+        sympy.Basic
+            The expression with no defined symbol left.
+        """
         for sym, e in reversed(self.definitions):
             if sym in expr.free_symbols:
                 expr = expr.xreplace({sym: sp.sympify(e).subs(subs or {})})
@@ -646,7 +816,25 @@ class Model:
 
     def sdc_residual_sampled(self, n_points: int = 200, scale: float = 1.0,
                              seed: int = 0, sdc: SDCForm | None = None) -> float:
-        """Largest ``|A(x) x + B(x) v - f(x, u)|`` over random points (state, inputs ~ N(0, scale^2))."""
+        """Largest ``|A(x) x + B(x) v - f(x, u)|`` over random points (state, inputs ~ N(0, scale^2)).
+
+        Parameters
+        ----------
+        n_points : int, optional
+            Number of random points. Default 200.
+        scale : float, optional
+            Standard deviation of every state and input component at the points (in their
+            units). Default 1.
+        seed : int, optional
+            Seed of the random generator. Default 0.
+        sdc : SDCForm, optional
+            The form to check; default the model's own ``sdc``.
+
+        Returns
+        -------
+        float
+            The largest absolute residual of any component, in the units of the derivatives.
+        """
         sdc = sdc or self._require_sdc()
         rng = np.random.default_rng(seed)
         p = self.parameter_vector(sdc.assumptions)
@@ -671,10 +859,15 @@ class Model:
 
 
 class Definitions(list):
-    """Collects :attr:`Model.definitions`: ``d("name", expr)`` records and returns a new symbol.
+    """Collects ``Model.definitions``: ``d("name", expr)`` records and returns a new symbol.
 
     ``d.flag("name", condition)`` defines a 0/1 number for a condition; test it with
     :func:`is_set` in later conditions (conditions on small symbols keep sympy fast).
+
+    Parameters
+    ----------
+    iterable : iterable of tuple of (sympy.Symbol, sympy.Expr), optional
+        Definitions to start with (as ``list`` takes them); normally none.
     """
 
     def __call__(self, name: str, expr: sp.Expr) -> sp.Symbol:
@@ -683,21 +876,65 @@ class Definitions(list):
         return sym
 
     def flag(self, name: str, condition: sp.Basic) -> sp.Symbol:
+        """Record ``name`` as the 0/1 number of ``condition`` and return its symbol.
+
+        Parameters
+        ----------
+        name : str
+            Name of the new symbol.
+        condition : sympy.Basic
+            A sympy condition (relational or boolean).
+
+        Returns
+        -------
+        sympy.Symbol
+            The flag, 1 where the condition holds, else 0 (test it with :func:`is_set`).
+        """
         return self(name, sp.Piecewise((1, condition), (0, True), evaluate=False))
 
 
 def is_set(flag: sp.Expr) -> sp.Basic:
-    """The condition "0/1 flag is 1"."""
+    """The condition "0/1 flag is 1".
+
+    Parameters
+    ----------
+    flag : sympy.Expr
+        A 0/1 flag (:meth:`Definitions.flag`) or a Boolean parameter's symbol.
+
+    Returns
+    -------
+    sympy.Basic
+        ``flag > 1/2``.
+    """
     return flag > sp.Rational(1, 2)
 
 
 def vector(base: str, n: int, unit: str, description: str, start: Sequence[float] | float = 0.0,
            **kwargs: object) -> list[Variable]:
-    """``n`` variables ``base[1] .. base[n]`` with a common unit and description.
+    """``n`` variables ``base[1]`` to ``base[n]`` with a common unit and description.
 
     ``description`` may contain ``{i}`` for the 1-based index.
+
+    Parameters
+    ----------
+    base : str
+        Name of the vector; the variables are ``base[1]`` to ``base[n]``.
+    n : int
+        Number of variables.
+    unit : str
+        Their unit, one of :data:`UNITS`.
+    description : str
+        Their description, a format string that may use ``{i}``.
+    start : float or sequence of float, optional
+        Start value of all, or one per variable (in ``unit``). Default 0.
+    **kwargs
+        Further fields of every :class:`Variable` (``type``, ``min``, ``max``).
+
+    Returns
+    -------
+    list of Variable
     """
-    starts = [start] * n if np.isscalar(start) else list(start)  # type: ignore[list-item]
+    starts = [start] * n if isinstance(start, (int, float, np.number)) else list(start)
     if len(starts) != n:
         raise ModelDefinitionError(f"{base}: {len(starts)} start values for {n} variables")
     return [Variable(f"{base}[{i + 1}]", unit, description.format(i=i + 1), float(starts[i]), **kwargs)  # type: ignore[arg-type]
@@ -706,17 +943,61 @@ def vector(base: str, n: int, unit: str, description: str, start: Sequence[float
 
 def states(base: str, n: int, unit: str, description: str,
            start: Sequence[float] | float = 0.0) -> list[State]:
-    """``n`` states ``base[i]`` whose initial values are parameters ``base_0[i]``."""
+    """``n`` states ``base[i]`` whose initial values are parameters ``base_0[i]``.
+
+    Parameters
+    ----------
+    base : str
+        Name of the state vector.
+    n : int
+        Number of states.
+    unit : str
+        Their unit, one of :data:`UNITS` (also the initial values').
+    description : str
+        Their description (may use ``{i}``); the initial values' is "Initial value of " + it.
+    start : float or sequence of float, optional
+        Default initial value of all, or one per state (in ``unit``). Default 0.
+
+    Returns
+    -------
+    list of State
+    """
     var = vector(base, n, unit, description)
     init = vector(f"{base}_0", n, unit, "Initial value of " + description, start)
     return [State(v, i) for v, i in zip(var, init)]
 
 
 def symbols(variables: Sequence[Variable | State]) -> sp.Matrix:
-    """Column matrix of the symbols of ``variables``."""
+    """Column matrix of the symbols of ``variables``.
+
+    Parameters
+    ----------
+    variables : sequence of Variable or State
+        The variables, in order.
+
+    Returns
+    -------
+    sympy.Matrix
+        Their symbols, ``len(variables)`` x 1.
+    """
     return sp.Matrix([v.symbol for v in variables])
 
 
 def saturate(u: sp.Expr, limit: sp.Expr, enabled: sp.Expr) -> sp.Expr:
-    """``clip(u, -limit, limit)`` when the Boolean parameter ``enabled`` is true (> 1/2)."""
+    """``clip(u, -limit, limit)`` when the Boolean parameter ``enabled`` is true (> 1/2).
+
+    Parameters
+    ----------
+    u : sympy.Expr
+        The value to clip (a commanded torque, say).
+    limit : sympy.Expr
+        The limit, in the unit of ``u`` (>= 0).
+    enabled : sympy.Expr
+        Symbol of the Boolean parameter switching the saturation on.
+
+    Returns
+    -------
+    sympy.Expr
+        A piecewise expression.
+    """
     return sp.Piecewise((sp.Max(-limit, sp.Min(limit, u)), enabled > sp.Rational(1, 2)), (u, True))

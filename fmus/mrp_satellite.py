@@ -10,10 +10,10 @@ docs/models.md, "Seed 000". State x = [omega (rad/s), sigma (MRP, 1)]:
 with the full inertia tensor J (parameters ``I_x, I_y, I_z`` on the diagonal and the
 products ``I_xy, I_xz, I_yz`` off it, kg m^2; defaults from the spacecraft the model is
 built for, :class:`satfmu.fmus.spacecraft.Spacecraft`; seed 000: diag(15, 16, 12.5)), an
-optional actuator saturation |u_i| <= u_max (off by default) and optional MRP
-shadow-set switching sigma <- -sigma / |sigma|^2 when |sigma| > 1, applied after
+optional actuator saturation ``|u_i| <= u_max`` (off by default) and optional MRP
+shadow-set switching ``sigma <- -sigma / |sigma|^2`` when ``|sigma| > 1``, applied after
 every integration substep (off by default: the seed does not switch, its 200 deg
-case starts at |sigma| = 1.19).
+case starts at ``|sigma| = 1.19``).
 
 The SDC form x' = A(x) x + B [u; w_d] generalizes seed 000's eq. (35)-(37): with
 J = D + N (diagonal D, products N), ``-omega x (J omega) = S(omega) omega - [omega x] N omega``
@@ -34,12 +34,34 @@ _AXES = {"I_x": "x", "I_y": "y", "I_z": "z", "I_xy": "x and y", "I_xz": "x and z
 
 
 def skew(a: sp.Matrix) -> sp.Matrix:
-    """Skew-symmetric matrix [a x] with [a x] b = a x b."""
+    """Skew-symmetric matrix [a x] with [a x] b = a x b.
+
+    Parameters
+    ----------
+    a : sympy.Matrix
+        A 3-vector (3 x 1 or 1 x 3).
+
+    Returns
+    -------
+    sympy.Matrix
+        The 3 x 3 cross-product matrix.
+    """
     return sp.Matrix([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
 
 
 def mrp_kinematics_matrix(s: sp.Matrix) -> sp.Matrix:
-    """B(s) of sigma' = (1/4) B(s) omega."""
+    """B(s) of sigma' = (1/4) B(s) omega.
+
+    Parameters
+    ----------
+    s : sympy.Matrix
+        The MRP attitude sigma, 3 x 1 (1).
+
+    Returns
+    -------
+    sympy.Matrix
+        The 3 x 3 matrix ``(1 - s^T s) I3 + 2 [s x] + 2 s s^T``.
+    """
     return (1 - (s.T * s)[0]) * sp.eye(3) + 2 * skew(s) + 2 * s * s.T
 
 
@@ -111,6 +133,18 @@ def build(spacecraft: Spacecraft = SEED_000, omega_0: tuple[float, float, float]
 
 def mrp_from_axis_angle(axis: np.ndarray, angle_rad: float) -> np.ndarray:
     """MRP ``k tan(Phi/4)`` of a rotation by ``angle_rad`` about ``axis`` (normalized here).
+
+    Parameters
+    ----------
+    axis : numpy.ndarray, shape (3,)
+        Rotation axis, any non-zero length.
+    angle_rad : float
+        Rotation angle Phi, rad.
+
+    Returns
+    -------
+    numpy.ndarray, shape (3,)
+        The modified Rodrigues parameters (1).
 
     Raises
     ------

@@ -7,24 +7,24 @@ following communication step (zero-order hold), as the FMUs do with inputs.
 
 Kinds (times in s, values in the target input's unit):
 
-``constant``  value
-``step``      time, before, after            (``after`` from ``time`` on; the generator FMU's
-              parameter is ``step_time``)
-``table``     times, values, interpolation = "previous" | "linear"
-``sinusoid``  amplitude, frequency_Hz, phase_rad = 0, offset = 0
-``random``    seed, std, mean = 0, hold = communication step  (Gaussian, held over ``hold``)
-``csv``       file, column, time_column = "time", interpolation = "linear"
-``cosine_ramp`` start, stop, before, after, derivative = 0 | 1 | 2
-              ``before`` until ``start``, then (1 - cos(pi (t - start)/(stop - start)))/2 of
-              the way to ``after``, reached at ``stop`` (seed 002 eq. 24-25); ``derivative``
-              gives its first or second time derivative instead (per s, per s^2)
-``igrf``      component (1 | 2 | 3), epoch (ISO date "2020-01-01" or a TOML date),
-              max_degree = 13, orbit_period, orbit_time_0, orbit_altitude,
-              orbit_inclination, orbit_raan, orbit_arg_latitude_0, earth_rotation_angle_0
-              (= the magnetorquer cubesat's parameters, defaulting to its start values)
-              IGRF field along orbit axis ``component`` at orbit time orbit_time_0 + t, T
-              (:func:`satfmu.fmus.geomagnetic.igrf_orbit_field`), for the cubesat's ``b_ext[i]``
-              inputs with ``field_model = 2``; give the plant the same orbit_period.
+- ``constant``: value
+- ``step``: time, before, after (``after`` from ``time`` on; the generator FMU's
+  parameter is ``step_time``)
+- ``table``: times, values, interpolation = "previous" | "linear"
+- ``sinusoid``: amplitude, frequency_Hz, phase_rad = 0, offset = 0
+- ``random``: seed, std, mean = 0, hold = communication step (Gaussian, held over ``hold``)
+- ``csv``: file, column, time_column = "time", interpolation = "linear"
+- ``cosine_ramp``: start, stop, before, after, derivative = 0 | 1 | 2;
+  ``before`` until ``start``, then (1 - cos(pi (t - start)/(stop - start)))/2 of
+  the way to ``after``, reached at ``stop`` (seed 002 eq. 24-25); ``derivative``
+  gives its first or second time derivative instead (per s, per s^2)
+- ``igrf``: component (1 | 2 | 3), epoch (ISO date "2020-01-01" or a TOML date),
+  max_degree = 13, orbit_period, orbit_time_0, orbit_altitude,
+  orbit_inclination, orbit_raan, orbit_arg_latitude_0, earth_rotation_angle_0
+  (= the magnetorquer cubesat's parameters, defaulting to its start values);
+  IGRF field along orbit axis ``component`` at orbit time orbit_time_0 + t, T
+  (:func:`satfmu.fmus.geomagnetic.igrf_orbit_field`), for the cubesat's ``b_ext[i]``
+  inputs with ``field_model = 2``; give the plant the same orbit_period.
 """
 from __future__ import annotations
 
@@ -53,7 +53,22 @@ parameter values."""
 
 @dataclass(frozen=True)
 class Profile:
-    """A validated profile: ``kind``, its fields, the sampling function and its generator."""
+    """A validated profile: ``kind``, its fields, the sampling function and its generator.
+
+    Built by :func:`make`, not directly.
+
+    Attributes
+    ----------
+    kind : str
+        The profile kind (``"constant"``, ``"step"``, ``"table"``, ...; see the module).
+    spec : dict of str to object
+        The declaration it was built from.
+    _fn : callable
+        ``_fn(t)``: the values at the times ``t`` (s), what :meth:`sample` returns.
+    _generator : callable
+        ``_generator(times, unit)``: the signal-generator model and its parameter values,
+        what :meth:`generator` returns.
+    """
 
     kind: str
     spec: dict[str, Any]
@@ -61,7 +76,18 @@ class Profile:
     _generator: Generator = field(repr=False, compare=False)
 
     def sample(self, t: np.ndarray) -> np.ndarray:
-        """Values at the times ``t`` (1-D array, s)."""
+        """Values at the times ``t`` (1-D array, s).
+
+        Parameters
+        ----------
+        t : numpy.ndarray, shape (n,)
+            Times, s.
+
+        Returns
+        -------
+        numpy.ndarray, shape (n,)
+            The profile's values, in the target input's unit.
+        """
         v = np.asarray(self._fn(np.asarray(t, float)), float)
         return np.broadcast_to(v, np.shape(t)).copy()
 
@@ -73,6 +99,21 @@ class Profile:
         The analytic kinds are the generic generators and do not depend on ``times``; the
         sampled ones are tables: ``table`` and ``csv`` their data, ``random`` its held draws over
         the hold instants up to the last time, ``igrf`` the field on ``times`` (linear).
+
+        Parameters
+        ----------
+        times : numpy.ndarray, shape (n,)
+            The communication grid, s.
+        unit : str, optional
+            Unit of the generator's output (one of :data:`satfmu.fmus.model.UNITS`). Default
+            dimensionless (``"1"``).
+
+        Returns
+        -------
+        model : Model
+            The signal-generator model (:mod:`satfmu.fmus.signals`).
+        values : dict of str to float
+            Its parameter values, by name.
         """
         return self._generator(np.asarray(times, float), unit)
 
@@ -293,7 +334,7 @@ def _csv_columns(path: Path, tcol: str, col: str, where: str) -> tuple[np.ndarra
     return data[:, 0], data[:, 1]
 
 
-def _csv(spec: dict, where: str, base_dir: Path | None) -> Callable[[np.ndarray], np.ndarray]:
+def _csv(spec: dict, where: str, base_dir: Path | None) -> tuple[Callable[[np.ndarray], np.ndarray], Generator]:
     if "file" not in spec or "column" not in spec:
         raise ProfileError(f"{where}: needs 'file' and 'column'")
     path = Path(spec["file"])

@@ -35,7 +35,7 @@ satfmu's own model description (the same one the native FMU carries).
 Every FMI call reaches this class through satfmu's C layer in front of pythonfmu 0.7.0's library
 (``fmus/c/pythonfmu_shim.c``, the FMU's binary), which guards what pythonfmu's C++ layer does
 wrong before any Python runs (``docs/pythonfmu.md``). This class keeps its side of that layer's
-contract: a refused call logs its reason with fmi2Error and raises (:meth:`SatfmuSlave._reject`,
+contract: a refused call logs its reason with fmi2Error and raises (``SatfmuSlave._reject``,
 which keeps the instance usable; the layer returns fmi2Error); every value reference and type is
 checked here, not by pythonfmu (whose own exceptions cannot be balanced); two value references no
 model declares report the FMI state and the time to that layer (:data:`SHIM_VR_MODE`,
@@ -43,7 +43,7 @@ model declares report the FMI state and the time to that layer (:data:`SHIM_VR_M
 :class:`RefusedState`, which serializes as a NUL byte and the reason. A serialized FMU state
 carries the model's name and this FMU's GUID, a format version and a CRC-32, must be the
 canonical bytes this class writes, and every restored state is checked field by field
-(:meth:`SatfmuSlave._state_problem`).
+(``SatfmuSlave._state_problem``).
 """
 from __future__ import annotations
 
@@ -59,7 +59,7 @@ import sys
 import zlib
 from dataclasses import dataclass
 from types import ModuleType
-from typing import Any, Callable, Sequence
+from typing import Any, Callable, NoReturn, Sequence
 from xml.etree.ElementTree import Element, parse
 
 from pythonfmu import Boolean, Fmi2Causality, Fmi2Slave, Fmi2Variability, Integer, Real, String
@@ -81,9 +81,10 @@ takes. The native FMU of such a model (its C routine) has the same bound
 INDEX_LIMIT = 2 ** 52
 """Sample counts stay below this: exact integers in a double, as the native FMU keeps them."""
 STATE_FORMAT = 2
-"""Version of the FMU state's layout (:meth:`SatfmuSlave._get_fmu_state`; 1 had no ``inputs_stale``); a
+"""Version of the FMU state's layout (``SatfmuSlave._get_fmu_state``; 1 had no ``inputs_stale``); a
 state of another layout is refused."""
 STATE_MODES = ("Instantiated", "InitializationMode", "StepComplete", "Terminated")
+"""The states of the FMI state machine an FMU state may hold (after fmi2Fatal no call is allowed)."""
 MODES = STATE_MODES + ("Error",)
 """The FMI states of an instance, in the order of their numbers at :data:`SHIM_VR_MODE`."""
 SHIM_VR_MODE = 0xFFFFFFFE
@@ -91,7 +92,6 @@ SHIM_VR_MODE = 0xFFFFFFFE
 no model declares it and the layer refuses a host's call that names it."""
 SHIM_VR_TIME = 0xFFFFFFFF
 """Value reference (Real) at which the C layer reads the FMU time, s (as :data:`SHIM_VR_MODE`)."""
-"""The states of the FMI state machine an FMU state may hold (after fmi2Fatal no call is allowed)."""
 
 
 def ieee(op: Callable[..., Any], *args: Any) -> Any:
@@ -105,8 +105,8 @@ def ieee(op: Callable[..., Any], *args: Any) -> Any:
     Parameters
     ----------
     op : callable
-        An :mod:`operator` function (``truediv``, ``floordiv``, ``mod``, ``pow``) or a
-        :mod:`math` function.
+        An ``operator`` function (``truediv``, ``floordiv``, ``mod``, ``pow``) or a
+        ``math`` function.
     *args
         Its arguments.
 
@@ -163,6 +163,19 @@ def ieee_function(gen: ModuleType, name: str) -> Callable[..., list[Any]] | None
     Used only after the plain function raised: it tells which results are non-finite, so a
     refusal names the variable as the native FMU's does (the plain function stays the fast
     path, bit for bit the C results where it does not raise).
+
+    Parameters
+    ----------
+    gen : types.ModuleType
+        The generated model module (:func:`satfmu.fmus.codegen.python_source`).
+    name : str
+        The function's name (``"outputs"``, ``"derivatives"``, ...).
+
+    Returns
+    -------
+    callable or None
+        The rewritten function, with the same arguments; None also when ``gen`` defines no
+        function ``name``.
     """
     path = getattr(gen, "__file__", None)
     if not path or not os.path.isfile(path):
@@ -179,7 +192,22 @@ def ieee_function(gen: ModuleType, name: str) -> Callable[..., list[Any]] | None
 
 
 def substep_count(h: float, n_substeps: float, h_max: float) -> int:
-    """Number of RK4 substeps for a communication step of ``h`` seconds."""
+    """Number of RK4 substeps for a communication step of ``h`` seconds.
+
+    Parameters
+    ----------
+    h : float
+        The communication step, s.
+    n_substeps : float
+        The model's ``n_substeps`` parameter: the least number of substeps.
+    h_max : float
+        The model's ``h_max`` parameter: the largest substep, s.
+
+    Returns
+    -------
+    int
+        ``max(n_substeps, ceil(h / h_max))``.
+    """
     return int(max(n_substeps, math.ceil(h / h_max)))
 
 
@@ -233,6 +261,20 @@ def affine_flow(A: list[list[float]], tau: float) -> tuple[list[list[float]], li
     the result is returned as it is: further doublings keep it non-finite (the state the caller
     computes from it is then refused, as in C), and a huge ``tau`` (s up to 1000) would cost
     seconds of pure Python for nothing.
+
+    Parameters
+    ----------
+    A : list of list of float
+        The state matrix (n x n, rows), 1/s.
+    tau : float
+        The duration, s.
+
+    Returns
+    -------
+    Phi : list of list of float
+        ``e^{A tau}`` (n x n).
+    Gamma : list of list of float
+        ``integral_0^tau e^{A s} ds`` (n x n), s.
     """
     n = len(A)
     eye = [[1.0 if i == j else 0.0 for j in range(n)] for i in range(n)]
@@ -267,7 +309,14 @@ def affine_flow(A: list[list[float]], tau: float) -> tuple[list[list[float]], li
 
 class ExactFlow:
     """The exact integrator of an affine model (``INTEGRATOR == "exact"``), with the C wrapper's
-    cache of ``(Phi, Gamma)`` for the last ``(A, tau)``."""
+    cache of ``(Phi, Gamma)`` for the last ``(A, tau)``.
+
+    Parameters
+    ----------
+    gen : types.ModuleType
+        The generated model module; its ``jacobian``, ``derivatives``, ``post_step`` and
+        ``switch_time`` are used.
+    """
 
     def __init__(self, gen: ModuleType) -> None:
         self.gen = gen
@@ -275,7 +324,26 @@ class ExactFlow:
         self.flow: tuple[list[list[float]], list[list[float]]] | None = None
 
     def segment(self, t: float, x: list[float], u: Sequence[float], p: Sequence[float], tau: float) -> list[float]:
-        """Exact flow over ``tau`` seconds with the law frozen at ``x``, then the post-step map."""
+        """Exact flow over ``tau`` seconds with the law frozen at ``x``, then the post-step map.
+
+        Parameters
+        ----------
+        t : float
+            Time at the segment's start, s.
+        x : list of float
+            State at the segment's start (also the frozen substep-start state).
+        u : sequence of float
+            Inputs, held over the segment.
+        p : sequence of float
+            Parameters, then the held values of a sampler (if any).
+        tau : float
+            Duration of the segment, s.
+
+        Returns
+        -------
+        list of float
+            The state at ``t + tau``, after the post-step map.
+        """
         n = len(x)
         flat = self.gen.jacobian(t, x, x, u, p)
         b = self.gen.derivatives(t, [0.0] * n, x, u, p)
@@ -299,6 +367,24 @@ class ExactFlow:
         The cuts are durations from ``t`` (a switch within ``TIME_TOL max(1 s, h)``, 1e-9 of it, is
         that start's own), so the flow is the same at any absolute time; an uncut step uses ``h``
         itself, so a constant step size reuses the cached flow.
+
+        Parameters
+        ----------
+        t : float
+            Time at the step's start, s.
+        x : sequence of float
+            State at the step's start.
+        u : sequence of float
+            Inputs, held over the step.
+        p : sequence of float
+            Parameters, then the held values of a sampler (if any).
+        h : float
+            Duration of the step, s.
+
+        Returns
+        -------
+        list of float
+            The state at ``t + h``.
         """
         x = list(x)
         elapsed, now = 0.0, t
@@ -318,24 +404,46 @@ def rk4_step(gen: ModuleType, t: float, x: Sequence[float], u: Sequence[float], 
 
     The arithmetic is written in the same order as the C wrapper's, so both
     backends agree to rounding.
+
+    Parameters
+    ----------
+    gen : types.ModuleType
+        The generated model module (:func:`satfmu.fmus.codegen.python_source`).
+    t : float
+        Time at the step's start, s.
+    x : sequence of float
+        State at the step's start.
+    u : sequence of float
+        Inputs, held over the step.
+    p : sequence of float
+        Parameters, then the held values of a sampler (if any).
+    h : float
+        Duration of the step, s.
+    n : int
+        Number of substeps (:func:`substep_count`); the post-step map follows each.
+
+    Returns
+    -------
+    list of float
+        The state at ``t + h``.
     """
     f = gen.derivatives
     post = gen.post_step
     hs = h / n
-    x = list(x)
-    nx = len(x)
+    state = list(x)
+    nx = len(state)
     for k in range(n):
-        k1 = f(t, x, x, u, p)
-        xt = [x[i] + 0.5 * hs * k1[i] for i in range(nx)]
-        k2 = f(t + 0.5 * hs, xt, x, u, p)
-        xt = [x[i] + 0.5 * hs * k2[i] for i in range(nx)]
-        k3 = f(t + 0.5 * hs, xt, x, u, p)
-        xt = [x[i] + hs * k3[i] for i in range(nx)]
-        k4 = f(t + hs, xt, x, u, p)
-        xt = [x[i] + hs / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]) for i in range(nx)]
-        x = post(t + hs, xt, x, u, p)
+        k1 = f(t, state, state, u, p)
+        xt = [state[i] + 0.5 * hs * k1[i] for i in range(nx)]
+        k2 = f(t + 0.5 * hs, xt, state, u, p)
+        xt = [state[i] + 0.5 * hs * k2[i] for i in range(nx)]
+        k3 = f(t + 0.5 * hs, xt, state, u, p)
+        xt = [state[i] + hs * k3[i] for i in range(nx)]
+        k4 = f(t + hs, xt, state, u, p)
+        xt = [state[i] + hs / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]) for i in range(nx)]
+        state = post(t + hs, xt, state, u, p)
         t = t + hs
-    return x
+    return state
 
 
 def _compensate_pythonfmu_refcount(module_name: str) -> None:
@@ -381,7 +489,22 @@ def point_tolerance(ulps: int, t: float, start: float) -> float:
     """The largest difference of a currentCommunicationPoint from the FMU time ``t``, s:
     ``ulps`` (the generated ``TIME_ULPS``) units in the last place of the larger of 1 s, ``|t|``
     and ``|start|`` (the start time, s), what double precision forces when a master computes
-    ``t0 + k h`` and the FMU ``t_{k-1} + h`` (as ``point_tol`` of ``fmus/c/fmi2_cosim.c``)."""
+    ``t0 + k h`` and the FMU ``t_{k-1} + h`` (as ``point_tol`` of ``fmus/c/fmi2_cosim.c``).
+
+    Parameters
+    ----------
+    ulps : int
+        Units in the last place allowed (the generated module's ``TIME_ULPS``).
+    t : float
+        The FMU time, s.
+    start : float
+        The experiment's start time, s.
+
+    Returns
+    -------
+    float
+        The tolerance, s.
+    """
     return ulps * 2.0 ** -52 * max(1.0, abs(t), abs(start))
 
 
@@ -414,11 +537,33 @@ class Instants:
     tolerance: Callable[[float], float]
 
     def tol(self, t: float) -> float:
-        """Two times closer than this are one instant at ``t``, s."""
+        """Two times closer than this are one instant at ``t``, s.
+
+        Parameters
+        ----------
+        t : float
+            The time, s.
+
+        Returns
+        -------
+        float
+            The tolerance, s.
+        """
         return self.tolerance(t)
 
     def time(self, k: int) -> float:
-        """The instant of index ``k``, s."""
+        """The instant of index ``k``, s.
+
+        Parameters
+        ----------
+        k : int
+            The instant's index (a count of periods).
+
+        Returns
+        -------
+        float
+            ``k * period - phase``, or ``start + k * period`` without a phase, s.
+        """
         return k * self.period - self.phase if self.phase is not None else self.start + k * self.period
 
     @property
@@ -428,7 +573,18 @@ class Instants:
 
     def first_after(self, t: float) -> int | None:
         """The index of the first instant later than ``t`` by more than :meth:`tol`; None when the
-        period is not > 0 or the index is not below :data:`INDEX_LIMIT`."""
+        period is not > 0 or the index is not below :data:`INDEX_LIMIT`.
+
+        Parameters
+        ----------
+        t : float
+            The time, s.
+
+        Returns
+        -------
+        int or None
+            The index ``k`` of that instant (:meth:`time`).
+        """
         q = (t - self.origin) / self.period if self.period > 0.0 else math.nan
         if not (math.isfinite(q) and abs(math.floor(q) + 1) < INDEX_LIMIT):
             return None
@@ -451,14 +607,20 @@ def _unsigned(vrs: Sequence[int]) -> list[int]:
 @dataclass(frozen=True)
 class RefusedState:
     """What bytes that are no state of this FMU deserialize to: the reason, which the C layer
-    reports with fmi2Error (no FMU state is made); :meth:`SatfmuSlave._set_fmu_state` refuses it
-    too."""
+    reports with fmi2Error (no FMU state is made); ``SatfmuSlave._set_fmu_state`` refuses it
+    too.
+
+    Attributes
+    ----------
+    reason : str
+        Why the bytes are no state of this FMU.
+    """
 
     reason: str
 
 
 class SatfmuSlave(Fmi2Slave):
-    """pythonfmu slave of a generated satfmu model; subclasses set :attr:`generated`."""
+    """pythonfmu slave of a generated satfmu model; subclasses set ``generated``."""
 
     generated: ModuleType
 
@@ -482,7 +644,7 @@ class SatfmuSlave(Fmi2Slave):
         self._nh = smp["n_held"] if smp else 0
         if smp is not None and smp["module"] is not None:
             fn = getattr(importlib.import_module(smp["module"]), smp["function"])
-            self._sample_fn = functools.partial(fn, **smp["options"])
+            self._sample_fn: Callable[[list[float]], Sequence[float]] = functools.partial(fn, **smp["options"])
         elif smp is not None:  # an expression sampler holds its arguments
             self._sample_fn = list
         self._defaults()
@@ -582,7 +744,7 @@ class SatfmuSlave(Fmi2Slave):
         self.sample_due = self._sampler is not None and self.at_instant
         self.inputs_stale = False
 
-    def _reject(self, message: str) -> None:
+    def _reject(self, message: str) -> NoReturn:
         """Log ``message`` with fmi2Error and fail the call: the FMU's C layer
         (``fmus/c/pythonfmu_shim.c``) returns fmi2Error for it, and the instance stays usable.
 
@@ -960,7 +1122,7 @@ class SatfmuSlave(Fmi2Slave):
 
 STATE_FIELDS = {"mode", "time", "start_time", "stop_time", "x", "u", "p", "held_prev", "next_k", "at_instant",
                 "sample_due", "inputs_stale"}
-"""The fields of an FMU state's content (:meth:`SatfmuSlave._get_fmu_state`)."""
+"""The fields of an FMU state's content (``SatfmuSlave._get_fmu_state``)."""
 
 
 def _is_real(v: Any) -> bool:

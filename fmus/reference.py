@@ -26,7 +26,17 @@ from satfmu.fmus.pyslave import rk4_step, substep_count
 
 @dataclass
 class LoopResult:
-    """Trajectory at the communication points: time (s), plant states, controller outputs."""
+    """Trajectory at the communication points: time (s), plant states, controller outputs.
+
+    Attributes
+    ----------
+    t : numpy.ndarray, shape (n + 1,)
+        Communication times, s.
+    x : numpy.ndarray, shape (n + 1, nx)
+        Plant states at those times, in the plant's state order and units.
+    u : numpy.ndarray, shape (n + 1, ny)
+        Controller outputs computed at those times (each held over the following step).
+    """
 
     t: np.ndarray
     x: np.ndarray
@@ -81,6 +91,47 @@ def closed_loop_solve_ivp(plant: Model, controller: Model, stop_time: float, ste
     mode, say) is frozen over each and its post-step map applied at its end, as the FMUs
     do with as many RK4 substeps. Pass the FMU's substep count to compare a plant whose
     post-step map or frozen mode acts during the run.
+
+    Parameters
+    ----------
+    plant : Model
+        The plant; its states are the loop's state.
+    controller : Model
+        A static state-feedback law: its inputs are plant states of the same names, its outputs
+        are evaluated at each communication point and held over the step.
+    stop_time : float
+        End of the run, s (the run starts at 0).
+    step_size : float
+        Communication step, s.
+    plant_params : dict of str to float, optional
+        Plant parameter overrides by name (the initial state comes from the parameters).
+    controller_params : dict of str to float, optional
+        Controller parameter overrides by name.
+    command_inputs : list of str, optional
+        The plant inputs that receive the controller outputs, in the outputs' order; default the
+        plant inputs named like the controller outputs.
+    rtol, atol : float, optional
+        Relative and absolute tolerances of ``scipy.integrate.solve_ivp``. Defaults 1e-10 and
+        1e-12.
+    method : str, optional
+        The ``solve_ivp`` method (``"DOP853"``, ``"RK45"``, ...). Default ``"DOP853"``.
+    exogenous : callable, optional
+        ``exogenous(t)`` gives other plant inputs (e.g. disturbance torques) at the communication
+        time ``t`` (s), as a dict by input name, held over the step; the remaining inputs are 0.
+    substeps : int, optional
+        Intervals per communication step, each integrated separately with its own frozen
+        substep-start state and post-step map. Default 1.
+
+    Returns
+    -------
+    LoopResult
+        Time, plant states and controller outputs at the ``n + 1`` communication points,
+        ``n = round(stop_time / step_size)``.
+
+    Raises
+    ------
+    RuntimeError
+        If ``solve_ivp`` fails on an interval.
     """
     loop = _Loop(plant, controller, plant_params, controller_params,
                  command_inputs or [o.variable.name for o in controller.outputs], exogenous)
@@ -107,15 +158,45 @@ def closed_loop_solve_ivp(plant: Model, controller: Model, stop_time: float, ste
 def closed_loop_rk4(plant: Model, controller: Model, stop_time: float, step_size: float,
                     plant_params: dict | None = None, controller_params: dict | None = None,
                     command_inputs: list[str] | None = None, exogenous: Exogenous | None = None) -> LoopResult:
-    """The same loop with the FMUs' fixed-step RK4 (substeps from n_substeps and h_max)."""
+    """The same loop with the FMUs' fixed-step RK4 (substeps from n_substeps and h_max).
+
+    Parameters
+    ----------
+    plant : Model
+        The plant; its states are the loop's state.
+    controller : Model
+        A static state-feedback law: its inputs are plant states of the same names, its outputs
+        are evaluated at each communication point and held over the step.
+    stop_time : float
+        End of the run, s (the run starts at 0).
+    step_size : float
+        Communication step, s.
+    plant_params : dict of str to float, optional
+        Plant parameter overrides by name (the initial state and ``n_substeps``, ``h_max``
+        come from them).
+    controller_params : dict of str to float, optional
+        Controller parameter overrides by name.
+    command_inputs : list of str, optional
+        The plant inputs that receive the controller outputs, in the outputs' order; default the
+        plant inputs named like the controller outputs.
+    exogenous : callable, optional
+        ``exogenous(t)`` gives other plant inputs (e.g. disturbance torques) at the communication
+        time ``t`` (s), as a dict by input name, held over the step; the remaining inputs are 0.
+
+    Returns
+    -------
+    LoopResult
+        Time, plant states and controller outputs at the ``n + 1`` communication points,
+        ``n = round(stop_time / step_size)``.
+    """
     loop = _Loop(plant, controller, plant_params, controller_params,
                  command_inputs or [o.variable.name for o in controller.outputs], exogenous)
     names = [v.name for v in plant.parameters]
     n_sub = substep_count(step_size, loop.pp[names.index("n_substeps")], loop.pp[names.index("h_max")])
     n = int(round(stop_time / step_size))
     t = step_size * np.arange(n + 1)
-    xs, us = [loop.x0], []
     x = loop.x0.tolist()
+    xs, us = [x], []
     for k in range(n):
         u, y = loop.command(x, float(t[k]))
         us.append(y)

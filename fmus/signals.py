@@ -17,25 +17,25 @@ built when a scenario's SSP file needs it. Times are in s.
 
 Kinds:
 
-``signal_constant``     y = value
-``signal_step``         y = before until ``step_time``, then after (a jump at ``step_time``, to
-                        the time tolerance :data:`satfmu.fmus.model.TIME_TOL`); the parameter is not
-                        called ``time``, the name of the independent variable in result files
-                        and in Modelica
-``signal_sinusoid``     y = offset + amplitude sin(2 pi frequency_Hz t + phase_rad), the
-                        argument reduced to one period (``frequency_Hz t`` modulo 1) where
-                        2 pi frequency_Hz t would overflow, so that it stays finite up to
-                        t = DBL_MAX (1.8e308 s) at 1 Hz
-``signal_cosine_ramp``  from ``before`` at ``start`` to ``after`` at ``stop`` along
-                        (1 - cos(pi (t - start)/(stop - start)))/2 (seed 002 eq. 24-25), or
-                        its first or second time derivative (``derivative`` = 1, 2); a ramp
-                        of no duration (``stop <= start``) is a step at ``start`` whose
-                        derivatives are 0 (the impulse at ``start`` has no finite value)
+- ``signal_constant``: y = value
+- ``signal_step``: y = before until ``step_time``, then after (a jump at ``step_time``, to
+  the time tolerance :data:`satfmu.fmus.model.TIME_TOL`); the parameter is not
+  called ``time``, the name of the independent variable in result files
+  and in Modelica
+- ``signal_sinusoid``: y = offset + amplitude sin(2 pi frequency_Hz t + phase_rad), the
+  argument reduced to one period (``frequency_Hz t`` modulo 1) where
+  2 pi frequency_Hz t would overflow, so that it stays finite up to
+  t = DBL_MAX (1.8e308 s) at 1 Hz
+- ``signal_cosine_ramp``: from ``before`` at ``start`` to ``after`` at ``stop`` along
+  (1 - cos(pi (t - start)/(stop - start)))/2 (seed 002 eq. 24-25), or
+  its first or second time derivative (``derivative`` = 1, 2); a ramp
+  of no duration (``stop <= start``) is a step at ``start`` whose
+  derivatives are 0 (the impulse at ``start`` has no finite value)
+- ``signal_table_<hash>``: the table (:class:`satfmu.fmus.model.Table`), ``"previous"`` or ``"linear"``
 
 An output that is not finite all the same (an overflow: a ramp so short that its second
 derivative exceeds 1.8e308) is refused by the native FMU with fmi2Error, never returned with
 fmi2OK (``fmus/c/fmi2_cosim.c``).
-``signal_table_<hash>`` the table (:class:`satfmu.fmus.model.Table`), ``"previous"`` or ``"linear"``
 """
 from __future__ import annotations
 
@@ -66,13 +66,37 @@ def _at_or_after(t0: sp.Expr) -> sp.Basic:
 def unit_tag(unit: str) -> str:
     """``unit`` as a part of a C identifier: letters and digits kept, ``.`` -> ``_``, ``/`` ->
     ``_per_``, ``^`` -> ``_pow_``, ``-`` -> ``_neg_``, any other character (``_`` too) ->
-    ``_x<hex code>``, so that different units give different tags (``"N.m"`` -> ``"N_m"``)."""
+    ``_x<hex code>``, so that different units give different tags (``"N.m"`` -> ``"N_m"``).
+
+    Parameters
+    ----------
+    unit : str
+        A unit (``"N.m"``, ``"rad/s"``, ...).
+
+    Returns
+    -------
+    str
+        The tag.
+    """
     return "".join(c if c.isascii() and c.isalnum() else _TAG.get(c, f"_x{ord(c):x}") for c in unit)
 
 
 def model_name(kind: str, unit: str = DIMENSIONLESS) -> str:
     """The generator's model (and FMU) name: ``signal_<kind>`` for a dimensionless signal,
-    ``signal_<kind>__<unit_tag(unit)>`` otherwise."""
+    ``signal_<kind>__<unit_tag(unit)>`` otherwise.
+
+    Parameters
+    ----------
+    kind : str
+        The generator kind (``"constant"``, ``"step"``, ``"sinusoid"``, ``"cosine_ramp"``).
+    unit : str, optional
+        Unit of the generator's output. Default ``"1"`` (dimensionless).
+
+    Returns
+    -------
+    str
+        The name (:func:`unit_tag` gives the unit's part).
+    """
     return f"signal_{kind}" if unit == DIMENSIONLESS else f"signal_{kind}__{unit_tag(unit)}"
 
 
@@ -91,7 +115,13 @@ def _model(kind: str, unit: str, description: str, parameters: list[Variable], y
 
 @lru_cache(maxsize=None)
 def constant(unit: str = DIMENSIONLESS) -> Model:
-    """``y = value``, in ``unit``."""
+    """``y = value``, in ``unit``.
+
+    Parameters
+    ----------
+    unit : str, optional
+        Unit of the output ``y`` (one of :data:`satfmu.fmus.model.UNITS`). Default ``"1"``.
+    """
     _check_unit(unit)
     value = Variable("value", unit, "Signal value")
     return _model("constant", unit, "Constant signal", [value], value.symbol)
@@ -99,7 +129,13 @@ def constant(unit: str = DIMENSIONLESS) -> Model:
 
 @lru_cache(maxsize=None)
 def step(unit: str = DIMENSIONLESS) -> Model:
-    """``y = before`` for ``t < step_time``, ``after`` from ``step_time`` on, in ``unit``."""
+    """``y = before`` for ``t < step_time``, ``after`` from ``step_time`` on, in ``unit``.
+
+    Parameters
+    ----------
+    unit : str, optional
+        Unit of the output ``y`` (one of :data:`satfmu.fmus.model.UNITS`). Default ``"1"``.
+    """
     _check_unit(unit)
     step_time = Variable("step_time", "s", "Time of the step", 1.0)
     before = Variable("before", unit, "Value before the step", 0.0)
@@ -110,7 +146,13 @@ def step(unit: str = DIMENSIONLESS) -> Model:
 
 @lru_cache(maxsize=None)
 def sinusoid(unit: str = DIMENSIONLESS) -> Model:
-    """``y = offset + amplitude sin(2 pi frequency_Hz t + phase_rad)``, in ``unit``."""
+    """``y = offset + amplitude sin(2 pi frequency_Hz t + phase_rad)``, in ``unit``.
+
+    Parameters
+    ----------
+    unit : str, optional
+        Unit of the output ``y`` (one of :data:`satfmu.fmus.model.UNITS`). Default ``"1"``.
+    """
     _check_unit(unit)
     amp = Variable("amplitude", unit, "Amplitude", 1.0)
     freq = Variable("frequency_Hz", "1/s", "Frequency, Hz", 1.0)
@@ -134,7 +176,13 @@ def cosine_ramp(unit: str = DIMENSIONLESS) -> Model:
     ``unit`` is the output's (the input it drives: for a derivative the ramped value's unit per s
     or per s^2). ``before`` and ``after`` are the ramped values, in ``unit`` only for
     ``derivative`` = 0 (a parameter, set after the FMU is built): they are declared ``"1"``,
-    their description says so."""
+    their description says so.
+
+    Parameters
+    ----------
+    unit : str, optional
+        Unit of the output ``y`` (one of :data:`satfmu.fmus.model.UNITS`). Default ``"1"``.
+    """
     _check_unit(unit)
     start = Variable("start", "s", "Start of the ramp", 0.0)
     stop = Variable("stop", "s", "End of the ramp (must exceed start)", 1.0)
@@ -159,7 +207,20 @@ def cosine_ramp(unit: str = DIMENSIONLESS) -> Model:
 
 def table(tb: Table, unit: str = DIMENSIONLESS) -> Model:
     """The table ``tb`` as a generator of values in ``unit``; its name carries a hash of the
-    data and the unit (``signal_table_<12 hex>``), so equal tables of one unit give one FMU."""
+    data and the unit (``signal_table_<12 hex>``), so equal tables of one unit give one FMU.
+
+    Parameters
+    ----------
+    tb : Table
+        The breakpoints (times in s), values and interpolation of the signal.
+    unit : str, optional
+        Unit of the values (one of :data:`satfmu.fmus.model.UNITS`). Default ``"1"``.
+
+    Returns
+    -------
+    Model
+        A model with no states, inputs or parameters whose output ``y`` looks the table up.
+    """
     _check_unit(unit)
     key = json.dumps([tb.times, tb.values, tb.interpolation] + ([] if unit == DIMENSIONLESS else [unit])).encode()
     name = f"signal_table_{hashlib.sha256(key).hexdigest()[:12]}"
@@ -177,7 +238,22 @@ FMUs, built once into ``build/fmus``)."""
 
 
 def evaluate(model: Model, parameters: dict[str, float], times: np.ndarray) -> np.ndarray:
-    """The output ``y`` of a generator at ``times`` (s), the parameters overriding the defaults."""
+    """The output ``y`` of a generator at ``times`` (s), the parameters overriding the defaults.
+
+    Parameters
+    ----------
+    model : Model
+        A generator of this module (one output, no states or inputs).
+    parameters : dict of str to float
+        Parameter values by name, overriding the model's start values.
+    times : numpy.ndarray
+        Times, s (any shape).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``y`` at each time, same shape as ``times``, in the generator's unit.
+    """
     fn = _output_function(model)
     t = np.asarray(times, float)
     y = np.asarray(fn(t, [], [], model.parameter_vector(parameters)), float)[0, 0]

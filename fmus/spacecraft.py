@@ -23,6 +23,7 @@ from pathlib import Path
 from typing import Any, Mapping
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from satfmu.fmus.declared import check_keys, read_toml
 from satfmu.fmus.errors import SpacecraftError
@@ -35,7 +36,7 @@ _KEYS = ("name", "description", "inertia", "actuators")
 _ACTUATOR_KEYS = ("torque_limit",)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, init=False)
 class Spacecraft:
     """A rigid spacecraft: its inertia tensor and actuator limits.
 
@@ -63,16 +64,20 @@ class Spacecraft:
     torque_limit: float | None = None
     description: str = field(default="", compare=False)
 
-    def __post_init__(self) -> None:
-        if not isinstance(self.name, str) or not self.name:
-            raise SpacecraftError(f"name: must be a non-empty string, got {self.name!r}")
-        object.__setattr__(self, "inertia", _tensor(self.inertia, f"{self.name}: inertia"))
-        if self.torque_limit is not None:
-            t = self.torque_limit
+    def __init__(self, name: str, inertia: ArrayLike, torque_limit: float | None = None,
+                 description: str = "") -> None:
+        if not isinstance(name, str) or not name:
+            raise SpacecraftError(f"name: must be a non-empty string, got {name!r}")
+        object.__setattr__(self, "name", name)
+        object.__setattr__(self, "inertia", _tensor(inertia, f"{name}: inertia"))
+        if torque_limit is not None:
+            t = torque_limit
             if isinstance(t, bool) or not isinstance(t, (int, float)) or not math.isfinite(t) or t <= 0:
-                raise SpacecraftError(f"{self.name}: actuators.torque_limit: must be a finite number > 0 (N m), "
+                raise SpacecraftError(f"{name}: actuators.torque_limit: must be a finite number > 0 (N m), "
                                       f"got {t!r}")
-            object.__setattr__(self, "torque_limit", float(t))
+            torque_limit = float(t)
+        object.__setattr__(self, "torque_limit", torque_limit)
+        object.__setattr__(self, "description", description)
 
     @property
     def tensor(self) -> np.ndarray:
@@ -105,6 +110,20 @@ class Spacecraft:
     def from_dict(cls, data: Mapping[str, Any], where: str = "spacecraft") -> "Spacecraft":
         """A spacecraft from plain data with the TOML file's keys.
 
+        Parameters
+        ----------
+        data : mapping of str to object
+            ``name``, ``inertia`` (kg m^2), optional ``description`` and an optional
+            ``actuators`` table with ``torque_limit`` (N m), as in the module's example.
+        where : str, optional
+            Where the data comes from (a file name), the prefix of error messages. Default
+            ``"spacecraft"``.
+
+        Returns
+        -------
+        Spacecraft
+            The checked spacecraft.
+
         Raises
         ------
         SpacecraftError
@@ -128,6 +147,16 @@ class Spacecraft:
     @classmethod
     def from_toml(cls, path: str | Path) -> "Spacecraft":
         """Read a spacecraft TOML file.
+
+        Parameters
+        ----------
+        path : str or Path
+            The TOML file (keys as in the module's example).
+
+        Returns
+        -------
+        Spacecraft
+            The checked spacecraft.
 
         Raises
         ------
@@ -159,7 +188,7 @@ def _tensor(raw: Any, where: str) -> tuple[tuple[float, float, float], ...]:
     if moments[0] + moments[1] < moments[2] * (1 - 1e-12):
         raise SpacecraftError(f"{where}: principal moments {moments.tolist()} kg m^2 violate the triangle "
                               f"inequality I_1 + I_2 >= I_3 of a rigid body")
-    return tuple(tuple(float(v) for v in row) for row in J)
+    return tuple((float(row[0]), float(row[1]), float(row[2])) for row in J)
 
 
 SEED_000 = Spacecraft("seed_000", (15.0, 16.0, 12.5), torque_limit=5.0,

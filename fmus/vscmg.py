@@ -34,7 +34,7 @@ stays at rest while the torque needed to hold it there is at most ``Fs_i``. Meth
   at most ``Fs_i``; otherwise the axis slides on (a reversal).
 
 The timing of a stop is resolved to one RK4 substep (``h_max``, default 1 ms).
-Actuator limits |T1| <= 0.6 N m, |T2| <= 2.4 N m are applied inside the plant
+Actuator limits ``|T1| <= 0.6`` N m, ``|T2| <= 2.4`` N m are applied inside the plant
 (``saturation_on``, on by default). Inertias: the public ECP-750 parameter set
 (**substitute**, not in the seed).
 """
@@ -55,7 +55,7 @@ FRICTION_TABLE_1 = {"Fs": (0.045600, 0.050800, 0.030819), "Fc": (0.045465, 0.050
 """Seed 002 Table 1 (rotor 1, gimbal 2, gimbal 4): static, Coulomb (N m), viscous (N m s/rad)."""
 
 TORQUE_LIMITS = (0.6, 2.4)
-"""Seed 002 actuator limits |T1|, |T2|, N m."""
+"""Seed 002 actuator limits ``|T1|``, ``|T2|``, N m."""
 
 AXES = ("1", "2", "4")
 """Axis labels of the seed: rotor 1, gimbal 2, gimbal 4."""
@@ -66,7 +66,19 @@ FACTORIZATIONS = ("gyro_on_w2", "w1_free")
 
 @dataclass(frozen=True)
 class Inertias:
-    """Inertia symbols (or numbers) of the ECP-750 and the combinations J1, J2, kg m^2."""
+    """Inertia symbols (or numbers) of the ECP-750 and the combinations J1, J2, kg m^2.
+
+    Attributes
+    ----------
+    KA, KB : sympy.Expr
+        Inertias of bodies A and B about the gimbal-4 axis, kg m^2 (they enter only ``J2``).
+    IC, JC, KC : sympy.Expr
+        Inertias of body C (turned by gimbal 2, it carries the rotor) about its three axes,
+        kg m^2.
+    ID, JD : sympy.Expr
+        Inertias of the rotor D, kg m^2: ``JD`` about its spin axis, ``ID`` about the
+        gimbal-2 axis.
+    """
 
     KA: sp.Expr
     KB: sp.Expr
@@ -86,13 +98,41 @@ class Inertias:
 
 
 def mass_matrix(q2: sp.Expr, I: Inertias) -> sp.Matrix:
-    """M(q2) of the gimbal-3-locked CMG, kg m^2 (rows/columns rotor 1, gimbal 2, gimbal 4)."""
+    """M(q2) of the gimbal-3-locked CMG, kg m^2 (rows/columns rotor 1, gimbal 2, gimbal 4).
+
+    Parameters
+    ----------
+    q2 : sympy.Expr
+        Gimbal-2 angle, rad.
+    I : Inertias
+        The ECP-750 inertias (symbols or numbers), kg m^2.
+
+    Returns
+    -------
+    sympy.Matrix
+        The 3 x 3 mass matrix, kg m^2.
+    """
     s = sp.sin(q2)
     return sp.Matrix([[I.JD, 0, I.JD * s], [0, I.IC + I.ID, 0], [I.JD * s, 0, I.J2 + I.J1 * s**2]])
 
 
 def gyroscopic(q2: sp.Expr, w: sp.Matrix, I: Inertias) -> sp.Matrix:
-    """N(q2, w), N m: Coriolis and gyroscopic torques."""
+    """N(q2, w), N m: Coriolis and gyroscopic torques.
+
+    Parameters
+    ----------
+    q2 : sympy.Expr
+        Gimbal-2 angle, rad.
+    w : sympy.Matrix
+        Axis rates ``[w1, w2, w4]`` (rotor 1, gimbal 2, gimbal 4), 3 x 1, rad/s.
+    I : Inertias
+        The ECP-750 inertias (symbols or numbers), kg m^2.
+
+    Returns
+    -------
+    sympy.Matrix
+        The 3 x 1 torques on rotor 1, gimbal 2, gimbal 4, N m.
+    """
     s, c = sp.sin(q2), sp.cos(q2)
     w1, w2, w4 = w
     return sp.Matrix([I.JD * c * w2 * w4,
@@ -107,6 +147,22 @@ def sdc_gyroscopic(q2: sp.Expr, w: sp.Matrix, I: Inertias, factorization: str) -
     puts JD c w2 on the w1 column, which vanishes with w2. ``"gyro_on_w2"`` puts the whole
     gimbal-4 gyroscopic torque c (JD w1 + 2 J1 s w4) on the w2 column (coefficients in q2,
     w1, w4). Both share the rotor and gimbal-2 rows.
+
+    Parameters
+    ----------
+    q2 : sympy.Expr
+        Gimbal-2 angle, rad.
+    w : sympy.Matrix
+        Axis rates ``[w1, w2, w4]`` (rotor 1, gimbal 2, gimbal 4), 3 x 1, rad/s.
+    I : Inertias
+        The ECP-750 inertias (symbols or numbers), kg m^2.
+    factorization : {"gyro_on_w2", "w1_free"}
+        Which factorization (:data:`FACTORIZATIONS`).
+
+    Returns
+    -------
+    sympy.Matrix
+        The 3 x 3 matrix N_sdc, N m s/rad.
 
     Raises
     ------
@@ -127,7 +183,24 @@ def sdc_gyroscopic(q2: sp.Expr, w: sp.Matrix, I: Inertias, factorization: str) -
 
 @dataclass(frozen=True)
 class FrictionMode:
-    """The discrete state of the stick-slip model: Coulomb signs and stuck hypotheses (0/1 flags)."""
+    """The discrete state of the stick-slip model: Coulomb signs and stuck hypotheses (0/1 flags).
+
+    Built by :func:`friction_mode`; the symbols are definitions of the model
+    (:class:`satfmu.fmus.model.Definitions`).
+
+    Attributes
+    ----------
+    direction : list of sympy.Symbol
+        Coulomb sign (-1, 0, 1) of rotor 1, gimbal 2 and gimbal 4.
+    gimbal2_stuck : sympy.Symbol
+        Flag: gimbal 2 sticks (it is decoupled from the other two axes).
+    both_stuck : sympy.Symbol
+        Flag: rotor 1 and gimbal 4 both stick.
+    gimbal4_only : sympy.Symbol
+        Flag: gimbal 4 sticks, the rotor slides.
+    rotor_only : sympy.Symbol
+        Flag: the rotor sticks, gimbal 4 slides.
+    """
 
     direction: list[sp.Symbol]
     gimbal2_stuck: sp.Symbol
@@ -156,7 +229,9 @@ def friction_mode(d: Definitions, prefix: str, M: sp.Matrix, tau: sp.Matrix, w: 
     Parameters
     ----------
     d : Definitions
+        The model's definitions, extended here.
     prefix : str
+        Prefix of the definitions' names (``"mode_"``, ``"post_"``), one per use.
     M : 3x3 sympy.Matrix
         Mass matrix (M[0, 2] = M[2, 0] the only coupling), kg m^2.
     tau : 3x1 sympy.Matrix
@@ -197,6 +272,30 @@ def friction_dynamics(d: Definitions, prefix: str, M: sp.Matrix, tau: sp.Matrix,
     """Accelerations (rad/s^2) and friction torques (N m, opposing each axis) in a given mode.
 
     A stuck axis has zero acceleration and its friction is the torque that holds it.
+
+    Parameters
+    ----------
+    d : Definitions
+        The model's definitions; every quantity is recorded there as ``prefix`` + name.
+    prefix : str
+        Prefix of the definitions' names (``"rhs_"``).
+    M : 3x3 sympy.Matrix
+        Mass matrix (M[0, 2] = M[2, 0] the only coupling), kg m^2.
+    tau : 3x1 sympy.Matrix
+        Applied generalized torques without friction, G T + Td - N, N m.
+    w : 3x1 sympy.Matrix
+        Axis rates, rad/s.
+    mode : FrictionMode
+        Which axes stick and the Coulomb signs (:func:`friction_mode`).
+    Fc, Fv : lists of 3 expressions
+        Coulomb (N m) and viscous (N m s/rad) coefficients of rotor 1, gimbal 2, gimbal 4.
+
+    Returns
+    -------
+    acc : list of sympy.Symbol
+        Accelerations of the three axes, rad/s^2.
+    friction : list of sympy.Symbol
+        Friction torques opposing the three axes, N m.
     """
     n = [prefix + a for a in AXES]
     tau = [d(f"{n[i]}_tau", tau[i]) for i in range(3)]
@@ -308,7 +407,26 @@ def build(q2_0: float = float(sp.pi / 18)) -> Model:
 
 
 def sdc_form(q2: sp.Expr, w: sp.Matrix, I: Inertias, factorization: str) -> SDCForm:
-    """SDC form x' = A(x) x + B(x) [T1, T2, Td4] of the frictionless, unsaturated plant."""
+    """SDC form x' = A(x) x + B(x) [T1, T2, Td4] of the frictionless, unsaturated plant.
+
+    Parameters
+    ----------
+    q2 : sympy.Expr
+        Gimbal-2 angle, rad.
+    w : sympy.Matrix
+        Axis rates ``[w1, w2, w4]`` (rotor 1, gimbal 2, gimbal 4), 3 x 1, rad/s.
+    I : Inertias
+        The ECP-750 inertias (symbols or numbers), kg m^2.
+    factorization : {"gyro_on_w2", "w1_free"}
+        Which SDC factorization of the gyroscopic torques (:data:`FACTORIZATIONS`,
+        :func:`sdc_gyroscopic`).
+
+    Returns
+    -------
+    SDCForm
+        A (6 x 6) and B (6 x 3) in the state ``[q1, q2, q4, w1, w2, w4]``, valid with
+        ``friction_on = 0`` and ``saturation_on = 0``.
+    """
     M = mass_matrix(q2, I)
     Minv = M.inv()
     A = sp.zeros(6, 6)
@@ -320,7 +438,21 @@ def sdc_form(q2: sp.Expr, w: sp.Matrix, I: Inertias, factorization: str) -> SDCF
 
 
 def model_sdc(model: Model, factorization: str) -> SDCForm:
-    """The SDC form of ``model`` (built by :func:`build`) with another factorization."""
+    """The SDC form of ``model`` (built by :func:`build`) with another factorization.
+
+    Parameters
+    ----------
+    model : Model
+        A VSCMG model of :func:`build`: its inertia parameters and states give the symbols.
+    factorization : {"gyro_on_w2", "w1_free"}
+        Which SDC factorization of the gyroscopic torques (:data:`FACTORIZATIONS`,
+        :func:`sdc_gyroscopic`).
+
+    Returns
+    -------
+    SDCForm
+        The form of :func:`sdc_form` in the model's symbols.
+    """
     syms = {v.name: v.symbol for v in model.parameters}
     I = Inertias(*(syms[k] for k in INERTIAS_ECP750))
     states = {s.variable.name: s.symbol for s in model.states}

@@ -10,6 +10,17 @@ NOT_XML = re.compile("[\x00-\x08\x0b\x0c\x0e-\x1f\ud800-\udfff\ufffe\uffff]")
 
 
 def xml_problem(text: str) -> str | None:
-    """Why ``text`` cannot go into an XML 1.0 document (``"holds U+0000"``), or None."""
+    """Why ``text`` cannot go into an XML 1.0 document (``"holds U+0000"``), or None.
+
+    Parameters
+    ----------
+    text : str
+        A name, description or other text bound for an XML attribute.
+
+    Returns
+    -------
+    str or None
+        The first character XML 1.0 cannot hold, as ``"holds U+XXXX"``; None if there is none.
+    """
     bad = NOT_XML.search(text)
     return None if bad is None else f"holds U+{ord(bad[0]):04X}"

@@ -29,8 +29,9 @@ Reports
 FMUs
     :func:`build` (every FMU, or some by name, into a folder; no-op when up to date),
     :func:`fmu_cache` (the default FMU folder).
-Designs (one per method of the five seed papers; each returns a :class:`Design` whose
-``.write()`` saves the artifact into :func:`user_artifacts` and can build its FMUs)
+Designs
+    One per method of the five seed papers; each returns a :class:`Design` whose ``.write()``
+    saves the artifact into :func:`user_artifacts` and can build its FMUs:
     :func:`design_hinf` (seed 000), :func:`design_h2hinf` (seed 001),
     :func:`design_vscmg_sdre` (seed 002), :func:`design_cubesat_periodic` (seed 003),
     :func:`design_demeter` (seed 004); :class:`DesignError`.

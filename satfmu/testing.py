@@ -34,7 +34,13 @@ FMU_DIR_ENV = "SATFMU_FMU_DIR"
 
 
 def pytest_addoption(parser: pytest.Parser) -> None:
-    """The ``--satfmu-fmu-dir`` option."""
+    """The ``--satfmu-fmu-dir`` option.
+
+    Parameters
+    ----------
+    parser : pytest.Parser
+        pytest's command-line parser (the ``pytest_addoption`` hook).
+    """
     parser.addoption("--satfmu-fmu-dir", default=None,
                      help=f"FMU folder of the satfmu fixtures (default ${FMU_DIR_ENV}, else satfmu's FMU cache)")
 
@@ -71,7 +77,18 @@ def satfmu_run(satfmu_fmu_dir: Path) -> Callable[..., "Result"]:
 
 def failures(result: "Result") -> list[str]:
     """One readable line per metric outside its bounds, e.g.
-    ``"angle error at the end = 0.31 deg, above its max 0.1"``."""
+    ``"angle error at the end = 0.31 deg, above its max 0.1"``.
+
+    Parameters
+    ----------
+    result : Result
+        A scenario run (:func:`satfmu.run`, the ``satfmu_run`` fixture).
+
+    Returns
+    -------
+    list of str
+        Empty when every metric is within its bounds.
+    """
     out = []
     for m in result.metrics:
         if m.passed:
@@ -88,6 +105,11 @@ def failures(result: "Result") -> list[str]:
 def assert_passed(result: "Result") -> None:
     """Fail with every metric outside its bounds (and any design mismatch) listed.
 
+    Parameters
+    ----------
+    result : Result
+        A scenario run (:func:`satfmu.run`, the ``satfmu_run`` fixture).
+
     Raises
     ------
     AssertionError
@@ -102,6 +124,15 @@ def assert_passed(result: "Result") -> None:
 
 def assert_metric(result: "Result", name: str, *, max: float | None = None, min: float | None = None) -> float:
     """Assert one metric against bounds of your own (tighter or other than the scenario's).
+
+    Parameters
+    ----------
+    result : Result
+        A scenario run (:func:`satfmu.run`, the ``satfmu_run`` fixture).
+    name : str
+        The metric's name, as the scenario declares it.
+    max, min : float, optional
+        Bounds on the metric's value, in the metric's unit (none by default).
 
     Returns
     -------

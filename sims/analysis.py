@@ -26,7 +26,17 @@ Progress = Callable[[int, int, str], None]
 
 @dataclass
 class SweepReport:
-    """What :func:`h2hinf_sweep` computed and wrote."""
+    """What :func:`h2hinf_sweep` computed and wrote.
+
+    Parameters
+    ----------
+    rows : list of satfmu.synthesis.h2hinf_sos.SweepRow
+        One point of the trade-off per gamma and variant (lambda inf: none certified).
+    csv : str
+        The rows as CSV text.
+    files : dict of str to Path, optional
+        The files written: ``csv`` (``gamma_lambda.csv``) and ``png`` (``gamma_lambda.png``).
+    """
 
     rows: list
     """:class:`satfmu.synthesis.h2hinf_sos.SweepRow` per gamma and variant (lambda inf: none certified)."""
@@ -62,7 +72,7 @@ def h2hinf_sweep(out_dir: Path, gammas: Sequence[float] = (1.0, 0.8, 0.7, 0.6, 0
     from satfmu.sims import plots
     from satfmu.synthesis import h2hinf_sos
 
-    rows = h2hinf_sos.sweep(list(gammas), bounds=tuple(alpha_range), max_evaluations=evaluations,
+    rows = h2hinf_sos.sweep(list(gammas), bounds=(*alpha_range,), max_evaluations=evaluations,
                             progress=progress, region=region)
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -76,7 +86,23 @@ def h2hinf_sweep(out_dir: Path, gammas: Sequence[float] = (1.0, 0.8, 0.7, 0.6, 0
 
 @dataclass
 class RegionReport:
-    """What :func:`vscmg_region` computed and wrote."""
+    """What :func:`vscmg_region` computed and wrote.
+
+    Parameters
+    ----------
+    artifact : str
+        Name of the servo artifact analysed.
+    box : satfmu.synthesis.vscmg_region.BoxCertificate
+        Certificate of the one-Y box (q2 rad, w4 rad/s).
+    checks : dict of str to float
+        The certificate checked on the true sin/cos model at samples of the box
+        (:func:`satfmu.synthesis.vscmg_region.trig_check`, empty when the box has no Lyapunov
+        matrix) and the cosine enclosure's errors (:func:`satfmu.synthesis.vscmg_region.cos_errors`).
+    cells : list of satfmu.synthesis.vscmg_region.BoxCertificate
+        Certificate of each map cell.
+    files : dict of str to Path, optional
+        The files written: ``json`` (``region.json``) and ``png`` (``region.png``).
+    """
 
     artifact: str
     box: Any
@@ -126,8 +152,10 @@ def vscmg_region(out_dir: Path, artifact: str | Path = "vscmg_sdre_approx", *,
     from satfmu.synthesis.sdre import SEED_REFERENCE_PROFILES, simulate_servo
 
     art = artifacts.load(paths.find_artifact(artifact))
+    if not isinstance(art, artifacts.ServoArtifact):
+        raise ValueError(f"artifact {art.name!r} is not a gain-scheduled servo (kind servo_gain_schedule)")
     loop = vr.ClosedLoop.build(art)
-    box_q2, box_w4 = (tuple(b) if b else d for b, d in zip((box_q2, box_w4), vr.OPERATING_BOX))
+    box_q2, box_w4 = ((*b,) if b else d for b, d in zip((box_q2, box_w4), vr.OPERATING_BOX))
     box = vr.certify(loop, box_q2, box_w4)
     trig = vr.trig_check(loop, box) if box.Y is not None else {}
     found = vr.map_region(loop, np.linspace(*q2, cells[0] + 1), np.linspace(*w4, cells[1] + 1), progress=progress)
@@ -146,7 +174,28 @@ def vscmg_region(out_dir: Path, artifact: str | Path = "vscmg_sdre_approx", *,
 
 @dataclass
 class L2Report:
-    """The three L2-gain estimates of :func:`l2` (c: the gain w -> sigma; kv: V = kv x^T P x)."""
+    """The three L2-gain estimates of :func:`l2` (c: the gain w -> sigma; kv: V = kv x^T P x).
+
+    Parameters
+    ----------
+    controller : str
+        Name of the controller.
+    region : satfmu.synthesis.l2_gain.Region
+        Region of the sampled and SOS estimates (``|omega_i| <= rate_max`` rad/s,
+        ``|sigma| <= sigma_max``).
+    kv : float
+        kv of the diagonal check at a fixed kv.
+    diagonal : (float, float)
+        c at ``kv`` on the diagonal x1 = ... = x6 in [-10, 10] (seed 000's method), and kv.
+    diagonal_best : (float, float)
+        The smallest c over kv on the diagonal, and its kv.
+    sampled : satfmu.synthesis.l2_gain.SampledGain
+        Sampled estimate on the region (a lower bound on the smallest certifiable c).
+    sos : satfmu.synthesis.l2_gain.SOSGain or None
+        SOS certificate on the region (an upper bound on c), or None when none was found.
+    sos_error : str, optional
+        Why there is no SOS certificate (empty when there is one).
+    """
 
     controller: str
     region: Any
@@ -209,7 +258,11 @@ def l2(controller: str | Path, *, rate_max: float = 0.2, sigma_max: float = 0.9,
     from satfmu.synthesis import l2_gain
     from satfmu.synthesis.sos import SOSError
 
-    form = l2_gain.hji_form(artifacts.load(paths.find_artifact(controller)))
+    art = artifacts.load(paths.find_artifact(controller))
+    if not isinstance(art, artifacts.ControllerArtifact):
+        raise ValueError(f"artifact {art.name!r} is not a polynomial state-feedback controller "
+                         "(kind polynomial_state_feedback)")
+    form = l2_gain.hji_form(art)
     region = l2_gain.Region(rate_max, sigma_max)
     diagonal, best = l2_gain.diagonal_gain(form, kv), l2_gain.diagonal_gain(form)
     sampled = l2_gain.sampled_gain(form, region, n_samples=samples)

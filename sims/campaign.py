@@ -41,7 +41,7 @@ import warnings
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Generic, TypeVar
 
 import dask
 import numpy as np
@@ -56,17 +56,18 @@ from satfmu.fmus.errors import CampaignError, CampaignWarning
 Task = Callable[[np.ndarray], dict[str, np.ndarray]]
 Sampler = Callable[[np.random.Generator, int], np.ndarray]
 Progress = Callable[[int, int], None]
+_T = TypeVar("_T", bound=Task)
 
 _META = "campaign.json"
 _IDENTITY = ("n", "seed", "chunk", "task", "sampler", "context")
 IDENTITY_FORMAT = 2
 """Version of the identity a record holds: 2 names modules without the ``satfmu.`` prefix of the
-layers (:func:`_module_name`; a record without ``identity_format`` was written before they moved
+layers (``_module_name``; a record without ``identity_format`` was written before they moved
 under ``satfmu``: its function names still match, the digests of its callable objects do not)."""
 
 
 @dataclass(frozen=True, kw_only=True)
-class Campaign:
+class Campaign(Generic[_T]):
     """A pure task evaluated on ``n`` random samples drawn chunk by chunk.
 
     Parameters
@@ -98,11 +99,11 @@ class Campaign:
     """
 
     name: str
-    task: Task
+    task: _T
     n: int
     seed: int
     chunk: int = 1000
-    sampler: Sampler
+    sampler: Sampler | Callable[..., np.ndarray]  # or sample_indices (keyword start)
     context: dict[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
@@ -114,9 +115,9 @@ class Campaign:
         for label, value, least in (("n", self.n, 1), ("chunk", self.chunk, 1), ("seed", self.seed, 0)):
             if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < least:
                 raise CampaignError(f"campaign {self.name!r}: {label} must be an integer >= {least}, got {value!r}")
-        for label, value in (("task", self.task), ("sampler", self.sampler)):
-            if not callable(value):
-                raise CampaignError(f"campaign {self.name!r}: {label} must be callable, got {value!r}")
+        for label, fn in (("task", self.task), ("sampler", self.sampler)):
+            if not callable(fn):
+                raise CampaignError(f"campaign {self.name!r}: {label} must be callable, got {fn!r}")
 
     @property
     def n_chunks(self) -> int:
@@ -155,6 +156,18 @@ def _qualified_name(fn: Callable) -> str:
 def chunk_range(campaign: Campaign, k: int) -> range:
     """Global sample indices of chunk ``k``.
 
+    Parameters
+    ----------
+    campaign : Campaign
+        The campaign.
+    k : int
+        Chunk index, ``0 <= k < campaign.n_chunks``.
+
+    Returns
+    -------
+    range
+        ``k * chunk`` up to ``min((k + 1) * chunk, n)`` (excluded).
+
     Raises
     ------
     CampaignError
@@ -166,16 +179,39 @@ def chunk_range(campaign: Campaign, k: int) -> range:
 
 
 def sample_indices(rng: np.random.Generator | None, count: int, *, start: int) -> np.ndarray:
-    """The sampler whose samples are the chunk's global indices ``start .. start + count - 1``
+    """The sampler whose samples are the chunk's global indices ``start`` to ``start + count - 1``
     (int64; no generator is used): for a task that draws sample ``i`` from ``(seed, i)`` itself,
     so that its values do not depend on the chunk size either. :func:`run_chunk` passes
-    ``start``."""
+    ``start``.
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator or None
+        Ignored (the signature of a sampler, ``sampler(rng, count)``).
+    count : int
+        Number of samples of the chunk.
+    start : int
+        Global index of the chunk's first sample (keyword only).
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape ``(count,)``, int64.
+    """
     return np.arange(start, start + count, dtype=np.int64)
 
 
 def run_chunk(campaign: Campaign, k: int) -> pd.DataFrame:
     """Draw the samples of chunk ``k`` and evaluate the task on them (with the
     :func:`sample_indices` sampler: the chunk's global indices).
+
+    Parameters
+    ----------
+    campaign : Campaign
+        The campaign.
+    k : int
+        Chunk index, ``0 <= k < campaign.n_chunks``; its generator is
+        ``default_rng(SeedSequence(seed, spawn_key=(k,)))``.
 
     Returns
     -------
@@ -223,7 +259,20 @@ def _checked_columns(name: str, output: Any, count: int) -> dict[str, np.ndarray
 
 
 def chunk_path(folder: Path, k: int) -> Path:
-    """Result file of chunk ``k`` in a campaign folder."""
+    """Result file of chunk ``k`` in a campaign folder.
+
+    Parameters
+    ----------
+    folder : Path
+        The campaign folder (``out_dir / campaign.name``).
+    k : int
+        Chunk index.
+
+    Returns
+    -------
+    Path
+        ``folder / "chunk-<k, 6 digits>.parquet"``.
+    """
     return Path(folder) / f"chunk-{k:06d}.parquet"
 
 
@@ -312,6 +361,17 @@ def _claim_folder(folder: Path, campaign: Campaign) -> dict[str, Any]:
 def read_record(folder: Path) -> dict[str, Any]:
     """``campaign.json`` of a folder, its ``chunks`` checked (a record without one has none).
 
+    Parameters
+    ----------
+    folder : Path
+        The campaign folder.
+
+    Returns
+    -------
+    dict
+        The record: the campaign's name and identity (``n``, ``seed``, ``chunk``, ``task``,
+        ``sampler``, ``context``) and ``chunks``, chunk index (str) -> SHA-256 of its file.
+
     Raises
     ------
     CampaignError
@@ -341,7 +401,18 @@ def _write_record(folder: Path, record: dict[str, Any]) -> None:
 
 
 def record_digest(record: dict[str, Any]) -> str:
-    """Digest of the campaign identity a record holds (what each chunk file's metadata names)."""
+    """Digest of the campaign identity a record holds (what each chunk file's metadata names).
+
+    Parameters
+    ----------
+    record : dict
+        A campaign record (:func:`read_record`).
+
+    Returns
+    -------
+    str
+        SHA-256, hex (:func:`satfmu.sims.chunk_files.identity_digest`).
+    """
     return chunk_files.identity_digest({key: record[key] for key in _IDENTITY})
 
 
@@ -380,7 +451,23 @@ def cluster_client(scheduler: str | None, client: Client | None, n_workers: int 
                    threads_per_worker: int = 1) -> Iterator[Client]:
     """The given client, a client of ``scheduler``, or that of a local cluster of ``n_workers``
     processes (its dashboard on a free port; its workers started with :data:`WORKER_ENV`); the
-    latter two closed at exit."""
+    latter two closed at exit.
+
+    Parameters
+    ----------
+    scheduler : str or None
+        Address of a running Dask scheduler (``"tcp://host:port"``), used when ``client`` is None.
+    client : distributed.Client or None
+        A client to use as is (not closed); it takes precedence.
+    n_workers : int
+        Worker processes of the local cluster (neither ``client`` nor ``scheduler`` given).
+    threads_per_worker : int
+        Threads of each local worker.
+
+    Yields
+    ------
+    distributed.Client
+    """
     if client is not None:
         yield client
     elif scheduler is not None:
@@ -435,6 +522,16 @@ def load(path: Path) -> pd.DataFrame:
 
     A chunk file the record does not list is not read.
 
+    Parameters
+    ----------
+    path : Path
+        The campaign folder (``out_dir / campaign.name``).
+
+    Returns
+    -------
+    pandas.DataFrame
+        Column ``sample`` (int64), then the task's columns (float64); one row per sample.
+
     Raises
     ------
     CampaignError
@@ -482,6 +579,31 @@ class Summary:
     ``n`` counts every sample, NaN (failed) and infinite ones included; mean, minimum and
     maximum are over the non-NaN samples (an infinite sample makes the maximum infinite).
     Units are those of the column.
+
+    Attributes
+    ----------
+    column : str
+        The result column.
+    n : int
+        Samples, NaN and infinite ones included.
+    n_nan : int
+        NaN samples (failed).
+    n_inf : int
+        Infinite samples (results, e.g. the H-infinity norm of an unstable closed loop).
+    mean, min, max : float
+        Over the non-NaN samples, in the column's unit (NaN when every sample is NaN).
+    epsilon, delta : float
+        Accuracy and 1 - confidence of the statements, both in (0, 1).
+    n_worst_case : int
+        Samples needed by the log-over-log bound, ``ceil(ln(1/delta) / ln(1/(1-epsilon)))``.
+    level : float or None
+        Threshold of the probability statement, in the column's unit (None: no such statement).
+    p : float or None
+        Fraction of samples with value <= ``level`` (NaN samples count as failures).
+    eps_n : float or None
+        Chernoff-Hoeffding half-width ``sqrt(ln(2/delta) / (2 n))`` of ``p``.
+    n_chernoff : int or None
+        Samples needed for ``eps_n <= epsilon``, ``ceil(ln(2/delta) / (2 epsilon^2))``.
     """
 
     column: str
@@ -584,6 +706,21 @@ class FmuTask:
 
     Built by :func:`fmu_task`; picklable when ``parameters`` and the metrics are
     module-level functions.
+
+    Attributes
+    ----------
+    fmus : dict of str to str
+        Instance name -> FMU path (readable by the workers).
+    connections : list of (str, str)
+        Output -> input pairs (``("plant.theta", "ctrl.theta")``).
+    parameters : callable
+        ``parameters(row) -> {instance: {variable: value}}`` for one sample row.
+    stop_time, step_size : float
+        Stop time and communication step of each run, s.
+    metrics : dict of str to callable
+        Column name -> ``metric(result) -> float``.
+    record : list of str
+        Variables to record (base names expand to every index).
     """
 
     fmus: dict[str, str]
@@ -614,6 +751,7 @@ class FmuTask:
                 res = sim.run(self.stop_time, self.step_size, parameters=self.parameters(row), record=self.record)
             except FmuCallError:
                 return None
+        assert res.dtype.names is not None  # CoSimulation.run records a structured array
         return {name: res[name] for name in res.dtype.names}
 
 
@@ -628,7 +766,8 @@ def fmu_task(fmus: dict[str, str], connections: list[tuple[str, str]],
     fmus : dict of str to str
         Instance name -> FMU path (readable by the workers).
     connections : list of (str, str)
-        ``("plant.theta", "ctrl.theta")``: output -> input, as :meth:`CoSimulation.connect`.
+        ``("plant.theta", "ctrl.theta")``: output -> input, as
+        :meth:`~satfmu.sims.master.CoSimulation.connect`.
     parameters : callable
         ``parameters(row) -> {instance: {variable: value}}`` for one sample row; module-level.
     stop_time, step_size : float
@@ -645,5 +784,5 @@ def fmu_task(fmus: dict[str, str], connections: list[tuple[str, str]],
         ``task(samples) -> {metric: array}``; a sample whose run raises
         :class:`~satfmu.sims.master.FmuCallError` gets NaN for every metric.
     """
-    return FmuTask({k: str(v) for k, v in fmus.items()}, [tuple(c) for c in connections], parameters,
+    return FmuTask({k: str(v) for k, v in fmus.items()}, [(*c,) for c in connections], parameters,
                    float(stop_time), float(step_size), dict(metrics), list(record))

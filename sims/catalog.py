@@ -29,7 +29,18 @@ R = TypeVar("R")
 
 @dataclass(frozen=True)
 class FmuSource:
-    """A model to export and the resources its FMUs carry."""
+    """A model to export and the resources its FMUs carry.
+
+    Attributes
+    ----------
+    model : Model
+        The model (:class:`satfmu.fmus.model.Model`).
+    resources : dict of str to bytes
+        File name -> content of the files its FMUs carry under ``resources/`` (a controller's
+        ``artifact.json``); empty for a plant.
+    backends : tuple of str, optional
+        FMU backends the model supports, among ``"native"`` and ``"python"``. Default both.
+    """
 
     model: Model
     resources: dict[str, bytes]
@@ -169,6 +180,11 @@ def artifact_source(path: Path) -> FmuSource:
     ``resources/artifact.json`` and record their SHA-256 (:func:`satfmu.fmus.export.artifact_digest`),
     which a run compares with the file (:mod:`satfmu.sims.preflight`).
 
+    Parameters
+    ----------
+    path : Path
+        The artifact file (JSON).
+
     Raises
     ------
     satfmu.controllers.artifact.ArtifactError
@@ -186,7 +202,16 @@ def artifact_source(path: Path) -> FmuSource:
 def controller_source(art: Artifact, data: bytes | None = None) -> FmuSource:
     """The controller model of an artifact (by its kind) and the artifact as its resource
     (``data``, the bytes of its file, or its JSON form); the model's description (the FMU's)
-    ends with the plant it was designed for."""
+    ends with the plant it was designed for.
+
+    Parameters
+    ----------
+    art : satfmu.controllers.artifact.Artifact
+        The artifact: a servo, periodic (magnetic), gain (state feedback) or polynomial one.
+    data : bytes, optional
+        The bytes of its file, embedded as ``resources/artifact.json``; None: the artifact's
+        JSON form.
+    """
     from satfmu.controllers import artifact as artifacts
     from satfmu.controllers import magnetic, polynomial, servo, state_feedback
 
@@ -208,7 +233,18 @@ def controller_source(art: Artifact, data: bytes | None = None) -> FmuSource:
 
 
 def builder(backend: str) -> Callable[..., Path]:
-    """``satfmu.fmus.export.build_native`` or ``build_python``."""
+    """``satfmu.fmus.export.build_native`` or ``build_python``.
+
+    Parameters
+    ----------
+    backend : {"native", "python"}
+        The FMU backend.
+
+    Returns
+    -------
+    callable
+        ``build(model, dest, resources)``, returning the FMU file.
+    """
     from satfmu.fmus import export
 
     return {"native": export.build_native, "python": export.build_python}[backend]
@@ -220,7 +256,15 @@ _PENDING: list[tuple[FmuSource, str]] = []
 
 @dataclass(frozen=True)
 class BuildReport:
-    """What :func:`build_all` did."""
+    """What :func:`build_all` did.
+
+    Attributes
+    ----------
+    paths : list of Path
+        Every FMU of the catalog, in catalog order.
+    built : list of Path
+        The FMUs built by this call (the others already recorded their build's digest).
+    """
 
     paths: list[Path]
     """Every FMU of the catalog, in catalog order."""
@@ -254,7 +298,8 @@ def build_all(dest: Path | None = None, backends: tuple[str, ...] = ("native", "
     ----------
     dest : Path, optional
         Folder of the FMUs (default: :func:`satfmu.sims.paths.fmu_cache`).
-    backends : tuple of {"native", "python"}
+    backends : tuple of {"native", "python"}, optional
+        The FMU backends to build (default both; a model without one is skipped for it).
     jobs : int, optional
         Worker processes (default: the number of CPUs); 1, or a platform without ``fork``,
         builds in this process.
@@ -276,7 +321,18 @@ def build_all(dest: Path | None = None, backends: tuple[str, ...] = ("native", "
 
 def validate(fmu: Path) -> list[str]:
     """Problems reported by ``fmpy validate`` and ``fmutool -check`` (empty list: clean); a file
-    that :func:`satfmu.fmus.archive.check` refuses is not handed to either (its one problem is why)."""
+    that :func:`satfmu.fmus.archive.check` refuses is not handed to either (its one problem is why).
+
+    Parameters
+    ----------
+    fmu : Path
+        The FMU file.
+
+    Returns
+    -------
+    list of str
+        One line per problem, prefixed with the tool that reported it.
+    """
     from fmpy.validation import validate_fmu
 
     from satfmu.fmus import archive
@@ -301,5 +357,19 @@ def validate(fmu: Path) -> list[str]:
 
 def validate_all(fmus: list[Path], jobs: int | None = None) -> list[list[str]]:
     """:func:`validate` of each FMU, in parallel processes (default: one per CPU); the problems
-    in the order of ``satfmu.fmus``."""
+    in the order of ``fmus``.
+
+    Parameters
+    ----------
+    fmus : list of Path
+        The FMU files.
+    jobs : int, optional
+        Worker processes (default: the number of CPUs); 1, or a platform without ``fork``,
+        validates in this process.
+
+    Returns
+    -------
+    list of list of str
+        The problems of each FMU (:func:`validate`).
+    """
     return _fork_map(validate, list(fmus), jobs)

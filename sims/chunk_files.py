@@ -26,7 +26,7 @@ import pyarrow.parquet as pq
 try:
     import fcntl
 except ImportError:  # Windows
-    fcntl = None
+    fcntl = None  # type: ignore[assignment]  # no fcntl module: the msvcrt branches lock instead
     import msvcrt
 
 METADATA_KEY = b"satfmu.campaign"
@@ -36,12 +36,33 @@ LOCK = ".campaign.lock"
 
 
 def identity_digest(identity: dict[str, Any]) -> str:
-    """SHA-256 (hex) of a campaign identity (:meth:`satfmu.sims.campaign.Campaign.identity`), key order aside."""
+    """SHA-256 (hex) of a campaign identity (:meth:`satfmu.sims.campaign.Campaign.identity`), key order aside.
+
+    Parameters
+    ----------
+    identity : dict
+        Plain JSON data: ``n``, ``seed``, ``chunk``, ``task``, ``sampler`` and ``context``.
+    """
     return hashlib.sha256(json.dumps(identity, sort_keys=True).encode()).hexdigest()
 
 
 def chunk_bytes(frame: pd.DataFrame, digest: str, k: int) -> bytes:
-    """The Parquet file of chunk ``k``'s results, its metadata naming the campaign ``digest``."""
+    """The Parquet file of chunk ``k``'s results, its metadata naming the campaign ``digest``.
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        The chunk's results (:func:`satfmu.sims.campaign.run_chunk`); its index is not stored.
+    digest : str
+        :func:`identity_digest` of the campaign.
+    k : int
+        Chunk index.
+
+    Returns
+    -------
+    bytes
+        The file's content (its metadata under :data:`METADATA_KEY`).
+    """
     table = pa.Table.from_pandas(frame, preserve_index=False)
     mark = json.dumps({"identity": digest, "chunk": int(k)}).encode()
     table = table.replace_schema_metadata({**(table.schema.metadata or {}), METADATA_KEY: mark})
@@ -51,7 +72,13 @@ def chunk_bytes(frame: pd.DataFrame, digest: str, k: int) -> bytes:
 
 
 def sha256(data: bytes) -> str:
-    """SHA-256 (hex) of a file's bytes."""
+    """SHA-256 (hex) of a file's bytes.
+
+    Parameters
+    ----------
+    data : bytes
+        The file's content.
+    """
     return hashlib.sha256(data).hexdigest()
 
 
@@ -138,7 +165,18 @@ def locked(folder: Path, waiting: Callable[[str], None]) -> Iterator[None]:
 def sweep_partials(folder: Path) -> list[Path]:
     """Remove the temporary files that writers killed in ``folder`` left (``.<name>.<pid>.<random>
     .partial<suffix>``, :func:`satfmu.fmus.atomic.write_atomically`); call it holding :func:`locked`, when
-    no other driver writes there. Returns what it removed."""
+    no other driver writes there. Returns what it removed.
+
+    Parameters
+    ----------
+    folder : Path
+        The campaign folder.
+
+    Returns
+    -------
+    list of Path
+        The files removed.
+    """
     removed = []
     for p in folder.glob(".*.partial*"):
         try:

@@ -1,5 +1,7 @@
 """The ``satfmu`` command line: build, validate, run, synthesize, analyze.
 
+Usage::
+
     satfmu --version
     satfmu build [--fmu-dir DIR] [--backend native|python|all] [--jobs N]
     satfmu validate [--fmu-dir DIR]
@@ -689,7 +691,18 @@ def parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``satfmu`` console script: the command's exit status (0 done, 1 a
-    metric missed its bound or a check failed, 2 an error, each error one line on stderr)."""
+    metric missed its bound or a check failed, 2 an error, each error one line on stderr).
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        The arguments after ``satfmu`` (``["run", "mrp_200deg"]``); default ``sys.argv[1:]``.
+
+    Returns
+    -------
+    int
+        The exit status.
+    """
     import warnings
 
     args = parser().parse_args(argv)

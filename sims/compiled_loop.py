@@ -85,7 +85,13 @@ class _Plan(ctypes.Structure):
 
 def library_path(cc: str = "gcc") -> Path:
     """Where the compiled loop is kept: ``<home>/lib/cosim_loop-<digest>.so``, the digest over
-    the source, the compiler's name, the flags and the platform."""
+    the source, the compiler's name, the flags and the platform.
+
+    Parameters
+    ----------
+    cc : str, optional
+        Name (or path) of the C compiler. Default ``"gcc"``.
+    """
     from satfmu.sims.paths import home
 
     return home() / "lib" / f"cosim_loop-{_digest(cc)}.so"
@@ -99,6 +105,16 @@ def _digest(cc: str) -> str:
 
 def compile_library(cc: str = "gcc") -> Path:
     """Compile the loop into :func:`library_path` (nothing to do if it is there).
+
+    Parameters
+    ----------
+    cc : str, optional
+        Name (or path) of the C compiler. Default ``"gcc"``.
+
+    Returns
+    -------
+    Path
+        The shared library.
 
     Raises
     ------
@@ -132,7 +148,18 @@ def _load(path: str) -> ctypes.CDLL:
 
 def library(cc: str = "gcc") -> ctypes.CDLL | None:
     """The compiled loop, compiled on first use; None without the C compiler ``cc`` or when the
-    environment variable ``SATFMU_PYTHON_LOOP`` is set (the master then steps in Python)."""
+    environment variable ``SATFMU_PYTHON_LOOP`` is set (the master then steps in Python).
+
+    Parameters
+    ----------
+    cc : str, optional
+        Name (or path) of the C compiler. Default ``"gcc"``.
+
+    Raises
+    ------
+    RuntimeError
+        If the compiler fails (:func:`compile_library`).
+    """
     if os.environ.get("SATFMU_PYTHON_LOOP"):
         return None
     try:
@@ -147,12 +174,27 @@ def _pointer(arr: np.ndarray, ctype: Any) -> Any:
 
 def _function(slave: Any, name: str) -> int:
     """Address of an FMI function in the library fmpy loaded for ``slave``."""
-    return ctypes.cast(getattr(slave.dll, name), ctypes.c_void_p).value
+    address = ctypes.cast(getattr(slave.dll, name), ctypes.c_void_p).value
+    assert address is not None  # a symbol the library exports (getattr raises for a missing one) is not NULL
+    return address
 
 
 @dataclass
 class Failure:
-    """The call that stopped a compiled run: step k, FMU index, FMI function, status."""
+    """The call that stopped a compiled run: step k, FMU index, FMI function, status.
+
+    Attributes
+    ----------
+    step : int
+        ``k`` of the failed call: the step from t_k for ``fmi2DoStep``, the communication point
+        t_k for an ``fmi2GetReal`` or ``fmi2SetReal`` after a step.
+    fmu : int
+        Index of the FMU in the ``slaves`` of the :class:`StepPlan`.
+    function : str
+        The FMI function (a value of :data:`CALLS`).
+    status : int
+        The ``fmi2Status`` it returned, above ``fmi2Warning`` (2 discard, 3 error, 4 fatal, 5 pending).
+    """
 
     step: int
     fmu: int
@@ -180,9 +222,15 @@ class StepPlan:
     step_size : float
         s.
     jacobi : bool
+        Exchange in Jacobi order (every output read before any input is set) instead of
+        feedthrough order.
     record_every : int
+        Record every ``record_every``-th communication point (>= 1) and the last one.
     data : ndarray
         Recorded rows x columns, C-contiguous float64, written in place.
+    _keep : list, optional
+        Internal, not to be given: the arrays :meth:`plan` made, kept alive while the C
+        structure points to them.
     """
 
     slaves: list[Any]
@@ -223,7 +271,18 @@ class StepPlan:
                      self.data.shape[1] if self.data.ndim == 2 else 0, -1, -1, 0, 0)
 
     def run(self, lib: ctypes.CDLL) -> Failure | None:
-        """Steps 0 .. n_steps - 1 in blocks of :data:`BLOCK`; the failure that stopped them, if any."""
+        """Steps 0 .. n_steps - 1 in blocks of :data:`BLOCK`; the failure that stopped them, if any.
+
+        Parameters
+        ----------
+        lib : ctypes.CDLL
+            The compiled loop (:func:`library`).
+
+        Returns
+        -------
+        Failure or None
+            The call that stopped the run, None if every step ran.
+        """
         plan = self.plan()
         n_steps = len(self.times) - 1
         for begin in range(0, n_steps, BLOCK):

@@ -18,7 +18,7 @@ time histories:
 ``limits="linear"`` sets the wheels' torque and momentum limits out of reach (1e9), which makes
 the FMU loop the design model's linear loop (the seed's figures), up to the zero-order hold of
 the command over each communication step (checked against the design model's exact
-continuous solution, :attr:`RandomLoops.linear_error`); ``limits="wheels"`` keeps the plant's
+continuous solution, ``linear_error`` of :class:`RandomLoops`); ``limits="wheels"`` keeps the plant's
 limits (5e-3 N m, 0.12 N m s).
 
 The communication step must be small: the Table 1 row-1 design feeds the wheel torque back with
@@ -67,8 +67,33 @@ class RandomLoops:
 
     ``z2[i, c]``: xw (N m s) of loop i after the impulse on w2 column c; ``theta``, ``theta_dot``
     (rad, rad/s) of loop i from both initial values; ``saturated[i]``: fraction of the time a
-    wheel was at its momentum limit in that run; ``linear_error``: largest |theta - theta_linear| (rad)
+    wheel was at its momentum limit in that run; ``linear_error``: largest ``|theta - theta_linear|`` (rad)
     against the design model's exact solution (only meaningful with ``limits="linear"``).
+
+    Parameters
+    ----------
+    time : numpy.ndarray, shape (m,)
+        The common time grid (s).
+    deltas : numpy.ndarray, shape (n, p)
+        The design model's parameter vector delta (in [-1, 1]) of each loop's plant.
+    z2 : numpy.ndarray, shape (n, 2, m)
+        ``z2[i, c]``: the pseudo-integrator xw (N m s) of loop i after the impulse on w2 column c
+        (c = 0: theta(0), c = 1: theta'(0)).
+    theta : numpy.ndarray, shape (n, m)
+        Attitude angle of the design axis (rad) of each loop, from both initial values.
+    theta_dot : numpy.ndarray, shape (n, m)
+        Its rate (rad/s).
+    saturated : numpy.ndarray, shape (n,)
+        Fraction of the run (0 to 1) a wheel of each loop was at its momentum limit (zero for the
+        design model).
+    linear_error : float
+        Largest ``|theta - theta_linear|`` over loops and time (rad); 0 for the design model.
+    limits : {"wheels", "linear"}
+        The plant's wheel limits, or none (``"linear"``).
+    axis : int
+        The design axis (1, 2 or 3, as the FMU variables index it).
+    source : str, optional
+        ``"fmu"`` (the FMU loops, :func:`run`) or ``"design model"`` (:func:`linear`).
     """
 
     time: np.ndarray
@@ -106,6 +131,16 @@ def load_design(artifact: str | Path) -> tuple[artifacts.GainArtifact, Variant]:
     ValueError
         If the artifact is not a DEMETER state-feedback design: no valid ``design.variant``, or
         a ``design.K`` that is not a finite matrix of the variant's shape (inputs x states).
+
+    Parameters
+    ----------
+    artifact : str or Path
+        Artifact name (:func:`satfmu.sims.paths.find_artifact`) or ``.json`` path.
+
+    Returns
+    -------
+    (satfmu.controllers.artifact.GainArtifact, satfmu.synthesis.demeter_variants.Variant)
+        The artifact and the design variant of its ``design.variant``.
     """
     path = paths.find_artifact(artifact)
     art = artifacts.load(path)
@@ -127,7 +162,29 @@ def load_design(artifact: str | Path) -> tuple[artifacts.GainArtifact, Variant]:
 def linear(artifact: str | Path, *, n: int = 100, seed: int = 0, stop_time: float = 10000.0, points: int = 2001,
            deltas: np.ndarray | None = None) -> RandomLoops:
     """Loops as :func:`run`'s on the design model, exactly, over the whole horizon: the plants
-    ``deltas`` (e.g. :attr:`RandomLoops.deltas` of a run), else ``n`` drawn with ``seed``."""
+    ``deltas`` (e.g. the ``deltas`` of a run's :class:`RandomLoops`), else ``n`` drawn with ``seed``.
+
+    Parameters
+    ----------
+    artifact : str or Path
+        DEMETER design artifact: name (:func:`satfmu.sims.paths.find_artifact`) or ``.json`` path.
+    n : int, optional
+        Plants to draw (uniform in the parameter box) when ``deltas`` is not given.
+    seed : int, optional
+        Seed of that draw.
+    stop_time : float, optional
+        Horizon (s).
+    points : int, optional
+        Points of the uniform time grid, 0 and ``stop_time`` included.
+    deltas : numpy.ndarray, shape (n, p), optional
+        The plants: the design model's parameter vectors delta (in [-1, 1]); overrides ``n``
+        and ``seed``.
+
+    Returns
+    -------
+    RandomLoops
+        With ``source="design model"``, ``limits="linear"`` and no saturation.
+    """
     art, variant = load_design(artifact)
     dm, K = design_model(variant), np.array(art.design["K"])
     deltas = dm.sample(n, np.random.default_rng(seed)) if deltas is None else np.atleast_2d(np.asarray(deltas, float))
@@ -251,13 +308,25 @@ FIGURES = {"both": (5, "theta(0) = 0.262 rad and theta'(0) = 1.4e-3 rad/s"),
 
 def shipped_scenario(start: str) -> Scenario:
     """:func:`scenario` of the shipped artifact :data:`SHIPPED` (its file in
-    :data:`satfmu.sims.paths.SHIPPED_ARTIFACTS`, not a user's of that name) with the wheel limits."""
+    :data:`satfmu.sims.paths.SHIPPED_ARTIFACTS`, not a user's of that name) with the wheel limits.
+
+    Parameters
+    ----------
+    start : {"theta", "rate", "both"}
+        Initial state (:data:`STARTS`).
+    """
     return scenario(paths.SHIPPED_ARTIFACTS / f"{SHIPPED}.json", start=start)
 
 
 def scenario_text(start: str) -> str:
     """The shipped TOML file of :func:`shipped_scenario`: a header saying how it was produced,
-    then the declaration (:func:`satfmu.fmus.declared.toml_text`)."""
+    then the declaration (:func:`satfmu.fmus.declared.toml_text`).
+
+    Parameters
+    ----------
+    start : {"theta", "rate", "both"}
+        Initial state (:data:`STARTS`); also picks the header's figure (:data:`FIGURES`).
+    """
     fig, what = FIGURES[start]
     note = SHIPPED_NOTE.format(artifact=SHIPPED, start=start, fig=fig, what=what)
     return toml_text(shipped_scenario(start).to_dict(), note)
@@ -265,18 +334,38 @@ def scenario_text(start: str) -> str:
 
 def write_shipped(folder: Path = paths.SHIPPED_SCENARIOS) -> list[Path]:
     """Write the shipped scenario files, one per start (``<name>.toml``: ``demeter_row1_det_both``,
-    ``_theta``, ``_rate``); returns their paths."""
+    ``_theta``, ``_rate``); returns their paths.
+
+    Parameters
+    ----------
+    folder : Path, optional
+        Where to write them; default the shipped scenarios' folder
+        (:data:`satfmu.sims.paths.SHIPPED_SCENARIOS`).
+    """
     out = []
     for start in STARTS:
         path = Path(folder) / f"{shipped_scenario(start).name}.toml"
         text = scenario_text(start)
-        out.append(write_atomically(path, lambda tmp, text=text: tmp.write_text(text)))
+        out.append(write_atomically(path, lambda tmp: tmp.write_text(text)))
     return out
 
 
 def uniform_points(n_rows: int, points: int) -> int:
     """The largest count <= ``points`` of evenly spaced rows out of ``n_rows`` (first and last
-    included) that fall on whole rows: a uniform grid, as the exact design-model solution needs."""
+    included) that fall on whole rows: a uniform grid, as the exact design-model solution needs.
+
+    Parameters
+    ----------
+    n_rows : int
+        Rows recorded (communication points of the run, the first and last included).
+    points : int
+        The most points wanted, at least 2.
+
+    Raises
+    ------
+    ValueError
+        If ``points`` < 2.
+    """
     if points < 2:
         raise ValueError(f"points must be >= 2, got {points}")
     return next(m + 1 for m in range(min(points, n_rows) - 1, 0, -1) if (n_rows - 1) % m == 0)
@@ -286,6 +375,15 @@ def fmu_parameter(p: UncertainParameter, dm: DesignModel, variant: Variant) -> s
     """The plant FMU parameter (``"plant.J[1,1]"``, ``"plant.omega[1]"``) that an uncertain parameter
     of the design model sets: a principal inertia (the square of ``p``'s value for ``sqrtJ``), a
     product of inertia, or the damping or frequency of its mode group's appendage.
+
+    Parameters
+    ----------
+    p : satfmu.synthesis.demeter_variants.UncertainParameter
+        One of the design model's uncertain parameters (``dm.parameters``).
+    dm : satfmu.synthesis.demeter_variants.DesignModel
+        The design model of ``variant``.
+    variant : satfmu.synthesis.demeter_variants.Variant
+        The design variant: its axes number the FMU's inertia entries.
 
     Raises
     ------
@@ -303,7 +401,23 @@ def fmu_parameter(p: UncertainParameter, dm: DesignModel, variant: Variant) -> s
 
 
 def deltas_of(rows: "pd.DataFrame", dm: DesignModel, variant: Variant) -> np.ndarray:
-    """The design model's parameter vectors delta (in [-1, 1]) of a campaign's dispersed values."""
+    """The design model's parameter vectors delta (in [-1, 1]) of a campaign's dispersed values.
+
+    Parameters
+    ----------
+    rows : pandas.DataFrame
+        A scenario campaign's results of :func:`scenario`, one row per sample, with a column per
+        dispersed FMU parameter (:func:`fmu_parameter`), in the FMU's units.
+    dm : satfmu.synthesis.demeter_variants.DesignModel
+        The design model of ``variant``.
+    variant : satfmu.synthesis.demeter_variants.Variant
+        The design variant.
+
+    Returns
+    -------
+    numpy.ndarray, shape (len(rows), p)
+        One delta per row, p the design model's number of uncertain parameters.
+    """
     out = np.empty((len(rows), len(dm.parameters)))
     for k, p in enumerate(dm.parameters):
         v = rows[fmu_parameter(p, dm, variant)].to_numpy()
@@ -327,6 +441,7 @@ def run(fmu_dir: Path, artifact: str | Path, *, n: int = 100, seed: int = 0, sto
     stop_time, step_size : float
         s.
     limits : {"wheels", "linear"}
+        The plant's wheel limits, or none (module docstring).
     points : int
         Time points kept of each history (at most the run's communication points).
     out_dir : Path, optional
@@ -381,7 +496,21 @@ def run(fmu_dir: Path, artifact: str | Path, *, n: int = 100, seed: int = 0, sto
 
 
 def plot(loops: RandomLoops, out_dir: Path) -> list[Path]:
-    """Fig. 4 (z2 after each impulse of w2) and Fig. 5 (theta, theta'), PNG files in ``out_dir``."""
+    """Fig. 4 (z2 after each impulse of w2) and Fig. 5 (theta, theta'), PNG files in ``out_dir``.
+
+    Parameters
+    ----------
+    loops : RandomLoops
+        The loops of :func:`run` or :func:`linear`.
+    out_dir : Path
+        Folder of the files (created); the names tell the source: ``fig4.png``, ``fig5.png``
+        (FMUs, wheel limits), ``_no_limits`` or ``_design_model`` appended otherwise.
+
+    Returns
+    -------
+    list of Path
+        The Fig. 4 and Fig. 5 files.
+    """
     import matplotlib
 
     matplotlib.use("Agg")

@@ -24,7 +24,19 @@ Progress = Callable[[int, int, str], None]
 
 @dataclass
 class Table1Report:
-    """The rows :func:`table1` computed, the files it wrote and its wall time."""
+    """The rows :func:`table1` computed, the files it wrote and its wall time.
+
+    Parameters
+    ----------
+    rows : list of satfmu.synthesis.demeter_table.Row
+        One per selected row and method (and convention, with ``convention="both"``).
+    files : list of Path
+        The tables written (``table1.md``, ``table1.csv``; per convention with ``"both"``).
+    seconds : float, optional
+        Wall time of the whole run, s.
+    jobs : int, optional
+        Rows run at once.
+    """
 
     rows: list
     """:class:`satfmu.synthesis.demeter_table.Row` per selected row and method."""
@@ -87,7 +99,7 @@ def table1(out_dir: Path, rows: Sequence[int] | None = None, *, scenarios: int |
             raise ValueError(f"rows must be in 1..{len(keys)} (the seed's order), got {bad}")
         keys = [keys[r - 1] for r in rows]
     out_dir = Path(out_dir)
-    options = {"n_scenarios": scenarios, "progress": progress, "jobs": jobs}
+    options: dict[str, Any] = {"n_scenarios": scenarios, "progress": progress, "jobs": jobs}
     if convention != "both":
         found = demeter_table.run(keys, out_dir=out_dir, convention=convention, **options)
         return Table1Report(found, [out_dir / "table1.md", out_dir / "table1.csv"], time.perf_counter() - t0, jobs)
@@ -109,6 +121,17 @@ def table1_comparison(out_dir: Path) -> Path:
     ``out_dir/satfmu/table1.csv`` (:func:`satfmu.synthesis.demeter_table.comparison`), without running
     anything.
 
+    Parameters
+    ----------
+    out_dir : Path
+        Folder of a ``table1(convention="both")`` run: holds the ``romuloc`` and ``satfmu``
+        sub-folders (:data:`BOTH`) and receives ``table1.md``.
+
+    Returns
+    -------
+    Path
+        The Markdown file written.
+
     Raises
     ------
     FileNotFoundError
@@ -128,7 +151,17 @@ def table1_comparison(out_dir: Path) -> Path:
 
 @dataclass
 class FiguresReport:
-    """The loops of :func:`figures`: FMUs with wheel limits, FMUs without, the design model."""
+    """The loops of :func:`figures`: FMUs with wheel limits, FMUs without, the design model.
+
+    Parameters
+    ----------
+    loops : dict of str to satfmu.sims.demeter_loops.RandomLoops
+        ``"wheels"``, ``"linear"`` (FMUs) and ``"design"`` (the design model, exact).
+    step_size : float
+        Communication step of the FMU runs, s.
+    files : dict of str to list of Path, optional
+        The PNG files of each entry of ``loops``.
+    """
 
     loops: dict[str, demeter_loops.RandomLoops]
     """``"wheels"``, ``"linear"`` (FMUs) and ``"design"`` (the design model, exact)."""
@@ -197,7 +230,19 @@ def figures(fmu_dir: Path, out_dir: Path, artifact: str | Path = "demeter_row1_d
 
 @dataclass
 class CampaignReport:
-    """The samples of :func:`campaign` and the statements on each result column."""
+    """The samples of :func:`campaign` and the statements on each result column.
+
+    Parameters
+    ----------
+    name : str
+        Campaign name (its folder's name).
+    folder : Path
+        Folder of the campaign's Parquet files.
+    results : pandas.DataFrame
+        The samples, one row per sampled plant.
+    summaries : list of satfmu.sims.campaign.Summary
+        The statements on each result column (``hinf``, ``i2p``, ``max_real_pole``).
+    """
 
     name: str
     folder: Path

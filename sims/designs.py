@@ -96,6 +96,8 @@ class Design:
             name before the shipped ones).
         fmu_dir : path, optional
             Build the controller FMUs (``backends``) here.
+        backends : sequence of {"native", "python"}, optional
+            The FMU backends built into ``fmu_dir``. Default both.
 
         Returns
         -------
@@ -152,7 +154,7 @@ def design_hinf(plant: Model | Spacecraft | None = None, *, name: str = "mrp_hin
         (:func:`satfmu.synthesis.two_step.manoeuvre` builds one from an axis and an angle); default
         seed 000's 200 deg start.
     torque_budget : float
-        Largest acceptable peak |u_i| on that manoeuvre, N m.
+        Largest acceptable peak ``|u_i|`` on that manoeuvre, N m.
     horizon : float
         Length of the manoeuvre; the attitude error must be < 0.1 deg at its end, s.
     region : float
@@ -218,7 +220,7 @@ def design_h2hinf(gamma: float, plant: Model | Spacecraft | None = None, *, name
     from satfmu.synthesis import h2hinf_sos
 
     model = _mrp_plant(plant)
-    found = h2hinf_sos.search(gamma, variant, bounds=tuple(alpha_range), max_evaluations=evaluations,
+    found = h2hinf_sos.search(gamma, variant, bounds=(*alpha_range,), max_evaluations=evaluations,
                               progress=progress, region=region, model=model)
     r = found.best
     if r is None:
@@ -262,7 +264,7 @@ def design_vscmg_sdre(grid: tuple[int, int] = (23, 25), max_degree: int = 8, cv_
     if (not isinstance(grid, (tuple, list)) or len(grid) != 2
             or not all(isinstance(n, int) and not isinstance(n, bool) and n >= 2 for n in grid)):
         raise DesignError(f"grid must be two integers >= 2 (SDRE grid points over q2 and w4), got {grid!r:.80}")
-    tol = {} if cv_tol is None else {"cv_tol": cv_tol if cv_tol > 0 else None}
+    tol: dict[str, Any] = {} if cv_tol is None else {"cv_tol": cv_tol if cv_tol > 0 else None}
     result, approx, lq = gain_fit.synthesize(*grid, degrees=range(1, max_degree + 1), region=region, **tol)
     cert = approx["certificate"]
     report = (f"certificate: {cert['status']}: {cert['proved']}\n"
@@ -351,6 +353,7 @@ def design_demeter(axes: Sequence[int] = (1,), appendages: Sequence[int] = (1,),
     row = demeter_table.run_row(variant, "Det", n_samples=n_samples, convention=convention)
     lines = [demeter_table.markdown([row])]
     r = row.result
+    assert isinstance(r, dd.DeterministicResult)  # a "Det" row holds the deterministic design
     if not r.feasible:
         if r.obstruction is not None and r.obstruction.proves_infeasible:
             o = r.obstruction
@@ -360,6 +363,7 @@ def design_demeter(axes: Sequence[int] = (1,), appendages: Sequence[int] = (1,),
                          f"eig(A_lo A_hi) = {', '.join(f'{v.real:.4g}' for v in o.eigenvalues)}")
         raise DesignError("\n".join(lines))
     c = r.check
+    assert c is not None  # deterministic() checks every feasible design
     common = getattr(r.analysis_hinf_common, "gamma", None)
     lines.append(f"{c.n} sampled plants (seed {c.seed}): Re s in [{c.min_real_pole:.3g}, {c.max_real_pole:.3g}] 1/s, "
                  f"largest exact H-infinity {c.hinf.max():.4g}, i2p {c.i2p.max():.4g}; H-infinity bound with one "

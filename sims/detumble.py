@@ -6,9 +6,9 @@
   Monte Carlo one, and the ESMS spectral radius that predicts its decay per orbit.
 - :func:`sweep`: the controller FMUs on the nonlinear plant FMU through the master (the
   shipped scenario ``cubesat_detumble`` with its initial rate rescaled), for initial rates
-  from small to tumbling: the final |w| / |w(0)| after two orbits and the dipole effort
+  from small to tumbling: the final ``|w| / |w(0)|`` after two orbits and the dipole effort
   ``integral |m|^2 dt`` of each controller, and the largest initial rate each one detumbles
-  (|w| reduced 10x within two orbits).
+  (``|w|`` reduced 10x within two orbits).
 """
 from __future__ import annotations
 
@@ -28,12 +28,38 @@ CONTROLLERS = {"periodic LMI (satfmu)": ("lmi_plant", "lmi"), "periodic LMI (pub
 W0_DIRECTION = np.array([0.05, -0.04, 0.03])
 """The issue's substitute initial rate, rad/s (its direction is kept in the sweep)."""
 REDUCTION = 0.1
-"""Detumbled: |w| at the end of two orbits at most this fraction of |w(0)|."""
+"""Detumbled: ``|w|`` at the end of two orbits at most this fraction of ``|w(0)|``."""
 
 
 @dataclass
 class LinearRun:
-    """Monte Carlo of one gain set on the linear sampled model."""
+    """Monte Carlo of one gain set on the linear sampled model.
+
+    The sample instants ``k`` are 15 min apart (the seed's dipole hold); the rate ``w`` is the
+    state of the model (rad/s), the dipole ``m(k) = F(k) w(k)`` its input (A m^2).
+
+    Parameters
+    ----------
+    label : str
+        Name of the gain set (a key of the ``gains`` of :func:`linear_campaign`).
+    spectral_radius : float
+        Spectral radius of the closed loop's second-moment monodromy
+        (:func:`satfmu.synthesis.periodic_hinf.ms_spectral_radius`): the asymptotic decay factor
+        of the mean square per orbit; the loop is exponentially stable in mean square (ESMS) iff
+        it is < 1.
+    k : numpy.ndarray of int, shape (n + 1,)
+        Sample indices 0..n, n = orbits times samples per orbit.
+    ms_exact : numpy.ndarray, shape (n + 1,)
+        Exact mean square ``E|w(k)|^2`` ((rad/s)^2), the trace of the second moment.
+    ms_mc : numpy.ndarray, shape (n + 1,)
+        Monte Carlo estimate of the mean square ((rad/s)^2).
+    ms_se : numpy.ndarray, shape (n + 1,)
+        Standard error of ``ms_mc`` ((rad/s)^2).
+    rate_samples : numpy.ndarray, shape (n_runs, n + 1)
+        ``|w(k)|`` of every realization (rad/s).
+    dipole_samples : numpy.ndarray, shape (n_runs, n)
+        ``|m(k)|`` of every realization, held from sample k to k + 1 (A m^2).
+    """
 
     label: str
     spectral_radius: float
@@ -45,13 +71,33 @@ class LinearRun:
     dipole_samples: np.ndarray
 
     def rms(self) -> np.ndarray:
-        """sqrt(E|w(k)|^2), exact, rad/s."""
+        """``sqrt(E|w(k)|^2)``, exact, rad/s."""
         return np.sqrt(self.ms_exact)
 
 
 def linear_campaign(gains: dict[str, np.ndarray], n_runs: int = 2000, seed: int = 0,
                     w0: np.ndarray = W0_DIRECTION, orbits: int = 2) -> list[LinearRun]:
     """Seeded Monte Carlo of the linear sampled model for each gain set (``label -> F``).
+
+    Parameters
+    ----------
+    gains : dict of str to numpy.ndarray
+        Label -> periodic gains ``F``, shape (N, 3, 3), one per sample of the orbit
+        (A m^2 per rad/s), as held by a periodic gain artifact.
+    n_runs : int, optional
+        Monte Carlo realizations per gain set, at least 2.
+    seed : int, optional
+        Seed of the first gain set's realizations; the i-th gain set uses ``seed + i``.
+    w0 : numpy.ndarray, shape (3,), optional
+        Initial rate w(0) (rad/s), the same for every realization; default
+        :data:`W0_DIRECTION`.
+    orbits : int, optional
+        Orbits simulated, at least 1.
+
+    Returns
+    -------
+    list of LinearRun
+        One per gain set, in the order of ``gains``.
 
     Raises
     ------
@@ -77,7 +123,23 @@ def linear_campaign(gains: dict[str, np.ndarray], n_runs: int = 2000, seed: int 
 
 @dataclass
 class SweepRow:
-    """One controller from one initial rate, two orbits on the nonlinear plant."""
+    """One controller from one initial rate, two orbits on the nonlinear plant.
+
+    Parameters
+    ----------
+    controller : str
+        Label of the controller (a key of :data:`CONTROLLERS`).
+    w0 : float
+        Initial rate ``|w(0)|`` (rad/s).
+    final_ratio : float
+        ``|w|`` at the end of the run over ``|w(0)|``.
+    min_ratio : float
+        Smallest ``|w| / |w(0)|`` over the run.
+    effort : float
+        Dipole effort ``integral |m|^2 dt`` of the held dipole (A^2 m^4 s).
+    detumbled : bool
+        Whether ``final_ratio`` is at most :data:`REDUCTION`.
+    """
 
     controller: str
     w0: float
@@ -89,9 +151,25 @@ class SweepRow:
 
 def sweep(fmu_dir: Path, rates: Sequence[float], backend: str = "native",
           progress: Callable[[int, int, str], None] | None = None) -> list[SweepRow]:
-    """Run the scenario from each initial rate |w(0)| (rad/s, along :data:`W0_DIRECTION`).
+    """Run the scenario from each initial rate ``|w(0)|`` (rad/s, along :data:`W0_DIRECTION`).
 
     The effort is ``integral of |m|^2 dt`` of the dipole held over each step (A^2 m^4 s).
+
+    Parameters
+    ----------
+    fmu_dir : Path
+        Folder of the scenario's FMUs (not built here: :func:`run` builds the missing ones).
+    rates : sequence of float
+        Initial rates ``|w(0)|`` (rad/s), each finite and > 0; one simulation each.
+    backend : str, optional
+        FMU backend: ``"native"`` (compiled) or ``"python"`` (pythonfmu).
+    progress : callable, optional
+        ``progress(done, total, message)``, called after each rate.
+
+    Returns
+    -------
+    list of SweepRow
+        One per rate and controller of :data:`CONTROLLERS`.
 
     Raises
     ------
@@ -113,7 +191,8 @@ def sweep(fmu_dir: Path, rates: Sequence[float], backend: str = "native",
         dt = np.diff(res["time"])
         for label, (plant, ctrl) in CONTROLLERS.items():
             w = res[f"{plant}.rate_norm"]
-            m2 = sum(res[f"{ctrl}.m[{i}]"] ** 2 for i in (1, 2, 3))  # held over each step
+            m = [res[f"{ctrl}.m[{i}]"] for i in (1, 2, 3)]
+            m2 = m[0] ** 2 + m[1] ** 2 + m[2] ** 2  # held over each step
             ratio = w / w[0]
             rows.append(SweepRow(label, float(rate), float(ratio[-1]), float(ratio.min()),
                                  float(np.sum(m2[:-1] * dt)), bool(ratio[-1] <= REDUCTION)))
@@ -125,7 +204,18 @@ def sweep(fmu_dir: Path, rates: Sequence[float], backend: str = "native",
 def detumbled_band(rows: Sequence[SweepRow]) -> dict[str, tuple[float, float]]:
     """Per controller: the contiguous band ``(low, high)`` of swept initial rates detumbled 10x that
     ends at the largest rate detumbled; (NaN, NaN) when none is. Below the band B-dot cannot
-    reach 10x: its own equilibrium spins the body with the field, about twice the orbit rate."""
+    reach 10x: its own equilibrium spins the body with the field, about twice the orbit rate.
+
+    Parameters
+    ----------
+    rows : sequence of SweepRow
+        The rows of :func:`sweep`.
+
+    Returns
+    -------
+    dict of str to (float, float)
+        Controller label -> lowest and highest initial rate of the band (rad/s).
+    """
     out = {}
     for label in dict.fromkeys(r.controller for r in rows):
         mine = sorted((r for r in rows if r.controller == label), key=lambda r: r.w0)
@@ -141,7 +231,13 @@ def detumbled_band(rows: Sequence[SweepRow]) -> dict[str, tuple[float, float]]:
 
 
 def sweep_table(rows: Sequence[SweepRow]) -> str:
-    """Markdown table: one row per initial rate, ratio and effort per controller."""
+    """Markdown table: one row per initial rate, ratio and effort per controller.
+
+    Parameters
+    ----------
+    rows : sequence of SweepRow
+        The rows of :func:`sweep`, one per rate and controller.
+    """
     labels = list(dict.fromkeys(r.controller for r in rows))
     head = "| |w(0)| rad/s | " + " | ".join(f"{c}: |w(2T)|/|w(0)| | {c}: effort A^2 m^4 s" for c in labels) + " |"
     lines = [head, "|" + "---|" * (1 + 2 * len(labels))]
@@ -155,14 +251,26 @@ def sweep_table(rows: Sequence[SweepRow]) -> str:
 
 
 DEFAULT_RATES = tuple(float(r) for r in np.geomspace(1e-4, 1.0, 17))
-"""Initial rates |w(0)| of the sweep by default, rad/s."""
+"""Initial rates ``|w(0)|`` of the sweep by default, rad/s."""
 GAIN_SETS = {"satfmu": "cubesat_periodic_satfmu", "published": "cubesat_periodic_published"}
 """Label -> artifact of the periodic gains of the linear campaign."""
 
 
 @dataclass
 class DetumbleReport:
-    """What :func:`run` computed and wrote: the linear campaign and the nonlinear sweep."""
+    """What :func:`run` computed and wrote: the linear campaign and the nonlinear sweep.
+
+    Parameters
+    ----------
+    linear : list of LinearRun
+        The linear campaign (:func:`linear_campaign`), one run per gain set of :data:`GAIN_SETS`.
+    samples : int
+        Monte Carlo realizations per gain set.
+    sweep : list of SweepRow
+        The nonlinear sweep (:func:`sweep`).
+    files : dict of str to Path
+        The files written, by key: ``linear_fig2``, ``sweep_md``, ``sweep_csv``, ``sweep_png``.
+    """
 
     linear: list[LinearRun]
     samples: int
@@ -208,14 +316,20 @@ def run(fmu_dir: Path, out_dir: Path, *, samples: int = 2000, seed: int = 0,
     seed : int
         Seed of the realizations.
     rates : sequence of float
-        Initial rates |w(0)| of the sweep, rad/s.
+        Initial rates ``|w(0)|`` of the sweep, rad/s.
     progress : callable, optional
         Called after each rate of the sweep.
     """
     from satfmu.controllers import artifact as artifacts
     from satfmu.sims import paths, plots
 
-    gains = {label: artifacts.load(paths.find_artifact(name)).gains for label, name in GAIN_SETS.items()}
+    def periodic_gains(name: str) -> np.ndarray:
+        art = artifacts.load(paths.find_artifact(name))
+        if not isinstance(art, artifacts.PeriodicArtifact):
+            raise ValueError(f"artifact {name!r} is not a periodic gain schedule (kind periodic_gain_schedule)")
+        return art.gains
+
+    gains = {label: periodic_gains(name) for label, name in GAIN_SETS.items()}
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     files = {"linear_fig2": out_dir / "linear_fig2.png", "sweep_md": out_dir / "sweep.md",

@@ -128,7 +128,30 @@ class Distribution:
         return self.target[len(self.owner) + 1:]
 
     def draw(self, rng: np.random.Generator, nominal: Nominal | None, where: str) -> Any:
-        """One value from ``rng`` (``nominal`` gives the default ``mean``), transformed."""
+        """One value from ``rng`` (``nominal`` gives the default ``mean``), transformed.
+
+        Parameters
+        ----------
+        rng : numpy.random.Generator
+            The sample's generator (:meth:`Dispersions.sample`).
+        nominal : callable or None
+            (instance or ``"profiles[i]"``, name) -> nominal value or None (:data:`Nominal`);
+            gives the ``mean`` of a ``normal`` or ``truncated_normal`` that has none (None: no
+            FMU to ask).
+        where : str
+            Key path of the entry, named in errors.
+
+        Returns
+        -------
+        float, int or object
+            The value, in the target's unit: an int for ``seed``, one of the ``values`` for
+            ``choice``.
+
+        Raises
+        ------
+        DispersionError
+            If the mean is needed and neither given nor nominal.
+        """
         value = self._draw(rng, nominal, where)
         transform = self.spec.get("transform")
         return value if transform is None else TRANSFORMS[transform](value)
@@ -180,7 +203,29 @@ class Attitude:
 
     def draw(self, rng: np.random.Generator, nominal: Nominal | None, where: str) -> dict[str, float]:
         """The attitude parameters of one sample (``nominal`` gives the nominal attitude of a
-        cone and the parameters the plant has)."""
+        cone and the parameters the plant has).
+
+        Parameters
+        ----------
+        rng : numpy.random.Generator
+            The sample's generator (:meth:`Dispersions.sample`).
+        nominal : callable or None
+            (instance or ``"profiles[i]"``, name) -> nominal value or None (:data:`Nominal`);
+            tells which attitude parameters the plant has and gives a cone's nominal attitude
+            (None: no FMU to ask).
+        where : str
+            Key path of the entry, named in errors.
+
+        Returns
+        -------
+        dict of str to float
+            ``sigma_0[1..3]`` (MRP) or ``q_0[1..4]`` (quaternion, scalar last), or the named base's.
+
+        Raises
+        ------
+        DispersionError
+            If the parameter base cannot be told, or a cone lacks its nominal attitude.
+        """
         mrp, quat = self.mrp, self.quaternion
         if mrp is None and quat is None:
             if nominal is None:
@@ -200,6 +245,8 @@ class Attitude:
             values = [nominal(self.instance, k) if nominal is not None else None for k in names]
             if any(v is None for v in values):
                 raise DispersionError(f"{where}: a cone needs the nominal attitude {self.instance}.{base}[1..{n}]")
+            if self.half_angle_deg is None:
+                raise DispersionError(f"{where}: a cone needs 'half_angle_deg'")
             r0 = Rotation.from_mrp(values) if mrp is not None else Rotation.from_quat(values)
             r = cone_rotation(rng, self.half_angle_deg) * r0
         v = r.as_mrp() if mrp is not None else r.as_quat()
@@ -226,7 +273,29 @@ class Inertia:
     axis_rotation_deg: float = 0.0
 
     def draw(self, rng: np.random.Generator, nominal: Nominal | None, where: str) -> dict[str, float]:
-        """The inertia parameters of one sample, kg m^2."""
+        """The inertia parameters of one sample, kg m^2.
+
+        Parameters
+        ----------
+        rng : numpy.random.Generator
+            The sample's generator (:meth:`Dispersions.sample`).
+        nominal : callable or None
+            (instance or ``"profiles[i]"``, name) -> nominal value or None (:data:`Nominal`);
+            gives the plant's nominal ``I_x, I_y, I_z`` and products; None raises.
+        where : str
+            Key path of the entry, named in errors.
+
+        Returns
+        -------
+        dict of str to float
+            ``I_x, I_y, I_z`` and, when the plant has them, ``I_xy, I_xz, I_yz`` (kg m^2).
+
+        Raises
+        ------
+        DispersionError
+            Without ``nominal`` or the plant's moments, or when no draw of :data:`MAX_REDRAWS` is a
+            rigid body.
+        """
         if nominal is None:
             raise DispersionError(f"{where}: needs the nominal inertia of {self.instance} (no FMU given)")
         values = {k: nominal(self.instance, k) for k in INERTIA_PARAMETERS}
@@ -255,7 +324,19 @@ class Inertia:
 
 def cone_rotation(rng: np.random.Generator, half_angle_deg: float) -> Rotation:
     """A rotation about a uniformly random axis by an angle theta with ``cos theta`` uniform
-    on ``[cos half_angle, 1]`` (theta <= ``half_angle_deg``, deg)."""
+    on ``[cos half_angle, 1]`` (theta <= ``half_angle_deg``, deg).
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+        The generator to draw from (the axis, then the angle).
+    half_angle_deg : float
+        Largest rotation angle, deg.
+
+    Returns
+    -------
+    scipy.spatial.transform.Rotation
+    """
     axis = rng.normal(size=3)
     theta = math.acos(rng.uniform(math.cos(math.radians(half_angle_deg)), 1.0))
     return Rotation.from_rotvec(theta * axis / np.linalg.norm(axis))
@@ -332,6 +413,8 @@ class Dispersions:
             (instance or ``"profiles[i]"``, name) -> nominal value or None if there is no such
             parameter; needed by a ``normal`` without ``mean``, a cone, an inertia and an
             attitude without a parameter base (:func:`satfmu.sims.scenario.nominal_values`).
+        where : str, optional
+            Key path of the table, named in errors.
 
         Returns
         -------

@@ -24,6 +24,18 @@ def trace_steps(n_rows: int, points: int) -> np.ndarray:
     """Indices of at most ``points`` recorded rows out of ``n_rows``, evenly spread, the first and
     the last included, increasing.
 
+    Parameters
+    ----------
+    n_rows : int
+        Recorded rows (communication points) of a run.
+    points : int
+        Most rows to keep, >= 2 (all of them when ``n_rows`` is smaller).
+
+    Returns
+    -------
+    numpy.ndarray
+        The row indices, int64.
+
     Raises
     ------
     ValueError
@@ -35,7 +47,15 @@ def trace_steps(n_rows: int, points: int) -> np.ndarray:
 
 
 def trace_columns(signal: str, count: int) -> list[str]:
-    """The row columns of one signal's trace: ``"<signal>@0"`` ... ``"<signal>@<count - 1>"``."""
+    """The row columns of one signal's trace: ``"<signal>@0"`` ... ``"<signal>@<count - 1>"``.
+
+    Parameters
+    ----------
+    signal : str
+        Qualified recorded signal (``"plant.theta[3]"``).
+    count : int
+        Points of the trace (:func:`trace_steps`).
+    """
     return [f"{signal}@{i}" for i in range(count)]
 
 

@@ -30,7 +30,13 @@ STATUS_NAMES = {OK: "OK", WARNING: "Warning", DISCARD: "Discard", ERROR: "Error"
 
 
 def status_name(status: int) -> str:
-    """``"OK"``, ``"Warning"``, ... for an fmi2Status (the number itself if it is none of them)."""
+    """``"OK"``, ``"Warning"``, ... for an fmi2Status (the number itself if it is none of them).
+
+    Parameters
+    ----------
+    status : int
+        The fmi2Status, 0 (OK) to 5 (Pending).
+    """
     return STATUS_NAMES.get(status, str(status))
 
 
@@ -45,7 +51,9 @@ class Message:
     status : int
         The fmi2Status of the message.
     category : str
+        The message category the FMU gave (e.g. ``"logStatusError"``).
     text : str
+        The message.
     """
 
     instance: str
@@ -69,7 +77,7 @@ class Callbacks:
     Parameters
     ----------
     sink : callable, optional
-        Receives each :class:`Message`; by default it is appended to :attr:`log`.
+        Receives each :class:`Message`; by default it is appended to ``log``.
 
     Attributes
     ----------
@@ -93,7 +101,13 @@ class Callbacks:
         self.functions.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
 
     def text(self, since: int = 0) -> str:
-        """The texts of the messages from index ``since`` on, one per line."""
+        """The texts of the messages from index ``since`` on, one per line.
+
+        Parameters
+        ----------
+        since : int, optional
+            Index in ``log`` of the first message (default 0: all of them).
+        """
         return "\n".join(m.text for m in self.log[since:])
 
 
@@ -102,6 +116,22 @@ def attempt(slave: FMU2Slave, method: str, *args: Any) -> tuple[int, Any]:
 
     fmpy raises ``FMICallException`` for fmi2Error and fmi2Fatal; its status is returned instead
     (the result is then None).
+
+    Parameters
+    ----------
+    slave : fmpy.fmi2.FMU2Slave
+        The FMU.
+    method : str
+        Name of the ``FMU2Slave`` method (``"doStep"``, ``"setReal"``, ...).
+    *args
+        Its arguments.
+
+    Returns
+    -------
+    status : int
+        ``OK``, or the fmi2Status of the exception.
+    result : object
+        What the method returned, None if it raised.
     """
     try:
         return OK, getattr(slave, method)(*args)
@@ -110,7 +140,17 @@ def attempt(slave: FMU2Slave, method: str, *args: Any) -> tuple[int, Any]:
 
 
 def call(slave: FMU2Slave, fn: str, *args: Any) -> int:
-    """The raw ``fmi2<fn>(component, *args)`` (e.g. ``"DoStep"``); returns its fmi2Status."""
+    """The raw ``fmi2<fn>(component, *args)`` (e.g. ``"DoStep"``); returns its fmi2Status.
+
+    Parameters
+    ----------
+    slave : fmpy.fmi2.FMU2Slave
+        The FMU, instantiated (its ``component`` is the first argument).
+    fn : str
+        The FMI function without its ``fmi2`` prefix (``"DoStep"``, ``"SetReal"``, ...).
+    *args
+        The arguments after the component, as the C function takes them (ctypes values).
+    """
     try:
         return getattr(slave, "fmi2" + fn)(slave.component, *args)
     except FMICallException as exc:
@@ -122,13 +162,25 @@ _ABANDONED: list[Any] = []
 
 def abandon(owner: Any) -> None:
     """Keep ``owner`` (an instance that returned fmi2Fatal, with its callbacks) alive for the
-    life of the process and never call it again, as FMI 2.0 requires."""
+    life of the process and never call it again, as FMI 2.0 requires.
+
+    Parameters
+    ----------
+    owner : object
+        What holds the instance and its callbacks: a tuple ``(slave, callbacks)`` of an
+        ``FMU2Slave`` and its :class:`Callbacks`, or an object owning both.
+    """
     _ABANDONED.append(owner)
 
 
 def open_fmu(path: str | Path) -> tuple[Any, str]:
     """Check ``path``'s archive (:func:`satfmu.fmus.archive.extract`), extract it into a private
     temporary folder and read its model description from there.
+
+    Parameters
+    ----------
+    path : str or Path
+        The FMU file.
 
     Returns
     -------

@@ -11,7 +11,7 @@ no Python runs between two steps.
 Times in libcosim are integer nanoseconds: the step size is rounded to 1 ns, and a step that
 is not a whole number of nanoseconds is refused. libcosim's fixed-step algorithm exchanges
 data after each step in Jacobi order (every output is read, then every input set), so
-:meth:`satfmu.sims.master.CoSimulation.run` with ``exchange="jacobi"`` is the run to compare with.
+:meth:`satfmu.sims.master.CoSimulation.run` with ``exchange_order="jacobi"`` is the run to compare with.
 The observer samples each point right after the step, before the exchange: an input shows the
 value used over the step that ended (:func:`run` shifts inputs back to the master's
 convention), and a direct-feedthrough output the value it passes on, computed from the
@@ -38,10 +38,18 @@ NS_PER_S = 1_000_000_000
 def nanoseconds(seconds: float, what: str) -> int:
     """``seconds`` as integer ns.
 
+    Parameters
+    ----------
+    seconds : float
+        A time, s.
+    what : str
+        Its name in the error message (``"step_size"``, which must also be positive).
+
     Raises
     ------
     EngineError
-        If it is not a whole number of nanoseconds (to 1e-6 ns).
+        If it is not a whole number of nanoseconds (to 1e-6 ns), or ``what`` is ``"step_size"``
+        and it is not positive.
     """
     ns = round(seconds * NS_PER_S)
     if ns <= 0 and what == "step_size" or abs(ns - seconds * NS_PER_S) > 1e-6 * max(1.0, abs(ns)):
@@ -153,7 +161,20 @@ def run(ssp: Path, record: Sequence[str], stop_time: float, step_size: float, st
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Child process: run the JSON job of ``argv[0]`` and write its samples."""
+    """Child process: run the JSON job of ``argv[0]`` and write its samples.
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        The command-line arguments: one JSON object with ``ssp``, ``record``, ``stop_time``,
+        ``step_size``, ``start_time`` and ``out`` (the ``.npz`` file to write); default
+        ``sys.argv[1:]``.
+
+    Returns
+    -------
+    int
+        The exit code: 0, or 1 after libcosim's error (printed to stderr).
+    """
     parser = argparse.ArgumentParser(prog="python -m satfmu.sims.libcosim")
     parser.add_argument("job", help="JSON: ssp, record, stop_time, step_size, start_time, out")
     job = json.loads(parser.parse_args(argv).job)
@@ -162,7 +183,7 @@ def main(argv: list[str] | None = None) -> int:
     except EngineError as exc:
         print(exc, file=sys.stderr)
         return 1
-    np.savez(job["out"], **data)
+    np.savez(job["out"], allow_pickle=True, **data)  # numpy's default, named: the arrays are the other keywords
     return 0
 
 

@@ -32,7 +32,7 @@ import shutil
 from collections import defaultdict
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 from fmpy.fmi1 import FMICallException
@@ -55,6 +55,23 @@ default threads, 6.0-6.3 s with one, the same wall time."""
 def start_value(comp: "Component", name: str, value: Any) -> tuple[Any, float | int | bool]:
     """The variable ``name`` of ``comp`` and ``value`` checked against its causality (parameter
     or input) and type (Real, Integer, Boolean), converted to that type.
+
+    Parameters
+    ----------
+    comp : Component
+        The FMU instance.
+    name : str
+        Name of the variable in the FMU (``"J[1,1]"``, ``"saturation_on"``).
+    value : float, int or bool
+        The value to set, in the variable's declared unit: a number for a Real, an int for an
+        Integer, a bool for a Boolean.
+
+    Returns
+    -------
+    variable : fmpy.model_description.ScalarVariable
+        The variable.
+    value : float, int or bool
+        ``value`` converted to the variable's type.
 
     Raises
     ------
@@ -84,7 +101,20 @@ ENGINES = ("auto", "compiled", "python")
 
 def recorded_steps(n_steps: int, record_every: int) -> np.ndarray:
     """The communication points recorded when every ``record_every``-th is: 0, m, 2m, ... and the
-    last, ``n_steps`` (the compiled loop's rule, ``sims/c/cosim_loop.c``)."""
+    last, ``n_steps`` (the compiled loop's rule, ``sims/c/cosim_loop.c``).
+
+    Parameters
+    ----------
+    n_steps : int
+        Number of communication steps of the run (points 0 ... ``n_steps``).
+    record_every : int
+        Record every ``record_every``-th point (>= 1).
+
+    Returns
+    -------
+    numpy.ndarray
+        The indices of the recorded points, increasing.
+    """
     steps = np.arange(0, n_steps + 1, record_every)
     return steps if steps[-1] == n_steps else np.append(steps, n_steps)
 
@@ -93,7 +123,22 @@ def communication_times(start_time: float, step_size: float, n_steps: int) -> np
     """``t_k = t0 + k h``, k = 0..n_steps, s: when t0 and h are whole nanoseconds, the correctly
     rounded ``(t0_ns + k h_ns) / 1e9``, the times libcosim passes to the FMUs (it counts integer
     nanoseconds), so a time-dependent FMU sees the same times in both engines; otherwise
-    ``t0 + h k`` in floating point."""
+    ``t0 + h k`` in floating point.
+
+    Parameters
+    ----------
+    start_time : float
+        ``t0``, s.
+    step_size : float
+        Communication step ``h``, s.
+    n_steps : int
+        Number of steps.
+
+    Returns
+    -------
+    numpy.ndarray
+        The times, s, shape (n_steps + 1,).
+    """
     ns = [start_time * 1e9, step_size * 1e9]
     if all(abs(v - round(v)) <= 1e-6 * max(1.0, abs(v)) for v in ns):
         return (round(ns[0]) + round(ns[1]) * np.arange(n_steps + 1, dtype=np.int64)) / 1e9
@@ -102,7 +147,29 @@ def communication_times(start_time: float, step_size: float, n_steps: int) -> np
 
 @dataclass
 class Component:
-    """One FMU instance in the co-simulation."""
+    """One FMU instance in the co-simulation.
+
+    Attributes
+    ----------
+    name : str
+        Instance name (the ``instance`` of ``"instance.variable"``).
+    path : Path
+        The FMU file.
+    model_description : fmpy.model_description.ModelDescription
+        Its model description, as fmpy reads it.
+    unzip_dir : str
+        Folder the FMU is extracted into (removed by :meth:`CoSimulation.close`).
+    slave : fmpy.fmi2.FMU2Slave
+        fmpy's handle of the FMU's library and instance.
+    variables : dict of str to fmpy.model_description.ScalarVariable
+        Every model variable, by name.
+    log : list of str, optional
+        The messages the FMU logged since its last instantiation or reset.
+    fatal : bool, optional
+        Set when the FMU returned fmi2Fatal: FMI then allows no further call, not even a free.
+    instantiated : bool, optional
+        An instance exists (between a run and the next with ``reuse_instances``).
+    """
 
     name: str
     path: Path
@@ -117,6 +184,18 @@ class Component:
     """An instance exists (between a run and the next with ``reuse_instances``)."""
 
     def variable(self, name: str) -> Any:
+        """The model variable ``name`` (fmpy's ``ScalarVariable``).
+
+        Parameters
+        ----------
+        name : str
+            Name of the variable in the FMU (``"omega[1]"``).
+
+        Raises
+        ------
+        UnknownVariableError
+            If the FMU has no such variable (listing its base names and the closest one).
+        """
         try:
             return self.variables[name]
         except KeyError:
@@ -126,7 +205,23 @@ class Component:
                 f"its variables are {', '.join(bases)}{did_you_mean(name.split('[')[0], bases)}") from None
 
     def expand(self, name: str) -> list[str]:
-        """``name`` itself, or every ``name[i]`` if ``name`` is a base name."""
+        """``name`` itself, or every ``name[i]`` if ``name`` is a base name.
+
+        Parameters
+        ----------
+        name : str
+            A variable name (``"omega[1]"``) or a base name (``"omega"``).
+
+        Returns
+        -------
+        list of str
+            The variable names, indices in increasing order.
+
+        Raises
+        ------
+        UnknownVariableError
+            If ``name`` is neither a variable nor a base name of one.
+        """
         if name in self.variables:
             return [name]
         indexed = [n for n in self.variables if n.startswith(name + "[")]
@@ -174,7 +269,7 @@ class CoSimulation:
         If an FMU file does not exist.
     """
 
-    def __init__(self, fmus: dict[str, str | Path], reuse_instances: bool = False) -> None:
+    def __init__(self, fmus: Mapping[str, str | Path], reuse_instances: bool = False) -> None:
         self.reuse_instances = reuse_instances
         self._pools: ThreadpoolController | None = None
         self._loop: Any = None  # the compiled loop's library, False if unavailable, None until asked
@@ -209,6 +304,18 @@ class CoSimulation:
     def resolve(self, qualified: str) -> tuple[Component, list[str]]:
         """Split ``"instance.variable"`` and expand base names.
 
+        Parameters
+        ----------
+        qualified : str
+            ``"instance.variable"``, the variable a full name or a base name (``"plant.omega"``).
+
+        Returns
+        -------
+        component : Component
+            The instance.
+        names : list of str
+            The variable names (:meth:`Component.expand`).
+
         Raises
         ------
         UnknownVariableError
@@ -226,13 +333,37 @@ class CoSimulation:
         return self._resolved[qualified]
 
     def unit(self, qualified: str) -> str:
-        """Declared unit of one variable (``"1"`` if none)."""
+        """Declared unit of one variable (``"1"`` if none).
+
+        Parameters
+        ----------
+        qualified : str
+            ``"instance.variable"``; for a base name, the unit of its first index.
+
+        Raises
+        ------
+        UnknownVariableError
+        """
         comp, names = self.resolve(qualified)
         var = comp.variable(names[0])
         return getattr(var, "unit", None) or getattr(getattr(var, "declaredType", None), "unit", None) or "1"
 
     def connect(self, source: str, target: str) -> None:
-        """Connect outputs to inputs; base names connect index by index."""
+        """Connect outputs to inputs; base names connect index by index.
+
+        Parameters
+        ----------
+        source : str
+            The Real output(s), ``"instance.variable"`` or a base name.
+        target : str
+            The Real input(s) it drives, as many as ``source`` names.
+
+        Raises
+        ------
+        UnknownVariableError, WiringError
+            An unknown variable, a count mismatch, a source that is not an output, a target
+            that is not an input, or a variable that is not Real.
+        """
         sc, sv = self.resolve(source)
         dc, dv = self.resolve(target)
         if len(sv) != len(dv):
@@ -248,7 +379,22 @@ class CoSimulation:
             self.connections.append((f"{sc.name}.{s}", f"{dc.name}.{d}"))
 
     def add_profile(self, target: str, profile: Profile) -> None:
-        """Feed ``profile`` to the input(s) ``target``."""
+        """Feed ``profile`` to the input(s) ``target``.
+
+        Parameters
+        ----------
+        target : str
+            The Real input(s), ``"instance.variable"`` or a base name (each index gets the
+            profile).
+        profile : satfmu.fmus.profiles.Profile
+            The signal, sampled at each communication point and held over the step, in the
+            input's unit.
+
+        Raises
+        ------
+        UnknownVariableError, WiringError
+            An unknown variable, or a target that is not a Real input.
+        """
         comp, names = self.resolve(target)
         for n in names:
             if comp.variable(n).causality != "input" or comp.variable(n).type != "Real":
@@ -385,9 +531,9 @@ class CoSimulation:
         ------
         ValueError, UnknownVariableError, WiringError, FmuCallError
         """
-        for label, v in (("start_time", start_time), ("stop_time", stop_time), ("step_size", step_size)):
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-                raise ValueError(f"{label} must be a finite number, got {v!r}")
+        for label, x in (("start_time", start_time), ("stop_time", stop_time), ("step_size", step_size)):
+            if isinstance(x, bool) or not isinstance(x, (int, float)) or not math.isfinite(x):
+                raise ValueError(f"{label} must be a finite number, got {x!r}")
         if step_size <= 0:
             raise ValueError(f"step_size must be > 0 s, got {step_size}")
         if exchange_order not in ("feedthrough", "jacobi"):

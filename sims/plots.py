@@ -20,6 +20,20 @@ def time_series(res: np.ndarray, panels: Sequence[Sequence[str]], path: Path, ti
     component, one line style per instance (solid for the first, dashed for the second...).
     A panel with one column per instance (one signal compared across controllers) gives
     each instance its own colour as well.
+
+    Parameters
+    ----------
+    res : numpy.ndarray
+        Recorded run: a structured array with a ``time`` field (s) and one field per column
+        (``"instance.variable"``), as :func:`satfmu.sims.scenario.simulate` returns it.
+    panels : sequence of sequence of str
+        The columns of each panel, top to bottom.
+    path : Path
+        The PNG file to write.
+    title : str, optional
+        Figure title (wrapped at 100 characters).
+    units : mapping of str to str, optional
+        Column -> unit, for the y labels; a column without one is labelled ``1``.
     """
     styles = ["-", "--", ":", "-."]
     fig, axes = plt.subplots(len(panels), 1, sharex=True, figsize=(8, 2.2 * len(panels) + 0.6), squeeze=False)
@@ -48,7 +62,20 @@ def time_series(res: np.ndarray, panels: Sequence[Sequence[str]], path: Path, ti
 def l2_ratio(t: np.ndarray, curves: Mapping[str, tuple[np.ndarray, float | None]], path: Path,
              title: str = "") -> None:
     """Truncated L2 ratio over T of each named curve, with its bound dashed in the same colour
-    (seed 000, Fig. 9)."""
+    (seed 000, Fig. 9).
+
+    Parameters
+    ----------
+    t : numpy.ndarray, shape (n,)
+        The horizon T of each sample (s).
+    curves : mapping of str to (numpy.ndarray, float or None)
+        Metric name -> its ratio curve, shape (n,) (:func:`satfmu.sims.metrics.l2_ratio_curve`),
+        and its upper bound (None: no bound drawn).
+    path : Path
+        The PNG file to write.
+    title : str, optional
+        Figure title.
+    """
     fig, ax = plt.subplots(figsize=(7, 3.2))
     for k, (name, (ratio, bound)) in enumerate(curves.items()):
         ax.plot(t, ratio, color=f"C{k}", label=name)
@@ -59,7 +86,17 @@ def l2_ratio(t: np.ndarray, curves: Mapping[str, tuple[np.ndarray, float | None]
 
 def tradeoff(rows: Sequence, path: Path, title: str = "") -> None:
     """Certified lambda against gamma, one line per variant (rows with ``gamma``, ``variant``,
-    ``lam``; an infinite lambda, no certified design, is left out)."""
+    ``lam``; an infinite lambda, no certified design, is left out).
+
+    Parameters
+    ----------
+    rows : sequence of satfmu.synthesis.h2hinf_sos.SweepRow
+        The points of the trade-off (:func:`satfmu.synthesis.h2hinf_sos.sweep`).
+    path : Path
+        The PNG file to write.
+    title : str, optional
+        Figure title.
+    """
     fig, ax = plt.subplots(figsize=(6, 3.6))
     for k, variant in enumerate(dict.fromkeys(r.variant for r in rows)):
         pts = sorted((r.gamma, r.lam) for r in rows if r.variant == variant and np.isfinite(r.lam))
@@ -88,7 +125,22 @@ def region_map(cells: Sequence, path: Path, boxes: Sequence = (),
                title: str = "") -> None:
     """A stability-region map over (q2, w4) like seed 002's Fig. 2: certified cells (objects
     with ``q2``, ``w4`` intervals and ``certified``, ``decay``) shaded by their decay bound,
-    failed cells hatched; ``boxes`` (same objects) outlined; ``trajectory`` (q2, w4) drawn."""
+    failed cells hatched; ``boxes`` (same objects) outlined; ``trajectory`` (q2, w4) drawn.
+
+    Parameters
+    ----------
+    cells : sequence of satfmu.synthesis.vscmg_region.BoxCertificate
+        The map's cells: ``q2`` (rad) and ``w4`` (rad/s) intervals, ``certified``, ``decay``
+        (1/s); they set the axis limits.
+    path : Path
+        The PNG file to write.
+    boxes : sequence of satfmu.synthesis.vscmg_region.BoxCertificate, optional
+        Boxes to outline (red when certified, black when not).
+    trajectory : (numpy.ndarray, numpy.ndarray), optional
+        q2 (rad) and w4 (rad/s) along a manoeuvre, same length.
+    title : str, optional
+        Figure title.
+    """
     from matplotlib.patches import Rectangle
 
     fig, ax = plt.subplots(figsize=(6.4, 4.4))
@@ -124,7 +176,16 @@ def detumble_linear(runs: Sequence, path: Path, title: str = "") -> None:
     """Seed 003 Fig. 2 analogue: rates and dipoles at the sampling instants of the linear model.
 
     ``runs`` are :class:`satfmu.sims.detumble.LinearRun`: per gain set, the exact RMS rate, the Monte
-    Carlo one, the 10-90 % band of |w(k)| and the median |m(k)|, against orbit time (min).
+    Carlo one, the 10-90 % band of ``|w(k)|`` and the median ``|m(k)|``, against orbit time (min).
+
+    Parameters
+    ----------
+    runs : sequence of satfmu.sims.detumble.LinearRun
+        One per gain set (:func:`satfmu.sims.detumble.linear_campaign`).
+    path : Path
+        The PNG file to write.
+    title : str, optional
+        Figure title.
     """
     fig, (ax_w, ax_m) = plt.subplots(2, 1, sharex=True, figsize=(8, 6))
     for i, r in enumerate(runs):
@@ -149,8 +210,18 @@ def detumble_linear(runs: Sequence, path: Path, title: str = "") -> None:
 
 
 def detumble_sweep(rows: Sequence, path: Path, title: str = "") -> None:
-    """|w(2 orbits)| / |w(0)| and dipole effort against |w(0)| per controller
-    (:class:`satfmu.sims.detumble.SweepRow`)."""
+    """``|w(2 orbits)| / |w(0)|`` and dipole effort against ``|w(0)|`` per controller
+    (:class:`satfmu.sims.detumble.SweepRow`).
+
+    Parameters
+    ----------
+    rows : sequence of satfmu.sims.detumble.SweepRow
+        The rows of :func:`satfmu.sims.detumble.sweep`.
+    path : Path
+        The PNG file to write.
+    title : str, optional
+        Figure title.
+    """
     fig, (ax_r, ax_e) = plt.subplots(2, 1, sharex=True, figsize=(8, 6))
     for label in dict.fromkeys(r.controller for r in rows):
         mine = sorted((r for r in rows if r.controller == label), key=lambda r: r.w0)

@@ -66,7 +66,13 @@ def fmu_problem(path: Path, model: str | None = None) -> str | None:
 
 
 def sha256_file(path: Path) -> str:
-    """Hex SHA-256 of a file's bytes (read in pieces: memory stays small whatever its size)."""
+    """Hex SHA-256 of a file's bytes (read in pieces: memory stays small whatever its size).
+
+    Parameters
+    ----------
+    path : Path
+        The file.
+    """
     with open(path, "rb") as fh:
         return hashlib.file_digest(fh, "sha256").hexdigest()
 
@@ -74,6 +80,14 @@ def sha256_file(path: Path) -> str:
 def stale_artifact(fmu: Path, model: str) -> str | None:
     """Why the controller FMU ``fmu`` of the artifact named ``model`` does not embed that
     artifact as its file is now, or None (it does, or no artifact file has that name).
+
+    Parameters
+    ----------
+    fmu : Path
+        The controller FMU file.
+    model : str
+        Its model name, which is the artifact's name (:func:`satfmu.sims.paths.find_artifact`);
+        a plant or generic model has no artifact (None).
 
     Returns
     -------

@@ -373,6 +373,21 @@ class Scenario:
                   path: Path | None = None) -> "Scenario":
         """A scenario from plain data with the TOML file's keys.
 
+        Parameters
+        ----------
+        data : mapping
+            The declaration (the keys of the module docstring's example).
+        base_dir : path, optional
+            Folder that relative FMU and CSV paths resolve against (default: the working folder).
+        where : str
+            Where the data comes from, the first part of every error's key path.
+        path : Path, optional
+            The TOML file it was read from.
+
+        Returns
+        -------
+        Scenario
+
         Raises
         ------
         ScenarioError
@@ -396,6 +411,15 @@ class Scenario:
     def from_toml(cls, path: str | Path) -> "Scenario":
         """Read a scenario file (relative paths in it resolve against its folder).
 
+        Parameters
+        ----------
+        path : path
+            The TOML file.
+
+        Returns
+        -------
+        Scenario
+
         Raises
         ------
         ScenarioError
@@ -417,7 +441,7 @@ class Result:
         Default FMU backend of the run.
     results : numpy structured array
         One row per communication time: ``time`` (s) and every recorded
-        ``instance.variable`` (its unit: :attr:`units`).
+        ``instance.variable`` (its unit: ``units``).
     metrics : list of satfmu.sims.metrics.MetricResult
         Name, value, unit, bounds and pass/fail of each metric.
     files : dict of str to Path
@@ -459,6 +483,15 @@ class Result:
     def metric(self, name: str) -> M.MetricResult:
         """The metric of that name.
 
+        Parameters
+        ----------
+        name : str
+            The metric's ``name`` in the scenario.
+
+        Returns
+        -------
+        satfmu.sims.metrics.MetricResult
+
         Raises
         ------
         KeyError
@@ -477,7 +510,13 @@ class Result:
                 "files": {k: str(v) for k, v in self.files.items()}, "warnings": self.warnings}
 
     def plot(self, path: str | Path) -> Path:
-        """Plot the recorded signals (the scenario's panels) to a PNG file; returns its path."""
+        """Plot the recorded signals (the scenario's panels) to a PNG file; returns its path.
+
+        Parameters
+        ----------
+        path : path
+            The PNG file (its folder is created if missing).
+        """
         from satfmu.sims import plots
 
         path = Path(path)
@@ -487,10 +526,10 @@ class Result:
 
     def write(self, folder: str | Path) -> dict[str, Path]:
         """Write ``<name>_<backend>.csv``, the plot(s), ``scenario_<backend>.json`` and
-        ``summary_<backend>.json`` into ``folder``; returns (and records in :attr:`files`) what
+        ``summary_<backend>.json`` into ``folder``; returns (and records in ``files``) what
         was written.
 
-        ``scenario_<backend>.json`` (written when :attr:`scenario` is known) holds what a report
+        ``scenario_<backend>.json`` (written when ``scenario`` is known) holds what a report
         of the run needs beside the summary: the scenario's declaration
         (:meth:`Scenario.to_dict`), the folder its relative paths resolve against, the backend,
         the FMU folder and each FMU file's name and SHA-256
@@ -499,6 +538,17 @@ class Result:
         The files of an earlier run of the same scenario and backend are removed first, every
         file is written whole (temporary name, then rename) and the summary comes last: a
         folder with a summary holds a complete run, one without it no run that looks complete.
+
+        Parameters
+        ----------
+        folder : path
+            The output folder (created if missing).
+
+        Returns
+        -------
+        dict of str to Path
+            ``csv``, ``plot``, ``l2_ratio_plot``, ``scenario``, ``summary`` (those written), and
+            any file recorded before (``sample`` of a replay).
         """
         folder = Path(folder)
         clear_outputs(folder, self.name, self.backend)
@@ -535,7 +585,17 @@ def _fields(obj: Any) -> dict[str, Any]:
 
 
 def clear_outputs(folder: Path, name: str, backend: str) -> None:
-    """Remove the result files of an earlier run of ``name`` with ``backend`` from ``folder``."""
+    """Remove the result files of an earlier run of ``name`` with ``backend`` from ``folder``.
+
+    Parameters
+    ----------
+    folder : Path
+        The run's output folder.
+    name : str
+        The scenario's name.
+    backend : str
+        The run's backend (``"native"`` or ``"python"``).
+    """
     for f in (f"{name}_{backend}.csv", f"{name}_{backend}.png", f"{name}_{backend}_l2_ratio.png",
               f"scenario_{backend}.json", f"summary_{backend}.json"):
         (Path(folder) / f).unlink(missing_ok=True)
@@ -568,6 +628,13 @@ def _strings(data: Mapping[str, Any], key: str, where: str, instances: list[str]
 
 def validate(data: Any, where: str = "scenario") -> None:
     """Check a scenario declaration (plain data); names are checked against the FMUs at run time.
+
+    Parameters
+    ----------
+    data : mapping
+        The declaration (any value: a non-mapping is refused).
+    where : str
+        Where it comes from (a file name), the first part of every error's key path.
 
     Raises
     ------
@@ -707,6 +774,15 @@ def nominal_values(scenario: Scenario, fmu_dir: str | Path | None = None, backen
     :func:`ensure_fmus`); None when the instance has no such parameter or the profile no such
     field.
 
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario.
+    fmu_dir : path, optional
+        Folder of the FMUs named by ``model`` (default :func:`satfmu.sims.paths.fmu_cache`).
+    backend : {"native", "python"}
+        Default backend of the instances (an instance's own ``backend`` overrides it).
+
     Returns
     -------
     callable
@@ -738,6 +814,11 @@ def nominal_values(scenario: Scenario, fmu_dir: str | Path | None = None, backen
 def resolve_path(name_or_path: str | Path) -> Path:
     """A scenario file path, or the shipped scenario of that name.
 
+    Parameters
+    ----------
+    name_or_path : str or Path
+        A path ending in ``.toml``, or a shipped scenario's name (``"mrp_200deg"``).
+
     Raises
     ------
     ScenarioError
@@ -759,6 +840,11 @@ def resolve_path(name_or_path: str | Path) -> Path:
 def load(scenario: "str | Path | Mapping[str, Any] | Scenario") -> Scenario:
     """A :class:`Scenario` from a shipped name, a TOML path, plain data, or itself.
 
+    Parameters
+    ----------
+    scenario : Scenario, dict, str or Path
+        A scenario (returned as it is), its plain data, a TOML file or a shipped scenario's name.
+
     Raises
     ------
     ScenarioError
@@ -772,7 +858,22 @@ def load(scenario: "str | Path | Mapping[str, Any] | Scenario") -> Scenario:
 
 def fmu_paths(scenario: Scenario, fmu_dir: Path, backend: str) -> dict[str, Path]:
     """Instance name -> FMU file, for the chosen default backend (``path`` entries resolve
-    against the scenario's folder, ``model`` entries name files in ``fmu_dir``)."""
+    against the scenario's folder, ``model`` entries name files in ``fmu_dir``).
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario.
+    fmu_dir : Path
+        Folder of the FMUs named by ``model``.
+    backend : {"native", "python"}
+        Default backend of the instances (an instance's own ``backend`` overrides it).
+
+    Raises
+    ------
+    ScenarioError
+        An unknown backend.
+    """
     if backend not in BACKENDS:
         raise ScenarioError(f"backend must be one of {sorted(BACKENDS)}, got {backend!r}"
                             f"{did_you_mean(str(backend), sorted(BACKENDS))}")
@@ -789,6 +890,11 @@ def fmu_paths(scenario: Scenario, fmu_dir: Path, backend: str) -> dict[str, Path
 def profiles(scenario: Scenario) -> list[tuple[str, Profile]]:
     """The scenario's disturbance profiles, built: (target ``instance.variable``, profile).
 
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario.
+
     Raises
     ------
     satfmu.fmus.profiles.ProfileError
@@ -800,21 +906,41 @@ def profiles(scenario: Scenario) -> list[tuple[str, Profile]]:
 
 
 def grid(scenario: Scenario) -> np.ndarray:
-    """The communication times of the scenario, s (as the master steps them)."""
+    """The communication times of the scenario, s (as the master steps them).
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario.
+    """
     t0 = scenario.start_time
     return communication_times(t0, scenario.step_size, round((scenario.stop_time - t0) / scenario.step_size))
 
 
 def recorded_times(scenario: Scenario) -> np.ndarray:
     """The communication times a run of the scenario records, s (every ``record_every``-th of
-    :func:`grid`, and the last)."""
+    :func:`grid`, and the last).
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario.
+    """
     t = grid(scenario)
     return t[recorded_steps(len(t) - 1, scenario.record_every)]
 
 
 def recorded(scenario: Scenario, sim: CoSimulation) -> list[str]:
     """The qualified variables a run of ``scenario`` records: its ``record`` list and every
-    signal its metrics read, base names expanded, each once."""
+    signal its metrics read, base names expanded, each once.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario.
+    sim : CoSimulation
+        The scenario's master (:func:`wire`).
+    """
     record = list(scenario.record)
     for m in scenario.metrics:
         record += m.signals + m.disturbances + m.versus
@@ -835,6 +961,10 @@ def design_mismatches(scenario: Scenario, sim: CoSimulation, rtol: float | None 
 
     Parameters
     ----------
+    scenario : Scenario
+        The scenario (its start values override the plants' declared ones).
+    sim : CoSimulation
+        The scenario's master, its FMUs loaded.
     rtol : float, optional
         Relative tolerance (default :data:`satfmu.controllers.artifact.DESIGN_RTOL`).
 
@@ -878,6 +1008,19 @@ def wire(scenario: Scenario, fmu_dir: Path, backend: str = "native", strict: boo
     signals and ``versus`` signals of different lengths. A controller paired with a plant
     other than its design plant is reported by a :class:`DesignMismatchWarning` (the lines
     are in ``sim.mismatches``), or refused with ``strict``.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario.
+    fmu_dir : Path
+        Folder of the FMUs named by ``model`` (:func:`ensure_fmus` has made them).
+    backend : {"native", "python"}
+        Default backend of the instances (an instance's own ``backend`` overrides it).
+    strict : bool
+        Refuse a design mismatch (:class:`ScenarioError`) instead of warning.
+    design_rtol : float, optional
+        Relative tolerance of the design comparison (:func:`design_mismatches`).
 
     Returns
     -------
@@ -995,6 +1138,19 @@ def simulate(scenario: Scenario, fmu_dir: Path, backend: str = "native", strict:
     """Run the scenario's co-simulation (wired and checked by :func:`wire`); returns the
     recorded array and the (closed) master.
 
+    Parameters
+    ----------
+    scenario, fmu_dir, backend, strict, design_rtol
+        As :func:`wire`.
+
+    Returns
+    -------
+    res : numpy.ndarray
+        Structured array: ``time`` (s) and every recorded ``instance.variable`` (:func:`recorded`),
+        one row per recorded communication point.
+    sim : CoSimulation
+        The master, closed (its components' units and signals can still be read).
+
     Raises
     ------
     ScenarioError
@@ -1024,6 +1180,18 @@ def resimulate(scenario: Scenario, sim: CoSimulation) -> np.ndarray:
     the scenario's and its start values checked, then it runs as :func:`simulate` runs it. With
     ``sim.reuse_instances`` the FMU instances are reset, not created again (a campaign's worker).
 
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario to run (a sample of the wired one).
+    sim : CoSimulation
+        The open master :func:`wire` made for the wired scenario; its profiles are replaced.
+
+    Returns
+    -------
+    numpy.ndarray
+        The recorded array, as :func:`simulate` returns it.
+
     Raises
     ------
     ScenarioError
@@ -1051,6 +1219,17 @@ def check(scenario: Scenario, fmu_dir: str | Path | None = None, backend: str = 
     (:func:`ensure_fmus`, which builds the missing ones) and the wiring (:func:`wire`).
     ``satfmu export-ssp`` and ``verify`` check a scenario with it.
 
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario.
+    fmu_dir : path, optional
+        Folder of the FMUs named by ``model`` (default :func:`satfmu.sims.paths.fmu_cache`).
+    backend : {"native", "python"}
+        Default backend of the instances (an instance's own ``backend`` overrides it).
+    allow_stale : bool
+        Accept a stale controller FMU outside the FMU cache (:func:`ensure_fmus`).
+
     Returns
     -------
     Path
@@ -1075,7 +1254,24 @@ def _checked(sim: CoSimulation, name: str, where: str) -> None:
 
 def evaluate(scenario: Scenario, res: np.ndarray, sim: CoSimulation
              ) -> tuple[list[M.MetricResult], dict[str, np.ndarray]]:
-    """Evaluate the scenario's metrics on a recorded run."""
+    """Evaluate the scenario's metrics on a recorded run.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario.
+    res : numpy.ndarray
+        The recorded run (:func:`simulate`): ``time`` (s) and the recorded signals.
+    sim : CoSimulation
+        The master that ran it (which signals are held FMU inputs, how base names expand).
+
+    Returns
+    -------
+    results : list of satfmu.sims.metrics.MetricResult
+        One per metric, in the scenario's order, values in the metrics' units.
+    curves : dict of str to numpy.ndarray
+        The truncated L2 ratio over T of each ``l2_ratio`` metric, by name.
+    """
     t = res["time"]
     held = sim.held_signals()
     out, curves = [], {}
@@ -1092,8 +1288,10 @@ def evaluate(scenario: Scenario, res: np.ndarray, sim: CoSimulation
         elif kind == "rms":
             value = M.rms(t, y, held=is_held)
         elif kind == "settling_time":
+            assert m.tolerance is not None  # validate(): settling_time needs a tolerance (_NEEDS)
             value = M.settling_time(t, y, float(m.tolerance))
         elif kind == "time_in_saturation":
+            assert m.limit is not None  # validate(): time_in_saturation needs a limit (_NEEDS)
             value = M.time_in_saturation(t, y, float(m.limit), held=is_held)
         elif kind == "integral_square":
             value = M.integral_square(t, y, [c in sim.input_signals() for c in cols])
@@ -1115,13 +1313,28 @@ def write_csv(res: np.ndarray, path: Path) -> None:
     Each number is the shortest text that reads back as the same float64 (``0.05``, ``1e-310``,
     ``-0``, ``nan``, ``inf``), written by Arrow's CSV writer in C++ (about 5x faster than a Python
     loop of ``repr``); the header is quoted where a name needs it (``a[1,2]``).
+
+    Parameters
+    ----------
+    res : numpy.ndarray
+        Structured array, one field per column.
+    path : Path
+        The CSV file (overwritten).
+
+    Raises
+    ------
+    ValueError
+        ``res`` has no named fields.
     """
     import pyarrow as pa
     from pyarrow import csv as pa_csv
 
+    names = res.dtype.names
+    if names is None:
+        raise ValueError(f"write_csv needs a structured array (named fields), got dtype {res.dtype}")
     with open(path, "w", newline="") as fh:
-        csv.writer(fh, lineterminator="\n").writerow(res.dtype.names)
-    table = pa.table({f"c{i}": np.ascontiguousarray(res[n], dtype=np.float64) for i, n in enumerate(res.dtype.names)})
+        csv.writer(fh, lineterminator="\n").writerow(names)
+    table = pa.table({f"c{i}": np.ascontiguousarray(res[n], dtype=np.float64) for i, n in enumerate(names)})
     with open(path, "ab") as fh:
         pa_csv.write_csv(table, fh, pa_csv.WriteOptions(include_header=False))
 
@@ -1168,6 +1381,7 @@ def run(scenario: "str | Path | Mapping[str, Any] | Scenario", fmu_dir: str | Pa
         clear_outputs(Path(out_dir) / sc.name, sc.name, backend)
     folder = ensure_fmus(sc, fmu_dir, backend, allow_stale)
     res, sim = simulate(sc, folder, backend, strict, design_rtol)
+    assert res.dtype.names is not None  # the master records a structured array (time, then the signals)
     mres, curves = evaluate(sc, res, sim)
     panels = sc.plot.get("panels") or [[r] for r in sc.record] or [m.signals for m in sc.metrics]
     cols = [_columns(sim, p) for p in panels]
@@ -1193,6 +1407,22 @@ def ensure_fmus(scenario: Scenario, fmu_dir: str | Path | None, backend: str, al
     :class:`StaleFmuWarning` and the FMU is used as it is. An FMU named by ``path`` is
     checked alike (not its model name or artifact), and never rebuilt.
 
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario.
+    fmu_dir : path or None
+        The FMU folder; None for the FMU cache (:func:`satfmu.sims.paths.fmu_cache`).
+    backend : {"native", "python"}
+        Default backend of the instances (an instance's own ``backend`` overrides it).
+    allow_stale : bool
+        Use a stale controller FMU outside the cache as it is, with a warning.
+
+    Returns
+    -------
+    Path
+        The FMU folder, resolved.
+
     Raises
     ------
     ScenarioError
@@ -1214,6 +1444,7 @@ def ensure_fmus(scenario: Scenario, fmu_dir: str | Path | None, backend: str, al
                 raise ScenarioError(f"{where}: fmus.{inst}.path: FMU file {p} {problem}")
             continue
         key = f"{where}: fmus.{inst}.model"
+        assert spec.model is not None  # validate(): exactly one of model and path
         if p.is_file():
             problem = preflight.fmu_problem(p, spec.model)
             stale = None if problem else preflight.stale_artifact(p, spec.model)

@@ -109,7 +109,23 @@ class ScenarioTask:
 
     def run_sample(self, index: int, sim: CoSimulation | None = None) -> tuple[dict[str, float], str | None]:
         """The row of sample ``index`` and, if it failed, its message (run through ``sim``, by
-        default :meth:`simulation`)."""
+        default :meth:`simulation`).
+
+        Parameters
+        ----------
+        index : int
+            Global sample index (>= 0).
+        sim : CoSimulation, optional
+            This task's wired master (default: :meth:`simulation`); wired anew by the next
+            sample when an FMU returned fmi2Fatal.
+
+        Returns
+        -------
+        row : dict of str to float
+            The task's columns (:attr:`columns`), NaN for the metrics of a sample that did not run.
+        message : str or None
+            Why the sample failed (the ``failed`` code is not 0), else None.
+        """
         row = dict.fromkeys(self.columns, math.nan)
         sim = self.simulation() if sim is None else sim
         try:
@@ -131,13 +147,14 @@ class ScenarioTask:
         steps = np.asarray(self.trace_steps, dtype=np.int64)
         for signal in self.envelopes:
             row.update(zip(E.trace_columns(signal, len(steps)), res[signal][steps].tolist()))
+        assert res.dtype.names is not None  # the master records a structured array
         bad = [c for c in res.dtype.names if not np.all(np.isfinite(res[c]))]
         row["passed"] = 0.0 if bad else float(all(m.passed for m in results))
         row["failed"] = 3.0 if bad else 0.0
         return row, (f"sample {index}: recorded signal(s) not finite: {', '.join(bad)}" if bad else None)
 
     def simulation(self) -> CoSimulation:
-        """This process's master of the scenario, wired once and kept (:data:`_WIRED`): its FMU
+        """This process's master of the scenario, wired once and kept (``_WIRED``): its FMU
         instances are reset between samples (``reuse_instances``), not created again."""
         key = hashlib.sha256(pickle.dumps(self, protocol=4)).hexdigest()
         sim = _WIRED.pop(key, None)
@@ -189,7 +206,7 @@ def _value(sampled: S.Scenario, owner: str, name: str) -> Any:
 
 def campaign(scenario: "str | Path | Mapping[str, Any] | S.Scenario", n: int, seed: int = 0, chunk: int | None = None,
              name: str | None = None, fmu_dir: str | Path | None = None, backend: str = "native",
-             envelopes: Sequence[str] = (), points: int = E.POINTS) -> Campaign:
+             envelopes: Sequence[str] = (), points: int = E.POINTS) -> Campaign[ScenarioTask]:
     """The Monte Carlo campaign of a scenario's ``[dispersions]`` (run it with :func:`satfmu.sims.campaign.run`).
 
     The nominal scenario is checked first (:func:`satfmu.sims.scenario.check`: its FMUs are built
@@ -263,7 +280,14 @@ def default_chunk(n: int) -> int:
     least 10 and at most 1000 samples each. Per chunk the driver writes a Parquet file and the
     campaign record and Dask schedules a task (milliseconds each); a chunk is also what an
     interruption loses. A pure function of ``n``, so a resumed campaign finds its chunks whatever
-    the number of workers."""
+    the number of workers.
+
+    Parameters
+    ----------
+    n : int
+        Number of samples of the campaign (a value that is not an integer gives 10: the
+        campaign refuses it itself).
+    """
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)):
         return 10  # the campaign refuses the count itself, naming it
     return int(min(1000, max(10, -(-int(n) // 100))))
@@ -307,7 +331,23 @@ def _canonical(scenario: S.Scenario) -> S.Scenario:
 def context(scenario: S.Scenario, fmu_dir: Path, backend: str) -> dict[str, Any]:
     """What ``campaign.json`` keeps of a scenario campaign (part of its identity): the scenario's
     declaration, the folder its relative paths resolve against, the backend, the FMU folder, and
-    each FMU file's name and SHA-256 (another binary is another campaign)."""
+    each FMU file's name and SHA-256 (another binary is another campaign).
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The campaign's (or run's) scenario.
+    fmu_dir : Path
+        The FMU folder the FMUs are read from.
+    backend : {"native", "python"}
+        Default backend of the instances.
+
+    Returns
+    -------
+    dict
+        Plain JSON data: ``scenario``, ``base_dir``, ``path``, ``backend``, ``fmu_dir`` and
+        ``fmus`` (instance -> ``{"file": ..., "sha256": ...}``).
+    """
     fmus = {inst: {"file": p.name, "sha256": preflight.sha256_file(p)}
             for inst, p in S.fmu_paths(scenario, Path(fmu_dir), backend).items()}
     return {"scenario": scenario.to_dict(), "base_dir": str(scenario.folder),
@@ -315,7 +355,7 @@ def context(scenario: S.Scenario, fmu_dir: Path, backend: str) -> dict[str, Any]
             "fmu_dir": str(fmu_dir), "fmus": fmus}
 
 
-def reopen(folder: str | Path, fmu_dir: str | Path | None = None) -> Campaign:
+def reopen(folder: str | Path, fmu_dir: str | Path | None = None) -> Campaign[ScenarioTask]:
     """The scenario campaign a folder holds, as :func:`campaign` made it (to replay a sample or
     report on it).
 
@@ -357,7 +397,15 @@ def reopen(folder: str | Path, fmu_dir: str | Path | None = None) -> Campaign:
 
 
 def explain(task: ScenarioTask, index: int) -> str | None:
-    """Why sample ``index`` failed (its message, the sample run again), None if it ran."""
+    """Why sample ``index`` failed (its message, the sample run again), None if it ran.
+
+    Parameters
+    ----------
+    task : ScenarioTask
+        The campaign's task (``campaign.task``).
+    index : int
+        Global sample index.
+    """
     return task.run_sample(int(index))[1]
 
 
@@ -368,6 +416,22 @@ class MetricStatistics:
     ``passes`` counts the samples within the metric's bounds (a failed sample is not);
     ``low`` and ``high`` bound the pass probability (Clopper-Pearson, at the campaign's
     confidence); the percentiles are over the samples with a finite value.
+
+    Attributes
+    ----------
+    name : str
+        The metric's name (``"all metrics (passed)"`` for the overall pass rate).
+    unit : str
+        The metric's unit.
+    n : int
+        Samples of the campaign, failed ones included.
+    passes : int
+        Samples within the metric's bounds.
+    low, high : float
+        Clopper-Pearson bounds of the pass probability, in [0, 1].
+    percentiles : dict of float to float
+        Percentile (%, :data:`PERCENTILES`) -> value in ``unit``; empty when no sample has a
+        finite value.
     """
 
     name: str
@@ -516,7 +580,7 @@ class CampaignResult:
         also in the folder's ``envelopes.parquet``), None if the campaign keeps none.
     """
 
-    campaign: Campaign
+    campaign: Campaign[ScenarioTask]
     folder: Path
     rows: pd.DataFrame
     statistics: Statistics
@@ -528,7 +592,18 @@ class CampaignResult:
         return bool((self.rows["passed"] == 1.0).all())
 
     def failures(self, count: int = 3) -> list[tuple[int, str | None]]:
-        """The first ``count`` samples that failed to run, with their messages (run again)."""
+        """The first ``count`` samples that failed to run, with their messages (run again).
+
+        Parameters
+        ----------
+        count : int
+            Most samples to run again (each takes a run's time).
+
+        Returns
+        -------
+        list of (int, str or None)
+            Sample index and message (:func:`explain`).
+        """
         failed = self.rows.loc[self.rows["failed"] > 0, "sample"].to_numpy(dtype=int)
         return [(int(i), explain(self.campaign.task, int(i))) for i in failed[:count]]
 
@@ -624,7 +699,15 @@ def campaign_row(folder: str | Path, sample: int) -> pd.Series | None:
 
 def replay_folder(campaign_name: str, sample: int) -> str:
     """Name of the folder :func:`replay` writes sample ``sample`` of a campaign into (inside
-    ``out_dir``): ``<campaign name>-sample<sample>``."""
+    ``out_dir``): ``<campaign name>-sample<sample>``.
+
+    Parameters
+    ----------
+    campaign_name : str
+        The campaign's name.
+    sample : int
+        Global sample index.
+    """
     return f"{campaign_name}-sample{int(sample)}"
 
 

@@ -69,6 +69,17 @@ def target_unit(scenario: Scenario, fmu_dir: Path, target: str, backend: str = "
     """The declared unit of the input ``target`` (``instance.variable``) in its FMU's model
     description (``"1"`` when it declares none).
 
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario whose FMUs hold the input.
+    fmu_dir : Path
+        Folder of the FMUs named by ``model``.
+    target : str
+        The input, ``"instance.variable"`` (an indexed name such as ``"plant.T_d[1]"``).
+    backend : {"native", "python"}, optional
+        Default FMU backend of the scenario's instances. Default ``"native"``.
+
     Raises
     ------
     SspError
@@ -103,6 +114,27 @@ def signal_components(scenario: Scenario, fmu_dir: Path, table_dir: Path, backen
     ``fmu_dir`` (built there when missing); those of another unit and the table generators are
     compiled into ``table_dir`` (again when their build digest is not their model's).
 
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario whose profiles are turned into generators.
+    fmu_dir : Path
+        Folder of the scenario's FMUs and of the dimensionless generic generators.
+    table_dir : Path
+        Folder receiving the generators compiled for a unit or a table.
+    backend : {"native", "python"}, optional
+        Default FMU backend of the scenario's instances (the generators are native either way).
+        Default ``"native"``.
+
+    Returns
+    -------
+    paths : dict of str to Path
+        Generator instance name -> FMU file.
+    parameters : dict of str to dict
+        Generator instance name -> {parameter name: value}: the profile's constants.
+    connections : list of dict of str to str
+        One ``{"from": "<generator>.<output>", "to": target}`` per profile.
+
     Raises
     ------
     satfmu.fmus.profiles.ProfileError
@@ -132,8 +164,24 @@ def system_structure(scenario: Scenario, fmu_dir: Path, backend: str = "native",
                      table_dir: Path | None = None) -> tuple[bytes, dict[str, Path]]:
     """``SystemStructure.ssd`` of ``scenario`` (validated) and the FMU files by resource path.
 
-    ``table_dir`` receives the compiled table generators of sampled profiles (default: a
-    ``signal_tables`` folder in ``fmu_dir``).
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario.
+    fmu_dir : Path
+        Folder of the FMUs.
+    backend : {"native", "python"}, optional
+        Default FMU backend of the scenario's instances. Default ``"native"``.
+    table_dir : Path, optional
+        Receives the compiled table generators of sampled profiles (default: a
+        ``signal_tables`` folder in ``fmu_dir``).
+
+    Returns
+    -------
+    ssd : bytes
+        The XML document, UTF-8.
+    resources : dict of str to Path
+        FMU file by its path in the SSP file (``resources/<file name>``).
 
     Raises
     ------
@@ -204,6 +252,11 @@ def system_structure(scenario: Scenario, fmu_dir: Path, backend: str = "native",
 def validate(root) -> None:
     """Check an SSD tree against the SSP 1.0 schemas (the description, and each inline parameter set).
 
+    Parameters
+    ----------
+    root : lxml.etree.Element
+        The ``ssd:SystemStructureDescription`` element.
+
     Raises
     ------
     SspError
@@ -228,6 +281,25 @@ def export(name_or_path: "str | Path | Scenario", fmu_dir: str | Path | None, ou
     missing ones built, and the wiring) before anything is written, and an earlier file of
     that name is removed first: a refused or failed export leaves no file (:func:`write`).
 
+    Parameters
+    ----------
+    name_or_path : str, Path or Scenario
+        Shipped scenario name, TOML file, or the scenario itself.
+    fmu_dir : str or Path, optional
+        Folder of the FMUs; None: the FMU cache (:func:`satfmu.sims.paths.fmu_cache`).
+    out : Path
+        The ``.ssp`` file, or a folder to receive ``<scenario>.ssp``.
+    backend : {"native", "python"}, optional
+        Default FMU backend of the scenario's instances. Default ``"native"``.
+    allow_stale : bool, optional
+        Use a stale controller FMU outside the FMU cache as it is (a warning), not an error.
+        Default False.
+
+    Returns
+    -------
+    Path
+        The file written.
+
     Raises
     ------
     ScenarioError
@@ -240,7 +312,15 @@ def export(name_or_path: "str | Path | Scenario", fmu_dir: str | Path | None, ou
 
 def target(scenario: Scenario, out: Path) -> Path:
     """The file an export of ``scenario`` to ``out`` writes: ``out`` itself if it is a ``.ssp``
-    path, else ``out/<scenario>.ssp``."""
+    path, else ``out/<scenario>.ssp``.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario (its name).
+    out : Path
+        A ``.ssp`` file or a folder.
+    """
     out = Path(out)
     return out if out.suffix == ".ssp" else out / f"{scenario.name}.ssp"
 
@@ -248,6 +328,22 @@ def target(scenario: Scenario, out: Path) -> Path:
 def write(scenario: Scenario, fmu_dir: Path, out: Path, backend: str = "native") -> Path:
     """Write a scenario :func:`satfmu.sims.scenario.check` accepted as an SSP file (:func:`target`),
     whole or not at all (:func:`satfmu.fmus.atomic.write_atomically`).
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario, already checked.
+    fmu_dir : Path
+        Folder of its FMUs (the one :func:`satfmu.sims.scenario.check` returned).
+    out : Path
+        The ``.ssp`` file, or a folder to receive ``<scenario>.ssp``.
+    backend : {"native", "python"}, optional
+        Default FMU backend of the scenario's instances. Default ``"native"``.
+
+    Returns
+    -------
+    Path
+        The file written.
 
     Raises
     ------

@@ -75,7 +75,17 @@ from satfmu.sims.scenario import Scenario, check, evaluate, fmu_paths, load, rec
 
 @dataclass(frozen=True)
 class Tolerance:
-    """``|a - b| <= atol + rtol * max|a|`` per variable, and why."""
+    """``|a - b| <= atol + rtol * max|a|`` per variable, and why.
+
+    Attributes
+    ----------
+    atol : float
+        Absolute allowance, in the unit of the variable compared.
+    rtol : float
+        Allowance relative to the largest magnitude ``max|a|`` of the reference signal.
+    reason : str
+        Why these values (shown in the report).
+    """
 
     atol: float
     rtol: float
@@ -88,11 +98,32 @@ TOLERANCES = {
                                        "signals that are zero but for rounding"),
     "ecos": Tolerance(1e-6, 1e-9, "ecos writes 6 decimals (rounding 5e-7), plus the libcosim margin"),
 }
+"""Default :class:`Tolerance` of each engine (``"libcosim"``, ``"ecos"``) against the master's Jacobi
+run; a scenario's ``[verify]`` table may widen it."""
 
 
 @dataclass
 class Comparison:
-    """One engine against the master's Jacobi run."""
+    """One engine against the master's Jacobi run.
+
+    Attributes
+    ----------
+    engine : str
+        The engine: ``"libcosim"``, ``"ecos"`` or ``"ecos (each native FMU alone)"``.
+    seconds : float
+        Wall time of the engine's run, s.
+    max_deviation : float
+        Largest ratio of deviation to allowance over the compared variables (<= 1 passes;
+        ``inf`` when the engine failed or missed a variable).
+    worst_variable : str
+        The variable of that ratio and its deviation (``"plant.omega[1] (3.2e-13)"``).
+    tolerance : Tolerance or None
+        The allowance applied (the engine's :data:`TOLERANCES` entry, or the scenario's wider one).
+    passed : bool
+        Whether every variable is within its allowance.
+    error : str, optional
+        What went wrong when the engine failed or did not report a variable; empty otherwise.
+    """
 
     engine: str
     seconds: float
@@ -106,7 +137,25 @@ class Comparison:
 @dataclass
 class SampledOrderCheck:
     """The Jacobi-order outputs of a scenario's sampled controllers against their
-    feedthrough-order outputs one step earlier (:func:`sampled_order_check`)."""
+    feedthrough-order outputs one step earlier (:func:`sampled_order_check`).
+
+    Attributes
+    ----------
+    controllers : list of str
+        The sampled controller instances checked (those without continuous states).
+    max_deviation : float
+        Largest ``|received_jacobi(t_k+1) - output_feedthrough(t_k)|`` over the checked signals,
+        in the unit of each signal.
+    worst_variable : str
+        The connection of that deviation (``"ctrl.m[1] -> plant.m[1]"``), empty if none.
+    passed : bool
+        Whether every deviation is within :data:`SAMPLED_ORDER_ATOL` (none) and no controller is
+        silent in Jacobi order where the feedthrough run commands.
+    error : str, optional
+        The silent outputs, if any; empty otherwise.
+    unchecked : list of str, optional
+        Sampled controllers with continuous states, not checked.
+    """
 
     controllers: list[str]
     """The sampled controller instances checked (those without continuous states)."""
@@ -116,12 +165,36 @@ class SampledOrderCheck:
     passed: bool
     error: str = ""
     unchecked: list[str] = field(default_factory=list)
-    """Sampled controllers with continuous states, not checked (:func:`_sampled_controllers`)."""
+    """Sampled controllers with continuous states, not checked (their output also moves with
+    their own state over the step)."""
 
 
 @dataclass
 class ScenarioReport:
-    """Verification of one scenario."""
+    """Verification of one scenario.
+
+    Attributes
+    ----------
+    scenario : str
+        Name of the scenario.
+    ssp : str
+        Path of the SSP file written for it.
+    n_variables : int
+        Number of Real outputs compared.
+    n_points : int
+        Number of communication points of the run.
+    master_seconds : float
+        Wall time of the master's feedthrough-order run, s.
+    metrics_passed : bool
+        Whether every metric of the scenario passed on the feedthrough-order run.
+    order_deviation : float
+        Largest deviation, relative to the signal's magnitude, of the master's feedthrough run
+        from its Jacobi run (information, not gated).
+    comparisons : list of Comparison, optional
+        One per engine.
+    sampled_order : SampledOrderCheck or None, optional
+        The exchange-order check of the sampled controllers (None: the scenario has none).
+    """
 
     scenario: str
     ssp: str
@@ -173,6 +246,17 @@ def run_ecos(ssp_path: Path, stop_time: float, step_size: float, timeout: float 
 
     Parameters
     ----------
+    ssp_path : Path
+        The SSP file, or with ``alone`` an FMU file.
+    stop_time : float
+        End of the run, s (the run starts at 0 s).
+    step_size : float
+        Communication step, s.
+    timeout : float, optional
+        Wall time after which ecos is stopped, s. Default 3600.
+    alone : bool, optional
+        ``ssp_path`` is one FMU, run alone as instance ``instance`` at its default parameters
+        and inputs (no parameter set applied). Default False.
     variables : sequence of str, optional
         The ``instance.variable`` names to log (an ecos CSV configuration); default every
         variable of every instance, parameters included (DEMETER's 60,000 steps: 162 MB of CSV
@@ -256,8 +340,9 @@ def _deviation(ref: dict[str, np.ndarray], other: dict[str, np.ndarray], tol: To
 def _ecos_alone(paths: dict[str, Path], stop_time: float, step_size: float
                 ) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
     """Each native FMU of ``paths`` alone in ecos and in the master (default parameters and
-    inputs): the master's outputs and ecos's, by ``file.variable``."""
-    ref, got = {}, {}
+    inputs): the master's outputs and ecos's (those ecos reported), by ``file.variable``."""
+    ref: dict[str, np.ndarray] = {}
+    got: dict[str, np.ndarray] = {}
     for path in sorted({p for p in paths.values() if not p.name.endswith("_py.fmu")}):
         with CoSimulation({"alone": path}) as sim:
             outs = [v.name for v in sim.components["alone"].model_description.modelVariables
@@ -265,13 +350,26 @@ def _ecos_alone(paths: dict[str, Path], stop_time: float, step_size: float
             res = sim.run(stop_time, step_size, record=[f"alone.{v}" for v in outs])
         cols = run_ecos(path, stop_time, step_size, alone=True)
         for v in outs:
-            ref[f"{path.stem}.{v}"], got[f"{path.stem}.{v}"] = res[f"alone.{v}"], cols.get(f"instance.{v}")
+            ref[f"{path.stem}.{v}"] = res[f"alone.{v}"]
+            if f"instance.{v}" in cols:  # a variable ecos did not report stays missing
+                got[f"{path.stem}.{v}"] = cols[f"instance.{v}"]
     return ref, got
 
 
 def feedthrough_outputs(sim: CoSimulation) -> set[str]:
     """Qualified Real outputs that depend directly on an input of their FMU (modelDescription
-    ``ModelStructure``)."""
+    ``ModelStructure``).
+
+    Parameters
+    ----------
+    sim : CoSimulation
+        The master holding the FMUs.
+
+    Returns
+    -------
+    set of str
+        The outputs as ``instance.variable``.
+    """
     out = set()
     for c in sim.components.values():
         for unknown in c.model_description.outputs:
@@ -305,7 +403,13 @@ def _structure(path: Path) -> tuple[bool, int] | None:
 def sampled_fmu(path: Path) -> bool:
     """Whether the FMU at ``path`` is one of satfmu's sampled FMUs (it holds values computed at
     sample instants): a native FMU whose ``sources/model.h`` defines ``NH`` > 0, or a pythonfmu
-    FMU whose generated model has a ``SAMPLER``. Any other FMU (not built by satfmu) is not."""
+    FMU whose generated model has a ``SAMPLER``. Any other FMU (not built by satfmu) is not.
+
+    Parameters
+    ----------
+    path : Path
+        The FMU file.
+    """
     found = _structure(path)
     return found is not None and found[0]
 
@@ -317,8 +421,8 @@ def _sampled_controllers(scenario: Scenario, paths: dict[str, Path]) -> tuple[li
     reader's value at t_k+1 is not their output at t_k even when every sample is right)."""
     sources = {c["from"].split(".", 1)[0] for c in scenario.data.get("connections", [])}
     found = {inst: _structure(paths[inst]) for inst in sorted(sources) if inst in paths}
-    sampled = [inst for inst, f in found.items() if f is not None and f[0]]
-    return ([inst for inst in sampled if found[inst][1] == 0], [inst for inst in sampled if found[inst][1] > 0])
+    sampled = {inst: f[1] for inst, f in found.items() if f is not None and f[0]}  # -> continuous states
+    return ([inst for inst, nx in sampled.items() if nx == 0], [inst for inst, nx in sampled.items() if nx > 0])
 
 
 def _inputs(sim: CoSimulation, instance: str) -> list[str]:
@@ -331,7 +435,29 @@ def delayed_deviation(received: np.ndarray, output: np.ndarray) -> tuple[float, 
     """How far what a Jacobi-order run passed on (``received`` at t_0 ... t_n) is from the
     feedthrough-order output (``output`` at t_0 ... t_n) one step later: the largest
     ``|received[k+1] - output[k]|``, and whether the Jacobi run is silent (identically zero)
-    where the feedthrough output is not."""
+    where the feedthrough output is not.
+
+    Parameters
+    ----------
+    received : numpy.ndarray
+        What the Jacobi-order run passed on to the driven input, shape (n + 1,), at t_0 ... t_n.
+    output : numpy.ndarray
+        The controller's output in the feedthrough-order run, shape (n + 1,), at t_0 ... t_n,
+        in the same unit.
+
+    Returns
+    -------
+    deviation : float
+        The largest ``|received[k+1] - output[k]|``, in the signal's unit.
+    silent : bool
+        Whether ``received`` is zero at t_1 ... t_n while ``output`` is not at some point of
+        t_0 ... t_n-1.
+
+    Raises
+    ------
+    ValueError
+        If the two series differ in shape or have fewer than two points.
+    """
     received, output = np.asarray(received, float), np.asarray(output, float)
     if received.shape != output.shape or received.size < 2:
         raise ValueError(f"expected two series of the same length >= 2, got {received.shape} and {output.shape}")
@@ -375,6 +501,7 @@ def sampled_order_check(scenario: Scenario, fmu_dir: Path, backend: str, res_ft:
     params = {inst: spec.get("parameters", {}) for inst, spec in d["fmus"].items()}
     worst, worst_name, silent_at = 0.0, "", []
     times = np.asarray(res_ft["time"], float)
+    assert res_ft.dtype.names is not None  # a structured array: it has a "time" field
     for ctrl in controllers:
         conns = [c for c in d.get("connections", []) if c["from"].split(".", 1)[0] == ctrl]
         sinks = {c["to"].split(".", 1)[0] for c in conns} - {ctrl}
@@ -383,9 +510,9 @@ def sampled_order_check(scenario: Scenario, fmu_dir: Path, backend: str, res_ft:
             pairs = []
             for c in conns:
                 _, outs = sim.resolve(c["from"])
-                dst, ins = sim.resolve(c["to"])
-                pairs += [(f"{ctrl}.{o}", f"{dst.name}.{i}") for o, i in zip(outs, ins)]
-                if dst.name != ctrl:
+                sink, ins = sim.resolve(c["to"])
+                pairs += [(f"{ctrl}.{o}", f"{sink.name}.{i}") for o, i in zip(outs, ins)]
+                if sink.name != ctrl:
                     sim.connect(c["from"], c["to"])
             for q in (q for q in _inputs(sim, ctrl) if q in res_ft.dtype.names):  # the driven ones
                 sim.add_profile(q, make_profile({"kind": "table", "times": times.tolist(),
@@ -526,7 +653,13 @@ def _verify(scenario: Scenario, fmu_dir: Path, out_dir: Path, backend: str, engi
 
 
 def markdown(reports: list[ScenarioReport]) -> str:
-    """The reports as a Markdown table (one row per scenario and engine)."""
+    """The reports as a Markdown table (one row per scenario and engine).
+
+    Parameters
+    ----------
+    reports : list of ScenarioReport
+        The reports of :func:`verify`, one per scenario.
+    """
     lines = ["| scenario | engine | variables x points | max deviation / allowance (worst variable) | "
              "time, s | result |", "|---|---|---|---|---|---|"]
     for r in reports:
@@ -557,22 +690,51 @@ def markdown(reports: list[ScenarioReport]) -> str:
 
 
 def report_files(out_dir: Path) -> tuple[Path, Path]:
-    """``verify.md`` and ``verify.json`` of ``out_dir``."""
+    """``verify.md`` and ``verify.json`` of ``out_dir``.
+
+    Parameters
+    ----------
+    out_dir : Path
+        The report folder.
+    """
     return out_dir / "verify.md", out_dir / "verify.json"
 
 
 def write(reports: list[ScenarioReport], out_dir: Path) -> tuple[Path, Path]:
-    """Write ``verify.md`` and ``verify.json`` into ``out_dir``, each whole or not at all."""
+    """Write ``verify.md`` and ``verify.json`` into ``out_dir``, each whole or not at all.
+
+    Parameters
+    ----------
+    reports : list of ScenarioReport
+        The reports of :func:`verify`, one per scenario.
+    out_dir : Path
+        The report folder (it must exist).
+
+    Returns
+    -------
+    tuple of Path
+        The Markdown and the JSON file.
+    """
     md, js = report_files(out_dir)
     payload = [dict(asdict(r), passed=r.passed) for r in reports]
     for path, text in ((md, markdown(reports)), (js, json.dumps(payload, indent=2, default=str))):
-        write_atomically(path, lambda tmp, text=text: tmp.write_text(text))
+        write_atomically(path, lambda tmp: tmp.write_text(text))
     return md, js
 
 
 @dataclass
 class VerifyRun:
-    """The reports of :func:`verify_all` and the files they were written to."""
+    """The reports of :func:`verify_all` and the files they were written to.
+
+    Attributes
+    ----------
+    reports : list of ScenarioReport
+        One per scenario, in the order verified.
+    md_path : Path
+        The Markdown report (``verify.md``).
+    json_path : Path
+        The JSON report (``verify.json``).
+    """
 
     reports: list[ScenarioReport]
     md_path: Path

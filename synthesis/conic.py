@@ -42,7 +42,23 @@ the words of :mod:`satfmu.synthesis.solve_policy`."""
 @dataclass
 class ConicProblem:
     """``min q^T x`` s.t. ``A x + s = b``, ``s`` in the product of cones (order: zero,
-    non-negative, then one PSD cone per entry of ``psd``, each of ``N (N + 1) / 2`` rows)."""
+    non-negative, then one PSD cone per entry of ``psd``, each of ``N (N + 1) / 2`` rows).
+
+    Attributes
+    ----------
+    q : numpy.ndarray, shape (n,)
+        Cost vector.
+    A : scipy.sparse.csc_matrix, shape (m, n)
+        Constraint matrix, rows in the cones' order.
+    b : numpy.ndarray, shape (m,)
+        Constraint right-hand side.
+    zero : int
+        Rows of the zero cone (equalities), first.
+    nonneg : int
+        Rows of the non-negative cone, next.
+    psd : list of int
+        Orders ``N`` of the PSD cones, last, each in scaled svec form (:func:`svec_indices`).
+    """
 
     q: np.ndarray
     A: sps.csc_matrix
@@ -59,7 +75,22 @@ class ConicResult:
     ``unbounded``, their ``_inaccurate`` forms, or Clarabel's own word for a failure, e.g.
     ``NumericalError``, ``MaxIterations``), ``x``
     when a solution is present, ``q^T x``, Clarabel's wall time (s, setting up and
-    solving) and, with ``x``, the dual ``z`` (one entry per row of ``A``, the cones' order)."""
+    solving) and, with ``x``, the dual ``z`` (one entry per row of ``A``, the cones' order).
+
+    Attributes
+    ----------
+    status : str
+        ``"optimal"``, ``"optimal_inaccurate"`` (:data:`SOLVED`), a refutation of :data:`REFUTED`
+        or Clarabel's status of a failure.
+    x : numpy.ndarray or None
+        The primal solution, shape (n,); None without a solution.
+    objective : float
+        ``q^T x``; nan without a solution.
+    seconds : float
+        Clarabel's wall time, setting up and solving (s).
+    z : numpy.ndarray or None, optional
+        The dual, shape (m,); None without a solution.
+    """
 
     status: str
     x: np.ndarray | None
@@ -70,13 +101,35 @@ class ConicResult:
 
 def svec_indices(N: int) -> tuple[np.ndarray, np.ndarray]:
     """Row and column ``(i, j)``, ``i <= j``, of each entry of the svec of an N x N matrix,
-    in Clarabel's order (upper triangle, column-major)."""
+    in Clarabel's order (upper triangle, column-major).
+
+    Parameters
+    ----------
+    N : int
+        Order of the matrix.
+
+    Returns
+    -------
+    i, j : numpy.ndarray of int, shape (N (N + 1) / 2,)
+        Row and column of each svec entry.
+    """
     j, i = np.tril_indices(N)
     return i, j
 
 
 def svec_scale(N: int) -> np.ndarray:
-    """1 on the diagonal, sqrt 2 off it, in :func:`svec_indices` order."""
+    """1 on the diagonal, sqrt 2 off it, in :func:`svec_indices` order.
+
+    Parameters
+    ----------
+    N : int
+        Order of the matrix.
+
+    Returns
+    -------
+    numpy.ndarray, shape (N (N + 1) / 2,)
+        The factor of each svec entry.
+    """
     i, j = svec_indices(N)
     return np.where(i == j, 1.0, np.sqrt(2.0))
 
@@ -145,6 +198,20 @@ def solve_clarabel(problem: ConicProblem, *, memory_limit: int | None = None, **
     ``settings`` are attributes of ``clarabel.DefaultSettings`` (e.g. ``tol_feas``);
     ``verbose`` is off unless given. ``memory_limit`` (bytes): solve in a child process allowed
     that much memory (module docstring); None: in this process.
+
+    Parameters
+    ----------
+    problem : ConicProblem
+        The program.
+    memory_limit : int, optional
+        Memory the solve may take, bytes: the solve runs in a child process whose address space
+        is capped that far above its own at start. None (default): solved in this process (so
+        too where the OS has no address-space limit).
+
+    Returns
+    -------
+    ConicResult
+        Clarabel's status, solution and time.
 
     Raises
     ------

@@ -1,6 +1,7 @@
 """Seed 003's instance of Theorem 2: the cubesat's rate subsystem, sampled every 15 min.
 
-The design model comes from the plant's own definition (:data:`satfmu.fmus.cubesat.MODEL`):
+The design model comes from the plant's own definition (``satfmu.fmus.cubesat.MODEL``, of
+:func:`satfmu.fmus.cubesat.build`):
 ``B(t) = d omega' / d m`` at ``q = [0 0 0 1]``, ``omega = 0``, the Fourier field, saturation
 off (seed eq. 7: rows ``[0, 200 bz, -200 by]``, ...). With a dipole held over each sample
 ``[k Ts, (k+1) Ts]`` and A = 0 (the gyroscopic term is quadratic), the exact discretization is
@@ -48,7 +49,19 @@ min (its quaternion columns are zero)."""
 
 def input_matrix(parameters: dict[str, float] | None = None):
     """Numpy function ``B(t)`` (3 x 3, rad/s^2 per A m^2) of the plant linearized at rest, orbit
-    time t (s); ``parameters`` override the plant's defaults (field model 0 is used)."""
+    time t (s); ``parameters`` override the plant's defaults (field model 0 is used).
+
+    Parameters
+    ----------
+    parameters : dict, optional
+        Values of the cubesat's parameters by name (``I_x``, ...) overriding the plant's
+        defaults (``satfmu.fmus.cubesat.MODEL``); the field model is always 0 (Fourier).
+
+    Returns
+    -------
+    callable
+        ``B(t)``: the orbit time t (s) -> numpy.ndarray, shape (3, 3).
+    """
     model = cubesat.MODEL
     values = {v.symbol: float(v.start) for v in model.parameters}
     values.update({sp.Symbol(k, real=True): float(v) for k, v in (parameters or {}).items()})
@@ -70,6 +83,23 @@ def held_integrals(Ts: float = TS_SEED, N: int = N_SEED, parameters: dict[str, f
 
     The integrand is a trigonometric polynomial of period >= T_orbit / 2; 24 nodes per hold
     of up to a sixth of the orbit are exact to rounding.
+
+    Parameters
+    ----------
+    Ts : float, optional
+        The hold (sample) period, s (default the seed's 900 s).
+    N : int, optional
+        Number of holds, from orbit time 0.
+    parameters : dict, optional
+        Values of the cubesat's parameters by name (``I_x``, ...) overriding the plant's
+        defaults (``satfmu.fmus.cubesat.MODEL``); the field model is always 0 (Fourier).
+    n_nodes : int, optional
+        Gauss-Legendre nodes per hold.
+
+    Returns
+    -------
+    numpy.ndarray, shape (N, 3, 3)
+        The integrals, rad/s per A m^2.
     """
     B = input_matrix(parameters)
     nodes, weights = np.polynomial.legendre.leggauss(n_nodes)
@@ -88,10 +118,34 @@ def system(Ts: float = TS_SEED, N: int = N_SEED, sigma: tuple[float, float, floa
     ``time_unit`` (s) divides the hold integrals: 60 integrates B(t) with t in minutes (the
     seed's field is printed with t in minutes; docs/models.md suspects its design did so).
 
+    Parameters
+    ----------
+    Ts : float, optional
+        The hold (sample) period, s (default the seed's 900 s).
+    N : int, optional
+        The period of the system in samples (default the seed's 6: one orbit).
+    sigma : tuple of 3 float, optional
+        Standard deviations of the noises on 1/I_x, 1/I_y, 1/I_z, 1/(kg m^2), each >= 0.
+    W1 : float, optional
+        Weight of the rates in the quality output ``z = [W1 omega; W2 m]``, per rad/s.
+    W2 : float, optional
+        Weight of the dipole in ``z``, per A m^2.
+    parameters : dict, optional
+        Values of the cubesat's parameters by name (``I_x``, ...) overriding the plant's
+        defaults (``satfmu.fmus.cubesat.MODEL``); the field model is always 0 (Fourier).
+    time_unit : float, optional
+        Divisor of the hold integrals, s (1: time in seconds; 60: in minutes).
+
+    Returns
+    -------
+    PeriodicSystem
+        ``A = I``, ``B1 = 1e-2 B2``, ``B2`` the held integrals with their noise patterns, and
+        ``C``, ``D`` of ``z``.
+
     Raises
     ------
     ValueError
-        If Ts, N, W1, W2 are not positive or a sigma is negative.
+        If Ts, N, W1, W2, time_unit are not positive or a sigma is negative.
     """
     if not (Ts > 0 and N >= 1 and W1 > 0 and W2 > 0 and time_unit > 0) or len(sigma) != 3 \
             or any(not s >= 0 for s in sigma):
@@ -124,7 +178,30 @@ REGION = ("the linear sampled rate model of seed 003 (eq. 7, q = identity, |omeg
 
 @dataclass
 class Synthesis:
-    """Seed 003's design and the analysis of the published gains, all numbers re-verified."""
+    """Seed 003's design and the analysis of the published gains, all numbers re-verified.
+
+    Attributes
+    ----------
+    system : PeriodicSystem
+        The design system (:func:`system`).
+    gamma_min : float
+        The smallest level Theorem 2 certifies (direct minimization).
+    bracket : tuple of (float, float, int)
+        ``(infeasible, feasible, n_solves)`` of the bisection on gamma; ``(nan, nan, 0)``
+        without it.
+    design : PeriodicDesign
+        The design at the chosen level.
+    published : PeriodicDesign or None
+        The analysis of the seed's :data:`PUBLISHED_GAINS` (None: Theorem 2 certifies no level
+        for them).
+    numbers : dict
+        The figures of the design and the analysis by name (``gamma_min``, ``gamma_design``,
+        ``ms_spectral_radius``, ...).
+    parameters : dict, optional
+        Plant parameters of the design that differ from seed 003's cubesat (its own inertia).
+    sigma : tuple of 3 float, optional
+        Standard deviations of the noises on 1/I_x, 1/I_y, 1/I_z, 1/(kg m^2).
+    """
 
     system: PeriodicSystem
     gamma_min: float
@@ -138,7 +215,27 @@ class Synthesis:
     """Standard deviations of the noises on 1/I_x, 1/I_y, 1/I_z, 1/(kg m^2)."""
 
     def artifact_data(self, name: str, F: np.ndarray, gamma: float, check: LMICheck, source: str) -> dict:
-        """Artifact (kind periodic_gain_schedule) of the gains ``F`` proved at ``gamma``."""
+        """Artifact (kind periodic_gain_schedule) of the gains ``F`` proved at ``gamma``.
+
+        Parameters
+        ----------
+        name : str
+            The artifact's name, lower_snake_case (the controller FMU's modelIdentifier).
+        F : numpy.ndarray, shape (N, 3, 3)
+            The gains ``F(k)``, A m^2 per rad/s (rows: dipole axes, columns: rates).
+        gamma : float
+            The level at which Theorem 2 holds with these gains.
+        check : LMICheck
+            The solver-independent check of the LMIs at ``gamma``, recorded in the certificate.
+        source : str
+            Where the gains come from (``"satfmu"``, ``"published (seed 003, gains as printed)"``), in
+            the description and provenance.
+
+        Returns
+        -------
+        dict
+            The artifact's JSON data (:class:`satfmu.controllers.artifact.PeriodicArtifact`).
+        """
         rho = ms_spectral_radius(self.system, F)
         proved = (f"Theorem 2 (seed 003) LMIs hold at gamma = {gamma:.6g} with these gains: every block's "
                   f"largest eigenvalue <= {check.block_max_eig.max():.3e}, Y(k) >= {check.y_min_eig.min():.3e} "
@@ -185,7 +282,8 @@ def synthesize(gamma: float | None = None, bisect: bool = True,
         if len(inertia) != 3 or not all(np.isfinite(v) and v > 0 for v in inertia):
             raise ValueError(f"inertia must be three finite moments > 0 (kg m^2), got {inertia}")
         parameters = {f"I_{a}": float(v) for a, v in zip("xyz", inertia)}
-        sigma = tuple(float(s * i0 / i) for s, i0, i in zip(SIGMA_SEED, cubesat.INERTIA_SEED_003, inertia))
+        sx, sy, sz = (float(s * i0 / i) for s, i0, i in zip(SIGMA_SEED, cubesat.INERTIA_SEED_003, inertia))
+        sigma = (sx, sy, sz)
     sys_ = system(sigma=sigma, parameters=parameters)
     best = gamma_min(sys_)
     if best is None:

@@ -51,6 +51,17 @@ def state_scale(dm: DesignModel) -> np.ndarray:
     path of the loop is 10^3 times another: the slow momentum mode (-a) and the stiff flexible
     coupling then stay within the solver's relative accuracy (without this, the robust row-1
     program stalls in Clarabel).
+
+    Parameters
+    ----------
+    dm : DesignModel
+        The design model of the variant.
+
+    Returns
+    -------
+    numpy.ndarray, shape (n,)
+        T, each state's scale in its own unit (rad, rad/s, rad s, N m s, N m, ...) per unit of
+        the scaled state.
     """
     na, nr = dm.na, dm.nr
     parts = [np.full(na, THETA_WORST), np.full(na, RATE_WORST), np.full(nr, 0.1), np.full(nr, 0.01),
@@ -66,7 +77,19 @@ def state_scale(dm: DesignModel) -> np.ndarray:
 
 def scaled_lft(dm: DesignModel, T: np.ndarray) -> LFTPlant:
     """The design model's LFT in the coordinates ``x_s = T^-1 x``, each uncertainty channel
-    balanced (:meth:`satfmu.synthesis.lft_plant.LFTPlant.balance_channels`)."""
+    balanced (:meth:`satfmu.synthesis.lft_plant.LFTPlant.balance_channels`).
+
+    Parameters
+    ----------
+    dm : DesignModel
+        The design model of the variant.
+    T : numpy.ndarray, shape (n,)
+        State scale of ``x = T x_s``, usually :func:`state_scale`.
+
+    Returns
+    -------
+    LFTPlant
+    """
     return LFTPlant(**dm.lft()).scale_states(T).balance_channels()
 
 
@@ -87,6 +110,20 @@ class CoincidentModes:
     J. Adaptive Control Signal Process. 16, 2002), which needs
     ``zeta > (omega_hi - omega_lo) / (2 sqrt(omega_lo omega_hi))``: the largest zeta of the box
     is far below, so no gain exists, whatever L.
+
+    Attributes
+    ----------
+    omega : tuple of float
+        ``(omega_lo, omega_hi)``, the ends of the omega interval, rad/s.
+    zeta : float
+        Damping ratio at which the oscillators are compared: the largest of the box.
+    required_zeta : float
+        ``(omega_hi - omega_lo) / (2 sqrt(omega_lo omega_hi))``, the damping ratio a common
+        Lyapunov matrix of the two ends would need.
+    eigenvalues : numpy.ndarray, shape (2,)
+        Eigenvalues of ``A_lo A_hi`` at the largest zeta.
+    n_free : int
+        Decoupled combinations at coincidence, ``n_r - n_axes``.
     """
 
     omega: tuple[float, float]
@@ -104,13 +141,33 @@ class CoincidentModes:
 
 
 def oscillator(omega: float, zeta: float) -> np.ndarray:
-    """``[[0, 1], [-omega^2, -2 zeta omega]]`` (omega in rad/s)."""
+    """``[[0, 1], [-omega^2, -2 zeta omega]]`` (omega in rad/s).
+
+    Parameters
+    ----------
+    omega : float
+        Natural frequency, rad/s.
+    zeta : float
+        Damping ratio.
+
+    Returns
+    -------
+    numpy.ndarray, shape (2, 2)
+        State matrix of ``e'' + 2 zeta omega e' + omega^2 e = 0`` in ``(e, e')``.
+    """
     return np.array([[0.0, 1.0], [-omega**2, -2.0 * zeta * omega]])
 
 
 def coincident_modes(variant: Variant) -> CoincidentModes | None:
     """The obstruction of :class:`CoincidentModes`, or None if the variant's groups cannot
-    leave a coordinate undriven (one group, or no more reduced coordinates than axes)."""
+    leave a coordinate undriven (one group, or no more reduced coordinates than axes).
+
+    Parameters
+    ----------
+    variant : Variant
+        The model variant (its design model is built with the substitute coupling; the
+        obstruction does not depend on L).
+    """
     dm = design_model(variant)
     if len(dm.groups) < 2 or dm.nr <= dm.na:
         return None
@@ -124,7 +181,24 @@ def coincident_modes(variant: Variant) -> CoincidentModes | None:
 
 @dataclass
 class SampledCheck:
-    """Closed loops of ``n`` plants drawn uniformly in the parameter box."""
+    """Closed loops of ``n`` plants drawn uniformly in the parameter box.
+
+    Attributes
+    ----------
+    n : int
+        Number of plants drawn.
+    seed : int
+        Seed of the generator (``numpy.random.default_rng``) that drew them.
+    max_real_pole : float
+        Largest real part of a closed-loop eigenvalue over the plants, 1/s.
+    min_real_pole : float
+        Smallest real part of a closed-loop eigenvalue over the plants, 1/s.
+    hinf : numpy.ndarray, shape (n,)
+        Exact H-infinity norm of ``w1 -> z1`` per plant, rad/(N m) (inf if unstable).
+    i2p : numpy.ndarray, shape (n,)
+        Impulse-to-peak value of ``w2 -> z2`` per plant (worst unit impulse direction), N m s
+        (inf if unstable).
+    """
 
     n: int
     seed: int
@@ -148,7 +222,25 @@ def closed_loop_values(dm: DesignModel, K: np.ndarray, deltas: np.ndarray,
     """Per plant of ``deltas`` (shape (S, N)), batched: ``max_real_pole``, ``min_real_pole`` (1/s),
     exact ``hinf`` of ``w1 -> z1`` (rad/(N m); inf if unstable) and ``i2p`` of ``w2 -> z2`` (N m s):
     the peak over the worst unit impulse direction of w2, or, with ``i2p_directions`` (S, m2),
-    along each sample's own direction (the R-RoMulOC toolbox's probabilistic i2p analysis)."""
+    along each sample's own direction (the R-RoMulOC toolbox's probabilistic i2p analysis).
+
+    Parameters
+    ----------
+    dm : DesignModel
+        The design model.
+    K : numpy.ndarray, shape (na, n)
+        Gain of ``u = K x`` on the design states, in physical units.
+    deltas : numpy.ndarray, shape (S, N)
+        Normalized parameters of the plants, one per row, in [-1, 1].
+    i2p_directions : numpy.ndarray, shape (S, m2), optional
+        Unit impulse direction of w2 for each sample (``m2 = 2 na``); default the worst
+        direction of each.
+
+    Returns
+    -------
+    dict of str to numpy.ndarray
+        ``"max_real_pole"``, ``"min_real_pole"``, ``"hinf"``, ``"i2p"``, each of shape (S,).
+    """
     A, Bu, B1 = dm.state_space(np.reshape(deltas, (-1, len(dm.parameters))))
     Acl = A + Bu @ K
     re = np.linalg.eigvals(Acl).real
@@ -163,7 +255,23 @@ def closed_loop_values(dm: DesignModel, K: np.ndarray, deltas: np.ndarray,
 
 
 def sampled_check(dm: DesignModel, K: np.ndarray, n: int = 100, seed: int = 0) -> SampledCheck:
-    """Poles, exact H-infinity norm ``w1 -> z1`` and impulse-to-peak ``w2 -> z2`` of ``n`` sampled loops."""
+    """Poles, exact H-infinity norm ``w1 -> z1`` and impulse-to-peak ``w2 -> z2`` of ``n`` sampled loops.
+
+    Parameters
+    ----------
+    dm : DesignModel
+        The design model.
+    K : numpy.ndarray, shape (na, n)
+        Gain of ``u = K x`` on the design states, in physical units.
+    n : int, optional
+        Number of plants, drawn uniformly in the box (:meth:`DesignModel.sample`).
+    seed : int, optional
+        Seed of the generator that draws them.
+
+    Returns
+    -------
+    SampledCheck
+    """
     v = closed_loop_values(dm, K, dm.sample(n, np.random.default_rng(seed)))
     return SampledCheck(n, seed, float(v["max_real_pole"].max(initial=-np.inf)),
                         float(v["min_real_pole"].min(initial=np.inf)), v["hinf"], v["i2p"])
@@ -171,7 +279,37 @@ def sampled_check(dm: DesignModel, K: np.ndarray, n: int = 100, seed: int = 0) -
 
 @dataclass
 class DeterministicResult:
-    """One Det row of Table 1: design bounds, analysis bounds, sampled check, seconds."""
+    """One Det row of Table 1: design bounds, analysis bounds, sampled check, seconds.
+
+    Attributes
+    ----------
+    variant : Variant
+        The model variant.
+    uncertainty : {"norm", "vertex"}
+        Multipliers of the design: D-G scalings or vertex separators (:func:`robust_multipliers`).
+    design : RobustDesign
+        The robust design, in the scaled coordinates ``x = T x_s`` (:func:`state_scale`).
+    K : numpy.ndarray, shape (na, n), or None
+        Gain of ``u = K x`` in physical units on the design states; None if no design.
+    analysis_hinf : PDLFResult, optional
+        H-infinity bound with a parameter-dependent Lyapunov function (None: not run or
+        skipped).
+    analysis_hinf_common : PDLFResult, optional
+        The same with a common Lyapunov function.
+    analysis_i2p : RobustDesign, optional
+        Impulse-to-peak bound of the gain
+        (:func:`satfmu.synthesis.robust_design.i2p_bound`).
+    analysis_skipped : str, optional
+        Why the H-infinity analysis was skipped (empty if it ran).
+    check : SampledCheck, optional
+        The sampled check of the gain.
+    seconds : dict of str to float, optional
+        Wall time, s, of ``"design"``, ``"analysis"`` and ``"sampled check"``.
+    obstruction : CoincidentModes, optional
+        Set when the variant is provably infeasible for any common-Lyapunov design.
+    note : str, optional
+        Set when the design or the i2p analysis used D-G scalings in place of vertex separators.
+    """
 
     variant: Variant
     uncertainty: str
@@ -194,7 +332,13 @@ class DeterministicResult:
 
 
 def uncertainty_kind(variant: Variant) -> str:
-    """"vertex" for interval parameters (type 2), "norm" otherwise."""
+    """"vertex" for interval parameters (type 2), "norm" otherwise.
+
+    Parameters
+    ----------
+    variant : Variant
+        The model variant (its ``uncertainty_type``).
+    """
     return "vertex" if variant.uncertainty_type == 2 else "norm"
 
 
@@ -203,7 +347,27 @@ def robust_multipliers(program, kind: str):
     the multipliers it used with a note: vertex separators, or D-G scalings when the vertex
     program exceeds the solver's memory (:class:`~satfmu.synthesis.lft_plant.ProgramTooLargeError`).
     D-G scalings certify the same box for real parameters (also time-varying), with a smaller
-    program (one LMI per specification instead of one per vertex) and more conservatism."""
+    program (one LMI per specification instead of one per vertex) and more conservatism.
+
+    Parameters
+    ----------
+    program : callable
+        ``program(kind)`` runs the design or analysis with ``uncertainty=kind`` and returns
+        its result.
+    kind : {"norm", "vertex"}
+        The multipliers asked for.
+
+    Returns
+    -------
+    tuple
+        ``(result, kind used, note)``; the note is empty unless D-G scalings replaced the
+        vertex separators.
+
+    Raises
+    ------
+    ProgramTooLargeError
+        If the program is too large with ``kind="norm"`` (no smaller program to fall back on).
+    """
     try:
         return program(kind), kind, ""
     except ProgramTooLargeError as exc:
@@ -215,7 +379,23 @@ def robust_multipliers(program, kind: str):
 @dataclass
 class Analysis:
     """Deterministic analysis of one gain over the whole box (:func:`analyse`); the H-infinity
-    bounds are None when their program is too large (``skipped`` says why)."""
+    bounds are None when their program is too large (``skipped`` says why).
+
+    Attributes
+    ----------
+    hinf : PDLFResult or None
+        H-infinity bound of ``w1 -> z1`` with a parameter-dependent Lyapunov function.
+    hinf_common : PDLFResult or None
+        The same with a common Lyapunov function.
+    i2p : RobustDesign
+        Impulse-to-peak bound of ``w2 -> z2`` (:func:`satfmu.synthesis.robust_design.i2p_bound`).
+    seconds : float
+        Wall time of the analysis, s.
+    skipped : str, optional
+        Why the H-infinity bounds are None (empty if they ran).
+    i2p_note : str, optional
+        Set when the i2p bound used D-G scalings in place of vertex separators (:func:`robust_multipliers`).
+    """
 
     hinf: PDLFResult | None
     hinf_common: PDLFResult | None
@@ -230,7 +410,21 @@ def analyse(dm: DesignModel, K: np.ndarray, T: np.ndarray | None = None) -> Anal
     """H-infinity bounds with a parameter-dependent and with a common Lyapunov function (on the
     LFT's descriptor; skipped above :data:`satfmu.synthesis.pdlf.PDLF_MAX_ENTRIES`) and the
     impulse-to-peak bound of ``u = K x`` (physical units), in the coordinates ``x = T x_s``
-    (default :func:`state_scale`)."""
+    (default :func:`state_scale`).
+
+    Parameters
+    ----------
+    dm : DesignModel
+        The design model.
+    K : numpy.ndarray, shape (na, n)
+        Gain of ``u = K x`` on the design states, in physical units.
+    T : numpy.ndarray, shape (n,), optional
+        State scale of the coordinates the programs are solved in; default :func:`state_scale`.
+
+    Returns
+    -------
+    Analysis
+    """
     t0 = time.perf_counter()
     T = state_scale(dm) if T is None else T
     plant = scaled_lft(dm, T)
@@ -250,7 +444,26 @@ def deterministic(variant: Variant, *, n_samples: int = 100, seed: int = 0, anal
                   convention: str = "satfmu") -> DeterministicResult:
     """Design, analyse and check one variant (see the module docstring); the design's LMIs and
     objective in ``convention`` (:func:`satfmu.synthesis.robust_design.design`: ours, or the R-RoMulOC
-    toolbox's); the analysis does not depend on it."""
+    toolbox's); the analysis does not depend on it.
+
+    Parameters
+    ----------
+    variant : Variant
+        The model variant.
+    n_samples : int, optional
+        Plants of the sampled check (:func:`sampled_check`).
+    seed : int, optional
+        Seed of the sampled check.
+    analysis : bool, optional
+        Run the deterministic analysis of the gain (:func:`analyse`).
+    convention : {"satfmu", "romuloc"}, optional
+        How the levels enter the design's LMIs and objective.
+
+    Returns
+    -------
+    DeterministicResult
+        With ``K`` None (and no analysis or check) when no design is found.
+    """
     dm = design_model(variant)
     T = state_scale(dm)
     plant = scaled_lft(dm, T)
@@ -279,7 +492,18 @@ def deterministic(variant: Variant, *, n_samples: int = 100, seed: int = 0, anal
 
 def design_record(dm: DesignModel) -> dict:
     """``provenance.design_plant`` of a design over ``dm``'s box: the DEMETER FMU's parameters at
-    the box centre, with the interval each uncertain one spans over the box."""
+    the box centre, with the interval each uncertain one spans over the box.
+
+    Parameters
+    ----------
+    dm : DesignModel
+        The design model whose box the design covers.
+
+    Returns
+    -------
+    dict
+        The record of :func:`satfmu.controllers.artifact.design_plant_record`.
+    """
     n = len(dm.parameters)
     centre, lows, highs = (dm.fmu_parameters(np.full(n, d)) for d in (0.0, -1.0, 1.0))
     real = {k: float(v) for k, v in centre.items() if not isinstance(v, bool)}
@@ -289,9 +513,29 @@ def design_record(dm: DesignModel) -> dict:
 
 def artifact_data(result: DeterministicResult, name: str) -> dict:
     """The controller artifact (kind ``linear_state_feedback``) of a feasible design: the FMU
-    gains, what was proved and on which box, the measured checks."""
-    if not result.feasible:
+    gains, what was proved and on which box, the measured checks.
+
+    Parameters
+    ----------
+    result : DeterministicResult
+        A feasible result of :func:`deterministic` (with its sampled check).
+    name : str
+        Name of the controller artifact.
+
+    Returns
+    -------
+    dict
+        The artifact's data (format ``satfmu-controller``, version 1).
+
+    Raises
+    ------
+    ValueError
+        If the result has no gain or no sampled check.
+    """
+    if result.K is None:  # not result.feasible
         raise ValueError(f"{result.variant.label}: no design to save ({result.design.status})")
+    if result.check is None:
+        raise ValueError(f"{result.variant.label}: no sampled check to record (deterministic() makes it)")
     dm = design_model(result.variant)
     d, c = result.design, result.check
     box = ", ".join(f"{p.name} in [{p.value(-1):.6g}, {p.value(1):.6g}]" for p in dm.parameters)

@@ -41,7 +41,19 @@ ANALYSIS_EPSILON, ANALYSIS_DELTA = 0.1, 1e-6
 
 def design_scale(dm: DesignModel) -> np.ndarray:
     """State scale of the randomized programs: :func:`satfmu.synthesis.demeter_design.state_scale` times
-    the square root of the nominal design's Lyapunov diagonal (unit diagonal at the nominal)."""
+    the square root of the nominal design's Lyapunov diagonal (unit diagonal at the nominal).
+
+    Parameters
+    ----------
+    dm : DesignModel
+        The design model of the variant.
+
+    Returns
+    -------
+    numpy.ndarray, shape (n,)
+        T of ``x = T x_s``, each state's scale in its own unit; :func:`~satfmu.synthesis.demeter_design.state_scale`
+        alone if the nominal design fails.
+    """
     T = dd.state_scale(dm)
     nominal = design(dd.scaled_lft(dm, T).at(np.zeros(len(dm.parameters))), w_hinf=dd.W_HINF,
                      w_i2p=dd.W_I2P, alpha=dd.ALPHA, beta=dd.BETA)
@@ -49,13 +61,39 @@ def design_scale(dm: DesignModel) -> np.ndarray:
 
 
 def n_decision(dm: DesignModel) -> int:
-    """Decision variables of the scenario program: Y (n(n+1)/2), W (m n), gamma and nu."""
+    """Decision variables of the scenario program: Y (n(n+1)/2), W (m n), gamma and nu.
+
+    Parameters
+    ----------
+    dm : DesignModel
+        The design model (``n`` states, ``m = na`` inputs).
+    """
     return dm.n * (dm.n + 1) // 2 + dm.na * dm.n + 2
 
 
 @dataclass
 class Analysis:
-    """Probabilistic analysis of one gain on N sampled plants (:func:`analyse`)."""
+    """Probabilistic analysis of one gain on N sampled plants (:func:`analyse`).
+
+    Attributes
+    ----------
+    n : int
+        Number of plants drawn.
+    seed : int
+        Seed of the generator that drew them.
+    max_real_pole : float
+        Largest real part of a closed-loop eigenvalue over the plants, 1/s.
+    min_real_pole : float
+        Smallest real part of a closed-loop eigenvalue over the plants, 1/s.
+    hinf : satfmu.synthesis.probabilistic.WorstCase
+        Worst case of the H-infinity norm of ``w1 -> z1``, rad/(N m).
+    i2p : satfmu.synthesis.probabilistic.WorstCase
+        Worst case of the impulse-to-peak value of ``w2 -> z2``, N m s.
+    seconds : float
+        Wall time of the analysis, s.
+    i2p_direction : {"worst", "random"}, optional
+        How the impulse of w2 was taken (:data:`I2P_DIRECTIONS`).
+    """
 
     n: int
     seed: int
@@ -75,7 +113,16 @@ class Analysis:
 @dataclass(frozen=True)
 class BoxSampler:
     """Parameter vectors uniform in ``[-1, 1]^n_params`` (the order of
-    :meth:`~satfmu.synthesis.demeter_variants.DesignModel.sample`): a picklable campaign sampler."""
+    :meth:`~satfmu.synthesis.demeter_variants.DesignModel.sample`): a picklable campaign sampler.
+
+    Called as ``sampler(rng, count)`` (a ``numpy.random.Generator`` and the number of vectors),
+    it returns an array of shape (count, n_params).
+
+    Parameters
+    ----------
+    n_params : int
+        Number of uncertain parameters N of the design model.
+    """
 
     n_params: int
 
@@ -87,13 +134,27 @@ class BoxSampler:
 class ClosedLoopSamples:
     """Per-sample closed-loop values of ``u = K x`` on a variant's design model: a pure task
     (picklable; deterministic in its input) mapping parameter vectors delta, shape (S, N), to
-    ``max_real_pole`` (1/s), ``hinf`` (rad/(N m); inf if unstable) and ``i2p`` (N m s)."""
+    ``max_real_pole`` (1/s), ``hinf`` (rad/(N m); inf if unstable) and ``i2p`` (N m s).
+
+    Called with ``deltas``, it returns the dict of
+    :func:`~satfmu.synthesis.demeter_design.closed_loop_values`.
+
+    Attributes
+    ----------
+    variant : Variant
+        The model variant.
+    K : numpy.ndarray, shape (na, n)
+        Gain of ``u = K x`` on the design states, in physical units.
+    _dm : DesignModel, optional
+        Cache of the variant's design model (built on first use, not pickled); leave it None.
+    """
 
     variant: Variant
     K: np.ndarray
     _dm: DesignModel | None = field(default=None, repr=False, compare=False)
 
     def design_model(self) -> DesignModel:
+        """The variant's design model, built on the first call and kept."""
         if self._dm is None:
             self._dm = design_model(self.variant)
         return self._dm
@@ -117,7 +178,35 @@ def analyse(variant: Variant, K: np.ndarray, *, n: int | None = None, seed: int 
     """Worst cases over ``n`` plants drawn uniformly in the box (default: the log-over-log
     count for epsilon, delta); the impulse of w2 in the worst direction of each sample, or, with
     ``i2p_direction="random"``, in one direction drawn uniformly on the unit sphere per sample
-    (after the plants, from the same generator)."""
+    (after the plants, from the same generator).
+
+    Parameters
+    ----------
+    variant : Variant
+        The model variant.
+    K : numpy.ndarray, shape (na, n)
+        Gain of ``u = K x`` on the design states, in physical units.
+    n : int, optional
+        Number of plants; default :func:`satfmu.synthesis.probabilistic.worst_case_samples` of
+        ``epsilon``, ``delta``.
+    seed : int, optional
+        Seed of the generator of the plants (and of the random directions).
+    epsilon : float, optional
+        Probability level of the worst-case statement.
+    delta : float, optional
+        One minus its confidence.
+    i2p_direction : {"worst", "random"}, optional
+        Impulse direction of w2 (:data:`I2P_DIRECTIONS`).
+
+    Returns
+    -------
+    Analysis
+
+    Raises
+    ------
+    OptionError
+        If ``i2p_direction`` is not one of :data:`I2P_DIRECTIONS`.
+    """
     if i2p_direction not in I2P_DIRECTIONS:
         raise OptionError(f"i2p_direction must be one of {I2P_DIRECTIONS}, got {i2p_direction!r}")
     n = pr.worst_case_samples(epsilon, delta) if n is None else n
@@ -137,7 +226,29 @@ def analyse(variant: Variant, K: np.ndarray, *, n: int | None = None, seed: int 
 
 @dataclass
 class ScenarioResult:
-    """One Prob row of Table 1: scenario design, probabilistic analysis, seconds."""
+    """One Prob row of Table 1: scenario design, probabilistic analysis, seconds.
+
+    Attributes
+    ----------
+    variant : Variant
+        The model variant.
+    design : RobustDesign
+        The scenario design, in the coordinates ``x = T x_s`` of :func:`design_scale`.
+    K : numpy.ndarray, shape (na, n), or None
+        Gain of ``u = K x`` in physical units on the design states; None if no design.
+    n_samples : int
+        Number of sampled plants of the program.
+    n_decision : int
+        Decision variables of the program (:func:`n_decision`).
+    epsilon : float
+        Violation probability of the scenario guarantee.
+    delta : float
+        One minus its confidence.
+    analysis : Analysis, optional
+        Probabilistic analysis of the gain (None: not run, or no design).
+    seconds : dict of str to float, optional
+        Wall time, s, of ``"design"`` and ``"analysis"``.
+    """
 
     variant: Variant
     design: RobustDesign
@@ -162,6 +273,34 @@ def scenario(variant: Variant, *, epsilon: float = SCENARIO_EPSILON, delta: floa
     ``n`` overrides the sample count, otherwise :func:`satfmu.synthesis.probabilistic.scenario_samples`
     with ``sample_bound`` (``"campi-garatti"``, exact; ``"romuloc"``, the toolbox's); the LMIs
     and the objective in ``convention`` (:func:`satfmu.synthesis.robust_design.design`).
+
+    Parameters
+    ----------
+    variant : Variant
+        The model variant.
+    epsilon : float, optional
+        Violation probability of the scenario guarantee.
+    delta : float, optional
+        One minus its confidence.
+    n : int, optional
+        Number of sampled plants, overriding the bound.
+    seed : int, optional
+        Seed of the sampled plants; the analysis uses ``seed + 1``.
+    analysis : bool, optional
+        Run the probabilistic analysis of the gain (:func:`analyse`).
+    convention : {"satfmu", "romuloc"}, optional
+        How the levels enter the LMIs and the objective.
+    sample_bound : {"campi-garatti", "romuloc"}, optional
+        The sample count's bound when ``n`` is not given.
+
+    Returns
+    -------
+    ScenarioResult
+
+    Raises
+    ------
+    OptionError
+        If ``n`` is below 1.
     """
     dm = design_model(variant)
     d = n_decision(dm)
@@ -183,7 +322,20 @@ def scenario(variant: Variant, *, epsilon: float = SCENARIO_EPSILON, delta: floa
 
 @dataclass
 class SequentialDesign:
-    """The sequential method started from the deterministic design, at its levels times ``scale``."""
+    """The sequential method started from the deterministic design, at its levels times ``scale``.
+
+    Attributes
+    ----------
+    variant : Variant
+        The model variant.
+    deterministic : RobustDesign
+        The deterministic design started from, in the coordinates of
+        :func:`~satfmu.synthesis.demeter_design.state_scale`.
+    result : satfmu.synthesis.sequential.SequentialResult
+        The sequential method's outcome, in the coordinates of :func:`design_scale`.
+    K : numpy.ndarray, shape (na, n), or None
+        Gain of ``u = K x`` in physical units on the design states; None unless validated.
+    """
 
     variant: Variant
     deterministic: RobustDesign
@@ -200,6 +352,25 @@ def sequential_design(variant: Variant, *, scale: float = 0.99, epsilon: float =
     """Lower the deterministic design's levels (gamma, nu) by ``scale`` and look for a gain that
     meets them on all but a fraction epsilon of the plants (:func:`satfmu.synthesis.sequential.sequential`,
     from the deterministic (Y, W), which meets the unscaled levels on the whole box).
+
+    Parameters
+    ----------
+    variant : Variant
+        The model variant.
+    scale : float, optional
+        Factor on the deterministic design's levels gamma and nu.
+    epsilon : float, optional
+        Violation probability of the validation.
+    delta : float, optional
+        One minus its confidence.
+    max_updates : int, optional
+        Updates of (Y, W) allowed before giving up.
+    seed : int, optional
+        Seed of the sample stream.
+
+    Returns
+    -------
+    SequentialDesign
 
     Raises
     ------

@@ -24,6 +24,7 @@ import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 from satfmu.synthesis import demeter_design as dd
 from satfmu.synthesis import demeter_random as dr
@@ -34,7 +35,43 @@ METHODS = ("Prob", "Det")
 
 @dataclass
 class Row:
-    """One row of Table 1 (ours), with the seed's values (``seed``, None if it reports infeasible)."""
+    """One row of Table 1 (ours), with the seed's values (``seed``, None if it reports infeasible).
+
+    Bounds and values are nan where not computed and inf where their program gave none.
+
+    Attributes
+    ----------
+    variant : Variant
+        The model variant.
+    method : {"Prob", "Det"}
+        Scenario or deterministic design.
+    status : str
+        ``"feasible"``, ``"infeasible (proved)"`` or ``"no design (<status>)"``.
+    design_i2p : float, optional
+        The design's impulse-to-peak bound, N m s.
+    design_hinf : float, optional
+        The design's H-infinity bound, rad/(N m).
+    det_i2p : float, optional
+        Deterministic analysis: impulse-to-peak bound, N m s.
+    det_hinf : float, optional
+        Deterministic analysis: H-infinity bound (parameter-dependent Lyapunov), rad/(N m).
+    prob_i2p : float, optional
+        Probabilistic analysis: worst sampled impulse-to-peak value, N m s.
+    prob_hinf : float, optional
+        Probabilistic analysis: worst sampled H-infinity norm, rad/(N m).
+    seconds : float, optional
+        Wall time of the design, s.
+    total_seconds : float, optional
+        Wall time of the row (design and analyses), s.
+    note : str, optional
+        Remarks: multipliers used, analyses skipped, obstruction, poles out of the region.
+    seed : tuple of float, optional
+        The seed's values of the row, in the order of
+        :data:`~satfmu.synthesis.demeter_variants.SEED_TABLE1_COLUMNS` (None: reported
+        infeasible, or not a row of the seed).
+    result : DeterministicResult or ScenarioResult, optional
+        The design behind the row (gain, certificates).
+    """
 
     variant: Variant
     method: str
@@ -64,11 +101,38 @@ def run_row(variant: Variant, method: str, *, n_scenarios: int | None = None, se
             convention: str = "satfmu") -> Row:
     """Design and analyse one row (module docstring). ``n_scenarios`` overrides the scenario count;
     ``n_samples`` plants are checked after a Det design (``result.check``); the designs' LMIs and
-    objective in ``convention`` (:func:`satfmu.synthesis.robust_design.design`)."""
+    objective in ``convention`` (:func:`satfmu.synthesis.robust_design.design`).
+
+    Parameters
+    ----------
+    variant : Variant
+        The model variant.
+    method : {"Prob", "Det"}
+        Scenario or deterministic design.
+    n_scenarios : int, optional
+        Number of scenarios of a Prob design; default the Campi-Garatti count.
+    seed : int, optional
+        Seed of the sampled plants of the design or the check; the probabilistic analysis
+        uses ``seed + 1``.
+    n_samples : int, optional
+        Plants of the sampled check after a Det design.
+    convention : {"satfmu", "romuloc"}, optional
+        How the levels enter the designs' LMIs and objective.
+
+    Returns
+    -------
+    Row
+
+    Raises
+    ------
+    ValueError
+        If ``method`` is not one of ``METHODS`` ("Prob", "Det").
+    """
     if method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")
     t0 = time.perf_counter()
     row = Row(variant, method, "", seed=SEED_TABLE1.get((variant, method)))
+    res: dd.DeterministicResult | dr.ScenarioResult
     if method == "Det":
         res = dd.deterministic(variant, n_samples=n_samples, seed=seed, convention=convention)
         design, K = res.design, res.K
@@ -92,11 +156,14 @@ def run_row(variant: Variant, method: str, *, n_scenarios: int | None = None, se
         # the proof covers the whole box (Det); scenarios only come near the coincident set
         row.status = "infeasible (proved)" if blocked and method == "Det" else f"no design ({design.status})"
         if blocked:
+            assert obstruction is not None  # blocked implies it
             row.note = (f"{row.note}; " if row.note else "") + (
                 f"coincident modes: {obstruction.n_free} free oscillator(s), need zeta > "
                 f"{obstruction.required_zeta:.3g}")
     else:
         row.status = "feasible"
+        # a design with a gain is "optimal": both bounds are set (the weights W_HINF, W_I2P are > 0)
+        assert design.nu is not None and design.gamma is not None
         row.design_i2p, row.design_hinf = design.nu, design.gamma
         p = dr.analyse(variant, K, seed=seed + 1)
         row.prob_i2p, row.prob_hinf = p.i2p.estimate, p.hinf.estimate
@@ -110,7 +177,13 @@ def cost_order(keys: list[tuple[Variant, str]]) -> list[tuple[Variant, str]]:
     """``keys`` with the dearest rows first, for :func:`run` with several jobs: the more axes, the
     larger the design model (one axis: 6-10 states, two: 16, three: 24), and a scenario design
     (hundreds to thousands of sampled plants) before the deterministic one of the same variant;
-    ties keep the seed's order. Longest first keeps the last row to finish short."""
+    ties keep the seed's order. Longest first keeps the last row to finish short.
+
+    Parameters
+    ----------
+    keys : list of tuple of (Variant, str)
+        The rows to run, as (variant, method).
+    """
     return sorted(keys, key=lambda k: (-len(k[0].axes), k[1] != "Prob"))
 
 
@@ -124,9 +197,31 @@ def run(selection: list[tuple[Variant, str]] | None = None, *, n_scenarios: int 
     every LMI solve uses one core (:data:`satfmu.synthesis.lmi.FACTORIZATION`), so ``jobs`` up to the
     core count shortens the wall time without slowing a row much. The rows returned keep the
     selection's order; ``progress`` is called as each one ends. The workers are started by
-    :mod:`multiprocessing`'s "spawn" (the same on Linux and Windows, no threads inherited), which
+    ``multiprocessing``'s "spawn" (the same on Linux and Windows, no threads inherited), which
     imports the calling script again: a script that calls this with ``jobs > 1`` needs the
     ``if __name__ == "__main__":`` guard.
+
+    Parameters
+    ----------
+    selection : list of tuple of (Variant, str), optional
+        The rows to run, as (variant, method); default every row of
+        :data:`~satfmu.synthesis.demeter_variants.SEED_TABLE1`.
+    n_scenarios : int, optional
+        Number of scenarios of the Prob designs (:func:`run_row`).
+    seed : int, optional
+        Seed of every row (:func:`run_row`).
+    progress : callable, optional
+        ``progress(done, total, label)`` after each row (``label``: the variant and method).
+    out_dir : Path, optional
+        Folder of ``table1.md`` and ``table1.csv``, rewritten after each row.
+    convention : {"satfmu", "romuloc"}, optional
+        How the levels enter the designs' LMIs and objective.
+    jobs : int, optional
+        Rows run at once, each in a worker process.
+
+    Returns
+    -------
+    list of Row
 
     Raises
     ------
@@ -145,7 +240,7 @@ def run(selection: list[tuple[Variant, str]] | None = None, *, n_scenarios: int 
         if progress is not None:
             progress(len(done), len(keys), f"{row.variant.label} {row.method}")
 
-    options = {"n_scenarios": n_scenarios, "seed": seed, "convention": convention}
+    options: dict[str, Any] = {"n_scenarios": n_scenarios, "seed": seed, "convention": convention}
     if jobs == 1:
         for variant, method in keys:
             finished(run_row(variant, method, **options))
@@ -163,7 +258,18 @@ def _cell(v: float) -> str:
 
 
 def markdown(rows: list[Row]) -> str:
-    """The table, ours then the seed's value in each cell ("ours / seed")."""
+    """The table, ours then the seed's value in each cell ("ours / seed").
+
+    Parameters
+    ----------
+    rows : list of Row
+        The rows, in the table's order.
+
+    Returns
+    -------
+    str
+        A Markdown table.
+    """
     head = ("| axes | appendages | model | unc | method | status | design i2p | design Hinf | det i2p | det Hinf | "
             "prob i2p | prob Hinf | seconds | note |")
     lines = [head, "|" + "---|" * 14]
@@ -191,7 +297,20 @@ def _merged(rows: list[Row], path_csv: Path) -> list[Row]:
 
 def write(rows: list[Row], out_dir: Path) -> list[Path]:
     """``table1.md`` and ``table1.csv`` (one line per row, our columns then the seed's), with the
-    rows already in ``table1.csv`` that ``rows`` do not replace (same variant and method)."""
+    rows already in ``table1.csv`` that ``rows`` do not replace (same variant and method).
+
+    Parameters
+    ----------
+    rows : list of Row
+        The rows to write.
+    out_dir : Path
+        Folder of the two files (created if missing).
+
+    Returns
+    -------
+    list of Path
+        The paths of ``table1.md`` and ``table1.csv``.
+    """
     out_dir.mkdir(parents=True, exist_ok=True)
     md, path_csv = out_dir / "table1.md", out_dir / "table1.csv"
     rows = _merged(rows, path_csv)
@@ -212,6 +331,15 @@ def write(rows: list[Row], out_dir: Path) -> list[Path]:
 def read(path_csv: Path) -> list[Row]:
     """The rows of a ``table1.csv`` of :func:`write` (without their designs: ``result`` is None).
 
+    Parameters
+    ----------
+    path_csv : Path
+        The ``table1.csv`` to read.
+
+    Returns
+    -------
+    list of Row
+
     Raises
     ------
     ValueError
@@ -223,7 +351,7 @@ def read(path_csv: Path) -> list[Row]:
             try:
                 variant = Variant(tuple(map(int, line["axes"].split())), tuple(map(int, line["appendages"].split())),
                                   int(line["model_type"]), int(line["uncertainty_type"]))
-                values = {c: float(line[c]) for c in SEED_TABLE1_COLUMNS}
+                values: dict[str, Any] = {c: float(line[c]) for c in SEED_TABLE1_COLUMNS}  # Row's float fields
                 row = Row(variant, line["method"], line["status"], **values, total_seconds=float(line["total_seconds"]),
                           note=line["note"], seed=SEED_TABLE1.get((variant, line["method"])))
             except (KeyError, TypeError, ValueError) as exc:
@@ -242,7 +370,20 @@ def comparison(toolbox: list[Row], ours: list[Row]) -> str:
     """Markdown: every row of either list, in the seed's order: in the toolbox's convention
     beside the seed's values, with the ratio ours / seed of the design bounds and of the design
     time, then our convention's status, design bounds and time ("not run" where a list lacks the
-    row); the wall time of each convention's rows in total."""
+    row); the wall time of each convention's rows in total.
+
+    Parameters
+    ----------
+    toolbox : list of Row
+        Rows designed in the R-RoMulOC toolbox's convention (``"romuloc"``).
+    ours : list of Row
+        Rows designed in satfmu's (``"satfmu"``).
+
+    Returns
+    -------
+    str
+        A Markdown table and a line of total wall times.
+    """
     tb, ob = {_key(r): r for r in toolbox}, {_key(r): r for r in ours}
     order = {k: i for i, k in enumerate(SEED_TABLE1)}
     keys = sorted(set(tb) | set(ob), key=lambda k: order.get(k, len(order)))

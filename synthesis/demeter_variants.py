@@ -34,6 +34,7 @@ reduced coordinates after all axes), xi, xw, y, y'.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TypedDict, cast
 
 import numpy as np
 
@@ -101,6 +102,23 @@ class Variant:
 
     @classmethod
     def from_dict(cls, data: dict) -> Variant:
+        """The variant of a :meth:`to_dict` form (a design artifact's ``design.variant``).
+
+        Parameters
+        ----------
+        data : dict
+            ``axes`` and ``appendages`` (lists of int, 1-based), ``model_type``,
+            ``uncertainty_type`` (int) and ``wheels`` (bool), as written by :meth:`to_dict`.
+
+        Returns
+        -------
+        Variant
+
+        Raises
+        ------
+        VariantError
+            If a key is missing or a value is not valid for :class:`Variant`.
+        """
         try:
             return cls(tuple(data["axes"]), tuple(data["appendages"]), data["model_type"], data["uncertainty_type"],
                        bool(data["wheels"]))
@@ -120,6 +138,25 @@ class UncertainParameter:
     ``kind``: "sqrtJ" (root of a principal inertia, axis index), "Jprod" (product of inertia,
     axis pair), "omega" / "zeta" (mode group index); ``distribution``: "norm-bounded" or
     "uniform" (how the randomized methods of part 2 sample it).
+
+    Attributes
+    ----------
+    name : str
+        Name in the order of delta, e.g. ``"sqrtJ11"``, ``"J12"``, ``"omega"``, ``"zeta2"``
+        (:func:`parameters`).
+    kind : {"sqrtJ", "Jprod", "omega", "zeta"}
+        What the parameter is (above).
+    index : tuple of int
+        0-based: ``(k,)`` the position of the axis among the selected ones (``"sqrtJ"``),
+        ``(k1, k2)`` the pair of selected axes (``"Jprod"``), ``(g,)`` the mode group
+        (``"omega"``, ``"zeta"``).
+    nominal : float
+        Centre of the interval: sqrt(kg m^2) for ``"sqrtJ"``, kg m^2 for ``"Jprod"``, rad/s for
+        ``"omega"``, dimensionless for ``"zeta"``.
+    half_width : float
+        Half the width of the interval, same unit as ``nominal``.
+    distribution : {"norm-bounded", "uniform"}
+        How the randomized methods sample it.
     """
 
     name: str
@@ -130,12 +167,81 @@ class UncertainParameter:
     distribution: str
 
     def value(self, delta: float) -> float:
+        """The physical value ``nominal + half_width * delta`` (unit of ``nominal``).
+
+        Parameters
+        ----------
+        delta : float
+            Normalized value, in [-1, 1] for the box (not checked here).
+        """
         return self.nominal + self.half_width * delta
+
+
+class LFTMatrices(TypedDict):
+    """The keyword arguments of :class:`satfmu.synthesis.lft_plant.LFTPlant` (:meth:`DesignModel.lft`)."""
+
+    A: np.ndarray
+    Bp: np.ndarray
+    Bu: np.ndarray
+    B1: np.ndarray
+    B2: np.ndarray
+    Cq: np.ndarray
+    Dqp: np.ndarray
+    Dqu: np.ndarray
+    Dq1: np.ndarray
+    C1: np.ndarray
+    D1p: np.ndarray
+    D1u: np.ndarray
+    D11: np.ndarray
+    C2: np.ndarray
+    blocks: tuple[tuple[str, int], ...]
 
 
 @dataclass
 class DesignModel:
-    """The uncertain design model of a variant (see the module docstring for the forms)."""
+    """The uncertain design model of a variant (see the module docstring for the forms).
+
+    Built by :func:`design_model`. Below, ``na`` is the number of selected axes, ``nr`` of
+    reduced flexible coordinates, ``N`` of uncertain parameters.
+
+    Attributes
+    ----------
+    variant : Variant
+        The variant modelled.
+    parameters : list of UncertainParameter
+        The uncertain parameters, in the order of delta (:func:`parameters`).
+    state_names : list of str
+        Names of the ``n`` design states, in order (theta, theta', eta_r, eta_r', xi, xw, and
+        the wheel's y, y' with wheels).
+    groups : list of list of int
+        Plant flexible coordinates (0-based, of the 8) of each group sharing omega, zeta.
+    L : numpy.ndarray, shape (3, 8)
+        Coupling used (dimensionless; columns of unselected appendages and rows of unselected
+        axes zero).
+    Q : numpy.ndarray, shape (nr, 8)
+        Reduced flexible coordinates from the plant's: ``eta_r = Q eta``.
+    L_r : numpy.ndarray, shape (na, nr)
+        Reduced coupling.
+    mode_group : numpy.ndarray, shape (nr,)
+        Group index of each reduced coordinate.
+    N0 : numpy.ndarray, shape (n + n_v, 2 n + n_v + 2 na)
+        Constant part of the affine descriptor ``N(delta)``, columns ``x', x, v, u, w1``.
+    Nk : numpy.ndarray, shape (N, n + n_v, 2 n + n_v + 2 na)
+        Coefficient ``N_k`` of each ``delta_k`` in ``N(delta)``.
+    n : int
+        Number of design states.
+    n_v : int
+        Number of auxiliaries ``v`` of the descriptor (``na + nr``).
+    C1 : numpy.ndarray, shape (na, n)
+        Output ``z1 = theta`` (rad).
+    B2 : numpy.ndarray, shape (n, 2 na)
+        Input of the impulse ``w2``: per axis, :data:`THETA_WORST` on theta and
+        :data:`RATE_WORST` on theta'.
+    C2 : numpy.ndarray, shape (na, n)
+        Output ``z2 = xw`` (N m s).
+    meta : dict, optional
+        Free-form annotations; empty by default (satfmu sets and reads none).
+    """
 
     variant: Variant
     parameters: list[UncertainParameter]
@@ -173,7 +279,24 @@ class DesignModel:
 
     # -------------------------------------------------------------- evaluation
     def values(self, delta: np.ndarray) -> dict[str, np.ndarray]:
-        """Physical values at ``delta``: J (na x na), S (diag root), zeta, omega per group."""
+        """Physical values at ``delta``: J (na x na), S (diag root), zeta, omega per group.
+
+        Parameters
+        ----------
+        delta : numpy.ndarray, shape (N,)
+            Normalized parameters in [-1, 1], in the order of ``parameters``.
+
+        Returns
+        -------
+        dict of str to numpy.ndarray
+            ``"J"`` (na, na), kg m^2; ``"S"`` (na, na), the diagonal of roots, sqrt(kg m^2);
+            ``"zeta"`` and ``"omega"`` (rad/s), one per mode group.
+
+        Raises
+        ------
+        VariantError
+            If ``delta`` is not ``N`` finite numbers in [-1, 1].
+        """
         delta = self._check_delta(delta)
         na = self.na
         S = np.zeros((na, na))
@@ -204,12 +327,29 @@ class DesignModel:
         return d
 
     def N(self, delta: np.ndarray) -> np.ndarray:
-        """``N(delta) = N0 + sum delta_k N_k``."""
+        """``N(delta) = N0 + sum delta_k N_k``.
+
+        Parameters
+        ----------
+        delta : numpy.ndarray, shape (N,)
+            Normalized parameters in [-1, 1], in the order of ``parameters``.
+        """
         return self.N0 + np.tensordot(self._check_delta(delta), self.Nk, axes=1)
 
     def state_space(self, delta: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``x' = A x + Bu u + B1 w1`` at ``delta``, solved from the descriptor; ``delta`` of
-        shape (S, N) gives stacks (S, n, .) (one batched solve)."""
+        shape (S, N) gives stacks (S, n, .) (one batched solve).
+
+        Parameters
+        ----------
+        delta : numpy.ndarray, shape (N,) or (S, N)
+            Normalized parameters in [-1, 1] (one plant, or one per row).
+
+        Returns
+        -------
+        A, Bu, B1 : numpy.ndarray
+            Shapes (n, n), (n, na), (n, na), each with a leading S for a stack.
+        """
         d = self._check_delta(delta, stack=True)
         Nd = self.N0 + np.tensordot(d, self.Nk, axes=([-1], [0]))
         n, nv = self.n, self.n_v
@@ -222,20 +362,51 @@ class DesignModel:
     def direct(self, delta: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The same design model built the direct way: eq. (4) by :func:`satfmu.fmus.demeter.second_order`
         with the reduced coupling, a full inverse of M, then the augmentation (the check of the
-        descriptor and the LFT)."""
+        descriptor and the LFT).
+
+        Parameters
+        ----------
+        delta : numpy.ndarray, shape (N,)
+            Normalized parameters in [-1, 1], in the order of ``parameters``.
+
+        Returns
+        -------
+        A, Bu, B1 : numpy.ndarray
+            Shapes (n, n), (n, na), (n, na), as :meth:`state_space`.
+        """
         v = self.values(delta)
         A0, B0 = demeter.state_space(v["J"], self.L_r, v["zeta"][self.mode_group], v["omega"][self.mode_group],
                                      pairs=False)
         return _augment(A0, B0, self.na, self.nr, self.variant.wheels)
 
     def sample(self, n: int, rng: np.random.Generator) -> np.ndarray:
-        """``n`` parameter vectors delta, uniform in the box (shape (n, N))."""
+        """``n`` parameter vectors delta, uniform in the box (shape (n, N)).
+
+        Parameters
+        ----------
+        n : int
+            Number of vectors.
+        rng : numpy.random.Generator
+            Source of the draws.
+        """
         return rng.uniform(-1.0, 1.0, (n, len(self.parameters)))
 
     def fmu_parameters(self, delta: np.ndarray) -> dict[str, float | bool]:
         """Parameters of the plant FMU that make it this variant at ``delta``: unselected axes
         decoupled (their products of inertia and rows of L zero), unselected appendages
-        removed (their columns of L zero)."""
+        removed (their columns of L zero).
+
+        Parameters
+        ----------
+        delta : numpy.ndarray, shape (N,)
+            Normalized parameters in [-1, 1], in the order of ``parameters``.
+
+        Returns
+        -------
+        dict of str to float or bool
+            The FMU's inertia, coupling, damping and frequency parameters by name, and
+            ``"wheels_on"``.
+        """
         v = self.values(delta)
         J = np.diag(np.diag(demeter.J0)).astype(float)
         ax = [a - 1 for a in self.variant.axes]
@@ -250,7 +421,7 @@ class DesignModel:
         return out
 
 
-    def lft(self) -> dict[str, np.ndarray | tuple]:
+    def lft(self) -> LFTMatrices:
         """The LFT of the design model (matrices of :class:`satfmu.synthesis.lft_plant.LFTPlant`).
 
         Each ``N_k = U_k V_k`` (SVD, rank ``r_k``) gives the channel ``p_k = delta_k q_k``,
@@ -278,11 +449,17 @@ class DesignModel:
                "C1": self.C1, "D1p": nz((m, Yp.shape[1])), "D1u": nz((m, m)), "D11": nz((m, m)), "C2": self.C2}
         for k, v in out.items():  # rounding residue of the solves (1e-18 where the exact value is 0)
             v[np.abs(v) < LFT_ROUNDING * np.abs(v).max(initial=0.0)] = 0.0
-        return {**out, "blocks": tuple(blocks)}
+        # out holds the 14 matrices of LFTMatrices by name (mypy cannot check a ** of a dict against a TypedDict)
+        return cast(LFTMatrices, {**out, "blocks": tuple(blocks)})
 
     def fmu_gains(self, K: np.ndarray) -> dict[str, float]:
         """Parameters of the state-feedback FMU (:mod:`satfmu.controllers.state_feedback`) for the gain
         ``u = K x`` on this design model's states (unselected axes: zero command).
+
+        Parameters
+        ----------
+        K : numpy.ndarray, shape (na, n)
+            Gain on the design states (``state_names``), N m per state unit.
 
         Raises
         ------
@@ -332,7 +509,19 @@ def _wheel_coefficients() -> tuple[float, float]:
 
 
 def parameters(variant: Variant) -> list[UncertainParameter]:
-    """The uncertain parameters of a variant, in the order of delta."""
+    """The uncertain parameters of a variant, in the order of delta.
+
+    Parameters
+    ----------
+    variant : Variant
+        The model variant: its axes give the inertia parameters, its appendages and
+        ``model_type`` the mode groups, its ``uncertainty_type`` their distributions.
+
+    Returns
+    -------
+    list of UncertainParameter
+        Roots of the principal inertias, products of inertia, then omega and zeta of each group.
+    """
     ax = [a - 1 for a in variant.axes]
     inertia = "norm-bounded" if variant.uncertainty_type in (1, 3) else "uniform"
     modes = "norm-bounded" if variant.uncertainty_type == 1 else "uniform"
@@ -357,7 +546,25 @@ def parameters(variant: Variant) -> list[UncertainParameter]:
 
 
 def design_model(variant: Variant, L: np.ndarray | None = None) -> DesignModel:
-    """The uncertain design model of ``variant`` (coupling ``L``, default the substitute)."""
+    """The uncertain design model of ``variant`` (coupling ``L``, default the substitute).
+
+    Parameters
+    ----------
+    variant : Variant
+        The model variant.
+    L : numpy.ndarray, shape (3, 8), optional
+        Coupling of the 3 axes with the 8 flexible coordinates (dimensionless); default
+        :data:`satfmu.fmus.demeter.L_SUBSTITUTE`.
+
+    Returns
+    -------
+    DesignModel
+
+    Raises
+    ------
+    VariantError
+        If ``L`` is not a finite 3 x 8 matrix.
+    """
     L_full = demeter.L_SUBSTITUTE if L is None else np.asarray(L, float)
     if L_full.shape != (demeter.N_AXES, demeter.N_FLEX) or not np.all(np.isfinite(L_full)):
         raise VariantError(f"L must be a finite 3 x 8 matrix, got shape {np.shape(L_full)}")

@@ -49,6 +49,16 @@ def keys(rows: np.ndarray) -> np.ndarray:
     Equal exactly when the rows are equal and ordered as the rows lexicographically,
     for any size: the radix code is replaced by its rank among the rows (``np.unique``)
     whenever the next column would overflow it.
+
+    Parameters
+    ----------
+    rows : numpy.ndarray
+        Non-negative integer table, shape (k, n).
+
+    Returns
+    -------
+    numpy.ndarray
+        One int64 key per row, shape (k,).
     """
     code = np.zeros(rows.shape[0], np.int64)
     span = 1

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from itertools import combinations_with_replacement
+from typing import cast
 
 import numpy as np
 
@@ -41,7 +42,18 @@ CV_TOL = 2e-3
 
 
 def exponents(degree: int) -> list[tuple[int, int]]:
-    """Monomial exponents (i, j) of sin(q2)^i w4^j with i + j <= degree, graded order."""
+    """Monomial exponents (i, j) of sin(q2)^i w4^j with i + j <= degree, graded order.
+
+    Parameters
+    ----------
+    degree : int
+        Total degree of the polynomials, >= 0.
+
+    Returns
+    -------
+    list of tuple of (int, int)
+        ``(degree + 1) (degree + 2) / 2`` exponent pairs, by increasing total degree.
+    """
     out = []
     for d in range(degree + 1):
         for combo in combinations_with_replacement((0, 1), d):
@@ -62,10 +74,11 @@ class GainFit:
     degree : int
         Total degree chosen by cross-validation.
     coefficients : (2, 7, n_terms) array
+        Coefficients of each gain entry's polynomial, in the order of :func:`exponents`.
     cv_errors : dict of int to float
         Cross-validated RMS error (relative to the largest gain entry) per degree tried.
     max_rel_error, rms_rel_error : float
-        Over the grid, |K_fit - K| relative to the largest |K| entry.
+        Over the grid, ``|K_fit - K|`` relative to the largest ``|K|`` entry.
     grid : (n, 2) array
         (sin q2, w4) points, 1 and rad/s.
     gains : (n, 2, 7) array
@@ -84,7 +97,18 @@ class GainFit:
     cv_tol: float | None = None
 
     def evaluate(self, points: np.ndarray) -> np.ndarray:
-        """K at (sin q2, w4) points, shape (n, 2, 7)."""
+        """K at (sin q2, w4) points, shape (n, 2, 7).
+
+        Parameters
+        ----------
+        points : numpy.ndarray, shape (n, 2) or (2,)
+            ``(sin q2, w4)`` points (1, rad/s).
+
+        Returns
+        -------
+        numpy.ndarray, shape (n, 2, 7)
+            The fitted gain at each point (a single point gives n = 1).
+        """
         X = _design(np.atleast_2d(points), self.degree)
         return np.einsum("nt,ijt->nij", X, self.coefficients)
 
@@ -95,7 +119,29 @@ class GainFit:
 
 
 def sdre_grid(servo: Servo, n_q2: int = 23, n_w4: int = 25) -> tuple[np.ndarray, np.ndarray]:
-    """Checked SDRE gains on the (q2, w4) grid: (sin q2, w4) points (n, 2) and gains (n, 2, 7)."""
+    """Checked SDRE gains on the (q2, w4) grid: (sin q2, w4) points (n, 2) and gains (n, 2, 7).
+
+    Parameters
+    ----------
+    servo : satfmu.synthesis.sdre.Servo
+        The SDRE servo whose checked gain is solved at each grid point (the other states 0).
+    n_q2 : int, optional
+        Grid points over :data:`Q2_RANGE` (rad).
+    n_w4 : int, optional
+        Grid points over :data:`W4_RANGE` (rad/s).
+
+    Returns
+    -------
+    points : numpy.ndarray, shape (n_q2 n_w4, 2)
+        ``(sin q2, w4)`` of each grid point (1, rad/s).
+    gains : numpy.ndarray, shape (n_q2 n_w4, 2, 7)
+        The gain K at each point.
+
+    Raises
+    ------
+    satfmu.controllers.riccati.RiccatiCheckError
+        If the Riccati solution at a grid point fails a check.
+    """
     q2 = np.linspace(*Q2_RANGE, n_q2)
     w4 = np.linspace(*W4_RANGE, n_w4)
     points = np.array([(a, b) for a in q2 for b in w4])
@@ -109,10 +155,31 @@ def fit(points: np.ndarray, gains: np.ndarray, degrees: range = range(1, 9), fol
     the smallest degree whose CV error is within ``cv_tol``, else (or with ``None``) the one
     with the smallest CV error.
 
+    Parameters
+    ----------
+    points : numpy.ndarray, shape (n, 2)
+        ``(sin q2, w4)`` grid points (1, rad/s).
+    gains : numpy.ndarray, shape (n, 2, 7)
+        The gain at each point.
+    degrees : range, optional
+        The total degrees to try, increasing.
+    folds : int, optional
+        Number k of cross-validation folds.
+    seed : int, optional
+        Seed of the random assignment of the points to the folds.
+    cv_tol : float or None, optional
+        Cross-validated RMS error (relative to the largest gain entry) the chosen degree must
+        reach; None: the degree of the smallest CV error.
+
+    Returns
+    -------
+    GainFit
+        The fit at the chosen degree.
+
     Raises
     ------
     ValueError
-        If shapes disagree or the grid has fewer points than the largest basis.
+        If shapes disagree or the grid has fewer points than twice the largest basis.
     """
     points, gains = np.asarray(points, float), np.asarray(gains, float)
     if points.ndim != 2 or points.shape[1] != 2 or gains.shape[0] != points.shape[0]:
@@ -133,7 +200,7 @@ def fit(points: np.ndarray, gains: np.ndarray, degrees: range = range(1, 9), fol
             err.append(X[test] @ c - Y[test])
         cv[d] = float(np.sqrt(np.mean(np.concatenate(err) ** 2)) / scale)
     within = [d for d in degrees if cv_tol is not None and cv[d] <= cv_tol]
-    best = within[0] if within else min(cv, key=cv.get)
+    best = within[0] if within else min(cv, key=cv.__getitem__)
     X = _design(points, best)
     c, *_ = np.linalg.lstsq(X, Y, rcond=None)
     resid = X @ c - Y
@@ -174,7 +241,23 @@ def verify(result: GainFit, servo: Servo, max_re_tol: float = 1e-6) -> dict[str,
       so the bound is ``max_re_tol`` (as :func:`satfmu.controllers.riccati.riccati_gain`).
     - Closed-loop simulation of the fitted law on the seed's manoeuvre (frictionless plant,
       10 ms hold): errors at 15 s (rad) and peak torques (N m) against issue 11's bounds
-      (|e2| < 1 mrad, |e4| < 0.1 mrad, |T1| < 0.6, |T2| < 2.4 N m).
+      (``|e2| < 1 mrad``, ``|e4| < 0.1 mrad``, ``|T1| < 0.6``, ``|T2| < 2.4 N m``).
+
+    Parameters
+    ----------
+    result : GainFit
+        The fit to check.
+    servo : satfmu.synthesis.sdre.Servo
+        The SDRE servo the fit approximates: its checked gain off the grid, its Ae, Be for the
+        frozen closed loop and its model for the simulation.
+    max_re_tol : float, optional
+        Largest admitted real part of a frozen closed-loop eigenvalue, 1/s.
+
+    Returns
+    -------
+    dict
+        The measured numbers by name (``offgrid_max_rel_error``, ``frozen_max_re``,
+        ``sim_e2_final``, ``sim_peak_T1``, ...).
 
     Raises
     ------
@@ -216,7 +299,24 @@ def verify(result: GainFit, servo: Servo, max_re_tol: float = 1e-6) -> dict[str,
 
 def approximated_sdre_data(result: GainFit, servo: Servo, checks: dict[str, float],
                            name: str = "vscmg_sdre_approx") -> dict:
-    """Artifact data of the approximated SDRE servo; ``checks`` from :func:`verify`."""
+    """Artifact data of the approximated SDRE servo; ``checks`` from :func:`verify`.
+
+    Parameters
+    ----------
+    result : GainFit
+        The verified fit.
+    servo : satfmu.synthesis.sdre.Servo
+        The servo it approximates (its factorization and weights are recorded).
+    checks : dict
+        The numbers of :func:`verify`, recorded in the certificate.
+    name : str, optional
+        The artifact's name, lower_snake_case (the controller FMU's modelIdentifier).
+
+    Returns
+    -------
+    dict
+        The artifact's JSON data, kind ``servo_gain_schedule``, status ``sampled``.
+    """
     gain = [[_terms(result.coefficients[i, j], result.degree) for j in range(7)] for i in range(2)]
     fit_info = {"degree": result.degree, "scheduling": SCHEDULING, "cv_tol": result.cv_tol,
                 "cv_rms_rel_error": {str(k): v for k, v in result.cv_errors.items()},
@@ -237,7 +337,22 @@ def approximated_sdre_data(result: GainFit, servo: Servo, checks: dict[str, floa
 
 
 def lq_data(servo: Servo, x0: np.ndarray, name: str = "vscmg_lq_servo") -> dict:
-    """Artifact data of the LQ servo designed at the plant state ``x0`` (a constant gain)."""
+    """Artifact data of the LQ servo designed at the plant state ``x0`` (a constant gain).
+
+    Parameters
+    ----------
+    servo : satfmu.synthesis.sdre.Servo
+        The servo whose checked gain at ``x0`` is the LQ gain.
+    x0 : numpy.ndarray, shape (6,)
+        The design state ``[q1, q2, q4, w1, w2, w4]`` (rad, rad/s).
+    name : str, optional
+        The artifact's name, lower_snake_case (the controller FMU's modelIdentifier).
+
+    Returns
+    -------
+    dict
+        The artifact's JSON data, kind ``servo_gain_schedule`` with degree-0 gains.
+    """
     K, check = servo.gain(np.asarray(x0, float))
     gain = [[[{"c": float(K[i, j]), "e": [0, 0]}] for j in range(7)] for i in range(2)]
     cert = {"status": "certified", "proved": "Riccati solution at the design state checked (residual, "
@@ -266,25 +381,57 @@ def synthesize(n_q2: int = 23, n_w4: int = 25, degrees: range = range(1, 9), cv_
     :mod:`satfmu.synthesis.vscmg_region` is solved on its operating box and the certificate says
     what it proved (status ``certified`` only if it holds).
 
+    Parameters
+    ----------
+    n_q2 : int, optional
+        Grid points over :data:`Q2_RANGE` (rad).
+    n_w4 : int, optional
+        Grid points over :data:`W4_RANGE` (rad/s).
+    degrees : range, optional
+        The total degrees to try (:func:`fit`).
+    cv_tol : float or None, optional
+        The degree rule's tolerance (:func:`fit`).
+    region : bool, optional
+        Solve the SOS stability region and record it in the certificate.
+
+    Returns
+    -------
+    fit : GainFit
+        The fit.
+    approximated : dict
+        The approximated SDRE servo's artifact data.
+    lq : dict
+        The LQ servo's artifact data (at :data:`START_STATE`).
+
     Raises
     ------
     FitVerificationError, satfmu.controllers.riccati.RiccatiCheckError
+        If the fit fails :func:`verify`, or a Riccati solution fails its checks.
     """
     servo = Servo("w1_free", freeze_w2=True)
     result = fit(*sdre_grid(servo, n_q2, n_w4), degrees=degrees, cv_tol=cv_tol)
     checks = verify(result, servo)
     approx = approximated_sdre_data(result, servo, checks)
     if region:
-        from satfmu.controllers.artifact import parse
+        from satfmu.controllers.artifact import ServoArtifact, parse
         from satfmu.synthesis import vscmg_region
 
-        cert, trig = vscmg_region.certify_operating_box(parse(approx))
+        # approximated_sdre_data writes a servo_gain_schedule record, which parses to a ServoArtifact
+        cert, trig = vscmg_region.certify_operating_box(cast(ServoArtifact, parse(approx)))
         approx["certificate"] = vscmg_region.artifact_certificate(approx["certificate"], cert, trig)
     return result, approx, lq_data(Servo("gyro_on_w2"), START_STATE)
 
 
 def table(result: GainFit, checks: dict[str, float]) -> str:
-    """Cross-validation errors per degree and the verification numbers, as text."""
+    """Cross-validation errors per degree and the verification numbers, as text.
+
+    Parameters
+    ----------
+    result : GainFit
+        The fit.
+    checks : dict
+        The numbers of :func:`verify`.
+    """
     lines = ["degree  CV RMS rel. error"]
     lines += [f"{d:6d}  {e:.3e}{'  <- chosen' if d == result.degree else ''}" for d, e in result.cv_errors.items()]
     lines.append(f"on the grid: max rel. error {result.max_rel_error:.3e}, RMS {result.rms_rel_error:.3e}")

@@ -80,6 +80,25 @@ class SplitPlant:
     ``actuated``. ``Kg(x) = -(Bu^T Bu)^-1 Bu^T A(x)`` cancels the actuated rows of A (for
     the MRP satellite: the gyroscopic torque, ``Kg x = omega x I omega``), so with
     ``Y = Y~(x~) + Kg F`` the conditions only involve ``A~ = A + Bu Kg``, a function of x~.
+
+    Attributes
+    ----------
+    symbols : tuple of sympy.Symbol
+        The model's state symbols ``x``, in state order (n of them).
+    tilde : tuple of int
+        Indices in ``x`` of the unactuated states ``x~`` (the MRPs).
+    actuated : tuple of int
+        Indices in ``x`` of the other states (the body rates).
+    A_tilde : satfmu.synthesis.polynomial.PolyMatrix
+        ``A + Bu Kg``, shape (n, n), as polynomials in ``x~`` (below).
+    Kg : sympy.Matrix
+        The cancelling feedback gain, shape (m, n), in the state symbols (below).
+    Bu : numpy.ndarray, shape (n, m)
+        Input matrix of the control torque ``u`` (N m).
+    Bw : numpy.ndarray, shape (n, m)
+        Input matrix of the disturbance torque ``w`` (N m).
+    C : numpy.ndarray, shape (len(tilde), n)
+        Performance output matrix (below).
     """
 
     symbols: tuple[sp.Symbol, ...]
@@ -155,7 +174,41 @@ def _split(model: Model, frozen: bool) -> SplitPlant:
 
 @dataclass
 class Theorem8Result:
-    """A solved and independently verified Theorem 8 design at fixed gamma, alpha, beta."""
+    """A solved and independently verified Theorem 8 design at fixed gamma, alpha, beta.
+
+    Attributes
+    ----------
+    variant : {"slack", "common"}
+        Separate X2, Xinf and slack F, or ``X2 = Xinf = F`` (:func:`theorem8`).
+    gamma : float
+        The L2-gain bound ``w -> z`` of the design (N m -> 1).
+    alpha, beta : float
+        The seed's scalars the SDP was solved at.
+    lam : float
+        The certified H2 bound lambda (below).
+    X2, Xinf : numpy.ndarray, shape (n, n)
+        The Lyapunov matrices of the H2 and the H-infinity condition (``V = x^T X^-1 x``).
+    F : numpy.ndarray, shape (n, n)
+        The slack matrix (below).
+    Y : list of list of satfmu.synthesis.polynomial.Poly
+        ``Y~(x~)``, m x n polynomials in ``x~`` (below).
+    plant : SplitPlant
+        The split plant the conditions were posed on.
+    checks : list of satfmu.synthesis.sos.Check
+        The independent verification of every SOS constraint.
+    region : str
+        Description of the certified region, e.g. ``"|sigma| <= 0.45, any omega"``.
+    radius : float
+        Radius of the region, ``|x~| <= radius`` (MRP, dimensionless).
+    x0 : numpy.ndarray, shape (n,)
+        Initial state of the H2 bound (rates in rad/s, MRPs).
+    Qh, Rh : numpy.ndarray
+        The H2 weights, shapes (n, n) and (m, m) (below).
+    solution : satfmu.synthesis.sos.SOSSolution
+        The solver's output.
+    timings : dict of str to float, optional
+        ``"build"``, ``"solve"`` and ``"verify"`` times, s.
+    """
 
     variant: str
     gamma: float
@@ -182,6 +235,8 @@ class Theorem8Result:
 
     @property
     def certified(self) -> bool:
+        """Every SOS constraint passed :func:`satfmu.synthesis.sos.verify` and X2, Xinf and the
+        lambda block are positive semidefinite (to 1e-9), checked without the solver."""
         return all(c.certified for c in self.checks) and _psd_margin(self) >= -1e-9
 
     def h2_level(self) -> float:
@@ -189,7 +244,15 @@ class Theorem8Result:
         return float(self.x0 @ np.linalg.solve(self.X2, self.x0))
 
     def reach(self, X: np.ndarray, level: float) -> float:
-        """Largest ``|x~|`` on the ellipsoid ``x^T X^-1 x <= level`` (any rates)."""
+        """Largest ``|x~|`` on the ellipsoid ``x^T X^-1 x <= level`` (any rates).
+
+        Parameters
+        ----------
+        X : numpy.ndarray, shape (n, n)
+            Positive definite matrix of the ellipsoid (``X2`` or ``Xinf``).
+        level : float
+            Level of the sublevel set (e.g. :meth:`h2_level`).
+        """
         C = self.plant.C
         return float(np.sqrt(level * np.linalg.eigvalsh(C @ X @ C.T).max()))
 
@@ -255,6 +318,9 @@ def theorem8(gamma: float, alpha: float, beta: float, variant: str = "slack", re
         entries at degree 2 and every row needs a multiplier).
     Qh, Rh : ndarray, optional
         H2 weights (default I6, I3: **substitute**, the seed gives none).
+    x0 : numpy.ndarray, shape (n,), optional
+        Initial state of the H2 bound ``J2 <= lambda`` (rates in rad/s, then MRPs); default
+        :data:`X0_90`.
     margin : float
         Margin ``e`` on the diagonal blocks of both SOS-matrix conditions (``a e`` on the
         F block) and on X2, Xinf.
@@ -262,6 +328,9 @@ def theorem8(gamma: float, alpha: float, beta: float, variant: str = "slack", re
         Degree of the S-procedure multipliers of the region (even).
     frozen : bool
         Freeze A(x) at x = 0 (the linearization; LMIs): the reference design of docs/models.md.
+    model : Model, optional
+        The plant, with an SDC form whose input columns are ``[u w]`` (default the MRP
+        satellite, ``satfmu.fmus.mrp_satellite.MODEL``).
 
     Raises
     ------
@@ -373,7 +442,15 @@ _REJECTED = 1e12
 
 @dataclass
 class SearchResult:
-    """Best design over alpha, beta at one gamma, with every evaluated point."""
+    """Best design over alpha, beta at one gamma, with every evaluated point.
+
+    Attributes
+    ----------
+    best : Theorem8Result or None
+        The certified design of smallest lambda (None: no evaluation gave one).
+    evaluations : list of tuple of (float, float, float)
+        Every SDP solved (below).
+    """
 
     best: Theorem8Result | None
     evaluations: list[tuple[float, float, float]]
@@ -388,6 +465,31 @@ def search(gamma: float, variant: str = "slack", bounds: tuple[float, float] = (
     Golden section (Brent, bounded) on ``log10 alpha`` with ``beta = alpha``, then on
     ``log10 beta`` at the best alpha; ``xatol`` in decades. Infeasible, failed and
     uncertified SDPs count as rejected. ``kwargs`` go to :func:`theorem8`.
+
+    Parameters
+    ----------
+    gamma : float
+        L2-gain bound to certify (N m -> 1), as in :func:`theorem8`.
+    variant : {"slack", "common"}, optional
+        The design variant (:func:`theorem8`). Default ``"slack"``.
+    bounds : tuple of (float, float), optional
+        ``(low, high)`` range of alpha and of beta, ``0 < low < high``. Default (0.05, 2).
+    xatol : float, optional
+        Tolerance of each line search in ``log10`` of alpha or beta (decades). Default 0.1.
+    max_evaluations : int, optional
+        Most SDPs solved, both line searches together. Default 20.
+    progress : callable, optional
+        ``progress(done, total, message)``, called before each SDP and once at the end.
+
+    Returns
+    -------
+    SearchResult
+        The best certified design and every evaluation.
+
+    Raises
+    ------
+    ValueError
+        If ``bounds`` is not ``0 < low < high``.
     """
     if not (0 < bounds[0] < bounds[1] and np.all(np.isfinite(bounds))):
         raise ValueError(f"bounds must satisfy 0 < low < high, got {bounds}")
@@ -424,7 +526,21 @@ def search(gamma: float, variant: str = "slack", bounds: tuple[float, float] = (
 
 @dataclass(frozen=True)
 class SweepRow:
-    """One point of the gamma-lambda trade-off (lambda inf: no certified design)."""
+    """One point of the gamma-lambda trade-off (lambda inf: no certified design).
+
+    Attributes
+    ----------
+    gamma : float
+        The L2-gain bound (N m -> 1).
+    variant : {"slack", "common"}
+        The design variant.
+    lam : float
+        The smallest certified H2 bound lambda (inf if none).
+    alpha, beta : float
+        The seed's scalars of that design (nan if none).
+    n_sdps : int
+        SDPs solved by the search.
+    """
 
     gamma: float
     variant: str
@@ -436,7 +552,29 @@ class SweepRow:
 
 def sweep(gammas: list[float], bounds: tuple[float, float] = (0.05, 2.0), max_evaluations: int = 12,
           progress: Progress | None = None, **kwargs: Any) -> list[SweepRow]:
-    """:func:`search` at every gamma for both variants (``kwargs`` go to :func:`theorem8`)."""
+    """:func:`search` at every gamma for both variants (``kwargs`` go to :func:`theorem8`).
+
+    Parameters
+    ----------
+    gammas : list of float
+        The L2-gain bounds (N m -> 1), each finite and > 0; searched from the largest down.
+    bounds : tuple of (float, float), optional
+        ``(low, high)`` range of alpha and beta (:func:`search`). Default (0.05, 2).
+    max_evaluations : int, optional
+        Most SDPs per search. Default 12.
+    progress : callable, optional
+        ``progress(done, total, message)`` over all the searches.
+
+    Returns
+    -------
+    list of SweepRow
+        One row per gamma (decreasing) and variant.
+
+    Raises
+    ------
+    ValueError
+        If ``gammas`` is empty or holds a value that is not finite and > 0.
+    """
     if not gammas or any(not (np.isfinite(g) and g > 0) for g in gammas):
         raise ValueError(f"gammas must be finite and > 0, got {gammas}")
     rows = []
@@ -453,7 +591,13 @@ def sweep(gammas: list[float], bounds: tuple[float, float] = (0.05, 2.0), max_ev
 
 
 def sweep_csv(rows: list[SweepRow]) -> str:
-    """The sweep as CSV text (``lambda`` empty where no design was certified)."""
+    """The sweep as CSV text (``lambda`` empty where no design was certified).
+
+    Parameters
+    ----------
+    rows : list of SweepRow
+        The points of :func:`sweep`, written in their order.
+    """
     lines = ["gamma,variant,lambda,alpha,beta,sdps"]
     for r in rows:
         lam = f"{r.lam:.6f}" if np.isfinite(r.lam) else ""
@@ -464,7 +608,23 @@ def sweep_csv(rows: list[SweepRow]) -> str:
 
 @dataclass(frozen=True)
 class ClosedLoopCheck:
-    """The law on the nonlinear plant, independent of the solver (continuous time, no w)."""
+    """The law on the nonlinear plant, independent of the solver (continuous time, no w).
+
+    Attributes
+    ----------
+    j2 : float
+        Simulated H2 cost (below; inf if the integration failed).
+    tail : float
+        The certificate's remaining cost after ``stop_time`` (below).
+    max_tilde : float
+        Largest ``|x~|`` along the trajectory (MRP, dimensionless).
+    max_real_eig : float
+        Largest real part of the eigenvalues of the linearized closed loop, 1/s.
+    stop_time : float
+        Length of the simulation, s.
+    lam : float
+        The certified bound lambda of the design.
+    """
 
     j2: float
     """``integral of x^T Qh x + u^T Rh u`` from x0 over ``stop_time`` (must be <= lambda)."""
@@ -487,7 +647,18 @@ class ClosedLoopCheck:
 def closed_loop_check(result: Theorem8Result, stop_time: float = 300.0,
                       model: Model | None = None) -> ClosedLoopCheck:
     """Simulate ``x' = f(x, u(x))`` from x0 (scipy DOP853, rtol 1e-10) with the cost (the
-    design's weights) as an extra state, and linearize the closed loop at the origin."""
+    design's weights) as an extra state, and linearize the closed loop at the origin.
+
+    Parameters
+    ----------
+    result : Theorem8Result
+        The design whose law is simulated, from its ``x0``.
+    stop_time : float, optional
+        Simulated time, s. Default 300.
+    model : Model, optional
+        The plant simulated, the one the design was made for (default the MRP satellite,
+        ``satfmu.fmus.mrp_satellite.MODEL``).
+    """
     model = mrp_satellite.MODEL if model is None else model
     xs = result.plant.symbols
     n, m = result.plant.n, result.plant.m
@@ -522,6 +693,23 @@ def artifact_data(result: Theorem8Result, name: str, check: ClosedLoopCheck,
     """Controller artifact (format of :mod:`satfmu.controllers.artifact`, form "polynomial").
 
     Status "certified" needs the SOS checks and the closed-loop check to pass.
+
+    Parameters
+    ----------
+    result : Theorem8Result
+        The design.
+    name : str
+        Name of the controller artifact.
+    check : ClosedLoopCheck
+        Its closed-loop check (:func:`closed_loop_check`).
+    model : Model, optional
+        The plant the controller is for (default the MRP satellite,
+        ``satfmu.fmus.mrp_satellite.MODEL``).
+
+    Returns
+    -------
+    dict
+        The artifact's JSON data (:func:`satfmu.controllers.artifact.new_data`).
     """
     model = mrp_satellite.MODEL if model is None else model
     ok = result.certified and check.passed

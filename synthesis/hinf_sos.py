@@ -19,7 +19,7 @@ What can be proved (docs/models.md, "What a certificate can prove"):
   LaSalle's invariance principle gives global asymptotic stability ("global,
   semi-definite + LaSalle").
 - ``region=r < 1``: ``E = eps I`` on ``|sigma| <= r`` (S-procedure multipliers): strict
-  decrease on that region ("strict on |sigma| <= r").
+  decrease on that region (``"strict on |sigma| <= r"``).
 """
 from __future__ import annotations
 
@@ -42,7 +42,26 @@ from satfmu.synthesis.sos import Check, SOSProgram, SOSSolution, check_numbers, 
 
 @dataclass
 class Theorem1Result:
-    """A solved and independently verified Theorem 1 design."""
+    """A solved and independently verified Theorem 1 design.
+
+    Attributes
+    ----------
+    Q : numpy.ndarray, shape (n, n)
+        The Lyapunov matrix ``Q = P^-1`` (``V = x^T Q^-1 x``; n = 6 for the MRP satellite).
+    K : list of list of satfmu.synthesis.polynomial.Poly
+        Torque gains ``G^-1 K(x)`` (MRP satellite: ``J K(x)``) as numeric polynomials in x
+        (3 x 6); the law is ``u = K(x) P x`` (N m).
+    checks : list of satfmu.synthesis.sos.Check
+        The independent verification of every SOS constraint.
+    proved : str
+        What the certificate proves, e.g. ``"strict on |sigma| <= 0.9: dV/dt <= ..."``.
+    region : str
+        Where it is proved: ``"global"`` or ``"|sigma| <= r"``.
+    solution : satfmu.synthesis.sos.SOSSolution
+        The solver's output.
+    timings : dict, optional
+        ``"build"``, ``"solve"`` and ``"verify"`` times, s.
+    """
 
     Q: np.ndarray
     K: list[list[Poly]]
@@ -55,6 +74,7 @@ class Theorem1Result:
 
     @property
     def certified(self) -> bool:
+        """Every SOS constraint passed the independent verification."""
         return all(c.certified for c in self.checks)
 
     def law_terms(self) -> list[list[list[dict[str, Any]]]]:
@@ -83,10 +103,14 @@ def theorem1(model: Model | None = None, k_degree: int = 2, rate_margin: float =
         eps of ``E = diag(eps I3, 0)`` in the global variant (1/s, on ``Q``'s scale).
     region : float, optional
         r < 1: prove strict decrease (``E = strict_margin I``) on ``|sigma| <= r``.
+    strict_margin : float
+        eps of ``E = eps I`` with ``region`` (1/s, on ``Q``'s scale), > 0; unused globally.
     decay_rate : float
         With ``region``: also ``M + 2 decay_rate Q <= -E`` there, i.e.
         ``dV/dt <= -2 decay_rate V`` (exponential convergence at that rate, 1/s, inside the
         largest level set of V in the region). The design knob of the two-step iteration.
+    multiplier_degree : int
+        Degree of the S-procedure multipliers of the region (even; 0: constant multipliers).
     q_min : float
         ``Q >= q_min I`` fixes the scale of the homogeneous problem; trace(Q) is minimized.
     coefficient_bounds : mapping, optional
@@ -214,6 +238,21 @@ def artifact_data(result: Theorem1Result, name: str, model: Model | None = None)
 
     The certificate status is "certified" only when every SOS constraint passed the
     independent verification; the numbers of each check are recorded.
+
+    Parameters
+    ----------
+    result : Theorem1Result
+        The design.
+    name : str
+        The artifact's name, lower_snake_case (the controller FMU's modelIdentifier).
+    model : satfmu.fmus.model.Model, optional
+        The plant the design was made for (default seed 000's MRP satellite).
+
+    Returns
+    -------
+    dict
+        The artifact's JSON data, law of form ``gain_times_lyapunov``
+        (:func:`satfmu.controllers.artifact.new_data`).
     """
     return artifacts.new_data(
         mrp_satellite.MODEL if model is None else model, name,

@@ -5,9 +5,13 @@ For the plant ``x' = f(x, u, w)`` closed by a polynomial law ``u(x)`` (saturatio
 Lyapunov certificate), the closed loop has L2 gain ``<= c`` from ``w`` to
 ``z = C1 x`` (``C1 = q2 [0 I3]``: the MRP attitude) on a region where
 
+::
+
     H(x) = V_x f(x, u(x), 0) + 1/(4 c^2) |B1^T V_x^T|^2 + |C1 x|^2 <= 0,   B1 = df/dw
 
 (seed 000 eq. 40 with the inequality of eq. 43). Write ``V0 = x^T P x`` and
+
+::
 
     a(x) = -dV0/dx f        (decay of V0),
     b(x) = |B1^T dV0/dx^T|^2,
@@ -49,7 +53,20 @@ KV_GRID = np.logspace(-2, 9, 111)
 
 @dataclass(frozen=True)
 class Region:
-    """Box ``|omega_i| <= rate_max`` (rad/s) times ball ``|sigma| <= sigma_max`` (MRP, 1)."""
+    """Box ``|omega_i| <= rate_max`` (rad/s) times ball ``|sigma| <= sigma_max`` (MRP, 1).
+
+    Attributes
+    ----------
+    rate_max : float
+        Bound on each body rate ``|omega_i|``, rad/s (finite, > 0).
+    sigma_max : float
+        Bound on the MRP norm ``|sigma|``, dimensionless (finite, > 0).
+
+    Raises
+    ------
+    ValueError
+        If a bound is not finite and > 0.
+    """
 
     rate_max: float
     sigma_max: float
@@ -62,6 +79,7 @@ class Region:
 
     @property
     def label(self) -> str:
+        """The region in words, e.g. ``"|omega_i| <= 0.1 rad/s, |sigma| <= 0.5"``."""
         return f"|omega_i| <= {self.rate_max:g} rad/s, |sigma| <= {self.sigma_max:g}"
 
     def polys(self) -> list[Poly]:
@@ -79,19 +97,47 @@ class Region:
         return out
 
     def sample(self, n: int, rng: np.random.Generator) -> np.ndarray:
-        """``n`` points uniform in the region, shape (n, 6)."""
+        """``n`` points uniform in the region, shape (n, 6).
+
+        Parameters
+        ----------
+        n : int
+            Number of points.
+        rng : numpy.random.Generator
+            The random generator drawn from.
+
+        Returns
+        -------
+        numpy.ndarray, shape (n, 6)
+            The points ``x = (omega, sigma)``, rates in rad/s.
+        """
         w = rng.uniform(-self.rate_max, self.rate_max, size=(n, 3))
         s = rng.normal(size=(n, 3))
         s *= (self.sigma_max * rng.random(n) ** (1 / 3) / np.linalg.norm(s, axis=1))[:, None]
         return np.hstack([w, s])
 
     def to_json(self) -> dict[str, Any]:
+        """The region as a JSON-ready dict: the two bounds and :attr:`label`."""
         return {"rate_max_rad_s": self.rate_max, "sigma_max": self.sigma_max, "label": self.label}
 
 
 @dataclass
 class HJIForm:
-    """The polynomials ``a``, ``b``, ``z`` of the Hamilton-Jacobi inequality of one closed loop."""
+    """The polynomials ``a``, ``b``, ``z`` of the Hamilton-Jacobi inequality of one closed loop.
+
+    In the state ``x = (omega, sigma)`` (rad/s, MRP), with ``V0 = x^T P x`` (module docstring).
+
+    Attributes
+    ----------
+    a : satfmu.synthesis.polynomial.Poly
+        ``a(x) = -dV0/dx f``, the decay of ``V0`` along the closed loop without disturbance.
+    b : satfmu.synthesis.polynomial.Poly
+        ``b(x) = |B1^T dV0/dx^T|^2``, the disturbance term.
+    z : satfmu.synthesis.polynomial.Poly
+        ``z(x) = |C1 x|^2``, the squared performance output.
+    controller : str
+        Name of the controller artifact closing the loop.
+    """
 
     a: Poly
     b: Poly
@@ -99,12 +145,24 @@ class HJIForm:
     controller: str
 
     def values(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``a``, ``b``, ``z`` at the points ``X`` (shape (m, n))."""
+        """``a``, ``b``, ``z`` at the points ``X`` (shape (m, n)).
+
+        Parameters
+        ----------
+        X : numpy.ndarray, shape (m, n) or (n,)
+            The states ``x = (omega, sigma)`` (rad/s, MRP), one per row.
+        """
         X = np.atleast_2d(X)
         return self.a.evaluate(X), self.b.evaluate(X), self.z.evaluate(X)
 
     def point(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``(a, b, z)`` at one point and their gradients (3 x n), from compiled code."""
+        """``(a, b, z)`` at one point and their gradients (3 x n), from compiled code.
+
+        Parameters
+        ----------
+        x : numpy.ndarray, shape (n,)
+            The state ``(omega, sigma)`` (rad/s, MRP).
+        """
         if "_compiled" not in self.__dict__:
             xs = sp.symbols(f"x0:{self.a.n_vars}", real=True)
             exprs = [p.to_sympy(xs) for p in (self.a, self.b, self.z)]
@@ -116,7 +174,13 @@ class HJIForm:
 
     def origin_c(self, kv: float) -> float:
         """``lim sup c(x; kv)`` as ``x -> 0``: from the quadratic parts ``a_2, b_2, z_2``,
-        ``kv^2/4 * lambda_max(B_2, kv A_2 - Z_2)`` (inf unless ``kv A_2 - Z_2 > 0``)."""
+        ``kv^2/4 * lambda_max(B_2, kv A_2 - Z_2)`` (inf unless ``kv A_2 - Z_2 > 0``).
+
+        Parameters
+        ----------
+        kv : float
+            Scale of the storage function ``V = kv V0`` (> 0).
+        """
         A2, B2, Z2 = (quadratic_part(p) for p in (self.a, self.b, self.z))
         try:
             L = np.linalg.cholesky(kv * A2 - Z2)
@@ -127,11 +191,32 @@ class HJIForm:
         return float(kv * np.sqrt(max(lam, 0.0) / 4.0))
 
     def c_at(self, X: np.ndarray, kv: float) -> np.ndarray:
-        """Pointwise least ``c`` with ``H <= 0`` (0 where any c works, inf where none does)."""
+        """Pointwise least ``c`` with ``H <= 0`` (0 where any c works, inf where none does).
+
+        Parameters
+        ----------
+        X : numpy.ndarray, shape (m, n) or (n,)
+            The states ``x = (omega, sigma)`` (rad/s, MRP), one per row.
+        kv : float
+            Scale of the storage function ``V = kv V0`` (> 0).
+
+        Returns
+        -------
+        numpy.ndarray, shape (m,)
+            ``c(x; kv)`` at each point.
+        """
         return _c_from(*self.values(X), kv)
 
     def c_max(self, X: np.ndarray, kv: float) -> float:
-        """``max_x c(x; kv)`` over the points ``X``."""
+        """``max_x c(x; kv)`` over the points ``X``.
+
+        Parameters
+        ----------
+        X : numpy.ndarray, shape (m, n) or (n,)
+            The states ``x = (omega, sigma)`` (rad/s, MRP), one per row.
+        kv : float
+            Scale of the storage function ``V = kv V0`` (> 0).
+        """
         return float(np.max(self.c_at(X, kv)))
 
 
@@ -148,6 +233,18 @@ def hji_form(artifact: ControllerArtifact, plant: Model | None = None, q2: float
     """Build ``a``, ``b``, ``z`` for ``plant`` closed by ``artifact``'s law (saturation off).
 
     ``P`` is the inverse of the artifact's Lyapunov ``Q`` unless ``lyapunov_P`` is given.
+
+    Parameters
+    ----------
+    artifact : satfmu.controllers.artifact.ControllerArtifact
+        The polynomial state feedback; its states must be the plant's, in order.
+    plant : Model, optional
+        The plant, with command inputs ``u`` and disturbance inputs ``w_d`` entering affinely
+        (default the MRP satellite, ``satfmu.fmus.mrp_satellite.MODEL``).
+    q2 : float, optional
+        Weight of the MRPs in the performance output, ``z = q2 sigma``. Default 1.
+    lyapunov_P : numpy.ndarray, shape (n, n), optional
+        The matrix ``P`` of ``V0 = x^T P x``; default the inverse of the artifact's ``Q``.
 
     Raises
     ------
@@ -198,7 +295,17 @@ def _drop_rounding(p: Poly, rel: float = 1e-14) -> Poly:
 
 
 def best_kv(c_of_kv: Callable[[float], float], grid: np.ndarray = KV_GRID) -> tuple[float, float]:
-    """``(kv, c)`` minimizing ``c_of_kv`` over the log grid, refined by a bounded scalar search."""
+    """``(kv, c)`` minimizing ``c_of_kv`` over the log grid, refined by a bounded scalar search.
+
+    Parameters
+    ----------
+    c_of_kv : callable
+        ``c_of_kv(kv) -> float``, the gain estimate at one scale ``kv`` of ``V`` (inf where
+        none exists).
+    grid : numpy.ndarray, optional
+        Increasing positive kv values, log-spaced (default :data:`KV_GRID`); the search
+        refines between the neighbours of the best one.
+    """
     vals = np.array([c_of_kv(k) for k in grid])
     i = int(np.argmin(vals))
     if not np.isfinite(vals[i]):
@@ -212,7 +319,23 @@ def best_kv(c_of_kv: Callable[[float], float], grid: np.ndarray = KV_GRID) -> tu
 
 
 def diagonal_points(t_max: float = 10.0, n_points: int = 20_000, n_states: int = 6) -> np.ndarray:
-    """The paper's diagonal ``x_1 = ... = x_n = t``, ``t`` in [-t_max, t_max] (t = 0 left out)."""
+    """The paper's diagonal ``x_i = t`` (every i), ``t`` in [-t_max, t_max] (t = 0 left out).
+
+    Parameters
+    ----------
+    t_max : float, optional
+        End of the diagonal, in the units of every state (rad/s for the rates, 1 for the
+        MRPs). Default 10.
+    n_points : int, optional
+        Number of values of ``t``, evenly spaced (before ``t = 0`` is dropped). Default 20000.
+    n_states : int, optional
+        Number of states ``n``. Default 6.
+
+    Returns
+    -------
+    numpy.ndarray, shape (n_points, n_states) or (n_points - 1, n_states)
+        One point per row.
+    """
     t = np.linspace(-t_max, t_max, n_points)
     t = t[t != 0.0]
     return np.repeat(t[:, None], n_states, axis=1)
@@ -223,6 +346,25 @@ def diagonal_gain(form: HJIForm, kv: float | None = None, t_max: float = 10.0,
     """Seed 000's graphical method: ``(max_t c(t 1; kv), kv)`` along the diagonal.
 
     With ``kv=None`` kv is chosen to minimize that maximum.
+
+    Parameters
+    ----------
+    form : HJIForm
+        The closed loop's inequality.
+    kv : float, optional
+        Scale of ``V = kv V0``; None: chosen by :func:`best_kv`.
+    t_max : float, optional
+        End of the diagonal, ``t`` in [-t_max, t_max] (:func:`diagonal_points`). Default 10.
+    n_points : int, optional
+        Number of values of ``t``. Default 20000.
+
+    Returns
+    -------
+    c : float
+        The largest ``c(t 1; kv)`` on the diagonal, the L2-gain estimate from ``w`` (N m)
+        to ``z``.
+    kv : float
+        The scale used.
     """
     abz = form.values(diagonal_points(t_max, n_points, form.a.n_vars))
     if kv is None:
@@ -233,7 +375,29 @@ def diagonal_gain(form: HJIForm, kv: float | None = None, t_max: float = 10.0,
 
 @dataclass
 class SampledGain:
-    """Region-wide sampled estimate (a lower bound on the true c_min for that region)."""
+    """Region-wide sampled estimate (a lower bound on the true c_min for that region).
+
+    Attributes
+    ----------
+    c : float
+        Largest ``c(x; kv)`` found, the limit at the origin included: the L2-gain estimate
+        from ``w`` (N m) to ``z`` (inf: no finite gain from this V on this region).
+    kv : float
+        The scale of ``V = kv V0`` used.
+    c_random : float
+        Largest ``c`` over the random points (below).
+    n_samples : int
+        Number of random points (those at the origin left out).
+    worst_point : list of float
+        The state ``(omega, sigma)`` (rad/s, MRP) where ``c`` is largest, or where the decay
+        fails when ``c`` is infinite.
+    violated_fraction : float
+        Share of the points with no finite ``c`` (below).
+    origin_c : float
+        Limit of ``c`` at the origin (below).
+    note : str, optional
+        Why ``c`` is infinite, empty otherwise.
+    """
 
     c: float
     kv: float
@@ -248,6 +412,7 @@ class SampledGain:
     note: str = ""
 
     def to_json(self) -> dict[str, Any]:
+        """The estimate as a JSON-ready dict of its fields."""
         return dict(self.__dict__)
 
 
@@ -263,6 +428,23 @@ def sampled_gain(form: HJIForm, region: Region, kv: float | None = None, n_sampl
     minimize the decay margin ``(kv a - z)/|x|^2`` (negative: no finite c at all) and to
     maximize ``c(x; kv)``. Points that beat the sample maximum join the set and the next
     round re-chooses kv; the loop ends when the optimizer finds nothing worse.
+
+    Parameters
+    ----------
+    form : HJIForm
+        The closed loop's inequality.
+    region : Region
+        The region sampled and searched.
+    kv : float, optional
+        Scale of ``V = kv V0``; None: chosen in each round and for the final point set.
+    n_samples : int, optional
+        Number of uniform random points. Default 200000.
+    n_starts : int, optional
+        Number of worst points the local optimizer starts from in each round. Default 8.
+    rounds : int, optional
+        Most rounds of local search. Default 6.
+    seed : int, optional
+        Seed of the random generator. Default 0.
     """
     rng = np.random.default_rng(seed)
     X = region.sample(n_samples, rng)
@@ -349,7 +531,23 @@ def sampled_gain(form: HJIForm, region: Region, kv: float | None = None, n_sampl
 
 @dataclass
 class SOSGain:
-    """A certified upper bound on c for the region (``H <= 0`` proved by SOS)."""
+    """A certified upper bound on c for the region (``H <= 0`` proved by SOS).
+
+    Attributes
+    ----------
+    c : float
+        The bound ``1 / (2 sqrt(alpha beta))`` on the L2 gain from ``w`` (N m) to ``z``.
+    kv : float
+        The scale ``1 / alpha`` of ``V = kv V0`` of the certificate.
+    beta : float
+        ``kv / (4 c^2)`` of the certificate.
+    checks : list of satfmu.synthesis.sos.Check
+        Independent verification of the certificate's SOS constraints.
+    n_programs : int
+        SOS programs solved, the search over alpha included.
+    timings : dict of str to float, optional
+        ``"build"`` and ``"solve"`` times summed over the programs, s.
+    """
 
     c: float
     kv: float
@@ -360,9 +558,11 @@ class SOSGain:
 
     @property
     def certified(self) -> bool:
+        """Every SOS constraint of the certificate passed its independent check."""
         return all(ch.certified for ch in self.checks)
 
     def to_json(self) -> dict[str, Any]:
+        """The bound as a JSON-ready dict, its checks included."""
         return {"c": self.c, "kv": self.kv, "beta": self.beta, "certified": self.certified,
                 "n_programs": self.n_programs, "timings_s": self.timings,
                 "checks": [ch.to_json() for ch in self.checks]}
@@ -391,7 +591,17 @@ def _beta_program(form: HJIForm, region: Region, alpha: float,
 
 
 def quadratic_part(p: Poly) -> np.ndarray:
-    """Symmetric matrix ``S`` of the degree-2 terms of ``p`` (``p_2(x) = x^T S x``)."""
+    """Symmetric matrix ``S`` of the degree-2 terms of ``p`` (``p_2(x) = x^T S x``).
+
+    Parameters
+    ----------
+    p : satfmu.synthesis.polynomial.Poly
+        Numeric polynomial in n variables.
+
+    Returns
+    -------
+    numpy.ndarray, shape (n, n)
+    """
     n = p.n_vars
     S = np.zeros((n, n))
     for c, e in zip(p.c0, p.exps):
@@ -408,7 +618,14 @@ def quadratic_part(p: Poly) -> np.ndarray:
 
 def alpha_limit(form: HJIForm) -> float:
     """Largest ``alpha = 1/kv`` with ``a_2 - alpha z_2 >= 0`` (quadratic parts): near the
-    origin ``H <= 0`` needs it, so no certificate exists for larger alpha (0 if none)."""
+    origin ``H <= 0`` needs it, so no certificate exists for larger alpha (0 if none).
+
+    Parameters
+    ----------
+    form : HJIForm
+        The closed loop's inequality; 0 is returned unless the quadratic part of ``a`` is
+        positive definite.
+    """
     A2, Z2 = quadratic_part(form.a), quadratic_part(form.z)
     if np.linalg.eigvalsh(A2).min() <= 1e-12 * max(1.0, np.abs(A2).max()):
         return 0.0
@@ -427,6 +644,19 @@ def sos_gain(form: HJIForm, region: Region, kv: float | None = None, multiplier_
     cone, so the certificate is re-solved at ``alpha (1 - backoff)`` with ``beta`` fixed to
     ``(1 - backoff)`` times its optimum: a strictly feasible point the verification
     (:func:`satfmu.synthesis.sos.verify`) can check with margin. ``c`` is reported for that point.
+
+    Parameters
+    ----------
+    form : HJIForm
+        The closed loop's inequality.
+    region : Region
+        The region ``H <= 0`` is proved on (S-procedure).
+    kv : float, optional
+        Scale of ``V = kv V0``; None: searched (``alpha = 1/kv`` below :func:`alpha_limit`).
+    multiplier_degree : int, optional
+        Degree of the S-procedure multipliers (even). Default 2.
+    backoff : float, optional
+        Relative back-off of alpha and beta from the optimum. Default 1e-3.
 
     Raises
     ------

@@ -74,7 +74,18 @@ def _block_starts(reps: np.ndarray) -> np.ndarray:
 
 
 def box_vertices(n_params: int) -> np.ndarray:
-    """The ``2^N`` vertices of ``[-1, 1]^N``, shape (2^N, N) (one empty vertex when N = 0)."""
+    """The ``2^N`` vertices of ``[-1, 1]^N``, shape (2^N, N) (one empty vertex when N = 0).
+
+    Parameters
+    ----------
+    n_params : int
+        N, the number of uncertain parameters (>= 0).
+
+    Returns
+    -------
+    numpy.ndarray, shape (2^N, N)
+        One vertex per row, entries -1 or 1.
+    """
     return np.array(list(itertools.product((-1.0, 1.0), repeat=n_params))).reshape(2**n_params, n_params)
 
 
@@ -148,7 +159,32 @@ class LFTPlant:
 
     @classmethod
     def without_uncertainty(cls, A, Bu, B1, B2, C1, D1u, D11, C2) -> LFTPlant:
-        """A certain plant (no blocks, ``n_q = 0``)."""
+        """A certain plant (no blocks, ``n_q = 0``).
+
+        Parameters
+        ----------
+        A : array_like, shape (n, n)
+            State matrix.
+        Bu : array_like, shape (n, m)
+            Control input matrix.
+        B1 : array_like, shape (n, m1)
+            Input matrix of the H-infinity disturbance w1.
+        B2 : array_like, shape (n, m2)
+            Input matrix of the impulse-to-peak disturbance w2.
+        C1 : array_like, shape (p1, n)
+            State to the H-infinity output z1.
+        D1u : array_like, shape (p1, m)
+            Control input to z1.
+        D11 : array_like, shape (p1, m1)
+            Feedthrough w1 to z1.
+        C2 : array_like, shape (p2, n)
+            State to the impulse-to-peak output z2.
+
+        Returns
+        -------
+        LFTPlant
+            The plant with empty uncertainty channels.
+        """
         A, Bu, B1, C1 = (np.asarray(a, float) for a in (A, Bu, B1, C1))
         n, m, m1, p1 = A.shape[0], Bu.shape[1], B1.shape[1], C1.shape[0]
         z = np.zeros
@@ -166,7 +202,18 @@ class LFTPlant:
         return np.array([r for _, r in self.blocks], dtype=int)
 
     def delta_matrix(self, delta) -> np.ndarray:
-        """``Delta = blockdiag(delta_k I_rk)``, shape (n_q, n_q); delta in [-1, 1]^N."""
+        """``Delta = blockdiag(delta_k I_rk)``, shape (n_q, n_q); delta in [-1, 1]^N.
+
+        Parameters
+        ----------
+        delta : array_like, shape (N,)
+            The uncertain parameters, each in [-1, 1] (normalized, dimensionless).
+
+        Raises
+        ------
+        DeltaError
+            If ``delta`` does not have shape (N,), is not finite or leaves the box.
+        """
         return np.diag(np.repeat(_check_delta(delta, self.n_params), self.repetitions))
 
     def evaluate(self, delta) -> tuple[np.ndarray, ...]:
@@ -174,6 +221,11 @@ class LFTPlant:
 
         ``X = Delta (I - Dqp Delta)^-1``; ``A + Bp X Cq``, ``Bu + Bp X Dqu``, ``B1 + Bp X Dq1``,
         ``C1 + D1p X Cq``, ``D1u + D1p X Dqu``, ``D11 + D1p X Dq1``.
+
+        Parameters
+        ----------
+        delta : array_like, shape (N,)
+            The uncertain parameters, each in [-1, 1] (normalized, dimensionless).
 
         Raises
         ------
@@ -195,13 +247,34 @@ class LFTPlant:
         return self.evaluate(np.zeros(self.n_params))
 
     def closed_loop(self, K, delta) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """``(A + Bu K, B1, C1 + D1u K, D11)`` at ``delta`` for ``u = K x`` (K shape (m, n))."""
+        """``(A + Bu K, B1, C1 + D1u K, D11)`` at ``delta`` for ``u = K x`` (K shape (m, n)).
+
+        Parameters
+        ----------
+        K : array_like, shape (m, n)
+            State-feedback gain of ``u = K x``.
+        delta : array_like, shape (N,)
+            The uncertain parameters, each in [-1, 1].
+
+        Raises
+        ------
+        PlantDataError
+            If ``K`` does not have shape (m, n) or is not finite.
+        DeltaError
+            As :meth:`evaluate`.
+        """
         A, Bu, B1, C1, D1u, D11 = self.evaluate(delta)
         K = _check_gain(K, Bu.shape[1], A.shape[0])
         return A + Bu @ K, B1, C1 + D1u @ K, D11
 
     def at(self, delta) -> LFTPlant:
-        """The certain plant at ``delta`` (no blocks; w2, z2 unchanged)."""
+        """The certain plant at ``delta`` (no blocks; w2, z2 unchanged).
+
+        Parameters
+        ----------
+        delta : array_like, shape (N,)
+            The uncertain parameters, each in [-1, 1] (normalized, dimensionless).
+        """
         A, Bu, B1, C1, D1u, D11 = self.evaluate(delta)
         return LFTPlant.without_uncertainty(A, Bu, B1, self.B2, C1, D1u, D11, self.C2)
 
@@ -210,6 +283,16 @@ class LFTPlant:
 
         A gain ``K`` of this plant becomes ``K_s = K diag(T)``; a dual Lyapunov matrix ``Y``
         becomes ``Y_s = diag(T)^-1 Y diag(T)^-1``; bounds, multipliers and poles are unchanged.
+
+        Parameters
+        ----------
+        T : array_like, shape (n,)
+            Positive scale of each state (in the state's unit per unit of ``x_s``).
+
+        Raises
+        ------
+        PlantDataError
+            If ``T`` does not have shape (n,) or has an entry that is not finite and > 0.
         """
         T = np.asarray(T, dtype=float)
         if T.shape != (self.A.shape[0],) or not np.all(np.isfinite(T) & (T > 0)):
@@ -298,6 +381,11 @@ class AffineDescriptor:
         """The LFT as a descriptor with ``v = p``: ``x' = A x + Bp p + Bu u + B1 w1`` and
         ``p - Delta (Cq x + Dqp p + Dqu u + Dq1 w1) = 0`` (affine in delta); w2, z2 dropped.
 
+        Parameters
+        ----------
+        plant : LFTPlant
+            The plant, with ``D1p = 0``.
+
         Raises
         ------
         PlantDataError
@@ -318,6 +406,7 @@ class AffineDescriptor:
 
     @property
     def n_params(self) -> int:
+        """Number N of uncertain parameters."""
         return len(self.names)
 
     def _slices(self) -> tuple[slice, slice, slice, slice, slice]:
@@ -326,12 +415,23 @@ class AffineDescriptor:
                 slice(2 * n + nv, 2 * n + nv + mu), slice(2 * n + nv + mu, None))
 
     def matrix(self, delta) -> np.ndarray:
-        """``N(delta)``, shape (n + n_v, 2 n + n_v + m_u + m_w)."""
+        """``N(delta)``, shape (n + n_v, 2 n + n_v + m_u + m_w).
+
+        Parameters
+        ----------
+        delta : array_like, shape (N,)
+            The uncertain parameters, each in [-1, 1] (normalized, dimensionless).
+        """
         d = _check_delta(delta, self.n_params)
         return self.N0 + np.tensordot(d, self.Nk, axes=1)
 
     def state_space(self, delta) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(A, Bu, B1)`` of ``x' = A x + Bu u + B1 w1`` at delta, solving N for ``(x', v)``.
+
+        Parameters
+        ----------
+        delta : array_like, shape (N,)
+            The uncertain parameters, each in [-1, 1] (normalized, dimensionless).
 
         Raises
         ------
@@ -351,7 +451,18 @@ class AffineDescriptor:
         the ``x'`` and ``x`` columns of N times T, its first n rows (the state equations, as
         :meth:`from_lft` writes them) divided by T, ``C1`` times T. A gain ``K`` becomes
         ``K diag(T)``, a Lyapunov matrix ``P`` becomes ``diag(T) P diag(T)``; the H-infinity norm
-        of every loop is unchanged."""
+        of every loop is unchanged.
+
+        Parameters
+        ----------
+        T : array_like, shape (n,)
+            Positive scale of each state (in the state's unit per unit of ``x_s``).
+
+        Raises
+        ------
+        PlantDataError
+            If ``T`` does not have shape (n,) or has an entry that is not finite and > 0.
+        """
         T = np.asarray(T, dtype=float)
         if T.shape != (self.n,) or not np.all(np.isfinite(T) & (T > 0)):
             raise PlantDataError(f"T must be {self.n} positive scales, got {T}")
@@ -364,7 +475,20 @@ class AffineDescriptor:
                                 self.names)
 
     def loop_constraint(self, K, delta) -> np.ndarray:
-        """``M(delta)`` with ``M [x'; x; v; w1] = 0`` the loop ``u = K x``: ``[N_x', N_x + N_u K, N_v, N_w]``."""
+        """``M(delta)`` with ``M [x'; x; v; w1] = 0`` the loop ``u = K x``: ``[N_x', N_x + N_u K, N_v, N_w]``.
+
+        Parameters
+        ----------
+        K : array_like, shape (m_u, n)
+            State-feedback gain of ``u = K x``.
+        delta : array_like, shape (N,)
+            The uncertain parameters, each in [-1, 1].
+
+        Returns
+        -------
+        numpy.ndarray, shape (n + n_v, 2 n + n_v + m_w)
+            The closed loop's constraint matrix.
+        """
         K = _check_gain(K, self.m_u, self.n)
         Nd = self.matrix(delta)
         sd, sx, sv, su, sw = self._slices()

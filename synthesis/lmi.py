@@ -91,7 +91,20 @@ def _const(value, shape: tuple[int, int] | None = None) -> np.ndarray:
 
 
 class Affine:
-    """An affine matrix expression ``C0 + sum_k x_{vars[k]} C_k`` (module docstring)."""
+    """An affine matrix expression ``C0 + sum_k x_{vars[k]} C_k`` (module docstring).
+
+    Built by :meth:`LMIProgram.variable`, :meth:`constant` and the operations, rarely directly.
+
+    Parameters
+    ----------
+    shape : tuple of (int, int)
+        ``(r, c)``, the shape of the matrix.
+    vars : numpy.ndarray of int, shape (n_vars,)
+        Indices of the program's scalar variables the expression involves, sorted.
+    coef : numpy.ndarray, shape (r c, 1 + n_vars)
+        Coefficients: row-major entries, column 0 the constant ``C0``, column ``1 + k`` the
+        coefficient ``C_k`` of variable ``vars[k]``.
+    """
 
     __array_ufunc__ = None  # numpy defers ``M @ X``, ``M + X`` to the reflected methods
     __slots__ = ("shape", "vars", "coef")
@@ -103,6 +116,18 @@ class Affine:
 
     @classmethod
     def constant(cls, value) -> Affine:
+        """A constant expression (no variables).
+
+        Parameters
+        ----------
+        value : float or array_like
+            A matrix; a 1-D array is a column, a number is 1 x 1.
+
+        Raises
+        ------
+        LMIError
+            If ``value`` has more than two dimensions.
+        """
         a = _const(value)
         return cls(a.shape, np.zeros(0, dtype=np.int64), a.reshape(-1, 1).copy())
 
@@ -176,6 +201,7 @@ class Affine:
 
     @property
     def T(self) -> Affine:
+        """The transposed expression."""
         c3 = self._c3().transpose(1, 0, 2)
         return Affine((self.shape[1], self.shape[0]), self.vars, np.ascontiguousarray(c3).reshape(self.coef.shape))
 
@@ -185,7 +211,24 @@ def _as_affine(block) -> Affine:
 
 
 def bmat(blocks: Sequence[Sequence[Any]]) -> Affine:
-    """The block matrix of expressions and constants (rows of blocks; sizes must agree)."""
+    """The block matrix of expressions and constants (rows of blocks; sizes must agree).
+
+    Parameters
+    ----------
+    blocks : sequence of sequence
+        Rows of blocks, each an :class:`Affine` or a constant (number or matrix); the blocks of a
+        row have one height, those of a column one width.
+
+    Returns
+    -------
+    Affine
+        The assembled matrix, over the union of the blocks' variables.
+
+    Raises
+    ------
+    LMIError
+        If the block sizes do not agree.
+    """
     grid = [[_as_affine(b) for b in row] for row in blocks]
     heights = [row[0].shape[0] for row in grid]
     widths = [b.shape[1] for b in grid[0]]
@@ -205,14 +248,39 @@ def bmat(blocks: Sequence[Sequence[Any]]) -> Affine:
 
 
 def vstack(blocks: Sequence[Any]) -> Affine:
-    """Expressions and constants stacked vertically."""
+    """Expressions and constants stacked vertically.
+
+    Parameters
+    ----------
+    blocks : sequence
+        :class:`Affine` expressions and constants of one width, top to bottom.
+
+    Returns
+    -------
+    Affine
+        The stacked matrix (:func:`bmat` of one column).
+    """
     return bmat([[b] for b in blocks])
 
 
 @dataclass
 class LMISolution:
     """What :meth:`LMIProgram.solve` gave: the ladder's outcome and, when solved, ``x`` and the
-    dual ``z`` (Clarabel's, one entry per constraint row)."""
+    dual ``z`` (Clarabel's, one entry per constraint row).
+
+    Attributes
+    ----------
+    outcome : satfmu.synthesis.solve_policy.SolveOutcome
+        The solve ladder's status and attempts.
+    x : numpy.ndarray or None
+        The value of every scalar variable, shape (n,); None when not solved.
+    objective : float
+        The objective's value at ``x`` (as given, not negated for a maximization); nan without
+        an objective or a solution.
+    z : numpy.ndarray or None, optional
+        Clarabel's dual, one entry per constraint row (scalar inequalities first, then the PSD
+        cones' scaled svecs); None when not solved.
+    """
 
     outcome: solve_policy.SolveOutcome
     x: np.ndarray | None
@@ -221,11 +289,20 @@ class LMISolution:
 
     @property
     def solved(self) -> bool:
+        """Whether the ladder solved the program and ``x`` holds the solution."""
         return self.outcome.solved and self.x is not None
 
 
 class LMIProgram:
-    """Variables, LMIs ``M(x) >= 0`` and scalar inequalities ``e(x) >= 0``, as Clarabel's arrays."""
+    """Variables, LMIs ``M(x) >= 0`` and scalar inequalities ``e(x) >= 0``, as Clarabel's arrays.
+
+    Parameters
+    ----------
+    max_bytes : int, optional
+        Largest :meth:`solver_bytes` the program may grow to, bytes (default
+        :data:`MAX_SOLVER_BYTES`); beyond it adding a constraint raises
+        ``ProgramTooLargeError``.
+    """
 
     def __init__(self, max_bytes: int | None = None) -> None:
         self.n = 0
@@ -258,7 +335,25 @@ class LMIProgram:
                 f"at {what}) > max_bytes = {self.max_bytes / 1e9:.3g} GB")
 
     def variable(self, shape: tuple[int, int] = (1, 1), symmetric: bool = False) -> Affine:
-        """A new matrix variable (``symmetric``: ``r (r + 1) / 2`` scalars, square shape)."""
+        """A new matrix variable (``symmetric``: ``r (r + 1) / 2`` scalars, square shape).
+
+        Parameters
+        ----------
+        shape : tuple of (int, int), optional
+            ``(r, c)``, the shape of the variable (default a scalar).
+        symmetric : bool, optional
+            A symmetric matrix (``r == c``), one scalar per entry of its upper triangle.
+
+        Returns
+        -------
+        Affine
+            The variable, over ``r c`` (or ``r (r + 1) / 2``) new scalars.
+
+        Raises
+        ------
+        LMIError
+            If a symmetric variable is not square.
+        """
         r, c = shape
         if symmetric:
             if r != c:
@@ -280,6 +375,13 @@ class LMIProgram:
         """``M(x) >= 0`` (its symmetric part), one PSD cone of order ``M.shape[0]``; ``tag`` names
         it for :meth:`dual_weights`.
 
+        Parameters
+        ----------
+        M : Affine
+            A square expression (or constant matrix); only its symmetric part counts.
+        tag : hashable, optional
+            A name that groups the cone for :meth:`dual_weights` (None: not reported).
+
         Raises
         ------
         ProgramTooLargeError
@@ -297,7 +399,18 @@ class LMIProgram:
         self._grow(len(i), True, f"an LMI of order {N}")
 
     def add_nonneg(self, e: Affine) -> None:
-        """Every entry of ``e(x) >= 0``."""
+        """Every entry of ``e(x) >= 0``.
+
+        Parameters
+        ----------
+        e : Affine
+            An expression (or constant) of any shape, one inequality per entry.
+
+        Raises
+        ------
+        ProgramTooLargeError
+            If the program would then exceed ``max_bytes`` (:meth:`solver_bytes`).
+        """
         e = _as_affine(e)
         self._nonneg.append((e.coef[:, 0], e.vars, -e.coef[:, 1:]))
         self._grow(e.coef.shape[0], False, "a scalar inequality")
@@ -328,7 +441,30 @@ class LMIProgram:
         """Minimize (or maximize) the 1 x 1 ``objective`` (feasibility if None) under the
         project's solve policy (:mod:`satfmu.synthesis.solve_policy`; ``ladder`` a sequence of rungs or
         a :class:`~satfmu.synthesis.solve_policy.RungMemory` shared by a family of programs); the
-        values are then read with :meth:`value`."""
+        values are then read with :meth:`value`.
+
+        Parameters
+        ----------
+        objective : Affine, optional
+            A 1 x 1 expression; None for a feasibility problem.
+        maximize : bool, optional
+            Maximize ``objective`` instead of minimizing it.
+        ladder : sequence of (str, dict) or satfmu.synthesis.solve_policy.RungMemory, optional
+            The rungs (solver, settings) to try in turn (default
+            :data:`satfmu.synthesis.solve_policy.LADDER`); the solver must be ``"CLARABEL"``.
+
+        Returns
+        -------
+        LMISolution
+            The outcome, also kept as ``solution``.
+
+        Raises
+        ------
+        ProgramTooLargeError
+            If the solver runs out of memory in its child process.
+        LMIError
+            If the program has no constraints or the objective is not 1 x 1.
+        """
         obj = None if objective is None else (-objective if maximize else objective)
         problem = self._problem(obj)
         results = []
@@ -379,7 +515,23 @@ class LMIProgram:
         return out
 
     def value(self, e: Affine) -> np.ndarray:
-        """The value of ``e`` at the last solve's solution."""
+        """The value of ``e`` at the last solve's solution.
+
+        Parameters
+        ----------
+        e : Affine
+            An expression in the program's variables (or a constant).
+
+        Returns
+        -------
+        numpy.ndarray
+            Its value, of its shape.
+
+        Raises
+        ------
+        LMIError
+            If the program was not solved.
+        """
         if self.solution is None or self.solution.x is None:
             raise LMIError("no solution to read: solve first (and check that it solved)")
         e = _as_affine(e)

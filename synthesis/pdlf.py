@@ -49,6 +49,38 @@ class PDLFResult:
     holds in the coordinates ``x = diag(T) x_s``: ``verify_pdlf(desc.scale_states(T), K * T, P0,
     Pk, F, gamma)`` (:meth:`AffineDescriptor.scale_states`; gamma does not depend on them).
     Status and times as :class:`~satfmu.synthesis.robust_design.RobustDesign`.
+
+    Attributes
+    ----------
+    status : {"optimal", "infeasible", "unverified"}
+        Verified certificate, infeasibility proved by the solver, or no verified level.
+    gamma : float or None
+        The certified bound (units of z1 per unit of w1); None unless ``"optimal"``.
+    P0 : numpy.ndarray, shape (n, n), or None
+        Constant part of the Lyapunov matrix.
+    Pk : numpy.ndarray, shape (N, n, n), or None
+        Its parameter-dependent parts (zeros if ``common``).
+    F : numpy.ndarray, shape (2 n + n_v + m_w, n + n_v), or None
+        The slack matrix.
+    check : satfmu.synthesis.robust_design.RobustCheck or None
+        :func:`verify_pdlf` of the certificate returned, or of the last one that failed.
+    common : bool
+        One common Lyapunov matrix (``Pk = 0``) instead of a PDLF.
+    n_vertices : int
+        Box vertices, ``2^N``.
+    solver_status : str
+        The statuses of every solve made, ``"; "``-separated.
+    solve_seconds : float
+        Clarabel's wall time summed over the solves, s.
+    build_seconds : float
+        Time to build the LMI programs, summed, s.
+    backoff : float, optional
+        The back-off of :data:`~satfmu.synthesis.robust_design.BACKOFFS` at which the
+        certificate verified (None: bisection, or no certificate).
+    method : {"minimize", "bisection"}, optional
+        How ``gamma`` was found. Default ``"minimize"``.
+    state_scaling : numpy.ndarray, shape (n,), optional
+        The scaling T of the certificate's coordinates, None if it is in the caller's.
     """
 
     status: str
@@ -81,7 +113,35 @@ def _pdlf_lmi(desc: AffineDescriptor, K: np.ndarray, P, F, g, delta: np.ndarray,
 
 def verify_pdlf(desc: AffineDescriptor, K, P0, Pk, F, gamma: float) -> RobustCheck:
     """Check :func:`pdlf_hinf`'s LMIs at every vertex with numpy: ``P(delta_v) > 0`` (``"P"``)
-    and the dilated H-infinity LMI at ``g = gamma^2`` (``"hinf"``), one eigenvalue per vertex."""
+    and the dilated H-infinity LMI at ``g = gamma^2`` (``"hinf"``), one eigenvalue per vertex.
+
+    Parameters
+    ----------
+    desc : satfmu.synthesis.lft_plant.AffineDescriptor
+        The plant, affine in the N parameters.
+    K : numpy.ndarray, shape (m_u, n)
+        The state-feedback gain, ``u = K x``.
+    P0 : numpy.ndarray, shape (n, n)
+        Constant part of the Lyapunov matrix (its symmetric part is used).
+    Pk : numpy.ndarray, shape (N, n, n)
+        Parameter-dependent parts of the Lyapunov matrix.
+    F : numpy.ndarray, shape (2 n + n_v + m_w, n + n_v)
+        The slack matrix.
+    gamma : float
+        The H-infinity level checked, units of z1 per unit of w1 (finite, > 0).
+
+    Returns
+    -------
+    satfmu.synthesis.robust_design.RobustCheck
+        Eigenvalues per vertex and the margin; ``ok`` when every LMI holds.
+
+    Raises
+    ------
+    PlantDataError
+        If ``K``, ``P0``, ``Pk`` or ``F`` has the wrong shape or is not finite.
+    OptionError
+        If ``gamma`` is not finite and > 0.
+    """
     n, N = desc.n, desc.n_params
     K = _check_gain(K, desc.m_u, n)
     P0, F = _matrix("P0", P0), _matrix("F", F)
@@ -93,7 +153,8 @@ def verify_pdlf(desc: AffineDescriptor, K, P0, Pk, F, gamma: float) -> RobustChe
     if not (np.isfinite(gamma) and gamma > 0):
         raise OptionError(f"gamma must be finite and > 0, got {gamma!r}")
     P0 = _sym(P0)
-    neg, pos = {"hinf": []}, {"P": []}
+    neg: dict[str, list[np.ndarray]] = {"hinf": []}
+    pos: dict[str, list[np.ndarray]] = {"P": []}
     for v in box_vertices(desc.n_params):
         P = P0 + _sym(np.tensordot(v, Pk, axes=1)) if len(v) else P0
         pos["P"].append(P)
@@ -105,7 +166,13 @@ def pdlf_size(desc: AffineDescriptor) -> int:
     """Size of the :func:`pdlf_hinf` program of ``desc``: the sum over its LMIs of the squared
     number of their distinct entries, ``2^N ((s (s + 1) / 2)^2 + (n (n + 1) / 2)^2)``, ``s = 2 n +
     n_v + m_w + p``. Clarabel's KKT system holds a dense block of that many entries per PSD cone,
-    and the slack F couples every cone, so this is the memory and time the solve needs."""
+    and the slack F couples every cone, so this is the memory and time the solve needs.
+
+    Parameters
+    ----------
+    desc : satfmu.synthesis.lft_plant.AffineDescriptor
+        The plant, affine in the N parameters.
+    """
     n, s = desc.n, _pdlf_side(desc)
     return 2**desc.n_params * ((s * (s + 1) // 2) ** 2 + (n * (n + 1) // 2) ** 2)
 
@@ -153,6 +220,33 @@ def pdlf_hinf(desc: AffineDescriptor, K, *, common: bool = False, max_vertices: 
     rescaled ones if that program was solved. ``ladder``: the Clarabel rungs shared by several
     analyses of the same loop (:class:`~satfmu.synthesis.solve_policy.RungMemory`; DEMETER: the PDLF
     and common-P programs both fail twice before the regularized rung).
+
+    Parameters
+    ----------
+    desc : satfmu.synthesis.lft_plant.AffineDescriptor
+        The plant, affine in the N parameters ``delta`` in ``[-1, 1]``.
+    K : numpy.ndarray, shape (m_u, n)
+        The state-feedback gain, ``u = K x``.
+    common : bool, optional
+        One common Lyapunov matrix (``Pk = 0``) instead of the PDLF. Default False.
+    max_vertices : int, optional
+        Largest number of box vertices ``2^N`` accepted (default
+        :data:`~satfmu.synthesis.robust_design.MAX_VERTICES`).
+    max_entries : int, optional
+        Largest :func:`pdlf_size` accepted (default :data:`PDLF_MAX_ENTRIES`).
+    eps : float, optional
+        Strictness of the LMIs in the solver (default
+        :data:`~satfmu.synthesis.robust_design.EPS`).
+    rescale : bool, optional
+        Minimize once more in the coordinates where P0 has a unit diagonal when the first
+        minimizer does not verify (above). Default True.
+    ladder : satfmu.synthesis.solve_policy.RungMemory, optional
+        The solver rungs to share with other analyses of the same loop; default a new one.
+
+    Returns
+    -------
+    PDLFResult
+        The bound and its certificate, or why there is none.
 
     Raises
     ------
@@ -218,6 +312,7 @@ def _minimized(desc: AffineDescriptor, K: np.ndarray, common: bool, eps: float, 
     info["solver_status"] += out.solver_status
     if out.status == "infeasible":
         return _Minimum(None, infeasible=True)
+    assert prog.solution is not None  # set by the solve in _timed_solve
     if not prog.solution.solved:
         return _Minimum(None)
     root = float(np.sqrt(max(float(prog.value(g)[0, 0]), 0.0)))
@@ -250,6 +345,7 @@ def _pdlf_at(desc: AffineDescriptor, K: np.ndarray, common: bool, gamma: float, 
     info["build_seconds"] += time.perf_counter() - t0
     out = _timed_solve(prog, t, True, info, ladder)
     info["solver_status"] += f"; {label}: {out.solver_status}"
+    assert prog.solution is not None  # set by the solve in _timed_solve
     if not prog.solution.solved or prog.value(t)[0, 0] <= 0:
         return None, None
     P0v, Pkv, Fv = _pdlf_values(prog, desc, P0, Pk, F)

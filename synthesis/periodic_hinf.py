@@ -46,11 +46,13 @@ class PeriodicSystem:
     Parameters
     ----------
     A : ndarray, shape (N, r+1, n, n)
+        State matrices ``A_l(k)``.
     B1 : ndarray, shape (N, r+1, n, m1)
         Disturbance input matrices.
     B2 : ndarray, shape (N, r+1, n, m2)
         Control input matrices.
     C : ndarray, shape (N, p, n)
+        Output matrices ``C(k)`` of the quality output z.
     D : ndarray, shape (N, p, m2)
         Quality output ``z = C x + D u``.
     """
@@ -101,7 +103,18 @@ class PeriodicSystem:
         return PeriodicSystem(self.A, self.B1 * a, self.B2, self.C / a, self.D / a)
 
     def closed_loop(self, F: np.ndarray) -> np.ndarray:
-        """``A_l(k) + B2_l(k) F(k)``, shape (N, r+1, n, n), for gains F of shape (N, m2, n)."""
+        """``A_l(k) + B2_l(k) F(k)``, shape (N, r+1, n, n), for gains F of shape (N, m2, n).
+
+        Parameters
+        ----------
+        F : numpy.ndarray, shape (N, m2, n)
+            State-feedback gains ``u = F(k) x``, one per step of the period.
+
+        Raises
+        ------
+        PeriodicSystemError
+            If ``F`` has the wrong shape or non-finite entries.
+        """
         F = np.asarray(F, float)
         N, r, n, _, m2, _ = self.dims
         if F.shape != (N, m2, n) or not np.all(np.isfinite(F)):
@@ -111,7 +124,25 @@ class PeriodicSystem:
 
 @dataclass
 class PeriodicDesign:
-    """A verified solution of Theorem 2 at level ``gamma``."""
+    """A verified solution of Theorem 2 at level ``gamma``.
+
+    Attributes
+    ----------
+    gamma : float
+        The H-infinity level from w to z that the solution certifies.
+    Y : numpy.ndarray, shape (N, n, n)
+        ``Y(k) > 0``, k = 0..N-1, of the original (unscaled) system.
+    Z : numpy.ndarray, shape (N, n, m2)
+        ``Z(k)``, of the original system.
+    F : numpy.ndarray, shape (N, m2, n)
+        The gains ``F(k) = Z(k)^T Y(k)^-1`` of ``u = F(k) x``.
+    check : LMICheck
+        The solver-independent check of the LMIs (:func:`verify`), passed.
+    solver_status : str
+        What the solver reported.
+    solve_seconds : float
+        Wall time of the solver, s.
+    """
 
     gamma: float
     Y: np.ndarray
@@ -131,6 +162,19 @@ class LMICheck:
     (:meth:`PeriodicSystem.scaled`, where Y is of order one); ``margin`` is the smaller of
     ``-max(block_max_eig)`` and ``min(y_min_eig)`` less the rounding allowance
     ``max(ABS_MARGIN, 1000 eps_machine scale)`` (``scale``: the largest block entry).
+
+    Attributes
+    ----------
+    block_max_eig : numpy.ndarray, shape (N,)
+        Largest eigenvalue of each LMI block (must be < 0).
+    y_min_eig : numpy.ndarray, shape (N,)
+        Smallest eigenvalue of each Y(k) (must be > 0).
+    margin : float
+        The smallest margin less the rounding allowance; the check passes when it is > 0.
+    scale : float
+        Largest absolute entry of the blocks.
+    details : list of str, optional
+        One line per violated condition (empty when all hold).
     """
 
     block_max_eig: np.ndarray
@@ -164,7 +208,21 @@ def _theorem2(sys: PeriodicSystem, k: int, Yk, Yn, Zk, g2, stack, kron, block):
 
 
 def lmi_block(sys: PeriodicSystem, Y: np.ndarray, Z: np.ndarray, gamma: float, k: int) -> np.ndarray:
-    """The k-th matrix of Theorem 2 evaluated in numpy (symmetric, size n + m1 + (r+1) n + p)."""
+    """The k-th matrix of Theorem 2 evaluated in numpy (symmetric, size n + m1 + (r+1) n + p).
+
+    Parameters
+    ----------
+    sys : PeriodicSystem
+        The system.
+    Y : numpy.ndarray, shape (N, n, n)
+        ``Y(k)`` for k = 0..N-1 (``Y(N) = Y(0)``).
+    Z : numpy.ndarray, shape (N, n, m2)
+        ``Z(k)`` for k = 0..N-1.
+    gamma : float
+        The H-infinity level.
+    k : int
+        Step of the period, 0..N-1.
+    """
     L = _theorem2(sys, k, Y[k], Y[(k + 1) % sys.dims[0]], Z[k], gamma**2, np.hstack, np.kron, np.block)
     return (L + L.T) / 2
 
@@ -174,6 +232,21 @@ def verify(sys: PeriodicSystem, Y: np.ndarray, Z: np.ndarray, gamma: float) -> L
 
     The blocks are evaluated for the scaled system (:meth:`PeriodicSystem.scaled`, a
     congruence: the same signs) so that the relative margin does not depend on the weights.
+
+    Parameters
+    ----------
+    sys : PeriodicSystem
+        The system (unscaled).
+    Y : numpy.ndarray, shape (N, n, n)
+        ``Y(k)`` of the unscaled system.
+    Z : numpy.ndarray, shape (N, n, m2)
+        ``Z(k)`` of the unscaled system.
+    gamma : float
+        The H-infinity level to check.
+
+    Returns
+    -------
+    LMICheck
     """
     N = sys.dims[0]
     a2 = sys.output_scale() ** 2
@@ -209,6 +282,19 @@ EPS = 1e-6
 def design(sys: PeriodicSystem, gamma: float, eps: float = EPS) -> PeriodicDesign | None:
     """Solve Theorem 2 at ``gamma``; None if infeasible or if the solution fails :func:`verify`.
 
+    Parameters
+    ----------
+    sys : PeriodicSystem
+        The system.
+    gamma : float
+        The H-infinity level from w to z, > 0.
+    eps : float, optional
+        Strictness margin of the LMIs in the solver (scaled coordinates).
+
+    Returns
+    -------
+    PeriodicDesign or None
+
     Raises
     ------
     ValueError
@@ -239,14 +325,42 @@ def _solved(sys: PeriodicSystem, prob: cp.Problem, Y: list, Z: list, gamma: floa
 
 
 def gamma_min(sys: PeriodicSystem, eps: float = EPS) -> PeriodicDesign | None:
-    """The smallest level of Theorem 2, minimized directly (the LMIs are affine in gamma^2)."""
+    """The smallest level of Theorem 2, minimized directly (the LMIs are affine in gamma^2).
+
+    Parameters
+    ----------
+    sys : PeriodicSystem
+        The system.
+    eps : float, optional
+        Strictness margin of the LMIs in the solver (scaled coordinates).
+
+    Returns
+    -------
+    PeriodicDesign or None
+        The design at the minimized level (verified a hair above the solver's value), or None
+        if the solve or the check fails.
+    """
     prob, Y, Z, _ = _problem(sys.scaled(), None, eps)
     return _solved(sys, prob, Y, Z, None)
 
 
 def analyze(sys: PeriodicSystem, F: np.ndarray, eps: float = EPS) -> PeriodicDesign | None:
     """The smallest level Theorem 2 proves for the given gains (``Z(k) = Y(k) F(k)^T``): the
-    analysis of a fixed design (the seed's published gains, say). None if none is found."""
+    analysis of a fixed design (the seed's published gains, say). None if none is found.
+
+    Parameters
+    ----------
+    sys : PeriodicSystem
+        The system.
+    F : numpy.ndarray, shape (N, m2, n)
+        The gains ``u = F(k) x`` to analyse.
+    eps : float, optional
+        Strictness margin of the LMIs in the solver (scaled coordinates).
+
+    Returns
+    -------
+    PeriodicDesign or None
+    """
     sys.closed_loop(F)  # checks the shape
     prob, Y, Z, _ = _problem(sys.scaled(), None, eps, np.asarray(F, float))
     return _solved(sys, prob, Y, Z, None)
@@ -257,6 +371,19 @@ def bisect_gamma(sys: PeriodicSystem, lo: float, hi: float, rel_tol: float = 1e-
     """Bisection on feasibility of :func:`design` in [lo, hi] (geometric midpoints).
 
     Returns ``(infeasible, feasible, n_solves)``: the bracket of the smallest feasible level.
+
+    Parameters
+    ----------
+    sys : PeriodicSystem
+        The system.
+    lo : float
+        Lower end of the bracket, an infeasible level (> 0).
+    hi : float
+        Upper end of the bracket, a feasible level.
+    rel_tol : float, optional
+        Stop when ``hi / lo <= 1 + rel_tol``.
+    eps : float, optional
+        Strictness margin of the LMIs in the solver (:func:`design`).
 
     Raises
     ------
@@ -285,6 +412,13 @@ def monodromy(sys: PeriodicSystem, F: np.ndarray) -> np.ndarray:
 
     One step is ``vec X -> sum_l (Acl_l kron Acl_l) vec X`` (unit-variance independent
     noises, no disturbance).
+
+    Parameters
+    ----------
+    sys : PeriodicSystem
+        The system.
+    F : numpy.ndarray, shape (N, m2, n)
+        The gains ``u = F(k) x``.
     """
     Acl = sys.closed_loop(F)
     N, r, n = sys.dims[:3]
@@ -295,12 +429,32 @@ def monodromy(sys: PeriodicSystem, F: np.ndarray) -> np.ndarray:
 
 
 def ms_spectral_radius(sys: PeriodicSystem, F: np.ndarray) -> float:
-    """Spectral radius of :func:`monodromy`: the loop is ESMS iff it is < 1."""
+    """Spectral radius of :func:`monodromy`: the loop is ESMS iff it is < 1.
+
+    Parameters
+    ----------
+    sys : PeriodicSystem
+        The system.
+    F : numpy.ndarray, shape (N, m2, n)
+        The gains ``u = F(k) x``.
+    """
     return float(np.max(np.abs(np.linalg.eigvals(monodromy(sys, F)))))
 
 
 def second_moment(sys: PeriodicSystem, F: np.ndarray, X0: np.ndarray, n_steps: int) -> np.ndarray:
-    """Exact ``E[x(k) x(k)^T]`` for k = 0..n_steps from ``X0`` (no disturbance), shape (n_steps+1, n, n)."""
+    """Exact ``E[x(k) x(k)^T]`` for k = 0..n_steps from ``X0`` (no disturbance), shape (n_steps+1, n, n).
+
+    Parameters
+    ----------
+    sys : PeriodicSystem
+        The system.
+    F : numpy.ndarray, shape (N, m2, n)
+        The gains ``u = F(k) x``.
+    X0 : numpy.ndarray, shape (n, n)
+        ``E[x(0) x(0)^T]``, at step 0 of the period.
+    n_steps : int
+        Number of steps to propagate.
+    """
     Acl = sys.closed_loop(F)
     N, r = sys.dims[:2]
     X = [np.asarray(X0, float)]
@@ -316,6 +470,26 @@ def monte_carlo(sys: PeriodicSystem, F: np.ndarray, x0: np.ndarray, n_steps: int
 
     Returns ``(x, u)``: states at the samples, shape (n_runs, n_steps+1, n), and the inputs
     ``u(k) = F(k) x(k)``, shape (n_runs, n_steps, m2).
+
+    Parameters
+    ----------
+    sys : PeriodicSystem
+        The system.
+    F : numpy.ndarray, shape (N, m2, n)
+        The gains ``u = F(k) x``.
+    x0 : numpy.ndarray, shape (n,) or (n_runs, n)
+        Initial state at step 0 of the period: the same for every run, or one per run.
+    n_steps : int
+        Number of steps, >= 1.
+    n_runs : int
+        Number of realizations, >= 1.
+    seed : int
+        Seed of the generator of the noises ``xi_l(k)``.
+
+    Raises
+    ------
+    ValueError
+        If ``n_runs`` or ``n_steps`` is below 1.
     """
     if n_runs < 1 or n_steps < 1:
         raise ValueError("n_runs and n_steps must be >= 1")

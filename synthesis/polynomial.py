@@ -28,7 +28,22 @@ from satfmu.synthesis.exponents import keys, weights
 
 def monomials(n: int, max_degree: int, min_degree: int = 0) -> np.ndarray:
     """All exponent rows of ``n`` variables with total degree in [min_degree, max_degree],
-    graded (lowest degree first)."""
+    graded (lowest degree first).
+
+    Parameters
+    ----------
+    n : int
+        Number of variables.
+    max_degree : int
+        Largest total degree.
+    min_degree : int, optional
+        Smallest total degree. Default 0.
+
+    Returns
+    -------
+    numpy.ndarray of int, shape (k, n)
+        One exponent row per monomial (none if ``min_degree > max_degree``).
+    """
     rows = []
     for d in range(min_degree, max_degree + 1):
         for combo in combinations_with_replacement(range(n), d):
@@ -134,7 +149,18 @@ def _product(left: _Terms, right: _Terms, shape: tuple[int, int, int]) -> _Terms
 
 @dataclass
 class Poly:
-    """A polynomial with affine coefficients ``c0 + C y`` on exponent rows ``exps``."""
+    """A polynomial with affine coefficients ``c0 + C y`` on exponent rows ``exps``.
+
+    Attributes
+    ----------
+    exps : numpy.ndarray of int, shape (k, n)
+        Exponent rows, one per term, one column per variable.
+    c0 : numpy.ndarray, shape (k,)
+        Constant part of each term's coefficient.
+    C : scipy.sparse.csr_matrix, shape (k, n_y)
+        Decision-variable part of each term's coefficient (``n_y`` columns: the decision
+        variables existing when the polynomial was made; 0 for a numeric polynomial).
+    """
 
     exps: np.ndarray
     c0: np.ndarray
@@ -142,10 +168,12 @@ class Poly:
 
     @property
     def n_vars(self) -> int:
+        """Number of polynomial variables (columns of ``exps``)."""
         return self.exps.shape[1]
 
     @property
     def n_decision(self) -> int:
+        """Number of decision variables the coefficients refer to (columns of ``C``)."""
         return self.C.shape[1]
 
     def _terms(self) -> _Terms:
@@ -157,10 +185,32 @@ class Poly:
 
     @staticmethod
     def constant(value: float, n_vars: int, n_decision: int = 0) -> "Poly":
+        """The constant polynomial ``value`` (one degree-0 term).
+
+        Parameters
+        ----------
+        value : float
+            The constant.
+        n_vars : int
+            Number of variables.
+        n_decision : int, optional
+            Number of decision-variable columns of ``C`` (all zero). Default 0.
+        """
         return Poly(np.zeros((1, n_vars), np.int64), np.array([float(value)]), sps.csr_matrix((1, n_decision)))
 
     @staticmethod
     def numeric(exps: np.ndarray, coefs: np.ndarray, n_decision: int = 0) -> "Poly":
+        """A polynomial with numeric coefficients; terms with equal exponent rows are summed.
+
+        Parameters
+        ----------
+        exps : numpy.ndarray of int, shape (k, n)
+            Exponent rows of the terms.
+        coefs : numpy.ndarray, shape (k,)
+            Their coefficients.
+        n_decision : int, optional
+            Number of decision-variable columns of ``C`` (all zero). Default 0.
+        """
         exps = np.asarray(exps, np.int64).reshape(len(coefs), -1)
         return Poly._of(_merge(_Terms(np.zeros(len(coefs), np.int64), exps, np.asarray(coefs, float),
                                       sps.csr_matrix((len(coefs), n_decision)))))
@@ -168,6 +218,15 @@ class Poly:
     @staticmethod
     def from_sympy(expr: sp.Expr, variables: Sequence[sp.Symbol], n_decision: int = 0) -> "Poly":
         """A numeric polynomial from a sympy expression polynomial in ``variables``.
+
+        Parameters
+        ----------
+        expr : sympy.Expr
+            The expression, polynomial in ``variables`` with numeric coefficients.
+        variables : sequence of sympy.Symbol
+            The variables, in the order of the exponent columns.
+        n_decision : int, optional
+            Number of decision-variable columns of ``C`` (all zero). Default 0.
 
         Raises
         ------
@@ -182,14 +241,36 @@ class Poly:
         return Poly.numeric(exps, np.array([float(t[1]) for t in terms]), n_decision)
 
     def with_decision_size(self, n: int) -> "Poly":
-        """The same polynomial with ``C`` padded to ``n`` decision columns."""
+        """The same polynomial with ``C`` padded to ``n`` decision columns.
+
+        Parameters
+        ----------
+        n : int
+            Number of decision variables, at least :attr:`n_decision`.
+
+        Raises
+        ------
+        ValueError
+            If ``n`` is smaller than the current count.
+        """
         if n < self.n_decision:
             raise ValueError("cannot shrink the decision vector")
         return self if n == self.n_decision else Poly(self.exps, self.c0, _csr(self.C, n))
 
     @staticmethod
     def sum(polys: Sequence["Poly"]) -> "Poly":
-        """Sum of polynomials in the same variables (one merge for all terms)."""
+        """Sum of polynomials in the same variables (one merge for all terms).
+
+        Parameters
+        ----------
+        polys : sequence of Poly
+            The polynomials (at least one), in the same variables.
+
+        Raises
+        ------
+        ValueError
+            If ``polys`` is empty.
+        """
         if not polys:
             raise ValueError("sum of no polynomials")
         n = max(p.n_decision for p in polys)
@@ -216,6 +297,13 @@ class Poly:
         return (-self) + other
 
     def scale(self, s: float) -> "Poly":
+        """The polynomial times the number ``s`` (constant and decision parts alike).
+
+        Parameters
+        ----------
+        s : float
+            The factor.
+        """
         return Poly(self.exps, s * self.c0, (s * self.C).tocsr())
 
     def __mul__(self, other: "Poly | float") -> "Poly":
@@ -227,7 +315,18 @@ class Poly:
 
     def diff(self, i: int) -> "Poly":
         """The partial derivative with respect to variable ``i`` (coefficients stay affine in
-        the decision variables: ``d/dx_i (c0 + C y) x^e = e_i (c0 + C y) x^(e - 1_i)``)."""
+        the decision variables: ``d/dx_i (c0 + C y) x^e = e_i (c0 + C y) x^(e - 1_i)``).
+
+        Parameters
+        ----------
+        i : int
+            Index of the variable, ``0 <= i < n_vars``.
+
+        Raises
+        ------
+        IndexError
+            If there is no variable ``i``.
+        """
         if not 0 <= i < self.n_vars:
             raise IndexError(f"variable {i} of a polynomial in {self.n_vars} variables")
         factor = self.exps[:, i].astype(float)
@@ -243,12 +342,31 @@ class Poly:
         return self.C.nnz == 0
 
     def value(self, y: np.ndarray | None = None) -> "Poly":
-        """The numeric polynomial obtained with decision values ``y``."""
+        """The numeric polynomial obtained with decision values ``y``.
+
+        Parameters
+        ----------
+        y : numpy.ndarray, shape (n_y,), optional
+            Decision values (at least :attr:`n_decision` of them; extra ones are ignored);
+            None: the constant part ``c0`` alone.
+        """
         c = self.c0 if y is None or self.n_decision == 0 else self.c0 + self.C @ y[: self.n_decision]
         return Poly(self.exps, np.asarray(c, float), sps.csr_matrix((len(c), 0)))
 
     def evaluate(self, x: np.ndarray, y: np.ndarray | None = None) -> np.ndarray:
-        """Values at points ``x`` of shape (m, n) (or (n,))."""
+        """Values at points ``x`` of shape (m, n) (or (n,)).
+
+        Parameters
+        ----------
+        x : numpy.ndarray, shape (m, n) or (n,)
+            The points, one per row.
+        y : numpy.ndarray, shape (n_y,), optional
+            Decision values (:meth:`value`); None: the constant part ``c0``.
+
+        Returns
+        -------
+        numpy.ndarray, shape (m,)
+        """
         c = self.value(y).c0
         x = np.atleast_2d(np.asarray(x, float))
         out = np.zeros(len(x))
@@ -260,14 +378,31 @@ class Poly:
         return out
 
     def degree(self) -> int:
+        """Largest total degree of a term (0 for a polynomial without terms)."""
         return int(self.exps.sum(axis=1).max()) if self.exps.size else 0
 
     def support(self, tol: float = 0.0) -> np.ndarray:
-        """Exponent rows whose coefficient is not identically zero."""
+        """Exponent rows whose coefficient is not identically zero.
+
+        Parameters
+        ----------
+        tol : float, optional
+            A term with ``|c0| <= tol`` and no decision-variable part counts as zero.
+            Default 0.
+        """
         nz = (np.abs(self.c0) > tol) | (np.asarray(abs(self.C).sum(axis=1)).ravel() > 0)
         return self.exps[nz]
 
     def to_sympy(self, variables: Sequence[sp.Symbol], y: np.ndarray | None = None) -> sp.Expr:
+        """The polynomial as a sympy expression (numeric coefficients, zero terms dropped).
+
+        Parameters
+        ----------
+        variables : sequence of sympy.Symbol
+            One symbol per variable, in column order.
+        y : numpy.ndarray, shape (n_y,), optional
+            Decision values (:meth:`value`); None: the constant part ``c0``.
+        """
         c = self.value(y).c0
         return sp.Add(*[sp.Float(ci) * sp.Mul(*[v ** int(e) for v, e in zip(variables, row)])
                         for ci, row in zip(c, self.exps) if ci != 0])
@@ -294,6 +429,17 @@ class PolyMatrix:
 
     Built from a row-major list of lists of :class:`Poly` (``PolyMatrix(entries)``) or by
     the operations below; :attr:`entries` gives the polynomials back.
+
+    Parameters
+    ----------
+    entries : sequence of sequence of Poly
+        The rows of the matrix, equally long and non-empty, all entries in the same
+        variables.
+
+    Raises
+    ------
+    ValueError
+        If the rows are empty or differ in length.
     """
 
     __slots__ = ("shape", "_t", "_entries")
@@ -319,6 +465,7 @@ class PolyMatrix:
 
     @property
     def n_vars(self) -> int:
+        """Number of polynomial variables of the entries."""
         return self._t.exps.shape[1]
 
     @property
@@ -334,6 +481,17 @@ class PolyMatrix:
 
     @staticmethod
     def from_sympy(M: sp.Matrix, variables: Sequence[sp.Symbol], n_decision: int = 0) -> "PolyMatrix":
+        """A numeric polynomial matrix from a sympy matrix (:meth:`Poly.from_sympy` per entry).
+
+        Parameters
+        ----------
+        M : sympy.Matrix
+            Entries polynomial in ``variables`` with numeric coefficients.
+        variables : sequence of sympy.Symbol
+            The variables, in the order of the exponent columns.
+        n_decision : int, optional
+            Number of decision-variable columns (all zero). Default 0.
+        """
         return PolyMatrix([[Poly.from_sympy(M[i, j], variables, n_decision) for j in range(M.shape[1])]
                            for i in range(M.shape[0])])
 
@@ -346,7 +504,15 @@ class PolyMatrix:
     @staticmethod
     def constant(M: np.ndarray, n_vars: int) -> "PolyMatrix":
         """A numeric constant matrix as degree-0 polynomials in ``n_vars`` variables (zero
-        entries have no term)."""
+        entries have no term).
+
+        Parameters
+        ----------
+        M : numpy.ndarray, shape (r, c)
+            The matrix (a scalar or vector is taken as one row).
+        n_vars : int
+            Number of polynomial variables.
+        """
         M = np.atleast_2d(np.asarray(M, float))
         entry = np.flatnonzero(M)
         return PolyMatrix._of(M.shape, _Terms(entry, np.zeros((len(entry), n_vars), np.int64), M.ravel()[entry],
@@ -354,7 +520,19 @@ class PolyMatrix:
 
     @staticmethod
     def block(rows: Sequence[Sequence["PolyMatrix | None"]]) -> "PolyMatrix":
-        """Assemble a block matrix; ``None`` is a zero block (its size from its row and column)."""
+        """Assemble a block matrix; ``None`` is a zero block (its size from its row and column).
+
+        Parameters
+        ----------
+        rows : sequence of sequence of PolyMatrix or None
+            The block rows, equally long; every block row and block column needs one block
+            that is not None.
+
+        Raises
+        ------
+        ValueError
+            If a block's shape does not match its block row and column.
+        """
         heights = [next(b.shape[0] for b in row if b is not None) for row in rows]
         widths = [next(rows[i][j].shape[1] for i in range(len(rows)) if rows[i][j] is not None)  # type: ignore[union-attr]
                   for j in range(len(rows[0]))]
@@ -378,6 +556,13 @@ class PolyMatrix:
         return PolyMatrix._of((sum(heights), cols), _Terms(t.entry[order], t.exps[order], t.c0[order], t.C[order]))
 
     def scale(self, s: float) -> "PolyMatrix":
+        """The matrix times the number ``s``.
+
+        Parameters
+        ----------
+        s : float
+            The factor.
+        """
         return PolyMatrix._of(self.shape, self._t._replace(c0=s * self._t.c0, C=(s * self._t.C).tocsr()))
 
     def __neg__(self) -> "PolyMatrix":
@@ -396,6 +581,7 @@ class PolyMatrix:
 
     @property
     def T(self) -> "PolyMatrix":
+        """The transpose."""
         r, c = self.shape
         i, j = np.divmod(self._t.entry, c)
         entry = j * r + i
@@ -429,6 +615,11 @@ class PolyMatrix:
         goes to column ``e_j`` of a ``(rows * cols) x (d + 1)`` matrix (``x_j`` dropped from
         it), multiplied by the column of powers ``polys[j]^0 .. polys[j]^d``.
 
+        Parameters
+        ----------
+        polys : sequence of Poly
+            One numeric polynomial per variable of the matrix, all in the same new variables.
+
         Raises
         ------
         ValueError
@@ -459,7 +650,20 @@ class PolyMatrix:
         return PolyMatrix._of(self.shape, cur._replace(exps=cur.exps[:, n:]))
 
     def evaluate(self, x: np.ndarray, y: np.ndarray | None = None) -> np.ndarray:
-        """Numeric matrix at one point ``x`` of shape (n,)."""
+        """Numeric matrix at one point ``x`` of shape (n,).
+
+        Parameters
+        ----------
+        x : numpy.ndarray, shape (n,)
+            The point.
+        y : numpy.ndarray, shape (n_y,), optional
+            Decision values; None: the constant parts ``c0``.
+
+        Returns
+        -------
+        numpy.ndarray
+            Of the matrix's shape.
+        """
         t = self._t
         c = t.c0 if y is None or t.C.shape[1] == 0 else t.c0 + t.C @ y[: t.C.shape[1]]
         vals = _term_values(t.exps, np.atleast_2d(np.asarray(x, float)))[0] * c
@@ -467,7 +671,23 @@ class PolyMatrix:
 
 
 def quadratic_form(M: PolyMatrix) -> Poly:
-    """``v^T M(x) v`` as a polynomial in ``(x, v)`` (``M`` square; ``v`` appended)."""
+    """``v^T M(x) v`` as a polynomial in ``(x, v)`` (``M`` square; ``v`` appended).
+
+    Parameters
+    ----------
+    M : PolyMatrix
+        Square polynomial matrix, shape (r, r), in ``n`` variables.
+
+    Returns
+    -------
+    Poly
+        In ``n + r`` variables: ``x``, then ``v``.
+
+    Raises
+    ------
+    ValueError
+        If ``M`` is not square.
+    """
     r, c = M.shape
     if r != c:
         raise ValueError(f"quadratic form of a non-square {M.shape} matrix")

@@ -44,19 +44,68 @@ def _check_eps_delta(epsilon: float, delta: float) -> None:
 
 
 def worst_case_samples(epsilon: float, delta: float) -> int:
-    """Smallest N with ``N >= ln(1/delta) / ln(1/(1 - epsilon))`` (log-over-log bound)."""
+    """Smallest N with ``N >= ln(1/delta) / ln(1/(1 - epsilon))`` (log-over-log bound).
+
+    Parameters
+    ----------
+    epsilon : float
+        Probability that the largest value seen is exceeded, in (0, 1).
+    delta : float
+        One minus the confidence, in (0, 1).
+
+    Returns
+    -------
+    int
+        The number of samples.
+
+    Raises
+    ------
+    OptionError
+        If ``epsilon`` or ``delta`` is not in (0, 1).
+    """
     _check_eps_delta(epsilon, delta)
     return math.ceil(math.log(1 / delta) / math.log(1 / (1 - epsilon)))
 
 
 def chernoff_samples(epsilon: float, delta: float) -> int:
-    """Smallest N with ``N >= ln(2/delta) / (2 epsilon^2)`` (additive Chernoff bound)."""
+    """Smallest N with ``N >= ln(2/delta) / (2 epsilon^2)`` (additive Chernoff bound).
+
+    Parameters
+    ----------
+    epsilon : float
+        Largest difference between the empirical and the true probability, in (0, 1).
+    delta : float
+        One minus the confidence, in (0, 1).
+
+    Returns
+    -------
+    int
+        The number of samples.
+
+    Raises
+    ------
+    OptionError
+        If ``epsilon`` or ``delta`` is not in (0, 1).
+    """
     _check_eps_delta(epsilon, delta)
     return math.ceil(math.log(2 / delta) / (2 * epsilon**2))
 
 
 def chernoff_accuracy(n: int, delta: float) -> float:
-    """The epsilon that N samples guarantee at confidence ``1 - delta``: ``sqrt(ln(2/delta)/(2N))``."""
+    """The epsilon that N samples guarantee at confidence ``1 - delta``: ``sqrt(ln(2/delta)/(2N))``.
+
+    Parameters
+    ----------
+    n : int
+        Number of samples N, >= 1.
+    delta : float
+        One minus the confidence, in (0, 1).
+
+    Raises
+    ------
+    OptionError
+        If ``n < 1`` or ``delta`` is not in (0, 1).
+    """
     _check_eps_delta(0.5, delta)
     if n < 1:
         raise OptionError(f"n must be >= 1, got {n!r}")
@@ -73,6 +122,27 @@ def scenario_samples(n_decision: int, epsilon: float, delta: float, bound: str =
     ``bound="campi-garatti"``: the smallest N with ``binom.cdf(d - 1, N, epsilon) <= delta``
     (Campi & Garatti 2008, exact); ``"romuloc"``: ``ceil(1.58 / epsilon (ln(1/delta) + d))``
     (the R-RoMulOC toolbox's ``scensamplenb``, which counts every scalar decision variable).
+
+    Parameters
+    ----------
+    n_decision : int
+        ``d``, the number of scalar decision variables of the convex program, >= 1.
+    epsilon : float
+        Violation probability, in (0, 1).
+    delta : float
+        One minus the confidence, in (0, 1).
+    bound : {"campi-garatti", "romuloc"}, optional
+        Which count (:data:`SCENARIO_BOUNDS`).
+
+    Returns
+    -------
+    int
+        The number of sampled constraints N.
+
+    Raises
+    ------
+    OptionError
+        If an argument is out of its range or ``bound`` is unknown.
     """
     _check_eps_delta(epsilon, delta)
     if not (isinstance(n_decision, (int, np.integer)) and n_decision >= 1):
@@ -92,7 +162,19 @@ def scenario_samples(n_decision: int, epsilon: float, delta: float, bound: str =
 
 @dataclass(frozen=True)
 class WorstCase:
-    """Probabilistic worst case of a performance over N samples (log-over-log bound)."""
+    """Probabilistic worst case of a performance over N samples (log-over-log bound).
+
+    Attributes
+    ----------
+    estimate : float
+        The largest sampled value (inf when a sample failed), in the performance's unit.
+    n : int
+        Number of samples N.
+    epsilon : float
+        Probability that the estimate is exceeded, claimed.
+    delta : float
+        One minus the confidence of the claim.
+    """
 
     estimate: float
     n: int
@@ -105,6 +187,13 @@ class WorstCase:
         return self.n >= worst_case_samples(self.epsilon, self.delta)
 
     def text(self, what: str = "the performance") -> str:
+        """The probabilistic statement in one sentence, flagged when N is too small for it.
+
+        Parameters
+        ----------
+        what : str, optional
+            Name of the performance in the sentence (``"the H-infinity norm"``).
+        """
         need = worst_case_samples(self.epsilon, self.delta)
         return (f"max of {self.n} samples of {what} = {self.estimate:.6g}: P({what} > {self.estimate:.6g}) <= "
                 f"{self.epsilon:g} with confidence {1 - self.delta:g}"
@@ -113,7 +202,21 @@ class WorstCase:
 
 @dataclass(frozen=True)
 class LevelProbability:
-    """Empirical probability of meeting a level, with its Chernoff accuracy."""
+    """Empirical probability of meeting a level, with its Chernoff accuracy.
+
+    Attributes
+    ----------
+    level : float
+        The level, in the performance's unit.
+    probability : float
+        Fraction of the samples with ``value <= level``.
+    n : int
+        Number of samples N.
+    accuracy : float
+        The Chernoff accuracy epsilon of ``probability`` (:func:`chernoff_accuracy`).
+    delta : float
+        One minus the confidence.
+    """
 
     level: float
     probability: float
@@ -122,12 +225,39 @@ class LevelProbability:
     delta: float
 
     def text(self, what: str = "the performance") -> str:
+        """The probabilistic statement in one sentence.
+
+        Parameters
+        ----------
+        what : str, optional
+            Name of the performance in the sentence (``"the H-infinity norm"``).
+        """
         return (f"P({what} <= {self.level:.6g}) = {self.probability:.6g} +- {self.accuracy:.3g} "
                 f"with confidence {1 - self.delta:g} ({self.n} samples, Chernoff)")
 
 
 def worst_case(values: np.ndarray, epsilon: float = 0.1, delta: float = 1e-6) -> WorstCase:
-    """The largest of the sampled values (NaN counts as infinite: a failed sample)."""
+    """The largest of the sampled values (NaN counts as infinite: a failed sample).
+
+    Parameters
+    ----------
+    values : numpy.ndarray
+        The sampled values of the performance (any shape, flattened).
+    epsilon : float, optional
+        Probability of exceeding the estimate to claim, in (0, 1).
+    delta : float, optional
+        One minus the confidence of the claim, in (0, 1).
+
+    Returns
+    -------
+    WorstCase
+        The estimate and its claim (:attr:`WorstCase.sufficient` says whether N supports it).
+
+    Raises
+    ------
+    OptionError
+        If there are no values or ``epsilon`` or ``delta`` is not in (0, 1).
+    """
     _check_eps_delta(epsilon, delta)
     v = np.asarray(values, float).ravel()
     if v.size == 0:
@@ -136,7 +266,27 @@ def worst_case(values: np.ndarray, epsilon: float = 0.1, delta: float = 1e-6) ->
 
 
 def level_probability(values: np.ndarray, level: float, delta: float = 1e-6) -> LevelProbability:
-    """Frequency of ``value <= level`` (NaN: not met) and its Chernoff accuracy at ``1 - delta``."""
+    """Frequency of ``value <= level`` (NaN: not met) and its Chernoff accuracy at ``1 - delta``.
+
+    Parameters
+    ----------
+    values : numpy.ndarray
+        The sampled values of the performance (any shape, flattened).
+    level : float
+        The level to meet, in the values' unit.
+    delta : float, optional
+        One minus the confidence, in (0, 1).
+
+    Returns
+    -------
+    LevelProbability
+        The frequency and its accuracy.
+
+    Raises
+    ------
+    OptionError
+        If there are no values or ``delta`` is not in (0, 1).
+    """
     v = np.asarray(values, float).ravel()
     if v.size == 0:
         raise OptionError("no samples")

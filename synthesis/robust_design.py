@@ -39,7 +39,7 @@ with ``Pi~ = Pi^-1 = [[Qt, St], [St^T, Rt]]`` on ``(q, p)``, into the dual condi
 rows/columns ``(x', q, z1, w1)``, ``Ex``, ``Eq`` the selectors of the ``x'`` and ``q`` rows
 (derivation: ``[-G^T; I]^T M~ [-G^T; I] > 0`` with ``M~ = diag([0 Y; Y 0], Pi~, Pp^-1)``, then a
 Schur complement on ``Gw Gw^T / gamma``). It is linear in ``(Y, W = K Y, Qt, St, Rt, gamma)``
-(:func:`_dual_lmi`). For the regions drop ``z, w`` and replace ``(A, Bu, Bp)`` by ``(A +
+(``_dual_lmi``). For the regions drop ``z, w`` and replace ``(A, Bu, Bp)`` by ``(A +
 alpha I, Bu, Bp)`` (``A_cl Y + Y A_cl^T + 2 alpha Y < 0``) or by ``(-A - beta I, -Bu, -Bp)``
 (``-(A_cl Y + Y A_cl^T) - 2 beta Y < 0``; ``-A_cl(Delta) - beta I`` is the LFT of the loop
 with ``-Bp`` in place of ``Bp``). The lemma (nonsingular outer factors) gives the primal back
@@ -129,6 +129,7 @@ import logging
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 import numpy as np
 import scipy.linalg as sla
@@ -190,6 +191,25 @@ class RobustCheck:
     exactly 0. ``margin``: the smaller of ``-max(max_eig)`` and ``min(min_eig)`` less the
     rounding allowance ``max(ABS_MARGIN, 1000 eps_machine scale)`` (``scale``: the largest entry
     of the matrices checked).
+
+    Attributes
+    ----------
+    max_eig : dict of str to numpy.ndarray
+        Largest eigenvalues of the matrices that must be negative definite, by name (``"hinf"``,
+        ``"alpha"``, ``"hinf/vertices"``, ``"i2p/C2"``, ...).
+    min_eig : dict of str to numpy.ndarray
+        Smallest eigenvalues of the matrices that must be positive definite, by name (``"Y"``,
+        ``"i2p/B2"``, ``"hinf/S"``, ...).
+    margin : float
+        The certificate's margin less the rounding allowance; > 0 when every matrix has the
+        right sign.
+    scale : float
+        Largest absolute entry of the matrices checked.
+    structure_error : float, optional
+        Largest deviation from the D-G structure (0: exact).
+    details : list of str, optional
+        One line per matrix whose extreme eigenvalue misses the rounding allowance, and one for
+        a violated D-G structure; empty when the check passes.
     """
 
     max_eig: dict[str, np.ndarray]
@@ -230,6 +250,17 @@ class Multiplier:
 
     D-G (``kind="norm"``): ``Q = blockdiag(S_k) > 0``, ``S = blockdiag(H_k)`` skew, ``R = -Q``.
     Full block (``kind="vertex"``): free, ``Q > 0`` and the vertex inequalities.
+
+    Attributes
+    ----------
+    kind : {"norm", "vertex"}
+        D-G scalings or full-block multiplier.
+    Q : numpy.ndarray, shape (n_q, n_q)
+        Block on q (positive definite).
+    S : numpy.ndarray, shape (n_q, n_q)
+        Coupling block of q and p.
+    R : numpy.ndarray, shape (n_q, n_q)
+        Block on p.
     """
 
     kind: str
@@ -282,7 +313,7 @@ def _sector_plant(plant: LFTPlant, theta: float) -> LFTPlant:
 
 
 ROBUST_LMIS = ("hinf", "alpha", "beta", "sector")
-"""Names of the robust LMIs of :func:`_specs`."""
+"""Names of the robust LMIs of ``_specs``."""
 
 
 def _specs(plant: LFTPlant, alpha: float, beta: float | None, hinf: bool, sector: float | None = None
@@ -305,7 +336,7 @@ def _specs(plant: LFTPlant, alpha: float, beta: float | None, hinf: bool, sector
 
 
 Selection = tuple[frozenset[str], ...] | None
-"""Per plant of a program, the names of its robust LMIs that the program imposes (:func:`_specs`;
+"""Per plant of a program, the names of its robust LMIs that the program imposes (``_specs``;
 its i2p blocks always): a constraint generation's subset. None: every LMI of every plant."""
 
 
@@ -404,12 +435,12 @@ def _multiplier_program(prog: lmi.LMIProgram, plant: LFTPlant, uncertainty: str,
             prog.add_psd(s - margin * np.eye(r))
         Qt, St = _blockdiag(S, reps), _blockdiag(H, reps)
 
-        def value() -> Multiplier:
+        def norm_value() -> Multiplier:
             Q = sla.block_diag(*[_sym(prog.value(s)) for s in S])
             Hs = sla.block_diag(*[prog.value(h) if isinstance(h, lmi.Affine) else h for h in H])
             return Multiplier("norm", Q, Hs, -Q)
 
-        return (Qt, St, -Qt), value
+        return (Qt, St, -Qt), norm_value
     Qt = prog.variable((nq, nq), symmetric=True)
     St = prog.variable((nq, nq))
     Rt = prog.variable((nq, nq), symmetric=True)
@@ -443,8 +474,11 @@ def verify(plant: LFTPlant, K, Y, gamma: float | None, nu: float, multipliers: d
     Parameters
     ----------
     plant : LFTPlant
+        The uncertain plant the certificate is for.
     K : ndarray, shape (m, n)
+        The gain of ``u = K x``.
     Y : ndarray, shape (n, n)
+        The common Lyapunov matrix ``Y = P^-1``.
     gamma : float or None
         H-infinity bound (None: no H-infinity LMI, as in :func:`i2p_bound`).
     nu : float
@@ -514,6 +548,51 @@ class RobustDesign:
     ``backoff``: the back-off that verified; ``state_scaling``: None, or T when the certificate
     was found (and ``check`` computed) in the coordinates ``x = diag(T) x_s``: K and Y are given
     in the plant's own coordinates (``Y = diag(T) Y_s diag(T)``).
+
+    Attributes
+    ----------
+    status : {"optimal", "infeasible", "unverified"}
+        Outcome (above).
+    K : numpy.ndarray, shape (m, n), or None
+        The gain of ``u = K x`` (the given one for a fixed-gain analysis).
+    gamma : float or None
+        H-infinity bound of ``w1 -> z1`` over the box, units of z1/w1 (None for
+        :func:`i2p_bound`).
+    nu : float or None
+        Impulse-to-peak bound of ``w2 -> z2``, units of z2 per unit impulse of w2.
+    Y : numpy.ndarray, shape (n, n), or None
+        The common Lyapunov matrix ``Y = P^-1``, in the plant's coordinates.
+    multipliers : dict of str to Multiplier
+        The multiplier of each robust LMI, by name (``"hinf"``, ``"alpha"``, ...; ``"i/hinf"``
+        for plant i of several); empty for a plant without uncertain parameters.
+    check : RobustCheck or None
+        :func:`verify` of the returned certificate, or of the last one tried when it failed;
+        None when the solver gave no solution.
+    solver_objective : float or None
+        The minimized objective (not certified).
+    uncertainty : {"norm", "vertex"}
+        The multiplier class.
+    n_vertices : int
+        Box vertices enumerated (0 with D-G scalings).
+    n_multipliers : int
+        Scaling pairs or full-block multipliers of the program.
+    fixed_gain : bool
+        Whether K was given (analysis) rather than designed.
+    solver_status : str
+        What the solver reported, for every solve made.
+    solve_seconds : float
+        Wall time of Clarabel over all the solves, s.
+    build_seconds : float
+        Time to build the LMI programs, s.
+    backoff : float, optional
+        The back-off of :data:`BACKOFFS` that verified.
+    state_scaling : numpy.ndarray, shape (n,), optional
+        T of the coordinates ``x = diag(T) x_s`` of the certificate (None: the plant's own).
+    active_plants : int, optional
+        Plants with an LMI in the last program of the constraint generation over many plants
+        (None: all).
+    convention : {"satfmu", "romuloc"}, optional
+        How the levels entered the LMIs (:data:`CONVENTIONS`).
     """
 
     status: str
@@ -611,7 +690,7 @@ def _verify_plants(plants: tuple[LFTPlant, ...], K, Y, gamma, nu, multipliers: d
     """:func:`verify` at every plant, merged: the smallest margin, names prefixed as :func:`_key`;
     with ``only``, each plant's check judged on the robust LMIs the program imposed
     (:func:`_judged_on`)."""
-    options = {"alpha": alpha, "beta": beta, "sector": sector, "convention": convention}
+    options: dict[str, Any] = {"alpha": alpha, "beta": beta, "sector": sector, "convention": convention}
     checks = []
     for i, plant in enumerate(plants):
         own = multipliers if len(plants) == 1 else {k.split("/", 1)[1]: v for k, v in multipliers.items()
@@ -645,11 +724,11 @@ def _merge_checks(checks: list[RobustCheck]) -> RobustCheck:
 
 
 RESCALE_DEPTH = 2
-"""Rescalings :func:`_rescaled_program` may chain (each from the last solve's Lyapunov matrix)."""
+"""Rescalings ``_rescaled_program`` may chain (each from the last solve's Lyapunov matrix)."""
 
 RESCALE_SPREAD = 1e4
 """Ratio of the largest to the smallest diagonal entry of the minimizer's Y above which
-:func:`_rescaled_program` rescales before it tries the larger back-offs (DEMETER row 1: 10^7, no
+``_rescaled_program`` rescales before it tries the larger back-offs (DEMETER row 1: 10^7, no
 back-off verifies; row 12 in the D-G design's coordinates: 10^3, the minimizer's levels verify
 at back-off 1e-3, and the two rescalings that came first took 130 s of 226)."""
 
@@ -675,6 +754,7 @@ def _rescaled_program(plants: tuple[LFTPlant, ...], K: np.ndarray | None, rescal
     :meth:`LFTPlant.balance_channels`); the status and times are those of every solve made.
     """
     m = _minimize(plants, K, **options) if minimizer is None else minimizer
+    Y1: np.ndarray | None
     if isinstance(m, _Minimizer):
         d = np.diag(m.Y)
         ill = bool(d.min() <= 0 or d.max() > RESCALE_SPREAD * d.min())
@@ -710,7 +790,10 @@ def _back_to_caller(res: RobustDesign, T: np.ndarray, before: RobustDesign | Non
     total ``state_scaling``, and the times of ``before`` (the solves that chose T) added."""
     inner = np.ones_like(T) if res.state_scaling is None else res.state_scaling
     out = replace(res, K=res.K / T, Y=T[:, None] * res.Y * T[None, :], state_scaling=T * inner)
-    return out if before is None else replace(_with_times(out, [before]), solver_status=status)
+    if before is None:
+        return out
+    assert status is not None  # every caller that passes before passes its status too
+    return replace(_with_times(out, [before]), solver_status=status)
 
 
 def _in_our_coordinates(plants: tuple[LFTPlant, ...], rescale: bool, **options) -> RobustDesign:
@@ -746,7 +829,7 @@ def _in_our_coordinates(plants: tuple[LFTPlant, ...], rescale: bool, **options) 
         if ours.status == "infeasible" and kind == options["uncertainty"]:
             return replace(_with_times(ours, spent[:-1]), convention="romuloc",
                            solver_status=f"the satfmu program: {ours.solver_status}")
-        if ours.status == "optimal" and np.all(np.diag(ours.Y) > 0):
+        if ours.status == "optimal" and ours.Y is not None and np.all(np.diag(ours.Y) > 0):  # optimal: Y is set
             T = np.sqrt(np.diag(ours.Y))
             res = _rescaled_program(tuple(p.scale_states(T).balance_channels() for p in plants), None, rescale,
                                     **options)
@@ -772,7 +855,7 @@ def _phase_one(plants: tuple[LFTPlant, ...], K: np.ndarray | None, *, alpha: flo
     prog = lmi.LMIProgram()
     t = prog.variable()
     specs = [_specs(p, alpha, beta, False, sector) for p in plants]
-    Y, _, _ = _robust_constraints(prog, plants, K, specs, uncertainty, t, None, None)
+    Y = _robust_constraints(prog, plants, K, specs, uncertainty, t, None, None)[0]
     prog.add_psd(np.eye(Y.shape[0]) - Y)
     prog.add_nonneg(1.0 - t)
     if not prog.solve(t, maximize=True).solved:
@@ -818,22 +901,22 @@ def _minimize(plants: tuple[LFTPlant, ...], K: np.ndarray | None, *, hinf: bool,
     gamma = prog.variable() if hinf else None
     nu = prog.variable()
     Y, W, values = _robust_constraints(prog, plants, K, specs, uncertainty, eps, gamma, nu, convention)
-    objective = w_i2p * nu + (w_hinf * gamma if hinf else 0.0)
+    objective = w_i2p * nu + (w_hinf * gamma if gamma is not None else 0.0)  # gamma is None iff not hinf
     build = time.perf_counter() - t0
     sol = prog.solve(objective, ladder=solve_policy.LADDER if ladder is None else ladder)
     out = sol.outcome
     n_mult = sum(len(s) * (p.n_params if uncertainty == "norm" else min(p.n_params, 1))
                  for p, s in zip(plants, specs))
-    info = {"uncertainty": uncertainty,
-            "n_vertices": sum(2**p.n_params for p in plants) if uncertainty == "vertex" else 0,
-            "n_multipliers": n_mult, "fixed_gain": K is not None, "convention": convention}
+    info: dict[str, Any] = {"uncertainty": uncertainty,
+                            "n_vertices": sum(2**p.n_params for p in plants) if uncertainty == "vertex" else 0,
+                            "n_multipliers": n_mult, "fixed_gain": K is not None, "convention": convention}
     if not sol.solved:
         return RobustDesign(_failed(out), None, None, None, None, {}, None, None, **info,
                             solver_status=out.solver_status, solve_seconds=out.seconds, build_seconds=build)
     Y1 = _sym(prog.value(Y))
     weights = prog.dual_weights()
     return _Minimizer(np.linalg.solve(Y1, prog.value(W).T).T if K is None else K, Y1,
-                      float(prog.value(gamma)[0, 0]) if hinf else None, float(prog.value(nu)[0, 0]),
+                      float(prog.value(gamma)[0, 0]) if gamma is not None else None, float(prog.value(nu)[0, 0]),
                       {k: f() for k, f in values.items()}, sol.objective,
                       {"solver_status": out.solver_status, "solve_seconds": out.seconds, "build_seconds": build}, info,
                       {(i, name): weights.get((i, name), 0.0) for i, plant_specs in enumerate(specs)
@@ -858,10 +941,11 @@ def _back_off(plants: tuple[LFTPlant, ...], K: np.ndarray | None, m: _Minimizer,
         t = back.variable()
         Yb, Wb, values = _robust_constraints(back, plants, K, specs, uncertainty, t, g, nv, convention)
         times["build_seconds"] += time.perf_counter() - t0
-        out = back.solve(t, maximize=True).outcome
+        sol = back.solve(t, maximize=True)
+        out = sol.outcome
         times["solver_status"] += f"; back-off {b:g}: {out.solver_status}"
         times["solve_seconds"] += out.seconds
-        if not back.solution.solved:
+        if not sol.solved:
             continue
         Yv = _sym(back.value(Yb))
         Kv = np.linalg.solve(Yv, back.value(Wb).T).T if K is None else K
@@ -946,7 +1030,7 @@ def design(plant: LFTPlant | Sequence[LFTPlant], K=None, *, w_hinf: float = 1.0,
         If the certificate fails :func:`verify`, solve once more in the coordinates where the
         first solve's Y has a unit diagonal (see ``state_scaling`` of the result); a
         ``"romuloc"`` synthesis is solved in the coordinates of the ``"satfmu"`` design
-        (:func:`_in_our_coordinates`; False: in the caller's, once).
+        (``_in_our_coordinates``; False: in the caller's, once).
     convention : {"satfmu", "romuloc"}
         How the levels enter the LMIs and the objective (module docstring): ours (levels gamma,
         nu on both sides of each LMI) or the R-RoMulOC toolbox's (squared levels on the z side).
@@ -971,9 +1055,9 @@ def design(plant: LFTPlant | Sequence[LFTPlant], K=None, *, w_hinf: float = 1.0,
     plants = _plant_list(plant, uncertainty, max_vertices)
     if K is not None:
         K = _check_gain(K, plants[0].Bu.shape[1], plants[0].A.shape[0])
-    options = {"hinf": True, "w_hinf": w_hinf, "w_i2p": w_i2p, "alpha": alpha, "beta": beta,
-               "uncertainty": uncertainty, "eps": eps, "sector": sector, "convention": convention,
-               "ladder": solve_policy.RungMemory()}
+    options: dict[str, Any] = {"hinf": True, "w_hinf": w_hinf, "w_i2p": w_i2p, "alpha": alpha, "beta": beta,
+                               "uncertainty": uncertainty, "eps": eps, "sector": sector, "convention": convention,
+                               "ladder": solve_policy.RungMemory()}
     if len(plants) > SCENARIO_BATCH and not any(p.n_params for p in plants):
         return _constraint_generation(plants, K, rescale, **options)
     if convention == "romuloc" and K is None and rescale:
@@ -982,15 +1066,15 @@ def design(plant: LFTPlant | Sequence[LFTPlant], K=None, *, w_hinf: float = 1.0,
 
 
 SCENARIO_BATCH = 100
-"""The most LMIs :func:`_constraint_generation` adds per round; :func:`design` solves more
+"""The most LMIs ``_constraint_generation`` adds per round; :func:`design` solves more
 certain plants than this by constraint generation."""
 
 SCENARIO_FIRST = 10
-"""Plants in the first program of :func:`_constraint_generation` (every LMI of each)."""
+"""Plants in the first program of ``_constraint_generation`` (every LMI of each)."""
 
 SUPPORT_TOL = 1e-4
-"""An LMI whose dual weight (:class:`_Minimizer` ``support``) is below this fraction of the
-largest does not bind: :func:`_constraint_generation` leaves it out of the next round (DEMETER
+"""An LMI whose dual weight (``_Minimizer`` ``support``) is below this fraction of the
+largest does not bind: ``_constraint_generation`` leaves it out of the next round (DEMETER
 row 1: 9 plants of 110 between 0.03 and 1, the others at 2e-6 to 8e-6, the interior-point
 path's floor)."""
 
@@ -1051,7 +1135,7 @@ def _constraint_generation(plants: tuple[LFTPlant, ...], K: np.ndarray | None, r
     active = list(dict.fromkeys([(i, name) for i in first for name in names] + [(rep[i], "i2p") for i in first]))
     left_out: set[tuple[int, str]] = set()
     T = np.ones(plants[0].A.shape[0])
-    seconds = {"solve_seconds": 0.0, "build_seconds": 0.0}
+    seconds: dict[str, Any] = {"solve_seconds": 0.0, "build_seconds": 0.0}  # floats, passed as keywords
     status: list[str] = []
 
     def subset(T: np.ndarray) -> tuple[list[int], tuple[LFTPlant, ...], np.ndarray | None, dict]:
@@ -1138,6 +1222,8 @@ def _constraint_generation(plants: tuple[LFTPlant, ...], K: np.ndarray | None, r
         if res.status != "optimal":
             return res
         res = _back_to_caller(res, T)
+        # optimal: K and Y are set, and _back_to_caller sets the scaling
+        assert res.K is not None and res.Y is not None and res.state_scaling is not None
         T = res.state_scaling  # the coordinates of res.check
         checks, new = check_all(res.K * T, res.Y / T[:, None] / T[None, :], res.gamma, res.nu)
         if not new:
@@ -1159,6 +1245,28 @@ def i2p_bound(plant: LFTPlant | Sequence[LFTPlant], K, *, alpha: float = 0.0, un
     Returns a :class:`RobustDesign` with ``gamma = None``. Alone, the impulse-to-peak LMIs bound
     the same nu in both conventions (``Y = P / nu`` turns ours into the toolbox's), so this
     analysis has none.
+
+    Parameters
+    ----------
+    plant : LFTPlant or sequence of LFTPlant
+        The uncertain plant, or several sharing one Lyapunov matrix (as :func:`design`).
+    K : numpy.ndarray, shape (m, n)
+        The gain of ``u = K x`` to analyse.
+    alpha : float, optional
+        Pole region ``Re s < -alpha`` of the robust Lyapunov LMI, 1/s, >= 0 (0: stability).
+    uncertainty : {"norm", "vertex"}, optional
+        D-G scalings (dual form) or full-block multipliers at the box vertices.
+    max_vertices : int, optional
+        Largest ``2^N`` accepted with ``"vertex"``.
+    eps : float, optional
+        Strictness of the LMIs in the solver.
+    rescale : bool, optional
+        If the certificate fails :func:`verify`, solve once more in better-conditioned
+        coordinates (as :func:`design`).
+
+    Returns
+    -------
+    RobustDesign
 
     Raises
     ------

@@ -37,6 +37,9 @@ class Servo:
         Evaluate Ae with w2 := 0 (the seed's setting for the gain approximation).
     plant_params : dict
         Overrides of the plant model's parameters (inertias).
+    model : satfmu.fmus.model.Model
+        The VSCMG model whose symbols and parameters give Ae, Be (default the plant,
+        ``satfmu.fmus.vscmg.MODEL``).
     """
 
     factorization: str = "gyro_on_w2"
@@ -58,7 +61,18 @@ class Servo:
             raise ValueError(f"Q must be 7x7 and R 2x2, got {self.Q.shape} and {self.R.shape}")
 
     def matrices(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Ae (7x7) and Be (7x2) at the plant state ``x`` (6 values)."""
+        """Ae (7x7) and Be (7x2) at the plant state ``x`` (6 values).
+
+        Parameters
+        ----------
+        x : numpy.ndarray, shape (6,)
+            Plant state ``[q1, q2, q4, w1, w2, w4]`` (rad, rad/s).
+
+        Raises
+        ------
+        ValueError
+            If ``x`` is not 6 finite values.
+        """
         x = np.array(x, float)
         if x.shape != (6,) or not np.all(np.isfinite(x)):
             raise ValueError(f"plant state must be 6 finite values {PLANT_STATES}, got {x!r}")
@@ -66,6 +80,18 @@ class Servo:
 
     def gain(self, x: np.ndarray) -> tuple[np.ndarray, RiccatiCheck]:
         """K (2x7) at the plant state ``x`` and its check; u = -K xe.
+
+        Parameters
+        ----------
+        x : numpy.ndarray, shape (6,)
+            Plant state ``[q1, q2, q4, w1, w2, w4]`` (rad, rad/s).
+
+        Returns
+        -------
+        K : numpy.ndarray, shape (2, 7)
+            The gain, ``[T1, T2]`` (N m) per servo state.
+        check : satfmu.controllers.riccati.RiccatiCheck
+            The checks of the Riccati solution.
 
         Raises
         ------
@@ -95,7 +121,19 @@ declare the same)."""
 
 @dataclass
 class ServoRun:
-    """An in-process servo run at the control period: times (s), plant states, commands (N m)."""
+    """An in-process servo run at the control period: times (s), plant states, commands (N m).
+
+    Attributes
+    ----------
+    t : numpy.ndarray, shape (n + 1,)
+        Control instants, s.
+    x : numpy.ndarray, shape (n + 1, 6)
+        Plant state ``[q1, q2, q4, w1, w2, w4]`` at each instant (rad, rad/s).
+    u : numpy.ndarray, shape (n + 1, 2)
+        Commands ``[T1, T2]`` held from each instant, N m (the last repeats the one before).
+    reference : numpy.ndarray, shape (n + 1, 2)
+        ``[q2_ref, q4_ref]`` at each instant, rad.
+    """
 
     t: np.ndarray
     x: np.ndarray
@@ -119,6 +157,26 @@ def simulate_servo(gain: Callable[[np.ndarray], np.ndarray], reference: Callable
 
     The plant is advanced with the FMUs' RK4 (:func:`satfmu.fmus.pyslave.rk4_step`) and the
     integral of the error by e held over the period, as the controller FMU does.
+
+    Parameters
+    ----------
+    gain : callable
+        ``gain(x)`` -> K, shape (2, 7), at the plant state ``x`` (shape (6,)).
+    reference : callable
+        ``reference(t)`` -> ``[q2_ref, q4_ref]`` (rad), shape (len(t), 2), at the times ``t`` (s).
+    stop_time : float, optional
+        Length of the run, s.
+    period : float, optional
+        Control period, s: the gain is evaluated and ``u`` held over each.
+    plant_params : dict, optional
+        Overrides of the plant's parameter values (initial state, inertias, integrator).
+    model : satfmu.fmus.model.Model, optional
+        The plant (default ``satfmu.fmus.vscmg.MODEL``).
+
+    Returns
+    -------
+    ServoRun
+        The states, commands and references at the control instants.
 
     Raises
     ------

@@ -35,7 +35,27 @@ Sampler = Callable[[np.random.Generator, int], np.ndarray]
 
 
 def validation_samples(k: int, epsilon: float, delta: float) -> int:
-    """``N_k = ceil(ln(pi^2 k^2 / (6 delta)) / ln(1 / (1 - epsilon)))`` of validation round k >= 1."""
+    """``N_k = ceil(ln(pi^2 k^2 / (6 delta)) / ln(1 / (1 - epsilon)))`` of validation round k >= 1.
+
+    Parameters
+    ----------
+    k : int
+        The validation round, from 1.
+    epsilon : float
+        Violation probability, in (0, 1).
+    delta : float
+        One minus the confidence, in (0, 1), split over the rounds.
+
+    Returns
+    -------
+    int
+        The number of plants to draw in round ``k``.
+
+    Raises
+    ------
+    OptionError
+        If ``k < 1`` or ``epsilon`` or ``delta`` is not in (0, 1).
+    """
     if not (0 < epsilon < 1 and 0 < delta < 1) or k < 1:
         raise OptionError(f"need k >= 1 and epsilon, delta in (0, 1), got {k!r}, {epsilon!r}, {delta!r}")
     return math.ceil(math.log(math.pi**2 * k**2 / (6 * delta)) / math.log(1 / (1 - epsilon)))
@@ -47,6 +67,33 @@ class SequentialResult:
 
     ``status``: ``"validated"`` (a round drew no violating plant) or ``"not_validated"``
     (``max_updates`` reached). ``violations``: the violation of each update (before it).
+
+    Attributes
+    ----------
+    status : {"validated", "not_validated"}
+        Whether the last validation round drew no violating plant.
+    K : numpy.ndarray, shape (m, n)
+        The state-feedback gain ``K = W Y^-1`` of the last iterate.
+    Y : numpy.ndarray, shape (n, n)
+        The dual Lyapunov matrix of the last iterate.
+    gamma : float
+        The H-infinity level the specs were checked at.
+    nu : float
+        The impulse-to-peak level the specs were checked at.
+    updates : int
+        Subgradient updates made.
+    rounds : int
+        Validation rounds drawn (the last one included).
+    samples : int
+        Plants drawn in all rounds.
+    epsilon : float
+        The violation probability of the validation.
+    delta : float
+        One minus the confidence of the validation.
+    seconds : float
+        Wall time of the run, s.
+    violations : list of float, optional
+        The largest eigenvalue of the most violated plant before each update.
     """
 
     status: str
@@ -63,6 +110,7 @@ class SequentialResult:
     violations: list[float] = field(default_factory=list)
 
     def text(self) -> str:
+        """One sentence: the probabilistic statement, or that there is none."""
         if self.status != "validated":
             return (f"not validated after {self.updates} updates ({self.samples} samples): no probabilistic "
                     "statement")

@@ -58,7 +58,18 @@ def gf2_null_space(rows: np.ndarray) -> np.ndarray:
 
 def sign_symmetries(support: np.ndarray) -> np.ndarray:
     """The sign symmetries of a polynomial with exponent rows ``support`` (GF(2) basis, one per
-    row): flipping the signs of the variables marked in a row leaves every monomial unchanged."""
+    row): flipping the signs of the variables marked in a row leaves every monomial unchanged.
+
+    Parameters
+    ----------
+    support : numpy.ndarray
+        Exponent table of the polynomial's monomials, shape (m, n) for n variables.
+
+    Returns
+    -------
+    numpy.ndarray
+        The symmetries as 0/1 rows of a GF(2) basis, shape (s, n).
+    """
     support = np.asarray(support)
     if support.ndim != 2:
         raise ValueError(f"support must be a 2-D exponent table, got shape {support.shape}")

@@ -76,7 +76,14 @@ class RungMemory:
         return self.ladder[self.start:] + self.ladder[:self.start]
 
     def record(self, outcome: SolveOutcome) -> None:
-        """Remember the rung that solved ``outcome`` after rungs that stopped without a status."""
+        """Remember the rung that solved ``outcome`` after rungs that stopped without a status.
+
+        Parameters
+        ----------
+        outcome : SolveOutcome
+            The outcome of a ladder run in the order of :meth:`rungs`; kept only when it solved
+            and every attempt before the last was a solver error.
+        """
         failed = outcome.attempts[:-1]
         if outcome.solved and failed and all(a.status.startswith("solver error") for a in failed):
             self.start = (self.start + len(failed)) % len(self.ladder)
@@ -106,7 +113,19 @@ INACCURATE_CERTIFICATES = ("infeasible_inaccurate", "unbounded_inaccurate")
 @dataclass(frozen=True)
 class Attempt:
     """One rung tried: solver, settings, the status it returned (or ``solver error: ...``) and
-    its wall time, s."""
+    its wall time, s.
+
+    Attributes
+    ----------
+    solver : str
+        The solver's name (``"CLARABEL"``).
+    settings : dict
+        The settings it was given.
+    status : str
+        The status it returned in cvxpy's vocabulary, ``"no status"``, or ``"solver error: ..."``.
+    seconds : float
+        Wall time of the attempt, s.
+    """
 
     solver: str
     settings: dict[str, Any]
@@ -207,7 +226,20 @@ def solve_with(run: Callable[[str, dict[str, Any]], str],
 
 
 def solve_cvxpy(prob: cp.Problem, ladder: Sequence[tuple[str, dict[str, Any]]] = LADDER) -> SolveOutcome:
-    """:func:`solve_with` for a cvxpy problem (its variables hold the last attempt's values)."""
+    """:func:`solve_with` for a cvxpy problem (its variables hold the last attempt's values).
+
+    Parameters
+    ----------
+    prob : cvxpy.Problem
+        The problem, solved in place by ``prob.solve(solver=..., **settings)``.
+    ladder : sequence of (str, dict)
+        Solver names and settings, tried in order (default :data:`LADDER`).
+
+    Returns
+    -------
+    SolveOutcome
+        The status and every attempt.
+    """
 
     def run(solver: str, settings: dict[str, Any]) -> str:
         prob.solve(solver=solver, **settings)

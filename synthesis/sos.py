@@ -61,6 +61,18 @@ def newton_basis(support: np.ndarray) -> np.ndarray:
     repeatedly drop ``z_i`` whose square ``2 z_i`` is neither in the support nor the sum of
     two other basis monomials (its diagonal Gram entry would be forced to zero, hence its
     whole row).
+
+    Parameters
+    ----------
+    support : numpy.ndarray of int, shape (k, n)
+        Exponent rows of the terms of ``p`` that are not identically zero
+        (:meth:`satfmu.synthesis.polynomial.Poly.support`), one row per term, one column per
+        variable.
+
+    Returns
+    -------
+    numpy.ndarray of int, shape (N, n)
+        The basis monomials ``z`` as exponent rows (none when ``support`` is empty).
     """
     if support.shape[0] == 0:
         return np.zeros((0, support.shape[1]), np.int64)
@@ -85,6 +97,18 @@ def prune_diagonal(cand: np.ndarray, support: np.ndarray) -> np.ndarray:
 
     ``z_i`` goes when ``2 z_i`` is neither in ``support`` nor the sum of two other
     basis monomials: then ``G_ii = 0``, so ``G >= 0`` zeroes its whole row.
+
+    Parameters
+    ----------
+    cand : numpy.ndarray of int, shape (N, n)
+        Candidate basis monomials, as exponent rows.
+    support : numpy.ndarray of int, shape (k, n)
+        Exponent rows of the polynomial's terms that are not identically zero.
+
+    Returns
+    -------
+    numpy.ndarray of int, shape (N', n)
+        The rows of ``cand`` kept, in their order.
     """
     while True:
         i, j = np.triu_indices(len(cand), 1)
@@ -98,7 +122,24 @@ def prune_diagonal(cand: np.ndarray, support: np.ndarray) -> np.ndarray:
 
 @dataclass
 class SOSConstraint:
-    """A scalar SOS constraint ``p = z^T G z`` (``p`` may depend on decision variables)."""
+    """A scalar SOS constraint ``p = z^T G z`` (``p`` may depend on decision variables).
+
+    Attributes
+    ----------
+    name : str
+        Name of the constraint, in the :class:`Check` and error messages and in the key
+        ``"<index>:<name>"`` of its Gram matrix in ``SOSSolution.grams``.
+    poly : satfmu.synthesis.polynomial.Poly
+        The polynomial ``p``, coefficients affine in the decision variables; in the program's
+        ``n_vars`` variables, or in ``(x, v)`` for an SOS-matrix constraint.
+    basis : numpy.ndarray of int, shape (N, n)
+        The monomial basis ``z`` as exponent rows (N = 0: ``p`` must vanish identically).
+    region : str, optional
+        Label of the region on which the constraint proves ``p >= 0``, for the reports
+        (``"global"`` by default; the S-procedure's region description otherwise).
+    blocks : list of numpy.ndarray of int, optional
+        Indices into ``basis`` of the diagonal blocks ``G`` may be restricted to (below).
+    """
 
     name: str
     poly: Poly
@@ -112,7 +153,25 @@ class SOSConstraint:
 
 @dataclass
 class SOSSolution:
-    """Solver output: decision vector, Gram matrices, status and timings (s)."""
+    """Solver output: decision vector, Gram matrices, status and timings (s).
+
+    Attributes
+    ----------
+    y : numpy.ndarray, shape (n_decision,)
+        Values of the decision variables, in the order the program created them.
+    grams : dict of str to numpy.ndarray
+        Gram matrix ``G``, shape (N, N), of every constraint with a non-empty basis, keyed
+        ``"<index>:<name>"`` (index into ``SOSProgram.sos``); zero outside its symmetry
+        blocks.
+    status : str
+        The solver statuses of every attempt of the solve policy, ``"; "``-separated.
+    solver : str
+        The solver that gave the solution (``"CLARABEL"``).
+    objective : float
+        The minimized objective ``objective @ y`` (0 for a feasibility problem).
+    timings : dict of str to float, optional
+        ``"build"`` and ``"solve"`` times, s.
+    """
 
     y: np.ndarray
     grams: dict[str, np.ndarray]
@@ -124,7 +183,27 @@ class SOSSolution:
 
 @dataclass
 class Check:
-    """Independent verification of one SOS constraint."""
+    """Independent verification of one SOS constraint.
+
+    Attributes
+    ----------
+    name : str
+        Name of the constraint checked (``SOSConstraint.name``).
+    region : str
+        Label of the region the constraint holds on (``SOSConstraint.region``).
+    basis_size : int
+        Size N of its monomial basis (0: the polynomial must vanish).
+    min_eig : float
+        Smallest eigenvalue of its Gram matrix (0 without a basis).
+    residual : float
+        Largest coefficient of ``p - z^T G z`` (:func:`gram_residual`).
+    sampled_min : float
+        Smallest value of ``p`` at the sampled points (``-residual`` without a basis).
+    certified : bool
+        SOS to the solver's accuracy (the tolerances of :func:`verify`).
+    exact : bool
+        Certified and ``lambda_min(G) >= N * residual`` (below).
+    """
 
     name: str
     region: str
@@ -137,11 +216,25 @@ class Check:
     """``lambda_min(G) >= N * residual``: then p is SOS exactly, not only to tolerance."""
 
     def to_json(self) -> dict[str, Any]:
+        """The check as a JSON-ready dict of its fields (numpy floats as float)."""
         return {k: (float(v) if isinstance(v, (float, np.floating)) else v) for k, v in self.__dict__.items()}
 
 
 class SOSProgram:
     """An SOS program in the polynomial variables ``x`` (count ``n_vars``).
+
+    Parameters
+    ----------
+    n_vars : int
+        Number of polynomial variables ``x``.
+    gram_margin : float, optional
+        Constrain every Gram matrix to ``G >= gram_margin I`` (tightens each SOS condition by
+        ``gram_margin * z^T z``; use it when a strictly interior, exactly checkable certificate
+        is wanted and the basis has no forced-zero monomials). Default 0.
+    sign_symmetry : bool, optional
+        Split each Gram matrix into the diagonal blocks the sign symmetries of its polynomial
+        allow (lossless: :mod:`satfmu.synthesis.sign_symmetry`); False: one block per
+        constraint. Default True.
 
     Examples
     --------
@@ -173,24 +266,63 @@ class SOSProgram:
 
     # ---------------------------------------------------------------- variables
     def new_variables(self, n: int) -> np.ndarray:
-        """Indices of ``n`` fresh scalar decision variables."""
+        """Indices of ``n`` fresh scalar decision variables.
+
+        Parameters
+        ----------
+        n : int
+            How many variables to create.
+
+        Returns
+        -------
+        numpy.ndarray of int, shape (n,)
+            Their indices in the decision vector ``y``.
+        """
         idx = np.arange(self.n_decision, self.n_decision + n)
         self.n_decision += n
         return idx
 
     def selector(self, indices: np.ndarray) -> sps.csr_matrix:
-        """Rows picking decision variables ``indices`` (width = current decision count)."""
+        """Rows picking decision variables ``indices`` (width = current decision count).
+
+        Parameters
+        ----------
+        indices : numpy.ndarray of int, shape (k,)
+            Indices of decision variables (e.g. from :meth:`SOSProgram.new_variables`).
+
+        Returns
+        -------
+        scipy.sparse.csr_matrix, shape (k, n_decision)
+            Row ``i`` picks ``y[indices[i]]``.
+        """
         k = len(indices)
         return sps.csr_matrix((np.ones(k), (np.arange(k), indices)), shape=(k, self.n_decision))
 
     def new_poly(self, exps: np.ndarray) -> Poly:
-        """A polynomial with one fresh coefficient per exponent row."""
+        """A polynomial with one fresh coefficient per exponent row.
+
+        Parameters
+        ----------
+        exps : numpy.ndarray of int, shape (k, n_vars)
+            Exponent rows of the terms (e.g. from :func:`satfmu.synthesis.polynomial.monomials`).
+        """
         exps = np.asarray(exps, np.int64).reshape(-1, self.n_vars)
         idx = self.new_variables(len(exps))
         return Poly(exps, np.zeros(len(exps)), self.selector(idx))
 
     def new_symmetric(self, n: int) -> list[list[Poly]]:
-        """A constant symmetric n x n matrix of fresh variables, as constant polynomials."""
+        """A constant symmetric n x n matrix of fresh variables, as constant polynomials.
+
+        Parameters
+        ----------
+        n : int
+            Size of the matrix (``n (n + 1) / 2`` new variables).
+
+        Returns
+        -------
+        list of list of satfmu.synthesis.polynomial.Poly
+            The entries, row-major; ``M[i][j]`` and ``M[j][i]`` are the same polynomial.
+        """
         idx = self.new_variables(n * (n + 1) // 2)
         zero = np.zeros((1, self.n_vars), np.int64)
         M: list[list[Poly | None]] = [[None] * n for _ in range(n)]
@@ -204,7 +336,29 @@ class SOSProgram:
 
     # ---------------------------------------------------------------- constraints
     def add_sos(self, p: Poly, name: str, region: str = "global") -> SOSConstraint:
-        """Require ``p`` to be a sum of squares (``p >= 0`` everywhere)."""
+        """Require ``p`` to be a sum of squares (``p >= 0`` everywhere).
+
+        Parameters
+        ----------
+        p : satfmu.synthesis.polynomial.Poly
+            Polynomial in the program's ``n_vars`` variables, coefficients affine in the
+            decision variables.
+        name : str
+            Name of the constraint (reports, error messages, Gram key).
+        region : str, optional
+            Label of the region the constraint stands for, recorded for the reports only
+            (``SOSConstraint.region``). Default ``"global"``.
+
+        Returns
+        -------
+        SOSConstraint
+            The constraint recorded, with its basis and Gram blocks.
+
+        Raises
+        ------
+        satfmu.fmus.errors.SOSError
+            If ``p`` is not in ``n_vars`` variables.
+        """
         t0 = time.perf_counter()
         if p.n_vars != self.n_vars:
             raise SOSError(f"{name}: polynomial in {p.n_vars} variables, program has {self.n_vars}")
@@ -227,6 +381,31 @@ class SOSProgram:
 
         ``p - sum_i s_i g_i`` must be SOS with SOS multipliers ``s_i`` of degree
         ``multiplier_degree`` (even).
+
+        Parameters
+        ----------
+        p : satfmu.synthesis.polynomial.Poly
+            Polynomial in the program's ``n_vars`` variables, coefficients affine in the
+            decision variables.
+        name : str
+            Name of the constraint; its multipliers are named ``"<name>: multiplier <k>"``.
+        region : list of satfmu.synthesis.polynomial.Poly
+            The numeric polynomials ``g_i`` whose joint non-negativity defines the region.
+        multiplier_degree : int
+            Degree of every multiplier ``s_i`` (even).
+        label : str
+            Description of the region, recorded as the constraint's
+            ``SOSConstraint.region``.
+
+        Returns
+        -------
+        SOSConstraint
+            The constraint on ``p - sum_i s_i g_i``.
+
+        Raises
+        ------
+        satfmu.fmus.errors.SOSError
+            If ``multiplier_degree`` is odd.
         """
         if multiplier_degree % 2:
             raise SOSError(f"{name}: multiplier degree must be even, got {multiplier_degree}")
@@ -248,6 +427,34 @@ class SOSProgram:
         proves ``M >= 0`` where ``g_i >= 0``). Leaving out rows whose entries are constant
         or linear in x keeps their ``v_i z(x)`` monomials out of the Gram basis. The
         constraint is recorded in the extended program of ``n_vars + dim`` variables.
+
+        Parameters
+        ----------
+        M : satfmu.synthesis.polynomial.PolyMatrix
+            Square symmetric polynomial matrix, shape (dim, dim), in the program's ``n_vars``
+            variables.
+        name : str
+            Name of the constraint; its multipliers are named ``"<name>: multiplier <k>"``.
+        region : list of satfmu.synthesis.polynomial.Poly, optional
+            The numeric polynomials ``g_i >= 0`` defining the region; None or empty: everywhere.
+        multiplier_degree : int, optional
+            Degree of the multipliers ``s_i(x)`` (even). Default 2.
+        label : str, optional
+            Description of the region, recorded as ``SOSConstraint.region``. Default
+            ``"global"``.
+        multiplier_rows : sequence of int, optional
+            The rows ``R`` of ``v`` the multipliers act on (indices in ``0 .. dim - 1``); default
+            all.
+
+        Returns
+        -------
+        SOSConstraint
+            The constraint on ``v^T M v`` less the multiplier terms, in ``(x, v)``.
+
+        Raises
+        ------
+        satfmu.fmus.errors.SOSError
+            If ``multiplier_rows`` is empty or out of range.
         """
         q = quadratic_form(M)
         dim = M.shape[0]
@@ -267,11 +474,39 @@ class SOSProgram:
         return sub.add(q, name, label)
 
     def add_linear(self, A: sps.spmatrix, b: np.ndarray, kind: str = "eq") -> None:
-        """``A y + b == 0`` (kind "eq") or ``>= 0`` (kind "ge")."""
+        """``A y + b == 0`` (kind "eq") or ``>= 0`` (kind "ge").
+
+        Parameters
+        ----------
+        A : scipy.sparse.spmatrix, shape (k, n_y)
+            Coefficients of the decision variables (``n_y`` at most the current decision
+            count: variables created later do not appear).
+        b : numpy.ndarray, shape (k,)
+            Constant term.
+        kind : {"eq", "ge"}, optional
+            Equality or element-wise inequality (any other value is taken as ``"ge"``).
+            Default ``"eq"``.
+        """
         (self.equalities if kind == "eq" else self.inequalities).append((sps.csr_matrix(A), np.asarray(b, float)))
 
     def add_psd_constant(self, M: list[list[Poly]], name: str, margin: float = 0.0) -> None:
-        """A constant polynomial matrix (one degree-0 term per entry) with ``M - margin I`` PSD."""
+        """A constant polynomial matrix (one degree-0 term per entry) with ``M - margin I`` PSD.
+
+        Parameters
+        ----------
+        M : list of list of satfmu.synthesis.polynomial.Poly
+            Square matrix of constant polynomials (e.g. from :meth:`SOSProgram.new_symmetric`), row-major;
+            its symmetric part is constrained.
+        name : str
+            Name of the constraint (error messages).
+        margin : float, optional
+            Required smallest eigenvalue. Default 0.
+
+        Raises
+        ------
+        satfmu.fmus.errors.SOSError
+            If an entry is not a single degree-0 term.
+        """
         if any(e.exps.shape[0] != 1 or e.exps.any() for row in M for e in row):
             raise SOSError(f"{name}: add_psd_constant needs constant entries")
         entries = [[(e.C, float(e.c0[0]) - (margin if i == j else 0.0)) for j, e in enumerate(row)]
@@ -288,6 +523,12 @@ class SOSProgram:
         matrix unless sign symmetries split it) and per constant PSD block (its symmetric
         part). Gram entries are the variables ``G_ij``, ``i <= j`` within a block, in
         :func:`satfmu.synthesis.conic.svec_indices` order.
+
+        Parameters
+        ----------
+        objective : scipy.sparse.spmatrix, shape (1, n_y), optional
+            Cost row on the decision variables (``n_y`` at most the decision count); None: a
+            feasibility problem (zero cost).
         """
         cones, n = self._gram_layout()
         match, rhs = coefficient_matching(self.sos, cones, n)
@@ -329,6 +570,17 @@ class SOSProgram:
         (Clarabel's, e.g. ``tol_feas``) first, then the policy's relaxed and regularized
         rungs when Clarabel stops without a solution or a clean certificate.
 
+        Parameters
+        ----------
+        objective : scipy.sparse.spmatrix, shape (1, n_y), optional
+            Cost row on the decision variables ``y`` (e.g. ``prog.selector(idx)``); None: find
+            any feasible point.
+
+        Returns
+        -------
+        SOSSolution
+            Decision values, Gram matrices, status and times; check them with :func:`verify`.
+
         Raises
         ------
         SOSError
@@ -348,6 +600,7 @@ class SOSProgram:
         result = results[-1]
         if not outcome.solved:
             raise SOSError(f"SOS program not solved ({outcome.status}): {outcome.solver_status} (solver CLARABEL)")
+        assert result.x is not None  # solved: the last rung's status is optimal(_inaccurate), which comes with x
         grams = {f"{k}:{c.name}": np.zeros((len(c.basis), len(c.basis))) for k, c in enumerate(self.sos)
                  if c.basis.shape[0]}
         for k, block, off in self._gram_layout()[0]:  # zero outside the blocks
@@ -382,11 +635,22 @@ def coefficient_matching(constraints: Sequence[SOSConstraint], cones: Sequence[t
     an integer key (:func:`satfmu.synthesis.exponents.keys`); the Gram monomials are the unique
     keys and each term of ``p`` finds its row by ``searchsorted``.
 
+    Parameters
+    ----------
+    constraints : sequence of SOSConstraint
+        The SOS constraints, in program order (``SOSProgram.sos``).
+    cones : sequence of tuple of (int, numpy.ndarray, int)
+        The Gram blocks: constraint index, the block's indices into that constraint's basis,
+        and the offset of the block's svec in ``x``.
+    n : int
+        Length of ``x`` (decision variables and every Gram block's svec).
+
     Returns
     -------
     A : scipy.sparse.csr_matrix
         Rows x ``n`` (``n`` the length of ``x``).
     b : ndarray
+        One constant per row: the ``c0`` coefficients matched by that row.
     """
     polys = [c.poly for c in constraints]
     width = max([p.n_vars for p in polys], default=0)
@@ -465,6 +729,15 @@ def gram_residual(p: Poly, basis: np.ndarray, G: np.ndarray) -> float:
     every entry ``G_ij`` (both triangles) is a term ``z_i z_j``; with ``p``'s terms, equal
     exponent rows are summed (``np.unique`` over whole rows, not the program's integer
     keys). Terms of ``p`` no Gram entry reaches count in full.
+
+    Parameters
+    ----------
+    p : satfmu.synthesis.polynomial.Poly
+        Numeric polynomial (decision values substituted, e.g. by ``Poly.value``).
+    basis : numpy.ndarray of int, shape (N, n)
+        Exponent rows of the basis monomials ``z``.
+    G : numpy.ndarray, shape (N, N)
+        The Gram matrix.
     """
     N = basis.shape[0]
     pairs = (basis[:, None, :] + basis[None, :, :]).reshape(N * N, -1)
@@ -474,7 +747,14 @@ def gram_residual(p: Poly, basis: np.ndarray, G: np.ndarray) -> float:
 
 
 def check_numbers(checks: list[Check]) -> dict[str, float]:
-    """The verification numbers of ``checks`` as a flat ``{"<name>: <quantity>": value}`` map."""
+    """The verification numbers of ``checks`` as a flat ``{"<name>: <quantity>": value}`` map.
+
+    Parameters
+    ----------
+    checks : list of Check
+        The checks of :func:`verify`; ``min_eig``, ``residual`` and ``sampled_min`` of each
+        are reported.
+    """
     return {f"{c.name}: {k}": float(getattr(c, k)) for c in checks for k in ("min_eig", "residual", "sampled_min")}
 
 
@@ -489,6 +769,30 @@ def verify(prog: SOSProgram, sol: SOSSolution, n_samples: int = 2000, sample_rad
     residual ``<= res_tol * max(1, |p|)`` and no sampled value below ``-res_tol`` relative,
     i.e. SOS to the solver's accuracy (interior-point solutions of degenerate programs sit
     on the cone's boundary). *Exact*: additionally ``lambda_min >= N * residual``.
+
+    Parameters
+    ----------
+    prog : SOSProgram
+        The program whose SOS constraints are checked.
+    sol : SOSSolution
+        Its solution (:meth:`SOSProgram.solve`).
+    n_samples : int, optional
+        Number of sample points per constraint. Default 2000.
+    sample_radius : float, optional
+        Radius of the ball in ``x`` the points are drawn from, in the units of ``x``.
+        Default 1.
+    seed : int, optional
+        Seed of the random generator. Default 0.
+    eig_tol : float, optional
+        Tolerance on the smallest Gram eigenvalue, relative to ``max(1, |G|)``. Default 1e-7.
+    res_tol : float, optional
+        Tolerance on the residual and on the sampled values, relative to ``max(1, |p|)``.
+        Default 1e-7.
+
+    Returns
+    -------
+    list of Check
+        One per SOS constraint, in program order.
     """
     rng = np.random.default_rng(seed)
     out = []

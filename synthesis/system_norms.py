@@ -174,10 +174,10 @@ def impulse_to_peak(A, B, C, t_end: float, n_points: int = 2001):
     if not (isinstance(n_points, (int, np.integer)) and n_points >= 2):
         raise OptionError(f"n_points must be an integer >= 2, got {n_points!r}")
     Phi = sla.expm(A * (t_end / (n_points - 1)))
-    CPhi = [C]  # C Phi^j, j < PEAK_BLOCK, by repeated multiplication
+    powers = [C]  # C Phi^j, j < PEAK_BLOCK, by repeated multiplication
     for _ in range(min(PEAK_BLOCK, n_points) - 1):
-        CPhi.append(CPhi[-1] @ Phi)
-    CPhi = np.stack(CPhi, axis=-3)  # (..., b, p, n)
+        powers.append(powers[-1] @ Phi)
+    CPhi = np.stack(powers, axis=-3)  # (..., b, p, n)
     b = CPhi.shape[-3]
     step = np.linalg.matrix_power(Phi, b)
     X = B.copy()

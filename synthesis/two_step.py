@@ -32,12 +32,12 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
-from typing import Any, Callable, Mapping, Sequence
+from typing import Any, Callable, Mapping, Sequence, cast
 
 import numpy as np
 
 from satfmu.controllers import polynomial
-from satfmu.controllers.artifact import parse
+from satfmu.controllers.artifact import ControllerArtifact, parse
 from satfmu.fmus import mrp_satellite, reference
 from satfmu.fmus.model import Model
 from satfmu.synthesis import hinf_sos, l2_gain
@@ -54,7 +54,34 @@ Progress = Callable[[int, int, str], None]
 
 @dataclass
 class Iterate:
-    """One pass of the two steps."""
+    """One pass of the two steps.
+
+    Attributes
+    ----------
+    index : int
+        Position in the schedule of decay rates, from 0.
+    decay_rate : float
+        The certified decay rate lambda asked of Theorem 1, 1/s.
+    design : satfmu.synthesis.hinf_sos.Theorem1Result or None
+        The state feedback of step 1; None where Theorem 1 was infeasible.
+    sos : satfmu.synthesis.l2_gain.SOSGain or None
+        The certified L2 gain of step 2; None where no certificate was found or step 2 did not
+        run.
+    sampled : satfmu.synthesis.l2_gain.SampledGain or None
+        The sampled L2-gain estimate of step 2 (None: step 2 did not run).
+    diagonal : tuple of (float, float) or None
+        ``(c, kv)`` of the paper's diagonal method at its best kv (None: step 2 did not run).
+    peak_torque : float
+        Largest ``|u_i|`` on the judged manoeuvre, N m (nan: not simulated, inf: diverged).
+    final_error_deg : float
+        Attitude error at the manoeuvre's horizon, deg (nan: not simulated, inf: diverged).
+    accepted : bool
+        Whether the iterate was accepted (``reason`` empty).
+    reason : str
+        Why it was rejected; empty when accepted.
+    seconds : float
+        Wall time of the pass, s.
+    """
 
     index: int
     decay_rate: float
@@ -71,6 +98,7 @@ class Iterate:
 
     @property
     def c(self) -> float:
+        """The certified L2 gain of the iterate (inf when it has none)."""
         return self.sos.c if self.sos is not None and self.sos.certified else float("inf")
 
     def row(self) -> dict[str, Any]:
@@ -88,7 +116,20 @@ class Iterate:
 
 @dataclass
 class TwoStepResult:
-    """All iterates and the chosen one."""
+    """All iterates and the chosen one.
+
+    Attributes
+    ----------
+    iterates : list of Iterate
+        Every pass, in order of increasing decay rate.
+    best : Iterate
+        The accepted iterate of the smallest certified L2 gain (the last accepted).
+    plant : satfmu.fmus.model.Model
+        The plant the iteration designed for.
+    settings : dict, optional
+        The iteration's settings (regions, limits, rates, start, horizon), recorded in the
+        artifact's provenance.
+    """
 
     iterates: list[Iterate]
     best: Iterate
@@ -115,7 +156,19 @@ class TwoStepResult:
 
     def artifact_data(self, name: str) -> dict[str, Any]:
         """Controller artifact of the chosen design, with its L2-gain certificate and the
-        iteration history."""
+        iteration history.
+
+        Parameters
+        ----------
+        name : str
+            The artifact's name, lower_snake_case (the controller FMU's modelIdentifier).
+
+        Returns
+        -------
+        dict
+            The artifact's JSON data (:func:`satfmu.synthesis.hinf_sos.artifact_data` with the
+            ``l2_gain`` certificate and the iterations added).
+        """
         best = self.best
         assert best.design is not None and best.sos is not None and best.sampled is not None
         data = hinf_sos.artifact_data(best.design, name, self.plant)
@@ -145,11 +198,16 @@ def _json_value(v: Any) -> Any:
     return None if isinstance(v, float) and not np.isfinite(v) else v
 
 
+def _candidate(design: hinf_sos.Theorem1Result, plant: Model) -> ControllerArtifact:
+    """The artifact of a Theorem 1 design: ``artifact_data`` writes a polynomial state feedback."""
+    return cast(ControllerArtifact, parse(hinf_sos.artifact_data(design, "two_step_candidate", plant)))
+
+
 def _response(design: hinf_sos.Theorem1Result, plant: Model, start: Mapping[str, float],
               horizon: float) -> tuple[float, float]:
     """Peak |u| (N m) and attitude error at ``horizon`` (deg) of the manoeuvre from ``start``
     (plant parameters, e.g. ``sigma_0[i]``), no saturation, communication step 0.05 s."""
-    ctrl = polynomial.build(parse(hinf_sos.artifact_data(design, "two_step_candidate", plant)))
+    ctrl = polynomial.build(_candidate(design, plant))
     res = reference.closed_loop_rk4(plant, ctrl, horizon, 0.05, dict(start))
     if not np.all(np.isfinite(res.x)):
         return float("inf"), float("inf")
@@ -176,8 +234,11 @@ def two_step(plant: Model | None = None, region: float = 0.9,
         Region on which the L2 gain is certified and sampled.
     coefficient_limit : float
         Bound on every coefficient of K (program units).
+    decay_rates : sequence of float
+        The certified decay rates lambda to try, 1/s, increasing, >= 0 (default
+        :data:`DECAY_RATES`).
     torque_budget : float
-        Largest acceptable peak |u_i| on the manoeuvre, N m (on seed 000's 200 deg
+        Largest acceptable peak ``|u_i|`` on the manoeuvre, N m (on seed 000's 200 deg
         manoeuvre the published controller needs 6.22 N m).
     final_tolerance_deg : float
         Largest acceptable attitude error at ``horizon``, deg.
@@ -189,11 +250,22 @@ def two_step(plant: Model | None = None, region: float = 0.9,
         :data:`SIGMA_200`, seed 000's 200 deg start.
     horizon : float
         Length of the judged manoeuvre, s.
+    progress : callable, optional
+        Called as ``progress(done, total, message)`` before each step of each iteration and
+        once at the end (:data:`Progress`).
+
+    Returns
+    -------
+    TwoStepResult
+        Every iterate and the best accepted one.
 
     Raises
     ------
     satfmu.synthesis.sos.SOSError
         If no iterate is accepted.
+    ValueError
+        If ``decay_rates`` is not increasing and >= 0, ``torque_budget`` or ``horizon`` is not
+        finite and > 0, or ``start`` sets a parameter the plant does not have.
     """
     decay_rates = [float(v) for v in decay_rates]
     if not decay_rates or any(b <= a for a, b in zip(decay_rates, decay_rates[1:])) or decay_rates[0] < 0:
@@ -232,7 +304,7 @@ def two_step(plant: Model | None = None, region: float = 0.9,
             reason = "state feedback not certified"
         if design is not None and not reason:
             report("step 2, L2 gain (SOS, sampled, diagonal)")
-            form = l2_gain.hji_form(parse(hinf_sos.artifact_data(design, "two_step_candidate", plant)), plant)
+            form = l2_gain.hji_form(_candidate(design, plant), plant)
             try:
                 sos = l2_gain.sos_gain(form, l2_region)
             except SOSError as exc:

@@ -31,7 +31,7 @@ the scaled coordinates), with one common Lyapunov matrix ``Y``: the seed's "robu
 stability" of the frozen SDC loop. It is not a proof for the nonlinear plant (the SDC
 freezes w2 := 0, and p changes with q2). Each certificate is re-checked without the solver:
 Gram eigenvalues and residuals (:func:`satfmu.synthesis.sos.verify`), a bound turning them into a
-margin on the box (:func:`_rigorous_margin`), and the Lyapunov inequality and the decay
+margin on the box (``_rigorous_margin``), and the Lyapunov inequality and the decay
 rate on samples of the true trigonometric model (:func:`trig_check`).
 """
 from __future__ import annotations
@@ -79,6 +79,11 @@ class ClosedLoop:
     momentum : sympy Matrix (7x1)
         ``p(a)``: ``p . xe`` is the gimbal-4 momentum p4, kg m^2 rad/s.
     artifact : ServoArtifact
+        The servo whose gain ``K`` closes the loop.
+    servo : satfmu.synthesis.sdre.Servo
+        The numerical servo of the same SDC (w1-free, w2 := 0), evaluating ``Ae``, ``Be``
+        of the trigonometric model (:meth:`ClosedLoop.matrix`) and the weights of the coordinate
+        scaling.
     """
 
     acl: sp.Matrix
@@ -89,6 +94,13 @@ class ClosedLoop:
     @staticmethod
     def build(artifact: ServoArtifact, model: Model = vscmg.MODEL) -> "ClosedLoop":
         """From the servo artifact (scheduling ``sin(q2)``, ``w4``) and the plant model.
+
+        Parameters
+        ----------
+        artifact : ServoArtifact
+            The gain-scheduled servo, scheduled on ``["sin(q2)", "w4"]``.
+        model : Model, optional
+            The VSCMG plant (default ``satfmu.fmus.vscmg.MODEL``).
 
         Raises
         ------
@@ -119,22 +131,37 @@ class ClosedLoop:
                           Servo("w1_free", freeze_w2=True, model=model))
 
     def matrix(self, q2: float, w4: float) -> np.ndarray:
-        """``Acl`` (7x7) at (q2, w4) from the trigonometric model and the artifact's gain."""
+        """``Acl`` (7x7) at (q2, w4) from the trigonometric model and the artifact's gain.
+
+        Parameters
+        ----------
+        q2 : float
+            Gimbal-2 angle, rad.
+        w4 : float
+            Gimbal-4 rate, rad/s.
+        """
         A, B = self.servo.matrices(np.array([0.0, q2, 0.0, 0.0, 0.0, w4]))
         K = self.artifact.gain_at(self.artifact.scheduling_values({"q2": q2, "w4": w4}))
         return A - B @ K
 
     @cached_property
     def acl_poly(self) -> PolyMatrix:
-        """:attr:`acl` as a polynomial matrix in ``(a, c, w4)``."""
+        """``acl`` as a polynomial matrix in ``(a, c, w4)``."""
         return PolyMatrix.from_sympy(self.acl, [_A, _C, _W])
 
     @cached_property
     def momentum_poly(self) -> PolyMatrix:
-        """:attr:`momentum` as a polynomial matrix in ``(a, c, w4)``."""
+        """``momentum`` as a polynomial matrix in ``(a, c, w4)``."""
         return PolyMatrix.from_sympy(self.momentum, [_A, _C, _W])
 
     def momentum_at(self, q2: float) -> np.ndarray:
+        """``p`` at one gimbal-2 angle, shape (7,): its product with ``xe`` is the gimbal-4 momentum p4.
+
+        Parameters
+        ----------
+        q2 : float
+            Gimbal-2 angle, rad.
+        """
         return np.array(self.momentum.subs(_A, np.sin(q2)), float).ravel()
 
 
@@ -146,6 +173,30 @@ class BoxCertificate:
     :func:`satfmu.synthesis.sos.verify` and the rigorous margin is positive. ``Y`` is in the servo
     state's own coordinates (``V = xe^T Y xe``); ``decay`` is the guaranteed decay rate of the
     frozen modes off p4, 1/s.
+
+    Attributes
+    ----------
+    q2 : tuple of (float, float)
+        The box's gimbal-2 angle interval, rad.
+    w4 : tuple of (float, float)
+        The box's gimbal-4 rate interval, rad/s.
+    certified : bool
+        Whether the box is certified (above).
+    message : str
+        ``"certified"``, or why not (the solver's error, or the failed numbers).
+    eps : float, optional
+        The maximized Lyapunov margin ``eps`` in the scaled coordinates (nan if not solved).
+    decay : float, optional
+        Guaranteed decay rate of the frozen modes off p4, 1/s (nan if not solved).
+    margin : float, optional
+        ``eps`` less what the solver's inaccuracy can take away (> 0 for a certificate; nan
+        if not solved).
+    Y : numpy.ndarray, shape (7, 7), optional
+        The Lyapunov matrix in the servo state's coordinates (None if not solved).
+    checks : list of satfmu.synthesis.sos.Check, optional
+        Independent verification of every SOS constraint.
+    seconds : float, optional
+        Wall time of :func:`certify`, s.
     """
 
     q2: tuple[float, float]
@@ -160,6 +211,7 @@ class BoxCertificate:
     seconds: float = 0.0
 
     def to_json(self) -> dict[str, Any]:
+        """The certificate as a JSON-ready dict, its checks included."""
         return {"q2": list(self.q2), "w4": list(self.w4), "certified": self.certified, "message": self.message,
                 "eps": self.eps, "decay": self.decay, "margin": self.margin,
                 "Y": None if self.Y is None else self.Y.tolist(), "seconds": self.seconds,
@@ -175,7 +227,18 @@ def _box(q2: tuple[float, float], w4: tuple[float, float]) -> tuple[float, float
 
 def cos_enclosure(a_lo: float, a_hi: float) -> tuple[sp.Expr, sp.Expr]:
     """(lower, upper) lines in ``a`` around ``sqrt(1 - a^2)`` on [a_lo, a_hi]: chord and
-    tangent at the centre (the function is concave)."""
+    tangent at the centre (the function is concave).
+
+    Parameters
+    ----------
+    a_lo, a_hi : float
+        The interval of ``a = sin q2``, ``0 <= a_lo < a_hi < 1``.
+
+    Returns
+    -------
+    lower, upper : sympy.Expr
+        The chord and the tangent, affine in the symbol ``a``.
+    """
     f = lambda x: float(np.sqrt(1.0 - x * x))  # noqa: E731
     am = (a_lo + a_hi) / 2
     lower = f(a_lo) + (f(a_hi) - f(a_lo)) / (a_hi - a_lo) * (_A - a_lo)
@@ -185,7 +248,20 @@ def cos_enclosure(a_lo: float, a_hi: float) -> tuple[sp.Expr, sp.Expr]:
 
 def cos_errors(q2: tuple[float, float], n: int = 2001) -> dict[str, float]:
     """On a q2 interval: the largest error of the seed's ``cos q2 ~ 1 - sin^2 q2 / 2`` and the
-    width of the enclosure the certificate uses instead (both dimensionless)."""
+    width of the enclosure the certificate uses instead (both dimensionless).
+
+    Parameters
+    ----------
+    q2 : tuple of (float, float)
+        The gimbal-2 angle interval, rad, inside ``(0, pi/2)``.
+    n : int, optional
+        Number of evenly spaced angles evaluated. Default 2001.
+
+    Raises
+    ------
+    AssertionError
+        If the enclosure does not enclose ``cos q2`` (impossible on ``(0, pi/2)``).
+    """
     q = np.linspace(*q2, n)
     a = np.sin(q)
     lower, upper = (sp.lambdify(_A, e, "numpy")(a) for e in cos_enclosure(*a[[0, -1]]))
@@ -217,6 +293,24 @@ def _rigorous_margin(prog: SOSProgram, checks: list[Check], sol: Any, eps: float
 def certify(loop: ClosedLoop, q2: tuple[float, float], w4: tuple[float, float], multiplier_degree: int = 4,
             trace_bound: float = 100.0) -> BoxCertificate:
     """Solve and re-verify the region condition on the box ``q2`` (rad) x ``w4`` (rad/s).
+
+    Parameters
+    ----------
+    loop : ClosedLoop
+        The closed loop.
+    q2 : tuple of (float, float)
+        Gimbal-2 angle interval ``(low, high)``, rad, ``0 < low < high < pi/2``.
+    w4 : tuple of (float, float)
+        Gimbal-4 rate interval ``(low, high)``, rad/s, ``low < high``.
+    multiplier_degree : int, optional
+        Degree of the S-procedure multipliers of the box (even). Default 4.
+    trace_bound : float, optional
+        Bound on ``trace Y`` in the scaled coordinates (where ``Y >= I``). Default 100.
+
+    Returns
+    -------
+    BoxCertificate
+        The certificate, or why there is none (a solver failure is not raised).
 
     Raises
     ------
@@ -270,6 +364,23 @@ def trig_check(loop: ClosedLoop, cert: BoxCertificate, n: int = 400, seed: int =
     corners: the largest eigenvalue of ``N^T (Acl^T Y + Y Acl) N`` (N orthonormal complement of
     p; must be < 0) and the largest real part of the frozen modes off p4 against ``-decay``.
 
+    Parameters
+    ----------
+    loop : ClosedLoop
+        The closed loop the certificate is for.
+    cert : BoxCertificate
+        A solved certificate (with ``Y``).
+    n : int, optional
+        Number of random points in the box. Default 400.
+    seed : int, optional
+        Seed of the random generator. Default 0.
+
+    Returns
+    -------
+    dict of str to float
+        ``"samples"``, ``"max_lyapunov_eig"``, ``"max_re_off_p4"`` (1/s) and
+        ``"decay_bound"`` (1/s).
+
     Raises
     ------
     ValueError
@@ -296,7 +407,25 @@ def trig_check(loop: ClosedLoop, cert: BoxCertificate, n: int = 400, seed: int =
 def map_region(loop: ClosedLoop, q2_edges: np.ndarray, w4_edges: np.ndarray,
                progress: Callable[[int, int, str], None] | None = None, **options: Any) -> list[BoxCertificate]:
     """:func:`certify` on every cell of the grid ``q2_edges`` x ``w4_edges`` (a map like the
-    seed's Fig. 2; each cell has its own Y). ``progress(done, total, message)``."""
+    seed's Fig. 2; each cell has its own Y). ``progress(done, total, message)``. ``options`` go to
+    :func:`certify` (``multiplier_degree``, ``trace_bound``).
+
+    Parameters
+    ----------
+    loop : ClosedLoop
+        The closed loop.
+    q2_edges : numpy.ndarray
+        Increasing gimbal-2 angles of the cell edges, rad, inside ``(0, pi/2)``.
+    w4_edges : numpy.ndarray
+        Increasing gimbal-4 rates of the cell edges, rad/s.
+    progress : callable, optional
+        ``progress(done, total, message)``, called after each cell.
+
+    Returns
+    -------
+    list of BoxCertificate
+        One per cell, q2 cells outer, w4 cells inner.
+    """
     cells = [((float(a), float(b)), (float(c), float(d))) for a, b in zip(q2_edges[:-1], q2_edges[1:])
              for c, d in zip(w4_edges[:-1], w4_edges[1:])]
     out = []
@@ -312,7 +441,19 @@ def map_region(loop: ClosedLoop, q2_edges: np.ndarray, w4_edges: np.ndarray,
 def region_data(loop: ClosedLoop, box: BoxCertificate, trig: dict[str, float], cells: list[BoxCertificate]
                 ) -> dict[str, Any]:
     """The region's JSON record: formulation, the operating box's certificate and its checks,
-    the cos errors, and every cell of the map."""
+    the cos errors, and every cell of the map.
+
+    Parameters
+    ----------
+    loop : ClosedLoop
+        The closed loop (its artifact's name is recorded).
+    box : BoxCertificate
+        The certificate of the operating box.
+    trig : dict of str to float
+        Its :func:`trig_check` (empty if the box was not solved).
+    cells : list of BoxCertificate
+        The cells of :func:`map_region`.
+    """
     return {"artifact": loop.artifact.name, "formulation": __doc__.split("What a certificate proves")[0].strip(),
             "variables": {"q2": "rad", "w4": "rad/s", "decay": "1/s"},
             "box": {**box.to_json(), "trig_check": trig, "cos": cos_errors(box.q2)},
@@ -320,7 +461,13 @@ def region_data(loop: ClosedLoop, box: BoxCertificate, trig: dict[str, float], c
 
 
 def certify_operating_box(artifact: ServoArtifact) -> tuple[BoxCertificate, dict[str, float]]:
-    """:func:`certify` on :data:`OPERATING_BOX` and its :func:`trig_check` (empty if not solved)."""
+    """:func:`certify` on :data:`OPERATING_BOX` and its :func:`trig_check` (empty if not solved).
+
+    Parameters
+    ----------
+    artifact : ServoArtifact
+        The servo, scheduled on ``["sin(q2)", "w4"]``, on the default VSCMG model.
+    """
     loop = ClosedLoop.build(artifact)
     cert = certify(loop, *OPERATING_BOX)
     return cert, (trig_check(loop, cert) if cert.Y is not None else {})
@@ -332,6 +479,20 @@ def artifact_certificate(fit_certificate: dict[str, Any], cert: BoxCertificate, 
 
     Status ``certified`` only if the box is certified and the trigonometric samples agree
     (largest Lyapunov eigenvalue < 0, no frozen mode off p4 slower than the decay bound).
+
+    Parameters
+    ----------
+    fit_certificate : dict
+        The certificate of the gain fit (its ``"numbers"`` and ``"proved"`` are used).
+    cert : BoxCertificate
+        The region's certificate.
+    trig : dict of str to float
+        Its :func:`trig_check` (empty if the box was not solved).
+
+    Returns
+    -------
+    dict
+        The artifact's ``certificate`` entry.
     """
     sampled_ok = bool(trig) and trig["max_lyapunov_eig"] < 0 and trig["max_re_off_p4"] <= -trig["decay_bound"]
     ok = cert.certified and sampled_ok

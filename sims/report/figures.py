@@ -8,7 +8,7 @@ from __future__ import annotations
 import io
 import math
 import textwrap
-from typing import Callable, Mapping, Sequence
+from typing import Any, Callable, Mapping, Sequence
 
 import matplotlib
 
@@ -31,7 +31,13 @@ FAILED = "#d62728"
 def svg(fig: plt.Figure, tight: bool = False) -> str:
     """The figure as an inline ``<svg>`` element (no XML prolog), the figure closed.
 
-    ``tight``: the bounding box of everything drawn (legends outside the axes), one more draw.
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+        The figure to render (closed afterwards, also on an error).
+    tight : bool
+        Crop to the bounding box of everything drawn (legends outside the axes), at the cost of
+        one more draw; else the figure's own size.
     """
     buf = io.StringIO()
     try:
@@ -46,8 +52,8 @@ def _draw_lines(ax: plt.Axes, lines: Sequence[Line]) -> None:
     """Requirement (dashed) and actuator-limit (dash-dot) lines, one legend entry each."""
     for ln in lines:
         colour = REQUIREMENT if ln.kind == "requirement" else ACTUATOR
-        style = dict(color=colour, lw=1.1, ls="--" if ln.kind == "requirement" else "-.",
-                     alpha=1.0 if ln.active else 0.4)
+        style: dict[str, Any] = dict(color=colour, lw=1.1, ls="--" if ln.kind == "requirement" else "-.",
+                                     alpha=1.0 if ln.active else 0.4)
         if ln.axis == "time":
             ax.axvline(ln.value, label=ln.label, **style)
             continue

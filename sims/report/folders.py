@@ -26,7 +26,7 @@ from satfmu.sims import metrics as M
 from satfmu.sims import preflight
 from satfmu.sims import scenario as S
 from satfmu.sims.campaign import Campaign, CampaignError
-from satfmu.sims.scenario_campaign import Statistics
+from satfmu.sims.scenario_campaign import ScenarioTask, Statistics
 from satfmu.fmus.errors import ReportError
 
 ENVELOPES = "envelopes.parquet"
@@ -56,7 +56,7 @@ class FmuFile:
     sha256: str
 
     def current_sha256(self) -> str | None:
-        """SHA-256 of the file at :attr:`path` now (hex), None if there is no such file."""
+        """SHA-256 of the file at ``path`` now (hex), None if there is no such file."""
         return preflight.sha256_file(self.path) if self.path.is_file() else None
 
 
@@ -119,7 +119,7 @@ class CampaignFolder:
     """
 
     folder: Path
-    campaign: Campaign
+    campaign: Campaign[ScenarioTask]
     rows: pd.DataFrame
     statistics: Statistics
     envelopes: pd.DataFrame | None
@@ -281,7 +281,19 @@ def read_envelopes(path: Path) -> pd.DataFrame:
 
 
 def envelope_signals(df: pd.DataFrame) -> dict[str, dict[float, str]]:
-    """Signal -> percentile (%) -> column of an envelopes table (:func:`read_envelopes`)."""
+    """Signal -> percentile (%) -> column of an envelopes table (:func:`read_envelopes`).
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        The envelopes table: ``time`` and ``<signal>:p<percentile>`` columns (others are
+        skipped).
+
+    Returns
+    -------
+    dict of str to dict of float to str
+        Percentiles sorted increasing per signal.
+    """
     out: dict[str, dict[float, str]] = {}
     for c in df.columns:
         m = _ENVELOPE_COLUMN.match(str(c))

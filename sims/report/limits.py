@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
-from typing import Mapping
+from typing import Mapping, Sequence
 
 from satfmu.sims import scenario as S
 from satfmu.sims.report.folders import FmuFile
@@ -31,7 +31,13 @@ _INDEX = re.compile(r"\[[\d,]+\]$")
 
 
 def base(signal: str) -> str:
-    """``instance.variable`` without its index: ``plant.omega[2]`` -> ``plant.omega``."""
+    """``instance.variable`` without its index: ``plant.omega[2]`` -> ``plant.omega``.
+
+    Parameters
+    ----------
+    signal : str
+        A qualified signal, indexed (``plant.omega[2]``, ``plant.C[1,2]``) or not.
+    """
     return _INDEX.sub("", signal)
 
 
@@ -162,7 +168,7 @@ def _scaled(scale: float) -> str:
     return "" if scale == 1.0 else f" (signal × {scale:g})"
 
 
-def signal_lines(scenario: S.Scenario, signal: str, limits: list[ActuatorLimit] = ()) -> list[Line]:
+def signal_lines(scenario: S.Scenario, signal: str, limits: Sequence[ActuatorLimit] = ()) -> list[Line]:
     """The requirement and actuator-limit lines of a recorded signal.
 
     Parameters

@@ -27,7 +27,13 @@ from satfmu.sims.scenario_campaign import FAILURES, PERCENTILES, MetricStatistic
 
 
 def number(value: Any) -> str:
-    """A value as the page prints it: 6 significant digits, ``inf``, ``NaN``, empty for None."""
+    """A value as the page prints it: 6 significant digits, ``inf``, ``NaN``, empty for None.
+
+    Parameters
+    ----------
+    value : float or None
+        Any number (converted with ``float``), in its own unit.
+    """
     if value is None:
         return ""
     v = float(value)
@@ -39,17 +45,36 @@ def number(value: Any) -> str:
 
 
 def percent(value: float) -> str:
-    """A fraction as the page prints it: ``87.50 %``."""
+    """A fraction as the page prints it: ``87.50 %``.
+
+    Parameters
+    ----------
+    value : float
+        The fraction, 1 for 100 %.
+    """
     return f"{100.0 * float(value):.2f} %"
 
 
 def exact(value: Any) -> str:
-    """The unrounded value of a cell (``data-value``): ``repr`` of the float, empty for None."""
+    """The unrounded value of a cell (``data-value``): ``repr`` of the float, empty for None.
+
+    Parameters
+    ----------
+    value : float or None
+        Any number (converted with ``float``).
+    """
     return "" if value is None else repr(float(value))
 
 
 def bounds(metric: S.Metric | M.MetricResult) -> str:
-    """``min 6.1, max 6.3``, in the metric's unit (empty: no bound)."""
+    """``min 6.1, max 6.3``, in the metric's unit (empty: no bound).
+
+    Parameters
+    ----------
+    metric : Metric or MetricResult
+        A scenario's metric (:class:`satfmu.sims.scenario.Metric`) or a run's
+        (:class:`satfmu.sims.metrics.MetricResult`): its ``min`` and ``max``.
+    """
     return ", ".join(f"{k} {v:g}" for k, v in (("min", metric.min), ("max", metric.max)) if v is not None)
 
 
@@ -91,11 +116,33 @@ class Comparison:
     figures: dict[str, Markup] = field(default_factory=dict)
 
     def statistics(self, campaign: CampaignFolder, name: str) -> MetricStatistics | None:
-        """The campaign's statistics of metric ``name`` (None: the scenario has no such metric)."""
+        """The campaign's statistics of metric ``name`` (None: the scenario has no such metric).
+
+        Parameters
+        ----------
+        campaign : CampaignFolder
+            One of the compared campaigns.
+        name : str
+            The metric's name.
+        """
         return next((s for s in campaign.statistics.metrics if s.name == name), None)
 
     def worst(self, campaign: CampaignFolder, name: str) -> tuple[float, int] | None:
-        """The worst value of metric ``name`` over the samples that ran, and its sample (:func:`worst_value`)."""
+        """The worst value of metric ``name`` over the samples that ran, and its sample (:func:`worst_value`).
+
+        Parameters
+        ----------
+        campaign : CampaignFolder
+            One of the compared campaigns.
+        name : str
+            The metric's name.
+
+        Returns
+        -------
+        (float, int) or None
+            The value in the metric's unit and the sample index; None when the campaign's
+            scenario has no such metric or no sample ran.
+        """
         metric = next((m for m in campaign.scenario.metrics if m.name == name), None)
         return None if metric is None else worst_value(campaign.rows, metric)
 

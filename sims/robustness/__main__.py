@@ -3,4 +3,5 @@ import sys
 
 from satfmu.sims.robustness.command import main
 
-sys.exit(main())
+if __name__ == "__main__":  # importing the module (a documentation build) runs nothing
+    sys.exit(main())

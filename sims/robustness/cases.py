@@ -28,6 +28,19 @@ CubeSat with 0.01 to 0.09 in every input)."""
 
 
 def set_input(value: float) -> Callable[[Instance], Outcome]:
+    """The case that sets the first Real input to ``value`` in StepComplete: the call must be
+    refused, the input keep its value and the instance carry on.
+
+    Parameters
+    ----------
+    value : float
+        The value to set, in the input's unit (NaN, +inf or -inf in the case table).
+
+    Returns
+    -------
+    callable
+        The case, ``case(inst) -> Outcome`` (the ``run`` of a :class:`~satfmu.sims.robustness.table.Case`).
+    """
     def case(inst: Instance) -> Outcome:
         var = chosen(inst.target.input)
         inst.initialize()
@@ -36,6 +49,19 @@ def set_input(value: float) -> Callable[[Instance], Outcome]:
 
 
 def set_parameter(value: float) -> Callable[[Instance], Outcome]:
+    """The case that sets the first Real parameter to ``value`` in InitializationMode: the call
+    must be refused, the parameter keep its value and the instance carry on.
+
+    Parameters
+    ----------
+    value : float
+        The value to set, in the parameter's unit (NaN, +inf or -inf in the case table).
+
+    Returns
+    -------
+    callable
+        The case, ``case(inst) -> Outcome`` (the ``run`` of a :class:`~satfmu.sims.robustness.table.Case`).
+    """
     def case(inst: Instance) -> Outcome:
         var = chosen(inst.target.parameter)
         inst.enter()
@@ -64,7 +90,7 @@ def _huge(inst: Instance, var: Var, init_mode: bool) -> Outcome:
 
 def _read_outputs(inst: Instance) -> tuple[int, list[float]]:
     """Every Real output; stops at the first read that is not fmi2OK (returns its status)."""
-    values = []
+    values: list[float] = []
     for var in inst.target.outputs:
         status, value = inst.get(var)
         if status != OK:
@@ -100,14 +126,53 @@ def _step_and_read(inst: Instance, h: float, what: str, finite: bool) -> Outcome
 
 
 def huge_input(inst: Instance) -> Outcome:
+    """The first Real input set to :data:`HUGE` in StepComplete, then one default step and the
+    outputs read (accepted, or refused with a clean message; overflowing outputs are recorded).
+
+    Parameters
+    ----------
+    inst : Instance
+        The instance under test, freshly instantiated (the worker makes one per case).
+
+    Returns
+    -------
+    Outcome
+        The status and log of the call under test, problems found afterwards.
+    """
     return _huge(inst, chosen(inst.target.input), init_mode=False)
 
 
 def huge_parameter(inst: Instance) -> Outcome:
+    """The first Real parameter set to :data:`HUGE` in InitializationMode, then
+    fmi2ExitInitializationMode, one default step and the outputs read.
+
+    Parameters
+    ----------
+    inst : Instance
+        The instance under test, freshly instantiated (the worker makes one per case).
+
+    Returns
+    -------
+    Outcome
+        The status and log of the call under test, problems found afterwards.
+    """
     return _huge(inst, chosen(inst.target.parameter), init_mode=True)
 
 
 def step_size(h_in_steps: float) -> Callable[[Instance], Outcome]:
+    """The case of one fmi2DoStep of ``h_in_steps`` default step sizes in StepComplete (a zero or
+    negative step, which must be refused).
+
+    Parameters
+    ----------
+    h_in_steps : float
+        The communication step size in default step sizes (0.0 and -1.0 in the case table).
+
+    Returns
+    -------
+    callable
+        The case, ``case(inst) -> Outcome`` (the ``run`` of a :class:`~satfmu.sims.robustness.table.Case`).
+    """
     def case(inst: Instance) -> Outcome:
         inst.initialize()
         return reject(inst, lambda: inst.step(h_in_steps * inst.target.step))
@@ -115,49 +180,175 @@ def step_size(h_in_steps: float) -> Callable[[Instance], Outcome]:
 
 
 def step_nan(inst: Instance) -> Outcome:
+    """fmi2DoStep with a NaN communication step size in StepComplete: must be refused.
+
+    Parameters
+    ----------
+    inst : Instance
+        The instance under test, freshly instantiated (the worker makes one per case).
+
+    Returns
+    -------
+    Outcome
+        The status and log of the call under test, problems found afterwards.
+    """
     inst.initialize()
     return reject(inst, lambda: inst.step(math.nan))
 
 
 def step_wrong_time(inst: Instance) -> Outcome:
+    """fmi2DoStep from a communication point 1 s after the FMU time (at t = 0 s): must be refused.
+
+    Parameters
+    ----------
+    inst : Instance
+        The instance under test, freshly instantiated (the worker makes one per case).
+
+    Returns
+    -------
+    Outcome
+        The status and log of the call under test, problems found afterwards.
+    """
     inst.initialize()
     return reject(inst, lambda: inst.call("DoStep", inst.time + 1.0, inst.target.step, 1))
 
 
 def far_step(inst: Instance, far_factor: float) -> Outcome:
+    """One step of ``far_factor`` default step sizes from the default start, then the outputs read:
+    accepted with finite outputs, or refused with a clean message.
+
+    Parameters
+    ----------
+    inst : Instance
+        The instance under test, freshly instantiated (the worker makes one per case).
+    far_factor : float
+        The step in default step sizes (:data:`FAR_FACTOR` unless the run's settings say
+        otherwise, :class:`~satfmu.sims.robustness.table.Settings`).
+
+    Returns
+    -------
+    Outcome
+        The status and log of the call under test, problems found afterwards.
+    """
     inst.initialize()
     return _step_and_read(inst, far_factor * inst.target.step, f"h = {far_factor:g} x {inst.target.step:g} s",
                           finite=True)
 
 
 def step_before_init(inst: Instance) -> Outcome:
+    """fmi2DoStep of the default step size in Instantiated: must be refused.
+
+    Parameters
+    ----------
+    inst : Instance
+        The instance under test, freshly instantiated (the worker makes one per case).
+
+    Returns
+    -------
+    Outcome
+        The status and log of the call under test, problems found afterwards.
+    """
     return reject(inst, lambda: inst.step())
 
 
 def get_before_init(inst: Instance) -> Outcome:
+    """fmi2GetReal of the first Real output in Instantiated: must be refused.
+
+    Parameters
+    ----------
+    inst : Instance
+        The instance under test, freshly instantiated (the worker makes one per case).
+
+    Returns
+    -------
+    Outcome
+        The status and log of the call under test, problems found afterwards.
+    """
     var = chosen(inst.target.outputs[0] if inst.target.outputs else None)
     return reject(inst, lambda: inst.get(var)[0])
 
 
 def exit_without_enter(inst: Instance) -> Outcome:
+    """fmi2ExitInitializationMode in Instantiated (no fmi2EnterInitializationMode before): must
+    be refused.
+
+    Parameters
+    ----------
+    inst : Instance
+        The instance under test, freshly instantiated (the worker makes one per case).
+
+    Returns
+    -------
+    Outcome
+        The status and log of the call under test, problems found afterwards.
+    """
     return reject(inst, lambda: inst.call("ExitInitializationMode"))
 
 
 def exit_twice(inst: Instance) -> Outcome:
+    """fmi2ExitInitializationMode a second time, in StepComplete: must be refused.
+
+    Parameters
+    ----------
+    inst : Instance
+        The instance under test, freshly instantiated (the worker makes one per case).
+
+    Returns
+    -------
+    Outcome
+        The status and log of the call under test, problems found afterwards.
+    """
     inst.initialize()
     return reject(inst, lambda: inst.call("ExitInitializationMode"))
 
 
 def enter_twice(inst: Instance) -> Outcome:
+    """fmi2EnterInitializationMode a second time, in InitializationMode: must be refused.
+
+    Parameters
+    ----------
+    inst : Instance
+        The instance under test, freshly instantiated (the worker makes one per case).
+
+    Returns
+    -------
+    Outcome
+        The status and log of the call under test, problems found afterwards.
+    """
     inst.enter()
     return reject(inst, lambda: inst.call("EnterInitializationMode"))
 
 
 def setup_nan(inst: Instance) -> Outcome:
+    """fmi2SetupExperiment with a NaN start time (no tolerance, no stop time): must be refused.
+
+    Parameters
+    ----------
+    inst : Instance
+        The instance under test, freshly instantiated (the worker makes one per case).
+
+    Returns
+    -------
+    Outcome
+        The status and log of the call under test, problems found afterwards.
+    """
     return reject(inst, lambda: inst.call("SetupExperiment", 0, 0.0, math.nan, 0, 0.0))
 
 
 def parameter_after_init(inst: Instance) -> Outcome:
+    """The first non-tunable parameter set to its own value in StepComplete, where it may not be
+    set: must be refused, the value kept.
+
+    Parameters
+    ----------
+    inst : Instance
+        The instance under test, freshly instantiated (the worker makes one per case).
+
+    Returns
+    -------
+    Outcome
+        The status and log of the call under test, problems found afterwards.
+    """
     var = chosen(inst.target.fixed)
     inst.initialize()
     value = inst.value(var)
@@ -166,6 +357,19 @@ def parameter_after_init(inst: Instance) -> Outcome:
 
 
 def set_after_terminate(inst: Instance) -> Outcome:
+    """After one step and fmi2Terminate, the first Real input (else the first Real parameter, else
+    the first non-tunable one) set to its own value: must be refused in Terminated.
+
+    Parameters
+    ----------
+    inst : Instance
+        The instance under test, freshly instantiated (the worker makes one per case).
+
+    Returns
+    -------
+    Outcome
+        The status and log of the call under test, problems found afterwards.
+    """
     var = chosen(inst.target.input or inst.target.parameter or inst.target.fixed)
     inst.initialize()
     if inst.step() != OK:
@@ -176,6 +380,18 @@ def set_after_terminate(inst: Instance) -> Outcome:
 
 
 def step_after_terminate(inst: Instance) -> Outcome:
+    """fmi2DoStep of the default step size in Terminated: must be refused.
+
+    Parameters
+    ----------
+    inst : Instance
+        The instance under test, freshly instantiated (the worker makes one per case).
+
+    Returns
+    -------
+    Outcome
+        The status and log of the call under test, problems found afterwards.
+    """
     inst.initialize()
     inst.terminate()
     return reject(inst, lambda: inst.step())
@@ -190,6 +406,20 @@ def _outside(var: Var, below: bool) -> float:
 
 
 def out_of_range(below: bool) -> Callable[[Instance], Outcome]:
+    """The case that sets a parameter outside its declared range in InitializationMode (one unit,
+    or the bound's magnitude, beyond it): must be refused, the value kept.
+
+    Parameters
+    ----------
+    below : bool
+        True: the first parameter with a finite declared minimum, set below it; False: the first
+        one with a finite declared maximum, set above it.
+
+    Returns
+    -------
+    callable
+        The case, ``case(inst) -> Outcome`` (the ``run`` of a :class:`~satfmu.sims.robustness.table.Case`).
+    """
     def case(inst: Instance) -> Outcome:
         var = chosen(inst.target.below if below else inst.target.above)
         inst.enter()
@@ -198,18 +428,57 @@ def out_of_range(below: bool) -> Callable[[Instance], Outcome]:
 
 
 def real_on_non_real(inst: Instance) -> Outcome:
+    """fmi2SetReal on the first Integer or Boolean parameter in InitializationMode: must be
+    refused, the value kept.
+
+    Parameters
+    ----------
+    inst : Instance
+        The instance under test, freshly instantiated (the worker makes one per case).
+
+    Returns
+    -------
+    Outcome
+        The status and log of the call under test, problems found afterwards.
+    """
     var = chosen(inst.target.non_real)
     inst.enter()
     return reject(inst, lambda: inst.set(var, 1.0, as_type="Real"), var)
 
 
 def integer_on_real(inst: Instance) -> Outcome:
+    """fmi2SetInteger on the first Real parameter in InitializationMode: must be refused, the
+    value kept.
+
+    Parameters
+    ----------
+    inst : Instance
+        The instance under test, freshly instantiated (the worker makes one per case).
+
+    Returns
+    -------
+    Outcome
+        The status and log of the call under test, problems found afterwards.
+    """
     var = chosen(inst.target.parameter)
     inst.enter()
     return reject(inst, lambda: inst.set(var, 1, as_type="Integer"), var)
 
 
 def unknown_vr(fn: str) -> Callable[[Instance], Outcome]:
+    """The case that sets or reads the Real of value reference :data:`UNKNOWN_VR`, which no FMU
+    of the project has, in StepComplete: must be refused.
+
+    Parameters
+    ----------
+    fn : {"set", "get"}
+        ``"set"``: fmi2SetReal to 1.0; otherwise fmi2GetReal.
+
+    Returns
+    -------
+    callable
+        The case, ``case(inst) -> Outcome`` (the ``run`` of a :class:`~satfmu.sims.robustness.table.Case`).
+    """
     def case(inst: Instance) -> Outcome:
         ghost = Var("(unknown)", UNKNOWN_VR, "Real", "input", "continuous", None, None, None)
         inst.initialize()
@@ -241,7 +510,18 @@ def _steps(inst: Instance, k0: int) -> list[bytes]:
 
 def state_round_trip(inst: Instance) -> Outcome:
     """Snapshot after :data:`STEPS` steps (through serialization when declared), step on, restore,
-    step again with the same inputs: the outputs must repeat bit for bit."""
+    step again with the same inputs: the outputs must repeat bit for bit.
+
+    Parameters
+    ----------
+    inst : Instance
+        The instance under test, freshly instantiated (the worker makes one per case).
+
+    Returns
+    -------
+    Outcome
+        The status and log of the call under test, problems found afterwards.
+    """
     inst.initialize()
     _steps(inst, 0)
     t_snap = inst.time

@@ -32,7 +32,20 @@ def _parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     """Command line: run the suite and print the report; exit code 0 if every case passed (or is
-    n/a), 1 on any failure or crash, 2 if there is no FMU to test."""
+    n/a), 1 on any failure or crash, 2 if there is no FMU to test.
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        The arguments (default: ``sys.argv[1:]``): ``--fmu-dir``, ``--fmu``, ``--cycles``,
+        ``--out``, ``--far-factor``, ``--flips``; with ``--worker FMU --results FILE CASE ...``
+        it runs as a worker (:func:`~satfmu.sims.robustness.worker.work`) and returns 0.
+
+    Returns
+    -------
+    int
+        The exit code.
+    """
     args = _parser().parse_args(argv)
     if args.worker is not None:
         work(args.worker, args.cases, Settings(args.cycles, args.far_factor, args.flips), args.results)

@@ -47,33 +47,115 @@ def _instantiate(inst: Instance, name: bytes | None = b"host case", fmu_type: in
 
 
 def missing_resources(inst: Instance) -> Outcome:
+    """fmi2Instantiate with the resource URI ``file:///nonexistent/resources``, which is no
+    folder (the native FMUs read no resources and may accept it, the pythonfmu ones must refuse it).
+
+    Parameters
+    ----------
+    inst : Instance
+        The instance under test, freshly instantiated: its loaded library and callbacks are used.
+
+    Returns
+    -------
+    Outcome
+        fmi2OK if an instance was returned (and freed), fmi2Error if NULL; the log of the call.
+    """
     return _instantiate(inst, resources=MISSING_RESOURCES)
 
 
 def null_name(inst: Instance) -> Outcome:
+    """fmi2Instantiate with a NULL instance name: must be refused (NULL and a message).
+
+    Parameters
+    ----------
+    inst : Instance
+        The instance under test, freshly instantiated: its loaded library and callbacks are used.
+
+    Returns
+    -------
+    Outcome
+        fmi2OK if an instance was returned (and freed), fmi2Error if NULL; the log of the call.
+    """
     return _instantiate(inst, name=None)
 
 
 def empty_name(inst: Instance) -> Outcome:
+    """fmi2Instantiate with an empty instance name ``""``: must be refused (NULL and a message).
+
+    Parameters
+    ----------
+    inst : Instance
+        The instance under test, freshly instantiated: its loaded library and callbacks are used.
+
+    Returns
+    -------
+    Outcome
+        fmi2OK if an instance was returned (and freed), fmi2Error if NULL; the log of the call.
+    """
     return _instantiate(inst, name=b"")
 
 
 def wrong_guid(inst: Instance) -> Outcome:
+    """fmi2Instantiate with an all-zero GUID, not the FMU's: must be refused (NULL and a message).
+
+    Parameters
+    ----------
+    inst : Instance
+        The instance under test, freshly instantiated: its loaded library and callbacks are used.
+
+    Returns
+    -------
+    Outcome
+        fmi2OK if an instance was returned (and freed), fmi2Error if NULL; the log of the call.
+    """
     return _instantiate(inst, guid=WRONG_GUID)
 
 
 def model_exchange(inst: Instance) -> Outcome:
+    """fmi2Instantiate of the co-simulation FMU as fmi2ModelExchange: must be refused (NULL
+    and a message).
+
+    Parameters
+    ----------
+    inst : Instance
+        The instance under test, freshly instantiated: its loaded library and callbacks are used.
+
+    Returns
+    -------
+    Outcome
+        fmi2OK if an instance was returned (and freed), fmi2Error if NULL; the log of the call.
+    """
     return _instantiate(inst, fmu_type=FMI2_MODEL_EXCHANGE)
 
 
 def null_category(inst: Instance) -> Outcome:
-    """fmi2SetDebugLogging(c, true, 1, {NULL}) in Instantiated."""
+    """fmi2SetDebugLogging(c, true, 1, {NULL}) in Instantiated: must be refused, the instance usable.
+
+    Parameters
+    ----------
+    inst : Instance
+        The instance under test, freshly instantiated (the worker makes one per case).
+
+    Returns
+    -------
+    Outcome
+    """
     return reject(inst, lambda: inst.call("SetDebugLogging", 1, 1, (fmi2String * 1)(None)))
 
 
 def small_buffer(inst: Instance) -> Outcome:
     """fmi2SerializeFMUstate into half the buffer fmi2SerializedFMUstateSize asks for; if that is
-    accepted, what it wrote must be refused by fmi2DeSerializeFMUstate (a truncated state)."""
+    accepted, what it wrote must be refused by fmi2DeSerializeFMUstate (a truncated state).
+
+    Parameters
+    ----------
+    inst : Instance
+        The instance under test, freshly instantiated (the worker makes one per case).
+
+    Returns
+    -------
+    Outcome
+    """
     inst.initialize()
     state = inst.slave.getFMUstate()
     size = ctypes.c_size_t()

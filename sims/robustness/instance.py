@@ -20,7 +20,15 @@ STATUS_NAMES = {**_FMI_STATUS_NAMES, NO_RESULT: "-"}
 
 
 def short(text: str, n: int) -> str:
-    """``text`` on one line, cut to ``n`` characters."""
+    """``text`` on one line, cut to ``n`` characters.
+
+    Parameters
+    ----------
+    text : str
+        Any text (a log, several lines).
+    n : int
+        Most characters of the result (a cut text ends with ``...``).
+    """
     text = " ".join(text.split())
     return text if len(text) <= n else text[:n - 3] + "..."
 
@@ -60,37 +68,78 @@ class Instance:
             self.slave.fmi2FreeInstance(self.slave.component)
 
     def text(self, since: int = 0) -> str:
-        """The log messages from index ``since`` on, one per line."""
+        """The log messages from index ``since`` on, one per line.
+
+        Parameters
+        ----------
+        since : int
+            Index of the first message (``len(inst.log)`` before the calls of interest).
+        """
         return self.callbacks.text(since)
 
     def call(self, fn: str, *args: Any) -> int:
-        """Call ``fmi2<fn>(component, *args)``; returns its status (fmi2Fatal marks the instance dead)."""
+        """Call ``fmi2<fn>(component, *args)``; returns its status (fmi2Fatal marks the instance dead).
+
+        Parameters
+        ----------
+        fn : str
+            The FMI 2.0 function without its ``fmi2`` prefix (``"DoStep"``); its arguments after
+            the component follow as ``*args`` (ctypes values).
+        """
         status = fmi_host.call(self.slave, fn, *args)
         if status == FATAL:
             self.dead = True
         return status
 
     def need(self, fn: str, *args: Any) -> None:
-        """:meth:`call` that must return fmi2OK, else :class:`CaseBroken`."""
+        """:meth:`call` that must return fmi2OK, else :class:`CaseBroken`.
+
+        Parameters
+        ----------
+        fn : str
+            The FMI 2.0 function without its ``fmi2`` prefix; its arguments follow as ``*args``.
+        """
         status = self.call(fn, *args)
         if status != OK:
             raise CaseBroken(f"fmi2{fn} returned {STATUS_NAMES.get(status, status)}: {self.text()[-300:]!r}")
 
     def set(self, var: Var, value: float, as_type: str | None = None) -> int:
-        """Set ``var`` to ``value`` with the setter of ``as_type`` (default: its own type); returns the status."""
+        """Set ``var`` to ``value`` with the setter of ``as_type`` (default: its own type); returns the status.
+
+        Parameters
+        ----------
+        var : Var
+            The variable (its value reference is used).
+        value : float
+            The value, in the variable's unit; cast to the setter's type (float, int or bool).
+        as_type : {"Real", "Integer", "Boolean"}, optional
+            Which fmi2Set function to call (default: that of ``var.type``).
+        """
         kind = as_type or var.type
         ctype, cast = {"Real": (fmi2Real, float), "Integer": (fmi2Integer, int), "Boolean": (fmi2Boolean, bool)}[kind]
         return self.call("Set" + kind, (fmi2ValueReference * 1)(var.vr), 1, (ctype * 1)(cast(value)))
 
     def get(self, var: Var) -> tuple[int, float]:
-        """Read ``var`` with the getter of its type; returns (status, value as float)."""
+        """Read ``var`` with the getter of its type; returns (status, value as float).
+
+        Parameters
+        ----------
+        var : Var
+            The variable to read.
+        """
         ctype = {"Real": fmi2Real, "Integer": fmi2Integer, "Boolean": fmi2Boolean}[var.type]
         out = (ctype * 1)()
         status = self.call("Get" + var.type, (fmi2ValueReference * 1)(var.vr), 1, out)
         return status, float(out[0])
 
     def value(self, var: Var) -> float:
-        """:meth:`get` that must succeed."""
+        """:meth:`get` that must succeed (else :class:`CaseBroken`); returns the value.
+
+        Parameters
+        ----------
+        var : Var
+            The variable to read.
+        """
         status, value = self.get(var)
         if status != OK:
             raise CaseBroken(f"get '{var.name}' returned {STATUS_NAMES.get(status, status)}")
@@ -101,7 +150,13 @@ class Instance:
         return [self.value(v) for v in self.target.outputs]
 
     def enter(self, start_time: float = 0.0) -> None:
-        """fmi2SetupExperiment at ``start_time`` (s, no stop time) and fmi2EnterInitializationMode."""
+        """fmi2SetupExperiment at ``start_time`` (s, no stop time) and fmi2EnterInitializationMode.
+
+        Parameters
+        ----------
+        start_time : float
+            Start time of the experiment, s.
+        """
         self.need("SetupExperiment", 0, 0.0, start_time, 0, 0.0)
         self.need("EnterInitializationMode")
         self.mode, self.time = "InitializationMode", start_time
@@ -112,7 +167,13 @@ class Instance:
         self.mode = "StepComplete"
 
     def initialize(self, start_time: float = 0.0) -> None:
-        """From Instantiated to StepComplete with the default values, from ``start_time`` (s)."""
+        """From Instantiated to StepComplete with the default values, from ``start_time`` (s).
+
+        Parameters
+        ----------
+        start_time : float
+            Start time of the experiment, s.
+        """
         self.enter(start_time)
         self.exit()
 
@@ -124,7 +185,14 @@ class Instance:
         self.instantiate()
 
     def step(self, h: float | None = None) -> int:
-        """fmi2DoStep of ``h`` s (default: the default step size) from the tracked FMU time."""
+        """fmi2DoStep of ``h`` s (default: the default step size) from the tracked FMU time.
+
+        Parameters
+        ----------
+        h : float, optional
+            Communication step size, s (default: the target's default step size); the tracked
+            time advances by it when the step returns fmi2OK.
+        """
         h = self.target.step if h is None else h
         status = self.call("DoStep", self.time, h, 1)
         if status == OK:
@@ -184,12 +252,26 @@ class Outcome:
 
 
 def bits(values: Sequence[float]) -> bytes:
-    """The IEEE 754 bit patterns of ``values`` (NaN and -0.0 compare exactly)."""
+    """The IEEE 754 bit patterns of ``values`` (NaN and -0.0 compare exactly).
+
+    Parameters
+    ----------
+    values : sequence of float
+        The values (outputs, in their units).
+    """
     return struct.pack(f"<{len(values)}d", *values)
 
 
 def recover(inst: Instance, out: Outcome) -> None:
-    """After a native fmi2Error: the instance must carry on normally (else a problem of ``out``)."""
+    """After a native fmi2Error: the instance must carry on normally (else a problem of ``out``).
+
+    Parameters
+    ----------
+    inst : Instance
+        The instance that refused a call (:meth:`Instance.carry_on` is run on it).
+    out : Outcome
+        The outcome of the case; a failure to carry on is appended to its ``problems``.
+    """
     try:
         inst.carry_on()
     except CaseBroken as exc:
@@ -198,13 +280,29 @@ def recover(inst: Instance, out: Outcome) -> None:
 
 def reject(inst: Instance, fn: Callable[[], int], probe: Var | None = None) -> Outcome:
     """Make the call under test ``fn`` on ``inst``; if it was rejected (fmi2Error), check that
-    ``probe`` (if given) kept its value and that the instance carries on normally."""
+    ``probe`` (if given) kept its value and that the instance carries on normally.
+
+    Parameters
+    ----------
+    inst : Instance
+        The instance under test.
+    fn : callable
+        The call under test, ``fn() -> status``.
+    probe : Var, optional
+        The variable the call tried to set: read before and after, it must be unchanged (bit
+        for bit) when the call was refused.
+
+    Returns
+    -------
+    Outcome
+        The call's status and log, and the problems found.
+    """
     before = inst.value(probe) if probe is not None else None
     n = len(inst.log)
     status = fn()
     out = Outcome(status=status, log=inst.text(n))
     if status == ERROR:
-        if probe is not None:
+        if probe is not None and before is not None:  # before is probe's value
             after = inst.value(probe)
             if bits([after]) != bits([before]):
                 out.problems.append(f"'{probe.name}' changed from {before!r} to {after!r}")
@@ -213,6 +311,19 @@ def reject(inst: Instance, fn: Callable[[], int], probe: Var | None = None) -> O
 
 
 def chosen(var: Var | None) -> Var:
+    """The variable a case abuses, which must exist.
+
+    Parameters
+    ----------
+    var : Var or None
+        The target's variable for the case (:class:`~satfmu.sims.robustness.target.Target`), None
+        when the FMU has none.
+
+    Raises
+    ------
+    CaseBroken
+        ``var`` is None (the parent does not run such a case: it is n/a).
+    """
     if var is None:  # the parent does not run a case whose variable is missing
         raise CaseBroken("no variable for this case")
     return var

@@ -49,6 +49,7 @@ PROVIDED = {("GetRealStatus", 2), ("GetBooleanStatus", 3)}
 """The statuses the native FMUs provide (fmi2LastSuccessfulTime, fmi2Terminated); every other pair
 is not provided: fmi2Discard."""
 STATUS_STATES = ("Instantiated", "InitializationMode", "StepComplete", "Terminated", "Error")
+"""The FMI states of the status-query cases, one case each (:func:`status_queries`)."""
 
 
 # ----------------------------------------------------------------------------- huge steps
@@ -96,15 +97,53 @@ def _huge(inst: Instance, steps: Sequence[float], minimum_period: bool) -> Outco
 
 
 def huge_steps(inst: Instance) -> Outcome:
+    """One step of each of :data:`HUGE_STEPS` (1e9 s to DBL_MAX s), each on a new instance from
+    the default start: finite outputs or a clean refusal, each step within
+    :data:`STEP_TIME_LIMIT_S` of CPU time.
+
+    Parameters
+    ----------
+    inst : Instance
+        The instance under test, freshly instantiated (the worker makes one per case).
+
+    Returns
+    -------
+    Outcome
+        The first status that is not fmi2OK; the CPU time of each step in ``step_ms_<h>`` (ms).
+    """
     return _huge(inst, HUGE_STEPS, minimum_period=False)
 
 
 def huge_steps_minimum_period(inst: Instance) -> Outcome:
+    """As :func:`huge_steps`, with the steps of :data:`MIN_PERIOD_STEPS` and the sample-period
+    parameter set to its declared minimum (the most sample instants per step).
+
+    Parameters
+    ----------
+    inst : Instance
+        The instance under test, freshly instantiated (the worker makes one per case).
+
+    Returns
+    -------
+    Outcome
+        The first status that is not fmi2OK; the CPU time of each step in ``step_ms_<h>`` (ms).
+    """
     return _huge(inst, MIN_PERIOD_STEPS, minimum_period=True)
 
 
 def needs_period(target: Target) -> str | None:
-    """Applicability: a sample-period parameter with a declared minimum."""
+    """Applicability: a sample-period parameter with a declared minimum.
+
+    Parameters
+    ----------
+    target : Target
+        The FMU under test.
+
+    Returns
+    -------
+    str or None
+        None if the case applies, else why not.
+    """
     p = target.period
     return None if p is not None and p.min is not None else "no sample period parameter"
 
@@ -133,9 +172,19 @@ def _run_from(inst: Instance, t0: float) -> list[list[float]]:
 
 
 def large_start(inst: Instance) -> Outcome:
-    """The same :data:`STEPS` driven steps from t0 = 0 and from each of :data:`LARGE_STARTS`: the
-    outputs must agree to :data:`OUTPUT_REL` of the largest output plus :data:`TIME_ULPS` ulp(t0)
-    times each output's rate of change."""
+    """The same :data:`~satfmu.sims.robustness.cases.STEPS` driven steps from t0 = 0 and from each
+    of :data:`LARGE_STARTS`: the outputs must agree to :data:`OUTPUT_REL` of the largest output
+    plus :data:`TIME_ULPS` ulp(t0) times each output's rate of change.
+
+    Parameters
+    ----------
+    inst : Instance
+        The instance under test, freshly instantiated (the worker makes one per case).
+
+    Returns
+    -------
+    Outcome
+    """
     ref = _run_from(inst, 0.0)
     h = inst.target.step
     scale = max([abs(y) for row in ref for y in row] + [0.0])
@@ -162,7 +211,18 @@ def large_start(inst: Instance) -> Outcome:
 
 def offset_point(inst: Instance) -> Outcome:
     """At t = 1e9 s (after one step), fmi2DoStep from points :data:`OFFSETS` off the FMU time: each
-    must be refused (native: the time unchanged, a correct step still works)."""
+    must be refused (native: the time unchanged, a correct step still works).
+
+    Parameters
+    ----------
+    inst : Instance
+        The instance under test, freshly instantiated (the worker makes one per case).
+
+    Returns
+    -------
+    Outcome
+        The first status that is not fmi2Error (fmi2Error if every one was refused).
+    """
     t0 = LARGE_STARTS[0]
     inst.initialize(t0)
     if inst.step() != OK:
@@ -198,7 +258,23 @@ def required_status(state: str, fn: str, kind: int) -> int:
     """The status FMI 2.0 requires of a native FMU for ``fmi2<fn>(kind)`` in ``state``: fmi2Error
     outside stepComplete and terminated (the co-simulation state table), there fmi2OK for the
     statuses the FMU provides (:data:`PROVIDED`) and fmi2Discard ("cannot be retrieved") for the
-    others."""
+    others.
+
+    Parameters
+    ----------
+    state : {"Instantiated", "InitializationMode", "StepComplete", "Terminated", "Error"}
+        The FMI state of the instance (:data:`STATUS_STATES`).
+    fn : str
+        The status function without its ``fmi2`` prefix (``"GetRealStatus"``).
+    kind : int
+        The ``fmi2StatusKind``: 0 fmi2DoStepStatus, 1 fmi2PendingStatus, 2 fmi2LastSuccessfulTime,
+        3 fmi2Terminated.
+
+    Returns
+    -------
+    int
+        The required status (fmi2OK, fmi2Discard or fmi2Error).
+    """
     if state not in ("StepComplete", "Terminated"):
         return ERROR
     return OK if (fn, kind) in PROVIDED else DISCARD
@@ -224,7 +300,19 @@ def _reach(inst: Instance, state: str) -> str:
 def status_queries(state: str) -> Callable[[Instance], Outcome]:
     """Every status function with every fmi2StatusKind in ``state``; the outcome's status is OK when
     each returned what :func:`required_status` says (and fmi2LastSuccessfulTime the FMU time,
-    fmi2Terminated false), else the first wrong status."""
+    fmi2Terminated false), else the first wrong status.
+
+    Parameters
+    ----------
+    state : {"Instantiated", "InitializationMode", "StepComplete", "Terminated", "Error"}
+        The FMI state the case brings the instance to before the queries (:data:`STATUS_STATES`;
+        the error state by :func:`reach_error`, n/a when it cannot be reached).
+
+    Returns
+    -------
+    callable
+        The case, ``case(inst) -> Outcome``.
+    """
     def case(inst: Instance) -> Outcome:
         why = _reach(inst, state)
         if why:
@@ -250,8 +338,8 @@ def status_queries(state: str) -> Callable[[Instance], Outcome]:
         out.log = inst.text()
         out.metrics["wrong"] = len(wrong)
         groups: dict[str, list[str]] = {}
-        for call, status in seen.items():
-            groups.setdefault(status, []).append(call)
+        for call, status_name in seen.items():
+            groups.setdefault(status_name, []).append(call)
         out.detail = (f"in {state}: " + "; ".join(f"{s}: {len(c)}" for s, c in sorted(groups.items()))
                       + (f"; wrong: {', '.join(wrong[:6])}{' ...' if len(wrong) > 6 else ''}" if wrong else ""))
         return out
@@ -275,7 +363,14 @@ def _in_error(inst: Instance) -> bool:
 
 def reach_error(inst: Instance) -> str:
     """Drive an instance into the error state (the first of :data:`ERROR_TRIGGERS` that does);
-    returns "" or why it cannot."""
+    returns "" or why it cannot.
+
+    Parameters
+    ----------
+    inst : Instance
+        The instance; made anew (:meth:`~satfmu.sims.robustness.instance.Instance.renew`) before
+        each trigger.
+    """
     for trigger in range(len(ERROR_TRIGGERS)):
         inst.renew()
         inst.enter()
@@ -297,7 +392,18 @@ def reach_error(inst: Instance) -> str:
 
 
 def terminate_in_error(inst: Instance) -> Outcome:
-    """fmi2Terminate in the error state must be refused (FMI 2.0: reset or free it)."""
+    """fmi2Terminate in the error state must be refused (FMI 2.0: reset or free it).
+
+    Parameters
+    ----------
+    inst : Instance
+        The instance under test, freshly instantiated (the worker makes one per case).
+
+    Returns
+    -------
+    Outcome
+        n/a when no trigger of :func:`reach_error` reaches the error state.
+    """
     why = reach_error(inst)
     if why:
         return Outcome(status=NO_RESULT, not_applicable=why)
@@ -328,7 +434,17 @@ def _finite_or_error(inst: Instance, what: str) -> Outcome:
 
 def start_at_max(inst: Instance) -> Outcome:
     """Start at t = DBL_MAX s (the largest time): the outputs there are finite or refused (or the
-    start itself is, by fmi2ExitInitializationMode: sample instants that cannot be counted)."""
+    start itself is, by fmi2ExitInitializationMode: sample instants that cannot be counted).
+
+    Parameters
+    ----------
+    inst : Instance
+        The instance under test, freshly instantiated (the worker makes one per case).
+
+    Returns
+    -------
+    Outcome
+    """
     inst.enter(DBL_MAX)
     n = len(inst.log)
     status = inst.call("ExitInitializationMode")
@@ -346,8 +462,18 @@ def start_at_max(inst: Instance) -> Outcome:
 
 def time_parameters_equal(inst: Instance) -> Outcome:
     """Every Real parameter in s without a declared range set to the first one's start value (a ramp
-    with start = stop, a step at the start time), then :data:`STEPS` default steps: every output
-    finite or refused after each."""
+    with start = stop, a step at the start time), then :data:`~satfmu.sims.robustness.cases.STEPS`
+    default steps: every output finite or refused after each.
+
+    Parameters
+    ----------
+    inst : Instance
+        The instance under test, freshly instantiated (the worker makes one per case).
+
+    Returns
+    -------
+    Outcome
+    """
     times = [v for v in inst.target.parameters if v.unit == "s" and v.type == "Real" and v.min is None
              and v.max is None]
     value = times[0].start or 0.0
@@ -366,7 +492,18 @@ def time_parameters_equal(inst: Instance) -> Outcome:
 
 
 def needs_two_times(target: Target) -> str | None:
-    """Applicability of :func:`time_parameters_equal`: two unranged Real parameters in s."""
+    """Applicability of :func:`time_parameters_equal`: two unranged Real parameters in s.
+
+    Parameters
+    ----------
+    target : Target
+        The FMU under test.
+
+    Returns
+    -------
+    str or None
+        None if the case applies, else why not.
+    """
     times = [v for v in target.parameters if v.unit == "s" and v.type == "Real" and v.min is None and v.max is None]
     return None if len(times) >= 2 else "fewer than two time parameters"
 

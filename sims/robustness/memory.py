@@ -34,7 +34,17 @@ def rss_kib() -> int:
 
 
 def rss_bound_kib(backend: str, cycles: int) -> float:
-    """Allowed RSS growth in KiB over ``cycles`` instantiate/free cycles (see :data:`RSS_PER_CYCLE_KIB`)."""
+    """Allowed RSS growth in KiB over ``cycles`` instantiate/free cycles (see
+    :data:`~satfmu.sims.robustness.memory.RSS_PER_CYCLE_KIB`).
+
+    Parameters
+    ----------
+    backend : {"native", "pythonfmu"}
+        The FMU's backend (:data:`~satfmu.sims.robustness.target.NATIVE` or
+        :data:`~satfmu.sims.robustness.target.PYTHONFMU`).
+    cycles : int
+        Instantiate/free cycles measured (after the warm-up ones).
+    """
     return RSS_SLACK_KIB + RSS_PER_CYCLE_KIB[backend] * cycles
 
 
@@ -59,7 +69,25 @@ def live_slaves() -> int:
 
 
 def cycles(inst: Instance, cycles: int) -> Outcome:
-    """``cycles`` instance lives after :data:`WARMUP_CYCLES`; RSS before and after them."""
+    """``cycles`` instance lives after :data:`WARMUP_CYCLES`; RSS before and after them.
+
+    Each life is fmi2Instantiate, initialization, one default step, fmi2Terminate and
+    fmi2FreeInstance on the FMU's one loaded library. Problems: RSS growth above
+    :func:`rss_bound_kib`, pythonfmu slave objects left alive, errors logged.
+
+    Parameters
+    ----------
+    inst : Instance
+        The instance under test (freed first; a new one is instantiated at the end for the
+        worker to free).
+    cycles : int
+        Instantiate/free cycles measured.
+
+    Returns
+    -------
+    Outcome
+        With the metrics ``rss_growth_kib``, ``rss_bound_kib`` (KiB) and ``cycle_ms`` (ms).
+    """
     inst.free()  # one FMU2Slave (one loaded library) for every cycle
     for _ in range(WARMUP_CYCLES):
         _cycle(inst)

@@ -90,7 +90,22 @@ class Row:
 
 def judge(case: Case, target: Target, out: Outcome) -> Row:
     """The row of ``case`` on ``target`` from the worker's outcome: ``fail`` on any deviation from the
-    expectation."""
+    expectation.
+
+    Parameters
+    ----------
+    case : Case
+        The case that ran (its expectation on the target's backend).
+    target : Target
+        The FMU it ran on.
+    out : Outcome
+        What the worker observed.
+
+    Returns
+    -------
+    Row
+        Verdict ``pass``, ``fail`` or ``n/a`` (the case found it cannot apply).
+    """
     expect = case.expect[target.backend]
     if out.not_applicable:
         return Row(target.name, target.backend, case.name, expect.text, "-", None, "n/a", out.not_applicable)
@@ -216,7 +231,22 @@ def _bad_row(target: Target, case: str, got: str, verdict: str, detail: str) -> 
 
 def run_fmu(target: Target, settings: Settings, workdir: Path) -> list[Row]:
     """Every case on one FMU: n/a rows for the inapplicable ones, the rest in as many workers as
-    crashes and time-outs require (each restarts with the cases not yet done)."""
+    crashes and time-outs require (each restarts with the cases not yet done).
+
+    Parameters
+    ----------
+    target : Target
+        The FMU under test.
+    settings : Settings
+        Sizes of the run (cycles, far step, bit flips; the time limits scale with them).
+    workdir : Path
+        Folder of the workers' event files, output and FMU extractions.
+
+    Returns
+    -------
+    list of Row
+        One per case, in the order of :data:`~satfmu.sims.robustness.table.CASES`.
+    """
     rows: dict[str, Row] = {}
     todo = []
     for case in CASES:
@@ -240,7 +270,7 @@ class Report:
     Attributes
     ----------
     rows : list of Row
-        One per case and FMU, FMU by FMU in the order of :data:`CASES`.
+        One per case and FMU, FMU by FMU in the order of :data:`~satfmu.sims.robustness.table.CASES`.
     settings : Settings
     wall_s : float
         Wall time of the run in s.
@@ -271,11 +301,24 @@ class Report:
         return not self.failures and not self.crashes
 
     def count(self, verdict: str) -> int:
-        """Number of rows with ``verdict``."""
+        """Number of rows with ``verdict``.
+
+        Parameters
+        ----------
+        verdict : {"pass", "fail", "crash", "n/a"}
+            The verdict to count.
+        """
         return sum(r.verdict == verdict for r in self.rows)
 
     def rss_growth_kib(self, backend: str) -> dict[str, float]:
-        """RSS growth of the cycles case in KiB per FMU of ``backend`` (FMUs where it ran)."""
+        """RSS growth of the cycles case in KiB per FMU of ``backend`` (FMUs where it ran).
+
+        Parameters
+        ----------
+        backend : {"native", "pythonfmu"}
+            :data:`~satfmu.sims.robustness.target.NATIVE` or
+            :data:`~satfmu.sims.robustness.target.PYTHONFMU`.
+        """
         return {r.fmu: r.metrics["rss_growth_kib"] for r in self.rows
                 if r.case == CYCLES_CASE and r.backend == backend and "rss_growth_kib" in r.metrics}
 
@@ -286,7 +329,7 @@ class Report:
         for backend in BACKENDS:
             growth = self.rss_growth_kib(backend)
             if growth:
-                worst = max(growth, key=growth.get)
+                worst = max(growth, key=growth.__getitem__)
                 bound = rss_bound_kib(backend, self.settings.cycles)
                 parts.append(f"max RSS growth over {self.settings.cycles} cycles, {backend}: "
                              f"{growth[worst]:+.0f} KiB ({worst}; bound {bound:g} KiB)")
@@ -296,12 +339,12 @@ class Report:
 
 def run(fmu_dir: Path, fmus: list[str] | None = None, cycles: int = 1000, out: Path | None = None, *,
         far_factor: float = FAR_FACTOR, flips: int | None = None) -> Report:
-    """Run every case on every FMU of ``fmu_dir`` (or on ``satfmu.fmus``), each FMU in child processes.
+    """Run every case on every FMU of ``fmu_dir`` (or on ``fmus``), each FMU in child processes.
 
     Parameters
     ----------
     fmu_dir : Path
-        Folder of the FMUs; every ``*.fmu`` in it is tested unless ``satfmu.fmus`` is given.
+        Folder of the FMUs; every ``*.fmu`` in it is tested unless ``fmus`` is given.
     fmus : list of str, optional
         FMU names (with or without ``.fmu``) to test instead.
     cycles : int

@@ -100,10 +100,28 @@ def _scan(inst: Instance, good: bytes, damaged: Sequence[tuple[str, bytes]]) -> 
     return out
 
 
-def _case(damage: Callable[[Instance, bytes], list[tuple[str, bytes]]]) -> Callable[..., Outcome]:
+def _case(damage: Callable[..., list[tuple[str, bytes]]]) -> Callable[..., Outcome]:
     """A corrupted-state case: the damaged blobs of ``damage(inst, good)``, then the instance must
-    still restore its good state and step on."""
+    still restore its good state and step on (a case's settings are ``damage``'s keywords)."""
     def case(inst: Instance, **settings: int | None) -> Outcome:
+        """A corrupted-state case: the instance's serialized state after
+        :data:`~satfmu.sims.robustness.cases.STEPS` driven steps, damaged by the function of the
+        case (:func:`flips`, :func:`zeroed`, :func:`resized` or :func:`another_model`, which
+        receives the case's settings as keywords, ``**settings``), each damaged copy offered to
+        ``fmi2DeSerializeFMUstate`` and ``fmi2SetFMUstate``; then the good state must still
+        restore and the instance step on.
+
+        Parameters
+        ----------
+        inst : Instance
+            The instance under test, freshly instantiated (the worker makes one per case).
+
+        Returns
+        -------
+        Outcome
+            fmi2OK if a damaged state was accepted, else the refusal status; the metrics
+            ``offered``, ``accepted`` and ``state_bytes``.
+        """
         good = _snapshot(inst)
         out = _scan(inst, good, damage(inst, good, **settings))
         if not inst.dead:
@@ -124,7 +142,23 @@ def _flip(blob: bytes, bit: int) -> bytes:
 def flips(inst: Instance, good: bytes, flips: int | None) -> list[tuple[str, bytes]]:
     """Single-bit flips: every bit (``flips`` None), else ``flips`` bits sampled with
     :data:`FLIP_SEED`, on both backends (a pythonfmu FMU refuses one in ~0.02 ms and stays usable:
-    3,376 flips of mrp_satellite_py's 422-byte state refused in 0.07 s)."""
+    3,376 flips of mrp_satellite_py's 422-byte state refused in 0.07 s).
+
+    Parameters
+    ----------
+    inst : Instance
+        The instance under test (unused: the damage depends on the bytes alone).
+    good : bytes
+        The serialized good state (after the driven steps).
+    flips : int or None
+        How many bits to flip, each in its own copy (None, or as many as the state has: every
+        bit).
+
+    Returns
+    -------
+    list of (str, bytes)
+        A label and the damaged bytes of each state to offer.
+    """
     n_bits = 8 * len(good)
     bits = (range(n_bits) if flips is None or flips >= n_bits
             else sorted(random.Random(FLIP_SEED).sample(range(n_bits), flips)))
@@ -132,7 +166,20 @@ def flips(inst: Instance, good: bytes, flips: int | None) -> list[tuple[str, byt
 
 
 def zeroed(inst: Instance, good: bytes) -> list[tuple[str, bytes]]:
-    """The first half, the second half and all of the buffer zeroed."""
+    """The first half, the second half and all of the buffer zeroed.
+
+    Parameters
+    ----------
+    inst : Instance
+        The instance under test (unused: the damage depends on the bytes alone).
+    good : bytes
+        The serialized good state (after the driven steps).
+
+    Returns
+    -------
+    list of (str, bytes)
+        A label and the damaged bytes of each state to offer.
+    """
     half = len(good) // 2
     return [("first half zeroed", bytes(half) + good[half:]),
             ("second half zeroed", good[:half] + bytes(len(good) - half)),
@@ -140,14 +187,40 @@ def zeroed(inst: Instance, good: bytes) -> list[tuple[str, bytes]]:
 
 
 def resized(inst: Instance, good: bytes) -> list[tuple[str, bytes]]:
-    """One byte short, one zero byte more, empty."""
+    """One byte short, one zero byte more, empty.
+
+    Parameters
+    ----------
+    inst : Instance
+        The instance under test (unused: the damage depends on the bytes alone).
+    good : bytes
+        The serialized good state (after the driven steps).
+
+    Returns
+    -------
+    list of (str, bytes)
+        A label and the damaged bytes of each state to offer.
+    """
     return [("truncated by 1 byte", good[:-1]), ("extended by 1 byte", good + b"\0"), ("empty", b"")]
 
 
 def another_model(inst: Instance, good: bytes) -> list[tuple[str, bytes]]:
     """A well-formed state of another model with the same layout (what the same build of another
     model with the same sizes writes): the identity of :data:`ANOTHER_MODEL` with the CRC
-    recomputed. Native: its 16 bytes; pythonfmu: as the GUID, with another model name."""
+    recomputed. Native: its 16 bytes; pythonfmu: as the GUID, with another model name.
+
+    Parameters
+    ----------
+    inst : Instance
+        The instance under test (its backend decides the layout of the state).
+    good : bytes
+        The serialized good state (after the driven steps).
+
+    Returns
+    -------
+    list of (str, bytes)
+        A label and the damaged bytes of each state to offer.
+    """
     if inst.target.backend == NATIVE:
         magic, fmt, size, _, _ = NATIVE_HEADER.unpack_from(good)
         record = NATIVE_HEADER.pack(magic, fmt, size, 0, ANOTHER_MODEL) + good[NATIVE_HEADER.size:]

@@ -65,7 +65,18 @@ def _needs(attr: str, why: str) -> Callable[[Target], str | None]:
 
 
 def always_applies(target: Target) -> str | None:
-    """Applicability test of the cases that need no particular variable: never n/a."""
+    """Applicability test of the cases that need no particular variable: never n/a.
+
+    Parameters
+    ----------
+    target : Target
+        The FMU under test.
+
+    Returns
+    -------
+    None
+        Never a reason to skip the case.
+    """
     return None
 
 
@@ -86,7 +97,7 @@ class Case:
         Expected result per backend.
     run : callable
         The worker's function: ``run(instance, **settings)`` with the :class:`Settings` fields
-        named in ``settings``; returns an :class:`Outcome`.
+        named in ``settings``; returns an :class:`~satfmu.sims.robustness.instance.Outcome`.
     applies : callable
         ``Target -> None`` or the reason the case is n/a.
     settings : tuple of str
@@ -121,7 +132,8 @@ class Settings:
 
 
 NON_FINITE = "non-finite"
-HUGE_FRAGMENTS = {NATIVE: ("non-finite", "outside its range", "substeps (limit", "sample at")}
+HUGE_FRAGMENTS: dict[str, tuple[str, ...]] = {
+    NATIVE: ("non-finite", "outside its range", "substeps (limit", "sample at")}
 """Clean error messages of a huge value or step: overflow, range, substep limit, failed sample.
 pythonfmu also raises Python's OverflowError where C gives inf (``x**2`` of 1e300 in the model
 code), which pythonfmu reports with the exception's name."""
@@ -274,5 +286,8 @@ def _issue26_cases() -> tuple[Case, ...]:
 
 
 CASES = _cases() + _issue26_cases() + host_cases()  # host-level cases (item 11): sims/robustness/host_cases.py
+"""Every case of the suite, in the order they run on each FMU and appear in the report: the misuse
+cases, the limit cases of issue 26 (corrupted states, huge steps, large start times, status
+queries, extreme times) and the host-level cases (:func:`~satfmu.sims.robustness.host_cases.host_cases`)."""
 CASE_BY_NAME = {c.name: c for c in CASES}
 

@@ -11,6 +11,8 @@ from satfmu.fmus import archive
 
 
 NATIVE, PYTHONFMU = "native", "pythonfmu"
+"""The two backends of the project's FMUs: C model code (``fmus/c/fmi2_cosim.c``), or a pythonfmu
+slave behind satfmu's C layer (``fmus/pyslave.py``)."""
 BACKENDS = (NATIVE, PYTHONFMU)
 PYTHONFMU_MARKER = "resources/slavemodule.txt"
 """File every pythonfmu FMU carries (read by pythonfmu's fmi2Instantiate): tells the backends apart."""
@@ -125,12 +127,28 @@ def _first(variables: Sequence[Var], pred: Callable[[Var], bool]) -> Var | None:
 
 
 def backend_of(path: Path) -> str:
-    """:data:`PYTHONFMU` if the FMU carries pythonfmu's slave module file, else :data:`NATIVE`."""
+    """:data:`PYTHONFMU` if the FMU carries pythonfmu's slave module file, else :data:`NATIVE`.
+
+    Parameters
+    ----------
+    path : Path
+        The FMU file (its archive is checked and listed).
+    """
     return PYTHONFMU if PYTHONFMU_MARKER in archive.check(path).names else NATIVE
 
 
 def describe(path: Path) -> Target:
-    """Read ``path``'s model description and choose the variables of the cases."""
+    """Read ``path``'s model description and choose the variables of the cases.
+
+    Parameters
+    ----------
+    path : Path
+        The FMU file.
+
+    Returns
+    -------
+    Target
+    """
     md = archive.read_description(path)
     variables = [_var(v) for v in md.modelVariables]
     params = [v for v in variables if v.causality == "parameter"]
@@ -152,7 +170,20 @@ def describe(path: Path) -> Target:
 
 
 def discover(fmu_dir: Path, names: Sequence[str] | None = None) -> list[Path]:
-    """The FMUs to test: every ``*.fmu`` in ``fmu_dir``, or those named (with or without ``.fmu``)."""
+    """The FMUs to test: every ``*.fmu`` in ``fmu_dir``, or those named (with or without ``.fmu``).
+
+    Parameters
+    ----------
+    fmu_dir : Path
+        Folder of the FMUs.
+    names : sequence of str, optional
+        FMU names in ``fmu_dir`` (default: every ``*.fmu`` there, sorted).
+
+    Raises
+    ------
+    FileNotFoundError
+        A named FMU is not in ``fmu_dir``.
+    """
     if names is None:
         return sorted(fmu_dir.glob("*.fmu"))
     paths = [fmu_dir / (n if n.endswith(".fmu") else n + ".fmu") for n in names]

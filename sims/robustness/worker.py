@@ -44,7 +44,19 @@ def _emit(stream: io.TextIOBase, record: dict[str, Any]) -> None:
 
 def work(path: Path, names: Sequence[str], settings: Settings, results: Path) -> None:
     """Worker: run the cases ``names`` on the FMU ``path``, appending a JSON line to ``results``
-    when each case starts and when it ends (so the parent knows which case a crash hit)."""
+    when each case starts and when it ends (so the parent knows which case a crash hit).
+
+    Parameters
+    ----------
+    path : Path
+        The FMU file (extracted once for every case, removed at the end).
+    names : sequence of str
+        Names of the cases to run, in order (:data:`~satfmu.sims.robustness.table.CASES`).
+    settings : Settings
+        Sizes of the run; each case receives the fields it names.
+    results : Path
+        The events file (JSON lines) the parent reads.
+    """
     target = describe(path)
     extracted = archive.extract(path)
     unzip = str(extracted.folder)
