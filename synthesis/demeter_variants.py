@@ -34,7 +34,7 @@ reduced coordinates after all axes), xi, xw, y, y'.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import TypedDict, cast
+from typing import Any
 
 import numpy as np
 
@@ -175,26 +175,6 @@ class UncertainParameter:
             Normalized value, in [-1, 1] for the box (not checked here).
         """
         return self.nominal + self.half_width * delta
-
-
-class LFTMatrices(TypedDict):
-    """The keyword arguments of :class:`satfmu.synthesis.lft_plant.LFTPlant` (:meth:`DesignModel.lft`)."""
-
-    A: np.ndarray
-    Bp: np.ndarray
-    Bu: np.ndarray
-    B1: np.ndarray
-    B2: np.ndarray
-    Cq: np.ndarray
-    Dqp: np.ndarray
-    Dqu: np.ndarray
-    Dq1: np.ndarray
-    C1: np.ndarray
-    D1p: np.ndarray
-    D1u: np.ndarray
-    D11: np.ndarray
-    C2: np.ndarray
-    blocks: tuple[tuple[str, int], ...]
 
 
 @dataclass
@@ -421,7 +401,7 @@ class DesignModel:
         return out
 
 
-    def lft(self) -> LFTMatrices:
+    def lft(self) -> dict[str, Any]:
         """The LFT of the design model (matrices of :class:`satfmu.synthesis.lft_plant.LFTPlant`).
 
         Each ``N_k = U_k V_k`` (SVD, rank ``r_k``) gives the channel ``p_k = delta_k q_k``,
@@ -449,8 +429,7 @@ class DesignModel:
                "C1": self.C1, "D1p": nz((m, Yp.shape[1])), "D1u": nz((m, m)), "D11": nz((m, m)), "C2": self.C2}
         for k, v in out.items():  # rounding residue of the solves (1e-18 where the exact value is 0)
             v[np.abs(v) < LFT_ROUNDING * np.abs(v).max(initial=0.0)] = 0.0
-        # out holds the 14 matrices of LFTMatrices by name (mypy cannot check a ** of a dict against a TypedDict)
-        return cast(LFTMatrices, {**out, "blocks": tuple(blocks)})
+        return {**out, "blocks": tuple(blocks)}
 
     def fmu_gains(self, K: np.ndarray) -> dict[str, float]:
         """Parameters of the state-feedback FMU (:mod:`satfmu.controllers.state_feedback`) for the gain
