@@ -4,16 +4,16 @@ The campaign is mrp_200deg (seed 000's published controller, 120 s = 2400 steps 
 with its attitude uniform over the sphere and its principal moments of inertia +-20 %. The
 figures:
 
-- one bare run: :meth:`satfmu.sims.master.CoSimulation.run` of the nominal scenario through the
+- one bare run: :meth:`satfmu.sims.cosim.master.CoSimulation.run` of the nominal scenario through the
   compiled loop, FMU instances reused (what a campaign worker does per sample, without the
   sampling, the metrics and the row), CPU s, min and median of ``--repeat`` runs;
-- per sample in one process: :class:`satfmu.sims.scenario_campaign.ScenarioTask` on 500 samples
+- per sample in one process: :class:`satfmu.sims.campaign.scenario_campaign.ScenarioTask` on 500 samples
   (draw the dispersions, run, evaluate the metrics, build the row), CPU s per sample, and its
   ratio to the bare run (target <= 1.5);
 - the campaign on 1 and on 2 workers: end to end (a local Dask cluster started, every chunk
   computed and written as a checksummed Parquet file, the rows loaded, the cluster closed,
-  the statistics: what :func:`satfmu.sims.scenario_campaign.run_campaign` does) and the samples alone
-  (:func:`satfmu.sims.campaign.run` on the running cluster), wall s, samples/s, the speed-ups (target
+  the statistics: what :func:`satfmu.sims.campaign.scenario_campaign.run_campaign` does) and the samples alone
+  (:func:`satfmu.sims.campaign.engine.run` on the running cluster), wall s, samples/s, the speed-ups (target
   >= 1.8) and whether the two give the same rows (they must: samples depend on (seed, index)
   only). The two alternate over ``--repeat-campaign`` rounds (min and median).
 
@@ -31,10 +31,11 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from satfmu.sims import campaign as C
-from satfmu.sims import catalog, paths
-from satfmu.sims import scenario as S
-from satfmu.sims import scenario_campaign as SC
+from satfmu.sims.campaign import engine as C
+from satfmu.controllers import catalog, paths
+from satfmu.sims.scenario import SHIPPED_SCENARIOS
+from satfmu.sims.scenario import spec as S
+from satfmu.sims.campaign import scenario_campaign as SC
 
 DISPERSIONS = {"attitude": {"instance": "plant", "kind": "uniform"},
                "inertia": {"instance": "plant", "relative": 0.2}}
@@ -42,7 +43,7 @@ DISPERSIONS = {"attitude": {"instance": "plant", "kind": "uniform"},
 
 def scenario() -> S.Scenario:
     """mrp_200deg with dispersed attitude and inertia."""
-    data = tomllib.loads((paths.SHIPPED_SCENARIOS / "mrp_200deg.toml").read_text())
+    data = tomllib.loads((SHIPPED_SCENARIOS / "mrp_200deg.toml").read_text())
     return S.Scenario.from_dict({**data, "dispersions": DISPERSIONS})
 
 

@@ -3,7 +3,7 @@
 The four engines run the same scenario through the same native FMUs (parameters, connections,
 profiles, recorded variables):
 
-- ``compiled loop``: :meth:`satfmu.sims.master.CoSimulation.run` with ``engine="compiled"``, timed
+- ``compiled loop``: :meth:`satfmu.sims.cosim.master.CoSimulation.run` with ``engine="compiled"``, timed
   whole (``fmi2Reset`` of the instances kept from the previous run, parameters,
   initialization, profiles sampled, the steps, the result array);
 - ``Python loop``: the same with ``engine="python"`` (the master's reference loop);
@@ -35,9 +35,10 @@ from typing import Callable
 
 import numpy as np
 
-from satfmu.sims import catalog, paths, ssp
-from satfmu.sims import scenario as S
-from satfmu.sims.master import CoSimulation
+from satfmu.controllers import catalog, paths
+from satfmu.sims.interop import ssp
+from satfmu.sims.scenario import spec as S
+from satfmu.sims.cosim.master import CoSimulation
 
 HERE = Path(__file__).resolve().parent
 
@@ -182,7 +183,7 @@ def main() -> None:
                     help="shipped scenarios with native FMUs only (default: mrp_200deg cubesat_detumble)")
     ap.add_argument("--fmu-dir", type=Path, default=paths.fmu_cache(),
                     help="FMU folder, brought up to date first (default: the user's FMU cache, "
-                         "satfmu.sims.paths.fmu_cache())")
+                         "satfmu.controllers.paths.fmu_cache())")
     args = ap.parse_args()
     fmu_dir = args.fmu_dir.resolve()
     catalog.build_all(fmu_dir)  # nothing to do when `satfmu build` ran on this tree

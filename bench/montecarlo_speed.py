@@ -1,12 +1,12 @@
 """Monte Carlo analysis speed (seed 004): vectorized vs per-sample, and 1 vs 2 Dask workers.
 
 1. The closed-loop values of the shipped DEMETER row-1 design (poles, exact H-infinity norm,
-   impulse-to-peak) on ``--batch`` sampled plants: :class:`satfmu.synthesis.demeter_random.ClosedLoopSamples`
+   impulse-to-peak) on ``--batch`` sampled plants: :class:`satfmu.synthesis.robust.demeter_random.ClosedLoopSamples`
    (every step batched over the samples) against a per-sample loop of the same functions
-   (:func:`satfmu.synthesis.system_norms.hinf_norm`, ``impulse_to_peak`` on one system); samples/s of
+   (:func:`satfmu.synthesis.core.system_norms.hinf_norm`, ``impulse_to_peak`` on one system); samples/s of
    each, best of ``--repeat``, the values compared.
 2. The Chernoff campaign of ``--n`` samples (default 1e5) on an in-process LocalCluster with 1
-   and with 2 workers (``satfmu.sims.campaign``): wall time, speed-up, and whether the two result
+   and with 2 workers (``satfmu.sims.campaign.engine``): wall time, speed-up, and whether the two result
    tables are equal bit for bit (they must be: every value depends only on seed, chunk, n).
 
     python bench/montecarlo_speed.py [--batch 500] [--repeat 3] [--n 100000] [--chunk 5000]
@@ -24,11 +24,11 @@ from timing import best_of
 
 from satfmu.controllers import artifact as artifacts
 from satfmu.controllers import polynomial
-from satfmu.sims import campaign
-from satfmu.synthesis import demeter_design as dd
-from satfmu.synthesis import demeter_random as dr
-from satfmu.synthesis.demeter_variants import Variant
-from satfmu.synthesis.system_norms import hinf_norm, impulse_to_peak
+from satfmu.sims.campaign import engine as campaign
+from satfmu.synthesis.robust import demeter_design as dd
+from satfmu.synthesis.robust import demeter_random as dr
+from satfmu.synthesis.robust.demeter_variants import Variant
+from satfmu.synthesis.core.system_norms import hinf_norm, impulse_to_peak
 
 ROW1 = Variant((1,), (1,), 1, 1)
 

@@ -6,7 +6,7 @@ evaluations use the same ``--points`` random plant states x = [q1, q2, q4, w1, w
 (q2 uniform in [0.15, 1.25] rad and w4 in [-0.6, 0.6] rad/s, the fit's region; w1, w2
 normal with 0.1 rad/s deviation; references q + normal 0.05 rad; fixed ``--seed``):
 
-- online SDRE in process: :meth:`satfmu.synthesis.sdre.Servo.gain` (Ae, Be, then the checked
+- online SDRE in process: :meth:`satfmu.synthesis.servo.sdre.Servo.gain` (Ae, Be, then the checked
   :func:`satfmu.controllers.riccati.riccati_gain`), the shipped ``gyro_on_w2`` law and the
   ``w1_free`` law at w2 = 0 that the approximation fits;
 - approximated SDRE in process: :meth:`satfmu.controllers.artifact.ServoArtifact.gain_at` of the
@@ -19,7 +19,7 @@ normal with 0.1 rad/s deviation; references q + normal 0.05 rad; fixed ``--seed`
 - the FMUs through fmpy: the native approximated servo FMU and the online SDRE FMUs, native
   (the C Riccati routine, ``fmus/c/riccati.h``) and pythonfmu (scipy), ``--steps`` steps of
   0.01 s of fmi2SetReal(inputs) + fmi2GetReal(T1, T2) + fmi2DoStep, preallocated buffers as in
-  :class:`satfmu.sims.master.CoSimulation`. In this order the online FMU solves one Riccati equation
+  :class:`satfmu.sims.cosim.master.CoSimulation`. In this order the online FMU solves one Riccati equation
   per step (the gain of the instant, with that instant's inputs); reading the outputs after
   fmi2DoStep and before setting the new inputs would make it solve a second time per step,
   with the stale inputs;
@@ -32,7 +32,7 @@ Each timing is the best of ``--repeat`` runs, in this one process, reported as
 evaluations/s, microseconds per evaluation and speed-up over the in-process online SDRE
 (the machine is shared and noisy: ratios measured together hold, absolute numbers
 drift). Also prints the approximation's largest gain error over the points (relative to
-the largest gain entry, as :mod:`satfmu.synthesis.gain_fit`) and how closely the generated code
+the largest gain entry, as :mod:`satfmu.synthesis.servo.gain_fit`) and how closely the generated code
 reproduces the in-process laws.
 
     python bench/sdre_speed.py [--points 2000] [--steps 1500] [--repeat 3] [--seed 2] [--fmu-dir build/fmus]
@@ -54,7 +54,7 @@ from timing import best_of
 from satfmu.controllers import artifact, riccati, servo
 from satfmu.fmus import codegen, export
 from satfmu.fmus.model import Model
-from satfmu.synthesis.sdre import Servo
+from satfmu.synthesis.servo.sdre import Servo
 
 STEP = 0.01
 ARTIFACT = Path(__file__).resolve().parents[1] / "controllers" / "artifacts" / "vscmg_sdre_approx.json"
@@ -122,7 +122,7 @@ def closed_loops(fmu_dir: Path | None) -> None:
     import copy
     import time
 
-    from satfmu.sims import scenario
+    from satfmu.sims.scenario import spec as scenario
 
     print("closed loops (native online SDRE FMUs vs pythonfmu ones, every communication point of 0.01 s):")
     for name in ("vscmg_seed", "vscmg_seed_friction"):

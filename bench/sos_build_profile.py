@@ -2,12 +2,12 @@
 
 Programs (``--programs``, default all):
 
-- ``t1-global``: seed 000 Theorem 1, global (:func:`satfmu.synthesis.hinf_sos.theorem1`);
+- ``t1-global``: seed 000 Theorem 1, global (:func:`satfmu.synthesis.polynomial_feedback.hinf_sos.theorem1`);
 - ``t1-regional``: the same on ``|sigma| <= 0.9``;
 - ``t8-regional``: seed 001 Theorem 8, slack variant, gamma 0.7, alpha = beta = 0.3 on
-  ``|sigma| <= 0.45`` (:func:`satfmu.synthesis.h2hinf_sos.theorem8`);
+  ``|sigma| <= 0.45`` (:func:`satfmu.synthesis.polynomial_feedback.h2hinf_sos.theorem8`);
 - ``region-box``: seed 002's region certificate on the operating box
-  (:func:`satfmu.synthesis.vscmg_region.certify`, two SOS-matrix conditions);
+  (:func:`satfmu.synthesis.servo.vscmg_region.certify`, two SOS-matrix conditions);
 - ``two-step``: seed 000's two-step iteration over the decay rates [0.005, 0.01] (5000
   samples; two Theorem 1 designs and about twenty L2-gain programs, plus two simulations).
 
@@ -15,7 +15,7 @@ Each run is one child process (the script runs itself with ``--child``)
 that first solves a small SOS program (lazy imports out of the way), then times the call
 of the program: *solve* is the time inside Clarabel (building its solver object and
 ``solve()``, every program of the call), *verify* the time inside
-:func:`satfmu.synthesis.sos.verify`, *build* the rest of the call (polynomial algebra, bases,
+:func:`satfmu.synthesis.core.sos.verify`, *build* the rest of the call (polynomial algebra, bases,
 coefficient matching, the conic data or cvxpy's canonicalization, reading the solution
 back; for ``region-box`` and ``two-step`` also their non-SOS work: the Riccati scaling,
 the simulations). Seconds; min and median over ``--repeat`` runs, the runs of every
@@ -50,22 +50,22 @@ HERE = Path(__file__).resolve().parents[1]
 def _program(name: str) -> Callable[[], float]:
     """The call timed for ``name``; it returns the program's objective."""
     if name == "t1-global":
-        from satfmu.synthesis.hinf_sos import theorem1
+        from satfmu.synthesis.polynomial_feedback.hinf_sos import theorem1
         return lambda: float(theorem1().Q.trace())
     if name == "t1-regional":
-        from satfmu.synthesis.hinf_sos import theorem1
+        from satfmu.synthesis.polynomial_feedback.hinf_sos import theorem1
         return lambda: float(theorem1(region=0.9).Q.trace())
     if name == "t8-regional":
-        from satfmu.synthesis.h2hinf_sos import theorem8
+        from satfmu.synthesis.polynomial_feedback.h2hinf_sos import theorem8
         return lambda: theorem8(0.7, 0.3, 0.3, "slack").lam
     if name == "region-box":
         from satfmu.controllers import artifact
         from satfmu.controllers.polynomial import ARTIFACTS
-        from satfmu.synthesis import vscmg_region as vr
+        from satfmu.synthesis.servo import vscmg_region as vr
         loop = vr.ClosedLoop.build(artifact.load(ARTIFACTS / "vscmg_sdre_approx.json"))
         return lambda: vr.certify(loop, *vr.OPERATING_BOX).eps
     if name == "two-step":
-        from satfmu.synthesis.two_step import two_step
+        from satfmu.synthesis.polynomial_feedback.two_step import two_step
         return lambda: two_step(decay_rates=[0.005, 0.01], n_samples=5_000).best.c
     raise SystemExit(f"unknown program {name!r}; one of {PROGRAMS}")
 
@@ -100,14 +100,14 @@ class _TimedSolver:
 
 
 def _via_cvxpy(problem: Any, **settings: Any) -> Any:
-    """:func:`satfmu.synthesis.conic.solve_clarabel`'s work done through cvxpy: one variable vector,
+    """:func:`satfmu.synthesis.core.conic.solve_clarabel`'s work done through cvxpy: one variable vector,
     each cone's rows one sparse affine expression of it, each PSD cone the symmetric matrix
     its scaled svec rows describe; solved by cvxpy's Clarabel interface."""
     import cvxpy as cp
     import numpy as np
     import scipy.sparse as sps
 
-    from satfmu.synthesis.conic import SOLVED, ConicResult, svec_indices, svec_scale
+    from satfmu.synthesis.core.conic import SOLVED, ConicResult, svec_indices, svec_scale
 
     x = cp.Variable(len(problem.q))
     A, b = sps.csr_matrix(problem.A), problem.b
@@ -140,8 +140,8 @@ def _child(name: str, route: str) -> dict[str, Any]:
     import clarabel
     import sympy as sp
 
-    from satfmu.synthesis import sos
-    from satfmu.synthesis.polynomial import Poly
+    from satfmu.synthesis.core import sos
+    from satfmu.synthesis.core.polynomial import Poly
 
     if route == "cvxpy":
         sos.solve_clarabel = _via_cvxpy  # type: ignore[attr-defined]
@@ -156,7 +156,7 @@ def _child(name: str, route: str) -> dict[str, Any]:
     clarabel.DefaultSolver = lambda *a, **k: _TimedSolver(solve_clock, solve_clock.wrap(make)(*a, **k))
     verify = sos.verify
     timed_verify = verify_clock.wrap(verify)
-    for module in list(sys.modules.values()):  # every `from satfmu.synthesis.sos import verify`
+    for module in list(sys.modules.values()):  # every `from satfmu.synthesis.core.sos import verify`
         if getattr(module, "__name__", "").startswith("synthesis.") and getattr(module, "verify", None) is verify:
             module.verify = timed_verify  # type: ignore[attr-defined]
     t0 = time.perf_counter()

@@ -3,7 +3,7 @@
 Four programs of the project (issue 29), each posed by the three tools:
 
 ``thm1-global``
-    Seed 000 Theorem 1, global (:func:`satfmu.synthesis.hinf_sos.theorem1` with ``rate_margin``
+    Seed 000 Theorem 1, global (:func:`satfmu.synthesis.polynomial_feedback.hinf_sos.theorem1` with ``rate_margin``
     1e-2): constant ``Q >= I``, ``K(x)`` 3 x 6 of degree 2, ``-(A Q + Q A^T + B K + K^T B^T) -
     diag(eps I3, 0)`` an SOS matrix, minimize trace(Q).
 ``thm1-regional``
@@ -12,11 +12,11 @@ Four programs of the project (issue 29), each posed by the three tools:
 ``thm8-regional``
     Seed 001 Theorem 8, slack variant, gamma 0.7 at the alpha, beta of the shipped design
     (controllers/artifacts/mrp_h2hinf_satfmu.json), ``|sigma| <= 0.45`` for every rate
-    (:func:`satfmu.synthesis.h2hinf_sos.theorem8`): two SOS matrices of 21 x 21 with a multiplier
+    (:func:`satfmu.synthesis.polynomial_feedback.h2hinf_sos.theorem8`): two SOS matrices of 21 x 21 with a multiplier
     each, three LMIs, minimize lambda, Clarabel tolerances 1e-10.
 ``vscmg-box``
     Seed 002 region certificate of the approximated SDRE servo on
-    :data:`satfmu.synthesis.vscmg_region.OPERATING_BOX` (:func:`satfmu.synthesis.vscmg_region.certify`):
+    :data:`satfmu.synthesis.servo.vscmg_region.OPERATING_BOX` (:func:`satfmu.synthesis.servo.vscmg_region.certify`):
     two 7 x 7 SOS matrices (cos q2 on the chord and on the tangent) with Finsler multipliers
     of degree 4 and two box multipliers of degree 4 each, ``Y >= I``, ``trace Y <= 100``,
     maximize eps.
@@ -24,7 +24,7 @@ Four programs of the project (issue 29), each posed by the three tools:
 The contenders, each end to end and each verifying its own certificate:
 
 - satfmu: the public function above, as a user calls it (build, solve and verify: Gram
-  eigenvalues, coefficient residuals, sampled values; see :func:`satfmu.synthesis.sos.verify`).
+  eigenvalues, coefficient residuals, sampled values; see :func:`satfmu.synthesis.core.sos.verify`).
   "without verify" is the same run minus the time after the solve returned.
 - Drake (PyPI ``drake``, bench extra): the same program written with
   ``pydrake.solvers.MathematicalProgram``: the plant data converted from the same sympy
@@ -34,7 +34,7 @@ The contenders, each end to end and each verifying its own certificate:
   (extracted from our program, monomial by monomial), LMIs with
   ``AddLinearMatrixInequalityConstraint``; solved by Drake's Clarabel (``ClarabelSolver``,
   Clarabel 0.11 like the wheel we call, default settings and the same options as ours);
-  then Drake's Gram matrices checked as :func:`satfmu.synthesis.sos.verify` checks ours.
+  then Drake's Gram matrices checked as :func:`satfmu.synthesis.core.sos.verify` checks ours.
 - SumOfSquares.py (PyPI, bench extra): the same program with its sympy/picos API
   (``add_matrix_sos_constraint``, its own Newton-polytope basis: it takes none from the
   caller), solved by CVXOPT (picos offers no Clarabel), then the same three checks. Slow:
@@ -80,16 +80,17 @@ import sympy as sp
 
 from satfmu.controllers import artifact
 from satfmu.controllers.polynomial import ARTIFACTS
-from satfmu.fmus import mrp_satellite
-from satfmu.synthesis import h2hinf_sos, hinf_sos, vscmg_region
-from satfmu.synthesis.polynomial import monomials
-from satfmu.synthesis.sos import SOSProgram
+from satfmu.fmus.plants import mrp_satellite
+from satfmu.synthesis.polynomial_feedback import h2hinf_sos, hinf_sos
+from satfmu.synthesis.servo import vscmg_region
+from satfmu.synthesis.core.polynomial import monomials
+from satfmu.synthesis.core.sos import SOSProgram
 from timing import interleaved, min_median
 
 N_SAMPLES = 2000
-"""Sampled points per SOS constraint in every tool's verification (as :func:`satfmu.synthesis.sos.verify`)."""
+"""Sampled points per SOS constraint in every tool's verification (as :func:`satfmu.synthesis.core.sos.verify`)."""
 EIG_TOL = RES_TOL = 1e-7
-"""Relative tolerances of the verification (those of :func:`satfmu.synthesis.sos.verify`)."""
+"""Relative tolerances of the verification (those of :func:`satfmu.synthesis.core.sos.verify`)."""
 
 
 # ---------------------------------------------------------------------------- records
@@ -133,7 +134,7 @@ class Gram:
 
 
 def _judge(G: np.ndarray, residual: float, pscale: float, sampled_min: float) -> Gram:
-    """The numbers of one constraint and the rule of :func:`satfmu.synthesis.sos.verify` on them."""
+    """The numbers of one constraint and the rule of :func:`satfmu.synthesis.core.sos.verify` on them."""
     min_eig = float(np.linalg.eigvalsh((G + G.T) / 2).min())
     gscale = max(1.0, float(np.max(np.abs(G))))
     pscale = max(1.0, pscale)
@@ -143,7 +144,7 @@ def _judge(G: np.ndarray, residual: float, pscale: float, sampled_min: float) ->
 
 
 def _sample_points(rng: np.random.Generator, n_x: int, n_v: int, radius: float) -> np.ndarray:
-    """Points as :func:`satfmu.synthesis.sos.verify` draws them: uniform in the ball of ``radius``
+    """Points as :func:`satfmu.synthesis.core.sos.verify` draws them: uniform in the ball of ``radius``
     in all ``n_x + n_v`` variables, then the last ``n_v`` (those of an SOS matrix's ``v``)
     redrawn on the unit sphere. Shape (N_SAMPLES, n_x + n_v)."""
     n = n_x + n_v
@@ -175,7 +176,7 @@ class _Probe:
     """Looks into one run of a public satfmu function from outside, without changing it.
 
     Inside ``with probe:`` :meth:`SOSProgram.solve` and ``clarabel.DefaultSolver`` are
-    wrapped (the solver :func:`satfmu.synthesis.conic.solve_clarabel` calls): the probe keeps the
+    wrapped (the solver :func:`satfmu.synthesis.core.conic.solve_clarabel` calls): the probe keeps the
     last program solved (with its objective row and solution), the time its solve returned,
     and the solver's own time
     (Clarabel's ``solve_time``, summed over calls, s). With ``qdldl`` Clarabel factors its
@@ -266,7 +267,7 @@ class DrakeProgram:
     layout: list[tuple[str, Any]]
     """The decision variables in our order, as pieces: ("sym", matrix: upper triangle row by
     row), ("matrix", matrix: row by row), ("var", variable), ("poly", (polynomial, x,
-    degree): its coefficients in the order of :func:`satfmu.synthesis.polynomial.monomials`)."""
+    degree): its coefficients in the order of :func:`satfmu.synthesis.core.polynomial.monomials`)."""
     lmis: list[np.ndarray]
     """Expression matrices constrained PSD, in our order."""
     linear_ge: list[Any]
@@ -363,7 +364,7 @@ def _add_sos(prog: Any, p: Any, variables: np.ndarray, basis: np.ndarray, n_v: i
 def _add_sos_matrix(prog: Any, S: np.ndarray, x: np.ndarray, v: np.ndarray, bases: Iterator[np.ndarray],
                     region: list[Any], multiplier_degree: int, rows: range | None = None) -> list[DrakeSos]:
     """``S(x) >= 0`` as an SOS matrix where every ``g in region`` is ``>= 0``, posed as
-    :meth:`satfmu.synthesis.sos.SOSProgram.add_sos_matrix` does: ``v^T S v - sum_i s_i g_i
+    :meth:`satfmu.synthesis.core.sos.SOSProgram.add_sos_matrix` does: ``v^T S v - sum_i s_i g_i
     v_R^T v_R`` SOS with SOS multipliers ``s_i`` of ``multiplier_degree`` (``v_R``: the
     entries of ``v`` in ``rows``, default all). Returns the multipliers' constraints, then
     the matrix's, each on the next basis of ``bases``."""
@@ -404,7 +405,7 @@ def _decision_vector(layout: list[tuple[str, Any]]) -> list[Any]:
 
 @_drake_arithmetic
 def drake_theorem1(bases: list[np.ndarray], region: float | None) -> DrakeProgram:
-    """Seed 000 Theorem 1 as :func:`satfmu.synthesis.hinf_sos.theorem1` poses it (its defaults:
+    """Seed 000 Theorem 1 as :func:`satfmu.synthesis.polynomial_feedback.hinf_sos.theorem1` poses it (its defaults:
     K of degree 2, rate margin 1e-2 globally, strict margin 1e-3 and multiplier degree 0 on
     ``|sigma| <= region``, ``Q >= I``, minimize trace Q)."""
     sym, solvers = _drake()
@@ -453,7 +454,7 @@ def _theorem8_plant() -> tuple[list, Any, np.ndarray, int, int, np.ndarray, np.n
 
 
 def drake_theorem8(bases: list[np.ndarray], gamma: float, alpha: float, beta: float) -> DrakeProgram:
-    """Seed 001 Theorem 8, slack variant, as :func:`satfmu.synthesis.h2hinf_sos.theorem8` poses it
+    """Seed 001 Theorem 8, slack variant, as :func:`satfmu.synthesis.polynomial_feedback.h2hinf_sos.theorem8` poses it
     (its defaults: ``|x~| <= 0.45``, Y of degree 1, multipliers of degree 0 on the first
     two block rows, margin 1e-6, ``Qh = I6``, ``Rh = I3``, x0 the 90 deg start, minimize
     lambda, Clarabel tolerances 1e-10). The plant split is done here with Drake's
@@ -517,10 +518,10 @@ def drake_theorem8(bases: list[np.ndarray], gamma: float, alpha: float, beta: fl
 
 @_drake_arithmetic
 def drake_vscmg_box(bases: list[np.ndarray], loop: vscmg_region.ClosedLoop) -> DrakeProgram:
-    """Seed 002 region certificate on the operating box as :func:`satfmu.synthesis.vscmg_region.certify`
+    """Seed 002 region certificate on the operating box as :func:`satfmu.synthesis.servo.vscmg_region.certify`
     poses it (its defaults: box multipliers of degree 4, ``trace Y <= 100``; coordinates
     scaled by the Cholesky factor of the box centre's Riccati solution of
-    ``(Ae - SCALE_SHIFT I, Be)``), from the same :class:`~satfmu.synthesis.vscmg_region.ClosedLoop`;
+    ``(Ae - SCALE_SHIFT I, Be)``), from the same :class:`~satfmu.synthesis.servo.vscmg_region.ClosedLoop`;
     the substitutions (cos q2 by a line in sin q2, then the box scaled to [-1, 1]^2) done
     with Drake's polynomial arithmetic (:func:`_substitute`)."""
     sym, solvers = _drake()
@@ -585,7 +586,7 @@ def run_drake(pose: Callable[[], DrakeProgram]) -> Run:
 
 
 def drake_verify(dp: DrakeProgram, result: Any) -> list[Gram]:
-    """Drake's certificate checked as :func:`satfmu.synthesis.sos.verify` checks ours: per SOS
+    """Drake's certificate checked as :func:`satfmu.synthesis.core.sos.verify` checks ours: per SOS
     constraint the Gram matrix's smallest eigenvalue, the largest coefficient of ``p -
     z^T G z`` (``p`` at the solution) and ``p`` at sampled points."""
     rng = np.random.default_rng(0)

@@ -9,7 +9,7 @@ and ``V(w)`` a polynomial in the squares ``w_i^2`` (every exponent even; total d
 ``--degree``) with ``V - eps |w|^2`` and ``-dV/dt - eps |w|^2`` SOS. Flipping the signs of any
 two rates leaves the equations unchanged, and with them ``-dV/dt``: its Gram basis splits into
 four blocks by the parities of the exponents (``V``'s, all even, into one per parity pattern),
-with no loss (:mod:`satfmu.synthesis.sign_symmetry`). The two programs (``SOSProgram(sign_symmetry=
+with no loss (:mod:`satfmu.synthesis.core.sign_symmetry`). The two programs (``SOSProgram(sign_symmetry=
 True / False)``) are built, solved and verified end to end in interleaved rounds; printed:
 every Gram matrix's size and blocks, the largest block, min and median of the build, solve,
 verify and total times, and both certificates' verification (the blocks' certificate is
@@ -28,8 +28,8 @@ import sympy as sp
 
 from timing import interleaved, min_median
 
-from satfmu.synthesis.polynomial import Poly, monomials
-from satfmu.synthesis.sos import SOSProgram, verify
+from satfmu.synthesis.core.polynomial import Poly, monomials
+from satfmu.synthesis.core.sos import SOSProgram, verify
 
 INERTIA = (10.0, 12.0, 8.0)
 """Principal moments of inertia, kg m^2."""

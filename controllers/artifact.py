@@ -583,7 +583,7 @@ class ServoArtifact:
         Where the gain came from: ``source`` and ``design_plant``.
     fit : dict, optional
         How a fitted gain was fitted (degree, scheduling, cross-validation,
-        :mod:`satfmu.synthesis.gain_fit`); empty when the file has none.
+        :mod:`satfmu.synthesis.servo.gain_fit`); empty when the file has none.
     """
 
     name: str

@@ -1,8 +1,8 @@
 """Backstepping tracking controller of the VSCMG: the seed 002 comparison (its section 5.2).
 
 Gimbal 4 has no motor; eliminating the rotor acceleration w1' from the plant's equations
-of motion M(q2) w' + N(q2, w) = [T1, T2, 0] (:func:`satfmu.fmus.vscmg.mass_matrix`,
-:func:`satfmu.fmus.vscmg.gyroscopic`, the plant's own definitions) leaves two outputs of relative
+of motion M(q2) w' + N(q2, w) = [T1, T2, 0] (:func:`satfmu.fmus.plants.vscmg.mass_matrix`,
+:func:`satfmu.fmus.plants.vscmg.gyroscopic`, the plant's own definitions) leaves two outputs of relative
 degree 2, q2'' = w2' driven by T2 and q4'' = w4' driven by -sin(q2) T1 / (J2 + (J1 - JD)
 sin^2 q2). For each tracked angle q with reference r (and its derivatives r', r''):
 
@@ -12,7 +12,7 @@ sin^2 q2). For each tracked angle q with reference r (and its derivatives r', r'
 
 The torques that give the chosen (w2', w4') solve the three equations for (w1', T1, T2);
 friction and the gimbal-4 disturbance are not modelled (a plain backstepping baseline, with
-the optional Coulomb compensation of :func:`satfmu.fmus.vscmg.friction_compensation`). The law
+the optional Coulomb compensation of :func:`satfmu.fmus.plants.vscmg.friction_compensation`). The law
 divides by sin q2: valid for 0 < q2 < pi, the seed's range (singular at q2 = 0, where the
 rotor cannot act on gimbal 4).
 """
@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import sympy as sp
 
-from satfmu.fmus import vscmg
+from satfmu.fmus.plants import vscmg
 from satfmu.fmus.model import Definitions, Model, Output, Variable
 
 GAINS = {"c1": 5.0, "c2": 5.0}

@@ -24,7 +24,7 @@ import math
 import sympy as sp
 
 from satfmu.controllers.artifact import INDEX_TOL, PeriodicArtifact
-from satfmu.fmus import cubesat
+from satfmu.fmus.plants import cubesat
 from satfmu.fmus.model import MIN_SAMPLE_PERIOD as MIN_PERIOD, Model, Output, Sampler, Variable, symbols, vector
 
 

@@ -18,7 +18,7 @@ e = reference - tracked. The servo state is xe = [int e, e, rates].
   backend): :func:`satfmu.controllers.riccati.sampled_gain`, scipy's ``solve_continuous_are``.
 
 For the VSCMG (``plant == "vscmg"``) the optional friction compensation of
-:func:`satfmu.fmus.vscmg.friction_compensation` is added (parameter ``compensation_on``, off by
+:func:`satfmu.fmus.plants.vscmg.friction_compensation` is added (parameter ``compensation_on``, off by
 default).
 """
 from __future__ import annotations
@@ -31,7 +31,7 @@ import sympy as sp
 from satfmu.controllers import riccati, servo_sdc
 from satfmu.controllers.artifact import ServoArtifact, scheduling_signal
 from satfmu.controllers.polynomial import sympy_polynomial
-from satfmu.fmus import vscmg
+from satfmu.fmus.plants import vscmg
 from satfmu.fmus.model import MIN_SAMPLE_PERIOD, Model, Output, Sampler, State, Variable, vector
 
 

@@ -7,13 +7,14 @@ e = q_ref - q and the reference held constant in the design model:
     Ae = [[0, I2, 0], [0, 0, -S], [0, 0, A_ww(x)]],   Be = [0; 0; B_w(x)],
 
 S picking (w2, w4) out of w, and A_ww = -M^-1 N_sdc, B_w = M^-1 G from the plant's SDC
-form (:func:`satfmu.fmus.vscmg.sdc_form`; frictionless, unsaturated). The law is u = -K(x) xe,
+form (:func:`satfmu.fmus.plants.vscmg.sdc_form`; frictionless, unsaturated). The law is u = -K(x) xe,
 K = Re^-1 Be^T P from the Riccati equation of the shifted pair (Ae - eps I, Be)
 (:func:`satfmu.controllers.riccati.riccati_gain`).
 
 One definition for both sides: the online SDRE FMU (:func:`satfmu.controllers.servo.build_online`)
 solves its gain from these matrices and weights, and the design side
-(:mod:`satfmu.synthesis.sdre`, :mod:`satfmu.synthesis.gain_fit`, :mod:`satfmu.synthesis.vscmg_region`) grids,
+(:mod:`satfmu.synthesis.servo.sdre`, :mod:`satfmu.synthesis.servo.gain_fit`,
+:mod:`satfmu.synthesis.servo.vscmg_region`) grids,
 fits and certifies the same law; the servo artifacts carry the same signals.
 """
 from __future__ import annotations
@@ -21,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 import sympy as sp
 
-from satfmu.fmus import vscmg
+from satfmu.fmus.plants import vscmg
 from satfmu.fmus.model import Model
 
 SERVO_STATES = ("int_e2", "int_e4", "e2", "e4", "w1", "w2", "w4")
@@ -52,10 +53,10 @@ def servo_matrices(model: Model = vscmg.MODEL, factorization: str = "gyro_on_w2"
     Parameters
     ----------
     model : Model, optional
-        A VSCMG model of :func:`satfmu.fmus.vscmg.build` (default: the plant,
-        ``satfmu.fmus.vscmg.MODEL``): its symbols appear in the matrices.
+        A VSCMG model of :func:`satfmu.fmus.plants.vscmg.build` (default: the plant,
+        ``satfmu.fmus.plants.vscmg.MODEL``): its symbols appear in the matrices.
     factorization : {"gyro_on_w2", "w1_free"}, optional
-        The SDC factorization of the gyroscopic torques (:func:`satfmu.fmus.vscmg.model_sdc`).
+        The SDC factorization of the gyroscopic torques (:func:`satfmu.fmus.plants.vscmg.model_sdc`).
     freeze_w2 : bool, optional
         Substitute w2 = 0 in both matrices.
 

@@ -11,7 +11,7 @@ these::
 with y, y' the wheel torque and its rate (the wheel states of the design model). The gains
 are FMU parameters (3 x 3 blocks, 3 x 8 for the flexible coordinates), so one FMU runs every
 design: a design on reduced flexible coordinates ``eta_r = Q eta`` enters as ``K_eta = K_r Q``
-(:meth:`satfmu.synthesis.demeter_variants.DesignModel.fmu_gains`). The inputs carry the names of the
+(:meth:`satfmu.synthesis.robust.demeter_variants.DesignModel.fmu_gains`). The inputs carry the names of the
 plant's outputs, so the master connects them by name. The law is affine in its states and the
 FMU steps it exactly (``integrator="exact"``).
 
@@ -30,7 +30,7 @@ import numpy as np
 import sympy as sp
 from scipy.linalg import sqrtm
 
-from satfmu.fmus import demeter
+from satfmu.fmus.plants import demeter
 from satfmu.fmus.model import Model, Output, Variable, states, symbols, vector
 
 GAIN_BLOCKS = {"K_theta": ("theta", 3, "N.m/rad"), "K_theta_dot": ("theta_dot", 3, "N.m.s/rad"),

@@ -76,7 +76,7 @@ def _write_facade_table(app: Any) -> None:
 
 def _canonical(path: str) -> str | None:
     """The dotted name where the object ``path`` names is defined, when ``path`` reaches it
-    through a re-export (``satfmu.Scenario``, ``satfmu.sims.campaign.CampaignError``), else None."""
+    through a re-export (``satfmu.Scenario``, ``satfmu.sims.campaign.engine.CampaignError``), else None."""
     import importlib
 
     parts = path.split(".")
@@ -124,7 +124,22 @@ def _plain_generic_bases(app: Any, name: str, obj: object, options: object, base
             bases[i] = Generic
 
 
+def _drop_stale_pages(app: Any) -> None:
+    """Remove the generated pages (``_api/satfmu.*.rst``) of modules that no longer exist (a module
+    moved or renamed), before autosummary writes today's: a stale page is in no toctree."""
+    import importlib.util
+
+    for page in (Path(app.srcdir) / "_api").glob("satfmu.*.rst"):
+        try:
+            found = importlib.util.find_spec(page.stem) is not None
+        except ModuleNotFoundError:
+            found = False
+        if not found:
+            page.unlink()
+
+
 def setup(app: Any) -> None:
+    app.connect("builder-inited", _drop_stale_pages, priority=100)  # before autosummary generates
     app.connect("autodoc-process-bases", _plain_generic_bases)
     app.connect("builder-inited", _write_facade_table)
     app.connect("autodoc-skip-member", _skip_type_aliases)

@@ -5,7 +5,7 @@ any of its warnings.
 
 Each class also keeps the built-in base it had (``ValueError`` for bad input, ``RuntimeError`` for a
 failed computation, ``KeyError``, ``MemoryError``), so ``except ValueError`` still catches what it
-caught. The modules that raise a class re-export it under their own name (``satfmu.sims.scenario.
+caught. The modules that raise a class re-export it under their own name (``satfmu.sims.scenario.spec.
 ScenarioError`` is this module's :class:`ScenarioError`), and the facade ``satfmu`` exports them all.
 """
 from __future__ import annotations
@@ -77,7 +77,7 @@ class SOSError(SatfmuError, RuntimeError):
 
 class SolverMemoryError(SatfmuError, MemoryError):
     """Clarabel ran out of the memory allowed to it (``memory_limit`` of
-    :func:`satfmu.synthesis.conic.solve_clarabel`)."""
+    :func:`satfmu.synthesis.core.conic.solve_clarabel`)."""
 
 
 class SolverFailure(SatfmuError, RuntimeError):
@@ -94,7 +94,7 @@ class PeriodicSystemError(SatfmuError, ValueError):
 
 class RobustLMIError(SatfmuError, ValueError):
     """Base class of the input errors of the robust LMI modules (see
-    :mod:`satfmu.synthesis.lft_plant`)."""
+    :mod:`satfmu.synthesis.robust.lft_plant`)."""
 
 
 class PlantDataError(RobustLMIError):

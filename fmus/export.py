@@ -15,7 +15,7 @@ its build read (:func:`satfmu.fmus.digest.build_digest`: the model, the resource
 the compilers), and a build whose destination already carries that digest does nothing. A
 controller FMU also records there the SHA-256 of the artifact it embeds
 (``resources/artifact.json``, :func:`artifact_digest`), which a run compares with the
-artifact file of its name (:mod:`satfmu.sims.preflight`). The comment reads
+artifact file of its name (:mod:`satfmu.sims.cosim.preflight`). The comment reads
 ``satfmu-build sha256:<build digest>[ artifact sha256:<artifact digest>]``. An FMU is written
 under a temporary name and renamed into place, so an interrupted build never leaves a partial
 file under the FMU's name.

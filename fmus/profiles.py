@@ -23,7 +23,7 @@ Kinds (times in s, values in the target input's unit):
   orbit_inclination, orbit_raan, orbit_arg_latitude_0, earth_rotation_angle_0
   (= the magnetorquer cubesat's parameters, defaulting to its start values);
   IGRF field along orbit axis ``component`` at orbit time orbit_time_0 + t, T
-  (:func:`satfmu.fmus.geomagnetic.igrf_orbit_field`), for the cubesat's ``b_ext[i]``
+  (:func:`satfmu.fmus.environment.geomagnetic.igrf_orbit_field`), for the cubesat's ``b_ext[i]``
   inputs with ``field_model = 2``; give the plant the same orbit_period.
 """
 from __future__ import annotations
@@ -207,8 +207,8 @@ _IGRF_ORBIT = ("orbit_period", "orbit_time_0", "orbit_altitude", "orbit_inclinat
 
 
 def _igrf(spec: dict, where: str) -> tuple[Callable[[np.ndarray], np.ndarray], Generator]:
-    # satfmu.fmus.geomagnetic imports ppigrf and pandas: only when this kind is used
-    from satfmu.fmus import geomagnetic
+    # satfmu.fmus.environment.geomagnetic imports ppigrf and pandas: only when this kind is used
+    from satfmu.fmus.environment import geomagnetic
 
     unknown = sorted(set(spec) - {"kind", "component", "epoch", "max_degree", *_IGRF_ORBIT})
     if unknown:
@@ -252,7 +252,7 @@ def _igrf(spec: dict, where: str) -> tuple[Callable[[np.ndarray], np.ndarray], G
 def _igrf_field(key: tuple, t_bytes: bytes) -> np.ndarray:
     """IGRF along the orbit at the times ``t_bytes`` (float64), cached: the three components of
     one field usually sample the same grid."""
-    from satfmu.fmus import geomagnetic
+    from satfmu.fmus.environment import geomagnetic
 
     epoch, degree, tau0, orbit = key
     b = geomagnetic.igrf_orbit_field(tau0 + np.frombuffer(t_bytes), epoch, dict(orbit), max_degree=degree)

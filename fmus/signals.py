@@ -9,7 +9,7 @@ Python and the C of the native FMU, so a scenario run with its profiles as FMUs 
 another tool) sees the very values the master sets.
 
 Units: FMI 2.0 gives every variable one fixed unit, so a generator is made for the unit of
-the input it drives (``unit``, from the target FMU's model description: :func:`satfmu.sims.ssp.target_unit`);
+the input it drives (``unit``, from the target FMU's model description: :func:`satfmu.sims.interop.ssp.target_unit`);
 ``y`` and the value parameters (``value``, ``before``, ``after``, ``amplitude``, ``offset``)
 declare it. Unit ``"1"`` (dimensionless) gives the catalog's generic FMUs ``signal_<kind>``; another
 unit gives ``signal_<kind>__<unit tag>`` (:func:`model_name`, e.g. ``signal_step__N_m`` for N.m),

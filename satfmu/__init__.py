@@ -53,8 +53,8 @@ from typing import TYPE_CHECKING, Any, Iterable, Mapping
 if TYPE_CHECKING:
     from satfmu.controllers.artifact import Artifact
     from satfmu.fmus.model import Model
-    from satfmu.fmus.spacecraft import Spacecraft
-    from satfmu.sims.scenario import Result, Scenario
+    from satfmu.fmus.plants.spacecraft import Spacecraft
+    from satfmu.sims.scenario.spec import Result, Scenario
 
 _EXPORTS = {
     # every error and warning satfmu raises, under SatfmuError and SatfmuWarning (satfmu.fmus.errors)
@@ -66,18 +66,21 @@ _EXPORTS = {
         "VariantError", "MasterError", "UnknownVariableError", "WiringError", "FmuCallError", "UnreadableFmuError",
         "EngineError", "ScenarioError", "DesignMismatchWarning", "StaleFmuWarning", "SspError", "DispersionError",
         "CampaignError", "CampaignWarning", "DesignError", "ShadowedArtifactWarning", "ReportError")},
-    "Spacecraft": "satfmu.fmus.spacecraft", "SEED_000": "satfmu.fmus.spacecraft",
-    "Scenario": "satfmu.sims.scenario", "FmuSpec": "satfmu.sims.scenario", "Connection": "satfmu.sims.scenario",
-    "Metric": "satfmu.sims.scenario", "Result": "satfmu.sims.scenario",
-    "Dispersions": "satfmu.sims.dispersions",
-    "run_campaign": "satfmu.sims.scenario_campaign", "CampaignResult": "satfmu.sims.scenario_campaign",
-    "Statistics": "satfmu.sims.scenario_campaign", "replay": "satfmu.sims.scenario_campaign",
+    "Spacecraft": "satfmu.fmus.plants.spacecraft", "SEED_000": "satfmu.fmus.plants.spacecraft",
+    "Scenario": "satfmu.sims.scenario.spec", "FmuSpec": "satfmu.sims.scenario.spec",
+    "Connection": "satfmu.sims.scenario.spec",
+    "Metric": "satfmu.sims.scenario.spec", "Result": "satfmu.sims.scenario.spec",
+    "Dispersions": "satfmu.sims.scenario.dispersions",
+    "run_campaign": "satfmu.sims.campaign.scenario_campaign",
+    "CampaignResult": "satfmu.sims.campaign.scenario_campaign",
+    "Statistics": "satfmu.sims.campaign.scenario_campaign", "replay": "satfmu.sims.campaign.scenario_campaign",
     "write_report": "satfmu.sims.report",
-    "Design": "satfmu.sims.designs", "design_hinf": "satfmu.sims.designs",
-    "design_h2hinf": "satfmu.sims.designs", "design_vscmg_sdre": "satfmu.sims.designs",
-    "design_cubesat_periodic": "satfmu.sims.designs", "design_demeter": "satfmu.sims.designs",
-    "fmu_cache": "satfmu.sims.paths", "user_artifacts": "satfmu.sims.paths", "find_artifact": "satfmu.sims.paths",
-    "manoeuvre": "satfmu.synthesis.two_step",
+    "Design": "satfmu.synthesis.designs", "design_hinf": "satfmu.synthesis.designs",
+    "design_h2hinf": "satfmu.synthesis.designs", "design_vscmg_sdre": "satfmu.synthesis.designs",
+    "design_cubesat_periodic": "satfmu.synthesis.designs", "design_demeter": "satfmu.synthesis.designs",
+    "fmu_cache": "satfmu.controllers.paths", "user_artifacts": "satfmu.controllers.paths",
+    "find_artifact": "satfmu.controllers.paths",
+    "manoeuvre": "satfmu.synthesis.polynomial_feedback.two_step",
 }
 _FUNCTIONS = {"run", "build", "mrp_plant", "cubesat_plant", "load_artifact"}
 __all__ = sorted([*_EXPORTS, *_FUNCTIONS, "__version__"])
@@ -86,7 +89,7 @@ __all__ = sorted([*_EXPORTS, *_FUNCTIONS, "__version__"])
 def run(scenario: "Scenario | Mapping[str, Any] | str | Path", fmu_dir: str | Path | None = None,
         backend: str = "native", out_dir: str | Path | None = None, strict: bool = False,
         design_rtol: float | None = None, allow_stale: bool = False) -> "Result":
-    """Run a scenario and evaluate its metrics (:func:`satfmu.sims.scenario.run`).
+    """Run a scenario and evaluate its metrics (:func:`satfmu.sims.scenario.spec.run`).
 
     Parameters
     ----------
@@ -114,7 +117,7 @@ def run(scenario: "Scenario | Mapping[str, Any] | str | Path", fmu_dir: str | Pa
         ``.passed``, ``.metrics``, ``.results`` (structured array), ``.plot(path)``,
         ``.write(folder)``.
     """
-    from satfmu.sims import scenario as _scenario
+    from satfmu.sims.scenario import spec as _scenario
 
     return _scenario.run(scenario, fmu_dir, backend, out_dir, strict, design_rtol, allow_stale)
 
@@ -140,7 +143,7 @@ def build(names: Iterable[str] | None = None, fmu_dir: str | Path | None = None,
     list of Path
         The FMU files.
     """
-    from satfmu.sims import catalog, paths
+    from satfmu.controllers import catalog, paths
 
     folder = paths.fmu_cache() if fmu_dir is None else Path(fmu_dir)
     if names is None:
@@ -165,7 +168,7 @@ def mrp_plant(spacecraft: "Spacecraft | None" = None) -> "Model":
     satfmu.fmus.model.Model
         The symbolic model that designs take and FMUs are generated from.
     """
-    from satfmu.fmus import mrp_satellite
+    from satfmu.fmus.plants import mrp_satellite
 
     return mrp_satellite.MODEL if spacecraft is None else mrp_satellite.build(spacecraft)
 
@@ -184,7 +187,7 @@ def cubesat_plant(spacecraft: "Spacecraft | None" = None) -> "Model":
     ValueError
         If the spacecraft has products of inertia.
     """
-    from satfmu.fmus import cubesat
+    from satfmu.fmus.plants import cubesat
 
     return cubesat.MODEL if spacecraft is None else cubesat.build(spacecraft=spacecraft)
 
@@ -206,7 +209,7 @@ def load_artifact(name_or_path: str | Path) -> "Artifact":
         Not JSON or not a valid artifact (the message names the key).
     """
     from satfmu.controllers import artifact
-    from satfmu.sims import paths
+    from satfmu.controllers import paths
 
     return artifact.load(paths.find_artifact(name_or_path))
 

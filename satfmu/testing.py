@@ -14,7 +14,7 @@ Installed as a pytest plugin (entry point ``satfmu``): in any test of yours,
 
 Fixtures
     ``satfmu_fmu_dir`` (session): the FMU folder of the test session: ``--satfmu-fmu-dir``,
-    else ``$SATFMU_FMU_DIR``, else :func:`satfmu.sims.paths.fmu_cache`. ``satfmu_run`` (session):
+    else ``$SATFMU_FMU_DIR``, else :func:`satfmu.controllers.paths.fmu_cache`. ``satfmu_run`` (session):
     ``satfmu_run(scenario, **options) -> Result`` runs in that folder, building the FMUs the
     scenario names that are missing or out of date (by build digest) once per session.
 """
@@ -28,7 +28,7 @@ from typing import TYPE_CHECKING, Any, Callable
 import pytest
 
 if TYPE_CHECKING:
-    from satfmu.sims.scenario import Result
+    from satfmu.sims.scenario.spec import Result
 
 FMU_DIR_ENV = "SATFMU_FMU_DIR"
 
@@ -48,7 +48,7 @@ def pytest_addoption(parser: pytest.Parser) -> None:
 @pytest.fixture(scope="session")
 def satfmu_fmu_dir(request: pytest.FixtureRequest) -> Path:
     """The session's FMU folder (created if missing)."""
-    from satfmu.sims.paths import fmu_cache
+    from satfmu.controllers.paths import fmu_cache
 
     chosen = request.config.getoption("--satfmu-fmu-dir") or os.environ.get(FMU_DIR_ENV)
     folder = Path(chosen).resolve() if chosen else fmu_cache()
@@ -60,7 +60,8 @@ def satfmu_fmu_dir(request: pytest.FixtureRequest) -> Path:
 def satfmu_run(satfmu_fmu_dir: Path) -> Callable[..., "Result"]:
     """``satfmu_run(scenario, backend="native", strict=False, ...) -> Result`` in the session's
     FMU folder; each FMU is brought up to date (rebuilt if its build digest differs) once."""
-    from satfmu.sims import catalog, scenario
+    from satfmu.controllers import catalog
+    from satfmu.sims.scenario import spec as scenario
 
     fresh: set[tuple[str, str]] = set()
 

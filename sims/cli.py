@@ -33,39 +33,39 @@ Usage::
     satfmu analyze region [--artifact vscmg_sdre_approx] [--box-q2 LO HI] [--box-w4 LO HI] [--cells 7 6] [--out DIR]
     satfmu analyze l2 CONTROLLER [--rate-max 0.2] [--sigma-max 0.9] [--samples 200000]
 
-``--fmu-dir`` defaults to the user's FMU cache (:func:`satfmu.sims.paths.fmu_cache`, under
+``--fmu-dir`` defaults to the user's FMU cache (:func:`satfmu.controllers.paths.fmu_cache`, under
 ``$SATFMU_HOME``); ``run``, ``export-ssp``, ``verify``, ``figures`` and ``detumble`` build the
-FMUs missing there (:func:`satfmu.sims.catalog.ensure`), ``satfmu build`` brings every FMU up to date
+FMUs missing there (:func:`satfmu.controllers.catalog.ensure`), ``satfmu build`` brings every FMU up to date
 and compiles the co-simulation loop
-(:mod:`satfmu.sims.compiled_loop`).
+(:mod:`satfmu.sims.cosim.compiled_loop`).
 A controller is named by its artifact (the user's artifacts first, then the shipped ones) or a
 ``.json`` path.
 
 Exit status: 0 done, 1 a requirement failed (``run``: a metric missed its bound), 2 an error,
 printed as one line ``satfmu COMMAND: error: FILE: KEY: ...`` (``--debug``: the traceback).
 ``run``, ``export-ssp`` and ``verify`` check a scenario alike before any work
-(:func:`satfmu.sims.scenario.check`: its file, its FMU files, its wiring and parameters) and write
+(:func:`satfmu.sims.scenario.spec.check`: its file, its FMU files, its wiring and parameters) and write
 nothing for one they refuse; a stale controller FMU (embedding another artifact than the file
 of its name) is rebuilt in the FMU cache and refused elsewhere unless ``--allow-stale``
-(:func:`satfmu.sims.scenario.ensure_fmus`).
+(:func:`satfmu.sims.scenario.spec.ensure_fmus`).
 
 ``verify`` runs scenarios (default: every shipped one) in our master, libcosim and ecos and
-compares them (:mod:`satfmu.sims.verify`); ``robustness`` drives every FMU through misuse cases
+compares them (:mod:`satfmu.sims.interop.verify`); ``robustness`` drives every FMU through misuse cases
 (:mod:`satfmu.sims.robustness`); both exit with status 1 on a failure. ``synth`` runs a design,
 writes the controller's artifact and builds its FMUs. ``analyze sweep`` writes the
 gamma-lambda trade-off of both Theorem 8 variants of seed 001 (CSV and PNG), ``analyze l2``
 the three L2-gain estimates of a controller, ``analyze region`` seed 002's re-posed SOS
 stability region of the approximated SDRE on one box and cell by cell (JSON and PNG)
-(:mod:`satfmu.sims.analysis`). ``table1``, ``figures demeter`` and ``campaign demeter`` are seed 004's
-(:mod:`satfmu.sims.demeter_reports`), ``detumble`` seed 003's (:mod:`satfmu.sims.detumble`).
+(:mod:`satfmu.sims.workflows.analysis`). ``table1``, ``figures demeter`` and ``campaign demeter`` are seed 004's
+(:mod:`satfmu.sims.workflows.demeter_reports`), ``detumble`` seed 003's (:mod:`satfmu.sims.workflows.detumble`).
 ``campaign scenario`` runs the Monte Carlo samples of a scenario's ``[dispersions]`` and
-prints their statistics (:mod:`satfmu.sims.scenario_campaign`); it exits with status 1 when a
+prints their statistics (:mod:`satfmu.sims.campaign.scenario_campaign`); it exits with status 1 when a
 sample misses a metric's bound or fails to run. ``report`` writes one self-contained HTML page
 of run and campaign folders (:mod:`satfmu.sims.report`). ``replay`` runs one sample of a scenario campaign again
-(:func:`satfmu.sims.scenario_campaign.replay`: the same FMU files, the same metrics bit for bit) and
+(:func:`satfmu.sims.campaign.scenario_campaign.replay`: the same FMU files, the same metrics bit for bit) and
 writes its CSV and plots; it exits as ``run`` does.
 
-This module imports only the standard library and :mod:`satfmu.sims.paths` at start (``satfmu
+This module imports only the standard library and :mod:`satfmu.controllers.paths` at start (``satfmu
 --help`` and ``satfmu list`` stay fast); each handler imports what it needs.
 """
 from __future__ import annotations
@@ -79,7 +79,7 @@ from pathlib import Path
 from typing import Any
 
 from satfmu.fmus.errors import SatfmuError
-from satfmu.sims import paths
+from satfmu.controllers import paths
 
 
 class _Formatter(argparse.ArgumentDefaultsHelpFormatter):
@@ -108,7 +108,8 @@ def _nonnegative_int(text: str) -> int:
 
 
 def _build(args: argparse.Namespace) -> int:
-    from satfmu.sims import catalog, compiled_loop
+    from satfmu.controllers import catalog
+    from satfmu.sims.cosim import compiled_loop
 
     backends = ("native", "python") if args.backend == "all" else (args.backend,)
     start = time.perf_counter()
@@ -131,7 +132,7 @@ def _validate(args: argparse.Namespace) -> int:
         print(f"no FMUs in {args.fmu_dir}: run `satfmu build --fmu-dir {args.fmu_dir}` first, or pass "
               f"--fmu-dir with the folder of your FMUs", file=sys.stderr)
         return 2
-    from satfmu.sims import catalog
+    from satfmu.controllers import catalog
 
     bad = 0
     for f, problems in zip(fmus, catalog.validate_all(fmus)):
@@ -146,7 +147,8 @@ def _validate(args: argparse.Namespace) -> int:
 def _run(args: argparse.Namespace) -> int:
     import warnings
 
-    from satfmu.sims import metrics, scenario
+    from satfmu.sims.scenario import metrics
+    from satfmu.sims.scenario import spec as scenario
 
     failed = 0
     summaries = []
@@ -179,7 +181,8 @@ def _replay(args: argparse.Namespace) -> int:
     import json
     import warnings
 
-    from satfmu.sims import scenario, scenario_campaign
+    from satfmu.sims.scenario import spec as scenario
+    from satfmu.sims.campaign import scenario_campaign
 
     warnings.simplefilter("ignore", scenario.DesignMismatchWarning)  # printed below, with the run
     res = scenario_campaign.replay(args.campaign, args.sample, Path(args.out), args.fmu_dir)
@@ -192,7 +195,8 @@ def _replay(args: argparse.Namespace) -> int:
 
 
 def _export_ssp(args: argparse.Namespace) -> int:
-    from satfmu.sims import scenario, ssp
+    from satfmu.sims.scenario import spec as scenario
+    from satfmu.sims.interop import ssp
 
     for sc in [scenario.load(name) for name in args.scenarios]:  # every file read before any export
         print(f"wrote {ssp.export(sc, Path(args.fmu_dir), Path(args.out), args.backend, args.allow_stale)}")
@@ -200,7 +204,7 @@ def _export_ssp(args: argparse.Namespace) -> int:
 
 
 def _verify(args: argparse.Namespace) -> int:
-    from satfmu.sims import verify
+    from satfmu.sims.interop import verify
 
     run = verify.verify_all(Path(args.fmu_dir), Path(args.out), args.scenarios, args.backend, tuple(args.engines),
                             progress=_progress, allow_stale=args.allow_stale)
@@ -222,7 +226,9 @@ def _robustness(args: argparse.Namespace) -> int:
 
 
 def _list(args: argparse.Namespace) -> int:
-    for p in paths.shipped_scenarios():
+    from satfmu.sims.scenario import shipped_scenarios
+
+    for p in shipped_scenarios():
         with open(p, "rb") as fh:
             data = tomllib.load(fh)
         print(f"{data.get('name', p.stem):28s} {data.get('description', '')}")
@@ -268,14 +274,14 @@ def _write_design(design, args: argparse.Namespace) -> int:
 
 def _spacecraft(args: argparse.Namespace):
     """The ``--spacecraft FILE`` description, or None (the seed's satellite)."""
-    from satfmu.fmus.spacecraft import Spacecraft
+    from satfmu.fmus.plants.spacecraft import Spacecraft
 
     return Spacecraft.from_toml(args.spacecraft) if args.spacecraft else None
 
 
 def _synth_hinf(args: argparse.Namespace) -> int:
-    from satfmu.sims import designs
-    from satfmu.synthesis import two_step
+    from satfmu.synthesis import designs
+    from satfmu.synthesis.polynomial_feedback import two_step
 
     start = two_step.manoeuvre(args.angle, args.axis) if args.angle is not None else None
     return _write_design(designs.design_hinf(
@@ -285,7 +291,7 @@ def _synth_hinf(args: argparse.Namespace) -> int:
 
 
 def _synth_h2hinf(args: argparse.Namespace) -> int:
-    from satfmu.sims import designs
+    from satfmu.synthesis import designs
 
     return _write_design(designs.design_h2hinf(
         args.gamma, _spacecraft(args), name=args.name, variant=args.variant, region=args.region,
@@ -293,21 +299,21 @@ def _synth_h2hinf(args: argparse.Namespace) -> int:
 
 
 def _synth_vscmg(args: argparse.Namespace) -> int:
-    from satfmu.sims import designs
+    from satfmu.synthesis import designs
 
     return _write_design(designs.design_vscmg_sdre(tuple(args.grid), args.max_degree, args.cv_tol,
                                                    not args.skip_region), args)
 
 
 def _synth_cubesat(args: argparse.Namespace) -> int:
-    from satfmu.sims import designs
+    from satfmu.synthesis import designs
 
     return _write_design(designs.design_cubesat_periodic(args.gamma, _spacecraft(args), name=args.name,
                                                          published_name=args.published_name), args)
 
 
 def _synth_demeter(args: argparse.Namespace) -> int:
-    from satfmu.sims import designs
+    from satfmu.synthesis import designs
 
     try:
         design = designs.design_demeter(args.axes, args.appendages, args.model_type, args.uncertainty_type,
@@ -322,7 +328,7 @@ def _synth_demeter(args: argparse.Namespace) -> int:
 
 
 def _table1(args: argparse.Namespace) -> int:
-    from satfmu.sims import demeter_reports
+    from satfmu.sims.workflows import demeter_reports
 
     if args.compare:
         try:
@@ -337,7 +343,7 @@ def _table1(args: argparse.Namespace) -> int:
 
 
 def _figures_demeter(args: argparse.Namespace) -> int:
-    from satfmu.sims import demeter_reports
+    from satfmu.sims.workflows import demeter_reports
 
     print(demeter_reports.figures(Path(args.fmu_dir), Path(args.out), args.artifact, samples=args.samples,
                                   seed=args.seed, stop_time=args.stop, step_size=args.step,
@@ -346,7 +352,7 @@ def _figures_demeter(args: argparse.Namespace) -> int:
 
 
 def _campaign_demeter(args: argparse.Namespace) -> int:
-    from satfmu.sims import demeter_reports
+    from satfmu.sims.workflows import demeter_reports
 
     report = demeter_reports.campaign(Path(args.out), args.artifact, samples=args.samples, seed=args.seed,
                                       chunk=args.chunk, workers=args.workers, scheduler=args.scheduler,
@@ -357,7 +363,8 @@ def _campaign_demeter(args: argparse.Namespace) -> int:
 
 
 def _campaign_scenario(args: argparse.Namespace) -> int:
-    from satfmu.sims import scenario, scenario_campaign
+    from satfmu.sims.scenario import spec as scenario
+    from satfmu.sims.campaign import scenario_campaign
 
     sc = scenario.load(args.scenario)
     samples, seed = scenario_campaign.campaign_size(sc, args.samples, args.seed, args.demo)
@@ -383,7 +390,7 @@ def _report(args: argparse.Namespace) -> int:
 
 
 def _detumble(args: argparse.Namespace) -> int:
-    from satfmu.sims import detumble
+    from satfmu.sims.workflows import detumble
 
     rates = args.rates or detumble.DEFAULT_RATES
     print(detumble.run(Path(args.fmu_dir), Path(args.out), samples=args.samples, seed=args.seed, rates=rates,
@@ -392,7 +399,7 @@ def _detumble(args: argparse.Namespace) -> int:
 
 
 def _analyze_sweep(args: argparse.Namespace) -> int:
-    from satfmu.sims import analysis
+    from satfmu.sims.workflows import analysis
 
     print(analysis.h2hinf_sweep(Path(args.out), args.gammas, region=args.region, alpha_range=tuple(args.alpha_range),
                                 evaluations=args.evaluations, progress=_progress).text())
@@ -400,7 +407,7 @@ def _analyze_sweep(args: argparse.Namespace) -> int:
 
 
 def _analyze_region(args: argparse.Namespace) -> int:
-    from satfmu.sims import analysis
+    from satfmu.sims.workflows import analysis
 
     print(analysis.vscmg_region(Path(args.out), args.artifact, box_q2=args.box_q2, box_w4=args.box_w4,
                                 q2=tuple(args.q2), w4=tuple(args.w4), cells=tuple(args.cells),
@@ -409,7 +416,7 @@ def _analyze_region(args: argparse.Namespace) -> int:
 
 
 def _analyze_l2(args: argparse.Namespace) -> int:
-    from satfmu.sims import analysis
+    from satfmu.sims.workflows import analysis
 
     print(analysis.l2(args.controller, rate_max=args.rate_max, sigma_max=args.sigma_max, kv=args.kv,
                       samples=args.samples).text())
@@ -528,14 +535,15 @@ def parser() -> argparse.ArgumentParser:
     vs.add_argument("--max-degree", type=_positive_int, default=8, help="largest polynomial degree tried")
     vs.add_argument("--cv-tol", type=float, default=None,
                     help="choose the smallest degree with this cross-validated relative error "
-                         "(default satfmu.synthesis.gain_fit.CV_TOL; 0: the smallest error)")
+                         "(default satfmu.synthesis.servo.gain_fit.CV_TOL; 0: the smallest error)")
     vs.add_argument("--skip-region", action="store_true",
                     help="do not solve the SOS stability region (the artifact stays 'sampled')")
     vs.set_defaults(fn=_synth_vscmg)
     cs = command(designs, "cubesat-periodic",
                  "seed 003: periodic stochastic H-infinity gains (Theorem 2) + published gains", parents=[out, craft])
     cs.add_argument("--gamma", type=float, default=None,
-                    help="design level (default gamma_min (1 + satfmu.synthesis.cubesat_periodic.GAMMA_MARGIN))")
+                    help="design level (default gamma_min (1 + "
+                         "satfmu.synthesis.periodic.cubesat_periodic.GAMMA_MARGIN))")
     cs.add_argument("--name", default="cubesat_periodic_satfmu", help="artifact and FMU name")
     cs.add_argument("--published-name", default="cubesat_periodic_published",
                     help="artifact and FMU name of the published gains")
@@ -577,7 +585,8 @@ def parser() -> argparse.ArgumentParser:
     fd.add_argument("--seed", type=_nonnegative_int, default=0, help="seed of the plant samples")
     fd.add_argument("--stop", type=float, default=60.0, help="FMU horizon, s")
     fd.add_argument("--step", type=float, default=1e-3,
-                    help="communication step, s (the row-1 design needs <= 1.5 ms; see sims/demeter_loops.py)")
+                    help="communication step, s (the row-1 design needs <= 1.5 ms; see "
+                         "sims/workflows/demeter_loops.py)")
     fd.add_argument("--linear-stop", type=float, default=10000.0, help="design-model horizon, s")
     _fmu_dir(fd, "folder of the FMUs (the missing ones are built)")
     fd.add_argument("--out", default="results/demeter", help="folder of the PNG files")
@@ -671,7 +680,8 @@ def parser() -> argparse.ArgumentParser:
                                      "box and map")
     rg.add_argument("--artifact", default="vscmg_sdre_approx", help="artifact name or .json path")
     rg.add_argument("--box-q2", type=float, nargs=2, metavar=("LO", "HI"),
-                    help="q2 interval of the one-Y box, rad (default: satfmu.synthesis.vscmg_region.OPERATING_BOX)")
+                    help="q2 interval of the one-Y box, rad (default: "
+                         "satfmu.synthesis.servo.vscmg_region.OPERATING_BOX)")
     rg.add_argument("--box-w4", type=float, nargs=2, metavar=("LO", "HI"),
                     help="w4 interval of the one-Y box, rad/s (default: OPERATING_BOX)")
     rg.add_argument("--q2", type=float, nargs=2, default=[0.05, 1.52], metavar=("LO", "HI"), help="map range, rad")

@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 from distributed import Client, LocalCluster
 
-from satfmu.sims import catalog
+from satfmu.controllers import catalog
 
 ROOT = Path(__file__).resolve().parents[1]
 PUBLISHED = ROOT / "controllers" / "artifacts" / "mrp_hinf_published.json"
@@ -30,7 +30,7 @@ def pytest_unconfigure(config: pytest.Config) -> None:
 
 @pytest.fixture(scope="session")
 def fmu_dir() -> Path:
-    """``build/fmus`` with every FMU of the catalog (:func:`satfmu.sims.catalog.build_all`).
+    """``build/fmus`` with every FMU of the catalog (:func:`satfmu.controllers.catalog.build_all`).
 
     The FMUs ``make build`` wrote are reused: an FMU is rebuilt only when it does not record
     the digest of its model, resources and generators (:mod:`satfmu.fmus.digest`), so the tests

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from satfmu.synthesis.lft_plant import AffineDescriptor, LFTPlant, box_vertices
+from satfmu.synthesis.robust.lft_plant import AffineDescriptor, LFTPlant, box_vertices
 
 M0, K0, A_M, B_K, RHO = 1.0, 1.0, 0.2, 0.5, 0.1
 ALPHA, BETA = 0.05, 20.0

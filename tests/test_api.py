@@ -50,6 +50,6 @@ def test_version_and_unknown_name():
 
 
 def test_names_are_the_implementations():
-    from satfmu.sims import scenario
+    from satfmu.sims.scenario import spec as scenario
 
     assert satfmu.Scenario is scenario.Scenario and satfmu.Result is scenario.Result

@@ -288,7 +288,7 @@ def test_an_exponent_beyond_any_controller_degree_is_refused() -> None:
     import json
 
     from satfmu.controllers import artifact as A
-    from satfmu.sims import paths
+    from satfmu.controllers import paths
 
     data = json.loads((paths.SHIPPED_ARTIFACTS / "mrp_hinf_published.json").read_text())
     data["law"]["terms"][0][0]["e"][0] = 10 ** 30

@@ -13,7 +13,7 @@ import pytest
 
 from satfmu.fmus import codegen, description, digest, export, signals
 from satfmu.fmus.model import Model, Output, Variable
-from satfmu.sims import catalog, paths
+from satfmu.controllers import catalog, paths
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -43,7 +43,7 @@ def test_model_digest_sees_every_field_and_nothing_else() -> None:
 
 def test_model_digest_is_the_same_in_another_process() -> None:
     # sympy's printing order must not depend on the process's hash seed
-    code = ("from fmus import digest, mrp_satellite, vscmg; "
+    code = ("from satfmu.fmus import digest; from satfmu.fmus.plants import mrp_satellite, vscmg; "
             "print(digest.model_digest(mrp_satellite.MODEL), digest.model_digest(vscmg.MODEL))")
     outs = {subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=ROOT,
                            env={**os.environ, "PYTHONHASHSEED": seed}).stdout for seed in ("1", "2")}
@@ -129,8 +129,8 @@ def test_build_all_builds_in_parallel_then_does_nothing(tmp_path: Path, monkeypa
 
 
 def test_importing_the_catalog_builds_no_model() -> None:
-    code = ("import sys; from sims import catalog; "
-            "print([m for m in ('sympy', 'satfmu.fmus.vscmg') if m in sys.modules])")
+    code = ("import sys; from satfmu.controllers import catalog; "
+            "print([m for m in ('sympy', 'satfmu.fmus.plants.vscmg') if m in sys.modules])")
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
                           cwd=Path(__file__).resolve().parents[1])
     assert proc.stdout.strip() == "[]"

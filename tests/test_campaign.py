@@ -1,4 +1,4 @@
-"""Monte Carlo campaigns on Dask (satfmu.sims.campaign): bit-for-bit reproducibility, resume, loss of a
+"""Monte Carlo campaigns on Dask (satfmu.sims.campaign.engine): bit-for-bit reproducibility, resume, loss of a
 worker, damaged and foreign chunks, two drivers in one folder, the probabilistic bounds, and a
 campaign of co-simulated FMUs."""
 from __future__ import annotations
@@ -21,11 +21,13 @@ from distributed import Client, LocalCluster
 from pandas.testing import assert_frame_equal
 
 from satfmu.controllers import artifact
-from satfmu.fmus import demeter, export
-from satfmu.sims import campaign as cp
-from satfmu.sims import catalog, chunk_files
-from satfmu.sims.campaign import Campaign, CampaignError, CampaignWarning
-from satfmu.synthesis.demeter_variants import Variant, design_model
+from satfmu.fmus.plants import demeter
+from satfmu.fmus import export
+from satfmu.sims.campaign import engine as cp
+from satfmu.controllers import catalog
+from satfmu.sims.campaign import chunk_files
+from satfmu.sims.campaign.engine import Campaign, CampaignError, CampaignWarning
+from satfmu.synthesis.robust.demeter_variants import Variant, design_model
 from tests.campaign_tasks import (abscissa, decay_time, matrix_column, normal_matrices, short_column,
                                   slow_abscissa)
 
@@ -322,7 +324,7 @@ def test_a_chunk_of_another_campaign_is_never_adopted(tmp_path: Path, cluster) -
 DRIVER = """
 import json, sys, time, warnings
 from pathlib import Path
-from satfmu.sims import campaign as cp
+from satfmu.sims.campaign import engine as cp
 from tests import campaign_tasks as ct
 out, scheduler, me = Path(sys.argv[1]), sys.argv[2], sys.argv[3]
 (out / f"ready-{me}").touch()
@@ -395,39 +397,61 @@ def test_a_complete_campaign_reads_back_from_a_read_only_file_system(tmp_path: P
 
 
 # ----------------------------------------------------------------------------- identity across the move
-def _old_record(folder: Path, campaign: cp.Campaign, **identity: str) -> None:
-    """A campaign.json as satfmu 0.1 wrote it (no identity_format), with one chunk recorded."""
+def _old_record(folder: Path, campaign: cp.Campaign, **identity: object) -> None:
+    """A campaign.json as an older satfmu wrote it (``identity`` overrides the keys of today's; no
+    identity_format unless given), with one chunk recorded."""
     folder.mkdir(parents=True)
     record = {"name": campaign.name, **campaign.identity(), **identity, "n_chunks": campaign.n_chunks,
               "chunks": {"0": "0" * 64}}
     (folder / "campaign.json").write_text(json.dumps(record))
 
 
-def test_identity_names_satfmu_modules_without_the_package_prefix() -> None:
-    """A function of a satfmu layer is named as before the layers moved under ``satfmu``
-    (``sims.catalog.builder``), so records written then still match; other modules keep theirs."""
-    assert cp._qualified_name(catalog.builder) == "sims.catalog.builder"
-    assert catalog.builder.__module__ == "satfmu.sims.catalog"
+def test_identity_names_satfmu_callables_without_their_module() -> None:
+    """A function of satfmu is named without its module (``satfmu:builder``), so that moving it
+    changes no identity; other modules keep theirs."""
+    assert cp._qualified_name(catalog.builder) == "satfmu:builder"
     assert cp._qualified_name(abscissa) == "tests.campaign_tasks.abscissa"
 
 
+def test_the_identity_of_a_task_object_does_not_name_module_paths(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A callable object's digest is of its fields: the same task under a moved class (and a moved
+    satfmu function in its fields) keeps its identity; another field value changes it."""
+    def task(stop_time: float) -> cp.FmuTask:
+        return cp.FmuTask(fmus={"plant": Path("p.fmu")}, connections=[], parameters=catalog.builder,
+                          stop_time=stop_time, step_size=0.1, metrics={}, record=[])
+
+    before = cp._qualified_name(task(1.0))
+    monkeypatch.setattr(cp.FmuTask, "__module__", "satfmu.sims.elsewhere")
+    monkeypatch.setattr(catalog.builder, "__module__", "satfmu.fmus.elsewhere")
+    assert cp._qualified_name(task(1.0)) == before == "satfmu:FmuTask:" + before.rpartition(":")[2]
+    assert cp._qualified_name(task(2.0)) != before
+
+
 def test_a_record_from_before_the_move_resumes_with_function_tasks(tmp_path: Path) -> None:
-    """A 0.1 record naming a function task ``sims.x.f`` (no identity_format) is this campaign:
-    its recorded chunks are kept."""
+    """Records of format 2 (``sims.x.f``) and of no format (``satfmu.sims.x.f``) naming a satfmu
+    function task are this campaign: their recorded chunks are kept."""
     campaign = cp.Campaign(name="moved", task=catalog.builder, n=4, seed=1, chunk=2, sampler=cp.sample_indices)
-    # the names 0.1 wrote (its modules were sims.catalog and sims.campaign)
-    _old_record(tmp_path / "moved", campaign, task="sims.catalog.builder", sampler="sims.campaign.sample_indices")
-    record = cp._claim_folder(tmp_path / "moved", campaign)
-    assert record["chunks"] == {"0": "0" * 64}
+    for fmt, prefix in ((2, ""), (None, "satfmu.")):
+        folder = tmp_path / f"moved{fmt}"
+        _old_record(folder, campaign, task=f"{prefix}sims.catalog.builder",
+                    sampler=f"{prefix}sims.campaign.sample_indices", **({"identity_format": fmt} if fmt else {}))
+        record = cp._claim_folder(folder, campaign)
+        assert record["chunks"] == {"0": "0" * 64}
+
+
+def test_a_record_from_before_the_move_naming_another_function_is_another_campaign(tmp_path: Path) -> None:
+    campaign = cp.Campaign(name="moved", task=catalog.builder, n=4, seed=1, chunk=2, sampler=cp.sample_indices)
+    _old_record(tmp_path / "moved", campaign, task="sims.catalog.not_builder", identity_format=2)
+    with pytest.raises(CampaignError, match="holds another campaign"):
+        cp._claim_folder(tmp_path / "moved", campaign)
 
 
 def test_a_record_from_before_the_move_with_a_task_object_is_refused_saying_why(tmp_path: Path) -> None:
-    """A callable object's digest pickled the old module paths: such a 0.1 record cannot be
-    matched, and the message says so (not merely "another campaign")."""
+    """A callable object's digest of format 2 pickled the old module paths: such a record cannot
+    be matched, and the message says so (not merely "another campaign")."""
     task = cp.FmuTask(fmus={}, connections=[], parameters=abscissa, stop_time=1.0, step_size=0.1, metrics={},
                       record=[])
     campaign = cp.Campaign(name="obj", task=task, n=4, seed=1, chunk=2, sampler=cp.sample_indices)
-    old_name = campaign.identity()["task"].split(":")[0] + ":" + "f" * 16
-    _old_record(tmp_path / "obj", campaign, task=old_name)
-    with pytest.raises(CampaignError, match="written before satfmu's modules moved under the satfmu package"):
+    _old_record(tmp_path / "obj", campaign, task="sims.campaign.FmuTask:" + "f" * 16, identity_format=2)
+    with pytest.raises(CampaignError, match=r"written by an older satfmu \(identity format 2\), whose task object"):
         cp._claim_folder(tmp_path / "obj", campaign)

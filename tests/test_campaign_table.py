@@ -7,8 +7,8 @@ from pathlib import Path
 import pytest
 from distributed import Client
 
-from satfmu.sims import scenario as S
-from satfmu.sims import scenario_campaign as SC
+from satfmu.sims.scenario import spec as S
+from satfmu.sims.campaign import scenario_campaign as SC
 from satfmu.sims.cli import main
 from tests.test_scenario_campaign import mrp, toml
 

@@ -10,8 +10,10 @@ from pathlib import Path
 
 import pytest
 
-from satfmu.sims import catalog, cli, paths
+from satfmu.controllers import catalog, paths
+from satfmu.sims import cli
 from satfmu.sims.cli import main
+from satfmu.sims.scenario import shipped_scenarios
 
 
 def test_run_passes_and_writes_summary(fmu_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
@@ -27,7 +29,7 @@ def test_run_passes_and_writes_summary(fmu_dir: Path, tmp_path: Path, capsys: py
 
 def test_run_fails_with_exit_1_when_a_bound_is_missed(fmu_dir: Path, tmp_path: Path,
                                                       capsys: pytest.CaptureFixture) -> None:
-    src = Path(__file__).resolve().parents[1] / "sims" / "scenarios" / "mrp_eq44.toml"
+    src = Path(__file__).resolve().parents[1] / "sims" / "scenario" / "shipped" / "mrp_eq44.toml"
     strict = tmp_path / "strict.toml"
     strict.write_text(src.read_text().replace("max = 0.42", "max = 0.2"))  # 0.277 > 0.2
     assert main(["run", str(strict), "--fmu-dir", str(fmu_dir), "--out", str(tmp_path)]) == 1
@@ -69,7 +71,7 @@ def test_validate_reports_every_fmu(fmu_dir: Path, capsys: pytest.CaptureFixture
 def test_list_shows_shipped_scenarios(capsys: pytest.CaptureFixture) -> None:
     assert main(["list"]) == 0
     lines = capsys.readouterr().out.splitlines()
-    assert [line.split()[0] for line in lines] == [p.stem for p in paths.shipped_scenarios()]
+    assert [line.split()[0] for line in lines] == [p.stem for p in shipped_scenarios()]
     by_name = {line.split()[0]: line for line in lines}
     assert "Seed 000 Figs 1-3: 200 deg rest-to-rest" in by_name["mrp_200deg"]  # name, then description
     for name in ("mrp_200deg", "mrp_200deg_sat", "mrp_320deg_sat", "mrp_eq44"):
@@ -78,8 +80,9 @@ def test_list_shows_shipped_scenarios(capsys: pytest.CaptureFixture) -> None:
 
 @pytest.mark.parametrize("argv", [["--help"], ["list"]])
 def test_help_and_list_import_no_numerical_library(argv: list[str]) -> None:
-    # `satfmu --help` and `satfmu list` start fast: only the standard library and satfmu.sims.paths
-    code = ("import sys\nfrom sims import cli\ntry:\n    cli.main(sys.argv[1:])\nexcept SystemExit:\n    pass\n"
+    # `satfmu --help` and `satfmu list` start fast: only the standard library, satfmu.controllers.paths and
+    # satfmu.sims.scenario
+    code = ("import sys\nfrom satfmu.sims import cli\ntry:\n    cli.main(sys.argv[1:])\nexcept SystemExit:\n    pass\n"
             "print([m for m in ('sympy', 'numpy', 'fmpy', 'scipy') if m in sys.modules])")
     proc = subprocess.run([sys.executable, "-c", code, *argv], capture_output=True, text=True, check=True,
                           cwd=Path(__file__).resolve().parents[1])
@@ -146,8 +149,8 @@ def test_analyze_groups_the_analyses(capsys: pytest.CaptureFixture) -> None:
 
 def test_commands_without_the_demeter_plant_do_not_build_its_model() -> None:
     # a fresh process: `satfmu list` imports the whole CLI, and the DEMETER model (about 4 s of
-    # sympy) is built only on first use of satfmu.fmus.demeter.MODEL
-    code = ("import sys; from satfmu.sims.cli import main; from fmus import demeter; "
+    # sympy) is built only on first use of satfmu.fmus.plants.demeter.MODEL
+    code = ("import sys; from satfmu.sims.cli import main; from satfmu.fmus.plants import demeter; "
             "rc = main(['list']); print(rc, demeter.model.cache_info().currsize)")
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
                           cwd=Path(__file__).resolve().parents[1])
@@ -198,7 +201,7 @@ def test_synth_vscmg_certifies_the_chosen_fit(tmp_path: Path, capsys: pytest.Cap
     assert code == 0 and "<- chosen" in capsys.readouterr().out
     approx = json.loads((tmp_path / "vscmg_sdre_approx.json").read_text())
     # the smallest degree within CV_TOL = 2e-3 (CV error 1.4e-3 at degree 4 on the 23 x 25 grid),
-    # and the SOS region holds on the operating box (satfmu.synthesis.vscmg_region)
+    # and the SOS region holds on the operating box (satfmu.synthesis.servo.vscmg_region)
     assert approx["certificate"]["status"] == "certified" and approx["fit"]["degree"] == 4
     assert approx["certificate"]["numbers"]["region_trig_max_lyapunov_eig"] < 0
     assert (tmp_path / "vscmg_lq_servo.json").is_file()
@@ -253,7 +256,7 @@ def test_counts_below_their_range_are_refused_before_any_work(argv: list[str], o
 def _shipped_digest() -> dict[str, str]:
     import hashlib
 
-    from satfmu.sims.paths import SHIPPED_ARTIFACTS
+    from satfmu.controllers.paths import SHIPPED_ARTIFACTS
 
     return {f.name: hashlib.sha256(f.read_bytes()).hexdigest() for f in sorted(SHIPPED_ARTIFACTS.glob("*.json"))}
 
@@ -264,7 +267,8 @@ SYNTH_DEFAULT_RUNS = [["cubesat-periodic"], ["mrp-hinf"], ["mrp-h2hinf", "--gamm
 
 def test_synth_writes_to_the_user_folder_by_default(tmp_path, monkeypatch):
     """Every synth command's default --out is the user's artifact folder, never the shipped one."""
-    from satfmu.sims import cli, paths
+    from satfmu.sims import cli
+    from satfmu.controllers import paths
 
     monkeypatch.setenv("SATFMU_HOME", str(tmp_path))
     for argv in SYNTH_DEFAULT_RUNS:
@@ -323,7 +327,7 @@ def test_synth_mrp_hinf_designs_for_the_spacecraft_file(tmp_path: Path, capsys: 
                                                          monkeypatch: pytest.MonkeyPatch) -> None:
     """The CLI passes the spacecraft, the manoeuvre (angle, axis) and the budget to the design;
     the design itself is replaced by a recorder (the real one runs in the examples' tests)."""
-    from satfmu.sims import designs
+    from satfmu.synthesis import designs
 
     seen = {}
 

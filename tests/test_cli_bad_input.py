@@ -21,7 +21,8 @@ from typing import Callable
 import pytest
 
 from satfmu.fmus import export
-from satfmu.sims import paths, preflight
+from satfmu.controllers import paths
+from satfmu.sims.cosim import preflight
 from satfmu.sims.cli import main
 from tests.test_cli import BAD_SCENARIOS, _bad_scenario
 

@@ -9,9 +9,10 @@ import numpy as np
 import pytest
 
 from satfmu.controllers import polynomial
-from satfmu.fmus import export, mrp_satellite, reference
-from satfmu.sims import scenario
-from satfmu.sims.master import CoSimulation
+from satfmu.fmus import export, reference
+from satfmu.fmus.plants import mrp_satellite
+from satfmu.sims.scenario import spec as scenario
+from satfmu.sims.cosim.master import CoSimulation
 from tests.conftest import PUBLISHED, SIGMA_200
 
 STATE = [f"plant.omega[{i}]" for i in (1, 2, 3)] + [f"plant.sigma[{i}]" for i in (1, 2, 3)]

@@ -1,4 +1,4 @@
-"""The compiled step loop (satfmu.sims.compiled_loop, sims/c/cosim_loop.c) against the master's Python loop.
+"""The compiled step loop (satfmu.sims.cosim.compiled_loop, sims/cosim/c/cosim_loop.c) against the master's Python loop.
 
 Both loops make the same FMI calls with the same values in the same order, so every
 comparison here is exact (bytes of the result arrays, NaN payloads included): any
@@ -12,10 +12,10 @@ import numpy as np
 import pytest
 
 from satfmu.fmus.profiles import make
-from satfmu.sims import compiled_loop
-from satfmu.sims import scenario as S
-from satfmu.sims.master import CoSimulation, FmuCallError, MasterError, recorded_steps
-from satfmu.sims.paths import shipped_scenarios
+from satfmu.sims.cosim import compiled_loop
+from satfmu.sims.scenario import spec as S
+from satfmu.sims.cosim.master import CoSimulation, FmuCallError, MasterError, recorded_steps
+from satfmu.sims.scenario import shipped_scenarios
 
 SHORT = {"vscmg_seed": 1.5, "vscmg_seed_friction": 1.5, "vscmg_friction_mc_online": 1.5}
 """Stop time of the fast test for the scenarios with pythonfmu online SDRE controllers, s (2.3 s
@@ -156,7 +156,7 @@ def test_a_scenario_records_every_nth_point_and_its_metrics_read_them(fmu_dir: P
     import csv
     import tomllib
 
-    from satfmu.sims.paths import SHIPPED_SCENARIOS
+    from satfmu.sims.scenario import SHIPPED_SCENARIOS
 
     data = tomllib.loads((SHIPPED_SCENARIOS / "mrp_200deg.toml").read_text())
     full = S.run(S.Scenario.from_dict(data), fmu_dir)

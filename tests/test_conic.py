@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 import scipy.sparse as sps
 
-from satfmu.synthesis.conic import ConicProblem, solve_clarabel, svec_indices, svec_scale
+from satfmu.synthesis.core.conic import ConicProblem, solve_clarabel, svec_indices, svec_scale
 
 
 def _largest_offdiagonal(diagonal: tuple[float, float, float]) -> ConicProblem:

@@ -9,7 +9,7 @@ import pytest
 import sympy as sp
 from fmpy import simulate_fmu
 
-from satfmu.fmus import cubesat
+from satfmu.fmus.plants import cubesat
 from satfmu.fmus.codegen import load_python
 
 MODEL = cubesat.MODEL

@@ -10,11 +10,11 @@ from scipy.integrate import solve_ivp
 from scipy.linalg import expm, solve_continuous_are
 
 from satfmu.controllers import state_feedback
-from satfmu.fmus import demeter
+from satfmu.fmus.plants import demeter
 from satfmu.fmus.model import Model, ModelDefinitionError, Variable, states, symbols
 from satfmu.fmus.pyslave import affine_flow
-from satfmu.sims.master import CoSimulation
-from satfmu.synthesis import demeter_variants as dv
+from satfmu.sims.cosim.master import CoSimulation
+from satfmu.synthesis.robust import demeter_variants as dv
 
 NOMINAL = (demeter.J0, demeter.L_SUBSTITUTE, np.full(4, demeter.ZETA_NOMINAL), np.full(4, demeter.OMEGA_NOMINAL))
 STATE_NAMES = [s.variable.name for s in demeter.MODEL.states]

@@ -8,12 +8,12 @@ from scipy.linalg import null_space
 
 from satfmu.controllers import artifact as artifacts
 from satfmu.controllers import polynomial, state_feedback
-from satfmu.synthesis import demeter_design as dd
-from satfmu.synthesis import demeter_variants as dv
-from satfmu.synthesis.lft_plant import LFTPlant
-from satfmu.synthesis.pdlf import PDLF_BISECTION_TOL
-from satfmu.synthesis.robust_design import design, verify
-from satfmu.synthesis.system_norms import hinf_norm, impulse_to_peak
+from satfmu.synthesis.robust import demeter_design as dd
+from satfmu.synthesis.robust import demeter_variants as dv
+from satfmu.synthesis.robust.lft_plant import LFTPlant
+from satfmu.synthesis.robust.pdlf import PDLF_BISECTION_TOL
+from satfmu.synthesis.robust.robust_design import design, verify
+from satfmu.synthesis.core.system_norms import hinf_norm, impulse_to_peak
 
 ROW1 = dv.Variant((1,), (1,), 1, 1)
 
@@ -183,11 +183,11 @@ def test_shipped_row1_artifact_is_this_design(row1) -> None:
 
 def test_vertex_program_too_large_for_memory_falls_back_to_dg_scalings(monkeypatch) -> None:
     """One axis on intervals: its vertex design program is estimated at 13.4 MB, its D-G one at
-    4.7 MB (satfmu.synthesis.lmi.LMIProgram.solver_bytes). Under a 10 MB limit the design is the D-G
+    4.7 MB (satfmu.synthesis.core.lmi.LMIProgram.solver_bytes). Under a 10 MB limit the design is the D-G
     one, named so, and still verified; the two bounds agree within 0.1 % (D-G scalings satisfy
     the vertex inequality with equality: the vertex design can only be as good or better, and on
     this box they differ by 8e-4 relative)."""
-    from satfmu.synthesis import lmi
+    from satfmu.synthesis.core import lmi
 
     v = dv.Variant((1,), (1,), 1, 2)
     vertex = dd.deterministic(v, n_samples=0, analysis=False)

@@ -9,11 +9,11 @@ import pytest
 from distributed import Client, LocalCluster
 
 from satfmu.controllers import polynomial
-from satfmu.sims import demeter_loops as dl
-from satfmu.sims import scenario as S
+from satfmu.sims.workflows import demeter_loops as dl
+from satfmu.sims.scenario import spec as S
 from satfmu.sims.cli import main
-from satfmu.sims.paths import SHIPPED_SCENARIOS
-from satfmu.synthesis.demeter_variants import THETA_WORST
+from satfmu.sims.scenario import SHIPPED_SCENARIOS
+from satfmu.synthesis.robust.demeter_variants import THETA_WORST
 
 ART = polynomial.ARTIFACTS / "demeter_row1_det.json"
 
@@ -95,15 +95,15 @@ def test_bad_inputs(fmu_dir: Path) -> None:
 
 
 SHIPPED = {start: f"demeter_row1_det_{start}" for start in dl.STARTS}
-"""The shipped scenario of each start (sims/scenarios/)."""
+"""The shipped scenario of each start (sims/scenario/shipped/)."""
 
 
 @pytest.mark.parametrize("start", list(SHIPPED))
 def test_a_shipped_scenario_is_the_scenario_of_the_row1_design(start: str) -> None:
-    """One source of truth: the shipped file is what `python -m satfmu.sims.demeter_loops` writes from
+    """One source of truth: the shipped file is what `python -m satfmu.sims.workflows.demeter_loops` writes from
     dl.scenario(), text for text, and reads back as the same scenario."""
     path = SHIPPED_SCENARIOS / f"{SHIPPED[start]}.toml"
-    assert path.read_text() == dl.scenario_text(start), "regenerate it: python -m satfmu.sims.demeter_loops"
+    assert path.read_text() == dl.scenario_text(start), "regenerate it: python -m satfmu.sims.workflows.demeter_loops"
     assert S.load(SHIPPED[start]).to_dict() == dl.scenario("demeter_row1_det", start=start).to_dict()
     assert S.load(SHIPPED[start]).to_dict() == dl.shipped_scenario(start).to_dict()
 

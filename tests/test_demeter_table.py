@@ -7,8 +7,8 @@ from pathlib import Path
 import pytest
 
 from satfmu.sims.cli import main
-from satfmu.synthesis import demeter_table as t1
-from satfmu.synthesis.demeter_variants import SEED_TABLE1, SEED_TABLE1_COLUMNS, Variant
+from satfmu.synthesis.robust import demeter_table as t1
+from satfmu.synthesis.robust.demeter_variants import SEED_TABLE1, SEED_TABLE1_COLUMNS, Variant
 
 ROW3 = Variant((1,), (1, 2), 1, 1)
 

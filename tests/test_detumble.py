@@ -7,8 +7,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from satfmu.sims import detumble
-from satfmu.synthesis import cubesat_periodic as cp
+from satfmu.sims.workflows import detumble
+from satfmu.synthesis.periodic import cubesat_periodic as cp
 
 
 def test_linear_campaign_mean_square_is_the_exact_one_and_decays_like_the_seeds_fig_2() -> None:
@@ -24,7 +24,7 @@ def test_linear_campaign_mean_square_is_the_exact_one_and_decays_like_the_seeds_
 
 def test_sweep_at_the_scenarios_rate_reproduces_the_scenario(fmu_dir: Path) -> None:
     rows = {r.controller: r for r in detumble.sweep(fmu_dir, [float(np.linalg.norm(detumble.W0_DIRECTION))])}
-    # The scenario's own run (sims/scenarios/cubesat_detumble.toml): B-dot 0.00222 rad/s after two
+    # The scenario's own run (sims/scenario/shipped/cubesat_detumble.toml): B-dot 0.00222 rad/s after two
     # orbits from 0.0707; the periodic designs stay above half the initial rate.
     assert rows["B-dot"].detumbled and rows["B-dot"].final_ratio == pytest.approx(0.00222 / 0.0707, rel=0.02)
     assert rows["periodic LMI (published)"].final_ratio > 0.5 and not rows["periodic LMI (satfmu)"].detumbled

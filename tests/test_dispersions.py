@@ -1,5 +1,5 @@
 """Dispersions: the distributions' statistics, attitude and inertia draws, determinism,
-validation with key paths, and a dispersed scenario run (sims/dispersions.py)."""
+validation with key paths, and a dispersed scenario run (sims/scenario/dispersions.py)."""
 from __future__ import annotations
 
 import math
@@ -10,9 +10,9 @@ import pytest
 from scipy import stats
 from scipy.spatial.transform import Rotation
 
-from satfmu.fmus.spacecraft import SEED_000, Spacecraft
-from satfmu.sims import scenario as S
-from satfmu.sims.dispersions import DispersionError, Dispersions
+from satfmu.fmus.plants.spacecraft import SEED_000, Spacecraft
+from satfmu.sims.scenario import spec as S
+from satfmu.sims.scenario.dispersions import DispersionError, Dispersions
 from tests.conftest import SIGMA_200
 
 Z = 5.0

@@ -1,7 +1,7 @@
 """The examples in the docstrings of satfmu's modules run and print what they show.
 
 Every module of the ``satfmu`` package whose source holds an example (``>>>``) is imported under
-its one name (``satfmu.synthesis.sos``, never a bare ``synthesis.sos``, which would load it twice)
+its one name (``satfmu.synthesis.core.sos``, never a bare ``synthesis.sos``, which would load it twice)
 and its examples are run with :mod:`doctest`.
 """
 from __future__ import annotations
@@ -31,8 +31,8 @@ MODULES = _modules_with_examples()
 
 
 def test_examples_were_found() -> None:
-    """The scan found the known example (synthesis/sos.py's)."""
-    assert "satfmu.synthesis.sos" in MODULES
+    """The scan found the known example (synthesis/core/sos.py's)."""
+    assert "satfmu.synthesis.core.sos" in MODULES
 
 
 @pytest.mark.parametrize("name", MODULES)

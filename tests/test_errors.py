@@ -12,7 +12,7 @@ import pytest
 
 import satfmu
 from satfmu.fmus import errors
-from satfmu.sims import designs
+from satfmu.synthesis import designs
 
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGES = ("fmus", "controllers", "synthesis", "sims", "satfmu")
@@ -70,8 +70,10 @@ def test_no_exception_class_is_defined_outside_the_errors_module() -> None:
 
 
 def test_modules_that_raise_a_class_re_export_the_same_object() -> None:
-    from satfmu.sims import master, scenario
-    from satfmu.synthesis import lft_plant, sos
+    from satfmu.sims.cosim import master
+    from satfmu.sims.scenario import spec as scenario
+    from satfmu.synthesis.robust import lft_plant
+    from satfmu.synthesis.core import sos
 
     assert scenario.ScenarioError is errors.ScenarioError and master.FmuCallError is errors.FmuCallError
     assert sos.SOSError is errors.SOSError and lft_plant.DeltaError is errors.DeltaError

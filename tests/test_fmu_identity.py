@@ -21,9 +21,10 @@ import pytest
 from fmpy import extract, read_model_description
 from fmpy.fmi2 import FMU2Slave
 
-from satfmu.fmus import __version__, codegen, description, export, mrp_satellite, signals
+from satfmu.fmus import __version__, codegen, description, export, signals
+from satfmu.fmus.plants import mrp_satellite
 from satfmu.fmus.digest import model_digest
-from satfmu.sims import fmi_host
+from satfmu.sims.cosim import fmi_host
 
 ROOT = Path(__file__).resolve().parents[1]
 VERSION = re.compile(re.escape(__version__) + r"\+[0-9a-f]{16}")
@@ -97,7 +98,7 @@ def test_the_guid_identifies_the_description() -> None:
 _BUILD = """
 import sys
 from pathlib import Path
-from satfmu.sims import catalog
+from satfmu.controllers import catalog
 dest = Path(sys.argv[1])
 for backend in ("native", "python"):
     catalog.ensure(dest, ["mrp_satellite", "cubesat_periodic_published"], backend)

@@ -31,7 +31,7 @@ import pytest
 from fmpy import extract, read_model_description
 from fmpy.fmi2 import FMU2Slave, fmi2Error, fmi2Fatal, fmi2FMUstate
 
-from satfmu.sims import fmi_host
+from satfmu.sims.cosim import fmi_host
 
 
 PLANT, PLANT_PY = "mrp_satellite.fmu", "mrp_satellite_py.fmu"
@@ -146,7 +146,7 @@ class Instance:
 
     def free(self) -> None:
         """fmi2FreeInstance, unless the instance returned fmi2Fatal (after which FMI 2.0 allows
-        no call at all). The library stays loaded (as in satfmu.sims.master)."""
+        no call at all). The library stays loaded (as in satfmu.sims.cosim.master)."""
         if self.dead:
             fmi_host.abandon(self)
         elif self.live:
@@ -158,7 +158,7 @@ class Instance:
 def fmus(fmu_dir: Path) -> Iterator[dict[str, Fmu]]:
     """The four FMUs, extracted once per session.
 
-    ``fmu_dir`` (tests/conftest.py) is the session's ``satfmu.sims.catalog.build_all`` output in a
+    ``fmu_dir`` (tests/conftest.py) is the session's ``satfmu.controllers.catalog.build_all`` output in a
     pytest tmp dir, built from the current tree and shared with the other test modules.
     """
     out = {}
@@ -701,7 +701,7 @@ def test_wrong_guid(make, file: str) -> None:
 
 # ----------------------------------------------------------------------------- pythonfmu after a refusal
 def test_pythonfmu_free_after_refusal_does_not_crash(fmus: dict[str, Fmu]) -> None:
-    """A host that frees a pythonfmu instance after a rejected call (satfmu.sims.master does, in its
+    """A host that frees a pythonfmu instance after a rejected call (satfmu.sims.cosim.master does, in its
     ``finally``) must not crash. pythonfmu 0.7.0 releases the instance's Python objects on the
     exception and again in fmi2FreeInstance; fmus/pyslave.py balances that for the calls it
     rejects (which the C layer reports as fmi2Error). 30 cycles in a child process (a segfault

@@ -21,7 +21,7 @@ from fmpy import read_model_description
 from fmpy.fmi2 import FMU2Slave
 
 from satfmu.fmus import export
-from satfmu.sims import fmi_host
+from satfmu.sims.cosim import fmi_host
 
 MODELS = ("mrp_satellite", "mrp_hinf_published", "signal_sinusoid")
 """A plant (RK4), a controller (an expression sampler, integer powers) and a signal generator."""

@@ -6,7 +6,7 @@ import pytest
 
 from satfmu.controllers import artifact, servo
 from satfmu.fmus import codegen
-from satfmu.synthesis import gain_fit, sdre
+from satfmu.synthesis.servo import gain_fit, sdre
 
 
 @pytest.fixture(scope="module")

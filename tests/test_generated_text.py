@@ -17,7 +17,7 @@ import pytest
 
 from satfmu.controllers import artifact as A
 from satfmu.fmus import archive
-from satfmu.sims import catalog, paths
+from satfmu.controllers import catalog, paths
 
 BASE = json.loads((paths.SHIPPED_ARTIFACTS / "mrp_hinf_published.json").read_text())
 

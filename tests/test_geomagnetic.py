@@ -1,4 +1,5 @@
-"""IGRF along the cubesat's orbit (satfmu.fmus.geomagnetic), its Fourier fit and the ``igrf`` profile kind."""
+"""IGRF along the cubesat's orbit (satfmu.fmus.environment.geomagnetic), its Fourier fit and the ``igrf``
+profile kind."""
 from __future__ import annotations
 
 import datetime as dt
@@ -12,8 +13,8 @@ import pytest
 import sympy as sp
 from ppigrf import igrf_gc
 
-from satfmu.fmus import cubesat
-from satfmu.fmus.geomagnetic import (
+from satfmu.fmus.plants import cubesat
+from satfmu.fmus.environment.geomagnetic import (
     ORBIT_PARAMETERS,
     fourier_basis,
     fourier_fit,
@@ -30,7 +31,7 @@ DEFAULTS = model_defaults()
 
 
 def _dipole_numeric() -> callable:
-    """``satfmu.fmus.cubesat.dipole_field_orbit`` lambdified in (tau, every cubesat parameter)."""
+    """``satfmu.fmus.plants.cubesat.dipole_field_orbit`` lambdified in (tau, every cubesat parameter)."""
     tau = sp.Symbol("tau", real=True)
     p = {name: sp.Symbol(name, real=True) for name in DEFAULTS}
     f = sp.lambdify([tau, *p.values()], list(cubesat.dipole_field_orbit(tau, p)), "numpy")
@@ -250,7 +251,7 @@ def test_igrf_profile_is_the_orbit_field_at_orbit_time(epoch: str) -> None:
     want = igrf_orbit_field(1234.5 + t, EPOCH, params, max_degree=10)
     for c in (1, 2, 3):
         p = tomllib.loads(SCENARIO.format(c=c, epoch=epoch))["profiles"][0]
-        prof = make({k: v for k, v in p.items() if k != "to"}, step_size=1.0)  # as satfmu.sims.scenario does
+        prof = make({k: v for k, v in p.items() if k != "to"}, step_size=1.0)  # as satfmu.sims.scenario.spec does
         # The same function on the same orbit times: equal to round-off of tau0 + t.
         assert prof.sample(t) == pytest.approx(want[:, c - 1], rel=1e-14, abs=1e-20)
 

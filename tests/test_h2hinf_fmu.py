@@ -13,8 +13,9 @@ import pytest
 
 from satfmu.controllers import artifact as artifacts
 from satfmu.controllers import polynomial
-from satfmu.fmus import mrp_satellite, reference
-from satfmu.sims import scenario
+from satfmu.fmus.plants import mrp_satellite
+from satfmu.fmus import reference
+from satfmu.sims.scenario import spec as scenario
 
 ARTIFACT = artifacts.load(polynomial.ARTIFACTS / "mrp_h2hinf_satfmu.json")
 NUMBERS = ARTIFACT.certificate["numbers"]

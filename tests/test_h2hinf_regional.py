@@ -11,9 +11,9 @@ import pytest
 import sympy as sp
 
 from satfmu.controllers import artifact as artifacts
-from satfmu.fmus import mrp_satellite
-from satfmu.synthesis import h2hinf_sos as T
-from satfmu.synthesis.sos import SOSError
+from satfmu.fmus.plants import mrp_satellite
+from satfmu.synthesis.polynomial_feedback import h2hinf_sos as T
+from satfmu.synthesis.core.sos import SOSError
 
 A_B = 0.3  # near the line search's optimum at gamma = 1 (0.3: 3.610, 0.1: 4.1, 1.0: 3.64)
 
@@ -127,7 +127,7 @@ def test_frozen_search_and_sweep_are_consistent(tmp_path) -> None:
     assert all(lam[(g, "slack")] <= lam[(g, "common")] * (1 + 1e-6) for g in (1.0, 0.6))
     csv_text = T.sweep_csv(rows)
     assert csv_text.splitlines()[0] == "gamma,variant,lambda,alpha,beta,sdps" and len(csv_text.splitlines()) == 5
-    from satfmu.sims import plots
+    from satfmu.sims.scenario import plots
 
     plots.tradeoff(rows, tmp_path / "t.png", "test")
     assert (tmp_path / "t.png").stat().st_size > 1000

@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 import scipy.linalg as sla
 
-from satfmu.fmus import mrp_satellite
-from satfmu.synthesis import h2hinf_sos as T
-from satfmu.synthesis.sos import SOSError
+from satfmu.fmus.plants import mrp_satellite
+from satfmu.synthesis.polynomial_feedback import h2hinf_sos as T
+from satfmu.synthesis.core.sos import SOSError
 
 MARGIN = 1e-7  # docs/models.md's "small margins"; 1e-4 would raise lambda by about 1 %
 ALPHA = 1e-4  # docs/models.md: the alpha search drives alpha -> 0; at 1e-4 lambda is within 2e-4 of the limit

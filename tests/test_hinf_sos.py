@@ -5,8 +5,9 @@ import numpy as np
 import pytest
 
 from satfmu.controllers import artifact, polynomial
-from satfmu.fmus import mrp_satellite, reference
-from satfmu.synthesis.hinf_sos import artifact_data, theorem1
+from satfmu.fmus.plants import mrp_satellite
+from satfmu.fmus import reference
+from satfmu.synthesis.polynomial_feedback.hinf_sos import artifact_data, theorem1
 from tests.conftest import SIGMA_200
 
 
@@ -50,7 +51,7 @@ def test_bad_arguments_are_refused_before_a_program_is_built(kwargs: dict, messa
     def no_program(*args, **kw):
         raise AssertionError("a program was built before the arguments were checked")
 
-    monkeypatch.setattr("satfmu.synthesis.hinf_sos.SOSProgram", no_program)
+    monkeypatch.setattr("satfmu.synthesis.polynomial_feedback.hinf_sos.SOSProgram", no_program)
     with pytest.raises(ValueError, match=message):
         theorem1(**kwargs)
 

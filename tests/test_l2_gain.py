@@ -1,4 +1,4 @@
-"""L2 gain of the closed loop from the Hamilton-Jacobi inequality (satfmu.synthesis.l2_gain).
+"""L2 gain of the closed loop from the Hamilton-Jacobi inequality (satfmu.synthesis.polynomial_feedback.l2_gain).
 
 Pins the measured numbers of both shipped controllers:
 
@@ -10,7 +10,7 @@ Pins the measured numbers of both shipped controllers:
   the artifact's recorded c, bracketed from below by the sampled estimate.
 
 Plus property tests of the pointwise formula ``c(x; kv)``, its origin limit, the region
-and the input checks of :func:`satfmu.synthesis.l2_gain.hji_form`.
+and the input checks of :func:`satfmu.synthesis.polynomial_feedback.l2_gain.hji_form`.
 """
 from __future__ import annotations
 
@@ -22,10 +22,10 @@ import pytest
 import scipy.linalg as sla
 
 from satfmu.controllers.artifact import ControllerArtifact, load, parse
-from satfmu.fmus.mrp_satellite import INERTIA_SEED_000
-from satfmu.synthesis import l2_gain
-from satfmu.synthesis.l2_gain import HJIForm, Region
-from satfmu.synthesis.sos import SOSError
+from satfmu.fmus.plants.mrp_satellite import INERTIA_SEED_000
+from satfmu.synthesis.polynomial_feedback import l2_gain
+from satfmu.synthesis.polynomial_feedback.l2_gain import HJIForm, Region
+from satfmu.synthesis.core.sos import SOSError
 from tests.conftest import PUBLISHED
 
 SATFMU = Path(PUBLISHED).parent / "mrp_hinf_satfmu.json"

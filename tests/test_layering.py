@@ -12,6 +12,7 @@ under two names.
 from __future__ import annotations
 
 import ast
+import re
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -97,9 +98,28 @@ def test_no_module_imports_a_higher_layer() -> None:
     assert not found, "imports of a higher layer:\n" + "\n".join(found)
 
 
+BARE_IN_TEXT = re.compile(r"(?:^|[\"';]\s*|\\n)\s*(?:from|import) (?:fmus|controllers|synthesis|sims)\b")
+"""A bare import of a layer in a string (code run by ``python -c`` or written to a file)."""
+
+
+def text_violations(root: Path = ROOT, folders: tuple[str, ...] = PYTHON_FOLDERS) -> list[str]:
+    """``where:line`` of every bare layer import inside a string of a Python file (the AST check
+    cannot see those; a child run in the repository's folder would import the folder itself)."""
+    out = []
+    for folder in folders:
+        for path in sorted((root / folder).rglob("*.py")):
+            if path.name == "test_layering.py":
+                continue  # its examples
+            for lineno, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
+                if ('"' in line or "'" in line) and BARE_IN_TEXT.search(line):
+                    out.append(f"{path.relative_to(root)}:{lineno}: {line.strip()}")
+    return out
+
+
 def test_no_file_imports_a_layer_by_its_bare_name() -> None:
-    """Every Python file of the repository imports the layers as ``satfmu.<layer>``."""
-    found = tree_violations(folders=PYTHON_FOLDERS)
+    """Every Python file of the repository imports the layers as ``satfmu.<layer>``, in its code
+    and in the code it runs from strings."""
+    found = tree_violations(folders=PYTHON_FOLDERS) + text_violations()
     assert sum(1 for f in PYTHON_FOLDERS for _ in (ROOT / f).rglob("*.py")) > 150  # the tree was found
     assert not found, "bare imports of a layer:\n" + "\n".join(found)
 
@@ -115,16 +135,16 @@ from satfmu.controllers.artifact import parse
 from . import polynomial
 import satfmu
 if TYPE_CHECKING:
-    from satfmu.sims.master import CoSimulation
+    from satfmu.sims.cosim.master import CoSimulation
 def f():
-    import satfmu.synthesis.sos as sos
+    import satfmu.synthesis.core.sos as sos
     from ..sims import cli
     from .. import synthesis
 """
     found = violations(source, "satfmu.controllers.law", "controllers/law.py")
     assert [v.split(" (")[0] for v in found] == [
-        "controllers/law.py:10: from satfmu.sims.master import CoSimulation",
-        "controllers/law.py:12: import satfmu.synthesis.sos as sos",
+        "controllers/law.py:10: from satfmu.sims.cosim.master import CoSimulation",
+        "controllers/law.py:12: import satfmu.synthesis.core.sos as sos",
         "controllers/law.py:13: from ..sims import cli",
         "controllers/law.py:14: from .. import synthesis"]
     # relative imports resolve from a package's __init__.py, and the lowest layer imports nothing
@@ -146,3 +166,42 @@ def f():
     (tmp_path / "synthesis").mkdir()
     assert [v.split(" (")[0] for v in tree_violations(tmp_path)] == [
         "fmus/a.py:4: from satfmu.controllers import servo", "fmus/c/b.py:1: from satfmu.sims.cli import main"]
+
+
+CORES = ("satfmu.sims.cosim", "satfmu.synthesis.core")
+"""Subpackages that are the base of their layer: they import nothing else of it (the master runs
+FMUs without knowing scenarios; the SOS and LMI machinery knows no design method)."""
+
+
+def core_violations(root: Path = ROOT) -> list[str]:
+    """``where:line: import`` of every module of a :data:`CORES` subpackage that imports another
+    subpackage or module of its own layer."""
+    out = []
+    for core in CORES:
+        folder = root.joinpath(*core.split(".")[1:])
+        for path in sorted(folder.rglob("*.py")):
+            rel = path.relative_to(root)
+            module, is_package = module_name(rel)
+            lines = path.read_text(encoding="utf-8").splitlines()
+            for lineno, name in imported_modules(ast.parse("\n".join(lines)), module, is_package):
+                if layer(name) == layer(core) and name != core and not name.startswith(core + "."):
+                    out.append(f"{rel}:{lineno}: {lines[lineno - 1].strip()} ({core} imports {name})")
+    return out
+
+
+def test_the_core_subpackages_import_nothing_else_of_their_layer() -> None:
+    assert sum(1 for core in CORES for _ in ROOT.joinpath(*core.split(".")[1:]).rglob("*.py")) >= 10
+    found = core_violations()
+    assert not found, "a core subpackage imports its layer's other subpackages:\n" + "\n".join(found)
+
+
+def test_the_core_checker_catches_an_import_of_the_layer(tmp_path: Path) -> None:
+    (tmp_path / "sims" / "cosim").mkdir(parents=True)
+    (tmp_path / "synthesis" / "core").mkdir(parents=True)
+    (tmp_path / "sims" / "cosim" / "m.py").write_text("from satfmu.sims.cosim import fmi_host\n"
+                                                       "from satfmu.fmus import model\n"
+                                                       "from satfmu.sims.scenario import spec\n")
+    (tmp_path / "synthesis" / "core" / "s.py").write_text("from ..robust import lft_plant\nfrom . import lmi\n")
+    assert [v.split(" (")[0] for v in core_violations(tmp_path)] == [
+        "sims/cosim/m.py:3: from satfmu.sims.scenario import spec",
+        "synthesis/core/s.py:1: from ..robust import lft_plant"]

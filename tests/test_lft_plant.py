@@ -7,7 +7,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from satfmu.synthesis.lft_plant import AffineDescriptor, DeltaError, LFTPlant, PlantDataError, box_vertices
+from satfmu.synthesis.robust.lft_plant import AffineDescriptor, DeltaError, LFTPlant, PlantDataError, box_vertices
 from tests.robust_plants import A_M, B_K, K0, M0, descriptor_plant, lft_plant, scalar_plant
 
 

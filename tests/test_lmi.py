@@ -1,10 +1,10 @@
-"""satfmu.synthesis.lmi: affine matrix expressions against numpy, LMI programs against closed forms."""
+"""satfmu.synthesis.core.lmi: affine matrix expressions against numpy, LMI programs against closed forms."""
 
 import numpy as np
 import pytest
 import scipy.linalg as sla
 
-from satfmu.synthesis import conic, lmi
+from satfmu.synthesis.core import conic, lmi
 
 
 def test_operations_match_numpy_at_random_values():

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from satfmu.fmus.profiles import make
-from satfmu.sims import scenario
-from satfmu.sims.master import WiringError, CoSimulation, FmuCallError
+from satfmu.sims.scenario import spec as scenario
+from satfmu.sims.cosim.master import WiringError, CoSimulation, FmuCallError
 
 
 def _write(tmp: Path, body: str) -> Path:
@@ -47,7 +47,7 @@ def test_unknown_instance_and_parameter_named(tmp_path: Path, fmu_dir: Path) -> 
                      fmu_dir)
 
 
-@pytest.mark.filterwarnings("ignore::satfmu.sims.scenario.DesignMismatchWarning")  # I_x = -3 is also a mismatch
+@pytest.mark.filterwarnings("ignore::satfmu.sims.scenario.spec.DesignMismatchWarning")  # I_x = -3 is also a mismatch
 def test_wrong_parameter_type_and_bad_value(tmp_path: Path, fmu_dir: Path) -> None:
     body = BASE.replace(CONTROLLER, '{ model = "mrp_hinf_published", parameters = { saturation_on = 1.5 } }')
     with pytest.raises(scenario.ScenarioError, match=r"fmus\.controller\.parameters\.saturation_on: .*is Boolean"):
@@ -160,7 +160,7 @@ def test_profile_reaches_the_input(fmu_dir: Path) -> None:
 def test_a_failed_rerun_leaves_nothing_that_looks_complete(tmp_path: Path, fmu_dir: Path, monkeypatch) -> None:
     """A passing run writes CSV, plot and summary (summary last); a re-run that fails, in the FMU
     or in plotting, removes them first: no old summary saying "passed" beside new data."""
-    from satfmu.sims import plots
+    from satfmu.sims.scenario import plots
 
     ok = _write(tmp_path, BASE + 'record = ["plant.phi"]\n')
     out = tmp_path / "out"
@@ -187,10 +187,10 @@ def test_a_failed_rerun_leaves_nothing_that_looks_complete(tmp_path: Path, fmu_d
 
 def test_fmus_run_with_one_blas_thread_and_the_limits_are_restored(fmu_dir: Path, monkeypatch) -> None:
     """While the FMUs run, every BLAS/OpenMP pool of the host has one thread (many small solves:
-    a pool costs CPU, see satfmu.sims.master.ONE_THREAD); afterwards the original sizes are back."""
+    a pool costs CPU, see satfmu.sims.cosim.master.ONE_THREAD); afterwards the original sizes are back."""
     import threadpoolctl
 
-    from satfmu.sims import master
+    from satfmu.sims.cosim import master
 
     seen: list[list[int]] = []
     limit = threadpoolctl.ThreadpoolController.limit

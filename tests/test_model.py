@@ -5,7 +5,8 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from satfmu.fmus import codegen, mrp_satellite
+from satfmu.fmus import codegen
+from satfmu.fmus.plants import mrp_satellite
 from satfmu.fmus.description import fmu_guid
 from satfmu.fmus.model import Model, ModelDefinitionError, Output, Variable, states, symbols
 

@@ -6,11 +6,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from satfmu.synthesis import pdlf
-from satfmu.synthesis.lft_plant import PlantDataError, ProgramTooLargeError, TooManyVerticesError
-from satfmu.synthesis.pdlf import PDLFResult, pdlf_hinf, pdlf_size, verify_pdlf
-from satfmu.synthesis.robust_design import design
-from satfmu.synthesis.system_norms import hinf_norm
+from satfmu.synthesis.robust import pdlf
+from satfmu.synthesis.robust.lft_plant import PlantDataError, ProgramTooLargeError, TooManyVerticesError
+from satfmu.synthesis.robust.pdlf import PDLFResult, pdlf_hinf, pdlf_size, verify_pdlf
+from satfmu.synthesis.robust.robust_design import design
+from satfmu.synthesis.core.system_norms import hinf_norm
 from tests.robust_plants import ALPHA, BETA, descriptor_plant, lft_plant, samples
 
 

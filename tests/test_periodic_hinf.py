@@ -9,9 +9,9 @@ from scipy.integrate import quad
 
 from satfmu.controllers import artifact as artifacts
 from satfmu.controllers.polynomial import ARTIFACTS
-from satfmu.fmus import cubesat
-from satfmu.synthesis import cubesat_periodic as cp
-from satfmu.synthesis import periodic_hinf as ph
+from satfmu.fmus.plants import cubesat
+from satfmu.synthesis.periodic import cubesat_periodic as cp
+from satfmu.synthesis.periodic import periodic_hinf as ph
 
 
 @pytest.fixture(scope="module")

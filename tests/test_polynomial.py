@@ -6,8 +6,8 @@ import pytest
 import scipy.sparse as sps
 import sympy as sp
 
-from satfmu.synthesis import exponents
-from satfmu.synthesis.polynomial import Poly, PolyMatrix, quadratic_form
+from satfmu.synthesis.core import exponents
+from satfmu.synthesis.core.polynomial import Poly, PolyMatrix, quadratic_form
 
 Terms = dict[tuple[int, ...], np.ndarray]
 """Reference polynomial: exponent tuple -> [c0, C row...] (dense)."""

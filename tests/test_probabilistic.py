@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 from scipy.stats import binom
 
-from satfmu.synthesis import demeter_design as dd
-from satfmu.synthesis import demeter_random as dr
-from satfmu.synthesis import probabilistic as pr
-from satfmu.synthesis import sequential as sq
-from satfmu.synthesis.demeter_variants import Variant, design_model
-from satfmu.synthesis.lft_plant import OptionError
+from satfmu.synthesis.robust import demeter_design as dd
+from satfmu.synthesis.robust import demeter_random as dr
+from satfmu.synthesis.robust import probabilistic as pr
+from satfmu.synthesis.robust import sequential as sq
+from satfmu.synthesis.robust.demeter_variants import Variant, design_model
+from satfmu.synthesis.robust.lft_plant import OptionError
 
 ROW1 = Variant((1,), (1,), 1, 1)
 
@@ -143,7 +143,7 @@ def test_campaign_of_a_design_unstable_for_some_samples(tmp_path, capsys) -> Non
     import json
 
     from satfmu.sims.cli import main
-    from satfmu.sims.paths import SHIPPED_ARTIFACTS
+    from satfmu.controllers.paths import SHIPPED_ARTIFACTS
 
     data = json.loads((SHIPPED_ARTIFACTS / "demeter_row1_det.json").read_text())
     data["name"] = "demeter_row1_k3"
@@ -156,7 +156,7 @@ def test_campaign_of_a_design_unstable_for_some_samples(tmp_path, capsys) -> Non
             "--out", str(tmp_path)]
     assert main(args) == 0
     out = capsys.readouterr().out
-    from satfmu.sims import campaign
+    from satfmu.sims.campaign import engine as campaign
 
     df = campaign.load(tmp_path / "demeter_row1_k3-n200-s0")
     n_unstable = int((df["max_real_pole"] >= 0).sum())

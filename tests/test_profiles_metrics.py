@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from satfmu.fmus.profiles import ProfileError, make
-from satfmu.sims import metrics as M
+from satfmu.sims.scenario import metrics as M
 
 T = np.arange(0.0, 10.0001, 0.5)
 

@@ -23,7 +23,7 @@ import pytest
 from fmpy import extract, read_model_description
 from fmpy.fmi2 import FMU2Slave
 
-from satfmu.sims import fmi_host
+from satfmu.sims.cosim import fmi_host
 
 MODELS = {"cubesat_bdot": 1.0, "cubesat_periodic_satfmu": 900.0, "demeter_flexible": 0.1, "mrp_satellite": 0.05,
           "magnetorquer_cubesat": 1.0}
@@ -185,7 +185,7 @@ def test_whole_scenarios_identical(fmu_dir: Path, name: str) -> None:
     exception: their native FMU solves the Riccati equation in C, the pythonfmu one with scipy
     (gains within 6.2e-9 of each other, tests/test_riccati_native.py); measured 1.25e-8 of the
     largest command."""
-    from satfmu.sims import scenario
+    from satfmu.sims.scenario import spec as scenario
 
     native, python = (scenario.run(name, fmu_dir, backend=b).results for b in ("native", "python"))
     online = [n for n in native.dtype.names if n.startswith("online")]

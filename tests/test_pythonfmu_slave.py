@@ -20,7 +20,7 @@ import pytest
 from fmpy import extract, read_model_description
 from fmpy.fmi2 import FMU2Slave
 
-from satfmu.sims import fmi_host
+from satfmu.sims.cosim import fmi_host
 
 PLANT, CONTROLLER, BDOT = "mrp_satellite_py", "mrp_hinf_published_py", "cubesat_bdot_py"
 

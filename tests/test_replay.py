@@ -1,4 +1,4 @@
-"""`satfmu replay` and :func:`satfmu.sims.scenario_campaign.replay`: one sample of a scenario campaign run
+"""`satfmu replay` and :func:`satfmu.sims.campaign.scenario_campaign.replay`: one sample of a scenario campaign run
 again, bit for bit, with its time histories; bad input refused with one line and nothing written."""
 from __future__ import annotations
 
@@ -14,9 +14,9 @@ import pandas as pd
 import pytest
 from distributed import Client
 
-from satfmu.sims import campaign as C
-from satfmu.sims import scenario as S
-from satfmu.sims import scenario_campaign as SC
+from satfmu.sims.campaign import engine as C
+from satfmu.sims.scenario import spec as S
+from satfmu.sims.campaign import scenario_campaign as SC
 from satfmu.sims.cli import main
 from tests.test_scenario_campaign import SEED, mrp
 
@@ -157,7 +157,7 @@ def test_bad_input_exits_2_with_one_line_and_writes_nothing(tmp_path: Path, clie
 
 def test_a_demeter_campaign_folder_is_refused(tmp_path: Path, client: Client, capsys: pytest.CaptureFixture) -> None:
     """A campaign folder of `campaign demeter` (no scenario in its campaign.json) is not replayed."""
-    from satfmu.sims import demeter_reports
+    from satfmu.sims.workflows import demeter_reports
 
     report = demeter_reports.campaign(tmp_path / "campaigns", samples=20, chunk=10,
                                       scheduler=client.scheduler.address, name="demeter")

@@ -24,11 +24,12 @@ import pytest
 from distributed import Client
 from scipy import stats
 
-from satfmu.sims import campaign as C
-from satfmu.sims import scenario as S
-from satfmu.sims import scenario_campaign as SC
+from satfmu.sims.campaign import engine as C
+from satfmu.sims.scenario import spec as S
+from satfmu.sims.campaign import scenario_campaign as SC
 from satfmu.sims.cli import main
-from satfmu.sims.paths import SHIPPED_ARTIFACTS, SHIPPED_SCENARIOS
+from satfmu.controllers.paths import SHIPPED_ARTIFACTS
+from satfmu.sims.scenario import SHIPPED_SCENARIOS
 from satfmu.sims.report import ReportError, build_report, limits, provenance
 from satfmu.sims.report.folders import read_folder
 from satfmu.sims.report.page import number, percent

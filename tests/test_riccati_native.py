@@ -16,7 +16,7 @@ import pytest
 
 from satfmu.controllers import riccati, servo
 from satfmu.fmus import codegen, export
-from satfmu.synthesis import sdre
+from satfmu.synthesis.servo import sdre
 
 HEADER_DIR = Path(export.__file__).resolve().parent / "c"
 _SHIM = """#define SAMPLER_N {n}

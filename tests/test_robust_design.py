@@ -8,10 +8,11 @@ import cvxpy as cp
 import numpy as np
 import pytest
 
-from satfmu.synthesis import lmi, robust_design
-from satfmu.synthesis.lft_plant import LFTPlant, OptionError, PlantDataError, TooManyVerticesError
-from satfmu.synthesis.robust_design import BACKOFFS, EPS, Multiplier, RobustDesign, design, i2p_bound, verify
-from satfmu.synthesis.system_norms import hinf_norm, impulse_to_peak
+from satfmu.synthesis.core import lmi
+from satfmu.synthesis.robust import robust_design
+from satfmu.synthesis.robust.lft_plant import LFTPlant, OptionError, PlantDataError, TooManyVerticesError
+from satfmu.synthesis.robust.robust_design import BACKOFFS, EPS, Multiplier, RobustDesign, design, i2p_bound, verify
+from satfmu.synthesis.core.system_norms import hinf_norm, impulse_to_peak
 from tests.robust_plants import ALPHA, BETA, lft_plant, sampled_loops, samples, scalar_plant
 
 

@@ -14,8 +14,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from satfmu.sims.master import CoSimulation
-from satfmu.sims.scenario import load
+from satfmu.sims.cosim.master import CoSimulation
+from satfmu.sims.scenario.spec import load
 
 DETUMBLED = 0.007
 """rad/s: a tenth of |w(0)| = 0.0707 rad/s, the scenario's own bound (cubesat_detumble.toml,
@@ -92,7 +92,7 @@ def test_bdot_detumbles_in_the_jacobi_order_engines(fmu_dir: Path, tmp_path: Pat
     """The whole cubesat_detumble scenario as an SSP file in libcosim and ecos (both read every
     output before setting any input): the B-dot loop detumbles there as in the master's
     feedthrough order (issue 28, defect 1: |w| stayed at 0.0707 rad/s)."""
-    from satfmu.sims import libcosim, ssp, verify
+    from satfmu.sims.interop import libcosim, ssp, verify
 
     scenario = load("cubesat_detumble")
     d = scenario.data

@@ -1,4 +1,5 @@
-"""Monte Carlo campaigns of a dispersed scenario (satfmu.sims.scenario_campaign) and `satfmu campaign scenario`."""
+"""Monte Carlo campaigns of a dispersed scenario (satfmu.sims.campaign.scenario_campaign) and
+`satfmu campaign scenario`."""
 from __future__ import annotations
 
 import tomllib
@@ -11,11 +12,11 @@ import pytest
 from distributed import Client
 from scipy import stats
 
-from satfmu.sims import campaign as C
-from satfmu.sims import scenario as S
-from satfmu.sims import scenario_campaign as SC
+from satfmu.sims.campaign import engine as C
+from satfmu.sims.scenario import spec as S
+from satfmu.sims.campaign import scenario_campaign as SC
 from satfmu.sims.cli import main
-from satfmu.sims.paths import SHIPPED_SCENARIOS
+from satfmu.sims.scenario import SHIPPED_SCENARIOS
 
 SEED = 3
 DISPERSIONS = {"plant.omega_0[1]": {"kind": "uniform", "low": -0.01, "high": 0.01},  # rad/s
@@ -246,7 +247,7 @@ def test_envelopes_are_the_percentiles_of_the_sampled_runs(tmp_path: Path, clien
     """Envelopes of plant.phi over 6 samples, 8 time points: the percentiles (numpy, independently)
     of the samples' own runs at those times; a refused sample (negative u_max) is left out; the
     table is in the folder; a signal not recorded and points < 2 are refused."""
-    from satfmu.sims import envelopes as E
+    from satfmu.sims.campaign import envelopes as E
 
     data = mrp(dispersions={**DISPERSIONS, "plant.u_max": {"kind": "uniform", "low": -5.0, "high": 5.0}})
     res = SC.run_campaign(data, 6, tmp_path, seed=SEED, chunk=3, fmu_dir=fmu_dir, scheduler=client.scheduler.address,

@@ -7,7 +7,7 @@ import pytest
 from satfmu.controllers.riccati import RiccatiCheckError, riccati_gain
 from satfmu.controllers.servo_sdc import Q_SEED, R_SEED
 from satfmu.fmus.profiles import make
-from satfmu.synthesis import sdre
+from satfmu.synthesis.servo import sdre
 
 
 def seed_references(t: np.ndarray) -> np.ndarray:

@@ -11,8 +11,8 @@ import pytest
 from satfmu.fmus import export
 from satfmu.fmus.model import Model, ModelDefinitionError, Sampler, Variable
 from satfmu.fmus.profiles import make
-from satfmu.sims.master import CoSimulation, FmuCallError, WiringError
-from satfmu.synthesis import sdre
+from satfmu.sims.cosim.master import CoSimulation, FmuCallError, WiringError
+from satfmu.synthesis.servo import sdre
 
 ONLINE = ["vscmg_sdre_online.fmu", "vscmg_sdre_online_py.fmu"]
 RECORD = ["plant.q2", "plant.q4", "c.T1", "c.T2", "c.e_q2", "c.e_q4", "c.riccati_residual"]
@@ -130,7 +130,7 @@ def test_shipped_vscmg_scenarios_pass(fmu_dir: Path, tmp_path: Path, name: str) 
     # Every controller through the master; the bounds and the measured values are in the
     # scenario files (issue 11's |e2| < 1 mrad, |e4| < 0.1 mrad without friction and
     # < 1 mrad with compensation under friction, torques within the seed's limits).
-    from satfmu.sims import scenario
+    from satfmu.sims.scenario import spec as scenario
 
     result = scenario.run(name, fmu_dir, out_dir=tmp_path)
     failed = [f"{m.name}: {m.value:g}" for m in result.metrics if not m.passed]
@@ -142,7 +142,8 @@ def test_backstepping_law_gives_the_chosen_accelerations() -> None:
     # Applied to the plant's own (frictionless, unsaturated) equations, the commanded torques
     # produce w2' = acc_q2 and w4' = acc_q4 exactly: the backstepping error dynamics hold.
     from satfmu.controllers import backstepping
-    from satfmu.fmus import codegen, vscmg
+    from satfmu.fmus import codegen
+    from satfmu.fmus.plants import vscmg
 
     ctrl = backstepping.build()
     cgen, pgen = codegen.load_python(ctrl), codegen.load_python(vscmg.MODEL)

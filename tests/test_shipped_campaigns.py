@@ -1,4 +1,4 @@
-"""The shipped campaign scenarios: sims/scenarios/*.toml with [dispersions] and a [campaign] table."""
+"""The shipped campaign scenarios: sims/scenario/shipped/*.toml with [dispersions] and a [campaign] table."""
 from __future__ import annotations
 
 import tomllib
@@ -8,10 +8,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from satfmu.sims import scenario as S
-from satfmu.sims import scenario_campaign as SC
-from satfmu.sims.dispersions import Attitude, Distribution, Inertia
-from satfmu.sims.paths import shipped_scenarios
+from satfmu.sims.scenario import spec as S
+from satfmu.sims.campaign import scenario_campaign as SC
+from satfmu.sims.scenario.dispersions import Attitude, Distribution, Inertia
+from satfmu.sims.scenario import shipped_scenarios
 
 CAMPAIGNS = [p.stem for p in shipped_scenarios() if "dispersions" in tomllib.loads(p.read_text())]
 """Every shipped scenario with [dispersions]: a shipped campaign."""

@@ -1,11 +1,11 @@
-"""Sign symmetries over GF(2) and the Gram blocks they allow (synthesis/sign_symmetry.py)."""
+"""Sign symmetries over GF(2) and the Gram blocks they allow (synthesis/core/sign_symmetry.py)."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from satfmu.synthesis.polynomial import monomials
-from satfmu.synthesis.sign_symmetry import gf2_null_space, sign_symmetries, symmetry_blocks
+from satfmu.synthesis.core.polynomial import monomials
+from satfmu.synthesis.core.sign_symmetry import gf2_null_space, sign_symmetries, symmetry_blocks
 
 
 def test_null_space_is_exact_and_complete() -> None:

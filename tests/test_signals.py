@@ -18,7 +18,7 @@ from fmpy import read_model_description
 from satfmu.fmus import export, signals
 from satfmu.fmus.model import ModelDefinitionError, Table
 from satfmu.fmus.profiles import ProfileError, make
-from satfmu.sims.master import CoSimulation, communication_times
+from satfmu.sims.cosim.master import CoSimulation, communication_times
 
 STOP, STEP = 10.0, 0.05
 GRID = communication_times(0.0, STEP, round(STOP / STEP))

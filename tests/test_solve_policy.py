@@ -1,11 +1,11 @@
-"""The synthesis layer's one solve policy (synthesis/solve_policy.py): the ladder's rules."""
+"""The synthesis layer's one solve policy (synthesis/core/solve_policy.py): the ladder's rules."""
 from __future__ import annotations
 
 import cvxpy as cp
 import numpy as np
 import pytest
 
-from satfmu.synthesis import solve_policy as sp_
+from satfmu.synthesis.core import solve_policy as sp_
 
 
 def _scripted(statuses: list[str | Exception]):

@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from satfmu.synthesis.polynomial import Poly, PolyMatrix, monomials, quadratic_form
-from satfmu.synthesis.sos import SOSError, SOSProgram, newton_basis, verify
+from satfmu.synthesis.core.polynomial import Poly, PolyMatrix, monomials, quadratic_form
+from satfmu.synthesis.core.sos import SOSError, SOSProgram, newton_basis, verify
 
 x, y = sp.symbols("x y", real=True)
 
@@ -58,9 +58,9 @@ def test_motzkin_polynomial_is_not_sos() -> None:
 def test_a_failed_solve_is_retried_on_the_policys_next_rung(monkeypatch) -> None:
     # Clarabel stopping without a solution (NumericalError) is not the end: the solve policy's
     # relaxed rung is tried, keeps the caller's settings it does not change, and its answer is used
-    import satfmu.synthesis.sos as sos
-    from satfmu.synthesis.conic import ConicResult
-    from satfmu.synthesis.solve_policy import RELAXED_TOLERANCES
+    import satfmu.synthesis.core.sos as sos
+    from satfmu.synthesis.core.conic import ConicResult
+    from satfmu.synthesis.core.solve_policy import RELAXED_TOLERANCES
 
     seen: list[dict] = []
     real = sos.solve_clarabel
@@ -79,8 +79,8 @@ def test_a_failed_solve_is_retried_on_the_policys_next_rung(monkeypatch) -> None
 
 
 def test_failures_on_every_rung_say_what_each_returned(monkeypatch) -> None:
-    import satfmu.synthesis.sos as sos
-    from satfmu.synthesis.conic import ConicResult
+    import satfmu.synthesis.core.sos as sos
+    from satfmu.synthesis.core.conic import ConicResult
 
     monkeypatch.setattr(sos, "solve_clarabel",
                         lambda problem, **s: ConicResult("MaxIterations", None, float("nan"), 0.0))
@@ -172,8 +172,8 @@ def test_verify_expands_the_polynomials_without_the_programs_matching_map(monkey
         raise AssertionError("verify used the build path")
 
     monkeypatch.setattr(SOSProgram, "conic_problem", no_build)
-    monkeypatch.setattr("satfmu.synthesis.exponents.keys", no_build)
-    monkeypatch.setattr("satfmu.synthesis.sos.keys", no_build)
+    monkeypatch.setattr("satfmu.synthesis.core.exponents.keys", no_build)
+    monkeypatch.setattr("satfmu.synthesis.core.sos.keys", no_build)
     sol.grams[key] = G
     z = sp.Matrix([sp.Mul(*[v**int(e) for v, e in zip((x, y), row)]) for row in prog.sos[0].basis])
     diff = sp.Poly(sp.expand(p - (z.T * sp.Matrix(G) * z)[0]), x, y)

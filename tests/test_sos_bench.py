@@ -13,7 +13,7 @@ from types import ModuleType
 
 import pytest
 
-from satfmu.synthesis import hinf_sos
+from satfmu.synthesis.polynomial_feedback import hinf_sos
 
 BENCH = Path(__file__).resolve().parents[1] / "bench"
 

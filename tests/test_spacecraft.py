@@ -6,9 +6,9 @@ import pytest
 import sympy as sp
 
 from satfmu.controllers import artifact as artifacts
-from satfmu.fmus import mrp_satellite
-from satfmu.fmus.spacecraft import SEED_000, Spacecraft, SpacecraftError
-from satfmu.synthesis import hinf_sos
+from satfmu.fmus.plants import mrp_satellite
+from satfmu.fmus.plants.spacecraft import SEED_000, Spacecraft, SpacecraftError
+from satfmu.synthesis.polynomial_feedback import hinf_sos
 
 OWN = [[100.0, 2.0, -1.0], [2.0, 120.0, 0.5], [-1.0, 0.5, 80.0]]
 
@@ -139,7 +139,7 @@ def test_robust_design_range_is_no_mismatch():
 
 
 def test_every_shipped_artifact_records_its_design_plant():
-    from satfmu.sims.paths import SHIPPED_ARTIFACTS
+    from satfmu.controllers.paths import SHIPPED_ARTIFACTS
 
     for f in sorted(SHIPPED_ARTIFACTS.glob("*.json")):
         rec = artifacts.load(f).provenance.get("design_plant")
@@ -149,7 +149,7 @@ def test_every_shipped_artifact_records_its_design_plant():
 def test_bad_design_plant_record_is_refused():
     import json
 
-    from satfmu.sims.paths import SHIPPED_ARTIFACTS
+    from satfmu.controllers.paths import SHIPPED_ARTIFACTS
 
     data = json.loads((SHIPPED_ARTIFACTS / "mrp_hinf_published.json").read_text())
     data["provenance"]["design_plant"]["parameters"]["I_x"] = "heavy"
@@ -175,7 +175,7 @@ def test_seed_003_design_for_your_own_cubesat():
     """Theorem 2 for a cubesat of other principal moments: certified (the LMIs re-checked in
     numpy), the noises at the seed's relative size, the artifact records that plant; the
     published gains get no artifact for it. Products of inertia are refused (principal axes)."""
-    from satfmu.sims import designs
+    from satfmu.synthesis import designs
 
     d = designs.design_cubesat_periodic(plant=Spacecraft("cube6u", [0.01, 0.012, 0.004]))
     assert [a["name"] for a in d.artifacts] == ["cubesat_periodic_satfmu"]

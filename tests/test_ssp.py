@@ -9,10 +9,10 @@ from fmpy import read_model_description
 from fmpy.ssp.ssd import read_ssd
 from lxml import etree
 
-from satfmu.sims import ssp
+from satfmu.sims.interop import ssp
 from satfmu.sims.cli import main
-from satfmu.sims import scenario
-from satfmu.sims.scenario import ScenarioError, load
+from satfmu.sims.scenario import spec as scenario
+from satfmu.sims.scenario.spec import ScenarioError, load
 
 
 def _ssd(path: Path):
@@ -104,7 +104,7 @@ def _scenario(tmp_path: Path, text: str) -> Path:
                                r"artifact named 'no_such_model'"),
 ], ids=["type", "unknown", "causality", "model"])
 def test_bad_scenarios_fail_as_in_the_run(body: str, message: str, fmu_dir: Path, tmp_path: Path) -> None:
-    """export-ssp checks a scenario as a run does (satfmu.sims.scenario.check), with the same message,
+    """export-ssp checks a scenario as a run does (satfmu.sims.scenario.spec.check), with the same message,
     before it writes anything."""
     plant = "[fmus.plant]\n" + ("" if body.startswith("model") else 'model = "mrp_satellite"\n')
     f = _scenario(tmp_path, plant + body + "\n")

@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from satfmu.synthesis.lft_plant import NotHurwitzError, OptionError, PlantDataError
-from satfmu.synthesis.system_norms import hinf_norm, impulse_to_peak
+from satfmu.synthesis.robust.lft_plant import NotHurwitzError, OptionError, PlantDataError
+from satfmu.synthesis.core.system_norms import hinf_norm, impulse_to_peak
 
 TOL = 1e-9
 """hinf_norm's default tol: the value returned is an upper bound within relative 2 TOL."""

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from satfmu.fmus.declared import toml_text
-from satfmu.sims import scenario as S
-from satfmu.sims.paths import shipped_scenarios
+from satfmu.sims.scenario import spec as S
+from satfmu.sims.scenario import shipped_scenarios
 
 
 @pytest.mark.parametrize("path", shipped_scenarios(), ids=lambda p: p.stem)

@@ -1,4 +1,4 @@
-"""Seed 000's two-step iteration (satfmu.synthesis.two_step) on a short decay-rate schedule.
+"""Seed 000's two-step iteration (satfmu.synthesis.polynomial_feedback.two_step) on a short decay-rate schedule.
 
 One run over ``decay_rates = [0.005, 0.01]`` (about 25 s: two Theorem 1 designs, two SOS
 L2 certificates, two 200 deg responses) is shared by the module. Its last iterate is the
@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 from satfmu.controllers.artifact import parse
-from satfmu.synthesis.sos import SOSError
-from satfmu.synthesis.two_step import TwoStepResult, two_step
+from satfmu.synthesis.core.sos import SOSError
+from satfmu.synthesis.polynomial_feedback.two_step import TwoStepResult, two_step
 
 RATES = [0.005, 0.01]
 

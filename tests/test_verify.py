@@ -1,4 +1,4 @@
-"""Tool-agnostic verification (sims/verify.py, sims/libcosim.py): our master against libcosim
+"""Tool-agnostic verification (sims/interop/verify.py, sims/interop/libcosim.py): our master against libcosim
 and ecos on the scenario's SSP file, and the pieces that make them comparable."""
 from __future__ import annotations
 
@@ -8,10 +8,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from satfmu.sims import libcosim, verify
+from satfmu.sims.interop import libcosim, verify
 from satfmu.sims.cli import main
-from satfmu.sims.master import CoSimulation, communication_times
-from satfmu.sims.scenario import ScenarioError, load
+from satfmu.sims.cosim.master import CoSimulation, communication_times
+from satfmu.sims.scenario.spec import ScenarioError, load
 
 
 def test_communication_times_are_libcosims_nanosecond_grid() -> None:
@@ -147,7 +147,7 @@ def test_the_demeter_scenario_passes_verify_in_libcosim_and_ecos(fmu_dir: Path, 
 def test_every_scenario_passes_verify(fmu_dir: Path, tmp_path: Path) -> None:
     # 24 scenarios, about 85 s in all (the three DEMETER ones about 60 s of it, mostly libcosim's
     # 60,000 steps each): in `make test-all`
-    from satfmu.sims.paths import SHIPPED_SCENARIOS as SCENARIOS
+    from satfmu.sims.scenario import SHIPPED_SCENARIOS as SCENARIOS
 
     reports = [verify.verify(p.stem, fmu_dir, tmp_path) for p in sorted(SCENARIOS.glob("*.toml"))]
     assert all(r.passed for r in reports), verify.markdown([r for r in reports if not r.passed])

@@ -9,7 +9,8 @@ import pytest
 import sympy as sp
 from fmpy import simulate_fmu
 
-from satfmu.fmus import codegen, vscmg
+from satfmu.fmus import codegen
+from satfmu.fmus.plants import vscmg
 from satfmu.fmus.model import Model
 
 MODEL = vscmg.MODEL

@@ -10,8 +10,8 @@ import sympy as sp
 
 from satfmu.controllers import artifact
 from satfmu.controllers.polynomial import ARTIFACTS
-from satfmu.sims import plots
-from satfmu.synthesis import vscmg_region as vr
+from satfmu.sims.scenario import plots
+from satfmu.synthesis.servo import vscmg_region as vr
 
 
 @pytest.fixture(scope="module")

@@ -24,7 +24,7 @@ from fmpy.fmi2 import FMU2Slave
 from fmpy.model_description import ModelDescription
 
 from satfmu.fmus import codegen, export
-from satfmu.sims import fmi_host
+from satfmu.sims.cosim import fmi_host
 
 HOST = Path(__file__).resolve().parent / "host" / "fmu_host.c"
 HOST_FLAGS = ("-std=c99", "-O2", "-Wall", "-Wextra", "-Werror")

@@ -17,7 +17,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from satfmu.sims import scenario as S  # noqa: E402
+from satfmu.sims.scenario import spec as S
 from satfmu.sims.report.limits import Line, base  # noqa: E402
 
 REQUIREMENT = "#c0392b"
@@ -204,7 +204,7 @@ def scatter(rows: pd.DataFrame, metrics: Sequence[S.Metric], dispersed: Sequence
     str
         An ``<svg>`` element: a row of panels per metric, a column per dispersed value.
     """
-    from satfmu.sims import metrics as M
+    from satfmu.sims.scenario import metrics as M
 
     fig, axes = plt.subplots(len(metrics), len(dispersed), figsize=(max(6.5, 2.6 * len(dispersed) + 0.8),
                                                                     2.3 * len(metrics) + 0.4),
@@ -295,7 +295,7 @@ def compare_strips(series: Mapping[str, np.ndarray], metric: S.Metric) -> str:
         An ``<svg>`` element. Non-finite values (a settling time never reached, a sample that
         did not run) are counted in the row's label, not drawn.
     """
-    from satfmu.sims import metrics as M
+    from satfmu.sims.scenario import metrics as M
 
     labels = list(series)
     fig, ax = plt.subplots(figsize=(8.5, 0.75 * len(labels) + 1.1))

@@ -1,12 +1,13 @@
 """The folders a report reads: a scenario run (``satfmu run --out``) or a scenario campaign.
 
-A run folder holds, per backend, what :meth:`satfmu.sims.scenario.Result.write` writes:
+A run folder holds, per backend, what :meth:`satfmu.sims.scenario.spec.Result.write` writes:
 ``summary_<backend>.json`` (metrics, pass/fail), ``<name>_<backend>.csv`` (the recorded
 signals) and ``scenario_<backend>.json`` (the scenario's declaration, its FMU files with their
 SHA-256 and the unit of every recorded column). A campaign folder holds ``campaign.json`` and
-the Parquet chunks of :mod:`satfmu.sims.campaign`; it is read back with
-:func:`satfmu.sims.scenario_campaign.reopen` (which checks that its FMU files are the ones that ran),
-:func:`satfmu.sims.campaign.load` and :func:`satfmu.sims.scenario_campaign.statistics`. A campaign folder
+the Parquet chunks of :mod:`satfmu.sims.campaign.engine`; it is read back with
+:func:`satfmu.sims.campaign.scenario_campaign.reopen` (which checks that its FMU files are the ones that ran),
+:func:`satfmu.sims.campaign.engine.load` and
+:func:`satfmu.sims.campaign.scenario_campaign.statistics`. A campaign folder
 may also hold ``envelopes.parquet``: column ``time`` (s) and one column
 ``<signal>:p<percentile>`` per recorded signal and percentile (the signal's percentile over
 the samples at each time, in the signal's unit).
@@ -22,11 +23,11 @@ from typing import Any
 
 import pandas as pd
 
-from satfmu.sims import metrics as M
-from satfmu.sims import preflight
-from satfmu.sims import scenario as S
-from satfmu.sims.campaign import Campaign, CampaignError
-from satfmu.sims.scenario_campaign import ScenarioTask, Statistics
+from satfmu.sims.scenario import metrics as M
+from satfmu.sims.cosim import preflight
+from satfmu.sims.scenario import spec as S
+from satfmu.sims.campaign.engine import Campaign, CampaignError
+from satfmu.sims.campaign.scenario_campaign import ScenarioTask, Statistics
 from satfmu.fmus.errors import ReportError
 
 ENVELOPES = "envelopes.parquet"
@@ -70,7 +71,7 @@ class RunFolder:
     backend : str
     scenario : Scenario
         As it ran (its declaration, relative paths resolved as then).
-    metrics : list of satfmu.sims.metrics.MetricResult
+    metrics : list of satfmu.sims.scenario.metrics.MetricResult
         Value, unit, bounds and pass/fail of each metric, from the summary.
     results : pandas.DataFrame
         The recorded signals: ``time`` (s) and one column per ``instance.variable``.
@@ -109,9 +110,9 @@ class CampaignFolder:
     ----------
     folder : Path
     campaign : Campaign
-        As :func:`satfmu.sims.scenario_campaign.reopen` gives it (``task.scenario``, ``context``).
+        As :func:`satfmu.sims.campaign.scenario_campaign.reopen` gives it (``task.scenario``, ``context``).
     rows : pandas.DataFrame
-        One row per sample (:mod:`satfmu.sims.scenario_campaign`'s columns).
+        One row per sample (:mod:`satfmu.sims.campaign.scenario_campaign`'s columns).
     statistics : Statistics
     envelopes : pandas.DataFrame, optional
         ``envelopes.parquet`` when the folder holds one.
@@ -241,8 +242,8 @@ def _float(v: Any) -> float:
 
 
 def _campaign(folder: Path, fmu_dir: str | Path | None, confidence: float, worst: int) -> CampaignFolder:
-    from satfmu.sims import campaign as C
-    from satfmu.sims import scenario_campaign as SC
+    from satfmu.sims.campaign import engine as C
+    from satfmu.sims.campaign import scenario_campaign as SC
 
     try:
         camp = SC.reopen(folder, fmu_dir)

@@ -24,7 +24,7 @@ import re
 from dataclasses import dataclass
 from typing import Mapping, Sequence
 
-from satfmu.sims import scenario as S
+from satfmu.sims.scenario import spec as S
 from satfmu.sims.report.folders import FmuFile
 
 _INDEX = re.compile(r"\[[\d,]+\]$")

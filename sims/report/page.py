@@ -18,12 +18,12 @@ import numpy as np
 from markupsafe import Markup
 
 from satfmu.fmus.atomic import write_atomically
-from satfmu.sims import metrics as M
-from satfmu.sims import scenario as S
+from satfmu.sims.scenario import metrics as M
+from satfmu.sims.scenario import spec as S
 from satfmu.sims.report import figures, limits, proved
 from satfmu.sims.report.folders import (CampaignFolder, Folder, ReportError, RunFolder, envelope_signals, read_folder)
 from satfmu.sims.report.provenance import Provenance, collect
-from satfmu.sims.scenario_campaign import FAILURES, PERCENTILES, MetricStatistics
+from satfmu.sims.campaign.scenario_campaign import FAILURES, PERCENTILES, MetricStatistics
 
 
 def number(value: Any) -> str:
@@ -72,15 +72,15 @@ def bounds(metric: S.Metric | M.MetricResult) -> str:
     Parameters
     ----------
     metric : Metric or MetricResult
-        A scenario's metric (:class:`satfmu.sims.scenario.Metric`) or a run's
-        (:class:`satfmu.sims.metrics.MetricResult`): its ``min`` and ``max``.
+        A scenario's metric (:class:`satfmu.sims.scenario.spec.Metric`) or a run's
+        (:class:`satfmu.sims.scenario.metrics.MetricResult`): its ``min`` and ``max``.
     """
     return ", ".join(f"{k} {v:g}" for k, v in (("min", metric.min), ("max", metric.max)) if v is not None)
 
 
 @dataclass(frozen=True)
 class StatisticsRow:
-    """A row of a campaign's statistics table (:class:`satfmu.sims.scenario_campaign.MetricStatistics`).
+    """A row of a campaign's statistics table (:class:`satfmu.sims.campaign.scenario_campaign.MetricStatistics`).
 
     Parameters
     ----------
@@ -94,7 +94,8 @@ class StatisticsRow:
 
     @property
     def percentiles(self) -> list[float | None]:
-        """The metric's value at each of :data:`~satfmu.sims.scenario_campaign.PERCENTILES` (None: no finite value)."""
+        """The metric's value at each of :data:`~satfmu.sims.campaign.scenario_campaign.PERCENTILES`
+        (None: no finite value)."""
         return [self.statistics.percentiles.get(p) for p in PERCENTILES]
 
 

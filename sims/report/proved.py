@@ -14,7 +14,7 @@ from typing import Any
 
 from satfmu.controllers import artifact as A
 from satfmu.fmus import archive
-from satfmu.sims import preflight
+from satfmu.sims.cosim import preflight
 from satfmu.sims.report.folders import FmuFile
 
 RESOURCE = "resources/artifact.json"
@@ -159,7 +159,7 @@ def claims(fmu: FmuFile) -> Claims | None:
 
 def _known_controller(model: str) -> bool:
     """Whether ``model`` names a controller artifact (shipped or the user's)."""
-    from satfmu.sims import paths
+    from satfmu.controllers import paths
 
     try:
         paths.find_artifact(model)

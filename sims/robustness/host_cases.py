@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING
 
 from fmpy.fmi2 import fmi2String
 
-from satfmu.sims import fmi_host
+from satfmu.sims.cosim import fmi_host
 from satfmu.sims.robustness.instance import ERROR, FATAL, OK, Instance, Outcome, reject, recover
 from satfmu.sims.robustness.target import NATIVE, PYTHONFMU
 

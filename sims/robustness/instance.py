@@ -9,8 +9,8 @@ from typing import Any
 
 from fmpy.fmi2 import FMU2Slave, fmi2Boolean, fmi2Integer, fmi2Real, fmi2ValueReference
 
-from satfmu.sims import fmi_host
-from satfmu.sims.fmi_host import ERROR, FATAL, OK, STATUS_NAMES as _FMI_STATUS_NAMES
+from satfmu.sims.cosim import fmi_host
+from satfmu.sims.cosim.fmi_host import ERROR, FATAL, OK, STATUS_NAMES as _FMI_STATUS_NAMES
 from satfmu.sims.robustness.target import Target, Var
 from satfmu.fmus.errors import CaseBroken
 

@@ -14,7 +14,7 @@ from collections.abc import Callable, Sequence
 
 from fmpy.fmi2 import fmi2Boolean, fmi2Integer, fmi2Real, fmi2String
 
-from satfmu.sims.fmi_host import DISCARD
+from satfmu.sims.cosim.fmi_host import DISCARD
 from satfmu.sims.robustness.cases import STEPS, _drive, _read_outputs
 from satfmu.sims.robustness.instance import (ERROR, NO_RESULT, OK, STATUS_NAMES, CaseBroken, Instance, Outcome,
                                       recover, short)

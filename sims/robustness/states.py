@@ -24,7 +24,7 @@ import uuid
 import zlib
 from collections.abc import Callable, Sequence
 
-from satfmu.sims import fmi_host
+from satfmu.sims.cosim import fmi_host
 from satfmu.sims.robustness.cases import _steps
 from satfmu.sims.robustness.instance import ERROR, FATAL, OK, STATUS_NAMES, CaseBroken, Instance, Outcome, recover
 from satfmu.sims.robustness.target import NATIVE

@@ -1,0 +1,1 @@
+"""The spacecraft's environment: the geomagnetic field along its orbit (IGRF)."""

@@ -1,0 +1,196 @@
+"""A spacecraft description: name, inertia tensor, actuator limits (TOML, dict or Python).
+
+The plant builders (:func:`satfmu.fmus.plants.mrp_satellite.build`) and every design of the MRP
+satellite take one, so that a controller is designed for *your* spacecraft. A TOML file::
+
+    name = "my_sat"
+    description = "200 kg bus with a deployed boom"
+    inertia = [[100.0, 2.0, -1.0],      # kg m^2, the inertia tensor about the centre of mass
+               [2.0, 120.0, 0.5],       # in body axes; off-diagonal entries are the tensor's
+               [-1.0, 0.5, 80.0]]       # (J_xy = -integral of x y dm), symmetric
+    [actuators]
+    torque_limit = 5.0                  # N m per body axis (optional)
+
+``inertia`` may also be three principal moments ``[I_x, I_y, I_z]``. The tensor is
+checked: finite, symmetric, positive definite, and its principal moments satisfy the
+triangle inequality ``I_1 + I_2 >= I_3`` of every rigid body.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Mapping
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from satfmu.fmus.declared import check_keys, read_toml
+from satfmu.fmus.errors import SpacecraftError
+
+SYMMETRY_RTOL = 1e-9
+"""Largest ``|J - J^T|`` relative to ``max |J|`` accepted as symmetric (rounding of a CAD export)."""
+PARAMETERS = {"I_x": (0, 0), "I_y": (1, 1), "I_z": (2, 2), "I_xy": (0, 1), "I_xz": (0, 2), "I_yz": (1, 2)}
+"""Plant parameter name -> entry of the inertia tensor it holds."""
+_KEYS = ("name", "description", "inertia", "actuators")
+_ACTUATOR_KEYS = ("torque_limit",)
+
+
+@dataclass(frozen=True, init=False)
+class Spacecraft:
+    """A rigid spacecraft: its inertia tensor and actuator limits.
+
+    Parameters
+    ----------
+    name : str
+        Identifier, used in artifact provenance and messages.
+    inertia : array_like
+        3 x 3 inertia tensor about the centre of mass in body axes, kg m^2 (symmetric
+        positive definite, products of inertia off the diagonal), or 3 principal moments.
+    torque_limit : float, optional
+        Actuator torque limit per body axis, N m (the plant's ``u_max``).
+    description : str
+        Free text.
+
+    Raises
+    ------
+    SpacecraftError
+        If the tensor is not 3 x 3 (or 3 moments), not finite, not symmetric, not positive
+        definite or violates the triangle inequality, or the torque limit is not positive.
+    """
+
+    name: str
+    inertia: tuple[tuple[float, float, float], ...]
+    torque_limit: float | None = None
+    description: str = field(default="", compare=False)
+
+    def __init__(self, name: str, inertia: ArrayLike, torque_limit: float | None = None,
+                 description: str = "") -> None:
+        if not isinstance(name, str) or not name:
+            raise SpacecraftError(f"name: must be a non-empty string, got {name!r}")
+        object.__setattr__(self, "name", name)
+        object.__setattr__(self, "inertia", _tensor(inertia, f"{name}: inertia"))
+        if torque_limit is not None:
+            t = torque_limit
+            if isinstance(t, bool) or not isinstance(t, (int, float)) or not math.isfinite(t) or t <= 0:
+                raise SpacecraftError(f"{name}: actuators.torque_limit: must be a finite number > 0 (N m), "
+                                      f"got {t!r}")
+            torque_limit = float(t)
+        object.__setattr__(self, "torque_limit", torque_limit)
+        object.__setattr__(self, "description", description)
+
+    @property
+    def tensor(self) -> np.ndarray:
+        """The inertia tensor as a 3 x 3 array, kg m^2."""
+        return np.array(self.inertia)
+
+    @property
+    def principal_moments(self) -> np.ndarray:
+        """Principal moments of inertia, ascending, kg m^2."""
+        return np.linalg.eigvalsh(self.tensor)
+
+    def parameters(self) -> dict[str, float]:
+        """The plant parameters this spacecraft sets: ``I_x ... I_yz`` (kg m^2) and, with a
+        torque limit, ``u_max`` (N m)."""
+        out = {name: self.inertia[i][j] for name, (i, j) in PARAMETERS.items()}
+        if self.torque_limit is not None:
+            out["u_max"] = self.torque_limit
+        return out
+
+    def to_dict(self) -> dict[str, Any]:
+        """The description as plain data (the TOML file's keys)."""
+        data: dict[str, Any] = {"name": self.name, "inertia": [list(r) for r in self.inertia]}
+        if self.description:
+            data["description"] = self.description
+        if self.torque_limit is not None:
+            data["actuators"] = {"torque_limit": self.torque_limit}
+        return data
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any], where: str = "spacecraft") -> "Spacecraft":
+        """A spacecraft from plain data with the TOML file's keys.
+
+        Parameters
+        ----------
+        data : mapping of str to object
+            ``name``, ``inertia`` (kg m^2), optional ``description`` and an optional
+            ``actuators`` table with ``torque_limit`` (N m), as in the module's example.
+        where : str, optional
+            Where the data comes from (a file name), the prefix of error messages. Default
+            ``"spacecraft"``.
+
+        Returns
+        -------
+        Spacecraft
+            The checked spacecraft.
+
+        Raises
+        ------
+        SpacecraftError
+            Unknown or missing keys (with the closest known key), or a bad value.
+        """
+        if not isinstance(data, Mapping):
+            raise SpacecraftError(f"{where}: expected a table of keys, got {type(data).__name__}")
+        check_keys(data, _KEYS, where, SpacecraftError)
+        for key in ("name", "inertia"):
+            if key not in data:
+                raise SpacecraftError(f"{where}: missing key {key!r}")
+        act = data.get("actuators", {})
+        if not isinstance(act, Mapping):
+            raise SpacecraftError(f"{where}: actuators: expected a table, got {type(act).__name__}")
+        check_keys(act, _ACTUATOR_KEYS, f"{where}: actuators", SpacecraftError)
+        try:
+            return cls(data["name"], data["inertia"], act.get("torque_limit"), data.get("description", ""))
+        except SpacecraftError as exc:
+            raise SpacecraftError(f"{where}: {exc}") from None
+
+    @classmethod
+    def from_toml(cls, path: str | Path) -> "Spacecraft":
+        """Read a spacecraft TOML file.
+
+        Parameters
+        ----------
+        path : str or Path
+            The TOML file (keys as in the module's example).
+
+        Returns
+        -------
+        Spacecraft
+            The checked spacecraft.
+
+        Raises
+        ------
+        SpacecraftError
+            If the file is missing, not TOML, or its description is invalid.
+        """
+        return cls.from_dict(read_toml(Path(path), "spacecraft", SpacecraftError), where=str(path))
+
+
+def _tensor(raw: Any, where: str) -> tuple[tuple[float, float, float], ...]:
+    try:
+        J = np.array(raw, dtype=float)
+    except (TypeError, ValueError):
+        raise SpacecraftError(f"{where}: must be 3 numbers or a 3 x 3 table of numbers, got {raw!r}") from None
+    if J.shape == (3,):
+        J = np.diag(J)
+    if J.shape != (3, 3):
+        raise SpacecraftError(f"{where}: must be 3 principal moments or a 3 x 3 tensor, got shape {J.shape}")
+    if not np.all(np.isfinite(J)):
+        raise SpacecraftError(f"{where}: entries must be finite, got {J.tolist()}")
+    scale = float(np.max(np.abs(J)))
+    i, j = np.unravel_index(np.argmax(np.abs(J - J.T)), J.shape)
+    if abs(J[i, j] - J[j, i]) > SYMMETRY_RTOL * scale:
+        raise SpacecraftError(f"{where}: not symmetric: [{i}][{j}] = {J[i, j]:g} but [{j}][{i}] = {J[j, i]:g}")
+    J = (J + J.T) / 2
+    moments = np.linalg.eigvalsh(J)
+    if not moments[0] > 0:
+        raise SpacecraftError(f"{where}: not positive definite (principal moments {moments.tolist()} kg m^2)")
+    if moments[0] + moments[1] < moments[2] * (1 - 1e-12):
+        raise SpacecraftError(f"{where}: principal moments {moments.tolist()} kg m^2 violate the triangle "
+                              f"inequality I_1 + I_2 >= I_3 of a rigid body")
+    return tuple((float(row[0]), float(row[1]), float(row[2])) for row in J)
+
+
+SEED_000 = Spacecraft("seed_000", (15.0, 16.0, 12.5), torque_limit=5.0,
+                      description="The rigid satellite of the seed 000 paper (principal axes)")
+"""Seed 000's satellite: diag(15, 16, 12.5) kg m^2; 5 N m is the torque limit of its saturated runs."""

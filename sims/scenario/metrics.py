@@ -1,0 +1,242 @@
+"""Closed-loop metrics on recorded trajectories, and their pass/fail evaluation.
+
+All functions take the time vector ``t`` (s, increasing) and a signal matrix of
+shape (len(t), n_signals). Signals of FMU *inputs* fed by the master are held
+over each communication step, so their integrals use the left rectangle rule;
+FMU outputs of continuous states use the trapezoidal rule.
+"""
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Sequence
+
+import numpy as np
+
+
+def _cumulative(t: np.ndarray, v2: np.ndarray, held: bool) -> np.ndarray:
+    dt = np.diff(t)
+    inc = v2[:-1] * dt if held else 0.5 * (v2[:-1] + v2[1:]) * dt
+    return np.concatenate([[0.0], np.cumsum(inc)])
+
+
+def l2_ratio_curve(t: np.ndarray, z: np.ndarray, w: np.ndarray, w_held: bool = True) -> np.ndarray:
+    """Truncated L2 ratio ||z||_{2,T} / ||w||_{2,T} for every recorded T (seed 000, eq. 45).
+
+    NaN where ||w||_{2,T} = 0.
+
+    Parameters
+    ----------
+    t : numpy.ndarray, shape (n,)
+        Sample times (s), increasing.
+    z : numpy.ndarray, shape (n,) or (n, k)
+        Performance output, one column per signal; its energy is integrated by the trapezoidal
+        rule.
+    w : numpy.ndarray, shape (n,) or (n, m)
+        Disturbance input, one column per signal.
+    w_held : bool, optional
+        Whether ``w`` is held over each communication step (an FMU input fed by the master:
+        left rectangle rule); else the trapezoidal rule. Default True.
+
+    Returns
+    -------
+    numpy.ndarray, shape (n,)
+        The ratio at every sample time (dimensionless when ``z`` and ``w`` share a unit).
+    """
+    nz = _cumulative(t, np.sum(np.atleast_2d(z.T).T ** 2, axis=1), held=False)
+    nw = _cumulative(t, np.sum(np.atleast_2d(w.T).T ** 2, axis=1), held=w_held)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(nw > 0, np.sqrt(nz) / np.sqrt(np.where(nw > 0, nw, 1.0)), np.nan)
+
+
+def settling_time(t: np.ndarray, y: np.ndarray, tolerance: float) -> float:
+    """First time from which every ``|y_i| <= tolerance`` until the end; inf if never.
+
+    Parameters
+    ----------
+    t : numpy.ndarray, shape (n,)
+        Sample times (s), increasing.
+    y : numpy.ndarray, shape (n,) or (n, k)
+        Signals, one column each.
+    tolerance : float
+        Half-width of the band around zero, in the unit of ``y``.
+
+    Returns
+    -------
+    float
+        The settling time (s): ``t[0]`` if ``y`` is inside the band throughout, ``inf`` if it is
+        outside at the last sample.
+    """
+    inside = np.all(np.abs(np.atleast_2d(y.T).T) <= tolerance, axis=1)
+    if not inside[-1]:
+        return math.inf
+    outside = np.nonzero(~inside)[0]
+    return float(t[0] if outside.size == 0 else t[outside[-1] + 1])
+
+
+def peak(y: np.ndarray) -> float:
+    """Largest absolute value over time and signals.
+
+    Parameters
+    ----------
+    y : numpy.ndarray, shape (n,) or (n, k)
+        Signals, one column each.
+    """
+    return float(np.max(np.abs(y)))
+
+
+def rms(t: np.ndarray, y: np.ndarray, held: bool = True) -> float:
+    """Largest per-signal RMS over the run.
+
+    Parameters
+    ----------
+    t : numpy.ndarray, shape (n,)
+        Sample times (s), increasing; the mean is taken over ``t[-1] - t[0]``.
+    y : numpy.ndarray, shape (n,) or (n, k)
+        Signals, one column each.
+    held : bool, optional
+        Whether the signals are held over each communication step (left rectangle rule); else
+        the trapezoidal rule. Default True.
+
+    Returns
+    -------
+    float
+        The RMS, in the unit of ``y``.
+    """
+    y = np.atleast_2d(y.T).T
+    span = t[-1] - t[0]
+    return float(max(math.sqrt(_cumulative(t, y[:, i] ** 2, held)[-1] / span) for i in range(y.shape[1])))
+
+
+def time_in_saturation(t: np.ndarray, y: np.ndarray, limit: float, held: bool = True,
+                       rel_tol: float = 1e-9) -> float:
+    """Total time (s) during which any ``|y_i|`` is at or beyond ``limit`` (within ``rel_tol``).
+
+    Parameters
+    ----------
+    t : numpy.ndarray, shape (n,)
+        Sample times (s), increasing.
+    y : numpy.ndarray, shape (n,) or (n, k)
+        Signals, one column each (e.g. actuator commands).
+    limit : float
+        Saturation level, in the unit of ``y``.
+    held : bool, optional
+        Whether the signals are held over each communication step: a step counts whole when
+        saturated at its start; else a step counts half for each saturated end. Default True.
+    rel_tol : float, optional
+        Relative tolerance: ``|y_i| >= limit * (1 - rel_tol)`` counts as saturated.
+    """
+    sat = np.any(np.abs(np.atleast_2d(y.T).T) >= limit * (1 - rel_tol), axis=1)
+    dt = np.diff(t)
+    flags = sat[:-1] if held else 0.5 * (sat[:-1].astype(float) + sat[1:])
+    return float(np.sum(flags * dt))
+
+
+def integral_square(t: np.ndarray, y: np.ndarray, held: Sequence[bool]) -> float:
+    """``integral of sum_i y_i^2 dt`` over the run (e.g. an H2 cost with unit weights), each
+    signal by its own rule (``held[i]``: left rectangle, else trapezoidal).
+
+    Parameters
+    ----------
+    t : numpy.ndarray, shape (n,)
+        Sample times (s), increasing.
+    y : numpy.ndarray, shape (n,) or (n, k)
+        Signals, one column each.
+    held : sequence of bool
+        One per column of ``y``: whether that signal is held over each communication step.
+
+    Returns
+    -------
+    float
+        The integral, in the unit of ``y`` squared times s.
+    """
+    y = np.atleast_2d(y.T).T
+    return float(sum(_cumulative(t, y[:, i] ** 2, held[i])[-1] for i in range(y.shape[1])))
+
+
+KINDS = ("final", "peak", "rms", "settling_time", "l2_ratio", "time_in_saturation", "integral_square",
+         "max_difference")
+
+
+@dataclass
+class MetricResult:
+    """One evaluated metric with its bounds.
+
+    Parameters
+    ----------
+    name : str
+        Label of the metric (the ``name`` of its :class:`satfmu.sims.scenario.spec.Metric`).
+    kind : str
+        Its kind, one of ``KINDS`` (``peak``, ``rms``, ``l2_ratio``, ...).
+    value : float
+        The value on the run, in ``unit``; NaN never passes.
+    min, max : float or None
+        Pass/fail bounds, in ``unit``; None: no bound.
+    unit : str, optional
+        Unit of the value and bounds (after the metric's scale), e.g. ``"deg"``.
+    """
+
+    name: str
+    kind: str
+    value: float
+    min: float | None
+    max: float | None
+    unit: str = ""
+
+    @property
+    def passed(self) -> bool:
+        ok = not math.isnan(self.value)
+        if self.max is not None:
+            ok &= self.value <= self.max
+        if self.min is not None:
+            ok &= self.value >= self.min
+        return bool(ok)
+
+    def to_json(self) -> dict[str, Any]:
+        """The metric as plain data: name, kind, value, unit, min, max and passed."""
+        return {"name": self.name, "kind": self.kind, "value": self.value, "unit": self.unit,
+                "min": self.min, "max": self.max, "passed": self.passed}
+
+
+def summaries_markdown(summaries: Sequence[dict[str, Any]]) -> str:
+    """Scenario run summaries (``satfmu.sims.scenario.spec.Result.summary()``) as a Markdown table, one row per metric.
+
+    Parameters
+    ----------
+    summaries : sequence of dict
+        Run summaries, each with ``scenario``, ``backend`` and ``metrics`` (the
+        :meth:`MetricResult.to_json` of each metric).
+    """
+    lines = ["| scenario | backend | metric | value | unit | bounds | result |", "|---|---|---|---|---|---|---|"]
+    for s in summaries:
+        for m in s["metrics"]:
+            bounds = " ".join(f"{k} {m[k]:g}" for k in ("min", "max") if m[k] is not None)
+            lines.append(f"| {s['scenario']} | {s['backend']} | {m['name']} | {m['value']:.6g} | {m['unit']} | "
+                         f"{bounds} | {'pass' if m['passed'] else 'FAIL'} |")
+    return "\n".join(lines) + "\n"
+
+
+def write_summaries(summaries: Sequence[dict[str, Any]], path: Path) -> tuple[Path, Path]:
+    """Write the run summaries to ``path`` (JSON) and beside it as Markdown (``.md``, :func:`summaries_markdown`).
+
+    Parameters
+    ----------
+    summaries : sequence of dict
+        Run summaries (:meth:`satfmu.sims.scenario.spec.Result.summary`).
+    path : Path
+        The JSON file to write (its folder is created); the Markdown goes to
+        ``path.with_suffix(".md")``.
+
+    Returns
+    -------
+    (Path, Path)
+        The JSON and the Markdown file.
+    """
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(list(summaries), indent=1) + "\n")
+    md = path.with_suffix(".md")
+    md.write_text(summaries_markdown(summaries))
+    return path, md

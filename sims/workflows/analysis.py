@@ -1,0 +1,274 @@
+"""Analyses of a design that write their files and return a report (``satfmu analyze NAME``).
+
+- :func:`h2hinf_sweep`: the gamma-lambda trade-off of seed 001's Theorem 8, both variants
+  (CSV and PNG);
+- :func:`vscmg_region`: seed 002's re-posed SOS stability region of the approximated SDRE on
+  one box, and the map cell by cell (JSON and PNG);
+- :func:`l2`: the three L2-gain estimates of a controller's closed loop (diagonal, sampled, SOS).
+
+Each report's ``text()`` is what the command line prints.
+"""
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Sequence
+
+import numpy as np
+
+from satfmu.controllers import paths
+
+Progress = Callable[[int, int, str], None]
+"""``progress(done, total, message)``."""
+
+
+@dataclass
+class SweepReport:
+    """What :func:`h2hinf_sweep` computed and wrote.
+
+    Parameters
+    ----------
+    rows : list of satfmu.synthesis.polynomial_feedback.h2hinf_sos.SweepRow
+        One point of the trade-off per gamma and variant (lambda inf: none certified).
+    csv : str
+        The rows as CSV text.
+    files : dict of str to Path, optional
+        The files written: ``csv`` (``gamma_lambda.csv``) and ``png`` (``gamma_lambda.png``).
+    """
+
+    rows: list
+    """:class:`satfmu.synthesis.polynomial_feedback.h2hinf_sos.SweepRow` per gamma and variant (lambda inf:
+    none certified)."""
+    csv: str
+    """The rows as CSV text (the content of ``files["csv"]``)."""
+    files: dict[str, Path] = field(default_factory=dict)
+
+    def text(self) -> str:
+        """The CSV and the files written."""
+        return self.csv + f"wrote {self.files['csv']} and {self.files['png']}"
+
+
+def h2hinf_sweep(out_dir: Path, gammas: Sequence[float] = (1.0, 0.8, 0.7, 0.6, 0.55), *, region: float = 0.45,
+                 alpha_range: tuple[float, float] = (0.05, 2.0), evaluations: int = 12,
+                 progress: Progress | None = None) -> SweepReport:
+    """The certified H2 bound lambda against the L2 bound gamma, both Theorem 8 variants.
+
+    Parameters
+    ----------
+    out_dir : Path
+        Receives ``gamma_lambda.csv`` and ``gamma_lambda.png``.
+    gammas : sequence of float
+        L2-gain bounds w -> sigma (> 0).
+    region : float
+        Certificate region ``|sigma| <= region`` (< 1), any rate.
+    alpha_range : (float, float)
+        Line-search interval of alpha and beta.
+    evaluations : int
+        SDPs per line search (alpha, then beta).
+    progress : callable, optional
+        Called after each SDP search.
+    """
+    from satfmu.sims.scenario import plots
+    from satfmu.synthesis.polynomial_feedback import h2hinf_sos
+
+    rows = h2hinf_sos.sweep(list(gammas), bounds=(*alpha_range,), max_evaluations=evaluations,
+                            progress=progress, region=region)
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    report = SweepReport(rows, h2hinf_sos.sweep_csv(rows),
+                         {"csv": out_dir / "gamma_lambda.csv", "png": out_dir / "gamma_lambda.png"})
+    report.files["csv"].write_text(report.csv)
+    plots.tradeoff(rows, report.files["png"],
+                   f"Seed 001 Theorem 8 on |sigma| <= {region:g}: certified H2 bound vs gamma")
+    return report
+
+
+@dataclass
+class RegionReport:
+    """What :func:`vscmg_region` computed and wrote.
+
+    Parameters
+    ----------
+    artifact : str
+        Name of the servo artifact analysed.
+    box : satfmu.synthesis.servo.vscmg_region.BoxCertificate
+        Certificate of the one-Y box (q2 rad, w4 rad/s).
+    checks : dict of str to float
+        The certificate checked on the true sin/cos model at samples of the box
+        (:func:`satfmu.synthesis.servo.vscmg_region.trig_check`, empty when the box has no Lyapunov
+        matrix) and the cosine enclosure's errors (:func:`satfmu.synthesis.servo.vscmg_region.cos_errors`).
+    cells : list of satfmu.synthesis.servo.vscmg_region.BoxCertificate
+        Certificate of each map cell.
+    files : dict of str to Path, optional
+        The files written: ``json`` (``region.json``) and ``png`` (``region.png``).
+    """
+
+    artifact: str
+    box: Any
+    """:class:`satfmu.synthesis.servo.vscmg_region.BoxCertificate` of the one-Y box."""
+    checks: dict[str, float]
+    """The true sin/cos model's samples on the box and the cosine enclosure's errors."""
+    cells: list
+    """:class:`~satfmu.synthesis.servo.vscmg_region.BoxCertificate` of each map cell."""
+    files: dict[str, Path] = field(default_factory=dict)
+
+    def text(self) -> str:
+        """The box certificate, its checks, the cells certified and the files written."""
+        b = self.box
+        lines = [f"box q2 {b.q2} w4 {b.w4}: {b.message}; eps {b.eps:.4g}, decay bound {b.decay:.4g} 1/s, "
+                 f"margin {b.margin:.4g}, {b.seconds:.0f} s"]
+        lines += [f"  {k}: {v:.4g}" for k, v in self.checks.items()]
+        lines.append(f"cells certified: {sum(c.certified for c in self.cells)}/{len(self.cells)}; "
+                     f"wrote {self.files['json']} and {self.files['png']}")
+        return "\n".join(lines)
+
+
+def vscmg_region(out_dir: Path, artifact: str | Path = "vscmg_sdre_approx", *,
+                 box_q2: tuple[float, float] | None = None, box_w4: tuple[float, float] | None = None,
+                 q2: tuple[float, float] = (0.05, 1.52), w4: tuple[float, float] = (-1.8, 1.8),
+                 cells: tuple[int, int] = (7, 6), progress: Progress | None = None) -> RegionReport:
+    """Seed 002 section 4 re-posed: the SOS stability region of an approximated SDRE servo.
+
+    Parameters
+    ----------
+    out_dir : Path
+        Receives ``region.json`` and ``region.png``.
+    artifact : str or Path
+        Artifact name (:func:`satfmu.controllers.paths.find_artifact`) or ``.json`` path of a servo.
+    box_q2, box_w4 : (float, float), optional
+        The one-Y box, rad and rad/s (default: :data:`satfmu.synthesis.servo.vscmg_region.OPERATING_BOX`).
+    q2, w4 : (float, float)
+        Range of the map, rad and rad/s.
+    cells : (int, int)
+        Map cells over q2 and w4.
+    progress : callable, optional
+        Called after each cell.
+    """
+    from satfmu.controllers import artifact as artifacts
+    from satfmu.sims.scenario import plots
+    from satfmu.fmus.profiles import make
+    from satfmu.synthesis.servo import vscmg_region as vr
+    from satfmu.synthesis.servo.sdre import SEED_REFERENCE_PROFILES, simulate_servo
+
+    art = artifacts.load(paths.find_artifact(artifact))
+    if not isinstance(art, artifacts.ServoArtifact):
+        raise ValueError(f"artifact {art.name!r} is not a gain-scheduled servo (kind servo_gain_schedule)")
+    loop = vr.ClosedLoop.build(art)
+    box_q2, box_w4 = ((*b,) if b else d for b, d in zip((box_q2, box_w4), vr.OPERATING_BOX))
+    box = vr.certify(loop, box_q2, box_w4)
+    trig = vr.trig_check(loop, box) if box.Y is not None else {}
+    found = vr.map_region(loop, np.linspace(*q2, cells[0] + 1), np.linspace(*w4, cells[1] + 1), progress=progress)
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    report = RegionReport(art.name, box, {**trig, **vr.cos_errors(box.q2)}, found,
+                          {"json": out_dir / "region.json", "png": out_dir / "region.png"})
+    report.files["json"].write_text(json.dumps(vr.region_data(loop, box, trig, found), indent=1))
+    refs = [make(SEED_REFERENCE_PROFILES[n]) for n in ("q2_ref", "q4_ref")]
+    run = simulate_servo(lambda x: art.gain_at(art.scheduling_values({"q2": x[1], "w4": x[5]})),
+                         lambda t: np.stack([r.sample(t) for r in refs], axis=1), plant_params={"friction_on": 0})
+    plots.region_map(found, report.files["png"], [box], (run.x[:, 1], run.x[:, 5]),
+                     f"Seed 002 section 4 re-posed: SOS stability region of {art.name} (frozen SDC loop off p4)")
+    return report
+
+
+@dataclass
+class L2Report:
+    """The three L2-gain estimates of :func:`l2` (c: the gain w -> sigma; kv: V = kv x^T P x).
+
+    Parameters
+    ----------
+    controller : str
+        Name of the controller.
+    region : satfmu.synthesis.polynomial_feedback.l2_gain.Region
+        Region of the sampled and SOS estimates (``|omega_i| <= rate_max`` rad/s,
+        ``|sigma| <= sigma_max``).
+    kv : float
+        kv of the diagonal check at a fixed kv.
+    diagonal : (float, float)
+        c at ``kv`` on the diagonal x1 = ... = x6 in [-10, 10] (seed 000's method), and kv.
+    diagonal_best : (float, float)
+        The smallest c over kv on the diagonal, and its kv.
+    sampled : satfmu.synthesis.polynomial_feedback.l2_gain.SampledGain
+        Sampled estimate on the region (a lower bound on the smallest certifiable c).
+    sos : satfmu.synthesis.polynomial_feedback.l2_gain.SOSGain or None
+        SOS certificate on the region (an upper bound on c), or None when none was found.
+    sos_error : str, optional
+        Why there is no SOS certificate (empty when there is one).
+    """
+
+    controller: str
+    region: Any
+    """:class:`satfmu.synthesis.polynomial_feedback.l2_gain.Region` of the sampled and SOS estimates."""
+    kv: float
+    """kv of the diagonal check at a fixed kv."""
+    diagonal: tuple[float, float]
+    """c at ``kv`` on the diagonal x1 = ... = x6 in [-10, 10] (seed 000's method), and kv."""
+    diagonal_best: tuple[float, float]
+    """The smallest c over kv on the diagonal, and its kv."""
+    sampled: Any
+    """:class:`satfmu.synthesis.polynomial_feedback.l2_gain.SampledGain` on the region."""
+    sos: Any | None
+    """:class:`satfmu.synthesis.polynomial_feedback.l2_gain.SOSGain` on the region, or None when no
+    certificate exists."""
+    sos_error: str = ""
+    """Why there is no SOS certificate."""
+
+    def text(self) -> str:
+        """The three estimates, one per line."""
+        (c_pub, kv_pub), (c_diag, kv_diag), smp, label = (self.diagonal, self.diagonal_best, self.sampled,
+                                                          self.region.label)
+        found = f"c >= {smp.c:.4f} at kv = {smp.kv:.4g}" if math.isfinite(smp.c) else "no finite c for any kv"
+        lines = [f"{self.controller}: L2 gain c from the HJI inequality, V = kv x^T P x, z = sigma",
+                 f"  diagonal x1=...=x6 in [-10, 10] (seed 000's method): c = {c_pub:.4f} at kv = {kv_pub:g}; "
+                 f"best c = {c_diag:.4f} at kv = {kv_diag:.4g}",
+                 f"  sampled on {label} ({smp.n_samples} random points + adversarial search, origin limit "
+                 f"{smp.origin_c:.4g}): {found}"]
+        if smp.note:
+            lines.append(f"    {smp.note}; worst point x = {[float(f'{v:.3g}') for v in smp.worst_point]}")
+        g = self.sos
+        if g is None:
+            lines.append(f"  SOS certificate of H <= 0 on {label}: none ({self.sos_error})")
+        else:
+            lines.append(f"  SOS certificate of H <= 0 on {label}: c <= {g.c:.4f} at kv = {g.kv:.4g} "
+                         f"({'certified' if g.certified else 'NOT certified'}: min Gram eigenvalue "
+                         f"{min(ch.min_eig for ch in g.checks):.2e}, residual "
+                         f"{max(ch.residual for ch in g.checks):.2e}; "
+                         f"{g.n_programs} SDPs, {g.timings['solve']:.1f} s)")
+        return "\n".join(lines)
+
+
+def l2(controller: str | Path, *, rate_max: float = 0.2, sigma_max: float = 0.9, kv: float = 1e4,
+       samples: int = 200_000) -> L2Report:
+    """The L2 gain of a controller's closed loop with the MRP satellite, three ways.
+
+    Parameters
+    ----------
+    controller : str or Path
+        Artifact name (:func:`satfmu.controllers.paths.find_artifact`) or ``.json`` path.
+    rate_max : float
+        Region ``|omega_i| <= rate_max``, rad/s.
+    sigma_max : float
+        Region ``|sigma| <= sigma_max``.
+    kv : float
+        kv of the diagonal check at a fixed kv (the seed's: 1e4).
+    samples : int
+        Random points of the sampled estimate.
+    """
+    from satfmu.controllers import artifact as artifacts
+    from satfmu.synthesis.polynomial_feedback import l2_gain
+    from satfmu.synthesis.core.sos import SOSError
+
+    art = artifacts.load(paths.find_artifact(controller))
+    if not isinstance(art, artifacts.ControllerArtifact):
+        raise ValueError(f"artifact {art.name!r} is not a polynomial state-feedback controller "
+                         "(kind polynomial_state_feedback)")
+    form = l2_gain.hji_form(art)
+    region = l2_gain.Region(rate_max, sigma_max)
+    diagonal, best = l2_gain.diagonal_gain(form, kv), l2_gain.diagonal_gain(form)
+    sampled = l2_gain.sampled_gain(form, region, n_samples=samples)
+    try:
+        return L2Report(form.controller, region, kv, diagonal, best, sampled, l2_gain.sos_gain(form, region))
+    except SOSError as exc:
+        return L2Report(form.controller, region, kv, diagonal, best, sampled, None, str(exc))

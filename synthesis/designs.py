@@ -1,0 +1,378 @@
+"""One function per design method of the five seed papers, each returning a :class:`Design` and
+failing with :class:`DesignError` only.
+
+A design is made for a plant (seed 000 and 001: any spacecraft, via
+:class:`satfmu.fmus.plants.spacecraft.Spacecraft`), re-verified independently of its solver by the
+synthesis module, and returned with its artifacts (JSON data, validated) and a text
+report. :meth:`Design.write` saves the artifacts, by default into the user's folder
+(:func:`satfmu.controllers.paths.user_artifacts`, never the shipped artifacts), and optionally builds
+their controller FMUs. ``satfmu synth NAME`` is a thin layer over :data:`DESIGNS`.
+"""
+from __future__ import annotations
+
+import functools
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable, ParamSpec, Sequence
+
+from satfmu.fmus.model import Model
+from satfmu.fmus.plants.spacecraft import Spacecraft
+from satfmu.fmus.errors import DesignError, SatfmuError
+
+Progress = Callable[[int, int, str], None]
+"""``progress(done, total, message)``."""
+
+_P = ParamSpec("_P")
+
+
+def fails_with_design_error(design: Callable[_P, "Design"]) -> Callable[_P, "Design"]:
+    """``design`` failing with :class:`DesignError` only: any other exception it raises (bad input,
+    a solver's or a check's error) becomes one with the same message, the original chained as its
+    ``__cause__`` (for a class outside satfmu's errors the message starts with the class name).
+
+    Parameters
+    ----------
+    design : callable
+        A design function returning a :class:`Design`.
+
+    Returns
+    -------
+    callable
+        The function with the same signature and docstring.
+    """
+    @functools.wraps(design)
+    def guarded(*args: _P.args, **kwargs: _P.kwargs) -> Design:
+        try:
+            return design(*args, **kwargs)
+        except DesignError:
+            raise
+        except Exception as exc:
+            detail = str(exc) if isinstance(exc, SatfmuError) else f"{type(exc).__name__}: {exc}"
+            raise DesignError(detail) from exc
+
+    return guarded
+
+
+@dataclass
+class Design:
+    """A verified design: its artifacts and what the method reported.
+
+    Attributes
+    ----------
+    method : str
+        Registry name (``"mrp-hinf"``, ...).
+    artifacts : list of dict
+        Controller artifacts (format of :mod:`satfmu.controllers.artifact`), validated.
+    report : str
+        The method's summary (tables, certificate, checks), as the CLI prints it.
+    result : object
+        The synthesis module's full result (iterates, solver data, checks).
+    """
+
+    method: str
+    artifacts: list[dict[str, Any]]
+    report: str
+    result: Any = field(repr=False, default=None)
+
+    @property
+    def artifact(self) -> dict[str, Any]:
+        """The (first) artifact's data."""
+        return self.artifacts[0]
+
+    @property
+    def names(self) -> list[str]:
+        """Artifact (and controller FMU) names."""
+        return [a["name"] for a in self.artifacts]
+
+    def write(self, folder: str | Path | None = None, fmu_dir: str | Path | None = None,
+              backends: Sequence[str] = ("native", "python")) -> list[Path]:
+        """Save the artifacts as ``<folder>/<name>.json`` and, with ``fmu_dir``, build their FMUs.
+
+        Parameters
+        ----------
+        folder : path, optional
+            Default :func:`satfmu.controllers.paths.user_artifacts` (scenarios find artifacts there by
+            name before the shipped ones).
+        fmu_dir : path, optional
+            Build the controller FMUs (``backends``) here.
+        backends : sequence of {"native", "python"}, optional
+            The FMU backends built into ``fmu_dir``. Default both.
+
+        Returns
+        -------
+        list of Path
+            The artifact files, then the FMUs built.
+        """
+        from satfmu.controllers import artifact as artifacts
+        from satfmu.controllers import catalog, paths
+
+        out_dir = paths.user_artifacts() if folder is None else Path(folder)
+        out_dir.mkdir(parents=True, exist_ok=True)
+        written = []
+        for data in self.artifacts:
+            art = artifacts.parse(json.loads(json.dumps(data)), where=data["name"])
+            f = out_dir / f"{art.name}.json"
+            artifacts.save(art, f)
+            written.append(f)
+            if fmu_dir is not None:
+                src = catalog.artifact_source(f)
+                written += [catalog.builder(b)(src.model, Path(fmu_dir), src.resources) for b in backends]
+        return written
+
+
+def _mrp_plant(plant: Model | Spacecraft | None) -> Model:
+    from satfmu.fmus.plants import mrp_satellite
+
+    if plant is None:
+        return mrp_satellite.MODEL
+    if isinstance(plant, Spacecraft):
+        return mrp_satellite.build(plant)
+    if not isinstance(plant, Model) or plant.name != mrp_satellite.MODEL.name:
+        raise DesignError(f"plant must be a satfmu.Spacecraft or an MRP satellite model (satfmu.mrp_plant), "
+                          f"got {plant!r:.80}")
+    return plant
+
+
+@fails_with_design_error
+def design_hinf(plant: Model | Spacecraft | None = None, *, name: str = "mrp_hinf_satfmu",
+                start: dict[str, float] | None = None, torque_budget: float = 6.5, horizon: float = 120.0,
+                region: float = 0.9, rate_max: float = 0.2, sigma_max: float = 0.9,
+                coefficient_limit: float = 1.0, decay_rates: Sequence[float] | None = None,
+                n_samples: int = 20_000, progress: Progress | None = None) -> Design:
+    """Seed 000: nonlinear H-infinity state feedback by the two-step iteration (SOS, then L2 gain).
+
+    Parameters
+    ----------
+    plant : Spacecraft or satfmu.fmus.model.Model, optional
+        Your spacecraft (its inertia tensor, products included) or an MRP satellite model;
+        default seed 000's satellite.
+    name : str
+        Artifact and controller FMU name.
+    start : dict, optional
+        Start of the manoeuvre each iterate is judged on, as plant parameters
+        (:func:`satfmu.synthesis.polynomial_feedback.two_step.manoeuvre` builds one from an axis and an angle); default
+        seed 000's 200 deg start.
+    torque_budget : float
+        Largest acceptable peak ``|u_i|`` on that manoeuvre, N m.
+    horizon : float
+        Length of the manoeuvre; the attitude error must be < 0.1 deg at its end, s.
+    region : float
+        Theorem 1's certificate region ``|sigma| <= region`` (< 1).
+    rate_max, sigma_max : float
+        L2-gain region ``|omega_i| <= rate_max`` (rad/s), ``|sigma| <= sigma_max``.
+    coefficient_limit : float
+        Bound on every gain coefficient (program units).
+    decay_rates : sequence of float, optional
+        The iteration's schedule of certified decay rates, 1/s (default
+        :data:`satfmu.synthesis.polynomial_feedback.two_step.DECAY_RATES`; fewer rates are faster).
+    n_samples : int
+        Random points of the sampled L2 estimate per iterate.
+    progress : callable, optional
+        ``progress(done, total, message)`` after each step.
+
+    Raises
+    ------
+    DesignError
+        If no iterate is accepted, or on bad input (the cause chained).
+    """
+    from satfmu.synthesis.polynomial_feedback import l2_gain, two_step
+
+    model = _mrp_plant(plant)
+    result = two_step.two_step(model, region=region, l2_region=l2_gain.Region(rate_max, sigma_max),
+                               coefficient_limit=coefficient_limit, torque_budget=torque_budget,
+                               decay_rates=two_step.DECAY_RATES if decay_rates is None else decay_rates,
+                               n_samples=n_samples, start=start, horizon=horizon, progress=progress)
+    return Design("mrp-hinf", [result.artifact_data(name)], result.table(), result)
+
+
+@fails_with_design_error
+def design_h2hinf(gamma: float, plant: Model | Spacecraft | None = None, *, name: str = "mrp_h2hinf_satfmu",
+                  variant: str = "slack", region: float = 0.45, alpha_range: tuple[float, float] = (0.05, 2.0),
+                  evaluations: int = 12, progress: Progress | None = None) -> Design:
+    """Seed 001: mixed H2/H-infinity state feedback (Theorem 8) at one L2-gain bound ``gamma``.
+
+    Parameters
+    ----------
+    gamma : float
+        L2-gain bound w -> sigma to certify (N m -> 1).
+    plant : Spacecraft or satfmu.fmus.model.Model, optional
+        Default seed 000's satellite (seed 001 uses the same plant).
+    name : str
+        Artifact and controller FMU name.
+    variant : {"slack", "common"}
+        Separate Lyapunov matrices and slack (the seed's design) or one common matrix.
+    region : float
+        Certificate region ``|sigma| <= region`` (< 1), any rate.
+    alpha_range : (float, float)
+        Line-search interval of the seed's scalars alpha and beta.
+    evaluations : int
+        SDPs per line search.
+    progress : callable, optional
+        ``progress(done, total, message)`` after each step.
+
+    Raises
+    ------
+    DesignError
+        If no design is certified at ``gamma``, the closed-loop check fails, or on bad input (the
+        cause chained).
+    """
+    from satfmu.synthesis.polynomial_feedback import h2hinf_sos
+
+    model = _mrp_plant(plant)
+    found = h2hinf_sos.search(gamma, variant, bounds=(*alpha_range,), max_evaluations=evaluations,
+                              progress=progress, region=region, model=model)
+    r = found.best
+    if r is None:
+        raise DesignError(f"no certified {variant} design at gamma = {gamma:g} on |sigma| <= {region:g} "
+                          f"({len(found.evaluations)} SDPs; try a larger gamma or region)")
+    check = h2hinf_sos.closed_loop_check(r, model=model)
+    report = (f"{r.proved}\n  alpha = {r.alpha:.4g}, beta = {r.beta:.4g}, {len(found.evaluations)} SDPs; "
+              f"simulated J2 = {check.j2:.4f} over {check.stop_time:g} s (bound {r.lam:.4f}), max |sigma| "
+              f"{check.max_tilde:.4f}, linearization max Re eig {check.max_real_eig:.4f} 1/s")
+    if not check.passed:
+        raise DesignError(f"{report}\nthe closed-loop check failed: the design is not saved")
+    return Design("mrp-h2hinf", [h2hinf_sos.artifact_data(r, name, check, model)], report, r)
+
+
+@fails_with_design_error
+def design_vscmg_sdre(grid: tuple[int, int] = (23, 25), max_degree: int = 8, cv_tol: float | None = None,
+                      region: bool = True) -> Design:
+    """Seed 002: the approximated SDRE servo (polynomial gain fit, SOS stability region) and the
+    LQ servo, for seed 002's VSCMG plant (its parameters as published).
+
+    Parameters
+    ----------
+    grid : (int, int)
+        SDRE grid points over q2 and w4.
+    max_degree : int
+        Largest polynomial degree of the fit tried.
+    cv_tol : float, optional
+        Choose the smallest degree with this cross-validated relative error (default
+        :data:`satfmu.synthesis.servo.gain_fit.CV_TOL`; 0: the smallest error).
+    region : bool
+        Solve the SOS stability region (without it the artifact stays "sampled").
+
+    Raises
+    ------
+    DesignError
+        If the fit fails its check against the plant's own factorization
+        (:class:`satfmu.fmus.errors.FitVerificationError` chained), or on bad input.
+    """
+    from satfmu.synthesis.servo import gain_fit
+
+    if (not isinstance(grid, (tuple, list)) or len(grid) != 2
+            or not all(isinstance(n, int) and not isinstance(n, bool) and n >= 2 for n in grid)):
+        raise DesignError(f"grid must be two integers >= 2 (SDRE grid points over q2 and w4), got {grid!r:.80}")
+    tol: dict[str, Any] = {} if cv_tol is None else {"cv_tol": cv_tol if cv_tol > 0 else None}
+    result, approx, lq = gain_fit.synthesize(*grid, degrees=range(1, max_degree + 1), region=region, **tol)
+    cert = approx["certificate"]
+    report = (f"certificate: {cert['status']}: {cert['proved']}\n"
+              + gain_fit.table(result, {k: v for k, v in cert["numbers"].items() if not k.startswith("fit_")}))
+    return Design("vscmg-sdre", [approx, lq], report, result)
+
+
+@fails_with_design_error
+def design_cubesat_periodic(gamma: float | None = None, plant: Spacecraft | None = None, *,
+                            name: str = "cubesat_periodic_satfmu",
+                            published_name: str = "cubesat_periodic_published") -> Design:
+    """Seed 003: periodic stochastic H-infinity magnetorquer gains (Theorem 2), and the
+    analysis of the published gains.
+
+    Parameters
+    ----------
+    gamma : float, optional
+        Design level (default ``gamma_min (1 + GAMMA_MARGIN)``).
+    plant : Spacecraft, optional
+        Your cubesat, in principal axes (three moments; default seed 003's). The published
+        gains are then only analysed on it (their artifact is seed 003's alone).
+    name, published_name : str
+        Artifact names of the design and of the published gains.
+
+    Raises
+    ------
+    DesignError
+        If Theorem 2 is infeasible at ``gamma``, or the spacecraft has products of inertia (the
+        cause chained).
+    """
+    from satfmu.fmus.plants import cubesat
+    from satfmu.synthesis.periodic import cubesat_periodic as cp
+
+    r = cp.synthesize(gamma, inertia=None if plant is None else cubesat.principal_moments(plant))
+    lo, hi, n = r.bracket
+    lines = [f"seed 003 Theorem 2: gamma_min {r.gamma_min:.4f} (minimized); bisection bracket [{lo:.4f}, "
+             f"{hi:.4f}] in {n} solves; the seed's gamma {cp.GAMMA_SEED:g} is "
+             f"{'feasible' if r.numbers['seed_gamma_feasible'] else 'infeasible'}"]
+    lines += [f"  {k}: {v:.6g}" for k, v in r.numbers.items()]
+    lines.append("  gains F(k) (rows m_x, m_y, m_z; columns omega_x, omega_y, omega_z), ours | published:")
+    for k, (f, p) in enumerate(zip(r.design.F, cp.PUBLISHED_GAINS)):
+        lines += [f"    k={k} " + " ".join(f"{v:8.4f}" for v in f[i]) + "  | " + " ".join(f"{v:8.4f}" for v in p[i])
+                  for i in range(3)]
+    data = [r.artifact_data(name, r.design.F, r.design.gamma, r.design.check, "satfmu")]
+    if r.published is not None and plant is None:
+        data.append(r.artifact_data(published_name, cp.PUBLISHED_GAINS, r.published.gamma, r.published.check,
+                                    "published (seed 003, gains as printed)"))
+    return Design("cubesat-periodic", data, "\n".join(lines), r)
+
+
+@fails_with_design_error
+def design_demeter(axes: Sequence[int] = (1,), appendages: Sequence[int] = (1,), model_type: int = 1,
+                   uncertainty_type: int = 1, wheels: bool = True, *, name: str = "demeter_row1_det",
+                   n_samples: int = 100, convention: str = "satfmu") -> Design:
+    """Seed 004: deterministic robust state feedback of a DEMETER variant (Table 1, Det).
+
+    Parameters
+    ----------
+    axes, appendages : sequence of int
+        The variant's axes and appendages, 1-based.
+    model_type : {1, 2}
+        1: independent appendages, 2: identical.
+    uncertainty_type : {1, 2, 3}
+        1: norm-bounded (D-G), 2: intervals (vertices), 3: inertia norm-bounded.
+    wheels : bool
+        Design with the wheel dynamics H(s).
+    name : str
+        Artifact and controller FMU name.
+    n_samples : int
+        Sampled plants of the independent check.
+    convention : {"satfmu", "romuloc"}
+        LMI forms and objective of the design (:func:`satfmu.synthesis.robust.robust_design.design`); the
+        artifact records it.
+
+    Raises
+    ------
+    DesignError
+        If the variant is infeasible (with the obstruction when one is proved), or on bad input
+        (the cause chained).
+    """
+    from satfmu.synthesis.robust import demeter_design as dd
+    from satfmu.synthesis.robust import demeter_table
+    from satfmu.synthesis.robust.demeter_variants import Variant
+
+    variant = Variant(tuple(axes), tuple(appendages), model_type, uncertainty_type, wheels)
+    row = demeter_table.run_row(variant, "Det", n_samples=n_samples, convention=convention)
+    lines = [demeter_table.markdown([row])]
+    r = row.result
+    assert isinstance(r, dd.DeterministicResult)  # a "Det" row holds the deterministic design
+    if not r.feasible:
+        if r.obstruction is not None and r.obstruction.proves_infeasible:
+            o = r.obstruction
+            lines.append(f"infeasible for any common-Lyapunov design: at coincident omega, {o.n_free} combination(s) "
+                         f"of the modes are free oscillators; over omega in [{o.omega[0]:.4g}, {o.omega[1]:.4g}] "
+                         f"rad/s they need zeta > {o.required_zeta:.4g} (the box has zeta <= {o.zeta:g}); "
+                         f"eig(A_lo A_hi) = {', '.join(f'{v.real:.4g}' for v in o.eigenvalues)}")
+        raise DesignError("\n".join(lines))
+    c = r.check
+    assert c is not None  # deterministic() checks every feasible design
+    common = getattr(r.analysis_hinf_common, "gamma", None)
+    lines.append(f"{c.n} sampled plants (seed {c.seed}): Re s in [{c.min_real_pole:.3g}, {c.max_real_pole:.3g}] 1/s, "
+                 f"largest exact H-infinity {c.hinf.max():.4g}, i2p {c.i2p.max():.4g}; H-infinity bound with one "
+                 f"Lyapunov matrix: {'none' if common is None else format(common, '.4g')}")
+    return Design("demeter", [dd.artifact_data(r, name)], "\n".join(lines), r)
+
+
+DESIGNS: dict[str, Callable[..., Design]] = {
+    "mrp-hinf": design_hinf, "mrp-h2hinf": design_h2hinf, "vscmg-sdre": design_vscmg_sdre,
+    "cubesat-periodic": design_cubesat_periodic, "demeter": design_demeter,
+}
+"""``satfmu synth NAME`` -> its design function."""

@@ -1,0 +1,738 @@
+"""Seed 001, Theorem 8: mixed H2/H-infinity state feedback with slack variables, by SOS.
+
+Seed: the seed 001 paper (Chinese); restated in clean notation in
+docs/models.md, "Seed 001". For ``x' = A(x) x + Bu u + Bw w``, ``z = C x`` (the MRPs),
+find symmetric ``X2``, ``Xinf`` > 0, a slack matrix ``F`` and a polynomial ``Y(x)`` with
+
+    -[ G11 + e I   *              *        *      ]
+     [ G12         -a (F + F^T)   *        *      ]   SOS matrix (H2 part, ``a = alpha``)
+     [ F           a F           -Qh^-1    *      ]
+     [ Y           a Y            0       -Rh^-1  ]
+
+    -[ G13 + e I   *              *        *      ]
+     [ G14         -b (F + F^T)   *        *      ]   SOS matrix (H-infinity part, ``b = beta``)
+     [ Bw^T        0             -g^2 I    *      ]
+     [ C F         b C F          0       -I      ]
+
+    [ lambda  x0^T ; x0  X2 ] >= 0
+
+with ``G11 = G13 = A F + Bu Y + (A F + Bu Y)^T`` and ``G12 = X2 - F + a (A F + Bu Y)^T``,
+``G14 = Xinf - F + b (A F + Bu Y)^T``; minimize ``lambda``. The law is
+``u = Y(x) F^-1 x``. The closed loop then has H2 cost ``J2 <= lambda`` from ``x0`` and L2 gain
+``w -> z`` below ``gamma`` where the conditions hold.
+
+Choices (docs/models.md, "Checked numerically before building", and what we measured):
+
+- ``Y = Y~(x~) + Kg(x) F``: ``Kg`` cancels the actuated rows of ``A(x)`` (the gyroscopic
+  torque; :class:`SplitPlant`), so the conditions involve ``A~(x~)`` only and hold for
+  *every* rate, on ``|x~| <= r`` (S-procedure). The law is
+  ``u = omega x I omega + Y~(sigma) F^-1 x``.
+- ``X2``, ``Xinf`` and ``F`` are constant, so the ``dX/dx`` terms vanish and the law is a
+  polynomial (no linear solve at run time). A state-dependent ``F`` cannot widen the
+  region: with ``U = [Acl; -I; I; K]``, ``V = [I; a I; 0; 0]`` the H2 matrix is
+  ``Psi + He(U F V^T)``, and projecting on ``ker U^T`` gives
+  ``Acl X2 + X2 Acl^T + X2 (Qh + K^T Rh K) X2 < 0`` whatever F is. Its sigma-sigma block,
+  ``G(sigma) X2_ws + (.)^T``, no feedback can change, and no constant ``X2_ws`` keeps it
+  negative once ``B(sigma)/(1 + |sigma|^2)`` (a rotation by ``2 atan|sigma|``) reaches
+  90 deg: constant Lyapunov matrices certify only ``|sigma| < 1``. (Measured at r = 0.3:
+  F of degree 2 in sigma lowers lambda by 1 % for a 9x slower, uncertified solve.)
+- The same projection (``ker [Acl; -I; 0; C]^T``) gives the dual bounded-real lemma from
+  the H-infinity matrix, so both conditions are sound for any ``a, b > 0``.
+- The margin ``e`` sits on every diagonal block (the seed's sits on the (1,1) block only),
+  as ``a e`` on ``-a (F + F^T)``, so ``F + F^T >= e I`` and F is invertible.
+- ``variant="common"``: ``X2 = Xinf = F`` (symmetric), the common-Lyapunov baseline the
+  seed says the slack design beats.
+- ``alpha`` and ``beta`` are fixed in one SDP and searched outside (:func:`search`); below
+  ``a ~ 0.05`` the SDPs become too ill-conditioned for Clarabel.
+- ``x0`` of the H2 bound: seed 000's 200 deg start has ``|sigma| = 1.19``, outside any
+  region constant Lyapunov matrices can certify, so the default is the 90 deg rest-to-rest
+  about the same axis (``|sigma| = 0.414``; **substitute**, a parameter).
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Any, Callable
+
+import numpy as np
+import sympy as sp
+from scipy.integrate import solve_ivp
+from scipy.optimize import minimize_scalar
+
+from satfmu.controllers import artifact as artifacts
+from satfmu.fmus import codegen
+from satfmu.fmus.plants import mrp_satellite
+from satfmu.fmus.model import Model
+from satfmu.synthesis.core.polynomial import Poly, PolyMatrix, monomials
+from satfmu.synthesis.core.sos import Check, SOSError, SOSProgram, SOSSolution, check_numbers, verify
+
+X0_200 = np.array([0.0, 0.0, 0.0, 0.5992, -0.7976, 0.6517])
+"""Seed 000's 200 deg rest-to-rest start (docs/models.md's x(0), outside every certifiable region)."""
+X0_90 = np.concatenate([np.zeros(3), X0_200[3:] / np.linalg.norm(X0_200[3:]) * np.tan(np.pi / 8)])
+"""Default x(0) of the H2 bound: 90 deg rest-to-rest about the 200 deg case's axis."""
+VARIANTS = ("slack", "common")
+
+
+@dataclass(frozen=True)
+class SplitPlant:
+    """The SDC plant split as Theorem 8 needs it (parameters at their defaults).
+
+    ``x~`` (``tilde``) are the states whose rows of ``[Bu Bw]`` are zero, the others are
+    ``actuated``. ``Kg(x) = -(Bu^T Bu)^-1 Bu^T A(x)`` cancels the actuated rows of A (for
+    the MRP satellite: the gyroscopic torque, ``Kg x = omega x I omega``), so with
+    ``Y = Y~(x~) + Kg F`` the conditions only involve ``A~ = A + Bu Kg``, a function of x~.
+
+    Attributes
+    ----------
+    symbols : tuple of sympy.Symbol
+        The model's state symbols ``x``, in state order (n of them).
+    tilde : tuple of int
+        Indices in ``x`` of the unactuated states ``x~`` (the MRPs).
+    actuated : tuple of int
+        Indices in ``x`` of the other states (the body rates).
+    A_tilde : satfmu.synthesis.core.polynomial.PolyMatrix
+        ``A + Bu Kg``, shape (n, n), as polynomials in ``x~`` (below).
+    Kg : sympy.Matrix
+        The cancelling feedback gain, shape (m, n), in the state symbols (below).
+    Bu : numpy.ndarray, shape (n, m)
+        Input matrix of the control torque ``u`` (N m).
+    Bw : numpy.ndarray, shape (n, m)
+        Input matrix of the disturbance torque ``w`` (N m).
+    C : numpy.ndarray, shape (len(tilde), n)
+        Performance output matrix (below).
+    """
+
+    symbols: tuple[sp.Symbol, ...]
+    tilde: tuple[int, ...]
+    actuated: tuple[int, ...]
+    A_tilde: PolyMatrix
+    """``A + Bu Kg`` as polynomials in x~."""
+    Kg: sp.Matrix
+    """The cancelling feedback gain, in the state symbols."""
+    Bu: np.ndarray
+    Bw: np.ndarray
+    C: np.ndarray
+    """``z = C x = x~`` (seed 001: the MRPs)."""
+
+    @property
+    def n(self) -> int:
+        return len(self.symbols)
+
+    @property
+    def m(self) -> int:
+        return self.Bu.shape[1]
+
+    @property
+    def tilde_symbols(self) -> list[sp.Symbol]:
+        return [self.symbols[i] for i in self.tilde]
+
+    @property
+    def tilde_name(self) -> str:
+        return _base(self.symbols[self.tilde[0]])
+
+    @property
+    def actuated_name(self) -> str:
+        return _base(self.symbols[self.actuated[0]])
+
+
+def _base(s: sp.Symbol) -> str:
+    return str(s).split("[", 1)[0]
+
+
+CANCEL_TOL = 1e-12
+"""Relative size of a coefficient of ``A + Bu Kg`` taken as round-off of the cancellation."""
+
+
+def _split(model: Model, frozen: bool) -> SplitPlant:
+    xs = [s.symbol for s in model.states]
+    subs = {v.symbol: v.start for v in model.parameters}
+    sdc = model.sdc
+    if sdc is None:
+        raise ValueError(f"model {model.name!r} has no SDC form")
+    A = sp.Matrix(sdc.A.subs(subs))
+    if frozen:
+        A = A.subs({x: 0 for x in xs})
+    B = sp.Matrix(sdc.B.subs(subs))
+    m = B.shape[1] // 2
+    Bu = B[:, :m]
+    tilde = tuple(i for i in range(len(xs)) if all(B[i, j] == 0 for j in range(B.shape[1])))
+    actuated = tuple(i for i in range(len(xs)) if i not in tilde)
+    Kg = sp.simplify(-(Bu.T * Bu).inv() * Bu.T * A)
+    # with products of inertia the cancellation leaves round-off (1e-17 omega): drop it
+    scale = max([abs(float(f)) for f in A.atoms(sp.Float)] + [1.0])
+    A_tilde = sp.expand(A + Bu * Kg).applyfunc(
+        lambda e: e.xreplace({f: 0 for f in e.atoms(sp.Float) if abs(f) < CANCEL_TOL * scale}))
+    xt = [xs[i] for i in tilde]
+    if not A_tilde.free_symbols <= set(xt):
+        raise ValueError(f"model {model.name!r}: A + Bu Kg depends on "
+                         f"{sorted(map(str, A_tilde.free_symbols - set(xt)))}, not only on x~")
+    C = np.zeros((len(tilde), len(xs)))
+    C[np.arange(len(tilde)), list(tilde)] = 1.0
+    Bn = np.array(B, float)
+    return SplitPlant(tuple(xs), tilde, actuated, PolyMatrix.from_sympy(A_tilde, xt), Kg,
+                      Bn[:, :m], Bn[:, m:], C)
+
+
+@dataclass
+class Theorem8Result:
+    """A solved and independently verified Theorem 8 design at fixed gamma, alpha, beta.
+
+    Attributes
+    ----------
+    variant : {"slack", "common"}
+        Separate X2, Xinf and slack F, or ``X2 = Xinf = F`` (:func:`theorem8`).
+    gamma : float
+        The L2-gain bound ``w -> z`` of the design (N m -> 1).
+    alpha, beta : float
+        The seed's scalars the SDP was solved at.
+    lam : float
+        The certified H2 bound lambda (below).
+    X2, Xinf : numpy.ndarray, shape (n, n)
+        The Lyapunov matrices of the H2 and the H-infinity condition (``V = x^T X^-1 x``).
+    F : numpy.ndarray, shape (n, n)
+        The slack matrix (below).
+    Y : list of list of satfmu.synthesis.core.polynomial.Poly
+        ``Y~(x~)``, m x n polynomials in ``x~`` (below).
+    plant : SplitPlant
+        The split plant the conditions were posed on.
+    checks : list of satfmu.synthesis.core.sos.Check
+        The independent verification of every SOS constraint.
+    region : str
+        Description of the certified region, e.g. ``"|sigma| <= 0.45, any omega"``.
+    radius : float
+        Radius of the region, ``|x~| <= radius`` (MRP, dimensionless).
+    x0 : numpy.ndarray, shape (n,)
+        Initial state of the H2 bound (rates in rad/s, MRPs).
+    Qh, Rh : numpy.ndarray
+        The H2 weights, shapes (n, n) and (m, m) (below).
+    solution : satfmu.synthesis.core.sos.SOSSolution
+        The solver's output.
+    timings : dict of str to float, optional
+        ``"build"``, ``"solve"`` and ``"verify"`` times, s.
+    """
+
+    variant: str
+    gamma: float
+    alpha: float
+    beta: float
+    lam: float
+    """The certified H2 bound lambda (objective)."""
+    X2: np.ndarray
+    Xinf: np.ndarray
+    F: np.ndarray
+    """The slack matrix (constant: see the module notes)."""
+    Y: list[list[Poly]]
+    """Y~(x~): the law is ``u = Kg(x) x + Y~(x~) F^-1 x``."""
+    plant: SplitPlant
+    checks: list[Check]
+    region: str
+    radius: float
+    x0: np.ndarray
+    Qh: np.ndarray
+    Rh: np.ndarray
+    """The H2 weights the design used."""
+    solution: SOSSolution
+    timings: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def certified(self) -> bool:
+        """Every SOS constraint passed :func:`satfmu.synthesis.core.sos.verify` and X2, Xinf and the
+        lambda block are positive semidefinite (to 1e-9), checked without the solver."""
+        return all(c.certified for c in self.checks) and _psd_margin(self) >= -1e-9
+
+    def h2_level(self) -> float:
+        """``x0^T X2^-1 x0`` (<= lambda): the H2 cost bound and the Lyapunov level from x0."""
+        return float(self.x0 @ np.linalg.solve(self.X2, self.x0))
+
+    def reach(self, X: np.ndarray, level: float) -> float:
+        """Largest ``|x~|`` on the ellipsoid ``x^T X^-1 x <= level`` (any rates).
+
+        Parameters
+        ----------
+        X : numpy.ndarray, shape (n, n)
+            Positive definite matrix of the ellipsoid (``X2`` or ``Xinf``).
+        level : float
+            Level of the sublevel set (e.g. :meth:`h2_level`).
+        """
+        C = self.plant.C
+        return float(np.sqrt(level * np.linalg.eigvalsh(C @ X @ C.T).max()))
+
+    @property
+    def h2_proved(self) -> bool:
+        """The trajectory from x0 cannot leave the region: its Lyapunov sublevel set of X2
+        lies inside ``|x~| <= radius`` (so ``J2 <= lambda`` is proved, not just local)."""
+        return self.reach(self.X2, self.h2_level()) <= self.radius
+
+    def disturbance_energy(self) -> float:
+        """Largest ``||w||_2^2`` (N^2 m^2 s) from rest for which the state provably stays in
+        the region: ``x^T Xinf^-1 x <= gamma^2 ||w||^2`` along trajectories."""
+        return float(self.radius**2 / (self.gamma**2 * np.linalg.eigvalsh(
+            self.plant.C @ self.Xinf @ self.plant.C.T).max()))
+
+    @property
+    def proved(self) -> str:
+        h2 = ("J2 <= lambda = {:.6g} from x0 (its X2 sublevel set lies in the region)" if self.h2_proved
+              else "J2 <= lambda = {:.6g} from x0 while the trajectory stays in the region").format(self.lam)
+        return (f"mixed H2/H-infinity ({self.variant} Lyapunov matrices) on {self.region}: {h2}; "
+                f"L2 gain w -> {self.plant.tilde_name} <= gamma = {self.gamma:g} from rest for "
+                f"||w||_2^2 <= {self.disturbance_energy():.4g} (the state then stays in the region)")
+
+    def law(self) -> sp.Matrix:
+        """``u = Kg(x) x + Y~(x~) F^-1 x``, expanded polynomials in the state symbols."""
+        xs = sp.Matrix(self.plant.symbols)
+        Y = sp.Matrix([[p.to_sympy(self.plant.tilde_symbols) for p in row] for row in self.Y])
+        Fi = sp.Matrix(np.linalg.inv(self.F))
+        return (self.plant.Kg * xs + Y * (Fi * xs)).applyfunc(sp.expand)
+
+    def law_terms(self) -> list[list[dict[str, Any]]]:
+        """:meth:`law` as artifact terms (form "polynomial")."""
+        xs = self.plant.symbols
+        return [[{"c": float(c), "e": [int(v) for v in e]} for e, c in sp.Poly(u, *xs).terms() if c != 0]
+                for u in self.law()]
+
+
+def _psd_margin(r: Theorem8Result) -> float:
+    """Smallest eigenvalue of X2, Xinf and the lambda block (independent of the solver)."""
+    lam_block = np.block([[np.array([[r.lam]]), r.x0[None, :]], [r.x0[:, None], r.X2]])
+    return float(min(np.linalg.eigvalsh(r.X2).min(), np.linalg.eigvalsh(r.Xinf).min(),
+                     np.linalg.eigvalsh(lam_block).min() / max(1.0, r.lam)))
+
+
+def theorem8(gamma: float, alpha: float, beta: float, variant: str = "slack", region: float = 0.45,
+             y_degree: int = 1, Qh: np.ndarray | None = None, Rh: np.ndarray | None = None,
+             x0: np.ndarray = X0_90, margin: float = 1e-6, multiplier_degree: int = 0,
+             frozen: bool = False, model: Model | None = None) -> Theorem8Result:
+    """Solve Theorem 8 at fixed ``gamma``, ``alpha``, ``beta`` (minimize lambda).
+
+    Parameters
+    ----------
+    gamma : float
+        L2-gain bound w -> sigma to certify (N m -> 1).
+    alpha, beta : float
+        The seed's scalars (> 0), fixed here; see :func:`search`.
+    variant : {"slack", "common"}
+        Separate X2, Xinf and slack F (the seed's design) or X2 = Xinf = F.
+    region : float
+        Certificate region ``|x~| <= region`` (x~: the MRPs), any rates.
+    y_degree : int
+        Degree in x~ of every entry of Y~(x~) (0 or 1: higher degrees put the weight rows'
+        entries at degree 2 and every row needs a multiplier).
+    Qh, Rh : ndarray, optional
+        H2 weights (default I6, I3: **substitute**, the seed gives none).
+    x0 : numpy.ndarray, shape (n,), optional
+        Initial state of the H2 bound ``J2 <= lambda`` (rates in rad/s, then MRPs); default
+        :data:`X0_90`.
+    margin : float
+        Margin ``e`` on the diagonal blocks of both SOS-matrix conditions (``a e`` on the
+        F block) and on X2, Xinf.
+    multiplier_degree : int
+        Degree of the S-procedure multipliers of the region (even).
+    frozen : bool
+        Freeze A(x) at x = 0 (the linearization; LMIs): the reference design of docs/models.md.
+    model : Model, optional
+        The plant, with an SDC form whose input columns are ``[u w]`` (default the MRP
+        satellite, ``satfmu.fmus.plants.mrp_satellite.MODEL``).
+
+    Raises
+    ------
+    ValueError
+        On invalid scalars, degrees, variant or weights, or a model whose conditions do
+        not reduce to x~ after the actuated rows are cancelled.
+    satfmu.synthesis.core.sos.SOSError
+        If the program is infeasible at these values.
+    """
+    model = mrp_satellite.MODEL if model is None else model
+    if variant not in VARIANTS:
+        raise ValueError(f"variant must be one of {VARIANTS}, got {variant!r}")
+    for name, v in (("gamma", gamma), ("alpha", alpha), ("beta", beta), ("region", region)):
+        if not (np.isfinite(v) and v > 0):
+            raise ValueError(f"{name} must be finite and > 0, got {v}")
+    if int(y_degree) != y_degree or y_degree < 0:
+        raise ValueError(f"y_degree must be a non-negative integer, got {y_degree}")
+    t0 = time.perf_counter()
+    plant = _split(model, frozen)
+    n, m, nt = plant.n, plant.m, len(plant.tilde)
+    Qh = np.eye(n) if Qh is None else np.asarray(Qh, float)
+    Rh = np.eye(m) if Rh is None else np.asarray(Rh, float)
+    for name, W, k in (("Qh", Qh, n), ("Rh", Rh, m)):
+        if W.shape != (k, k) or not np.allclose(W, W.T) or np.linalg.eigvalsh(W).min() <= 0:
+            raise ValueError(f"{name} must be a symmetric positive definite {k} x {k} matrix")
+    x0 = np.asarray(x0, float)
+    if x0.shape != (n,) or not np.all(np.isfinite(x0)):
+        raise ValueError(f"x0 must be {n} finite numbers")
+
+    prog = SOSProgram(nt)  # the conditions depend on x~ only
+    zero = np.zeros((1, nt), np.int64)
+    if variant == "common":
+        F = PolyMatrix(prog.new_symmetric(n))
+        X2 = Xinf = F
+    else:
+        F = PolyMatrix([[prog.new_poly(zero) for _ in range(n)] for _ in range(n)])
+        X2, Xinf = PolyMatrix(prog.new_symmetric(n)), PolyMatrix(prog.new_symmetric(n))
+    Y = PolyMatrix([[prog.new_poly(monomials(nt, y_degree)) for _ in range(n)] for _ in range(m)])
+    lam_idx = prog.new_variables(1)
+
+    def const(M: np.ndarray) -> PolyMatrix:
+        return PolyMatrix.constant(M, nt)
+
+    # A F + Bu Y with Y = Y~ + Kg F: the actuated rows of A cancel (A~ = A + Bu Kg)
+    AFBY = plant.A_tilde @ F + const(plant.Bu) @ Y
+    G11 = AFBY + AFBY.T
+    FFt = F + F.T
+    M2 = PolyMatrix.block([
+        [G11, None, None, None],
+        [X2 - F + AFBY.T.scale(alpha), -FFt.scale(alpha), None, None],
+        [F, F.scale(alpha), const(-np.linalg.inv(Qh)), None],
+        [Y, Y.scale(alpha), None, const(-np.linalg.inv(Rh))],
+    ])
+    CF = const(plant.C) @ F
+    Minf = PolyMatrix.block([
+        [G11, None, None, None],
+        [Xinf - F + AFBY.T.scale(beta), -FFt.scale(beta), None, None],
+        [const(plant.Bw.T), None, const(-gamma**2 * np.eye(m)), None],
+        [CF, CF.scale(beta), None, const(-np.eye(n - m))],
+    ])
+    if frozen:  # constant matrices: plain LMIs, no region
+        regions, label = None, "x = 0 (A frozen at the origin: the linearization)"
+    else:
+        regions = [Poly.from_sympy(region**2 - sum(x**2 for x in plant.tilde_symbols), plant.tilde_symbols)]
+        label = f"|{plant.tilde_name}| <= {region:g}, any {plant.actuated_name}"
+    def margins(a: float, weights: int) -> PolyMatrix:  # e diag(I, a I, I): F + F^T >= e I
+        return const(margin * np.diag(np.concatenate([np.ones(n), np.full(n, a), np.ones(weights)])))
+
+    for name, M in (("H2", M2 + margins(alpha, n + m)), ("Hinf", Minf + margins(beta, m + n - m))):
+        # only the first two block rows are quadratic in x~; the weight rows are at most
+        # linear and need no multiplier (smaller Gram basis)
+        prog.add_sos_matrix(M.symmetric_from_lower().scale(-1.0), f"-M_{name}", region=regions,
+                            multiplier_degree=multiplier_degree, label=label,
+                            multiplier_rows=range(2 * n) if y_degree <= 1 else None)
+    prog.add_psd_constant(X2.entries, "X2 > 0", margin=margin)
+    if variant == "slack":
+        prog.add_psd_constant(Xinf.entries, "Xinf > 0", margin=margin)
+    # [lambda x0^T; x0 X2] >= 0
+    lam = Poly(zero, np.zeros(1), prog.selector(lam_idx))
+    x0c = [Poly.constant(v, nt) for v in x0]
+    block = [[lam] + x0c] + [[x0c[i]] + X2.entries[i] for i in range(n)]
+    prog.add_psd_constant(block, "lambda bound")
+    objective = prog.selector(lam_idx)
+    t1 = time.perf_counter()
+    # tighter than Clarabel's defaults (1e-8): the optimum sits on the cone boundary and the
+    # independent verification checks coefficient residuals at 1e-7 relative
+    sol = prog.solve(objective=objective, tol_feas=1e-10, tol_gap_abs=1e-10, tol_gap_rel=1e-10)
+    solve_s = sol.timings["solve"]
+    t2 = time.perf_counter()
+    checks = verify(prog, sol, sample_radius=region)
+    timings = {"build": t1 - t0 + sol.timings["build"] - prog.build_seconds, "solve": solve_s,
+               "verify": time.perf_counter() - t2}
+
+    def num(M: PolyMatrix) -> np.ndarray:
+        return np.array([[float(e.value(sol.y).c0[0]) if e.exps.shape[0] else 0.0 for e in row] for row in M.entries])
+
+    def polys(M: PolyMatrix) -> list[list[Poly]]:
+        return [[e.value(sol.y) for e in row] for row in M.entries]
+
+    return Theorem8Result(variant, float(gamma), float(alpha), float(beta), float(sol.y[lam_idx[0]]),
+                          num(X2), num(Xinf), num(F), polys(Y), plant, checks, label, float(region), x0,
+                          Qh, Rh, sol, timings)
+
+
+Progress = Callable[[int, int, str], None]
+_REJECTED = 1e12
+"""Objective given to the line search for an infeasible or uncertified point."""
+
+
+@dataclass
+class SearchResult:
+    """Best design over alpha, beta at one gamma, with every evaluated point.
+
+    Attributes
+    ----------
+    best : Theorem8Result or None
+        The certified design of smallest lambda (None: no evaluation gave one).
+    evaluations : list of tuple of (float, float, float)
+        Every SDP solved (below).
+    """
+
+    best: Theorem8Result | None
+    evaluations: list[tuple[float, float, float]]
+    """``(alpha, beta, lambda)`` per SDP (lambda inf where infeasible or not certified)."""
+
+
+def search(gamma: float, variant: str = "slack", bounds: tuple[float, float] = (0.05, 2.0),
+           xatol: float = 0.1, max_evaluations: int = 20, progress: Progress | None = None,
+           **kwargs: Any) -> SearchResult:
+    """Minimize the certified lambda over alpha and beta (one SDP per evaluation).
+
+    Golden section (Brent, bounded) on ``log10 alpha`` with ``beta = alpha``, then on
+    ``log10 beta`` at the best alpha; ``xatol`` in decades. Infeasible, failed and
+    uncertified SDPs count as rejected. ``kwargs`` go to :func:`theorem8`.
+
+    Parameters
+    ----------
+    gamma : float
+        L2-gain bound to certify (N m -> 1), as in :func:`theorem8`.
+    variant : {"slack", "common"}, optional
+        The design variant (:func:`theorem8`). Default ``"slack"``.
+    bounds : tuple of (float, float), optional
+        ``(low, high)`` range of alpha and of beta, ``0 < low < high``. Default (0.05, 2).
+    xatol : float, optional
+        Tolerance of each line search in ``log10`` of alpha or beta (decades). Default 0.1.
+    max_evaluations : int, optional
+        Most SDPs solved, both line searches together. Default 20.
+    progress : callable, optional
+        ``progress(done, total, message)``, called before each SDP and once at the end.
+
+    Returns
+    -------
+    SearchResult
+        The best certified design and every evaluation.
+
+    Raises
+    ------
+    ValueError
+        If ``bounds`` is not ``0 < low < high``.
+    """
+    if not (0 < bounds[0] < bounds[1] and np.all(np.isfinite(bounds))):
+        raise ValueError(f"bounds must satisfy 0 < low < high, got {bounds}")
+    evaluations: list[tuple[float, float, float]] = []
+    best: list[Theorem8Result] = []
+
+    def solve(a: float, b: float) -> float:
+        if len(evaluations) >= max_evaluations:
+            return _REJECTED
+        if progress is not None:
+            progress(len(evaluations), max_evaluations,
+                     f"{variant}, gamma = {gamma:g}: alpha = {a:.3g}, beta = {b:.3g}")
+        try:
+            r: Theorem8Result | None = theorem8(gamma, a, b, variant, **kwargs)
+        except SOSError:
+            r = None
+        if r is not None and not r.certified:
+            r = None
+        evaluations.append((a, b, r.lam if r is not None else float("inf")))
+        if r is not None and (not best or r.lam < best[0].lam):
+            best[:] = [r]
+        return r.lam if r is not None else _REJECTED
+
+    lo, hi = np.log10(bounds)
+    opts = {"xatol": xatol, "maxiter": max_evaluations}
+    minimize_scalar(lambda t: solve(10**t, 10**t), bounds=(lo, hi), method="bounded", options=opts)
+    if best:
+        a = best[0].alpha
+        minimize_scalar(lambda t: solve(a, 10**t), bounds=(lo, hi), method="bounded", options=opts)
+    if progress is not None:
+        progress(max_evaluations, max_evaluations, "done")
+    return SearchResult(best[0] if best else None, evaluations)
+
+
+@dataclass(frozen=True)
+class SweepRow:
+    """One point of the gamma-lambda trade-off (lambda inf: no certified design).
+
+    Attributes
+    ----------
+    gamma : float
+        The L2-gain bound (N m -> 1).
+    variant : {"slack", "common"}
+        The design variant.
+    lam : float
+        The smallest certified H2 bound lambda (inf if none).
+    alpha, beta : float
+        The seed's scalars of that design (nan if none).
+    n_sdps : int
+        SDPs solved by the search.
+    """
+
+    gamma: float
+    variant: str
+    lam: float
+    alpha: float
+    beta: float
+    n_sdps: int
+
+
+def sweep(gammas: list[float], bounds: tuple[float, float] = (0.05, 2.0), max_evaluations: int = 12,
+          progress: Progress | None = None, **kwargs: Any) -> list[SweepRow]:
+    """:func:`search` at every gamma for both variants (``kwargs`` go to :func:`theorem8`).
+
+    Parameters
+    ----------
+    gammas : list of float
+        The L2-gain bounds (N m -> 1), each finite and > 0; searched from the largest down.
+    bounds : tuple of (float, float), optional
+        ``(low, high)`` range of alpha and beta (:func:`search`). Default (0.05, 2).
+    max_evaluations : int, optional
+        Most SDPs per search. Default 12.
+    progress : callable, optional
+        ``progress(done, total, message)`` over all the searches.
+
+    Returns
+    -------
+    list of SweepRow
+        One row per gamma (decreasing) and variant.
+
+    Raises
+    ------
+    ValueError
+        If ``gammas`` is empty or holds a value that is not finite and > 0.
+    """
+    if not gammas or any(not (np.isfinite(g) and g > 0) for g in gammas):
+        raise ValueError(f"gammas must be finite and > 0, got {gammas}")
+    rows = []
+    jobs = [(g, v) for g in sorted(gammas, reverse=True) for v in VARIANTS]
+    for k, (g, v) in enumerate(jobs):
+        def report(done: int, total: int, msg: str, k: int = k) -> None:
+            if progress is not None:
+                progress(k * total + done, len(jobs) * total, msg)
+        found = search(g, v, bounds, max_evaluations=max_evaluations, progress=report, **kwargs)
+        b = found.best
+        rows.append(SweepRow(g, v, b.lam if b else float("inf"), b.alpha if b else float("nan"),
+                             b.beta if b else float("nan"), len(found.evaluations)))
+    return rows
+
+
+def sweep_csv(rows: list[SweepRow]) -> str:
+    """The sweep as CSV text (``lambda`` empty where no design was certified).
+
+    Parameters
+    ----------
+    rows : list of SweepRow
+        The points of :func:`sweep`, written in their order.
+    """
+    lines = ["gamma,variant,lambda,alpha,beta,sdps"]
+    for r in rows:
+        lam = f"{r.lam:.6f}" if np.isfinite(r.lam) else ""
+        ab = f"{r.alpha:.4g},{r.beta:.4g}" if np.isfinite(r.lam) else ","
+        lines.append(f"{r.gamma:g},{r.variant},{lam},{ab},{r.n_sdps}")
+    return "\n".join(lines) + "\n"
+
+
+@dataclass(frozen=True)
+class ClosedLoopCheck:
+    """The law on the nonlinear plant, independent of the solver (continuous time, no w).
+
+    Attributes
+    ----------
+    j2 : float
+        Simulated H2 cost (below; inf if the integration failed).
+    tail : float
+        The certificate's remaining cost after ``stop_time`` (below).
+    max_tilde : float
+        Largest ``|x~|`` along the trajectory (MRP, dimensionless).
+    max_real_eig : float
+        Largest real part of the eigenvalues of the linearized closed loop, 1/s.
+    stop_time : float
+        Length of the simulation, s.
+    lam : float
+        The certified bound lambda of the design.
+    """
+
+    j2: float
+    """``integral of x^T Qh x + u^T Rh u`` from x0 over ``stop_time`` (must be <= lambda)."""
+    tail: float
+    """``x(T)^T X2^-1 x(T)``: what the certificate still allows after ``stop_time``."""
+    max_tilde: float
+    """Largest ``|x~|`` along the trajectory (the certificate needs it <= the region radius)."""
+    max_real_eig: float
+    """Largest real part of the closed loop linearized at the origin (< 0: locally stable)."""
+    stop_time: float
+    lam: float
+    """The certified bound."""
+
+    @property
+    def passed(self) -> bool:
+        """Locally stable and the simulated cost within the certified bound."""
+        return bool(self.max_real_eig < 0 and np.isfinite(self.j2) and self.j2 <= self.lam)
+
+
+def closed_loop_check(result: Theorem8Result, stop_time: float = 300.0,
+                      model: Model | None = None) -> ClosedLoopCheck:
+    """Simulate ``x' = f(x, u(x))`` from x0 (scipy DOP853, rtol 1e-10) with the cost (the
+    design's weights) as an extra state, and linearize the closed loop at the origin.
+
+    Parameters
+    ----------
+    result : Theorem8Result
+        The design whose law is simulated, from its ``x0``.
+    stop_time : float, optional
+        Simulated time, s. Default 300.
+    model : Model, optional
+        The plant simulated, the one the design was made for (default the MRP satellite,
+        ``satfmu.fmus.plants.mrp_satellite.MODEL``).
+    """
+    model = mrp_satellite.MODEL if model is None else model
+    xs = result.plant.symbols
+    n, m = result.plant.n, result.plant.m
+    Qh, Rh = result.Qh, result.Rh
+    law = result.law()
+    u_of = sp.lambdify([xs], list(law), "numpy")
+    plant = codegen.load_python(model)
+    p = model.parameter_vector().tolist()
+    n_inputs = len(model.inputs)
+
+    def rhs(_t: float, z: np.ndarray) -> np.ndarray:
+        x = z[:n]
+        u = np.asarray(u_of(x), float)
+        dx = plant.derivatives(0.0, x.tolist(), x.tolist(), list(u) + [0.0] * (n_inputs - m), p)
+        return np.concatenate([dx, [x @ Qh @ x + u @ Rh @ u]])
+
+    sol = solve_ivp(rhs, (0.0, stop_time), np.concatenate([result.x0, [0.0]]), method="DOP853",
+                    rtol=1e-10, atol=1e-12, dense_output=False)
+    xT = sol.y[:n, -1]
+    subs = {v.symbol: v.start for v in model.parameters}
+    f = sp.Matrix(model.rhs).subs(subs).subs(dict(zip([v.symbol for v in model.inputs[:m]], law)))
+    f = f.subs({v.symbol: 0 for v in model.inputs[m:]})
+    J = np.array(f.jacobian(xs).subs({x: 0 for x in xs}), float)
+    tilde = np.linalg.norm(sol.y[list(result.plant.tilde)], axis=0)
+    return ClosedLoopCheck(float(sol.y[n, -1]) if sol.success else float("inf"),
+                           float(xT @ np.linalg.solve(result.X2, xT)), float(tilde.max()),
+                           float(np.linalg.eigvals(J).real.max()), stop_time, result.lam)
+
+
+def artifact_data(result: Theorem8Result, name: str, check: ClosedLoopCheck,
+                  model: Model | None = None) -> dict[str, Any]:
+    """Controller artifact (format of :mod:`satfmu.controllers.artifact`, form "polynomial").
+
+    Status "certified" needs the SOS checks and the closed-loop check to pass.
+
+    Parameters
+    ----------
+    result : Theorem8Result
+        The design.
+    name : str
+        Name of the controller artifact.
+    check : ClosedLoopCheck
+        Its closed-loop check (:func:`closed_loop_check`).
+    model : Model, optional
+        The plant the controller is for (default the MRP satellite,
+        ``satfmu.fmus.plants.mrp_satellite.MODEL``).
+
+    Returns
+    -------
+    dict
+        The artifact's JSON data (:func:`satfmu.controllers.artifact.new_data`).
+    """
+    model = mrp_satellite.MODEL if model is None else model
+    ok = result.certified and check.passed
+    return artifacts.new_data(
+        model, name,
+        (f"Seed 001 Theorem 8 mixed H2/H-infinity state feedback u = omega x I omega + Y(sigma) F^-1 x "
+         f"({result.variant} Lyapunov matrices, gamma = {result.gamma:g}), synthesized by satfmu"),
+        law={"form": "polynomial", "terms": result.law_terms()},
+        lyapunov={"Q": result.X2.tolist(), "note": "X2: V = x^T X2^-1 x, J2 <= x0^T X2^-1 x0 <= lambda"},
+        certificate={
+            "status": "certified" if ok else "not_verified",
+            "proved": result.proved, "region": result.region,
+            "numbers": {**check_numbers(result.checks), "lambda": result.lam, "gamma": result.gamma,
+                        "alpha": result.alpha, "beta": result.beta, "psd_margin": _psd_margin(result),
+                        "h2 level x0^T X2^-1 x0": result.h2_level(),
+                        "max disturbance energy ||w||^2 (N^2 m^2 s)": result.disturbance_energy(),
+                        f"simulated J2 over {check.stop_time:g} s": check.j2,
+                        "simulated tail bound x(T)^T X2^-1 x(T)": check.tail,
+                        f"max |{result.plant.tilde_name}| along the x0 trajectory": check.max_tilde,
+                        "max real part of eig(Acl(0))": check.max_real_eig},
+            "h2": {"lambda": result.lam, "x0": result.x0.tolist(), "sublevel_set_in_region": result.h2_proved},
+            "Xinf": result.Xinf.tolist(), "F": result.F.tolist(),
+        },
+        provenance={"source": "satfmu satfmu.synthesis.polynomial_feedback.h2hinf_sos.theorem8 (seed 001 Theorem 8)",
+                    "solver": result.solution.solver, "timings_s": result.timings})

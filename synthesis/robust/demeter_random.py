@@ -1,0 +1,395 @@
+"""Randomized design and analysis of a DEMETER variant (seed 004, sections 4.2, 5.2).
+
+- :func:`scenario`: the scenario approach. The design LMIs of
+  :func:`satfmu.synthesis.robust.demeter_design.deterministic` (one Lyapunov matrix; H-infinity ``w1 -> z1``,
+  impulse-to-peak ``w2 -> z2``, pole region; objective ``1 gamma + 100 nu``) imposed at N plants
+  drawn uniformly in the parameter box, N from the Campi-Garatti bound for the program's
+  decision variables (:func:`satfmu.synthesis.robust.probabilistic.scenario_samples`): with confidence
+  ``1 - delta`` the design violates the specs on a set of plants of probability at most epsilon.
+  The program is solved in the coordinates where the nominal design's Lyapunov matrix has a unit
+  diagonal (without that, Clarabel fails on this stiff loop; see the README), by constraint
+  generation over the plants (:func:`satfmu.synthesis.robust.robust_design.design`: the same optimum, with a
+  few hundred plants in the solver instead of thousands).
+- :func:`analyse`: the probabilistic analysis of a gain: closed-loop poles, exact H-infinity
+  norms and impulse-to-peak values of N sampled plants, all vectorized, with the log-over-log
+  worst-case statement (N = 132 at the seed's epsilon 0.1, delta 1e-6).
+- :class:`ClosedLoopSamples`: the same per-sample values as a pure, picklable task for
+  :mod:`satfmu.sims.campaign.engine` (Chernoff campaigns of 1e5 samples on Dask).
+- :func:`sequential_design`: the sequential randomized method
+  (:func:`satfmu.synthesis.robust.sequential.sequential`) started from the deterministic design, at levels
+  below its own.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from satfmu.synthesis.robust import demeter_design as dd
+from satfmu.synthesis.robust import probabilistic as pr
+from satfmu.synthesis.robust import sequential as sq
+from satfmu.synthesis.robust.demeter_variants import DesignModel, Variant, design_model
+from satfmu.synthesis.robust.lft_plant import OptionError
+from satfmu.synthesis.robust.robust_design import RobustDesign, design
+
+SCENARIO_EPSILON, SCENARIO_DELTA = 0.1, 1e-9
+"""The scenario design's violation level and confidence (docs/models.md: N = 962 for row 1)."""
+ANALYSIS_EPSILON, ANALYSIS_DELTA = 0.1, 1e-6
+"""The seed's ``randsettings`` for the analysis."""
+
+
+def design_scale(dm: DesignModel) -> np.ndarray:
+    """State scale of the randomized programs: :func:`satfmu.synthesis.robust.demeter_design.state_scale` times
+    the square root of the nominal design's Lyapunov diagonal (unit diagonal at the nominal).
+
+    Parameters
+    ----------
+    dm : DesignModel
+        The design model of the variant.
+
+    Returns
+    -------
+    numpy.ndarray, shape (n,)
+        T of ``x = T x_s``, each state's scale in its own unit;
+        :func:`~satfmu.synthesis.robust.demeter_design.state_scale`
+        alone if the nominal design fails.
+    """
+    T = dd.state_scale(dm)
+    nominal = design(dd.scaled_lft(dm, T).at(np.zeros(len(dm.parameters))), w_hinf=dd.W_HINF,
+                     w_i2p=dd.W_I2P, alpha=dd.ALPHA, beta=dd.BETA)
+    return T if nominal.Y is None else T * np.sqrt(np.diag(nominal.Y))
+
+
+def n_decision(dm: DesignModel) -> int:
+    """Decision variables of the scenario program: Y (n(n+1)/2), W (m n), gamma and nu.
+
+    Parameters
+    ----------
+    dm : DesignModel
+        The design model (``n`` states, ``m = na`` inputs).
+    """
+    return dm.n * (dm.n + 1) // 2 + dm.na * dm.n + 2
+
+
+@dataclass
+class Analysis:
+    """Probabilistic analysis of one gain on N sampled plants (:func:`analyse`).
+
+    Attributes
+    ----------
+    n : int
+        Number of plants drawn.
+    seed : int
+        Seed of the generator that drew them.
+    max_real_pole : float
+        Largest real part of a closed-loop eigenvalue over the plants, 1/s.
+    min_real_pole : float
+        Smallest real part of a closed-loop eigenvalue over the plants, 1/s.
+    hinf : satfmu.synthesis.robust.probabilistic.WorstCase
+        Worst case of the H-infinity norm of ``w1 -> z1``, rad/(N m).
+    i2p : satfmu.synthesis.robust.probabilistic.WorstCase
+        Worst case of the impulse-to-peak value of ``w2 -> z2``, N m s.
+    seconds : float
+        Wall time of the analysis, s.
+    i2p_direction : {"worst", "random"}, optional
+        How the impulse of w2 was taken (:data:`I2P_DIRECTIONS`).
+    """
+
+    n: int
+    seed: int
+    max_real_pole: float
+    min_real_pole: float
+    hinf: pr.WorstCase
+    i2p: pr.WorstCase
+    seconds: float
+    i2p_direction: str = "worst"
+    """How the impulse of w2 was taken (:data:`I2P_DIRECTIONS`)."""
+
+    @property
+    def in_region(self) -> bool:
+        return self.max_real_pole < -dd.ALPHA and self.min_real_pole > -dd.BETA
+
+
+@dataclass(frozen=True)
+class BoxSampler:
+    """Parameter vectors uniform in ``[-1, 1]^n_params`` (the order of
+    :meth:`~satfmu.synthesis.robust.demeter_variants.DesignModel.sample`): a picklable campaign sampler.
+
+    Called as ``sampler(rng, count)`` (a ``numpy.random.Generator`` and the number of vectors),
+    it returns an array of shape (count, n_params).
+
+    Parameters
+    ----------
+    n_params : int
+        Number of uncertain parameters N of the design model.
+    """
+
+    n_params: int
+
+    def __call__(self, rng: np.random.Generator, count: int) -> np.ndarray:
+        return rng.uniform(-1.0, 1.0, (count, self.n_params))
+
+
+@dataclass
+class ClosedLoopSamples:
+    """Per-sample closed-loop values of ``u = K x`` on a variant's design model: a pure task
+    (picklable; deterministic in its input) mapping parameter vectors delta, shape (S, N), to
+    ``max_real_pole`` (1/s), ``hinf`` (rad/(N m); inf if unstable) and ``i2p`` (N m s).
+
+    Called with ``deltas``, it returns the dict of
+    :func:`~satfmu.synthesis.robust.demeter_design.closed_loop_values`.
+
+    Attributes
+    ----------
+    variant : Variant
+        The model variant.
+    K : numpy.ndarray, shape (na, n)
+        Gain of ``u = K x`` on the design states, in physical units.
+    _dm : DesignModel, optional
+        Cache of the variant's design model (built on first use, not pickled); leave it None.
+    """
+
+    variant: Variant
+    K: np.ndarray
+    _dm: DesignModel | None = field(default=None, repr=False, compare=False)
+
+    def design_model(self) -> DesignModel:
+        """The variant's design model, built on the first call and kept."""
+        if self._dm is None:
+            self._dm = design_model(self.variant)
+        return self._dm
+
+    def __call__(self, deltas: np.ndarray) -> dict[str, np.ndarray]:
+        return dd.closed_loop_values(self.design_model(), self.K, deltas)
+
+    def __getstate__(self) -> dict:
+        return {"variant": self.variant, "K": self.K, "_dm": None}  # rebuilt in the worker
+
+
+I2P_DIRECTIONS = ("worst", "random")
+"""Impulse directions of the probabilistic i2p analysis: the worst unit direction of w2 per
+sample (ours), or one random unit combination of w2's columns per sample (the R-RoMulOC
+toolbox's ``testi2p``): a lower value, the peak of one impulse rather than of the worst."""
+
+
+def analyse(variant: Variant, K: np.ndarray, *, n: int | None = None, seed: int = 1,
+            epsilon: float = ANALYSIS_EPSILON, delta: float = ANALYSIS_DELTA, i2p_direction: str = "worst"
+            ) -> Analysis:
+    """Worst cases over ``n`` plants drawn uniformly in the box (default: the log-over-log
+    count for epsilon, delta); the impulse of w2 in the worst direction of each sample, or, with
+    ``i2p_direction="random"``, in one direction drawn uniformly on the unit sphere per sample
+    (after the plants, from the same generator).
+
+    Parameters
+    ----------
+    variant : Variant
+        The model variant.
+    K : numpy.ndarray, shape (na, n)
+        Gain of ``u = K x`` on the design states, in physical units.
+    n : int, optional
+        Number of plants; default :func:`satfmu.synthesis.robust.probabilistic.worst_case_samples` of
+        ``epsilon``, ``delta``.
+    seed : int, optional
+        Seed of the generator of the plants (and of the random directions).
+    epsilon : float, optional
+        Probability level of the worst-case statement.
+    delta : float, optional
+        One minus its confidence.
+    i2p_direction : {"worst", "random"}, optional
+        Impulse direction of w2 (:data:`I2P_DIRECTIONS`).
+
+    Returns
+    -------
+    Analysis
+
+    Raises
+    ------
+    OptionError
+        If ``i2p_direction`` is not one of :data:`I2P_DIRECTIONS`.
+    """
+    if i2p_direction not in I2P_DIRECTIONS:
+        raise OptionError(f"i2p_direction must be one of {I2P_DIRECTIONS}, got {i2p_direction!r}")
+    n = pr.worst_case_samples(epsilon, delta) if n is None else n
+    dm = design_model(variant)
+    t0 = time.perf_counter()
+    rng = np.random.default_rng(seed)
+    deltas = dm.sample(n, rng)
+    directions = None
+    if i2p_direction == "random":
+        u = rng.normal(size=(n, dm.B2.shape[1]))
+        directions = u / np.linalg.norm(u, axis=1, keepdims=True)
+    v = dd.closed_loop_values(dm, np.asarray(K, float), deltas, directions)
+    return Analysis(n, seed, float(v["max_real_pole"].max()), float(v["min_real_pole"].min()),
+                    pr.worst_case(v["hinf"], epsilon, delta), pr.worst_case(v["i2p"], epsilon, delta),
+                    time.perf_counter() - t0, i2p_direction)
+
+
+@dataclass
+class ScenarioResult:
+    """One Prob row of Table 1: scenario design, probabilistic analysis, seconds.
+
+    Attributes
+    ----------
+    variant : Variant
+        The model variant.
+    design : RobustDesign
+        The scenario design, in the coordinates ``x = T x_s`` of :func:`design_scale`.
+    K : numpy.ndarray, shape (na, n), or None
+        Gain of ``u = K x`` in physical units on the design states; None if no design.
+    n_samples : int
+        Number of sampled plants of the program.
+    n_decision : int
+        Decision variables of the program (:func:`n_decision`).
+    epsilon : float
+        Violation probability of the scenario guarantee.
+    delta : float
+        One minus its confidence.
+    analysis : Analysis, optional
+        Probabilistic analysis of the gain (None: not run, or no design).
+    seconds : dict of str to float, optional
+        Wall time, s, of ``"design"`` and ``"analysis"``.
+    """
+
+    variant: Variant
+    design: RobustDesign
+    K: np.ndarray | None
+    n_samples: int
+    n_decision: int
+    epsilon: float
+    delta: float
+    analysis: Analysis | None = None
+    seconds: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def feasible(self) -> bool:
+        return self.K is not None
+
+
+def scenario(variant: Variant, *, epsilon: float = SCENARIO_EPSILON, delta: float = SCENARIO_DELTA,
+             n: int | None = None, seed: int = 0, analysis: bool = True, convention: str = "satfmu",
+             sample_bound: str = "campi-garatti") -> ScenarioResult:
+    """Scenario design of ``variant`` (module docstring).
+
+    ``n`` overrides the sample count, otherwise :func:`satfmu.synthesis.robust.probabilistic.scenario_samples`
+    with ``sample_bound`` (``"campi-garatti"``, exact; ``"romuloc"``, the toolbox's); the LMIs
+    and the objective in ``convention`` (:func:`satfmu.synthesis.robust.robust_design.design`).
+
+    Parameters
+    ----------
+    variant : Variant
+        The model variant.
+    epsilon : float, optional
+        Violation probability of the scenario guarantee.
+    delta : float, optional
+        One minus its confidence.
+    n : int, optional
+        Number of sampled plants, overriding the bound.
+    seed : int, optional
+        Seed of the sampled plants; the analysis uses ``seed + 1``.
+    analysis : bool, optional
+        Run the probabilistic analysis of the gain (:func:`analyse`).
+    convention : {"satfmu", "romuloc"}, optional
+        How the levels enter the LMIs and the objective.
+    sample_bound : {"campi-garatti", "romuloc"}, optional
+        The sample count's bound when ``n`` is not given.
+
+    Returns
+    -------
+    ScenarioResult
+
+    Raises
+    ------
+    OptionError
+        If ``n`` is below 1.
+    """
+    dm = design_model(variant)
+    d = n_decision(dm)
+    n = pr.scenario_samples(d, epsilon, delta, sample_bound) if n is None else n
+    if n < 1:
+        raise OptionError(f"n must be >= 1, got {n!r}")
+    t0 = time.perf_counter()
+    T = design_scale(dm)
+    P = dd.scaled_lft(dm, T)
+    plants = [P.at(x) for x in dm.sample(n, np.random.default_rng(seed))]
+    des = design(plants, w_hinf=dd.W_HINF, w_i2p=dd.W_I2P, alpha=dd.ALPHA, beta=dd.BETA, convention=convention)
+    out = ScenarioResult(variant, des, None if des.K is None else des.K / T, n, d, epsilon, delta,
+                         seconds={"design": time.perf_counter() - t0})
+    if analysis and out.K is not None:
+        out.analysis = analyse(variant, out.K, seed=seed + 1)
+        out.seconds["analysis"] = out.analysis.seconds
+    return out
+
+
+@dataclass
+class SequentialDesign:
+    """The sequential method started from the deterministic design, at its levels times ``scale``.
+
+    Attributes
+    ----------
+    variant : Variant
+        The model variant.
+    deterministic : RobustDesign
+        The deterministic design started from, in the coordinates of
+        :func:`~satfmu.synthesis.robust.demeter_design.state_scale`.
+    result : satfmu.synthesis.robust.sequential.SequentialResult
+        The sequential method's outcome, in the coordinates of :func:`design_scale`.
+    K : numpy.ndarray, shape (na, n), or None
+        Gain of ``u = K x`` in physical units on the design states; None unless validated.
+    """
+
+    variant: Variant
+    deterministic: RobustDesign
+    result: sq.SequentialResult
+    K: np.ndarray | None
+
+    @property
+    def validated(self) -> bool:
+        return self.result.status == "validated"
+
+
+def sequential_design(variant: Variant, *, scale: float = 0.99, epsilon: float = ANALYSIS_EPSILON,
+                      delta: float = ANALYSIS_DELTA, max_updates: int = 200, seed: int = 0) -> SequentialDesign:
+    """Lower the deterministic design's levels (gamma, nu) by ``scale`` and look for a gain that
+    meets them on all but a fraction epsilon of the plants (:func:`satfmu.synthesis.robust.sequential.sequential`,
+    from the deterministic (Y, W), which meets the unscaled levels on the whole box).
+
+    Parameters
+    ----------
+    variant : Variant
+        The model variant.
+    scale : float, optional
+        Factor on the deterministic design's levels gamma and nu.
+    epsilon : float, optional
+        Violation probability of the validation.
+    delta : float, optional
+        One minus its confidence.
+    max_updates : int, optional
+        Updates of (Y, W) allowed before giving up.
+    seed : int, optional
+        Seed of the sample stream.
+
+    Returns
+    -------
+    SequentialDesign
+
+    Raises
+    ------
+    ValueError
+        If the variant has no deterministic design to start from.
+    """
+    dm = design_model(variant)
+    T0 = dd.state_scale(dm)  # the deterministic design's own coordinates (as deterministic())
+    plant = dd.scaled_lft(dm, T0)
+    det, _, _ = dd.robust_multipliers(
+        lambda kind: design(plant, w_hinf=dd.W_HINF, w_i2p=dd.W_I2P, alpha=dd.ALPHA, beta=dd.BETA, uncertainty=kind),
+        dd.uncertainty_kind(variant))
+    if det.K is None:
+        raise ValueError(f"{variant.label}: no deterministic design to start from ({det.status})")
+    T = design_scale(dm)
+    s = T / T0  # x_T0 = s x_T: Y and the gain carried over exactly
+    Y0 = det.Y / s[:, None] / s[None, :]
+    res = sq.sequential(dd.scaled_lft(dm, T), BoxSampler(len(dm.parameters)), det.gamma * scale, det.nu * scale,
+                        Y0, (det.K * s) @ Y0, alpha=dd.ALPHA, beta=dd.BETA, epsilon=epsilon, delta=delta,
+                        max_updates=max_updates, seed=seed)
+    return SequentialDesign(variant, det, res, res.K / T if res.status == "validated" else None)
