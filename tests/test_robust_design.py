@@ -9,15 +9,28 @@ import numpy as np
 import pytest
 
 from satfmu.synthesis.core import lmi
-from satfmu.synthesis.robust import robust_design
+from satfmu.synthesis.robust import certificate, constraint_generation, rescaling, robust_design, solve_strategy
 from satfmu.synthesis.robust.lft_plant import LFTPlant, OptionError, PlantDataError, TooManyVerticesError
 from satfmu.synthesis.robust.robust_design import BACKOFFS, EPS, Multiplier, RobustDesign, design, i2p_bound, verify
 from satfmu.synthesis.core.system_norms import hinf_norm, impulse_to_peak
 from tests.robust_plants import ALPHA, BETA, lft_plant, sampled_loops, samples, scalar_plant
 
 
+ROBUST_MODULES = (certificate, solve_strategy, rescaling, constraint_generation, robust_design)
+"""The modules of the robust design whose functions look up each other's names (each imports them by name)."""
+
+
 def objective(d: RobustDesign, w_hinf: float = 1.0, w_i2p: float = 100.0) -> float:
     return w_hinf * d.gamma + w_i2p * d.nu
+
+
+def patch(monkeypatch, name: str, value) -> None:
+    """Set ``name`` in every module of :data:`ROBUST_MODULES` that has it: where it is defined and
+    wherever it is imported, so that every call or read sees ``value``."""
+    holders = [m for m in ROBUST_MODULES if hasattr(m, name)]
+    assert holders, name
+    for module in holders:
+        monkeypatch.setattr(module, name, value)
 
 
 @pytest.fixture(scope="module")
@@ -299,7 +312,7 @@ def test_no_program_is_minimized_twice(plant, monkeypatch) -> None:
     once (the solver is deterministic: the same program again gives the same answer), and the
     status names every solve made."""
     programs: list[bytes] = []
-    minimize, verify_plants = robust_design._minimize, robust_design._verify_plants
+    minimize, verify_plants = solve_strategy._minimize, certificate._verify_plants
 
     def counted(plants, K, **options):
         programs.append(np.concatenate([plants[0].A.ravel(), plants[0].Bu.ravel()]).tobytes())
@@ -308,14 +321,14 @@ def test_no_program_is_minimized_twice(plant, monkeypatch) -> None:
     def rejected(*args, **kwargs):
         return dataclasses.replace(verify_plants(*args, **kwargs), margin=-1.0)
 
-    monkeypatch.setattr(robust_design, "_minimize", counted)
-    monkeypatch.setattr(robust_design, "_verify_plants", rejected)
+    patch(monkeypatch, "_minimize", counted)
+    patch(monkeypatch, "_verify_plants", rejected)
     d = design(plant, alpha=ALPHA, beta=BETA)
     assert d.status == "unverified" and d.K is None
-    assert len(programs) == robust_design.RESCALE_DEPTH + 1 == len(set(programs))  # one per coordinates
+    assert len(programs) == rescaling.RESCALE_DEPTH + 1 == len(set(programs))  # one per coordinates
     # each level: its back-off at 1e-4; the deepest, then each level up: the larger back-offs
-    assert d.solver_status.count("back-off 0.0001") == robust_design.RESCALE_DEPTH + 1
-    assert d.solver_status.count("back-off 0.01") == robust_design.RESCALE_DEPTH + 1
+    assert d.solver_status.count("back-off 0.0001") == rescaling.RESCALE_DEPTH + 1
+    assert d.solver_status.count("back-off 0.01") == rescaling.RESCALE_DEPTH + 1
 
 
 def test_a_well_scaled_minimizer_tries_the_larger_back_offs_before_rescaling(plant, monkeypatch) -> None:
@@ -323,7 +336,7 @@ def test_a_well_scaled_minimizer_tries_the_larger_back_offs_before_rescaling(pla
     at 1e-3 is the answer: no second program (DEMETER row 12: 71 s instead of 226 s); with
     every Y taken as ill-scaled, the rescaled program comes first."""
     found: list = []
-    minimize, verify_plants = robust_design._minimize, robust_design._verify_plants
+    minimize, verify_plants = solve_strategy._minimize, certificate._verify_plants
 
     def counted(plants, K, **options):
         found.append(minimize(plants, K, **options))
@@ -333,25 +346,25 @@ def test_a_well_scaled_minimizer_tries_the_larger_back_offs_before_rescaling(pla
         check = verify_plants(plants, K, Y, gamma, nu, *args, **kwargs)
         return check if nu > found[-1].nu * (1 + 5e-4) else dataclasses.replace(check, margin=-1.0)
 
-    monkeypatch.setattr(robust_design, "_minimize", counted)
-    monkeypatch.setattr(robust_design, "_verify_plants", tight)
+    patch(monkeypatch, "_minimize", counted)
+    patch(monkeypatch, "_verify_plants", tight)
     d = design(plant, alpha=ALPHA, beta=BETA)
     diag = np.diag(found[0].Y)
-    assert diag.max() / diag.min() < robust_design.RESCALE_SPREAD  # the case under test
+    assert diag.max() / diag.min() < rescaling.RESCALE_SPREAD  # the case under test
     assert d.status == "optimal" and len(found) == 1 and d.backoff == 1e-3
     assert d.solver_status.endswith("the minimizer verified at back-off 0.001")
     found.clear()
-    monkeypatch.setattr(robust_design, "RESCALE_SPREAD", 1.0)
+    patch(monkeypatch, "RESCALE_SPREAD", 1.0)
     d = design(plant, alpha=ALPHA, beta=BETA)
     # each rescaled minimizer fails at 1e-4 too: the deepest verifies at 1e-3
-    assert d.status == "optimal" and len(found) == robust_design.RESCALE_DEPTH + 1 and "rescaled" in d.solver_status
+    assert d.status == "optimal" and len(found) == rescaling.RESCALE_DEPTH + 1 and "rescaled" in d.solver_status
 
 
 def test_too_many_vertices_is_raised_before_building(plant, monkeypatch) -> None:
     def forbidden(*args, **kwargs):
         raise AssertionError("a program was built")
 
-    monkeypatch.setattr(robust_design, "_minimize", forbidden)
+    patch(monkeypatch, "_minimize", forbidden)
     with pytest.raises(TooManyVerticesError, match=r"2 uncertain parameters give 2\^2 = 4 .* max_vertices = 2"):
         design(plant, uncertainty="vertex", max_vertices=2)
     with pytest.raises(TooManyVerticesError):
@@ -417,7 +430,7 @@ def test_many_scenarios_are_solved_by_constraint_generation(plant, monkeypatch) 
     assert cones[0] == 3 * 10 + 3 and cones[-1] < 3 * gen.active_plants  # + Y and the two i2p blocks
     # the certificate is checked on every plant, not only the active ones
     assert {k.split("/")[0] for k in gen.check.max_eig} == {str(i) for i in range(len(plants))} and gen.check.ok
-    monkeypatch.setattr(robust_design, "SCENARIO_BATCH", len(plants))  # the whole program in one solve
+    patch(monkeypatch, "SCENARIO_BATCH", len(plants))  # the whole program in one solve
     full = design(plants, alpha=ALPHA, beta=BETA)
     assert full.status == "optimal" and full.active_plants is None
     # same optimum: the subset's is a lower bound of the whole program's, and both are reported at
@@ -432,10 +445,10 @@ def test_a_subset_is_judged_on_its_own_lmis(plant, designs) -> None:
     d = designs["norm"]
     bad = verify(plant, d.K, d.Y, d.gamma, d.nu, d.multipliers, alpha=ALPHA + 50.0, beta=BETA)
     assert not bad.ok and bad.max_eig["alpha"].max() > 0 and bad.max_eig["hinf"].max() < 0
-    assert robust_design._judged_on(bad, frozenset({"hinf", "beta"})).ok
-    assert not robust_design._judged_on(bad, frozenset({"hinf", "alpha"})).ok
+    assert certificate._judged_on(bad, frozenset({"hinf", "beta"})).ok
+    assert not certificate._judged_on(bad, frozenset({"hinf", "alpha"})).ok
     # the multiplier conditions of a left-out LMI go with it
-    assert robust_design._judged_on(bad, frozenset({"hinf"})).margin >= bad.margin
+    assert certificate._judged_on(bad, frozenset({"hinf"})).margin >= bad.margin
 
 
 def test_scenario_minimizer_is_checked_at_every_back_off(plant, monkeypatch) -> None:
@@ -444,7 +457,7 @@ def test_scenario_minimizer_is_checked_at_every_back_off(plant, monkeypatch) -> 
     rng = np.random.default_rng(5)
     plants = [plant.at(d) for d in rng.uniform(-1, 1, (120, plant.n_params))]
     found: list = []
-    minimize, real_verify = robust_design._minimize, robust_design.verify
+    minimize, real_verify = solve_strategy._minimize, certificate.verify
 
     def counted(subset, K, **options):
         found.append(minimize(subset, K, **options))
@@ -454,9 +467,9 @@ def test_scenario_minimizer_is_checked_at_every_back_off(plant, monkeypatch) -> 
         check = real_verify(p, K, Y, gamma, nu, *args, **kwargs)
         return check if nu > found[-1].nu * (1 + 5e-4) else dataclasses.replace(check, margin=-1.0)
 
-    monkeypatch.setattr(robust_design, "SCENARIO_FIRST", len(plants))  # every plant in the first subset
-    monkeypatch.setattr(robust_design, "_minimize", counted)
-    monkeypatch.setattr(robust_design, "verify", tight)
+    patch(monkeypatch, "SCENARIO_FIRST", len(plants))  # every plant in the first subset
+    patch(monkeypatch, "_minimize", counted)
+    patch(monkeypatch, "verify", tight)
     d = design(plants, alpha=ALPHA, beta=BETA)
     assert d.status == "optimal" and len(found) == 1 and d.backoff == 1e-3 and d.check.ok
     assert d.solver_status.endswith("the minimizer verified at back-off 0.001")
@@ -469,7 +482,7 @@ def test_plants_left_out_come_back_when_the_smaller_subset_fails(plant, monkeypa
     rng = np.random.default_rng(5)
     plants = [plant.at(d) for d in rng.uniform(-1, 1, (260, plant.n_params))]
     sizes: list[int] = []
-    minimize = robust_design._minimize
+    minimize = solve_strategy._minimize
 
     def failing_second(subset, *a, **k):
         sizes.append(len(subset))
@@ -480,7 +493,7 @@ def test_plants_left_out_come_back_when_the_smaller_subset_fails(plant, monkeypa
                             n_multipliers=0, fixed_gain=False, solver_status="solver error: NumericalError",
                             solve_seconds=0.0, build_seconds=0.0)
 
-    monkeypatch.setattr(robust_design, "_minimize", failing_second)
+    patch(monkeypatch, "_minimize", failing_second)
     gen = design(plants, alpha=ALPHA, beta=BETA)
     # measured (the test above): every LMI of 10 plants (31 with the shared i2p blocks), 6 of
     # them bind, 36 LMIs of 25 more plants join; the failed 42 LMIs of 29 plants become 67 of 35
@@ -491,8 +504,8 @@ def test_plants_left_out_come_back_when_the_smaller_subset_fails(plant, monkeypa
 
 
 def test_an_infeasible_scenario_subset_ends_the_generation(monkeypatch) -> None:
-    monkeypatch.setattr(robust_design, "SCENARIO_BATCH", 3)
-    monkeypatch.setattr(robust_design, "SCENARIO_FIRST", 3)
+    patch(monkeypatch, "SCENARIO_BATCH", 3)
+    patch(monkeypatch, "SCENARIO_FIRST", 3)
     Bu = np.array([[0.0], [1.0]])
     c = np.array([[1.0, 1.0]])
     # the first mode is fixed at a: infeasible with alpha = 0.5 as soon as one plant has a > -0.5

@@ -6,7 +6,7 @@ whole box on an :class:`~satfmu.synthesis.robust.lft_plant.AffineDescriptor` (im
 at the box vertices (the derivation is in its docstring); ``common=True`` is the bound of one
 common Lyapunov matrix. The program's size is estimated before it is built
 (:func:`pdlf_size`, :data:`PDLF_MAX_ENTRIES`). As in :mod:`satfmu.synthesis.robust.robust_design`, the
-minimizer is checked at the backed-off levels (:data:`~satfmu.synthesis.robust.robust_design.BACKOFFS`), then,
+minimizer is checked at the backed-off levels (:data:`~satfmu.synthesis.robust.solve_strategy.BACKOFFS`), then,
 if it fails, back-off solves follow, and a
 result is ``"optimal"`` only when :func:`verify_pdlf` has re-checked every vertex LMI in numpy;
 when the minimization gives no usable optimum, a bisection on gamma from the nominal loop's
@@ -22,7 +22,9 @@ import numpy as np
 from satfmu.synthesis.core import lmi, solve_policy
 from satfmu.synthesis.robust.lft_plant import (AffineDescriptor, NotHurwitzError, OptionError, PlantDataError,
                                  ProgramTooLargeError, _check_gain, _check_vertices, _matrix, _sym, box_vertices)
-from satfmu.synthesis.robust.robust_design import BACKOFFS, EPS, MAX_VERTICES, RobustCheck, _check_eps, _finish_check
+from satfmu.synthesis.robust.checks import EPS, RobustCheck, _check_eps, _finish_check
+from satfmu.synthesis.robust.multipliers import MAX_VERTICES
+from satfmu.synthesis.robust.solve_strategy import BACKOFFS
 from satfmu.synthesis.core.system_norms import hinf_norm
 
 PDLF_MAX_ENTRIES = 10_000_000
@@ -41,14 +43,14 @@ class PDLFResult:
     """Result of :func:`pdlf_hinf`.
 
     ``gamma``: the certified bound of ``||w1 -> z1||_inf`` over the box (sqrt of the minimized
-    ``g``, times ``1 + backoff``: :data:`~satfmu.synthesis.robust.robust_design.BACKOFFS`; with ``method ==
+    ``g``, times ``1 + backoff``: :data:`~satfmu.synthesis.robust.solve_strategy.BACKOFFS`; with ``method ==
     "bisection"`` the smallest level verified by the bisection, within
     :data:`PDLF_BISECTION_TOL` of the smallest it could not verify); ``P0``, ``Pk`` (shape (N,
     n, n), zeros if ``common``) the Lyapunov matrix ``P(delta) = P0 + sum delta_k Pk[k]``; ``F``
     the slack, shape (2 n + n_v + m_w, n + n_v). With ``state_scaling`` (T) the certificate
     holds in the coordinates ``x = diag(T) x_s``: ``verify_pdlf(desc.scale_states(T), K * T, P0,
     Pk, F, gamma)`` (:meth:`AffineDescriptor.scale_states`; gamma does not depend on them).
-    Status and times as :class:`~satfmu.synthesis.robust.robust_design.RobustDesign`.
+    Status and times as :class:`~satfmu.synthesis.robust.design_result.RobustDesign`.
 
     Attributes
     ----------
@@ -62,7 +64,7 @@ class PDLFResult:
         Its parameter-dependent parts (zeros if ``common``).
     F : numpy.ndarray, shape (2 n + n_v + m_w, n + n_v), or None
         The slack matrix.
-    check : satfmu.synthesis.robust.robust_design.RobustCheck or None
+    check : satfmu.synthesis.robust.checks.RobustCheck or None
         :func:`verify_pdlf` of the certificate returned, or of the last one that failed.
     common : bool
         One common Lyapunov matrix (``Pk = 0``) instead of a PDLF.
@@ -75,7 +77,7 @@ class PDLFResult:
     build_seconds : float
         Time to build the LMI programs, summed, s.
     backoff : float, optional
-        The back-off of :data:`~satfmu.synthesis.robust.robust_design.BACKOFFS` at which the
+        The back-off of :data:`~satfmu.synthesis.robust.solve_strategy.BACKOFFS` at which the
         certificate verified (None: bisection, or no certificate).
     method : {"minimize", "bisection"}, optional
         How ``gamma`` was found. Default ``"minimize"``.
@@ -132,7 +134,7 @@ def verify_pdlf(desc: AffineDescriptor, K, P0, Pk, F, gamma: float) -> RobustChe
 
     Returns
     -------
-    satfmu.synthesis.robust.robust_design.RobustCheck
+    satfmu.synthesis.robust.checks.RobustCheck
         Eigenvalues per vertex and the margin; ``ok`` when every LMI holds.
 
     Raises
@@ -231,12 +233,12 @@ def pdlf_hinf(desc: AffineDescriptor, K, *, common: bool = False, max_vertices: 
         One common Lyapunov matrix (``Pk = 0``) instead of the PDLF. Default False.
     max_vertices : int, optional
         Largest number of box vertices ``2^N`` accepted (default
-        :data:`~satfmu.synthesis.robust.robust_design.MAX_VERTICES`).
+        :data:`~satfmu.synthesis.robust.multipliers.MAX_VERTICES`).
     max_entries : int, optional
         Largest :func:`pdlf_size` accepted (default :data:`PDLF_MAX_ENTRIES`).
     eps : float, optional
         Strictness of the LMIs in the solver (default
-        :data:`~satfmu.synthesis.robust.robust_design.EPS`).
+        :data:`~satfmu.synthesis.robust.checks.EPS`).
     rescale : bool, optional
         Minimize once more in the coordinates where P0 has a unit diagonal when the first
         minimizer does not verify (above). Default True.

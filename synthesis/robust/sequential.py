@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from satfmu.synthesis.robust.lft_plant import LFTPlant, OptionError, _sym
-from satfmu.synthesis.robust.robust_design import _dual_lmi, _i2p_blocks, _specs, _weights
+from satfmu.synthesis.robust.dual_lmis import _dual_lmi, _i2p_blocks, _specs, _weights
 
 Sampler = Callable[[np.random.Generator, int], np.ndarray]
 
