@@ -7,12 +7,12 @@ figures:
 - one bare run: :meth:`satfmu.sims.cosim.master.CoSimulation.run` of the nominal scenario through the
   compiled loop, FMU instances reused (what a campaign worker does per sample, without the
   sampling, the metrics and the row), CPU s, min and median of ``--repeat`` runs;
-- per sample in one process: :class:`satfmu.sims.campaign.scenario_campaign.ScenarioTask` on 500 samples
+- per sample in one process: :class:`satfmu.sims.campaign.scenario_task.ScenarioTask` on 500 samples
   (draw the dispersions, run, evaluate the metrics, build the row), CPU s per sample, and its
   ratio to the bare run (target <= 1.5);
 - the campaign on 1 and on 2 workers: end to end (a local Dask cluster started, every chunk
   computed and written as a checksummed Parquet file, the rows loaded, the cluster closed,
-  the statistics: what :func:`satfmu.sims.campaign.scenario_campaign.run_campaign` does) and the samples alone
+  the statistics: what :func:`satfmu.sims.campaign.results.run_campaign` does) and the samples alone
   (:func:`satfmu.sims.campaign.engine.run` on the running cluster), wall s, samples/s, the speed-ups (target
   >= 1.8) and whether the two give the same rows (they must: samples depend on (seed, index)
   only). The two alternate over ``--repeat-campaign`` rounds (min and median).
@@ -34,17 +34,19 @@ import pandas as pd
 from satfmu.sims.campaign import engine as C
 from satfmu.controllers import catalog, paths
 from satfmu.sims.scenario import SHIPPED_SCENARIOS
-from satfmu.sims.scenario import spec as S
-from satfmu.sims.campaign import scenario_campaign as SC
+from satfmu.sims.scenario.spec import Scenario
+from satfmu.sims.scenario.wiring import grid, recorded
+from satfmu.sims.campaign.scenario_task import campaign
+from satfmu.sims.campaign.statistics import statistics as campaign_statistics
 
 DISPERSIONS = {"attitude": {"instance": "plant", "kind": "uniform"},
                "inertia": {"instance": "plant", "relative": 0.2}}
 
 
-def scenario() -> S.Scenario:
+def scenario() -> Scenario:
     """mrp_200deg with dispersed attitude and inertia."""
     data = tomllib.loads((SHIPPED_SCENARIOS / "mrp_200deg.toml").read_text())
-    return S.Scenario.from_dict({**data, "dispersions": DISPERSIONS})
+    return Scenario.from_dict({**data, "dispersions": DISPERSIONS})
 
 
 def main() -> None:
@@ -60,11 +62,11 @@ def main() -> None:
     fmu_dir = args.fmu_dir.resolve()
     catalog.build_all(fmu_dir)
     sc = scenario()
-    camp = SC.campaign(sc, args.samples, seed=1, chunk=args.chunk, fmu_dir=fmu_dir)
+    camp = campaign(sc, args.samples, seed=1, chunk=args.chunk, fmu_dir=fmu_dir)
     task = camp.task
     sim = task.simulation()
     params = {inst: spec.parameters for inst, spec in sc.fmus.items()}
-    record = S.recorded(sc, sim)
+    record = recorded(sc, sim)
     bare = []
     for _ in range(args.repeat):
         t0 = time.process_time()
@@ -75,7 +77,7 @@ def main() -> None:
     t0 = time.process_time()
     task(np.arange(n_one))
     per_sample = (time.process_time() - t0) / n_one
-    steps = len(S.grid(sc)) - 1
+    steps = len(grid(sc)) - 1
     print(f"campaign of {sc.name} ({steps} steps of {sc.step_size} s per sample), attitude uniform, inertia +-20 %")
     print(f"one bare compiled run: {min(bare) * 1e3:.3f} ms CPU min, {statistics.median(bare) * 1e3:.3f} ms median "
           f"({args.repeat} runs)")
@@ -93,7 +95,7 @@ def main() -> None:
                     t1 = time.perf_counter()
                     rows[workers] = C.run(camp, Path(tmp), client=client)
                     runs[workers].append(time.perf_counter() - t1)
-                stats = SC.statistics(sc, rows[workers])
+                stats = campaign_statistics(sc, rows[workers])
                 walls[workers].append(time.perf_counter() - t0)
     print("campaign wall s, min (median): end to end (cluster start, the samples, chunk files, rows loaded, "
           "cluster closed, statistics) and the samples alone (C.run on the running cluster)")

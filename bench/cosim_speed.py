@@ -37,7 +37,8 @@ import numpy as np
 
 from satfmu.controllers import catalog, paths
 from satfmu.sims.interop import ssp
-from satfmu.sims.scenario import spec as S
+from satfmu.sims.scenario.spec import Scenario, load
+from satfmu.sims.scenario.wiring import grid, recorded, wire
 from satfmu.sims.cosim.master import CoSimulation
 
 HERE = Path(__file__).resolve().parent
@@ -50,7 +51,7 @@ def c_loop_binary(folder: Path) -> Path:
     return exe
 
 
-def write_plan(sc: S.Scenario, sim: CoSimulation, record: list[str], folder: Path, repeat: int) -> Path:
+def write_plan(sc: Scenario, sim: CoSimulation, record: list[str], folder: Path, repeat: int) -> Path:
     """The C loop's plan (format in ``bench/c/fmu_loop.c``) for one run of ``sc`` through ``sim``'s FMUs."""
     comps = list(sim.components.values())
     index = {c.name: i for i, c in enumerate(comps)}
@@ -75,7 +76,7 @@ def write_plan(sc: S.Scenario, sim: CoSimulation, record: list[str], folder: Pat
         groups.setdefault(c, []).append(sim.components[c].variable(v).valueReference)
     lines.append(str(len(groups)))
     lines += [f"{index[c]} {len(vrs)} {' '.join(map(str, vrs))}" for c, vrs in groups.items()]
-    times = S.grid(sc)
+    times = grid(sc)
     prof: dict[str, list[tuple[int, np.ndarray]]] = {}
     for target, p in sim.profiles:
         c, v = target.split(".", 1)
@@ -132,14 +133,14 @@ def libcosim_run(ssp_path: Path, record: list[str], n_steps: int, step_size: flo
 
 
 def bench(name: str, fmu_dir: Path, repeat: int, exe: Path, tmp: Path) -> dict[str, list[float]]:
-    sc = S.load(name)
-    n_steps = len(S.grid(sc)) - 1
+    sc = load(name)
+    n_steps = len(grid(sc)) - 1
     params = {inst: spec.parameters for inst, spec in sc.fmus.items()}
     ssp_path = ssp.write(sc, fmu_dir, tmp / f"{name}.ssp")
     times: dict[str, list[float]] = {k: [] for k in ("compiled loop", "Python loop", "libcosim", "C loop")}
-    with S.wire(sc, fmu_dir) as sim:
+    with wire(sc, fmu_dir) as sim:
         sim.reuse_instances = True
-        record = S.recorded(sc, sim)
+        record = recorded(sc, sim)
         plan = write_plan(sc, sim, record, tmp, 1)
         last: dict[str, np.ndarray] = {}
         for _ in range(repeat):

@@ -122,17 +122,18 @@ def closed_loops(fmu_dir: Path | None) -> None:
     import copy
     import time
 
-    from satfmu.sims.scenario import spec as scenario
+    from satfmu.sims.scenario.run import run as run_scenario
+    from satfmu.sims.scenario.spec import load
 
     print("closed loops (native online SDRE FMUs vs pythonfmu ones, every communication point of 0.01 s):")
     for name in ("vscmg_seed", "vscmg_seed_friction"):
         runs, walls = {}, {}
         for backend in ("native", "python"):  # only the online controllers change backend
-            data = copy.deepcopy(scenario.load(name).data)
+            data = copy.deepcopy(load(name).data)
             for ctrl in ONLINE_LOOPS:
                 data["fmus"][ctrl]["backend"] = backend
             t0 = time.perf_counter()
-            runs[backend] = scenario.run(data, fmu_dir).results
+            runs[backend] = run_scenario(data, fmu_dir).results
             walls[backend] = time.perf_counter() - t0
         a, b = runs["native"], runs["python"]
         for ctrl, plant in ONLINE_LOOPS.items():

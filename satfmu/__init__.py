@@ -54,7 +54,8 @@ if TYPE_CHECKING:
     from satfmu.controllers.artifact import Artifact
     from satfmu.fmus.model import Model
     from satfmu.fmus.plants.spacecraft import Spacecraft
-    from satfmu.sims.scenario.spec import Result, Scenario
+    from satfmu.sims.scenario.result import Result
+    from satfmu.sims.scenario.spec import Scenario
 
 _EXPORTS = {
     # every error and warning satfmu raises, under SatfmuError and SatfmuWarning (satfmu.fmus.errors)
@@ -69,11 +70,11 @@ _EXPORTS = {
     "Spacecraft": "satfmu.fmus.plants.spacecraft", "SEED_000": "satfmu.fmus.plants.spacecraft",
     "Scenario": "satfmu.sims.scenario.spec", "FmuSpec": "satfmu.sims.scenario.spec",
     "Connection": "satfmu.sims.scenario.spec",
-    "Metric": "satfmu.sims.scenario.spec", "Result": "satfmu.sims.scenario.spec",
+    "Metric": "satfmu.sims.scenario.spec", "Result": "satfmu.sims.scenario.result",
     "Dispersions": "satfmu.sims.scenario.dispersions",
-    "run_campaign": "satfmu.sims.campaign.scenario_campaign",
-    "CampaignResult": "satfmu.sims.campaign.scenario_campaign",
-    "Statistics": "satfmu.sims.campaign.scenario_campaign", "replay": "satfmu.sims.campaign.scenario_campaign",
+    "run_campaign": "satfmu.sims.campaign.results",
+    "CampaignResult": "satfmu.sims.campaign.results",
+    "Statistics": "satfmu.sims.campaign.statistics", "replay": "satfmu.sims.campaign.replay",
     "write_report": "satfmu.sims.report",
     "Design": "satfmu.synthesis.designs", "design_hinf": "satfmu.synthesis.designs",
     "design_h2hinf": "satfmu.synthesis.designs", "design_vscmg_sdre": "satfmu.synthesis.designs",
@@ -89,7 +90,7 @@ __all__ = sorted([*_EXPORTS, *_FUNCTIONS, "__version__"])
 def run(scenario: "Scenario | Mapping[str, Any] | str | Path", fmu_dir: str | Path | None = None,
         backend: str = "native", out_dir: str | Path | None = None, strict: bool = False,
         design_rtol: float | None = None, allow_stale: bool = False) -> "Result":
-    """Run a scenario and evaluate its metrics (:func:`satfmu.sims.scenario.spec.run`).
+    """Run a scenario and evaluate its metrics (:func:`satfmu.sims.scenario.run.run`).
 
     Parameters
     ----------
@@ -117,9 +118,9 @@ def run(scenario: "Scenario | Mapping[str, Any] | str | Path", fmu_dir: str | Pa
         ``.passed``, ``.metrics``, ``.results`` (structured array), ``.plot(path)``,
         ``.write(folder)``.
     """
-    from satfmu.sims.scenario import spec as _scenario
+    from satfmu.sims.scenario.run import run as run_scenario
 
-    return _scenario.run(scenario, fmu_dir, backend, out_dir, strict, design_rtol, allow_stale)
+    return run_scenario(scenario, fmu_dir, backend, out_dir, strict, design_rtol, allow_stale)
 
 
 def build(names: Iterable[str] | None = None, fmu_dir: str | Path | None = None,

@@ -28,7 +28,7 @@ from typing import TYPE_CHECKING, Any, Callable
 import pytest
 
 if TYPE_CHECKING:
-    from satfmu.sims.scenario.spec import Result
+    from satfmu.sims.scenario.result import Result
 
 FMU_DIR_ENV = "SATFMU_FMU_DIR"
 
@@ -61,17 +61,18 @@ def satfmu_run(satfmu_fmu_dir: Path) -> Callable[..., "Result"]:
     """``satfmu_run(scenario, backend="native", strict=False, ...) -> Result`` in the session's
     FMU folder; each FMU is brought up to date (rebuilt if its build digest differs) once."""
     from satfmu.controllers import catalog
-    from satfmu.sims.scenario import spec as scenario
+    from satfmu.sims.scenario.run import run as run_scenario
+    from satfmu.sims.scenario.spec import load
 
     fresh: set[tuple[str, str]] = set()
 
     def run(spec: Any, backend: str = "native", **options: Any) -> "Result":
-        sc = scenario.load(spec)
+        sc = load(spec)
         wanted = [(s.model, s.backend or backend) for s in sc.fmus.values() if s.model is not None]
         for name, b in dict.fromkeys(w for w in wanted if w not in fresh):
             catalog.ensure(satfmu_fmu_dir, [name], b, rebuild_stale=True)
             fresh.add((name, b))
-        return scenario.run(sc, satfmu_fmu_dir, backend, **options)
+        return run_scenario(sc, satfmu_fmu_dir, backend, **options)
 
     return run
 

@@ -44,10 +44,10 @@ A controller is named by its artifact (the user's artifacts first, then the ship
 Exit status: 0 done, 1 a requirement failed (``run``: a metric missed its bound), 2 an error,
 printed as one line ``satfmu COMMAND: error: FILE: KEY: ...`` (``--debug``: the traceback).
 ``run``, ``export-ssp`` and ``verify`` check a scenario alike before any work
-(:func:`satfmu.sims.scenario.spec.check`: its file, its FMU files, its wiring and parameters) and write
+(:func:`satfmu.sims.scenario.run.check`: its file, its FMU files, its wiring and parameters) and write
 nothing for one they refuse; a stale controller FMU (embedding another artifact than the file
 of its name) is rebuilt in the FMU cache and refused elsewhere unless ``--allow-stale``
-(:func:`satfmu.sims.scenario.spec.ensure_fmus`).
+(:func:`satfmu.sims.scenario.provisioning.ensure_fmus`).
 
 ``verify`` runs scenarios (default: every shipped one) in our master, libcosim and ecos and
 compares them (:mod:`satfmu.sims.interop.verify`); ``robustness`` drives every FMU through misuse cases
@@ -59,10 +59,10 @@ stability region of the approximated SDRE on one box and cell by cell (JSON and 
 (:mod:`satfmu.sims.workflows.analysis`). ``table1``, ``figures demeter`` and ``campaign demeter`` are seed 004's
 (:mod:`satfmu.sims.workflows.demeter_reports`), ``detumble`` seed 003's (:mod:`satfmu.sims.workflows.detumble`).
 ``campaign scenario`` runs the Monte Carlo samples of a scenario's ``[dispersions]`` and
-prints their statistics (:mod:`satfmu.sims.campaign.scenario_campaign`); it exits with status 1 when a
+prints their statistics (:mod:`satfmu.sims.campaign.statistics`); it exits with status 1 when a
 sample misses a metric's bound or fails to run. ``report`` writes one self-contained HTML page
 of run and campaign folders (:mod:`satfmu.sims.report`). ``replay`` runs one sample of a scenario campaign again
-(:func:`satfmu.sims.campaign.scenario_campaign.replay`: the same FMU files, the same metrics bit for bit) and
+(:func:`satfmu.sims.campaign.replay.replay`: the same FMU files, the same metrics bit for bit) and
 writes its CSV and plots; it exits as ``run`` does.
 
 This module imports only the standard library and :mod:`satfmu.controllers.paths` at start (``satfmu
@@ -148,13 +148,15 @@ def _run(args: argparse.Namespace) -> int:
     import warnings
 
     from satfmu.sims.scenario import metrics
-    from satfmu.sims.scenario import spec as scenario
+    from satfmu.fmus.errors import DesignMismatchWarning
+    from satfmu.sims.scenario.run import run as run_scenario
+    from satfmu.sims.scenario.spec import load
 
     failed = 0
     summaries = []
-    warnings.simplefilter("ignore", scenario.DesignMismatchWarning)  # printed below, with the run
-    for sc in [scenario.load(name) for name in args.scenarios]:  # every file read before any run
-        res = scenario.run(sc, Path(args.fmu_dir), args.backend, Path(args.out), strict=args.strict,
+    warnings.simplefilter("ignore", DesignMismatchWarning)  # printed below, with the run
+    for sc in [load(name) for name in args.scenarios]:  # every file read before any run
+        res = run_scenario(sc, Path(args.fmu_dir), args.backend, Path(args.out), strict=args.strict,
                            allow_stale=args.allow_stale)
         summaries.append(res.summary())
         print(f"{'PASS' if res.passed else 'FAIL'} {res.name} ({args.backend})")
@@ -181,11 +183,11 @@ def _replay(args: argparse.Namespace) -> int:
     import json
     import warnings
 
-    from satfmu.sims.scenario import spec as scenario
-    from satfmu.sims.campaign import scenario_campaign
+    from satfmu.fmus.errors import DesignMismatchWarning
+    from satfmu.sims.campaign.replay import replay
 
-    warnings.simplefilter("ignore", scenario.DesignMismatchWarning)  # printed below, with the run
-    res = scenario_campaign.replay(args.campaign, args.sample, Path(args.out), args.fmu_dir)
+    warnings.simplefilter("ignore", DesignMismatchWarning)  # printed below, with the run
+    res = replay(args.campaign, args.sample, Path(args.out), args.fmu_dir)
     print(f"{'PASS' if res.passed else 'FAIL'} {args.campaign} sample {args.sample}: {res.name} ({res.backend})")
     dispersed = json.loads(res.files["sample"].read_text())["dispersed"]
     print("     dispersed: " + ", ".join(f"{k} = {v:.6g}" if isinstance(v, float) else f"{k} = {v}"
@@ -195,10 +197,10 @@ def _replay(args: argparse.Namespace) -> int:
 
 
 def _export_ssp(args: argparse.Namespace) -> int:
-    from satfmu.sims.scenario import spec as scenario
+    from satfmu.sims.scenario.spec import load
     from satfmu.sims.interop import ssp
 
-    for sc in [scenario.load(name) for name in args.scenarios]:  # every file read before any export
+    for sc in [load(name) for name in args.scenarios]:  # every file read before any export
         print(f"wrote {ssp.export(sc, Path(args.fmu_dir), Path(args.out), args.backend, args.allow_stale)}")
     return 0
 
@@ -363,12 +365,13 @@ def _campaign_demeter(args: argparse.Namespace) -> int:
 
 
 def _campaign_scenario(args: argparse.Namespace) -> int:
-    from satfmu.sims.scenario import spec as scenario
-    from satfmu.sims.campaign import scenario_campaign
+    from satfmu.sims.scenario.spec import load
+    from satfmu.sims.campaign.results import run_campaign
+    from satfmu.sims.campaign.scenario_task import campaign_size
 
-    sc = scenario.load(args.scenario)
-    samples, seed = scenario_campaign.campaign_size(sc, args.samples, args.seed, args.demo)
-    result = scenario_campaign.run_campaign(
+    sc = load(args.scenario)
+    samples, seed = campaign_size(sc, args.samples, args.seed, args.demo)
+    result = run_campaign(
         sc, samples, args.out, seed=seed, chunk=args.chunk, name=args.name,
         fmu_dir=args.fmu_dir, backend=args.backend, workers=args.workers, scheduler=args.scheduler,
         confidence=args.confidence, worst=args.worst, progress=_progress_eta("chunks"), envelopes=args.envelope or (),

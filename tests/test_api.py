@@ -50,6 +50,7 @@ def test_version_and_unknown_name():
 
 
 def test_names_are_the_implementations():
-    from satfmu.sims.scenario import spec as scenario
+    from satfmu.sims.scenario.result import Result
+    from satfmu.sims.scenario.spec import Scenario
 
-    assert satfmu.Scenario is scenario.Scenario and satfmu.Result is scenario.Result
+    assert satfmu.Scenario is Scenario and satfmu.Result is Result

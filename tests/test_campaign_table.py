@@ -7,8 +7,9 @@ from pathlib import Path
 import pytest
 from distributed import Client
 
-from satfmu.sims.scenario import spec as S
-from satfmu.sims.campaign import scenario_campaign as SC
+from satfmu.fmus.errors import ScenarioError
+from satfmu.sims.scenario.spec import Scenario
+from satfmu.sims.campaign.scenario_task import campaign, campaign_size
 from satfmu.sims.cli import main
 from tests.test_scenario_campaign import mrp, toml
 
@@ -29,41 +30,41 @@ def with_campaign(table: object, **changes: object) -> dict:
     ([10], r"campaign: must be a table of samples, demo_samples, seed"),
 ])
 def test_a_bad_campaign_table_is_refused_naming_the_key(table: object, message: str) -> None:
-    with pytest.raises(S.ScenarioError, match=message):
-        S.Scenario.from_dict(with_campaign(table), where="mine.toml")
+    with pytest.raises(ScenarioError, match=message):
+        Scenario.from_dict(with_campaign(table), where="mine.toml")
 
 
 def test_a_campaign_table_needs_dispersions() -> None:
     data = {k: v for k, v in with_campaign({"samples": 10}).items() if k != "dispersions"}
-    with pytest.raises(S.ScenarioError, match=r"mine\.toml: campaign: a campaign needs a \[dispersions\] table"):
-        S.Scenario.from_dict(data, where="mine.toml")
+    with pytest.raises(ScenarioError, match=r"mine\.toml: campaign: a campaign needs a \[dispersions\] table"):
+        Scenario.from_dict(data, where="mine.toml")
 
 
 def test_the_campaign_table_round_trips_and_stays_out_of_the_campaign_identity(fmu_dir: Path) -> None:
     """to_dict/from_dict keep the table; a sample's scenario has none; two declarations that differ
     only in their default sizes are the same campaign (a folder is resumed whatever the defaults)."""
-    sc = S.Scenario.from_dict(with_campaign({"samples": 10, "demo_samples": 2, "seed": 5}))
+    sc = Scenario.from_dict(with_campaign({"samples": 10, "demo_samples": 2, "seed": 5}))
     assert sc.campaign == {"samples": 10, "demo_samples": 2, "seed": 5}
-    assert S.Scenario.from_dict(sc.to_dict()).campaign == sc.campaign
+    assert Scenario.from_dict(sc.to_dict()).campaign == sc.campaign
     assert sc.sample(5, 0, fmu_dir).campaign == {}
-    other = S.Scenario.from_dict(with_campaign({"samples": 20, "demo_samples": 3}))
-    a, b = (SC.campaign(s, 2, seed=5, chunk=2, fmu_dir=fmu_dir) for s in (sc, other))
+    other = Scenario.from_dict(with_campaign({"samples": 20, "demo_samples": 3}))
+    a, b = (campaign(s, 2, seed=5, chunk=2, fmu_dir=fmu_dir) for s in (sc, other))
     assert a.identity() == b.identity() and "campaign" not in a.context["scenario"]
 
 
 def test_campaign_size_takes_the_declared_defaults() -> None:
-    sc = S.Scenario.from_dict(with_campaign({"samples": 10, "demo_samples": 2, "seed": 5}))
-    assert SC.campaign_size(sc) == (10, 5)
-    assert SC.campaign_size(sc, demo=True) == (2, 5)
-    assert SC.campaign_size(sc, samples=3, seed=0) == (3, 0)  # given values win
-    with pytest.raises(S.ScenarioError, match="not both"):
-        SC.campaign_size(sc, samples=3, demo=True)
-    bare = S.Scenario.from_dict(mrp())
-    assert SC.campaign_size(bare, samples=4) == (4, 0)  # seed 0 by default
-    with pytest.raises(S.ScenarioError, match=r"campaign\.samples: not declared .*--samples N"):
-        SC.campaign_size(bare)
-    with pytest.raises(S.ScenarioError, match=r"campaign\.demo_samples: not declared"):
-        SC.campaign_size(S.Scenario.from_dict(with_campaign({"samples": 10})), demo=True)
+    sc = Scenario.from_dict(with_campaign({"samples": 10, "demo_samples": 2, "seed": 5}))
+    assert campaign_size(sc) == (10, 5)
+    assert campaign_size(sc, demo=True) == (2, 5)
+    assert campaign_size(sc, samples=3, seed=0) == (3, 0)  # given values win
+    with pytest.raises(ScenarioError, match="not both"):
+        campaign_size(sc, samples=3, demo=True)
+    bare = Scenario.from_dict(mrp())
+    assert campaign_size(bare, samples=4) == (4, 0)  # seed 0 by default
+    with pytest.raises(ScenarioError, match=r"campaign\.samples: not declared .*--samples N"):
+        campaign_size(bare)
+    with pytest.raises(ScenarioError, match=r"campaign\.demo_samples: not declared"):
+        campaign_size(Scenario.from_dict(with_campaign({"samples": 10})), demo=True)
 
 
 def test_the_command_runs_the_declared_sizes(tmp_path: Path, client: Client, fmu_dir: Path,

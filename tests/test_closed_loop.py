@@ -11,7 +11,8 @@ import pytest
 from satfmu.controllers import polynomial
 from satfmu.fmus import export, reference
 from satfmu.fmus.plants import mrp_satellite
-from satfmu.sims.scenario import spec as scenario
+from satfmu.sims.scenario.result import Result
+from satfmu.sims.scenario.run import run
 from satfmu.sims.cosim.master import CoSimulation
 from tests.conftest import PUBLISHED, SIGMA_200
 
@@ -32,8 +33,8 @@ def test_native_fmu_carries_sources_and_artifact(fmu_dir: Path) -> None:
 
 
 @pytest.fixture(scope="module")
-def run_200(fmu_dir: Path) -> dict[str, scenario.Result]:
-    return {b: scenario.run("mrp_200deg", fmu_dir, backend=b) for b in ("native", "python")}
+def run_200(fmu_dir: Path) -> dict[str, Result]:
+    return {b: run("mrp_200deg", fmu_dir, backend=b) for b in ("native", "python")}
 
 
 def test_fmu_loop_matches_solve_ivp_reference(run_200: dict) -> None:
@@ -65,7 +66,7 @@ def test_200deg_reproduces_seed_000(run_200: dict) -> None:
 
 def test_saturated_scenarios_converge_within_the_limit(fmu_dir: Path) -> None:
     for name in ("mrp_200deg_sat", "mrp_320deg_sat"):
-        r = scenario.run(name, fmu_dir)
+        r = run(name, fmu_dir)
         u = np.stack([r.results[f"controller.u[{i}]"] for i in (1, 2, 3)], axis=1)
         assert np.max(np.abs(u)) <= 5.0 + 1e-12  # the saturation inside the controller FMU
         assert r.results["plant.phi"][-1] * DEG < 0.1  # converges despite saturation (seed Figs 4-6)
@@ -73,14 +74,14 @@ def test_saturated_scenarios_converge_within_the_limit(fmu_dir: Path) -> None:
 
 
 def test_eq44_truncated_l2_ratio_stays_below_c(fmu_dir: Path) -> None:
-    r = scenario.run("mrp_eq44", fmu_dir)
+    r = run("mrp_eq44", fmu_dir)
     curve = next(iter(r.l2_curves.values()))
     assert np.nanmax(curve) < 0.42  # the published design's c
     assert np.nanmax(curve) == pytest.approx(0.277, abs=0.002)  # docs/models.md: peaks at 0.277 over 60 s
 
 
 def test_scenario_writes_csv_plot_and_summary(fmu_dir: Path, tmp_path: Path) -> None:
-    r = scenario.run("mrp_eq44", fmu_dir, out_dir=tmp_path)
+    r = run("mrp_eq44", fmu_dir, out_dir=tmp_path)
     for key in ("csv", "plot", "l2_ratio_plot", "summary"):
         assert r.files[key].is_file() and r.files[key].stat().st_size > 0
     with open(r.files["csv"]) as fh:

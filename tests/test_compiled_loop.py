@@ -13,7 +13,12 @@ import pytest
 
 from satfmu.fmus.profiles import make
 from satfmu.sims.cosim import compiled_loop
-from satfmu.sims.scenario import spec as S
+from satfmu.fmus.errors import ScenarioError
+from satfmu.sims.scenario.result import write_csv
+from satfmu.sims.scenario.run import run
+from satfmu.sims.scenario.spec import Scenario, load
+from satfmu.sims.scenario.validation import MAX_STEPS
+from satfmu.sims.scenario.wiring import recorded, recorded_times, wire
 from satfmu.sims.cosim.master import CoSimulation, FmuCallError, MasterError, recorded_steps
 from satfmu.sims.scenario import shipped_scenarios
 
@@ -22,13 +27,13 @@ SHORT = {"vscmg_seed": 1.5, "vscmg_seed_friction": 1.5, "vscmg_friction_mc_onlin
 of CPU per full run; the full runs are the slow test's)."""
 
 
-def _runs(scenario: S.Scenario, fmu_dir: Path, stop_time: float) -> dict[str, np.ndarray]:
+def _runs(scenario: Scenario, fmu_dir: Path, stop_time: float) -> dict[str, np.ndarray]:
     """The scenario run by each loop in each exchange order, fresh and reused instances."""
     params = {inst: spec.parameters for inst, spec in scenario.fmus.items()}
     out = {}
-    with S.wire(scenario, fmu_dir) as fresh, S.wire(scenario, fmu_dir) as reused:
+    with wire(scenario, fmu_dir) as fresh, wire(scenario, fmu_dir) as reused:
         reused.reuse_instances = True
-        record = S.recorded(scenario, fresh)
+        record = recorded(scenario, fresh)
         for order in ("feedthrough", "jacobi"):
             for engine in ("python", "compiled"):
                 out[f"{order} {engine}"] = fresh.run(stop_time, scenario.step_size, scenario.start_time, params,
@@ -52,7 +57,7 @@ def _assert_identical(runs: dict[str, np.ndarray]) -> None:
 def test_every_shipped_scenario_runs_bit_for_bit_in_both_loops(path: Path, fmu_dir: Path) -> None:
     """Compiled == Python, feedthrough and Jacobi order, fresh and reset instances; the vscmg
     scenarios (python SDRE FMUs that log through the host's callback) to SHORT s."""
-    sc = S.load(path)
+    sc = load(path)
     _assert_identical(_runs(sc, fmu_dir, SHORT.get(sc.name, sc.stop_time)))
 
 
@@ -60,7 +65,7 @@ def test_every_shipped_scenario_runs_bit_for_bit_in_both_loops(path: Path, fmu_d
 @pytest.mark.parametrize("name", sorted(SHORT))
 def test_the_python_controller_scenarios_run_bit_for_bit_to_their_stop_time(name: str, fmu_dir: Path) -> None:
     """As the fast test, over the whole manoeuvre (~20 s of CPU each)."""
-    sc = S.load(name)
+    sc = load(name)
     _assert_identical(_runs(sc, fmu_dir, sc.stop_time))
 
 
@@ -91,10 +96,10 @@ def test_a_failing_call_raises_the_same_error_in_both_loops_and_the_instance_run
 
 @pytest.mark.parametrize("every", [1, 7, 2400, 5000])
 def test_record_every_keeps_the_rows_of_the_full_run_at_those_steps_and_the_last(fmu_dir: Path, every: int) -> None:
-    sc = S.load("mrp_200deg")
+    sc = load("mrp_200deg")
     params = {inst: spec.parameters for inst, spec in sc.fmus.items()}
-    with S.wire(sc, fmu_dir) as sim:
-        record = S.recorded(sc, sim)
+    with wire(sc, fmu_dir) as sim:
+        record = recorded(sc, sim)
         full = sim.run(sc.stop_time, sc.step_size, 0.0, params, record)
         steps = recorded_steps(len(full) - 1, every)
         for engine in ("python", "compiled"):
@@ -139,7 +144,7 @@ def test_result_csv_reads_back_to_the_same_floats(tmp_path: Path) -> None:
                        np.nextafter(1.0, 2.0), -2.5e-8])
     res = np.zeros(len(values), dtype=[("time", "f8"), ("a[1,2]", "f8")])
     res["time"], res["a[1,2]"] = np.arange(len(values)) * 0.05, values
-    S.write_csv(res, tmp_path / "r.csv")
+    write_csv(res, tmp_path / "r.csv")
     with open(tmp_path / "r.csv", newline="") as fh:
         rows = list(csv.reader(fh))
     assert rows[0] == ["time", "a[1,2]"] and len(rows) == len(values) + 1
@@ -159,19 +164,19 @@ def test_a_scenario_records_every_nth_point_and_its_metrics_read_them(fmu_dir: P
     from satfmu.sims.scenario import SHIPPED_SCENARIOS
 
     data = tomllib.loads((SHIPPED_SCENARIOS / "mrp_200deg.toml").read_text())
-    full = S.run(S.Scenario.from_dict(data), fmu_dir)
-    thin_sc = S.Scenario.from_dict({**data, "record_every": 8})
+    full = run(Scenario.from_dict(data), fmu_dir)
+    thin_sc = Scenario.from_dict({**data, "record_every": 8})
     assert (thin_sc.to_dict()["record_every"] == 8
-            and S.recorded_times(thin_sc).tolist() == full.results["time"][::8].tolist())
-    thin = S.run(thin_sc, fmu_dir, out_dir=tmp_path)
+            and recorded_times(thin_sc).tolist() == full.results["time"][::8].tolist())
+    thin = run(thin_sc, fmu_dir, out_dir=tmp_path)
     assert len(thin.results) == 301 and thin.results.tobytes() == full.results[::8].tobytes()
     assert thin.metric("attitude angle at 120 s").value == full.metric("attitude angle at 120 s").value
     with open(thin.files["csv"], newline="") as fh:
         assert len(list(csv.reader(fh))) == 302
     for bad in (0, 1.5, True):
-        with pytest.raises(S.ScenarioError, match=r"record_every: must be an integer >= 1"):
-            S.Scenario.from_dict({**data, "record_every": bad})
-    long = {**data, "stop_time": 0.05 * (S.MAX_STEPS + 8)}
-    with pytest.raises(S.ScenarioError, match=r"stop_time: .* communication steps, .* recorded, more than 1e\+07"):
-        S.Scenario.from_dict(long)
-    assert S.Scenario.from_dict({**long, "record_every": 2}).record_every == 2  # thinned: accepted
+        with pytest.raises(ScenarioError, match=r"record_every: must be an integer >= 1"):
+            Scenario.from_dict({**data, "record_every": bad})
+    long = {**data, "stop_time": 0.05 * (MAX_STEPS + 8)}
+    with pytest.raises(ScenarioError, match=r"stop_time: .* communication steps, .* recorded, more than 1e\+07"):
+        Scenario.from_dict(long)
+    assert Scenario.from_dict({**long, "record_every": 2}).record_every == 2  # thinned: accepted

@@ -10,7 +10,7 @@ from distributed import Client, LocalCluster
 
 from satfmu.controllers import polynomial
 from satfmu.sims.workflows import demeter_loops as dl
-from satfmu.sims.scenario import spec as S
+from satfmu.sims.scenario.spec import load
 from satfmu.sims.cli import main
 from satfmu.sims.scenario import SHIPPED_SCENARIOS
 from satfmu.synthesis.robust.demeter_variants import THETA_WORST
@@ -104,8 +104,8 @@ def test_a_shipped_scenario_is_the_scenario_of_the_row1_design(start: str) -> No
     dl.scenario(), text for text, and reads back as the same scenario."""
     path = SHIPPED_SCENARIOS / f"{SHIPPED[start]}.toml"
     assert path.read_text() == dl.scenario_text(start), "regenerate it: python -m satfmu.sims.workflows.demeter_loops"
-    assert S.load(SHIPPED[start]).to_dict() == dl.scenario("demeter_row1_det", start=start).to_dict()
-    assert S.load(SHIPPED[start]).to_dict() == dl.shipped_scenario(start).to_dict()
+    assert load(SHIPPED[start]).to_dict() == dl.scenario("demeter_row1_det", start=start).to_dict()
+    assert load(SHIPPED[start]).to_dict() == dl.shipped_scenario(start).to_dict()
 
 
 def test_write_shipped_writes_one_file_per_start(tmp_path: Path) -> None:

@@ -11,7 +11,9 @@ from scipy import stats
 from scipy.spatial.transform import Rotation
 
 from satfmu.fmus.plants.spacecraft import SEED_000, Spacecraft
-from satfmu.sims.scenario import spec as S
+from satfmu.fmus.errors import ScenarioError
+from satfmu.sims.scenario.run import check, run
+from satfmu.sims.scenario.spec import Scenario
 from satfmu.sims.scenario.dispersions import DispersionError, Dispersions
 from tests.conftest import SIGMA_200
 
@@ -194,8 +196,8 @@ def test_samples_depend_on_seed_and_index_only() -> None:
 def test_validation_names_the_key_path(table: dict, message: str) -> None:
     data = {"name": "bad", "stop_time": 1.0, "step_size": 0.5, "fmus": {"plant": {"model": "mrp_satellite"}},
             "profiles": [{"to": "plant.w_d[1]", "kind": "constant", "value": 0.0}], "dispersions": table}
-    with pytest.raises(S.ScenarioError, match=message):
-        S.Scenario.from_dict(data, where="bad.toml")
+    with pytest.raises(ScenarioError, match=message):
+        Scenario.from_dict(data, where="bad.toml")
 
 
 SCENARIO = '''
@@ -224,22 +226,22 @@ inertia = { instance = "plant", relative = 0.2, axis_rotation_deg = 2.0 }
 
 def test_a_dispersed_sample_runs(tmp_path: Path, fmu_dir: Path) -> None:
     (tmp_path / "dispersed.toml").write_text(SCENARIO)
-    sc = S.Scenario.from_toml(tmp_path / "dispersed.toml")
-    assert S.Scenario.from_dict(sc.to_dict()).dispersions == sc.dispersions  # round trip
+    sc = Scenario.from_toml(tmp_path / "dispersed.toml")
+    assert Scenario.from_dict(sc.to_dict()).dispersions == sc.dispersions  # round trip
     one = sc.sample(5, 0, fmu_dir)
     assert one.dispersions is None and sc.fmus["plant"].parameters["sigma_0[1]"] == 0.5992  # nominal kept
     p = one.fmus["plant"].parameters
     assert p["I_x"] != SEED_000.parameters()["I_x"] and one.profiles[0]["seed"] != 1
-    res = S.run(one, fmu_dir).results
+    res = run(one, fmu_dir).results
     # the run starts from the sample's values (start values are written exactly)
     assert res["plant.sigma[1]"][0] == p["sigma_0[1]"] and res["plant.omega[1]"][0] == p["omega_0[1]"]
 
 
 def test_a_dispersed_parameter_the_fmu_lacks_is_refused_at_check(tmp_path: Path, fmu_dir: Path) -> None:
     (tmp_path / "bad.toml").write_text(SCENARIO.replace('"plant.omega_0[1]"', '"plant.omega_9[1]"'))
-    sc = S.Scenario.from_toml(tmp_path / "bad.toml")
-    with pytest.raises(S.ScenarioError, match=r'bad.toml: dispersions.plant.omega_9\[1\]: .*no variable'):
-        S.check(sc, fmu_dir)
+    sc = Scenario.from_toml(tmp_path / "bad.toml")
+    with pytest.raises(ScenarioError, match=r'bad.toml: dispersions.plant.omega_9\[1\]: .*no variable'):
+        check(sc, fmu_dir)
 
 
 def test_a_draw_without_its_nominal_value_names_the_key() -> None:
@@ -251,9 +253,9 @@ def test_a_draw_without_its_nominal_value_names_the_key() -> None:
 
 
 def test_with_parameters_refuses_an_unknown_instance() -> None:
-    sc = S.Scenario.from_dict({"name": "x", "stop_time": 1.0, "step_size": 0.5,
-                               "fmus": {"plant": {"model": "mrp_satellite"}}})
+    sc = Scenario.from_dict({"name": "x", "stop_time": 1.0, "step_size": 0.5,
+                             "fmus": {"plant": {"model": "mrp_satellite"}}})
     assert sc.with_parameters({"plant": {"I_x": 3.0}}).fmus["plant"].parameters == {"I_x": 3.0}
     assert sc.fmus["plant"].parameters == {}  # the original is unchanged
-    with pytest.raises(S.ScenarioError, match="no FMU instance or profile 'plnt'.*did you mean 'plant'"):
+    with pytest.raises(ScenarioError, match="no FMU instance or profile 'plnt'.*did you mean 'plant'"):
         sc.with_parameters({"plnt": {"I_x": 3.0}})

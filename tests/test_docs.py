@@ -23,8 +23,8 @@ def test_the_site_builds_with_no_warning_and_links_the_api(tmp_path: Path) -> No
     assert 'id="satfmu.run"' in api  # the facade's own functions, documented on its page
     # a re-exported name links to the page of the module that defines it
     assert 'href="_api/satfmu.sims.scenario.spec.html#satfmu.sims.scenario.spec.Scenario"' in api
-    scenario = (out / "_api" / "satfmu.sims.scenario.spec.html").read_text()
-    assert 'id="satfmu.sims.scenario.spec.run"' in scenario
+    scenario = (out / "_api" / "satfmu.sims.scenario.run.html").read_text()
+    assert 'id="satfmu.sims.scenario.run.run"' in scenario
     pages = {p.stem for p in (out / "_api").glob("satfmu.*.html")}
     assert {"satfmu.fmus.errors", "satfmu.synthesis.core.sos", "satfmu.controllers.artifact",
             "satfmu.sims.robustness.cases"} <= pages

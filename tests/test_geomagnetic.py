@@ -251,7 +251,7 @@ def test_igrf_profile_is_the_orbit_field_at_orbit_time(epoch: str) -> None:
     want = igrf_orbit_field(1234.5 + t, EPOCH, params, max_degree=10)
     for c in (1, 2, 3):
         p = tomllib.loads(SCENARIO.format(c=c, epoch=epoch))["profiles"][0]
-        prof = make({k: v for k, v in p.items() if k != "to"}, step_size=1.0)  # as satfmu.sims.scenario.spec does
+        prof = make({k: v for k, v in p.items() if k != "to"}, step_size=1.0)  # as satfmu.sims.scenario.wiring does
         # The same function on the same orbit times: equal to round-off of tau0 + t.
         assert prof.sample(t) == pytest.approx(want[:, c - 1], rel=1e-14, abs=1e-20)
 

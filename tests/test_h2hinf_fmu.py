@@ -15,7 +15,8 @@ from satfmu.controllers import artifact as artifacts
 from satfmu.controllers import polynomial
 from satfmu.fmus.plants import mrp_satellite
 from satfmu.fmus import reference
-from satfmu.sims.scenario import spec as scenario
+from satfmu.sims.scenario.result import Result
+from satfmu.sims.scenario.run import run
 
 ARTIFACT = artifacts.load(polynomial.ARTIFACTS / "mrp_h2hinf_satfmu.json")
 NUMBERS = ARTIFACT.certificate["numbers"]
@@ -23,11 +24,11 @@ STATE = [f"plant.omega[{i}]" for i in (1, 2, 3)] + [f"plant.sigma[{i}]" for i in
 
 
 @pytest.fixture(scope="module")
-def h2_runs(fmu_dir: Path) -> dict[str, scenario.Result]:
-    return {b: scenario.run("mrp_90deg_h2", fmu_dir, backend=b) for b in ("native", "python")}
+def h2_runs(fmu_dir: Path) -> dict[str, Result]:
+    return {b: run("mrp_90deg_h2", fmu_dir, backend=b) for b in ("native", "python")}
 
 
-def _metric(result: scenario.Result, prefix: str) -> float:
+def _metric(result: Result, prefix: str) -> float:
     return next(m.value for m in result.metrics if m.name.startswith(prefix))
 
 
@@ -64,7 +65,7 @@ def test_fmu_loop_matches_reference_and_backends_agree(h2_runs: dict) -> None:
 
 
 def test_eq44_l2_ratio_is_below_gamma_and_state_stays_in_region(fmu_dir: Path) -> None:
-    res = scenario.run("mrp_eq44_h2hinf", fmu_dir)
+    res = run("mrp_eq44_h2hinf", fmu_dir)
     ratio = _metric(res, "mixed H2/Hinf: truncated L2 ratio")
     assert ratio < NUMBERS["gamma"]
     assert ratio == pytest.approx(0.1556, abs=1e-3)  # measured; a drift means the law changed
@@ -73,7 +74,7 @@ def test_eq44_l2_ratio_is_below_gamma_and_state_stays_in_region(fmu_dir: Path) -
 
 
 def test_200deg_outside_the_region_still_converges(fmu_dir: Path) -> None:
-    res = scenario.run("mrp_200deg_h2hinf", fmu_dir)
+    res = run("mrp_200deg_h2hinf", fmu_dir)
     assert res.passed
     phi = np.degrees(res.results["plant.phi"])
     assert phi[0] == pytest.approx(200.0, abs=0.05) and phi[-1] < 0.5

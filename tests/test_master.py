@@ -7,7 +7,9 @@ import numpy as np
 import pytest
 
 from satfmu.fmus.profiles import make
-from satfmu.sims.scenario import spec as scenario
+from satfmu.fmus.errors import ScenarioError
+from satfmu.sims.scenario.run import run
+from satfmu.sims.scenario.spec import load
 from satfmu.sims.cosim.master import WiringError, CoSimulation, FmuCallError
 
 
@@ -28,36 +30,36 @@ fmus = {{ plant = {PLANT}, controller = {CONTROLLER} }}
 
 
 def _run(tmp_path: Path, fmu_dir: Path, extra: str):
-    return scenario.run(_write(tmp_path, BASE + extra), fmu_dir)
+    return run(_write(tmp_path, BASE + extra), fmu_dir)
 
 
 def test_unknown_variable_in_connection_names_it(tmp_path: Path, fmu_dir: Path) -> None:
     # the key path of the scenario, the FMU's variables and the closest one
-    with pytest.raises(scenario.ScenarioError,
+    with pytest.raises(ScenarioError,
                        match=r"connections\[0\]\.from: .*has no variable 'omegaa'.*did you mean 'omega'\?"):
         _run(tmp_path, fmu_dir, '[[connections]]\nfrom = "plant.omegaa"\nto = "controller.omega"\n')
 
 
 def test_unknown_instance_and_parameter_named(tmp_path: Path, fmu_dir: Path) -> None:
-    with pytest.raises(scenario.ScenarioError, match=r"record\[0\]: 'plnt.omega' names no FMU instance 'plnt'.*"
+    with pytest.raises(ScenarioError, match=r"record\[0\]: 'plnt.omega' names no FMU instance 'plnt'.*"
                                                      r"did you mean 'plant'\?"):
         _run(tmp_path, fmu_dir, 'record = ["plnt.omega"]\n')
-    with pytest.raises(scenario.ScenarioError, match=r"s.toml: fmus\.plant\.parameters\.I_q: .*no variable 'I_q'"):
-        scenario.run(_write(tmp_path, BASE.replace(PLANT, '{ model = "mrp_satellite", parameters = { I_q = 1.0 } }')),
-                     fmu_dir)
+    with pytest.raises(ScenarioError, match=r"s.toml: fmus\.plant\.parameters\.I_q: .*no variable 'I_q'"):
+        run(_write(tmp_path, BASE.replace(PLANT, '{ model = "mrp_satellite", parameters = { I_q = 1.0 } }')),
+            fmu_dir)
 
 
-@pytest.mark.filterwarnings("ignore::satfmu.sims.scenario.spec.DesignMismatchWarning")  # I_x = -3 is also a mismatch
+@pytest.mark.filterwarnings("ignore::satfmu.sims.scenario.wiring.DesignMismatchWarning")  # I_x = -3 is also a mismatch
 def test_wrong_parameter_type_and_bad_value(tmp_path: Path, fmu_dir: Path) -> None:
     body = BASE.replace(CONTROLLER, '{ model = "mrp_hinf_published", parameters = { saturation_on = 1.5 } }')
-    with pytest.raises(scenario.ScenarioError, match=r"fmus\.controller\.parameters\.saturation_on: .*is Boolean"):
-        scenario.run(_write(tmp_path, body), fmu_dir)
+    with pytest.raises(ScenarioError, match=r"fmus\.controller\.parameters\.saturation_on: .*is Boolean"):
+        run(_write(tmp_path, body), fmu_dir)
     # outside the range the FMU declares: refused before the FMU is instantiated (the FMU itself
     # would reject it too: tests/test_fmu_robustness.py)
     body = BASE.replace(PLANT, '{ model = "mrp_satellite", parameters = { I_x = -3.0 } }')
-    with pytest.raises(scenario.ScenarioError, match=r"fmus\.plant\.parameters\.I_x: -3.0 is outside its declared "
+    with pytest.raises(ScenarioError, match=r"fmus\.plant\.parameters\.I_x: -3.0 is outside its declared "
                                                      r"range \[1e-09, inf\] \(mrp_satellite.fmu\)"):
-        scenario.run(_write(tmp_path, body), fmu_dir)
+        run(_write(tmp_path, body), fmu_dir)
 
 
 def test_pythonfmu_error_is_reported_and_the_host_survives(fmu_dir: Path) -> None:
@@ -73,44 +75,44 @@ def test_pythonfmu_error_is_reported_and_the_host_survives(fmu_dir: Path) -> Non
 
 
 def test_causality_and_double_drive(tmp_path: Path, fmu_dir: Path) -> None:
-    with pytest.raises(scenario.ScenarioError, match=r"connections\[0\]: plant.u\[1\] is a input, not an output"):
+    with pytest.raises(ScenarioError, match=r"connections\[0\]: plant.u\[1\] is a input, not an output"):
         _run(tmp_path, fmu_dir, '[[connections]]\nfrom = "plant.u"\nto = "controller.omega"\n')
     twice = ('[[connections]]\nfrom = "controller.u"\nto = "plant.u"\n'
              '[[profiles]]\nto = "plant.u[1]"\nkind = "constant"\nvalue = 1.0\n')
-    with pytest.raises(scenario.ScenarioError,
+    with pytest.raises(ScenarioError,
                        match=r"profiles\[0\]: input plant.u\[1\] is driven twice "
                              r"\(by connections\[0\] and by profiles\[0\]\)"):
         _run(tmp_path, fmu_dir, twice)
 
 
 def test_scenario_file_errors(tmp_path: Path) -> None:
-    with pytest.raises(scenario.ScenarioError, match="no scenario named 'mrp_200dge'.*did you mean 'mrp_200deg'"):
-        scenario.load("mrp_200dge")
-    with pytest.raises(scenario.ScenarioError, match="no scenario file"):
-        scenario.load(tmp_path / "none.toml")
-    with pytest.raises(scenario.ScenarioError, match="unknown key 'stoptime'; did you mean 'stop_time'"):
-        scenario.load(_write(tmp_path, BASE + "stoptime = 3\n"))
-    with pytest.raises(scenario.ScenarioError, match="invalid TOML"):
-        scenario.load(_write(tmp_path, "name = \n"))
-    with pytest.raises(scenario.ScenarioError, match=r"metrics\[0\]\.kind: must be one of"):
-        scenario.load(_write(tmp_path, BASE + '[[metrics]]\nname = "x"\nkind = "maximum"\nsignals = ["plant.phi"]\n'))
-    with pytest.raises(scenario.ScenarioError, match="needs 'tolerance'"):
-        scenario.load(_write(tmp_path, BASE + '[[metrics]]\nname = "x"\nkind = "settling_time"\n'
+    with pytest.raises(ScenarioError, match="no scenario named 'mrp_200dge'.*did you mean 'mrp_200deg'"):
+        load("mrp_200dge")
+    with pytest.raises(ScenarioError, match="no scenario file"):
+        load(tmp_path / "none.toml")
+    with pytest.raises(ScenarioError, match="unknown key 'stoptime'; did you mean 'stop_time'"):
+        load(_write(tmp_path, BASE + "stoptime = 3\n"))
+    with pytest.raises(ScenarioError, match="invalid TOML"):
+        load(_write(tmp_path, "name = \n"))
+    with pytest.raises(ScenarioError, match=r"metrics\[0\]\.kind: must be one of"):
+        load(_write(tmp_path, BASE + '[[metrics]]\nname = "x"\nkind = "maximum"\nsignals = ["plant.phi"]\n'))
+    with pytest.raises(ScenarioError, match="needs 'tolerance'"):
+        load(_write(tmp_path, BASE + '[[metrics]]\nname = "x"\nkind = "settling_time"\n'
                                               'signals = ["plant.phi"]\n'))
-    with pytest.raises(scenario.ScenarioError, match="needs 'versus'"):
-        scenario.load(_write(tmp_path, BASE + '[[metrics]]\nname = "x"\nkind = "max_difference"\n'
+    with pytest.raises(ScenarioError, match="needs 'versus'"):
+        load(_write(tmp_path, BASE + '[[metrics]]\nname = "x"\nkind = "max_difference"\n'
                                               'signals = ["plant.phi"]\n'))
 
 
 def test_missing_fmu_file(tmp_path: Path) -> None:
     """A model no FMU folder has and satfmu cannot build, and an FMU file that is not there."""
     body = BASE.replace(PLANT, '{ model = "mrp_satelite" }')
-    with pytest.raises(scenario.ScenarioError, match=r"fmus.plant.model: no FMU mrp_satelite.fmu in .*empty, and it "
+    with pytest.raises(ScenarioError, match=r"fmus.plant.model: no FMU mrp_satelite.fmu in .*empty, and it "
                                                      r"cannot be built: .*did you mean 'mrp_satellite'"):
-        scenario.run(_write(tmp_path, body), tmp_path / "empty")
+        run(_write(tmp_path, body), tmp_path / "empty")
     body = BASE.replace(PLANT, '{ path = "nowhere/plant.fmu" }')
-    with pytest.raises(scenario.ScenarioError, match=r"fmus.plant.path: FMU file .*nowhere/plant.fmu does not exist"):
-        scenario.run(_write(tmp_path, body), tmp_path / "empty")
+    with pytest.raises(ScenarioError, match=r"fmus.plant.path: FMU file .*nowhere/plant.fmu does not exist"):
+        run(_write(tmp_path, body), tmp_path / "empty")
 
 
 def test_time_grid_checks(fmu_dir: Path) -> None:
@@ -164,23 +166,23 @@ def test_a_failed_rerun_leaves_nothing_that_looks_complete(tmp_path: Path, fmu_d
 
     ok = _write(tmp_path, BASE + 'record = ["plant.phi"]\n')
     out = tmp_path / "out"
-    files = scenario.run(ok, fmu_dir, out_dir=out).files
+    files = run(ok, fmu_dir, out_dir=out).files
     assert all(files[k].is_file() for k in ("csv", "plot", "summary"))
     folder = files["csv"].parent
     blow_up = '{ h_max = 1e6, "omega_0[1]" = 1e3, "omega_0[2]" = 1e3, "omega_0[3]" = 1e3 }'  # in range
     with pytest.raises(FmuCallError, match="the state became non-finite"):
-        scenario.run(_write(tmp_path, BASE.replace(PLANT, f'{{ model = "mrp_satellite", parameters = {blow_up} }}')
-                            + 'record = ["plant.phi"]\n'), fmu_dir, out_dir=out)
+        run(_write(tmp_path, BASE.replace(PLANT, f'{{ model = "mrp_satellite", parameters = {blow_up} }}')
+                   + 'record = ["plant.phi"]\n'), fmu_dir, out_dir=out)
     ok = _write(tmp_path, BASE + 'record = ["plant.phi"]\n')
     assert sorted(p.name for p in folder.iterdir()) == []
-    scenario.run(ok, fmu_dir, out_dir=out)
+    run(ok, fmu_dir, out_dir=out)
 
     def broken(*args, **kwargs):
         raise RuntimeError("no display")
 
     monkeypatch.setattr(plots, "time_series", broken)
     with pytest.raises(RuntimeError, match="no display"):
-        scenario.run(ok, fmu_dir, out_dir=out)
+        run(ok, fmu_dir, out_dir=out)
     left = sorted(p.name for p in folder.iterdir())
     assert left == [files["csv"].name], left  # the new data only: no plot, no summary, no temporary file
 

@@ -185,9 +185,9 @@ def test_whole_scenarios_identical(fmu_dir: Path, name: str) -> None:
     exception: their native FMU solves the Riccati equation in C, the pythonfmu one with scipy
     (gains within 6.2e-9 of each other, tests/test_riccati_native.py); measured 1.25e-8 of the
     largest command."""
-    from satfmu.sims.scenario import spec as scenario
+    from satfmu.sims.scenario.run import run
 
-    native, python = (scenario.run(name, fmu_dir, backend=b).results for b in ("native", "python"))
+    native, python = (run(name, fmu_dir, backend=b).results for b in ("native", "python"))
     online = [n for n in native.dtype.names if n.startswith("online")]
     assert [n for n in native.dtype.names if n not in online and not np.array_equal(native[n], python[n])] == []
     for n in online:

@@ -1,4 +1,4 @@
-"""`satfmu replay` and :func:`satfmu.sims.campaign.scenario_campaign.replay`: one sample of a scenario campaign run
+"""`satfmu replay` and :func:`satfmu.sims.campaign.replay.replay`: one sample of a scenario campaign run
 again, bit for bit, with its time histories; bad input refused with one line and nothing written."""
 from __future__ import annotations
 
@@ -15,8 +15,10 @@ import pytest
 from distributed import Client
 
 from satfmu.sims.campaign import engine as C
-from satfmu.sims.scenario import spec as S
-from satfmu.sims.campaign import scenario_campaign as SC
+from satfmu.fmus.errors import DesignMismatchWarning, ScenarioError
+from satfmu.sims.scenario.spec import Scenario
+from satfmu.sims.campaign.replay import replay
+from satfmu.sims.campaign.scenario_task import campaign, explain
 from satfmu.sims.cli import main
 from tests.test_scenario_campaign import SEED, mrp
 
@@ -26,7 +28,7 @@ U_MAX = {"plant.u_max": {"kind": "uniform", "low": -5.0, "high": 5.0}}  # N m; d
 def ran(tmp_path: Path, client: Client, fmu_dir: Path, data: dict, n: int, chunk: int = 2
         ) -> tuple[C.Campaign, pd.DataFrame, Path]:
     """A finished campaign of ``data`` (seed SEED) in ``tmp_path/campaigns``: campaign, rows, folder."""
-    camp = SC.campaign(S.Scenario.from_dict(data), n, seed=SEED, chunk=chunk, fmu_dir=fmu_dir)
+    camp = campaign(Scenario.from_dict(data), n, seed=SEED, chunk=chunk, fmu_dir=fmu_dir)
     rows = C.run(camp, tmp_path / "campaigns", client=client)
     return camp, rows, tmp_path / "campaigns" / camp.name
 
@@ -44,8 +46,8 @@ def test_a_replayed_sample_is_the_campaign_row_bit_for_bit(tmp_path: Path, clien
     for k in (0, 3, 4):  # chunks 0, 1 and the last, short one
         with warnings.catch_warnings():
             warnings.simplefilter("error", C.CampaignWarning)  # no difference from the row
-            warnings.simplefilter("ignore", S.DesignMismatchWarning)  # the inertia is dispersed
-            res = SC.replay(folder, k, out_dir=out)
+            warnings.simplefilter("ignore", DesignMismatchWarning)  # the inertia is dispersed
+            res = replay(folder, k, out_dir=out)
         row = rows.iloc[k]
         assert row["sample"] == k and row["failed"] == 0.0
         assert {m.name: m.value for m in res.metrics} == {m.name: row[m.name] for m in res.metrics}
@@ -77,11 +79,11 @@ def test_a_replay_that_differs_from_the_row_is_reported(tmp_path: Path, client: 
     _, rows, folder = ran(tmp_path, client, fmu_dir, mrp(), 2)
     stored = rows.iloc[1].copy()
     stored["peak |u|"] = np.nextafter(stored["peak |u|"], np.inf)
-    monkeypatch.setattr(SC, "campaign_row", lambda f, k: stored)
+    monkeypatch.setattr("satfmu.sims.campaign.replay.campaign_row", lambda f, k: stored)
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore", S.DesignMismatchWarning)
+        warnings.simplefilter("ignore", DesignMismatchWarning)
         with pytest.warns(C.CampaignWarning, match=r"sample 1 replayed differently .* in peak \|u\|"):
-            SC.replay(folder, 1)
+            replay(folder, 1)
 
 
 def test_a_failed_sample_replays_to_the_same_refusal(tmp_path: Path, client: Client, fmu_dir: Path,
@@ -92,12 +94,12 @@ def test_a_failed_sample_replays_to_the_same_refusal(tmp_path: Path, client: Cli
     refused = rows.loc[rows["failed"] == 2.0, "sample"].astype(int).tolist()
     assert 0 < len(refused) < 6 and (rows.loc[rows["plant.u_max"] < 0, "failed"] == 2.0).all()
     k = refused[0]
-    message = SC.explain(camp.task, k)
+    message = explain(camp.task, k)
     assert "fmus.plant.parameters.u_max" in message and "outside its declared range" in message
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore", S.DesignMismatchWarning)
-        with pytest.raises(S.ScenarioError) as exc:
-            SC.replay(folder, k, out_dir=tmp_path / "lib")
+        warnings.simplefilter("ignore", DesignMismatchWarning)
+        with pytest.raises(ScenarioError) as exc:
+            replay(folder, k, out_dir=tmp_path / "lib")
     assert str(exc.value) == message
     assert files_under(tmp_path / "lib") == []
     out = tmp_path / "out"
@@ -150,7 +152,7 @@ def test_bad_input_exits_2_with_one_line_and_writes_nothing(tmp_path: Path, clie
     bad([folder, "--sample", 0], r"FMU files of controller in .* are not the ones the campaign ran", out, capsys)
     # the campaign's binaries elsewhere (the build folder holds the same files): replayed from there
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore", S.DesignMismatchWarning)
+        warnings.simplefilter("ignore", DesignMismatchWarning)
         assert main(["replay", str(folder), "--sample", "0", "--fmu-dir", str(fmu_dir), "--out", str(out)]) == 1
     assert (out / f"{folder.name}-sample0" / "summary_native.json").is_file()
 
@@ -169,4 +171,4 @@ def test_a_demeter_campaign_folder_is_refused(tmp_path: Path, client: Client, ca
 def test_the_public_api_names_the_implementation() -> None:
     import satfmu
 
-    assert satfmu.replay is SC.replay
+    assert satfmu.replay is replay

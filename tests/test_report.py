@@ -25,8 +25,10 @@ from distributed import Client
 from scipy import stats
 
 from satfmu.sims.campaign import engine as C
-from satfmu.sims.scenario import spec as S
-from satfmu.sims.campaign import scenario_campaign as SC
+from satfmu.sims.scenario.run import run as run_scenario
+from satfmu.sims.scenario.spec import Scenario
+from satfmu.sims.campaign.scenario_task import campaign
+from satfmu.sims.campaign.statistics import PERCENTILES
 from satfmu.sims.cli import main
 from satfmu.controllers.paths import SHIPPED_ARTIFACTS
 from satfmu.sims.scenario import SHIPPED_SCENARIOS
@@ -59,8 +61,8 @@ def campaigns(tmp_path_factory: pytest.TempPathFactory, client: Client, fmu_dir:
     out = tmp_path_factory.mktemp("campaigns")
     folders = {}
     for ctrl in CONTROLLERS:
-        camp = SC.campaign(S.Scenario.from_dict(scenario_data(ctrl)), N, seed=SEED, chunk=4, fmu_dir=fmu_dir,
-                           name=ctrl)
+        camp = campaign(Scenario.from_dict(scenario_data(ctrl)), N, seed=SEED, chunk=4, fmu_dir=fmu_dir,
+                        name=ctrl)
         C.run(camp, out, client=client)
         folders[ctrl] = out / ctrl
     return folders
@@ -71,7 +73,7 @@ def run_folder(tmp_path_factory: pytest.TempPathFactory, fmu_dir: Path) -> Path:
     """The folder of mrp_200deg_sat (command saturated at 5 N m) run for 5 s."""
     data = tomllib.loads((SHIPPED_SCENARIOS / "mrp_200deg_sat.toml").read_text())
     out = tmp_path_factory.mktemp("runs")
-    S.run(S.Scenario.from_dict({**data, "stop_time": 5.0}), fmu_dir, out_dir=out)
+    run_scenario(Scenario.from_dict({**data, "stop_time": 5.0}), fmu_dir, out_dir=out)
     return out / data["name"]
 
 
@@ -140,7 +142,7 @@ def test_campaign_statistics_in_the_page_are_those_of_the_rows(page: Path, campa
             assert float(interval.get("data-low")) == pytest.approx(low, rel=1e-9, abs=1e-12)
             assert float(interval.get("data-high")) == pytest.approx(high, rel=1e-9, abs=1e-12)
             finite = values[np.isfinite(values)]
-            for p in SC.PERCENTILES:
+            for p in PERCENTILES:
                 c = cell(row, f"p{p:g}")
                 if finite.size == 0:  # a settling time never reached in 2 s: no percentile
                     assert c.get("data-value") == "" and c.text_content() == ""
@@ -207,7 +209,7 @@ def test_run_metrics_and_figure(page: Path, run_folder: Path) -> None:
 
 
 def test_requirement_and_actuator_lines(run_folder: Path) -> None:
-    sc = S.Scenario.from_dict(tomllib.loads((SHIPPED_SCENARIOS / "mrp_200deg_sat.toml").read_text()))
+    sc = Scenario.from_dict(tomllib.loads((SHIPPED_SCENARIOS / "mrp_200deg_sat.toml").read_text()))
     run = read_folder(run_folder)[0]
     lim = limits.actuator_limits(run.scenario, run.fmus)
     by_target = {(x.target, x.parameter): x for x in lim}
@@ -274,7 +276,7 @@ def test_the_page_is_self_contained(page: Path) -> None:
 def test_result_write_records_the_scenario_and_its_fmus(run_folder: Path, fmu_dir: Path) -> None:
     record = json.loads((run_folder / "scenario_native.json").read_text())
     data = tomllib.loads((SHIPPED_SCENARIOS / "mrp_200deg_sat.toml").read_text())
-    assert record["scenario"] == S.Scenario.from_dict({**data, "stop_time": 5.0}).to_dict()
+    assert record["scenario"] == Scenario.from_dict({**data, "stop_time": 5.0}).to_dict()
     for inst, f in record["fmus"].items():
         assert f["sha256"] == hashlib.sha256((fmu_dir / f["file"]).read_bytes()).hexdigest()
     header = (run_folder / "mrp_200deg_sat_native.csv").read_text().splitlines()[0].split(",")

@@ -1,4 +1,4 @@
-"""Monte Carlo campaigns of a dispersed scenario (satfmu.sims.campaign.scenario_campaign) and
+"""Monte Carlo campaigns of a dispersed scenario (satfmu.sims.campaign.scenario_task) and
 `satfmu campaign scenario`."""
 from __future__ import annotations
 
@@ -13,8 +13,13 @@ from distributed import Client
 from scipy import stats
 
 from satfmu.sims.campaign import engine as C
-from satfmu.sims.scenario import spec as S
-from satfmu.sims.campaign import scenario_campaign as SC
+from satfmu.fmus.errors import DesignMismatchWarning, ScenarioError
+from satfmu.sims.scenario.run import run
+from satfmu.sims.scenario.spec import Scenario
+from satfmu.sims.scenario.wiring import grid
+from satfmu.sims.campaign.results import ENVELOPES, run_campaign
+from satfmu.sims.campaign.scenario_task import campaign, default_chunk, explain, reopen
+from satfmu.sims.campaign.statistics import PERCENTILES, clopper_pearson, statistics
 from satfmu.sims.cli import main
 from satfmu.sims.scenario import SHIPPED_SCENARIOS
 
@@ -55,13 +60,13 @@ def toml(path: Path, data: dict) -> Path:
 def rows(tmp_path: Path, client: Client, fmu_dir: Path, data: dict, n: int, chunk: int
          ) -> tuple[C.Campaign, pd.DataFrame]:
     """The campaign of ``data`` (seed SEED) and its rows, run in ``tmp_path/chunk<chunk>``."""
-    camp = SC.campaign(S.Scenario.from_dict(data), n, seed=SEED, chunk=chunk, fmu_dir=fmu_dir)
+    camp = campaign(Scenario.from_dict(data), n, seed=SEED, chunk=chunk, fmu_dir=fmu_dir)
     return camp, C.run(camp, tmp_path / f"chunk{chunk}", client=client)
 
 
 def test_rows_are_the_scenario_runs_of_the_samples_whatever_the_chunks(tmp_path: Path, client: Client,
                                                                        fmu_dir: Path) -> None:
-    sc = S.Scenario.from_dict(mrp())
+    sc = Scenario.from_dict(mrp())
     _, by2 = rows(tmp_path, client, fmu_dir, mrp(), 5, 2)
     _, by5 = rows(tmp_path, client, fmu_dir, mrp(), 5, 5)
     pd.testing.assert_frame_equal(by2, by5, check_exact=True)  # same (seed, index) -> same computation
@@ -70,8 +75,8 @@ def test_rows_are_the_scenario_runs_of_the_samples_whatever_the_chunks(tmp_path:
     for k in (1, 4):
         sampled = sc.sample(SEED, k, fmu_dir)
         with warnings.catch_warnings():
-            warnings.simplefilter("ignore", S.DesignMismatchWarning)
-            res = S.run(sampled, fmu_dir)
+            warnings.simplefilter("ignore", DesignMismatchWarning)
+            res = run(sampled, fmu_dir)
         row = by2.iloc[k]
         for m in res.metrics:  # the same code path: bit for bit
             assert row[m.name] == m.value
@@ -92,9 +97,9 @@ def test_a_refused_sample_is_a_recorded_failure_and_the_others_run(tmp_path: Pat
     assert (df.loc[negative, "failed"] == 2.0).all() and (df.loc[~negative, "failed"] == 0.0).all()
     assert df.loc[negative, "peak |u|"].isna().all() and np.isfinite(df.loc[~negative, "peak |u|"]).all()
     first = int(df.loc[negative, "sample"].iloc[0])
-    assert "outside its declared range" in SC.explain(camp.task, first)
-    assert SC.explain(camp.task, int(df.loc[~negative, "sample"].iloc[0])) is None
-    st = SC.statistics(S.Scenario.from_dict(data), df)
+    assert "outside its declared range" in explain(camp.task, first)
+    assert explain(camp.task, int(df.loc[~negative, "sample"].iloc[0])) is None
+    st = statistics(Scenario.from_dict(data), df)
     assert st.n_failed == int(negative.sum())
     assert set(st.worst["sample"][:st.n_failed]) == set(df.loc[negative, "sample"])  # failures are the worst
 
@@ -102,17 +107,17 @@ def test_a_refused_sample_is_a_recorded_failure_and_the_others_run(tmp_path: Pat
 def test_clopper_pearson_equals_the_beta_quantiles() -> None:
     # Independent reference: the exact interval's bounds are Beta quantiles; rtol 1e-9 is
     # root-finding noise of scipy's binomtest, far below any reported digit.
-    low, high = SC.clopper_pearson(100, 100, 0.95)
+    low, high = clopper_pearson(100, 100, 0.95)
     assert high == 1.0
     assert low == pytest.approx(stats.beta.ppf(0.025, 100, 1), rel=1e-9)
     assert 1 - low == pytest.approx(0.0362, abs=5e-5)  # 0 failures of 100: failure rate <= 3.62 %
-    low, high = SC.clopper_pearson(37, 100, 0.99)
+    low, high = clopper_pearson(37, 100, 0.99)
     assert low == pytest.approx(stats.beta.ppf(0.005, 37, 64), rel=1e-9)
     assert high == pytest.approx(stats.beta.ppf(0.995, 38, 63), rel=1e-9)
 
 
 def test_statistics_percentiles_and_worst_samples() -> None:
-    sc = S.Scenario.from_dict(mrp())
+    sc = Scenario.from_dict(mrp())
     n = 1000
     values = np.random.default_rng(0).permutation(np.arange(n, dtype=float))  # peak |u|, N m
     df = pd.DataFrame({"sample": np.arange(n), **{m.name: np.full(n, 0.0) for m in sc.metrics},
@@ -120,13 +125,13 @@ def test_statistics_percentiles_and_worst_samples() -> None:
     df["peak |u|"] = 6.1 + values / n * 0.3  # within [6.1, 6.3] except the largest 333
     df.loc[7, "failed"] = 1.0
     df.loc[7, "peak |u|"] = np.nan
-    st = SC.statistics(sc, df, confidence=0.9, k=3)
+    st = statistics(sc, df, confidence=0.9, k=3)
     peak = st.metrics[[m.name for m in sc.metrics].index("peak |u|")]
     finite = df["peak |u|"].dropna().to_numpy()
     # exact: the same numpy computation (linear interpolation) on the finite values
-    assert [peak.percentiles[p] for p in SC.PERCENTILES] == np.percentile(finite, SC.PERCENTILES).tolist()
+    assert [peak.percentiles[p] for p in PERCENTILES] == np.percentile(finite, PERCENTILES).tolist()
     assert peak.passes == int(((finite >= 6.1) & (finite <= 6.3)).sum())
-    assert (peak.low, peak.high) == SC.clopper_pearson(peak.passes, n, 0.9)
+    assert (peak.low, peak.high) == clopper_pearson(peak.passes, n, 0.9)
     assert st.overall.passes == 0 and st.n_failed == 1
     assert st.worst["sample"][0] == 7  # the failed sample first, then the largest peaks (6.3 - value)
     assert st.worst["peak |u|"][1:].tolist() == sorted(finite)[-2:][::-1]
@@ -208,10 +213,10 @@ def test_a_campaign_killed_mid_run_resumes_to_the_same_rows_and_statistics(tmp_p
     proc.wait()
     done = len(list(folder.glob("chunk-*.parquet")))
     assert 3 <= done < n, f"{done} chunks before the kill: the kill must interrupt the campaign"
-    resumed = SC.run_campaign(S.Scenario.from_toml(scenario), n, out, seed=SEED, chunk=1, fmu_dir=fmu_dir,
-                              scheduler=client.scheduler.address)
-    whole = SC.run_campaign(S.Scenario.from_toml(scenario), n, tmp_path / "whole", seed=SEED, chunk=1,
-                            fmu_dir=fmu_dir, scheduler=client.scheduler.address)
+    resumed = run_campaign(Scenario.from_toml(scenario), n, out, seed=SEED, chunk=1, fmu_dir=fmu_dir,
+                           scheduler=client.scheduler.address)
+    whole = run_campaign(Scenario.from_toml(scenario), n, tmp_path / "whole", seed=SEED, chunk=1,
+                         fmu_dir=fmu_dir, scheduler=client.scheduler.address)
     assert resumed.rows["sample"].tolist() == list(range(n))  # none lost, none twice
     pd.testing.assert_frame_equal(resumed.rows, whole.rows, check_exact=True)
     assert resumed.statistics.text() == whole.statistics.text()
@@ -228,19 +233,19 @@ def test_the_folder_records_its_scenario_and_fmus_and_refuses_other_binaries(tmp
     own.mkdir()
     for name in ("mrp_satellite.fmu", "mrp_hinf_published.fmu"):
         shutil.copy(fmu_dir / name, own / name)
-    camp = SC.campaign(S.Scenario.from_dict(mrp()), 2, seed=SEED, chunk=2, fmu_dir=own)
+    camp = campaign(Scenario.from_dict(mrp()), 2, seed=SEED, chunk=2, fmu_dir=own)
     C.run(camp, tmp_path / "out", client=client)
-    again = SC.reopen(tmp_path / "out" / camp.name)
+    again = reopen(tmp_path / "out" / camp.name)
     a, b = again.identity(), camp.identity()
     assert {k: (a[k], b[k]) for k in a if a[k] != b[k]} == {}
     assert again.task == camp.task
     with open(own / "mrp_hinf_published.fmu", "ab") as fh:  # trailing bytes: zip readers ignore them
         fh.write(b"\0")
     with pytest.raises(C.CampaignError, match=r"context differs in fmus\.controller"):
-        C.run(SC.campaign(S.Scenario.from_dict(mrp()), 2, seed=SEED, chunk=2, fmu_dir=own), tmp_path / "out",
+        C.run(campaign(Scenario.from_dict(mrp()), 2, seed=SEED, chunk=2, fmu_dir=own), tmp_path / "out",
               client=client)
     with pytest.raises(C.CampaignError, match="controller in .* are not the ones the campaign ran"):
-        SC.reopen(tmp_path / "out" / camp.name)
+        reopen(tmp_path / "out" / camp.name)
 
 
 def test_envelopes_are_the_percentiles_of_the_sampled_runs(tmp_path: Path, client: Client, fmu_dir: Path) -> None:
@@ -250,35 +255,35 @@ def test_envelopes_are_the_percentiles_of_the_sampled_runs(tmp_path: Path, clien
     from satfmu.sims.campaign import envelopes as E
 
     data = mrp(dispersions={**DISPERSIONS, "plant.u_max": {"kind": "uniform", "low": -5.0, "high": 5.0}})
-    res = SC.run_campaign(data, 6, tmp_path, seed=SEED, chunk=3, fmu_dir=fmu_dir, scheduler=client.scheduler.address,
-                          envelopes=["plant.phi"], points=8)
+    res = run_campaign(data, 6, tmp_path, seed=SEED, chunk=3, fmu_dir=fmu_dir, scheduler=client.scheduler.address,
+                       envelopes=["plant.phi"], points=8)
     assert not any("@" in c for c in res.rows.columns)  # the traces are not rows
-    sc = S.Scenario.from_dict(data)
+    sc = Scenario.from_dict(data)
     steps = E.trace_steps(41, 8)
     assert steps.tolist() == [0, 6, 11, 17, 23, 29, 34, 40]
     ran = res.rows.loc[res.rows["failed"] == 0, "sample"].tolist()
     assert 0 < len(ran) < 6
     with warnings.catch_warnings():  # the dispersed inertia is not the design's: expected
-        warnings.simplefilter("ignore", S.DesignMismatchWarning)
-        traces = np.array([S.run(sc.sample(SEED, i, fmu_dir), fmu_dir).results["plant.phi"][steps] for i in ran])
-    env = pd.read_parquet(res.folder / SC.ENVELOPES)
+        warnings.simplefilter("ignore", DesignMismatchWarning)
+        traces = np.array([run(sc.sample(SEED, i, fmu_dir), fmu_dir).results["plant.phi"][steps] for i in ran])
+    env = pd.read_parquet(res.folder / ENVELOPES)
     pd.testing.assert_frame_equal(env, res.envelopes)
-    assert env["time"].tolist() == S.grid(sc)[steps].tolist()  # the master's communication times
+    assert env["time"].tolist() == grid(sc)[steps].tolist()  # the master's communication times
     for level in E.LEVELS:  # the same numbers through the same numpy call: exact
         assert env[f"plant.phi:p{level:g}"].tolist() == np.percentile(traces, level, axis=0).tolist()
     assert env["plant.phi:p0"].tolist() == traces.min(axis=0).tolist()
-    with pytest.raises(S.ScenarioError, match=r"envelopes\[1\]: plant.w_d\[1\] is not recorded"):
-        SC.campaign(data, 2, fmu_dir=fmu_dir, envelopes=["plant.phi", "plant.w_d"])
+    with pytest.raises(ScenarioError, match=r"envelopes\[1\]: plant.w_d\[1\] is not recorded"):
+        campaign(data, 2, fmu_dir=fmu_dir, envelopes=["plant.phi", "plant.w_d"])
     with pytest.raises(C.CampaignError, match="envelope points must be an integer >= 2"):
-        SC.campaign(data, 2, fmu_dir=fmu_dir, envelopes=["plant.phi"], points=1)
+        campaign(data, 2, fmu_dir=fmu_dir, envelopes=["plant.phi"], points=1)
     with pytest.raises(C.CampaignError, match="context differs in envelopes"):  # same folder, other envelopes
-        SC.run_campaign(data, 6, tmp_path, seed=SEED, chunk=3, fmu_dir=fmu_dir, scheduler=client.scheduler.address,
-                        envelopes=["plant.phi"], points=9, name=res.campaign.name)
+        run_campaign(data, 6, tmp_path, seed=SEED, chunk=3, fmu_dir=fmu_dir, scheduler=client.scheduler.address,
+                     envelopes=["plant.phi"], points=9, name=res.campaign.name)
 
 
 def test_the_default_chunk_gives_about_a_hundred_chunks_of_10_to_1000_samples(fmu_dir: Path) -> None:
     """A pure function of n (a resumed campaign finds its chunks whatever the workers)."""
-    assert [SC.default_chunk(n) for n in (1, 999, 1000, 1001, 10_000, 100_000, 10**7)] == [10, 10, 10, 11, 100,
+    assert [default_chunk(n) for n in (1, 999, 1000, 1001, 10_000, 100_000, 10**7)] == [10, 10, 10, 11, 100,
                                                                                          1000, 1000]
-    camp = SC.campaign(S.Scenario.from_dict(mrp()), 10_000, seed=SEED, fmu_dir=fmu_dir)
+    camp = campaign(Scenario.from_dict(mrp()), 10_000, seed=SEED, fmu_dir=fmu_dir)
     assert camp.chunk == 100 and camp.n_chunks == 100

@@ -130,9 +130,9 @@ def test_shipped_vscmg_scenarios_pass(fmu_dir: Path, tmp_path: Path, name: str) 
     # Every controller through the master; the bounds and the measured values are in the
     # scenario files (issue 11's |e2| < 1 mrad, |e4| < 0.1 mrad without friction and
     # < 1 mrad with compensation under friction, torques within the seed's limits).
-    from satfmu.sims.scenario import spec as scenario
+    from satfmu.sims.scenario.run import run as run_scenario
 
-    result = scenario.run(name, fmu_dir, out_dir=tmp_path)
+    result = run_scenario(name, fmu_dir, out_dir=tmp_path)
     failed = [f"{m.name}: {m.value:g}" for m in result.metrics if not m.passed]
     assert not failed
     assert len(result.metrics) >= 25

@@ -8,8 +8,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from satfmu.sims.scenario import spec as S
-from satfmu.sims.campaign import scenario_campaign as SC
+from satfmu.sims.scenario.provisioning import nominal_values
+from satfmu.sims.scenario.run import check
+from satfmu.sims.scenario.spec import Scenario, load
+from satfmu.sims.campaign.scenario_task import campaign, campaign_size, explain
 from satfmu.sims.scenario.dispersions import Attitude, Distribution, Inertia
 from satfmu.sims.scenario import shipped_scenarios
 
@@ -40,18 +42,18 @@ def test_a_shipped_campaign_loads_checks_and_runs_two_samples(name: str, fmu_dir
     """Declared sizes, the nominal scenario checked against its FMUs, and samples 0 and 1 run as a
     campaign runs them (its task, cut to STEPS steps): both run, every dispersed value is within its
     declared distribution, and the two samples differ."""
-    sc = S.load(name)
+    sc = load(name)
     assert sc.dispersions is not None
     size = sc.campaign
     assert set(size) == {"samples", "demo_samples", "seed"} and size["demo_samples"] < size["samples"]
-    assert SC.campaign_size(sc) == (size["samples"], size["seed"])
-    assert SC.campaign_size(sc, demo=True) == (size["demo_samples"], size["seed"])
-    S.check(sc, fmu_dir)
+    assert campaign_size(sc) == (size["samples"], size["seed"])
+    assert campaign_size(sc, demo=True) == (size["demo_samples"], size["seed"])
+    check(sc, fmu_dir)
     data = {k: v for k, v in sc.to_dict().items() if k != "campaign"}
-    cut = S.Scenario.from_dict({**data, "stop_time": sc.start_time + STEPS * sc.step_size}, sc.folder, name)
-    camp = SC.campaign(cut, 2, seed=size["seed"], chunk=2, fmu_dir=fmu_dir)
+    cut = Scenario.from_dict({**data, "stop_time": sc.start_time + STEPS * sc.step_size}, sc.folder, name)
+    camp = campaign(cut, 2, seed=size["seed"], chunk=2, fmu_dir=fmu_dir)
     rows = camp.task(np.arange(2))
-    assert rows["failed"].tolist() == [0.0, 0.0], [SC.explain(camp.task, i) for i in range(2)]
+    assert rows["failed"].tolist() == [0.0, 0.0], [explain(camp.task, i) for i in range(2)]
     for m in sc.metrics:  # a value for every metric (inf is one: a settling time not reached)
         assert not np.isnan(rows[m.name]).any(), m.name
     columns = [c for c in camp.task.columns if c.startswith(("plant.", "profiles["))]
@@ -68,7 +70,7 @@ def test_a_shipped_campaign_loads_checks_and_runs_two_samples(name: str, fmu_dir
             q = np.stack([rows[f"plant.{entry.quaternion}[{i}]"] for i in (1, 2, 3, 4)])
             assert np.allclose(np.linalg.norm(q, axis=0), 1.0, rtol=0, atol=1e-12)  # rounding of as_quat
         elif isinstance(entry, Inertia):
-            nominal = S.nominal_values(sc, fmu_dir)
+            nominal = nominal_values(sc, fmu_dir)
             for k in ("I_x", "I_y", "I_z"):  # principal axes kept: each moment scaled within +-relative
                 ratio = rows[f"plant.{k}"] / nominal("plant", k)
                 assert ((1 - entry.relative <= ratio) & (ratio <= 1 + entry.relative)).all(), k
@@ -79,7 +81,7 @@ def test_a_shipped_campaign_loads_checks_and_runs_two_samples(name: str, fmu_dir
 def test_the_campaigns_of_a_group_draw_the_same_samples(group: str, fmu_dir: Path) -> None:
     """Same seed, same [dispersions]: sample i of each campaign of a group is the same draw, so
     their statistics compare sample by sample; only the controller (or the initial state) differs."""
-    scenarios = [S.load(n) for n in GROUPS[group]]
+    scenarios = [load(n) for n in GROUPS[group]]
     assert len({sc.campaign["seed"] for sc in scenarios}) == 1
     assert all(sc.dispersions.data == scenarios[0].dispersions.data for sc in scenarios)
     starts = STARTS.get(group, set())
@@ -88,5 +90,5 @@ def test_the_campaigns_of_a_group_draw_the_same_samples(group: str, fmu_dir: Pat
     assert all(p == plants[0] for p in plants)
     seed = scenarios[0].campaign["seed"]
     for i in (0, 7):
-        draws = [sc.dispersions.sample(seed, i, S.nominal_values(sc, fmu_dir)) for sc in scenarios]
+        draws = [sc.dispersions.sample(seed, i, nominal_values(sc, fmu_dir)) for sc in scenarios]
         assert all(d == draws[0] for d in draws)

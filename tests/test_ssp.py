@@ -11,7 +11,7 @@ from lxml import etree
 
 from satfmu.sims.interop import ssp
 from satfmu.sims.cli import main
-from satfmu.sims.scenario import spec as scenario
+from satfmu.sims.scenario.run import run
 from satfmu.sims.scenario.spec import ScenarioError, load
 
 
@@ -104,14 +104,14 @@ def _scenario(tmp_path: Path, text: str) -> Path:
                                r"artifact named 'no_such_model'"),
 ], ids=["type", "unknown", "causality", "model"])
 def test_bad_scenarios_fail_as_in_the_run(body: str, message: str, fmu_dir: Path, tmp_path: Path) -> None:
-    """export-ssp checks a scenario as a run does (satfmu.sims.scenario.spec.check), with the same message,
+    """export-ssp checks a scenario as a run does (satfmu.sims.scenario.run.check), with the same message,
     before it writes anything."""
     plant = "[fmus.plant]\n" + ("" if body.startswith("model") else 'model = "mrp_satellite"\n')
     f = _scenario(tmp_path, plant + body + "\n")
     with pytest.raises(ScenarioError, match=message):
         ssp.export(f, fmu_dir, tmp_path / "out")
     with pytest.raises(ScenarioError, match=message):
-        scenario.run(f, fmu_dir, out_dir=tmp_path / "out")
+        run(f, fmu_dir, out_dir=tmp_path / "out")
     assert not (tmp_path / "out").exists()
 
 

@@ -8,13 +8,13 @@ import numpy as np
 import pytest
 
 from satfmu.fmus.declared import toml_text
-from satfmu.sims.scenario import spec as S
+from satfmu.sims.scenario.spec import load
 from satfmu.sims.scenario import shipped_scenarios
 
 
 @pytest.mark.parametrize("path", shipped_scenarios(), ids=lambda p: p.stem)
 def test_every_shipped_scenario_reads_back_equal(path: Path) -> None:
-    data = S.load(path).to_dict()
+    data = load(path).to_dict()
     assert tomllib.loads(toml_text(data)) == data
 
 

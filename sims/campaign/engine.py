@@ -6,7 +6,7 @@ A campaign draws its samples chunk by chunk.  Chunk ``k`` covers the sample indi
 ``(seed, chunk, n)``: never on the number of workers or on the order in which chunks
 complete.  With the :func:`sample_indices` sampler the samples are the global indices and
 the task draws sample ``i`` from ``(seed, i)`` itself: its values do not depend on the chunk
-size either (:mod:`satfmu.sims.campaign.scenario_campaign`).  The task is vectorized (one call per chunk) and
+size either (:mod:`satfmu.sims.campaign.scenario_task`).  The task is vectorized (one call per chunk) and
 returns one column per metric.
 
 :func:`run` submits the chunks to a Dask cluster and, in the driver, writes each completed

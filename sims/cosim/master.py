@@ -279,7 +279,7 @@ class CoSimulation:
         self.connections: list[tuple[str, str]] = []
         self.profiles: list[tuple[str, Profile]] = []
         self.mismatches: list[str] = []
-        """Design mismatches of its controllers, as found by :func:`satfmu.sims.scenario.spec.design_mismatches`."""
+        """Design mismatches of its controllers, as found by :func:`satfmu.sims.scenario.wiring.design_mismatches`."""
         self._callbacks = fmi_host.Callbacks(self._receive)
         for name, path in fmus.items():
             path = Path(path)

@@ -8,7 +8,7 @@ than the one the scenario names. :func:`stale_artifact` says when a controller F
 another artifact than the file of its name (:func:`satfmu.controllers.paths.find_artifact`) holds now: the
 FMU records the SHA-256 of the artifact it was built from (:func:`satfmu.fmus.export.artifact_digest`),
 and a synthesis or an edit that replaced the artifact afterwards leaves a stale pair.
-:func:`satfmu.sims.scenario.spec.ensure_fmus` acts on both (rebuild in the FMU cache, error elsewhere).
+:func:`satfmu.sims.scenario.provisioning.ensure_fmus` acts on both (rebuild in the FMU cache, error elsewhere).
 """
 from __future__ import annotations
 

@@ -41,7 +41,10 @@ from satfmu.fmus.atomic import write_atomically
 from satfmu.fmus.description import xml_value
 from satfmu.sims.cosim.master import CoSimulation, start_value
 from satfmu.controllers import catalog
-from satfmu.sims.scenario.spec import Scenario, check, fmu_paths, grid, load, profiles
+from satfmu.sims.scenario.provisioning import fmu_paths
+from satfmu.sims.scenario.run import check
+from satfmu.sims.scenario.spec import Scenario, load
+from satfmu.sims.scenario.wiring import grid, profiles
 from satfmu.fmus.errors import SspError
 
 NS = {"ssd": "http://ssp-standard.org/SSP1/SystemStructureDescription",
@@ -277,7 +280,7 @@ def export(name_or_path: "str | Path | Scenario", fmu_dir: str | Path | None, ou
            allow_stale: bool = False) -> Path:
     """Write the scenario as ``out`` (a ``.ssp`` file; a directory gets ``<scenario>.ssp``).
 
-    The scenario is checked as a run checks it (:func:`satfmu.sims.scenario.spec.check`: the FMU files,
+    The scenario is checked as a run checks it (:func:`satfmu.sims.scenario.run.check`: the FMU files,
     missing ones built, and the wiring) before anything is written, and an earlier file of
     that name is removed first: a refused or failed export leaves no file (:func:`write`).
 
@@ -326,7 +329,7 @@ def target(scenario: Scenario, out: Path) -> Path:
 
 
 def write(scenario: Scenario, fmu_dir: Path, out: Path, backend: str = "native") -> Path:
-    """Write a scenario :func:`satfmu.sims.scenario.spec.check` accepted as an SSP file (:func:`target`),
+    """Write a scenario :func:`satfmu.sims.scenario.run.check` accepted as an SSP file (:func:`target`),
     whole or not at all (:func:`satfmu.fmus.atomic.write_atomically`).
 
     Parameters
@@ -334,7 +337,7 @@ def write(scenario: Scenario, fmu_dir: Path, out: Path, backend: str = "native")
     scenario : Scenario
         The scenario, already checked.
     fmu_dir : Path
-        Folder of its FMUs (the one :func:`satfmu.sims.scenario.spec.check` returned).
+        Folder of its FMUs (the one :func:`satfmu.sims.scenario.run.check` returned).
     out : Path
         The ``.ssp`` file, or a folder to receive ``<scenario>.ssp``.
     backend : {"native", "python"}, optional

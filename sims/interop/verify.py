@@ -71,7 +71,10 @@ from satfmu.sims.interop import libcosim, ssp
 from satfmu.sims.scenario import shipped_scenarios
 from satfmu.fmus.profiles import make as make_profile
 from satfmu.sims.cosim.master import CoSimulation
-from satfmu.sims.scenario.spec import Scenario, check, evaluate, fmu_paths, load, recorded
+from satfmu.sims.scenario.provisioning import fmu_paths
+from satfmu.sims.scenario.run import check, evaluate
+from satfmu.sims.scenario.spec import Scenario, load
+from satfmu.sims.scenario.wiring import recorded
 
 
 @dataclass(frozen=True)
@@ -570,7 +573,7 @@ def verify(name_or_path: "str | Path | Scenario", fmu_dir: Path, out_dir: Path, 
         Scenario.
     fmu_dir : Path
         Folder of the FMUs; the missing ones are built, and the scenario is checked as a run
-        checks it (:func:`satfmu.sims.scenario.spec.check`) before its SSP file is written.
+        checks it (:func:`satfmu.sims.scenario.run.check`) before its SSP file is written.
     out_dir : Path
         Receives ``<scenario>.ssp``.
     backend : {"native", "python"}
@@ -591,7 +594,7 @@ def verify(name_or_path: "str | Path | Scenario", fmu_dir: Path, out_dir: Path, 
 
 def _verify(scenario: Scenario, fmu_dir: Path, out_dir: Path, backend: str, engines: tuple[str, ...]
             ) -> ScenarioReport:
-    """:func:`verify` of a scenario :func:`satfmu.sims.scenario.spec.check` accepted."""
+    """:func:`verify` of a scenario :func:`satfmu.sims.scenario.run.check` accepted."""
     d = scenario.data
     target = ssp.target(scenario, out_dir)
     target.unlink(missing_ok=True)
@@ -757,7 +760,7 @@ def verify_all(fmu_dir: Path, out_dir: Path, names: Sequence[str | Path] = (), b
                progress: Callable[[int, int, str], None] | None = None, allow_stale: bool = False) -> VerifyRun:
     """:func:`verify` of each scenario, then :func:`write` of all the reports.
 
-    Every scenario is checked first as a run checks it (:func:`satfmu.sims.scenario.spec.check`: the FMUs
+    Every scenario is checked first as a run checks it (:func:`satfmu.sims.scenario.run.check`: the FMUs
     a scenario names that are missing from ``fmu_dir`` are built, each FMU and the wiring are
     checked), so a bad one stops the run before any work. The report of an earlier
     run in ``out_dir`` is removed first: a folder with a report holds a complete run.

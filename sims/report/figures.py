@@ -17,7 +17,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from satfmu.sims.scenario import spec as S
+from satfmu.sims.scenario.spec import Metric
 from satfmu.sims.report.limits import Line, base  # noqa: E402
 
 REQUIREMENT = "#c0392b"
@@ -137,7 +137,7 @@ def _finite(values: np.ndarray) -> tuple[np.ndarray, str]:
     return finite, ", ".join(n for n in notes if n)
 
 
-def _bound_lines(ax: plt.Axes, metric: S.Metric, vertical: bool) -> None:
+def _bound_lines(ax: plt.Axes, metric: Metric, vertical: bool) -> None:
     for bound, label in ((metric.min, "min"), (metric.max, "max")):
         if bound is not None:
             (ax.axvline if vertical else ax.axhline)(bound, color=REQUIREMENT, ls="--", lw=1.1,
@@ -149,7 +149,7 @@ def _grid(n: int, columns: int) -> tuple[int, int]:
     return math.ceil(n / cols), cols
 
 
-def histograms(rows: pd.DataFrame, metrics: Sequence[S.Metric], title: str = "") -> str:
+def histograms(rows: pd.DataFrame, metrics: Sequence[Metric], title: str = "") -> str:
     """A histogram per metric over a campaign's samples, with its bounds (dashed).
 
     Parameters
@@ -187,7 +187,7 @@ def histograms(rows: pd.DataFrame, metrics: Sequence[S.Metric], title: str = "")
     return svg(fig)
 
 
-def scatter(rows: pd.DataFrame, metrics: Sequence[S.Metric], dispersed: Sequence[str], title: str = "") -> str:
+def scatter(rows: pd.DataFrame, metrics: Sequence[Metric], dispersed: Sequence[str], title: str = "") -> str:
     """Each metric against each dispersed value, samples that miss the metric's bounds marked.
 
     Parameters
@@ -278,7 +278,7 @@ def envelopes(df: pd.DataFrame, signals: Mapping[str, Mapping[float, str]], unit
     return svg(fig, tight=True)
 
 
-def compare_strips(series: Mapping[str, np.ndarray], metric: S.Metric) -> str:
+def compare_strips(series: Mapping[str, np.ndarray], metric: Metric) -> str:
     """One metric over several campaigns side by side: a row per campaign, a dot per sample
     (a red cross where it misses the bounds), the quartiles as a box, the bounds dashed.
 

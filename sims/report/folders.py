@@ -1,13 +1,13 @@
 """The folders a report reads: a scenario run (``satfmu run --out``) or a scenario campaign.
 
-A run folder holds, per backend, what :meth:`satfmu.sims.scenario.spec.Result.write` writes:
+A run folder holds, per backend, what :meth:`satfmu.sims.scenario.result.Result.write` writes:
 ``summary_<backend>.json`` (metrics, pass/fail), ``<name>_<backend>.csv`` (the recorded
 signals) and ``scenario_<backend>.json`` (the scenario's declaration, its FMU files with their
 SHA-256 and the unit of every recorded column). A campaign folder holds ``campaign.json`` and
 the Parquet chunks of :mod:`satfmu.sims.campaign.engine`; it is read back with
-:func:`satfmu.sims.campaign.scenario_campaign.reopen` (which checks that its FMU files are the ones that ran),
+:func:`satfmu.sims.campaign.scenario_task.reopen` (which checks that its FMU files are the ones that ran),
 :func:`satfmu.sims.campaign.engine.load` and
-:func:`satfmu.sims.campaign.scenario_campaign.statistics`. A campaign folder
+:func:`satfmu.sims.campaign.statistics.statistics`. A campaign folder
 may also hold ``envelopes.parquet``: column ``time`` (s) and one column
 ``<signal>:p<percentile>`` per recorded signal and percentile (the signal's percentile over
 the samples at each time, in the signal's unit).
@@ -25,10 +25,12 @@ import pandas as pd
 
 from satfmu.sims.scenario import metrics as M
 from satfmu.sims.cosim import preflight
-from satfmu.sims.scenario import spec as S
+from satfmu.sims.scenario.provisioning import fmu_paths
+from satfmu.sims.scenario.spec import Scenario
 from satfmu.sims.campaign.engine import Campaign, CampaignError
-from satfmu.sims.campaign.scenario_campaign import ScenarioTask, Statistics
-from satfmu.fmus.errors import ReportError
+from satfmu.sims.campaign.scenario_task import ScenarioTask
+from satfmu.sims.campaign.statistics import Statistics
+from satfmu.fmus.errors import ReportError, ScenarioError
 
 ENVELOPES = "envelopes.parquet"
 """File name of a campaign's percentile envelopes (optional)."""
@@ -84,7 +86,7 @@ class RunFolder:
 
     folder: Path
     backend: str
-    scenario: S.Scenario
+    scenario: Scenario
     metrics: list[M.MetricResult]
     results: pd.DataFrame
     units: dict[str, str]
@@ -110,9 +112,9 @@ class CampaignFolder:
     ----------
     folder : Path
     campaign : Campaign
-        As :func:`satfmu.sims.campaign.scenario_campaign.reopen` gives it (``task.scenario``, ``context``).
+        As :func:`satfmu.sims.campaign.scenario_task.reopen` gives it (``task.scenario``, ``context``).
     rows : pandas.DataFrame
-        One row per sample (:mod:`satfmu.sims.campaign.scenario_campaign`'s columns).
+        One row per sample (:mod:`satfmu.sims.campaign.scenario_task`'s columns).
     statistics : Statistics
     envelopes : pandas.DataFrame, optional
         ``envelopes.parquet`` when the folder holds one.
@@ -127,7 +129,7 @@ class CampaignFolder:
     fmus: dict[str, FmuFile]
 
     @property
-    def scenario(self) -> S.Scenario:
+    def scenario(self) -> Scenario:
         """The campaign's (nominal) scenario."""
         return self.campaign.task.scenario
 
@@ -217,11 +219,11 @@ def _run(folder: Path, summary_file: Path, fmu_dir: str | Path | None) -> RunFol
                           "satfmu): run the scenario again with `satfmu run SCENARIO --out DIR`")
     record = _json(record_file)
     try:
-        scenario = S.Scenario.from_dict(record["scenario"], record["base_dir"], str(record_file),
-                                        None if record.get("path") is None else Path(record["path"]))
+        scenario = Scenario.from_dict(record["scenario"], record["base_dir"], str(record_file),
+                                      None if record.get("path") is None else Path(record["path"]))
         units = {str(k): str(v) for k, v in record["units"].items()}
         fmus = _fmu_files(scenario, Path(fmu_dir or record["fmu_dir"]), record["backend"], record["fmus"])
-    except (TypeError, KeyError, S.ScenarioError) as exc:
+    except (TypeError, KeyError, ScenarioError) as exc:
         raise ReportError(f"{record_file}: not a scenario record of satfmu ({exc})") from None
     if scenario.name != name:
         raise ReportError(f"{record_file}: scenario {scenario.name!r}, but {summary_file.name} is of {name!r}")
@@ -243,13 +245,14 @@ def _float(v: Any) -> float:
 
 def _campaign(folder: Path, fmu_dir: str | Path | None, confidence: float, worst: int) -> CampaignFolder:
     from satfmu.sims.campaign import engine as C
-    from satfmu.sims.campaign import scenario_campaign as SC
+    from satfmu.sims.campaign.scenario_task import reopen
+    from satfmu.sims.campaign.statistics import statistics as campaign_statistics
 
     try:
-        camp = SC.reopen(folder, fmu_dir)
+        camp = reopen(folder, fmu_dir)
         rows = C.load(folder)
-        statistics = SC.statistics(camp.task.scenario, rows, confidence, worst)
-    except (CampaignError, S.ScenarioError) as exc:
+        statistics = campaign_statistics(camp.task.scenario, rows, confidence, worst)
+    except (CampaignError, ScenarioError) as exc:
         raise ReportError(f"cannot report on {folder}: {exc}") from None
     envelopes = None
     if (folder / ENVELOPES).is_file():
@@ -303,9 +306,9 @@ def envelope_signals(df: pd.DataFrame) -> dict[str, dict[float, str]]:
     return {s: dict(sorted(p.items())) for s, p in out.items()}
 
 
-def _fmu_files(scenario: S.Scenario, fmu_dir: Path, backend: str, recorded: dict[str, Any]) -> dict[str, FmuFile]:
+def _fmu_files(scenario: Scenario, fmu_dir: Path, backend: str, recorded: dict[str, Any]) -> dict[str, FmuFile]:
     """The FMU of each instance: where it is now, with the SHA-256 recorded when it ran."""
-    paths = S.fmu_paths(scenario, fmu_dir, backend)
+    paths = fmu_paths(scenario, fmu_dir, backend)
     out = {}
     for inst, spec in scenario.fmus.items():
         rec = recorded[inst]

@@ -24,7 +24,7 @@ import re
 from dataclasses import dataclass
 from typing import Mapping, Sequence
 
-from satfmu.sims.scenario import spec as S
+from satfmu.sims.scenario.spec import Scenario
 from satfmu.sims.report.folders import FmuFile
 
 _INDEX = re.compile(r"\[[\d,]+\]$")
@@ -104,7 +104,7 @@ class ActuatorLimit:
             "" if self.active else " (saturation off)")
 
 
-def actuator_limits(scenario: S.Scenario, fmus: Mapping[str, FmuFile]) -> list[ActuatorLimit]:
+def actuator_limits(scenario: Scenario, fmus: Mapping[str, FmuFile]) -> list[ActuatorLimit]:
     """The actuator limits of a scenario's FMU instances (read from their model descriptions).
 
     Parameters
@@ -152,7 +152,7 @@ def actuator_limits(scenario: S.Scenario, fmus: Mapping[str, FmuFile]) -> list[A
     return out
 
 
-def _connected(scenario: S.Scenario, signal: str) -> set[str]:
+def _connected(scenario: Scenario, signal: str) -> set[str]:
     """``signal`` (a base name) and the base names connected to it, either way."""
     out = {signal}
     for c in scenario.connections:
@@ -168,7 +168,7 @@ def _scaled(scale: float) -> str:
     return "" if scale == 1.0 else f" (signal × {scale:g})"
 
 
-def signal_lines(scenario: S.Scenario, signal: str, limits: Sequence[ActuatorLimit] = ()) -> list[Line]:
+def signal_lines(scenario: Scenario, signal: str, limits: Sequence[ActuatorLimit] = ()) -> list[Line]:
     """The requirement and actuator-limit lines of a recorded signal.
 
     Parameters

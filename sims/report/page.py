@@ -19,11 +19,12 @@ from markupsafe import Markup
 
 from satfmu.fmus.atomic import write_atomically
 from satfmu.sims.scenario import metrics as M
-from satfmu.sims.scenario import spec as S
+from satfmu.sims.scenario.spec import Metric
 from satfmu.sims.report import figures, limits, proved
 from satfmu.sims.report.folders import (CampaignFolder, Folder, ReportError, RunFolder, envelope_signals, read_folder)
 from satfmu.sims.report.provenance import Provenance, collect
-from satfmu.sims.campaign.scenario_campaign import FAILURES, PERCENTILES, MetricStatistics
+from satfmu.sims.campaign.scenario_task import FAILURES
+from satfmu.sims.campaign.statistics import PERCENTILES, MetricStatistics
 
 
 def number(value: Any) -> str:
@@ -66,7 +67,7 @@ def exact(value: Any) -> str:
     return "" if value is None else repr(float(value))
 
 
-def bounds(metric: S.Metric | M.MetricResult) -> str:
+def bounds(metric: Metric | M.MetricResult) -> str:
     """``min 6.1, max 6.3``, in the metric's unit (empty: no bound).
 
     Parameters
@@ -80,7 +81,7 @@ def bounds(metric: S.Metric | M.MetricResult) -> str:
 
 @dataclass(frozen=True)
 class StatisticsRow:
-    """A row of a campaign's statistics table (:class:`satfmu.sims.campaign.scenario_campaign.MetricStatistics`).
+    """A row of a campaign's statistics table (:class:`satfmu.sims.campaign.statistics.MetricStatistics`).
 
     Parameters
     ----------
@@ -94,7 +95,7 @@ class StatisticsRow:
 
     @property
     def percentiles(self) -> list[float | None]:
-        """The metric's value at each of :data:`~satfmu.sims.campaign.scenario_campaign.PERCENTILES`
+        """The metric's value at each of :data:`~satfmu.sims.campaign.statistics.PERCENTILES`
         (None: no finite value)."""
         return [self.statistics.percentiles.get(p) for p in PERCENTILES]
 
@@ -148,7 +149,7 @@ class Comparison:
         return None if metric is None else worst_value(campaign.rows, metric)
 
 
-def worst_value(rows: Any, metric: S.Metric) -> tuple[float, int] | None:
+def worst_value(rows: Any, metric: Metric) -> tuple[float, int] | None:
     """The worst value of a metric over a campaign's samples that ran, and its sample index.
 
     Worst is the largest value for a metric with a ``max`` (or no bound), the smallest for a

@@ -412,7 +412,7 @@ class Dispersions:
         nominal : callable, optional
             (instance or ``"profiles[i]"``, name) -> nominal value or None if there is no such
             parameter; needed by a ``normal`` without ``mean``, a cone, an inertia and an
-            attitude without a parameter base (:func:`satfmu.sims.scenario.spec.nominal_values`).
+            attitude without a parameter base (:func:`satfmu.sims.scenario.provisioning.nominal_values`).
         where : str, optional
             Key path of the table, named in errors.
 

@@ -1,6 +1,9 @@
 """Closed-loop metrics on recorded trajectories, and their pass/fail evaluation.
 
-All functions take the time vector ``t`` (s, increasing) and a signal matrix of
+:data:`EVALUATORS` is the table from a metric kind (:data:`KINDS`) to the function that
+evaluates it on what the metric reads of a run (a :class:`MetricInput`).
+
+The metric functions take the time vector ``t`` (s, increasing) and a signal matrix of
 shape (len(t), n_signals). Signals of FMU *inputs* fed by the master are held
 over each communication step, so their integrals use the left rectangle rule;
 FMU outputs of continuous states use the trapezoidal rule.
@@ -11,7 +14,7 @@ import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any, Callable, Sequence
 
 import numpy as np
 
@@ -156,8 +159,95 @@ def integral_square(t: np.ndarray, y: np.ndarray, held: Sequence[bool]) -> float
     return float(sum(_cumulative(t, y[:, i] ** 2, held[i])[-1] for i in range(y.shape[1])))
 
 
-KINDS = ("final", "peak", "rms", "settling_time", "l2_ratio", "time_in_saturation", "integral_square",
-         "max_difference")
+@dataclass(frozen=True)
+class MetricInput:
+    """What a metric reads of a recorded run, as the functions of :data:`EVALUATORS` take it.
+
+    Attributes
+    ----------
+    t : numpy.ndarray, shape (n,)
+        Sample times (s), increasing.
+    y : numpy.ndarray, shape (n, k)
+        The metric's signals, one column each, times the metric's scale.
+    held : bool
+        Whether every signal is held over each communication step (an FMU input fed by the
+        master, or a connected output).
+    inputs : sequence of bool
+        One per column of ``y``: whether that signal is an FMU input the master sets
+        (``integral_square`` integrates it by the left rectangle rule).
+    tolerance : float, optional
+        Band of ``settling_time``, in the scaled unit.
+    limit : float, optional
+        Saturation level of ``time_in_saturation``, in the scaled unit.
+    versus : numpy.ndarray, shape (n, k), optional
+        Reference signals of ``max_difference``, times the metric's scale.
+    disturbances : numpy.ndarray, shape (n, m), optional
+        Denominator signals of ``l2_ratio`` (not scaled).
+    disturbances_held : bool
+        Whether every disturbance signal is held over each communication step.
+    """
+
+    t: np.ndarray
+    y: np.ndarray
+    held: bool = True
+    inputs: Sequence[bool] = ()
+    tolerance: float | None = None
+    limit: float | None = None
+    versus: np.ndarray | None = None
+    disturbances: np.ndarray | None = None
+    disturbances_held: bool = True
+
+
+Evaluation = tuple[float, np.ndarray | None]
+"""What a metric function gives: the value, and its curve over time (``l2_ratio``) or None."""
+
+
+def _final(d: MetricInput) -> Evaluation:
+    """Largest absolute value at the last sample."""
+    return float(np.max(np.abs(d.y[-1]))), None
+
+
+def _peak(d: MetricInput) -> Evaluation:
+    return peak(d.y), None
+
+
+def _rms(d: MetricInput) -> Evaluation:
+    return rms(d.t, d.y, held=d.held), None
+
+
+def _settling_time(d: MetricInput) -> Evaluation:
+    assert d.tolerance is not None  # validate(): settling_time needs a tolerance (_NEEDS)
+    return settling_time(d.t, d.y, float(d.tolerance)), None
+
+
+def _l2_ratio(d: MetricInput) -> Evaluation:
+    """The largest truncated L2 ratio over T (NaN if none is finite), and the ratio over T."""
+    assert d.disturbances is not None  # validate(): l2_ratio needs disturbances (_NEEDS)
+    curve = l2_ratio_curve(d.t, d.y, d.disturbances, w_held=d.disturbances_held)
+    return (float(np.nanmax(curve)) if np.any(np.isfinite(curve)) else math.nan), curve
+
+
+def _time_in_saturation(d: MetricInput) -> Evaluation:
+    assert d.limit is not None  # validate(): time_in_saturation needs a limit (_NEEDS)
+    return time_in_saturation(d.t, d.y, float(d.limit), held=d.held), None
+
+
+def _integral_square(d: MetricInput) -> Evaluation:
+    return integral_square(d.t, d.y, d.inputs), None
+
+
+def _max_difference(d: MetricInput) -> Evaluation:
+    """The largest ``|signal - versus|`` (as many versus signals as signals: checked by wire())."""
+    assert d.versus is not None  # validate(): max_difference needs versus (_NEEDS)
+    return peak(d.y - d.versus), None
+
+
+EVALUATORS: dict[str, Callable[[MetricInput], Evaluation]] = {
+    "final": _final, "peak": _peak, "rms": _rms, "settling_time": _settling_time, "l2_ratio": _l2_ratio,
+    "time_in_saturation": _time_in_saturation, "integral_square": _integral_square, "max_difference": _max_difference}
+"""Metric kind -> the function that evaluates it on a :class:`MetricInput`: (value, curve or None)."""
+KINDS = tuple(EVALUATORS)
+"""The metric kinds, in the order error messages list them."""
 
 
 @dataclass
@@ -201,7 +291,8 @@ class MetricResult:
 
 
 def summaries_markdown(summaries: Sequence[dict[str, Any]]) -> str:
-    """Scenario run summaries (``satfmu.sims.scenario.spec.Result.summary()``) as a Markdown table, one row per metric.
+    """Scenario run summaries (``satfmu.sims.scenario.result.Result.summary()``) as a Markdown table, one row
+    per metric.
 
     Parameters
     ----------
@@ -224,7 +315,7 @@ def write_summaries(summaries: Sequence[dict[str, Any]], path: Path) -> tuple[Pa
     Parameters
     ----------
     summaries : sequence of dict
-        Run summaries (:meth:`satfmu.sims.scenario.spec.Result.summary`).
+        Run summaries (:meth:`satfmu.sims.scenario.result.Result.summary`).
     path : Path
         The JSON file to write (its folder is created); the Markdown goes to
         ``path.with_suffix(".md")``.

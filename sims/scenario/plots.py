@@ -25,7 +25,7 @@ def time_series(res: np.ndarray, panels: Sequence[Sequence[str]], path: Path, ti
     ----------
     res : numpy.ndarray
         Recorded run: a structured array with a ``time`` field (s) and one field per column
-        (``"instance.variable"``), as :func:`satfmu.sims.scenario.spec.simulate` returns it.
+        (``"instance.variable"``), as :func:`satfmu.sims.scenario.run.simulate` returns it.
     panels : sequence of sequence of str
         The columns of each panel, top to bottom.
     path : Path

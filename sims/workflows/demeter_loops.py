@@ -6,7 +6,7 @@ nominal parameters) and the controller FMU of a ``linear_state_feedback`` artifa
 design's uncertain parameters as ``[dispersions]`` (each uniform in its interval; a
 principal inertia as the square of its uniform root, as the design model draws it), and a
 metric bounding the pseudo-integrator's peak by the artifact's certified impulse-to-peak
-bound. :func:`run` runs it as three scenario campaigns (:mod:`satfmu.sims.campaign.scenario_campaign`: the
+bound. :func:`run` runs it as three scenario campaigns (:mod:`satfmu.sims.campaign.scenario_task`: the
 FMUs through the compiled loop, on Dask, one Parquet file per chunk) and keeps every sample's
 time histories:
 
@@ -49,7 +49,8 @@ from satfmu.fmus.plants.demeter import WHEEL_MOMENTUM_MAX
 from satfmu.sims.campaign import envelopes as E
 from satfmu.controllers import paths
 from satfmu.sims.scenario import SHIPPED_SCENARIOS
-from satfmu.sims.scenario.spec import Scenario, recorded_times
+from satfmu.sims.scenario.spec import Scenario
+from satfmu.sims.scenario.wiring import recorded_times
 from satfmu.synthesis.robust.demeter_variants import (RATE_WORST, THETA_WORST, DesignModel, UncertainParameter, Variant,
                                         design_model)
 
@@ -460,7 +461,7 @@ def run(fmu_dir: Path, artifact: str | Path, *, n: int = 100, seed: int = 0, sto
     import tempfile
 
     from satfmu.sims.campaign import engine as C
-    from satfmu.sims.campaign import scenario_campaign as SC
+    from satfmu.sims.campaign.scenario_task import campaign
 
     art, variant = load_design(artifact)
     dm, K, axis = design_model(variant), np.array(art.design["K"]), variant.axes[0]
@@ -473,8 +474,8 @@ def run(fmu_dir: Path, artifact: str | Path, *, n: int = 100, seed: int = 0, sto
             C.cluster_client(None, client, workers) as active:
         rows, tasks = {}, {}
         for start, sc in scenarios.items():
-            camp = SC.campaign(sc, n, seed=seed, chunk=max(1, -(-n // (4 * workers))), fmu_dir=fmu_dir,
-                               envelopes=keep[start], points=points)
+            camp = campaign(sc, n, seed=seed, chunk=max(1, -(-n // (4 * workers))), fmu_dir=fmu_dir,
+                            envelopes=keep[start], points=points)
             rows[start], tasks[start] = C.run(camp, Path(out_dir or tmp), client=active), camp.task
     failed = {start: r.loc[r["failed"] > 0, "sample"].tolist() for start, r in rows.items()}
     if any(failed.values()):

@@ -19,7 +19,9 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from satfmu.sims.scenario import spec as scenarios
+from satfmu.sims.scenario.provisioning import ensure_fmus
+from satfmu.sims.scenario.run import simulate
+from satfmu.sims.scenario.spec import Scenario, load
 
 SCENARIO = "cubesat_detumble"
 CONTROLLERS = {"periodic LMI (satfmu)": ("lmi_plant", "lmi"), "periodic LMI (published)": ("pub_plant", "pub"),
@@ -178,7 +180,7 @@ def sweep(fmu_dir: Path, rates: Sequence[float], backend: str = "native",
     """
     if not rates or any(not (math.isfinite(r) and r > 0) for r in rates):
         raise ValueError("rates must be finite and > 0 rad/s")
-    base = scenarios.load(SCENARIO)
+    base = load(SCENARIO)
     direction = W0_DIRECTION / np.linalg.norm(W0_DIRECTION)
     rows = []
     for j, rate in enumerate(rates):
@@ -187,7 +189,7 @@ def sweep(fmu_dir: Path, rates: Sequence[float], backend: str = "native",
             params = dict(data["fmus"][plant].get("parameters", {}))
             params.update({f"omega_0[{i + 1}]": float(rate * d) for i, d in enumerate(direction)})
             data["fmus"][plant]["parameters"] = params
-        res, _ = scenarios.simulate(scenarios.Scenario.from_dict(data, base.folder, base.name), fmu_dir, backend)
+        res, _ = simulate(Scenario.from_dict(data, base.folder, base.name), fmu_dir, backend)
         dt = np.diff(res["time"])
         for label, (plant, ctrl) in CONTROLLERS.items():
             w = res[f"{plant}.rate_norm"]
@@ -303,7 +305,8 @@ def run(fmu_dir: Path, out_dir: Path, *, samples: int = 2000, seed: int = 0,
         ) -> DetumbleReport:
     """Seed 003 Fig. 2 on the linear model (:func:`linear_campaign`) and the nonlinear sweep (:func:`sweep`).
 
-    The scenario's FMUs missing from ``fmu_dir`` are built first (:func:`satfmu.sims.scenario.spec.ensure_fmus`).
+    The scenario's FMUs missing from ``fmu_dir`` are built first
+    (:func:`satfmu.sims.scenario.provisioning.ensure_fmus`).
 
     Parameters
     ----------
@@ -338,7 +341,7 @@ def run(fmu_dir: Path, out_dir: Path, *, samples: int = 2000, seed: int = 0,
     runs = linear_campaign(gains, samples, seed)
     plots.detumble_linear(runs, files["linear_fig2"], "Seed 003 Fig. 2 analogue: linear periodic model with "
                           "multiplicative noises, rates and held dipoles at the 15-min samples")
-    scenarios.ensure_fmus(scenarios.load(SCENARIO), fmu_dir, "native")
+    ensure_fmus(load(SCENARIO), fmu_dir, "native")
     rows = sweep(Path(fmu_dir), rates, progress=progress)
     files["sweep_md"].write_text(sweep_table(rows))
     with open(files["sweep_csv"], "w") as fh:

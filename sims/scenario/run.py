@@ -1,0 +1,223 @@
+"""Running a scenario: its co-simulation, the evaluation of its metrics, the result.
+
+:func:`run` checks the FMUs (:mod:`satfmu.sims.scenario.provisioning`), runs the master
+:mod:`satfmu.sims.scenario.wiring` wires (:func:`simulate`), evaluates the metrics
+(:func:`evaluate`, by :data:`satfmu.sims.scenario.metrics.EVALUATORS`) and returns a
+:class:`~satfmu.sims.scenario.result.Result`.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, Mapping
+
+import numpy as np
+
+from satfmu.fmus.errors import ScenarioError
+from satfmu.sims.cosim.master import CoSimulation
+from satfmu.sims.scenario.metrics import EVALUATORS, MetricInput, MetricResult
+from satfmu.sims.scenario.provisioning import ensure_fmus
+from satfmu.sims.scenario.result import Result, clear_outputs
+from satfmu.sims.scenario.spec import Scenario, load
+from satfmu.sims.scenario.wiring import _check_parameters, _columns, profiles, recorded, wire
+
+
+def simulate(scenario: Scenario, fmu_dir: Path, backend: str = "native", strict: bool = False,
+             design_rtol: float | None = None) -> tuple[np.ndarray, CoSimulation]:
+    """Run the scenario's co-simulation (wired and checked by :func:`wire`); returns the
+    recorded array and the (closed) master.
+
+    Parameters
+    ----------
+    scenario, fmu_dir, backend, strict, design_rtol
+        As :func:`wire`.
+
+    Returns
+    -------
+    res : numpy.ndarray
+        Structured array: ``time`` (s) and every recorded ``instance.variable`` (:func:`recorded`),
+        one row per recorded communication point.
+    sim : CoSimulation
+        The master, closed (its components' units and signals can still be read).
+
+    Raises
+    ------
+    ScenarioError
+        What :func:`wire` refuses.
+    satfmu.sims.cosim.master.MasterError
+        An FMU call failed (its log lines in the message).
+    """
+    sim = wire(scenario, fmu_dir, backend, strict, design_rtol)
+    try:
+        res = _execute(scenario, sim)
+    finally:
+        sim.close()
+    return res, sim
+
+
+def _execute(scenario: Scenario, sim: CoSimulation) -> np.ndarray:
+    """Run ``scenario`` through its wired master; the recorded array."""
+    params = {inst: spec.parameters for inst, spec in scenario.fmus.items()}
+    return sim.run(scenario.stop_time, scenario.step_size, scenario.start_time, params, recorded(scenario, sim),
+                   record_every=scenario.record_every)
+
+
+def resimulate(scenario: Scenario, sim: CoSimulation) -> np.ndarray:
+    """Run ``scenario`` through a master that :func:`wire` made for a scenario of the same FMUs,
+    connections, records and metrics, differing in start values and profile fields only (a
+    sample of its dispersions, :meth:`Scenario.sample`): the master's profiles are replaced by
+    the scenario's and its start values checked, then it runs as :func:`simulate` runs it. With
+    ``sim.reuse_instances`` the FMU instances are reset, not created again (a campaign's worker).
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario to run (a sample of the wired one).
+    sim : CoSimulation
+        The open master :func:`wire` made for the wired scenario; its profiles are replaced.
+
+    Returns
+    -------
+    numpy.ndarray
+        The recorded array, as :func:`simulate` returns it.
+
+    Raises
+    ------
+    ScenarioError
+        A start value of the wrong type or outside its declared range.
+    satfmu.fmus.profiles.ProfileError
+        A profile field its kind refuses.
+    satfmu.sims.cosim.master.MasterError
+        An FMU call failed.
+    """
+    where = str(scenario.path) if scenario.path else f"scenario {scenario.name!r}"
+    built = profiles(scenario)
+    wired = [t for t, _ in sim.profiles]
+    sim.profiles = []
+    for target, prof in built:
+        sim.add_profile(target, prof)
+    if [t for t, _ in sim.profiles] != wired:
+        raise ScenarioError(f"{where}: its profiles drive other inputs than the wired scenario's ({wired})")
+    _check_parameters(scenario, sim, where)
+    return _execute(scenario, sim)
+
+
+def check(scenario: Scenario, fmu_dir: str | Path | None = None, backend: str = "native",
+          allow_stale: bool = False) -> Path:
+    """Everything a run checks before its first step, without running: the FMU files
+    (:func:`ensure_fmus`, which builds the missing ones) and the wiring (:func:`wire`).
+    ``satfmu export-ssp`` and ``verify`` check a scenario with it.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario.
+    fmu_dir : path, optional
+        Folder of the FMUs named by ``model`` (default :func:`satfmu.controllers.paths.fmu_cache`).
+    backend : {"native", "python"}
+        Default backend of the instances (an instance's own ``backend`` overrides it).
+    allow_stale : bool
+        Accept a stale controller FMU outside the FMU cache (:func:`ensure_fmus`).
+
+    Returns
+    -------
+    Path
+        The FMU folder.
+
+    Raises
+    ------
+    ScenarioError
+    """
+    folder = ensure_fmus(scenario, fmu_dir, backend, allow_stale)
+    wire(scenario, folder, backend).close()
+    return folder
+
+
+def evaluate(scenario: Scenario, res: np.ndarray, sim: CoSimulation
+             ) -> tuple[list[MetricResult], dict[str, np.ndarray]]:
+    """Evaluate the scenario's metrics on a recorded run.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario.
+    res : numpy.ndarray
+        The recorded run (:func:`simulate`): ``time`` (s) and the recorded signals.
+    sim : CoSimulation
+        The master that ran it (which signals are held FMU inputs, how base names expand).
+
+    Returns
+    -------
+    results : list of satfmu.sims.scenario.metrics.MetricResult
+        One per metric, in the scenario's order, values in the metrics' units.
+    curves : dict of str to numpy.ndarray
+        The truncated L2 ratio over T of each ``l2_ratio`` metric, by name.
+    """
+    t = res["time"]
+    held, inputs = sim.held_signals(), sim.input_signals()
+    out, curves = [], {}
+    for m in scenario.metrics:
+        cols, versus, disturbances = (_columns(sim, names) for names in (m.signals, m.versus, m.disturbances))
+        data = MetricInput(t, np.stack([res[c] for c in cols], axis=1) * m.scale, held=all(c in held for c in cols),
+                           inputs=[c in inputs for c in cols], tolerance=m.tolerance, limit=m.limit,
+                           versus=np.stack([res[c] for c in versus], axis=1) * m.scale if versus else None,
+                           disturbances=np.stack([res[c] for c in disturbances], axis=1) if disturbances else None,
+                           disturbances_held=all(c in held for c in disturbances))
+        value, curve = EVALUATORS[m.kind](data)  # validate(): a kind of the table, with the fields it needs
+        if curve is not None:
+            curves[m.name] = curve
+        out.append(MetricResult(m.name, m.kind, value, m.min, m.max, m.unit))
+    return out, curves
+
+
+def run(scenario: "str | Path | Mapping[str, Any] | Scenario", fmu_dir: str | Path | None = None,
+        backend: str = "native", out_dir: str | Path | None = None, strict: bool = False,
+        design_rtol: float | None = None, allow_stale: bool = False) -> Result:
+    """Run a scenario and evaluate its metrics.
+
+    Parameters
+    ----------
+    scenario : Scenario, dict, str or Path
+        A scenario, its plain data, a TOML file or a shipped scenario's name.
+    fmu_dir : path, optional
+        Folder of the FMUs named by ``model`` (default :func:`satfmu.controllers.paths.fmu_cache`); FMUs
+        missing there are built into it first (:func:`ensure_fmus`).
+    backend : {"native", "python"}
+        Default backend of the instances.
+    out_dir : path, optional
+        Write the CSV, plots and summary into ``out_dir/<name>/`` (:meth:`Result.write`).
+    strict : bool
+        Refuse (``ScenarioError``) a controller paired with a plant other than its design
+        plant, instead of a :class:`satfmu.fmus.errors.DesignMismatchWarning`.
+    design_rtol : float, optional
+        Relative tolerance of that comparison (default 1e-3).
+    allow_stale : bool
+        Run a stale controller FMU outside the FMU cache as it is, with a
+        :class:`satfmu.fmus.errors.StaleFmuWarning`, instead of refusing it (:func:`ensure_fmus`).
+
+    Returns
+    -------
+    Result
+
+    Raises
+    ------
+    ScenarioError
+        An invalid scenario (key path named), an unusable or stale FMU, a name no FMU has,
+        a wiring the master refuses, a strict mismatch.
+    satfmu.sims.cosim.master.MasterError
+        An FMU call failed (its log lines in the message).
+    """
+    sc = load(scenario)
+    if out_dir is not None:  # a failed run must not leave the last run's files looking current
+        clear_outputs(Path(out_dir) / sc.name, sc.name, backend)
+    folder = ensure_fmus(sc, fmu_dir, backend, allow_stale)
+    res, sim = simulate(sc, folder, backend, strict, design_rtol)
+    assert res.dtype.names is not None  # the master records a structured array (time, then the signals)
+    mres, curves = evaluate(sc, res, sim)
+    panels = sc.plot.get("panels") or [[r] for r in sc.record] or [m.signals for m in sc.metrics]
+    cols = [_columns(sim, p) for p in panels]
+    result = Result(sc.name, backend, res, mres, l2_curves=curves,
+                    units={c: sim.unit(c) for c in res.dtype.names if c != "time"}, panels=cols,
+                    title=f"{sc.name}: {sc.description}", warnings=list(sim.mismatches), scenario=sc, fmu_dir=folder)
+    if out_dir is not None:
+        result.write(Path(out_dir) / sc.name)
+    return result
