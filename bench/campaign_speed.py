@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from satfmu.sims.campaign import engine as C
+from satfmu.sims.campaign import engine
 from satfmu.controllers import catalog, paths
 from satfmu.sims.scenario import SHIPPED_SCENARIOS
 from satfmu.sims.scenario.spec import Scenario
@@ -90,10 +90,10 @@ def main() -> None:
         for workers in (1, 2):
             with tempfile.TemporaryDirectory(prefix="satfmu_campaign_speed_") as tmp:
                 t0 = time.perf_counter()
-                with C.cluster_client(None, None, workers) as client:
+                with engine.cluster_client(None, None, workers) as client:
                     client.run(lambda: None)  # every worker up
                     t1 = time.perf_counter()
-                    rows[workers] = C.run(camp, Path(tmp), client=client)
+                    rows[workers] = engine.run(camp, Path(tmp), client=client)
                     runs[workers].append(time.perf_counter() - t1)
                 stats = campaign_statistics(sc, rows[workers])
                 walls[workers].append(time.perf_counter() - t0)

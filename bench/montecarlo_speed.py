@@ -25,15 +25,15 @@ from timing import best_of
 from satfmu.controllers import artifact as artifacts
 from satfmu.controllers import polynomial
 from satfmu.sims.campaign import engine as campaign
-from satfmu.synthesis.robust import demeter_design as dd
-from satfmu.synthesis.robust import demeter_random as dr
+from satfmu.synthesis.robust import demeter_design
+from satfmu.synthesis.robust import demeter_random
 from satfmu.synthesis.robust.demeter_variants import Variant
 from satfmu.synthesis.core.system_norms import hinf_norm, impulse_to_peak
 
 ROW1 = Variant((1,), (1,), 1, 1)
 
 
-def _per_sample(task: dr.ClosedLoopSamples, deltas: np.ndarray) -> dict[str, np.ndarray]:
+def _per_sample(task: demeter_random.ClosedLoopSamples, deltas: np.ndarray) -> dict[str, np.ndarray]:
     """The same values one plant at a time (no batching)."""
     dm = task.design_model()
     out: dict[str, list[float]] = {"max_real_pole": [], "hinf": [], "i2p": []}
@@ -42,7 +42,7 @@ def _per_sample(task: dr.ClosedLoopSamples, deltas: np.ndarray) -> dict[str, np.
         Acl = A + Bu @ task.K
         out["max_real_pole"].append(np.linalg.eigvals(Acl).real.max())
         out["hinf"].append(hinf_norm(Acl, B1, dm.C1, np.zeros((1, 1))))
-        out["i2p"].append(impulse_to_peak(Acl, dm.B2, dm.C2, dd.I2P_HORIZON, dd.I2P_POINTS))
+        out["i2p"].append(impulse_to_peak(Acl, dm.B2, dm.C2, demeter_design.I2P_HORIZON, demeter_design.I2P_POINTS))
     return {k: np.array(v) for k, v in out.items()}
 
 
@@ -54,7 +54,7 @@ def main() -> None:
     ap.add_argument("--chunk", type=int, default=5000, help="samples per campaign task")
     args = ap.parse_args()
     art = artifacts.load(polynomial.ARTIFACTS / "demeter_row1_det.json")
-    task = dr.ClosedLoopSamples(ROW1, np.array(art.design["K"]))
+    task = demeter_random.ClosedLoopSamples(ROW1, np.array(art.design["K"]))
     deltas = task.design_model().sample(args.batch, np.random.default_rng(0))
     t_vec, vec = best_of(lambda: task(deltas), args.repeat)
     t_loop, loop = best_of(lambda: _per_sample(task, deltas), args.repeat)
@@ -65,7 +65,7 @@ def main() -> None:
     print(f"  ratio {t_loop / t_vec:.1f}x; largest relative difference of the values {diff:.1e}")
 
     camp = campaign.Campaign(name="chernoff", task=task, n=args.n, seed=0, chunk=args.chunk,
-                             sampler=dr.BoxSampler(len(task.design_model().parameters)))
+                             sampler=demeter_random.BoxSampler(len(task.design_model().parameters)))
     frames, seconds = {}, {}
     for workers in (1, 2):
         with tempfile.TemporaryDirectory() as out:

@@ -61,9 +61,9 @@ def _program(name: str) -> Callable[[], float]:
     if name == "region-box":
         from satfmu.controllers import artifact
         from satfmu.controllers.polynomial import ARTIFACTS
-        from satfmu.synthesis.servo import vscmg_region as vr
-        loop = vr.ClosedLoop.build(artifact.load(ARTIFACTS / "vscmg_sdre_approx.json"))
-        return lambda: vr.certify(loop, *vr.OPERATING_BOX).eps
+        from satfmu.synthesis.servo import vscmg_region
+        loop = vscmg_region.ClosedLoop.build(artifact.load(ARTIFACTS / "vscmg_sdre_approx.json"))
+        return lambda: vscmg_region.certify(loop, *vscmg_region.OPERATING_BOX).eps
     if name == "two-step":
         from satfmu.synthesis.polynomial_feedback.two_step import two_step
         return lambda: two_step(decay_rates=[0.005, 0.01], n_samples=5_000).best.c

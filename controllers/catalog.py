@@ -256,7 +256,7 @@ _PENDING: list[tuple[FmuSource, str]] = []
 
 
 @dataclass(frozen=True)
-class BuildReport:
+class BuildResult:
     """What :func:`build_all` did.
 
     Attributes
@@ -289,7 +289,7 @@ def _fork_map(fn: Callable[[T], R], items: list[T], jobs: int | None) -> list[R]
 
 
 def build_all(dest: Path | None = None, backends: tuple[str, ...] = ("native", "python"),
-              jobs: int | None = None) -> BuildReport:
+              jobs: int | None = None) -> BuildResult:
     """Build every FMU into ``dest``, in parallel processes.
 
     An FMU whose file already records its build's digest is not rebuilt
@@ -317,7 +317,7 @@ def build_all(dest: Path | None = None, backends: tuple[str, ...] = ("native", "
         _fork_map(functools.partial(_build_one, dest=dest), todo, jobs)
     finally:
         _PENDING.clear()
-    return BuildReport(files, [files[i] for i in todo])
+    return BuildResult(files, [files[i] for i in todo])
 
 
 def validate(fmu: Path) -> list[str]:

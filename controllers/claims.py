@@ -6,7 +6,7 @@ nothing. Loading re-checks it from the numbers the artifact records and recomput
 artifact's own matrices allow (each recomputation costs well under a millisecond):
 
 polynomial_state_feedback (``certified``)
-    every SOS check of :func:`satfmu.synthesis.core.sos.verify` (``"<name>: min_eig"`` >=
+    every SOS check of :func:`satfmu.synthesis.core.sos.certify` (``"<name>: min_eig"`` >=
     ``-SOS_EIG_TOL``, ``"<name>: residual"`` <= ``SOS_RES_TOL``); ``psd_margin`` >=
     ``-PSD_MARGIN_TOL`` and ``max real part of eig(Acl(0))`` < 0 when recorded. Recomputed: the
     law's ``P`` is the inverse of ``lyapunov.Q`` (``u = K(x) P x``, ``P = Q^-1``); for a mixed
@@ -45,10 +45,10 @@ from typing import Any, TypeGuard
 import numpy as np
 
 SOS_EIG_TOL = 1e-6
-"""Most negative admitted smallest Gram eigenvalue of a certified SOS check. :func:`satfmu.synthesis.core.sos.verify`
+"""Most negative admitted smallest Gram eigenvalue of a certified SOS check. :func:`satfmu.synthesis.core.sos.certify`
 admits ``-1e-7 max(1, |G|)``; the Gram scale is not recorded, so this admits scales up to 10."""
 SOS_RES_TOL = 1e-6
-"""Largest admitted residual of a certified SOS check (``verify``: ``1e-7 max(1, |p|)``, as above)."""
+"""Largest admitted residual of a certified SOS check (``certify``: ``1e-7 max(1, |p|)``, as above)."""
 PSD_MARGIN_TOL = 1e-9
 """Most negative admitted smallest eigenvalue of the Lyapunov matrices of a mixed H2/H-infinity
 certificate (:attr:`satfmu.synthesis.polynomial_feedback.h2hinf_sos.Theorem8Result.certified`)."""

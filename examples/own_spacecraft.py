@@ -54,7 +54,7 @@ def scenario(controller: str = CONTROLLER) -> satfmu.Scenario:
 
 def main() -> int:
     d = design()
-    print(d.report)
+    print(d.summary)
     cert = d.artifact["certificate"]
     print(f"certificate: {cert['status']}: {cert['proved']}; L2 gain <= {cert['l2_gain']['c']:.4f} "
           f"on {cert['l2_gain']['region']}")

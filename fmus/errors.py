@@ -84,7 +84,7 @@ class SolverFailure(SatfmuError, RuntimeError):
     """A solver stopped without a status (a numerical error): the next rung is tried."""
 
 
-class FitVerificationError(SatfmuError, RuntimeError):
+class FitCertificationError(SatfmuError, RuntimeError):
     """The fitted gain failed a check made independently of the fit."""
 
 

@@ -62,7 +62,7 @@ _EXPORTS = {
     **{name: "satfmu.fmus.errors" for name in (
         "SatfmuError", "SatfmuWarning", "ModelDefinitionError", "ProfileError", "SpacecraftError", "UnsafeFmuError",
         "FmuBuildError", "ArtifactError", "RiccatiCheckError", "LMIError", "SOSError", "SolverMemoryError",
-        "SolverFailure", "FitVerificationError", "PeriodicSystemError", "RobustLMIError", "PlantDataError",
+        "SolverFailure", "FitCertificationError", "PeriodicSystemError", "RobustLMIError", "PlantDataError",
         "DeltaError", "TooManyVerticesError", "ProgramTooLargeError", "NotHurwitzError", "OptionError",
         "VariantError", "MasterError", "UnknownVariableError", "WiringError", "FmuCallError", "UnreadableFmuError",
         "EngineError", "ScenarioError", "DesignMismatchWarning", "StaleFmuWarning", "SspError", "DispersionError",

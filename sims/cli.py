@@ -57,7 +57,7 @@ gamma-lambda trade-off of both Theorem 8 variants of seed 001 (CSV and PNG), ``a
 the three L2-gain estimates of a controller, ``analyze region`` seed 002's re-posed SOS
 stability region of the approximated SDRE on one box and cell by cell (JSON and PNG)
 (:mod:`satfmu.sims.workflows.analysis`). ``table1``, ``figures demeter`` and ``campaign demeter`` are seed 004's
-(:mod:`satfmu.sims.workflows.demeter_reports`), ``detumble`` seed 003's (:mod:`satfmu.sims.workflows.detumble`).
+(:mod:`satfmu.sims.workflows.demeter_studies`), ``detumble`` seed 003's (:mod:`satfmu.sims.workflows.detumble`).
 ``campaign scenario`` runs the Monte Carlo samples of a scenario's ``[dispersions]`` and
 prints their statistics (:mod:`satfmu.sims.campaign.statistics`); it exits with status 1 when a
 sample misses a metric's bound or fails to run. ``report`` writes one self-contained HTML page
@@ -268,7 +268,7 @@ def _progress_eta(unit: str) -> Any:
 
 def _write_design(design, args: argparse.Namespace) -> int:
     """Print a design's report, write its artifacts (and build their FMUs unless ``--fmu-dir ''``)."""
-    print(design.report)
+    print(design.summary)
     for f in design.write(args.out, args.fmu_dir or None):
         print(f"{'wrote' if f.suffix == '.json' else 'built'} {f}")
     return 0
@@ -330,33 +330,33 @@ def _synth_demeter(args: argparse.Namespace) -> int:
 
 
 def _table1(args: argparse.Namespace) -> int:
-    from satfmu.sims.workflows import demeter_reports
+    from satfmu.sims.workflows import demeter_studies
 
     if args.compare:
         try:
-            print(f"wrote {demeter_reports.table1_comparison(Path(args.out))}")
+            print(f"wrote {demeter_studies.table1_comparison(Path(args.out))}")
         except (OSError, ValueError) as exc:
             print(exc)
             return 1
         return 0
-    print(demeter_reports.table1(Path(args.out), args.rows, scenarios=args.scenarios, progress=_progress,
+    print(demeter_studies.table1(Path(args.out), args.rows, scenarios=args.scenarios, progress=_progress,
                                  convention=args.convention, jobs=args.jobs).text())
     return 0
 
 
 def _figures_demeter(args: argparse.Namespace) -> int:
-    from satfmu.sims.workflows import demeter_reports
+    from satfmu.sims.workflows import demeter_studies
 
-    print(demeter_reports.figures(Path(args.fmu_dir), Path(args.out), args.artifact, samples=args.samples,
+    print(demeter_studies.figures(Path(args.fmu_dir), Path(args.out), args.artifact, samples=args.samples,
                                   seed=args.seed, stop_time=args.stop, step_size=args.step,
                                   linear_stop_time=args.linear_stop).text())
     return 0
 
 
 def _campaign_demeter(args: argparse.Namespace) -> int:
-    from satfmu.sims.workflows import demeter_reports
+    from satfmu.sims.workflows import demeter_studies
 
-    report = demeter_reports.campaign(Path(args.out), args.artifact, samples=args.samples, seed=args.seed,
+    report = demeter_studies.campaign(Path(args.out), args.artifact, samples=args.samples, seed=args.seed,
                                       chunk=args.chunk, workers=args.workers, scheduler=args.scheduler,
                                       epsilon=args.epsilon, delta=args.delta, name=args.name,
                                       progress=_progress_eta("chunks"))

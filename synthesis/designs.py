@@ -4,7 +4,7 @@ failing with :class:`DesignError` only.
 A design is made for a plant (seed 000 and 001: any spacecraft, via
 :class:`satfmu.fmus.plants.spacecraft.Spacecraft`), re-verified independently of its solver by the
 synthesis module, and returned with its artifacts (JSON data, validated) and a text
-report. :meth:`Design.write` saves the artifacts, by default into the user's folder
+summary. :meth:`Design.write` saves the artifacts, by default into the user's folder
 (:func:`satfmu.controllers.paths.user_artifacts`, never the shipped artifacts), and optionally builds
 their controller FMUs. ``satfmu synth NAME`` is a thin layer over :data:`DESIGNS`.
 """
@@ -56,7 +56,7 @@ def fails_with_design_error(design: Callable[_P, "Design"]) -> Callable[_P, "Des
 
 @dataclass
 class Design:
-    """A verified design: its artifacts and what the method reported.
+    """A certified design: its artifacts and the method's summary.
 
     Attributes
     ----------
@@ -64,7 +64,7 @@ class Design:
         Registry name (``"mrp-hinf"``, ...).
     artifacts : list of dict
         Controller artifacts (format of :mod:`satfmu.controllers.artifact`), validated.
-    report : str
+    summary : str
         The method's summary (tables, certificate, checks), as the CLI prints it.
     result : object
         The synthesis module's full result (iterates, solver data, checks).
@@ -72,7 +72,7 @@ class Design:
 
     method: str
     artifacts: list[dict[str, Any]]
-    report: str
+    summary: str
     result: Any = field(repr=False, default=None)
 
     @property
@@ -227,12 +227,12 @@ def design_h2hinf(gamma: float, plant: Model | Spacecraft | None = None, *, name
         raise DesignError(f"no certified {variant} design at gamma = {gamma:g} on |sigma| <= {region:g} "
                           f"({len(found.evaluations)} SDPs; try a larger gamma or region)")
     check = h2hinf_sos.closed_loop_check(r, model=model)
-    report = (f"{r.proved}\n  alpha = {r.alpha:.4g}, beta = {r.beta:.4g}, {len(found.evaluations)} SDPs; "
-              f"simulated J2 = {check.j2:.4f} over {check.stop_time:g} s (bound {r.lam:.4f}), max |sigma| "
-              f"{check.max_tilde:.4f}, linearization max Re eig {check.max_real_eig:.4f} 1/s")
+    summary = (f"{r.proved}\n  alpha = {r.alpha:.4g}, beta = {r.beta:.4g}, {len(found.evaluations)} SDPs; "
+               f"simulated J2 = {check.j2:.4f} over {check.stop_time:g} s (bound {r.lam:.4f}), max |sigma| "
+               f"{check.max_tilde:.4f}, linearization max Re eig {check.max_real_eig:.4f} 1/s")
     if not check.passed:
-        raise DesignError(f"{report}\nthe closed-loop check failed: the design is not saved")
-    return Design("mrp-h2hinf", [h2hinf_sos.artifact_data(r, name, check, model)], report, r)
+        raise DesignError(f"{summary}\nthe closed-loop check failed: the design is not saved")
+    return Design("mrp-h2hinf", [h2hinf_sos.artifact_data(r, name, check, model)], summary, r)
 
 
 @fails_with_design_error
@@ -257,7 +257,7 @@ def design_vscmg_sdre(grid: tuple[int, int] = (23, 25), max_degree: int = 8, cv_
     ------
     DesignError
         If the fit fails its check against the plant's own factorization
-        (:class:`satfmu.fmus.errors.FitVerificationError` chained), or on bad input.
+        (:class:`satfmu.fmus.errors.FitCertificationError` chained), or on bad input.
     """
     from satfmu.synthesis.servo import gain_fit
 
@@ -267,9 +267,9 @@ def design_vscmg_sdre(grid: tuple[int, int] = (23, 25), max_degree: int = 8, cv_
     tol: dict[str, Any] = {} if cv_tol is None else {"cv_tol": cv_tol if cv_tol > 0 else None}
     result, approx, lq = gain_fit.synthesize(*grid, degrees=range(1, max_degree + 1), region=region, **tol)
     cert = approx["certificate"]
-    report = (f"certificate: {cert['status']}: {cert['proved']}\n"
+    summary = (f"certificate: {cert['status']}: {cert['proved']}\n"
               + gain_fit.table(result, {k: v for k, v in cert["numbers"].items() if not k.startswith("fit_")}))
-    return Design("vscmg-sdre", [approx, lq], report, result)
+    return Design("vscmg-sdre", [approx, lq], summary, result)
 
 
 @fails_with_design_error
@@ -296,21 +296,22 @@ def design_cubesat_periodic(gamma: float | None = None, plant: Spacecraft | None
         cause chained).
     """
     from satfmu.fmus.plants import cubesat
-    from satfmu.synthesis.periodic import cubesat_periodic as cp
+    from satfmu.synthesis.periodic import cubesat_periodic
 
-    r = cp.synthesize(gamma, inertia=None if plant is None else cubesat.principal_moments(plant))
+    r = cubesat_periodic.synthesize(gamma, inertia=None if plant is None else cubesat.principal_moments(plant))
     lo, hi, n = r.bracket
     lines = [f"seed 003 Theorem 2: gamma_min {r.gamma_min:.4f} (minimized); bisection bracket [{lo:.4f}, "
-             f"{hi:.4f}] in {n} solves; the seed's gamma {cp.GAMMA_SEED:g} is "
+             f"{hi:.4f}] in {n} solves; the seed's gamma {cubesat_periodic.GAMMA_SEED:g} is "
              f"{'feasible' if r.numbers['seed_gamma_feasible'] else 'infeasible'}"]
     lines += [f"  {k}: {v:.6g}" for k, v in r.numbers.items()]
     lines.append("  gains F(k) (rows m_x, m_y, m_z; columns omega_x, omega_y, omega_z), ours | published:")
-    for k, (f, p) in enumerate(zip(r.design.F, cp.PUBLISHED_GAINS)):
+    for k, (f, p) in enumerate(zip(r.design.F, cubesat_periodic.PUBLISHED_GAINS)):
         lines += [f"    k={k} " + " ".join(f"{v:8.4f}" for v in f[i]) + "  | " + " ".join(f"{v:8.4f}" for v in p[i])
                   for i in range(3)]
     data = [r.artifact_data(name, r.design.F, r.design.gamma, r.design.check, "satfmu")]
     if r.published is not None and plant is None:
-        data.append(r.artifact_data(published_name, cp.PUBLISHED_GAINS, r.published.gamma, r.published.check,
+        data.append(r.artifact_data(published_name, cubesat_periodic.PUBLISHED_GAINS, r.published.gamma,
+                                    r.published.check,
                                     "published (seed 003, gains as printed)"))
     return Design("cubesat-periodic", data, "\n".join(lines), r)
 
@@ -345,7 +346,7 @@ def design_demeter(axes: Sequence[int] = (1,), appendages: Sequence[int] = (1,),
         If the variant is infeasible (with the obstruction when one is proved), or on bad input
         (the cause chained).
     """
-    from satfmu.synthesis.robust import demeter_design as dd
+    from satfmu.synthesis.robust import demeter_design
     from satfmu.synthesis.robust import demeter_table
     from satfmu.synthesis.robust.demeter_variants import Variant
 
@@ -353,7 +354,7 @@ def design_demeter(axes: Sequence[int] = (1,), appendages: Sequence[int] = (1,),
     row = demeter_table.run_row(variant, "Det", n_samples=n_samples, convention=convention)
     lines = [demeter_table.markdown([row])]
     r = row.result
-    assert isinstance(r, dd.DeterministicResult)  # a "Det" row holds the deterministic design
+    assert isinstance(r, demeter_design.DeterministicResult)  # a "Det" row holds the deterministic design
     if not r.feasible:
         if r.obstruction is not None and r.obstruction.proves_infeasible:
             o = r.obstruction
@@ -368,7 +369,7 @@ def design_demeter(axes: Sequence[int] = (1,), appendages: Sequence[int] = (1,),
     lines.append(f"{c.n} sampled plants (seed {c.seed}): Re s in [{c.min_real_pole:.3g}, {c.max_real_pole:.3g}] 1/s, "
                  f"largest exact H-infinity {c.hinf.max():.4g}, i2p {c.i2p.max():.4g}; H-infinity bound with one "
                  f"Lyapunov matrix: {'none' if common is None else format(common, '.4g')}")
-    return Design("demeter", [dd.artifact_data(r, name)], "\n".join(lines), r)
+    return Design("demeter", [demeter_design.artifact_data(r, name)], "\n".join(lines), r)
 
 
 DESIGNS: dict[str, Callable[..., Design]] = {

@@ -287,10 +287,11 @@ def test_an_exponent_beyond_any_controller_degree_is_refused() -> None:
     """10**30 is a valid JSON integer; it once passed validation and failed in gcc."""
     import json
 
-    from satfmu.controllers import artifact as A
+    from satfmu.controllers import artifact as controllers_artifact
     from satfmu.controllers import paths
 
     data = json.loads((paths.SHIPPED_ARTIFACTS / "mrp_hinf_published.json").read_text())
     data["law"]["terms"][0][0]["e"][0] = 10 ** 30
-    with pytest.raises(A.ArtifactError, match=r"law\.terms\[0\]\[0\]: exponent 10+ is larger than 64"):
-        A.parse(data)
+    with pytest.raises(controllers_artifact.ArtifactError,
+                       match=r"law\.terms\[0\]\[0\]: exponent 10+ is larger than 64"):
+        controllers_artifact.parse(data)

@@ -23,7 +23,7 @@ from pandas.testing import assert_frame_equal
 from satfmu.controllers import artifact
 from satfmu.fmus.plants import demeter
 from satfmu.fmus import export
-from satfmu.sims.campaign import engine as cp
+from satfmu.sims.campaign import engine
 from satfmu.controllers import catalog
 from satfmu.sims.campaign import chunk_files
 from satfmu.sims.campaign.engine import Campaign, CampaignError, CampaignWarning
@@ -61,7 +61,7 @@ def matrices(name: str = "abscissa", **changes: object) -> Campaign:
 
 
 def serial(campaign: Campaign) -> pd.DataFrame:
-    return pd.concat([cp.run_chunk(campaign, k) for k in range(campaign.n_chunks)], ignore_index=True)
+    return pd.concat([engine.run_chunk(campaign, k) for k in range(campaign.n_chunks)], ignore_index=True)
 
 
 @pytest.fixture(scope="module")
@@ -81,9 +81,10 @@ def test_chunk_samples_depend_only_on_seed_and_chunk_index(reference: pd.DataFra
     rng = np.random.default_rng(np.random.SeedSequence(SEED, spawn_key=(3,)))
     direct = abscissa(normal_matrices(rng, CHUNK))["abscissa"]
     assert np.array_equal(reference["abscissa"].to_numpy()[3 * CHUNK:4 * CHUNK], direct)
-    assert_frame_equal(cp.run_chunk(matrices(n=7 * CHUNK + 5), 3), cp.run_chunk(matrices(), 3), check_exact=True)
+    assert_frame_equal(engine.run_chunk(matrices(n=7 * CHUNK + 5), 3), engine.run_chunk(matrices(), 3),
+                       check_exact=True)
     # the last chunk is short and keeps the global sample indices
-    last = cp.run_chunk(matrices(n=7 * CHUNK + 5), 7)
+    last = engine.run_chunk(matrices(n=7 * CHUNK + 5), 7)
     assert last["sample"].tolist() == list(range(7 * CHUNK, 7 * CHUNK + 5))
     # the task is right: eigenvalues by LAPACK; 1e-12: two roundings of the same 2x2 eigenvalues
     m = normal_matrices(np.random.default_rng(0), 200)
@@ -93,9 +94,9 @@ def test_chunk_samples_depend_only_on_seed_and_chunk_index(reference: pd.DataFra
 
 def test_one_and_two_workers_equal_the_serial_reference(tmp_path: Path, cluster, reference) -> None:
     # Exact: the same chunk computations in any process, written and read back losslessly.
-    one = cp.run(matrices(), tmp_path / "one", n_workers=1)  # the runner's own LocalCluster
+    one = engine.run(matrices(), tmp_path / "one", n_workers=1)  # the runner's own LocalCluster
     assert_frame_equal(one, reference, check_exact=True)
-    two = cp.run(matrices(), tmp_path / "two", client=cluster[1])
+    two = engine.run(matrices(), tmp_path / "two", client=cluster[1])
     assert_frame_equal(two, reference, check_exact=True)
     assert reference["sample"].tolist() == list(range(N))
     assert reference["abscissa"].nunique() == N  # every sample differs: no chunk reuses a stream
@@ -110,13 +111,13 @@ def test_an_interrupted_campaign_resumes_with_the_missing_chunks_only(tmp_path: 
             raise KeyboardInterrupt
 
     with pytest.raises(KeyboardInterrupt):
-        cp.run(matrices(), tmp_path, client=cluster[1], progress=stop_after_three)
+        engine.run(matrices(), tmp_path, client=cluster[1], progress=stop_after_three)
     folder = tmp_path / "abscissa"
     written = {f.name: f.stat().st_mtime_ns for f in folder.glob("chunk-*.parquet")}
     assert len(written) == 3  # a file is written before its progress call; the 3rd call stopped the run
     assert not list(folder.glob(".*.partial*"))  # no temporary file left behind
     second: list[tuple[int, int]] = []
-    df = cp.run(matrices(), tmp_path, scheduler=cluster[0].scheduler_address,
+    df = engine.run(matrices(), tmp_path, scheduler=cluster[0].scheduler_address,
                 progress=lambda done, total: second.append((done, total)))
     assert_frame_equal(df, reference, check_exact=True)  # exact: same chunks, whichever run made them
     assert second == [(done, 10) for done in range(4, 11)]  # only the 7 missing chunks were computed
@@ -138,7 +139,7 @@ def test_killing_a_worker_loses_and_duplicates_no_sample(tmp_path: Path, referen
                 os.kill(pids[busy[0]], signal.SIGKILL)
                 killed.append(busy[0])
 
-        df = cp.run(matrices(task=slow_abscissa), tmp_path, client=client, progress=kill_one)
+        df = engine.run(matrices(task=slow_abscissa), tmp_path, client=client, progress=kill_one)
         assert killed and killed[0] not in client.scheduler_info()["workers"]  # the worker did die
     # exact: every sample once (load checks it) with the values of the serial reference
     assert_frame_equal(df, reference, check_exact=True)
@@ -146,39 +147,39 @@ def test_killing_a_worker_loses_and_duplicates_no_sample(tmp_path: Path, referen
 
 def test_a_different_campaign_in_the_same_folder_is_refused(tmp_path: Path, cluster) -> None:
     small = {"n": 10, "chunk": 5}
-    cp.run(matrices(**small), tmp_path, client=cluster[1])
+    engine.run(matrices(**small), tmp_path, client=cluster[1])
     for change, word in (({"seed": 1}, "seed"), ({"n": 11}, "n"), ({"chunk": 4}, "chunk"),
                          ({"task": slow_abscissa}, "task")):
         with pytest.raises(CampaignError, match=f"differs in {word}"):
-            cp.run(matrices(**{**small, **change}), tmp_path, client=cluster[1])
-    assert len(cp.run(matrices(**small), tmp_path, client=cluster[1])) == 10  # the same campaign resumes
+            engine.run(matrices(**{**small, **change}), tmp_path, client=cluster[1])
+    assert len(engine.run(matrices(**small), tmp_path, client=cluster[1])) == 10  # the same campaign resumes
     meta = tmp_path / "abscissa" / "campaign.json"
     for broken, text in (('{"n": 10', "Expecting"), ('{"n": 10}', "it must hold n, seed, chunk, task, sampler"),
                          (meta.read_text().replace('"chunks": {', '"chunks": {"x": 1, '), "'chunks' must map")):
         meta.write_text(broken)
         with pytest.raises(CampaignError, match=f"campaign.json: not a campaign record .*{text}"):
-            cp.run(matrices(**small), tmp_path, client=cluster[1])
+            engine.run(matrices(**small), tmp_path, client=cluster[1])
 
 
 def test_load_names_missing_and_duplicated_samples(tmp_path: Path, cluster) -> None:
     small = matrices(n=10, chunk=5)
-    cp.run(small, tmp_path, client=cluster[1])
+    engine.run(small, tmp_path, client=cluster[1])
     folder = tmp_path / "abscissa"
     (folder / "chunk-000009.parquet").write_bytes((folder / "chunk-000001.parquet").read_bytes())
-    assert len(cp.load(folder)) == 10  # a file campaign.json does not list is never read
+    assert len(engine.load(folder)) == 10  # a file campaign.json does not list is never read
     # a forged chunk 0 (chunk 1's rows under chunk 0's name, checksum and metadata): the sample
     # indices still tell
     record = json.loads((folder / "campaign.json").read_text())
-    forged = chunk_files.chunk_bytes(cp.run_chunk(small, 1), chunk_files.identity_digest(small.identity()), 0)
+    forged = chunk_files.chunk_bytes(engine.run_chunk(small, 1), chunk_files.identity_digest(small.identity()), 0)
     (folder / "chunk-000000.parquet").write_bytes(forged)
     record["chunks"]["0"] = chunk_files.sha256(forged)
     (folder / "campaign.json").write_text(json.dumps(record))
     with pytest.raises(CampaignError, match=r"5 missing \(first: \[0, 1, 2, 3, 4\]\); 5 duplicated \(first: \[5"):
-        cp.load(folder)
+        engine.load(folder)
     del record["chunks"]["0"]  # an incomplete campaign: chunk 0 not computed yet
     (folder / "campaign.json").write_text(json.dumps(record))
     with pytest.raises(CampaignError, match=r"5 missing \(first: \[0, 1, 2, 3, 4\]\)"):
-        cp.load(folder)
+        engine.load(folder)
 
 
 def test_bad_campaigns_and_task_outputs_raise_named_errors(tmp_path: Path, cluster) -> None:
@@ -188,19 +189,19 @@ def test_bad_campaigns_and_task_outputs_raise_named_errors(tmp_path: Path, clust
             matrices(**changes)
     short = r"column 'abscissa': expected a 1-D array of 2000 values, got shape \(1999,\)"
     with pytest.raises(CampaignError, match=short):
-        cp.run_chunk(matrices(task=short_column), 0)
+        engine.run_chunk(matrices(task=short_column), 0)
     with pytest.raises(CampaignError, match=r"column 'grid': expected a 1-D array of 5 values, got shape \(5, 2\)"):
-        cp.run(matrices(task=matrix_column, n=10, chunk=5), tmp_path, client=cluster[1])  # raised by a worker
+        engine.run(matrices(task=matrix_column, n=10, chunk=5), tmp_path, client=cluster[1])  # raised by a worker
 
 
 def test_infinite_samples_are_results_counted_and_reported(tmp_path: Path, cluster) -> None:
     """Unstable samples (inf) neither kill the campaign nor hide: counted, maximum inf, no finite
     worst-case bound claimed, and they fail any level."""
-    df = cp.run(matrices(name="decay", task=decay_time), tmp_path, client=cluster[1])
+    df = engine.run(matrices(name="decay", task=decay_time), tmp_path, client=cluster[1])
     unstable = int(np.isinf(df["decay_time"]).sum())
     # random normal 2x2 matrices: about half are unstable; the exact count is the reference's
     assert unstable == int((serial(matrices())["abscissa"] >= 0).sum()) and 0 < unstable < N
-    s = cp.summarize(df, "decay_time", level=10.0)
+    s = engine.summarize(df, "decay_time", level=10.0)
     assert (s.n, s.n_nan, s.n_inf, s.max) == (N, 0, unstable, np.inf)
     assert not s.worst_case_valid and s.p <= 1 - unstable / N  # inf > level: a failure
     assert f"({unstable / N * 100:.3g} %" in s.text() and f"unbounded, {unstable} of {N} samples" in s.text()
@@ -208,7 +209,7 @@ def test_infinite_samples_are_results_counted_and_reported(tmp_path: Path, clust
 
 def test_summary_numbers_and_bounds() -> None:
     df = pd.DataFrame({"x": np.arange(1, 1001) / 1000})  # 0.001 .. 1.000, uniform grid
-    s = cp.summarize(df, "x", level=0.25)
+    s = engine.summarize(df, "x", level=0.25)
     # exact or 1e-12: sums of 1000 values of the grid, rounding only
     assert (s.n, s.n_nan, s.min, s.max) == (1000, 0, 0.001, 1.0)
     assert abs(s.mean - 0.5005) < 1e-12
@@ -220,9 +221,9 @@ def test_summary_numbers_and_bounds() -> None:
     text = s.text()
     assert "132 samples needed" in text and "N = 1000 is enough" in text and "N >= 726" in text
     assert f"eps_N = sqrt(ln(2/delta)/(2N)) = {s.eps_n:.6g}" in text and "P(value > 1)" in text
-    few = cp.summarize(df.iloc[:100], "x")
+    few = engine.summarize(df.iloc[:100], "x")
     assert not few.worst_case_valid and "N = 100 is NOT enough" in few.text()
-    failed = cp.summarize(pd.concat([df, pd.DataFrame({"x": [np.nan] * 10})]), "x", level=0.25)
+    failed = engine.summarize(pd.concat([df, pd.DataFrame({"x": [np.nan] * 10})]), "x", level=0.25)
     assert failed.n_nan == 10 and failed.p == 250 / 1010  # exact: NaN samples fail the level
     assert failed.max == 1.0 and not failed.worst_case_valid and "10 samples are NaN" in failed.text()
 
@@ -237,10 +238,10 @@ def demeter_fmus(tmp_path_factory: pytest.TempPathFactory) -> dict[str, str]:
 
 
 def test_fmu_campaign_equals_the_in_process_runs(tmp_path: Path, cluster, demeter_fmus) -> None:
-    task = cp.fmu_task(demeter_fmus, WIRES, demeter_parameters, 20.0, 0.5, {"peak_theta": peak_theta},
+    task = engine.fmu_task(demeter_fmus, WIRES, demeter_parameters, 20.0, 0.5, {"peak_theta": peak_theta},
                        ["plant.theta[1]"])
     campaign = Campaign(name="demeter", task=task, n=8, seed=4, chunk=2, sampler=uniform_delta)
-    df = cp.run(campaign, tmp_path, client=cluster[1])
+    df = engine.run(campaign, tmp_path, client=cluster[1])
     # exact: the same FMU binaries and steps in a worker as in this process
     assert_frame_equal(df, serial(campaign), check_exact=True)
     assert df["peak_theta"].nunique() == 8  # the sampled plants differ
@@ -284,41 +285,41 @@ DAMAGES = [
 @pytest.mark.parametrize("damage,message", [(d[1], d[2]) for d in DAMAGES], ids=[d[0] for d in DAMAGES])
 def test_resume_computes_a_damaged_chunk_again_and_names_it(tmp_path: Path, cluster, damage, message) -> None:
     campaign = matrices(**SMALL)
-    reference = cp.run(campaign, tmp_path, client=cluster[1])
+    reference = engine.run(campaign, tmp_path, client=cluster[1])
     folder = tmp_path / "abscissa"
-    damage(cp.chunk_path(folder, 2))
+    damage(engine.chunk_path(folder, 2))
     with pytest.raises(CampaignError, match=r"chunk 2 \(chunk-000002\.parquet\) " + message):
-        cp.load(folder)  # load alone never hands out a damaged chunk
-    kept = {k: cp.chunk_path(folder, k).stat().st_mtime_ns for k in (0, 1, 3)}
+        engine.load(folder)  # load alone never hands out a damaged chunk
+    kept = {k: engine.chunk_path(folder, k).stat().st_mtime_ns for k in (0, 1, 3)}
     computed: list[int] = []
     with pytest.warns(CampaignWarning,
                       match=r"chunk 2 \(chunk-000002\.parquet\) " + message + r".*: computing it again"):
-        df = cp.run(campaign, tmp_path, client=cluster[1], progress=lambda done, total: computed.append(done))
+        df = engine.run(campaign, tmp_path, client=cluster[1], progress=lambda done, total: computed.append(done))
     assert_frame_equal(df, reference, check_exact=True)  # exact: the chunk's own draws again
     assert computed == [4]  # chunk 2 only
-    assert {k: cp.chunk_path(folder, k).stat().st_mtime_ns for k in (0, 1, 3)} == kept
+    assert {k: engine.chunk_path(folder, k).stat().st_mtime_ns for k in (0, 1, 3)} == kept
 
 
 def test_a_chunk_of_another_campaign_is_never_adopted(tmp_path: Path, cluster) -> None:
     seed0, seed1 = matrices(**SMALL), matrices(**SMALL, seed=1)
     folder = tmp_path / "abscissa"
     # campaign.json deleted, the seed-1 chunks left: a new campaign, every chunk computed again
-    cp.run(seed1, tmp_path, client=cluster[1])
+    engine.run(seed1, tmp_path, client=cluster[1])
     (folder / "campaign.json").unlink()
     with pytest.warns(CampaignWarning) as caught:
-        df = cp.run(seed0, tmp_path, client=cluster[1])
+        df = engine.run(seed0, tmp_path, client=cluster[1])
     assert_frame_equal(df, serial(seed0), check_exact=True)
     assert sorted(int(re.search(r"chunk (\d) \(", str(w.message))[1]) for w in caught) == [0, 1, 2, 3]
     assert all("is not in campaign.json (no checksum to verify it by)" in str(w.message) for w in caught)
     # a seed-1 folder whose campaign.json was edited to say seed 0: the checksums match, the
     # chunks' own metadata names the seed-1 campaign
-    cp.run(seed1, tmp_path / "edited", client=cluster[1])
+    engine.run(seed1, tmp_path / "edited", client=cluster[1])
     meta = tmp_path / "edited" / "abscissa" / "campaign.json"
     meta.write_text(json.dumps({**json.loads(meta.read_text()), "seed": SEED}))
     with pytest.raises(CampaignError, match=r"chunk 0 \(chunk-000000\.parquet\) was written by another campaign"):
-        cp.load(meta.parent)
+        engine.load(meta.parent)
     with pytest.warns(CampaignWarning, match="was written by another campaign"):
-        assert_frame_equal(cp.run(seed0, tmp_path / "edited", client=cluster[1]), serial(seed0), check_exact=True)
+        assert_frame_equal(engine.run(seed0, tmp_path / "edited", client=cluster[1]), serial(seed0), check_exact=True)
 
 
 DRIVER = """
@@ -358,7 +359,7 @@ def test_two_drivers_in_one_folder_wait_for_each_other(tmp_path: Path, cluster) 
     assert "is in use by another campaign driver (process" in second["warnings"][0]
     assert first["rows"] == second["rows"] == 20
     folder = tmp_path / "abscissa"
-    assert_frame_equal(cp.load(folder), serial(matrices(**SMALL)), check_exact=True)
+    assert_frame_equal(engine.load(folder), serial(matrices(**SMALL)), check_exact=True)
     assert sorted(p.name for p in folder.iterdir() if p.name != "campaign.json") == \
         [".campaign.lock"] + [f"chunk-{k:06d}.parquet" for k in range(4)]  # no temporary file left
 
@@ -367,12 +368,12 @@ def test_resume_removes_what_a_killed_driver_left(tmp_path: Path, cluster) -> No
     """A SIGKILL between a write and its rename leaves the temporary file; the next driver, which
     holds the folder's lock, removes every one (none can be another live driver's)."""
     small = matrices("swept", n=2 * CHUNK)
-    first = cp.run(small, tmp_path, client=cluster[1])
+    first = engine.run(small, tmp_path, client=cluster[1])
     folder = tmp_path / "swept"
     left = [folder / ".chunk-00001.4242.deadbeef.partial.parquet", folder / ".campaign.4242.cafebabe.partial.json"]
     for p in left:
         p.write_bytes(b"half a file")
-    assert_frame_equal(cp.run(small, tmp_path, client=cluster[1]), first, check_exact=True)
+    assert_frame_equal(engine.run(small, tmp_path, client=cluster[1]), first, check_exact=True)
     assert not [p for p in left if p.exists()]
 
 
@@ -380,7 +381,7 @@ def test_a_complete_campaign_reads_back_from_a_read_only_file_system(tmp_path: P
     """The folder's lock file cannot be created there; a campaign with nothing left to compute
     needs none (a bind mount made read-only: needs root, as `make test` has in CI)."""
     small = matrices("readonly", n=2 * CHUNK)
-    first = cp.run(small, tmp_path / "rw", client=cluster[1])
+    first = engine.run(small, tmp_path / "rw", client=cluster[1])
     (tmp_path / "rw" / "readonly" / chunk_files.LOCK).unlink()
     ro = tmp_path / "ro"
     ro.mkdir()
@@ -391,13 +392,13 @@ def test_a_complete_campaign_reads_back_from_a_read_only_file_system(tmp_path: P
         subprocess.run(["mount", "-o", "remount,ro,bind", str(ro)], check=True, capture_output=True)
         with pytest.raises(OSError, match="Read-only file system"):
             (ro / "probe").write_text("x")
-        assert_frame_equal(cp.run(small, ro, client=cluster[1]), first, check_exact=True)
+        assert_frame_equal(engine.run(small, ro, client=cluster[1]), first, check_exact=True)
     finally:
         subprocess.run(["umount", str(ro)], capture_output=True)
 
 
 # ----------------------------------------------------------------------------- identity across the move
-def _old_record(folder: Path, campaign: cp.Campaign, **identity: object) -> None:
+def _old_record(folder: Path, campaign: engine.Campaign, **identity: object) -> None:
     """A campaign.json as an older satfmu wrote it (``identity`` overrides the keys of today's; no
     identity_format unless given), with one chunk recorded."""
     folder.mkdir(parents=True)
@@ -409,49 +410,49 @@ def _old_record(folder: Path, campaign: cp.Campaign, **identity: object) -> None
 def test_identity_names_satfmu_callables_without_their_module() -> None:
     """A function of satfmu is named without its module (``satfmu:builder``), so that moving it
     changes no identity; other modules keep theirs."""
-    assert cp._qualified_name(catalog.builder) == "satfmu:builder"
-    assert cp._qualified_name(abscissa) == "tests.campaign_tasks.abscissa"
+    assert engine._qualified_name(catalog.builder) == "satfmu:builder"
+    assert engine._qualified_name(abscissa) == "tests.campaign_tasks.abscissa"
 
 
 def test_the_identity_of_a_task_object_does_not_name_module_paths(monkeypatch: pytest.MonkeyPatch) -> None:
     """A callable object's digest is of its fields: the same task under a moved class (and a moved
     satfmu function in its fields) keeps its identity; another field value changes it."""
-    def task(stop_time: float) -> cp.FmuTask:
-        return cp.FmuTask(fmus={"plant": Path("p.fmu")}, connections=[], parameters=catalog.builder,
+    def task(stop_time: float) -> engine.FmuTask:
+        return engine.FmuTask(fmus={"plant": Path("p.fmu")}, connections=[], parameters=catalog.builder,
                           stop_time=stop_time, step_size=0.1, metrics={}, record=[])
 
-    before = cp._qualified_name(task(1.0))
-    monkeypatch.setattr(cp.FmuTask, "__module__", "satfmu.sims.elsewhere")
+    before = engine._qualified_name(task(1.0))
+    monkeypatch.setattr(engine.FmuTask, "__module__", "satfmu.sims.elsewhere")
     monkeypatch.setattr(catalog.builder, "__module__", "satfmu.fmus.elsewhere")
-    assert cp._qualified_name(task(1.0)) == before == "satfmu:FmuTask:" + before.rpartition(":")[2]
-    assert cp._qualified_name(task(2.0)) != before
+    assert engine._qualified_name(task(1.0)) == before == "satfmu:FmuTask:" + before.rpartition(":")[2]
+    assert engine._qualified_name(task(2.0)) != before
 
 
 def test_a_record_from_before_the_move_resumes_with_function_tasks(tmp_path: Path) -> None:
     """Records of format 2 (``sims.x.f``) and of no format (``satfmu.sims.x.f``) naming a satfmu
     function task are this campaign: their recorded chunks are kept."""
-    campaign = cp.Campaign(name="moved", task=catalog.builder, n=4, seed=1, chunk=2, sampler=cp.sample_indices)
+    campaign = engine.Campaign(name="moved", task=catalog.builder, n=4, seed=1, chunk=2, sampler=engine.sample_indices)
     for fmt, prefix in ((2, ""), (None, "satfmu.")):
         folder = tmp_path / f"moved{fmt}"
         _old_record(folder, campaign, task=f"{prefix}sims.catalog.builder",
                     sampler=f"{prefix}sims.campaign.sample_indices", **({"identity_format": fmt} if fmt else {}))
-        record = cp._claim_folder(folder, campaign)
+        record = engine._claim_folder(folder, campaign)
         assert record["chunks"] == {"0": "0" * 64}
 
 
 def test_a_record_from_before_the_move_naming_another_function_is_another_campaign(tmp_path: Path) -> None:
-    campaign = cp.Campaign(name="moved", task=catalog.builder, n=4, seed=1, chunk=2, sampler=cp.sample_indices)
+    campaign = engine.Campaign(name="moved", task=catalog.builder, n=4, seed=1, chunk=2, sampler=engine.sample_indices)
     _old_record(tmp_path / "moved", campaign, task="sims.catalog.not_builder", identity_format=2)
     with pytest.raises(CampaignError, match="holds another campaign"):
-        cp._claim_folder(tmp_path / "moved", campaign)
+        engine._claim_folder(tmp_path / "moved", campaign)
 
 
 def test_a_record_from_before_the_move_with_a_task_object_is_refused_saying_why(tmp_path: Path) -> None:
     """A callable object's digest of format 2 pickled the old module paths: such a record cannot
     be matched, and the message says so (not merely "another campaign")."""
-    task = cp.FmuTask(fmus={}, connections=[], parameters=abscissa, stop_time=1.0, step_size=0.1, metrics={},
+    task = engine.FmuTask(fmus={}, connections=[], parameters=abscissa, stop_time=1.0, step_size=0.1, metrics={},
                       record=[])
-    campaign = cp.Campaign(name="obj", task=task, n=4, seed=1, chunk=2, sampler=cp.sample_indices)
+    campaign = engine.Campaign(name="obj", task=task, n=4, seed=1, chunk=2, sampler=engine.sample_indices)
     _old_record(tmp_path / "obj", campaign, task="sims.campaign.FmuTask:" + "f" * 16, identity_format=2)
     with pytest.raises(CampaignError, match=r"written by an older satfmu \(identity format 2\), whose task object"):
-        cp._claim_folder(tmp_path / "obj", campaign)
+        engine._claim_folder(tmp_path / "obj", campaign)

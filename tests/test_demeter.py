@@ -14,11 +14,11 @@ from satfmu.fmus.plants import demeter
 from satfmu.fmus.model import Model, ModelDefinitionError, Variable, states, symbols
 from satfmu.fmus.pyslave import affine_flow
 from satfmu.sims.cosim.master import CoSimulation
-from satfmu.synthesis.robust import demeter_variants as dv
+from satfmu.synthesis.robust import demeter_variants
 
 NOMINAL = (demeter.J0, demeter.L_SUBSTITUTE, np.full(4, demeter.ZETA_NOMINAL), np.full(4, demeter.OMEGA_NOMINAL))
 STATE_NAMES = [s.variable.name for s in demeter.MODEL.states]
-ROW1 = dv.Variant((1,), (1,), 1, 1)
+ROW1 = demeter_variants.Variant((1,), (1,), 1, 1)
 
 
 @pytest.fixture(scope="module")
@@ -162,10 +162,10 @@ def test_design_model_descriptor_equals_direct_model() -> None:
     # Every Table 1 variant: the affine descriptor solved at random deltas against eq. (4) with the
     # reduced coupling and a full inverse of M. 1e-12 relative: two solves of the same equations.
     rng = np.random.default_rng(11)
-    for var in (ROW1, dv.Variant((1,), (1, 2), 1, 1), dv.Variant((1,), (1, 2, 3, 4), 2, 1),
-                dv.Variant((1, 2), (1, 2), 2, 2), dv.Variant((1, 2, 3), (1, 2), 2, 2),
-                dv.Variant((1, 2), (1,), 1, 1, False)):
-        dm = dv.design_model(var)
+    for var in (ROW1, demeter_variants.Variant((1,), (1, 2), 1, 1), demeter_variants.Variant((1,), (1, 2, 3, 4), 2, 1),
+                demeter_variants.Variant((1, 2), (1, 2), 2, 2), demeter_variants.Variant((1, 2, 3), (1, 2), 2, 2),
+                demeter_variants.Variant((1, 2), (1,), 1, 1, False)):
+        dm = demeter_variants.design_model(var)
         for d in dm.sample(4, rng):
             got, ref = dm.state_space(d), dm.direct(d)
             for g, r in zip(got, ref):
@@ -176,8 +176,9 @@ def test_lft_at_a_sample_equals_the_direct_model() -> None:
     # The issue's check: Delta * M evaluated at sampled deltas against eq. (4) built directly.
     # 1e-12 relative: the LFT is exact; the residual is the rounding of two linear solves.
     rng = np.random.default_rng(12)
-    for var in (ROW1, dv.Variant((1, 2), (1, 2), 2, 2), dv.Variant((1, 2, 3), (1, 2), 2, 2)):
-        dm = dv.design_model(var)
+    for var in (ROW1, demeter_variants.Variant((1, 2), (1, 2), 2, 2), demeter_variants.Variant((1, 2, 3), (1, 2), 2,
+                                                                                               2)):
+        dm = demeter_variants.design_model(var)
         lft = dm.lft()
         assert sum(r for _, r in lft["blocks"]) == lft["Cq"].shape[0]
         for d in dm.sample(4, rng):
@@ -191,11 +192,11 @@ def test_lft_at_a_sample_equals_the_direct_model() -> None:
 def test_uncertainty_structure_is_the_seeds() -> None:
     # Seed section 2.6: one axis, identical appendages: 3 uncertainties, a 5 x 5 block (root of J
     # twice, omega twice, zeta once); Na (Na + 1) / 2 + 2 Nf uncertainties for model_type 1.
-    dm = dv.design_model(ROW1)
+    dm = demeter_variants.design_model(ROW1)
     assert dm.names == ["sqrtJ11", "omega", "zeta"]
     assert [np.linalg.matrix_rank(N) for N in dm.Nk] == [2, 2, 1]
     assert dm.n == 8  # theta, theta', eta_r, eta_r', xi, xw, y, y': the 8 gains of Fig. 3
-    assert len(dv.design_model(dv.Variant((1, 2), (1, 2, 3), 1, 1)).parameters) == 3 + 2 * 3
+    assert len(demeter_variants.design_model(demeter_variants.Variant((1, 2), (1, 2, 3), 1, 1)).parameters) == 3 + 2 * 3
     assert abs(dm.L_r[0, 0] - np.linalg.norm(demeter.L_SUBSTITUTE[0, :2])) < 1e-15  # l of eq. (8)
 
 
@@ -204,8 +205,9 @@ def test_reduced_variant_has_the_full_plants_transfer() -> None:
     # plant equals the full 22-state plant with the variant's FMU parameters (couplings of
     # unselected axes and appendages zero). 1e-9 relative: frequency responses of two realizations.
     rng = np.random.default_rng(5)
-    for var in (ROW1, dv.Variant((1, 2), (1, 2, 3, 4), 2, 1), dv.Variant((1, 2), (2, 3), 1, 1)):
-        dm = dv.design_model(var)
+    for var in (ROW1, demeter_variants.Variant((1, 2), (1, 2, 3, 4), 2, 1), demeter_variants.Variant((1, 2), (2, 3), 1,
+                                                                                                     1)):
+        dm = demeter_variants.design_model(var)
         d = dm.sample(1, rng)[0]
         v = dm.values(d)
         A_r, B_r = demeter.state_space(v["J"], dm.L_r, v["zeta"][dm.mode_group], v["omega"][dm.mode_group], pairs=False)
@@ -218,23 +220,23 @@ def test_reduced_variant_has_the_full_plants_transfer() -> None:
 
 
 def test_variant_errors() -> None:
-    with pytest.raises(dv.VariantError, match="axes"):
-        dv.Variant((4,), (1,))
-    with pytest.raises(dv.VariantError, match="appendages"):
-        dv.Variant((1,), (1, 1))
-    with pytest.raises(dv.VariantError, match="model_type"):
-        dv.Variant((1,), (1,), 3)
-    with pytest.raises(dv.VariantError, match="uncertainty_type"):
-        dv.Variant((1,), (1,), 1, 4)
-    dm = dv.design_model(ROW1)
-    with pytest.raises(dv.VariantError, match="delta"):
+    with pytest.raises(demeter_variants.VariantError, match="axes"):
+        demeter_variants.Variant((4,), (1,))
+    with pytest.raises(demeter_variants.VariantError, match="appendages"):
+        demeter_variants.Variant((1,), (1, 1))
+    with pytest.raises(demeter_variants.VariantError, match="model_type"):
+        demeter_variants.Variant((1,), (1,), 3)
+    with pytest.raises(demeter_variants.VariantError, match="uncertainty_type"):
+        demeter_variants.Variant((1,), (1,), 1, 4)
+    dm = demeter_variants.design_model(ROW1)
+    with pytest.raises(demeter_variants.VariantError, match="delta"):
         dm.state_space([0.0, 1.5, 0.0])
-    with pytest.raises(dv.VariantError, match="delta"):
+    with pytest.raises(demeter_variants.VariantError, match="delta"):
         dm.state_space([0.0, np.nan, 0.0])
-    with pytest.raises(dv.VariantError, match="K must"):
+    with pytest.raises(demeter_variants.VariantError, match="K must"):
         dm.fmu_gains(np.zeros((1, 7)))
-    with pytest.raises(dv.VariantError, match="L must"):
-        dv.design_model(ROW1, np.zeros((3, 7)))
+    with pytest.raises(demeter_variants.VariantError, match="L must"):
+        demeter_variants.design_model(ROW1, np.zeros((3, 7)))
     with pytest.raises(KeyError, match="no such gains"):
         state_feedback.build({"K_nope[1,1]": 1.0})
 
@@ -244,7 +246,7 @@ def test_closed_loop_fmus_equal_the_sampled_data_reference(fmu_dir: Path) -> Non
     # plant + state-feedback FMUs through the master; reference: the same sampled-data loop in
     # numpy (plant and controller each advanced by their exact flow, command held per step).
     # 1e-10: both are exact, they differ by rounding over 3000 steps.
-    dm = dv.design_model(ROW1)
+    dm = demeter_variants.design_model(ROW1)
     A, Bu, _ = dm.state_space(np.zeros(3))
     P = solve_continuous_are(A, Bu, np.diag([1e2, 1e2, 1, 1, 1e-2, 10, 1e-3, 1e-5]), 1e3 * np.eye(1))
     K = -Bu.T @ P / 1e3

@@ -9,7 +9,7 @@ import pytest
 from distributed import Client, LocalCluster
 
 from satfmu.controllers import polynomial
-from satfmu.sims.workflows import demeter_loops as dl
+from satfmu.sims.workflows import demeter_loops
 from satfmu.sims.scenario.spec import load
 from satfmu.sims.cli import main
 from satfmu.sims.scenario import SHIPPED_SCENARIOS
@@ -19,12 +19,13 @@ ART = polynomial.ARTIFACTS / "demeter_row1_det.json"
 
 
 @pytest.fixture(scope="module")
-def loops(fmu_dir: Path) -> dict[str, dl.RandomLoops]:
+def loops(fmu_dir: Path) -> dict[str, demeter_loops.RandomLoops]:
     """Two random plants, 5 s at 1 ms, both limit settings: six scenario campaigns on one in-process
     Dask worker (the FMUs run in this process)."""
     with LocalCluster(n_workers=1, threads_per_worker=1, processes=False, dashboard_address=":0") as lc, \
             Client(lc) as client:
-        return {lim: dl.run(fmu_dir, ART, n=2, seed=3, stop_time=5.0, step_size=1e-3, limits=lim, points=2001,
+        return {lim: demeter_loops.run(fmu_dir, ART, n=2, seed=3, stop_time=5.0, step_size=1e-3, limits=lim,
+                                       points=2001,
                             client=client) for lim in ("linear", "wheels")}
 
 
@@ -36,7 +37,7 @@ def test_fmu_loops_without_limits_are_the_design_model(loops) -> None:
     # the only difference is the command held over 1 ms: 9e-7 rad over 60 s (cli), less over 5 s
     assert lin.linear_error < 1e-6
     # the same plants on the design model, exactly: same start of theta to the hold's accuracy
-    ref = dl.linear(ART, deltas=lin.deltas, stop_time=5.0, points=1251)
+    ref = demeter_loops.linear(ART, deltas=lin.deltas, stop_time=5.0, points=1251)
     assert np.abs(ref.theta - lin.theta).max() < 1e-6
     assert np.abs(lin.deltas).max() <= 1.0 and lin.deltas.shape == (2, 3)  # sqrtJ11, omega, zeta in the box
 
@@ -47,25 +48,25 @@ def test_the_scenario_disperses_the_design_box_and_bounds_z2_by_the_certificate(
     import json
 
     cert = json.loads(ART.read_text())["certificate"]["numbers"]["design_i2p_bound"]
-    sc = dl.scenario(ART, start="both")
+    sc = demeter_loops.scenario(ART, start="both")
     table = sc.dispersions.data
     assert table["plant.J[1,1]"]["transform"] == "square"
     assert table["plant.J[1,1]"]["low"] ** 2 == pytest.approx(21.966, abs=1e-3)  # the artifact's range of J[1,1]
     assert table["plant.J[1,1]"]["high"] ** 2 == pytest.approx(40.794, abs=1e-3)
     assert (table["plant.omega[1]"]["low"], table["plant.zeta[1]"]["high"]) == pytest.approx((0.4 * np.pi, 0.005))
     assert sc.metrics[0].max == pytest.approx(cert * np.sqrt(2), rel=1e-15)
-    assert dl.scenario(ART, start="theta").metrics[0].max == pytest.approx(cert, rel=1e-15)
+    assert demeter_loops.scenario(ART, start="theta").metrics[0].max == pytest.approx(cert, rel=1e-15)
     assert sc.fmus["plant"].parameters["theta_0[1]"] == THETA_WORST
     # every metric a gate: theta ends within the worst initial error, the wheels below satW, never at it
     assert [(m.name, m.max) for m in sc.metrics[1:]] == [("|theta| at the end", THETA_WORST),
                                                           ("peak wheel momentum", 0.12),
                                                           ("time at the momentum limit", 0.0)]
-    assert (sc.name, dl.scenario(ART, start="rate", limits="linear").name) == ("demeter_row1_det_both",
+    assert (sc.name, demeter_loops.scenario(ART, start="rate", limits="linear").name) == ("demeter_row1_det_both",
                                                                               "demeter_row1_det_rate_linear")
     assert sc.campaign == {"samples": 100, "demo_samples": 10, "seed": 0}  # the seed's 100 loops
     with pytest.raises(ValueError, match="start must be one of theta, rate, both"):
-        dl.scenario(ART, start="omega")
-    assert [dl.uniform_points(n, 2001) for n in (60001, 5001, 7, 2)] == [2001, 1251, 7, 2]
+        demeter_loops.scenario(ART, start="omega")
+    assert [demeter_loops.uniform_points(n, 2001) for n in (60001, 5001, 7, 2)] == [2001, 1251, 7, 2]
 
 
 def test_wheel_limits_change_the_loop(loops) -> None:
@@ -79,22 +80,22 @@ def test_wheel_limits_change_the_loop(loops) -> None:
 
 
 def test_design_model_loops_converge_and_plots_are_written(tmp_path: Path) -> None:
-    ref = dl.linear(ART, n=3, seed=0, stop_time=10000.0, points=2001)
+    ref = demeter_loops.linear(ART, n=3, seed=0, stop_time=10000.0, points=2001)
     # slowest closed-loop pole -3e-4 1/s: |theta| 0.262 -> below 4e-3 rad after 1e4 s (measured 3.6e-3)
     assert np.abs(ref.theta[:, -1]).max() < 4e-3 and np.abs(ref.theta[:, 0] - THETA_WORST).max() < 1e-12
-    paths = dl.plot(ref, tmp_path)
+    paths = demeter_loops.plot(ref, tmp_path)
     assert [p.name for p in paths] == ["fig4_design_model.png", "fig5_design_model.png"]
     assert all(p.stat().st_size > 10_000 for p in paths)
 
 
 def test_bad_inputs(fmu_dir: Path) -> None:
     with pytest.raises(ValueError, match="limits"):
-        dl.run(fmu_dir, ART, limits="none")
+        demeter_loops.run(fmu_dir, ART, limits="none")
     with pytest.raises(ValueError, match="not a DEMETER"):
-        dl.linear(polynomial.ARTIFACTS / "mrp_hinf_published.json")
+        demeter_loops.linear(polynomial.ARTIFACTS / "mrp_hinf_published.json")
 
 
-SHIPPED = {start: f"demeter_row1_det_{start}" for start in dl.STARTS}
+SHIPPED = {start: f"demeter_row1_det_{start}" for start in demeter_loops.STARTS}
 """The shipped scenario of each start (sims/scenario/shipped/)."""
 
 
@@ -103,13 +104,14 @@ def test_a_shipped_scenario_is_the_scenario_of_the_row1_design(start: str) -> No
     """One source of truth: the shipped file is what `python -m satfmu.sims.workflows.demeter_loops` writes from
     dl.scenario(), text for text, and reads back as the same scenario."""
     path = SHIPPED_SCENARIOS / f"{SHIPPED[start]}.toml"
-    assert path.read_text() == dl.scenario_text(start), "regenerate it: python -m satfmu.sims.workflows.demeter_loops"
-    assert load(SHIPPED[start]).to_dict() == dl.scenario("demeter_row1_det", start=start).to_dict()
-    assert load(SHIPPED[start]).to_dict() == dl.shipped_scenario(start).to_dict()
+    assert path.read_text() == demeter_loops.scenario_text(start), \
+        "regenerate it: python -m satfmu.sims.workflows.demeter_loops"
+    assert load(SHIPPED[start]).to_dict() == demeter_loops.scenario("demeter_row1_det", start=start).to_dict()
+    assert load(SHIPPED[start]).to_dict() == demeter_loops.shipped_scenario(start).to_dict()
 
 
 def test_write_shipped_writes_one_file_per_start(tmp_path: Path) -> None:
-    written = dl.write_shipped(tmp_path)
+    written = demeter_loops.write_shipped(tmp_path)
     assert sorted(p.name for p in written) == sorted(f"{name}.toml" for name in SHIPPED.values())
     assert all(p.read_text() == (SHIPPED_SCENARIOS / p.name).read_text() for p in written)
 

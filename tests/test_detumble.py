@@ -8,18 +8,18 @@ import numpy as np
 import pytest
 
 from satfmu.sims.workflows import detumble
-from satfmu.synthesis.periodic import cubesat_periodic as cp
+from satfmu.synthesis.periodic import cubesat_periodic
 
 
 def test_linear_campaign_mean_square_is_the_exact_one_and_decays_like_the_seeds_fig_2() -> None:
-    (run,) = detumble.linear_campaign({"published": cp.PUBLISHED_GAINS}, n_runs=3000, seed=11)
+    (run,) = detumble.linear_campaign({"published": cubesat_periodic.PUBLISHED_GAINS}, n_runs=3000, seed=11)
     assert np.all(np.abs(run.ms_mc - run.ms_exact) <= 5 * run.ms_se + 1e-12 * run.ms_exact)  # 5 standard errors
     # docs/models.md: with the published gains |w| falls from 0.0707 to 0.0055 rad/s over 12 samples (92 %)
     assert run.rms()[0] == pytest.approx(0.0707, rel=1e-3)
     assert run.rms()[-1] == pytest.approx(0.0055, rel=0.02)
     assert run.rate_samples.shape == (3000, 13) and run.dipole_samples.shape == (3000, 12)
     with pytest.raises(ValueError):
-        detumble.linear_campaign({"published": cp.PUBLISHED_GAINS}, n_runs=1)
+        detumble.linear_campaign({"published": cubesat_periodic.PUBLISHED_GAINS}, n_runs=1)
 
 
 def test_sweep_at_the_scenarios_rate_reproduces_the_scenario(fmu_dir: Path) -> None:

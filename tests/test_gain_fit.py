@@ -13,7 +13,7 @@ from satfmu.synthesis.servo import gain_fit, sdre
 def approx() -> tuple[gain_fit.GainFit, artifact.ServoArtifact]:
     s = sdre.Servo("w1_free", freeze_w2=True)
     result = gain_fit.fit(*gain_fit.sdre_grid(s, n_q2=12, n_w4=13), degrees=range(1, 7))
-    return result, artifact.parse(gain_fit.approximated_sdre_data(result, s, gain_fit.verify(result, s)))
+    return result, artifact.parse(gain_fit.approximated_sdre_data(result, s, gain_fit.certify(result, s)))
 
 
 def test_fit_accuracy_improves_with_degree_and_the_artifact_evaluates_the_fit(approx) -> None:
@@ -72,8 +72,8 @@ def test_verification_measures_the_fit_and_rejects_a_wrong_gain(approx) -> None:
     import dataclasses
 
     flipped = dataclasses.replace(result, coefficients=-result.coefficients)  # positive feedback
-    with pytest.raises(gain_fit.FitVerificationError, match="frozen_max_re = .* exceeds 1e-06"):
-        gain_fit.verify(flipped, sdre.Servo("w1_free", freeze_w2=True))
+    with pytest.raises(gain_fit.FitCertificationError, match="frozen_max_re = .* exceeds 1e-06"):
+        gain_fit.certify(flipped, sdre.Servo("w1_free", freeze_w2=True))
 
 
 def test_scheduling_entries_are_parsed_and_bad_ones_rejected(approx) -> None:

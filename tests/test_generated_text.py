@@ -15,7 +15,7 @@ from pathlib import Path
 
 import pytest
 
-from satfmu.controllers import artifact as A
+from satfmu.controllers import artifact
 from satfmu.fmus import archive
 from satfmu.controllers import catalog, paths
 
@@ -67,7 +67,7 @@ def _all_fields(text: str) -> dict:
 def test_breakout_strings_stay_text(kind: str, backend: str, tmp_path: Path) -> None:
     sentinel = tmp_path / "sentinel"
     text = breakouts(sentinel)[kind]
-    src = catalog.controller_source(A.parse(_all_fields(text)))
+    src = catalog.controller_source(artifact.parse(_all_fields(text)))
     fmu = catalog.builder(backend)(src.model, tmp_path / "fmus", src.resources)
     assert not sentinel.exists(), "building the FMU ran the artifact's text"
     md = archive.read_description(fmu)
@@ -87,9 +87,9 @@ def test_breakout_strings_stay_text(kind: str, backend: str, tmp_path: Path) -> 
 @pytest.mark.parametrize("field", FIELDS)
 @pytest.mark.parametrize("char", ["\x00", "\x1b", "\ufffe"])
 def test_a_text_xml_cannot_carry_is_refused_with_its_key(field: str, char: str) -> None:
-    with pytest.raises(A.ArtifactError, match=rf"artifact\.{'.*'.join(map(str, FIELDS[field]))}: holds "
+    with pytest.raises(artifact.ArtifactError, match=rf"artifact\.{'.*'.join(map(str, FIELDS[field]))}: holds "
                                               rf"U\+{ord(char):04X}"):
-        A.parse(_with(FIELDS[field], f"text {char} more"))
+        artifact.parse(_with(FIELDS[field], f"text {char} more"))
 
 
 def test_a_model_name_is_a_c_identifier() -> None:

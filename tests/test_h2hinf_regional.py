@@ -12,20 +12,20 @@ import sympy as sp
 
 from satfmu.controllers import artifact as artifacts
 from satfmu.fmus.plants import mrp_satellite
-from satfmu.synthesis.polynomial_feedback import h2hinf_sos as T
+from satfmu.synthesis.polynomial_feedback import h2hinf_sos
 from satfmu.synthesis.core.sos import SOSError
 
 A_B = 0.3  # near the line search's optimum at gamma = 1 (0.3: 3.610, 0.1: 4.1, 1.0: 3.64)
 
 
 @pytest.fixture(scope="module")
-def designs() -> dict[str, T.Theorem8Result]:
-    return {v: T.theorem8(1.0, A_B, A_B, v) for v in T.VARIANTS}
+def designs() -> dict[str, h2hinf_sos.Theorem8Result]:
+    return {v: h2hinf_sos.theorem8(1.0, A_B, A_B, v) for v in h2hinf_sos.VARIANTS}
 
 
 def _lam(gamma: float, variant: str) -> float:
     try:
-        r = T.theorem8(gamma, A_B, A_B, variant)
+        r = h2hinf_sos.theorem8(gamma, A_B, A_B, variant)
     except SOSError:
         return float("inf")
     return r.lam if r.certified else float("inf")
@@ -34,8 +34,8 @@ def _lam(gamma: float, variant: str) -> float:
 @pytest.mark.slow
 def test_three_gammas_certified_monotone_and_slack_no_worse(designs) -> None:
     # at fixed alpha, beta the feasible set grows with gamma and contains the common variant's
-    lam = {(1.0, v): designs[v].lam for v in T.VARIANTS}
-    lam.update({(g, v): _lam(g, v) for g in (0.8, 0.7) for v in T.VARIANTS})
+    lam = {(1.0, v): designs[v].lam for v in h2hinf_sos.VARIANTS}
+    lam.update({(g, v): _lam(g, v) for g in (0.8, 0.7) for v in h2hinf_sos.VARIANTS})
     slack = [lam[(g, "slack")] for g in (0.7, 0.8, 1.0)]
     assert all(np.isfinite(slack))
     assert all(b <= a * (1 + 1e-6) for a, b in zip(slack, slack[1:]))  # solver accuracy ~1e-8
@@ -57,7 +57,7 @@ def test_both_variants_are_certified_and_slack_is_no_worse(designs) -> None:
 @pytest.mark.slow
 def test_h2_bound_holds_in_simulation_and_linearization_is_stable(designs) -> None:
     r = designs["slack"]
-    c = T.closed_loop_check(r)
+    c = h2hinf_sos.closed_loop_check(r)
     assert c.passed
     # the certificate applies along the trajectory only if it stays in |sigma| <= 0.45;
     # it starts at 0.4142 (90 deg) and must not go further out
@@ -75,7 +75,8 @@ def test_law_cancels_the_gyroscopic_torque_and_matches_its_artifact(designs) -> 
     inertia = np.diag(mrp_satellite.INERTIA_SEED_000)
     # at sigma = 0 the law is linear in x plus omega x I omega: the even part is the latter
     assert np.allclose((u_plus + u_minus) / 2, np.cross(w, inertia @ w), rtol=1e-12, atol=1e-15)
-    art = artifacts.parse(T.artifact_data(r, "mrp_h2hinf_test", T.closed_loop_check(r, stop_time=50.0)))
+    art = artifacts.parse(h2hinf_sos.artifact_data(r, "mrp_h2hinf_test", h2hinf_sos.closed_loop_check(r,
+                                                                                                      stop_time=50.0)))
     x = np.random.default_rng(1).uniform(-0.4, 0.4, size=(20, 6))
     law = sp.lambdify([r.plant.symbols], list(r.law()), "numpy")
     assert np.allclose(art.evaluate(x), np.array([law(xi) for xi in x]), rtol=1e-12, atol=1e-14)
@@ -84,7 +85,7 @@ def test_law_cancels_the_gyroscopic_torque_and_matches_its_artifact(designs) -> 
 
 
 def test_split_plant_cancels_the_actuated_rows() -> None:
-    p = T._split(mrp_satellite.MODEL, frozen=False)
+    p = h2hinf_sos._split(mrp_satellite.MODEL, frozen=False)
     assert p.tilde == (3, 4, 5) and p.actuated == (0, 1, 2)
     A = p.A_tilde.evaluate(np.array([0.3, -0.2, 0.1]))
     assert np.all(A[:3] == 0)  # rate rows fully cancelled
@@ -99,7 +100,7 @@ def test_region_beyond_one_is_never_certified() -> None:
     # constant Lyapunov matrices cannot hold past |sigma| = 1 (module notes: the sigma-sigma
     # block of the projected condition is G(sigma) X_ws + (.)^T whatever F and Y are)
     try:
-        r = T.theorem8(1.0, A_B, A_B, "slack", region=1.05)
+        r = h2hinf_sos.theorem8(1.0, A_B, A_B, "slack", region=1.05)
     except SOSError:
         return
     assert not r.certified
@@ -111,27 +112,27 @@ def test_model_without_sdc_form_is_refused() -> None:
     model = copy.copy(mrp_satellite.MODEL)
     object.__setattr__(model, "sdc", None)
     with pytest.raises(ValueError, match="SDC"):
-        T.theorem8(1.0, A_B, A_B, model=model)
+        h2hinf_sos.theorem8(1.0, A_B, A_B, model=model)
 
 
 @pytest.mark.slow
 def test_frozen_search_and_sweep_are_consistent(tmp_path) -> None:
     # frozen LMIs solve in ~0.1 s: the line search and sweep logic on a cheap program
-    kw = {"frozen": True, "y_degree": 0, "margin": 1e-7, "x0": T.X0_200}
-    found = T.search(0.8, "slack", bounds=(1e-4, 1e-1), max_evaluations=4, **kw)
+    kw = {"frozen": True, "y_degree": 0, "margin": 1e-7, "x0": h2hinf_sos.X0_200}
+    found = h2hinf_sos.search(0.8, "slack", bounds=(1e-4, 1e-1), max_evaluations=4, **kw)
     assert found.best is not None and len(found.evaluations) <= 8
     assert found.best.lam == min(e[2] for e in found.evaluations)
-    rows = T.sweep([1.0, 0.6], bounds=(1e-4, 1e-1), max_evaluations=3, **kw)
+    rows = h2hinf_sos.sweep([1.0, 0.6], bounds=(1e-4, 1e-1), max_evaluations=3, **kw)
     lam = {(r.gamma, r.variant): r.lam for r in rows}
     assert lam[(0.6, "slack")] >= lam[(1.0, "slack")] * (1 - 1e-6)  # non-increasing in gamma
     assert all(lam[(g, "slack")] <= lam[(g, "common")] * (1 + 1e-6) for g in (1.0, 0.6))
-    csv_text = T.sweep_csv(rows)
+    csv_text = h2hinf_sos.sweep_csv(rows)
     assert csv_text.splitlines()[0] == "gamma,variant,lambda,alpha,beta,sdps" and len(csv_text.splitlines()) == 5
     from satfmu.sims.scenario import plots
 
     plots.tradeoff(rows, tmp_path / "t.png", "test")
     assert (tmp_path / "t.png").stat().st_size > 1000
     with pytest.raises(ValueError, match="gammas"):
-        T.sweep([0.0])
+        h2hinf_sos.sweep([0.0])
     with pytest.raises(ValueError, match="bounds"):
-        T.search(1.0, bounds=(1.0, 0.1))
+        h2hinf_sos.search(1.0, bounds=(1.0, 0.1))

@@ -11,15 +11,16 @@ import pytest
 import scipy.linalg as sla
 
 from satfmu.fmus.plants import mrp_satellite
-from satfmu.synthesis.polynomial_feedback import h2hinf_sos as T
+from satfmu.synthesis.polynomial_feedback import h2hinf_sos
 from satfmu.synthesis.core.sos import SOSError
 
 MARGIN = 1e-7  # docs/models.md's "small margins"; 1e-4 would raise lambda by about 1 %
 ALPHA = 1e-4  # docs/models.md: the alpha search drives alpha -> 0; at 1e-4 lambda is within 2e-4 of the limit
 
 
-def _frozen(gamma: float, variant: str) -> T.Theorem8Result:
-    return T.theorem8(gamma, ALPHA, ALPHA, variant, frozen=True, y_degree=0, margin=MARGIN, x0=T.X0_200)
+def _frozen(gamma: float, variant: str) -> h2hinf_sos.Theorem8Result:
+    return h2hinf_sos.theorem8(gamma, ALPHA, ALPHA, variant, frozen=True, y_degree=0, margin=MARGIN,
+                               x0=h2hinf_sos.X0_200)
 
 
 def _linear_plant() -> tuple[np.ndarray, np.ndarray]:
@@ -31,8 +32,8 @@ def _linear_plant() -> tuple[np.ndarray, np.ndarray]:
 
 
 @pytest.fixture(scope="module")
-def designs() -> dict[tuple[float, str], T.Theorem8Result]:
-    return {(g, v): _frozen(g, v) for g in (1.0, 0.8, 0.6) for v in T.VARIANTS}
+def designs() -> dict[tuple[float, str], h2hinf_sos.Theorem8Result]:
+    return {(g, v): _frozen(g, v) for g in (1.0, 0.8, 0.6) for v in h2hinf_sos.VARIANTS}
 
 
 @pytest.mark.parametrize("gamma,expected", [(1.0, 16.396), (0.8, 16.630), (0.6, 18.695)])
@@ -44,7 +45,7 @@ def test_frozen_lambda_matches_the_independent_model(designs, gamma: float, expe
 
 
 def test_lambda_is_non_increasing_in_gamma_and_slack_no_worse_than_common(designs) -> None:
-    for v in T.VARIANTS:
+    for v in h2hinf_sos.VARIANTS:
         lams = [designs[(g, v)].lam for g in (0.6, 0.8, 1.0)]
         assert all(b <= a * (1 + 1e-6) for a, b in zip(lams, lams[1:]))  # solver accuracy 1e-6 relative
     for g in (1.0, 0.8, 0.6):
@@ -55,7 +56,7 @@ def test_lambda_is_non_increasing_in_gamma_and_slack_no_worse_than_common(design
 def test_lambda_is_above_the_lqr_optimum(designs) -> None:
     A, B = _linear_plant()
     P = sla.solve_continuous_are(A, B, np.eye(6), np.eye(3))
-    j_lqr = float(T.X0_200 @ P @ T.X0_200)
+    j_lqr = float(h2hinf_sos.X0_200 @ P @ h2hinf_sos.X0_200)
     assert j_lqr == pytest.approx(16.3954, abs=1e-4)
     # lambda bounds the H2 cost of its own gain, which cannot beat LQR; at gamma = 1 the
     # H-infinity constraint is inactive so the bound is tight to the margin's effect
@@ -71,7 +72,7 @@ def test_gain_meets_its_certificate_on_the_linear_plant(designs, gamma: float) -
     assert np.linalg.eigvals(Acl).real.max() < 0
     # H2 cost from x0 of u = K x: x0^T P x0 with Acl^T P + P Acl + I + K^T K = 0
     P = sla.solve_continuous_lyapunov(Acl.T, -(np.eye(6) + K.T @ K))
-    assert float(T.X0_200 @ P @ T.X0_200) <= r.lam * (1 + 1e-6)
+    assert float(h2hinf_sos.X0_200 @ P @ h2hinf_sos.X0_200) <= r.lam * (1 + 1e-6)
     # L2 gain w -> sigma on a dense frequency grid (a lower bound of the H-inf norm) below gamma
     C = np.hstack([np.zeros((3, 3)), np.eye(3)])
     peak = max(np.linalg.svd(C @ np.linalg.solve(1j * w * np.eye(6) - Acl, B), compute_uv=False)[0]
@@ -98,4 +99,4 @@ def test_bad_input_is_refused(kwargs: dict, message: str) -> None:
     args = {"gamma": 1.0, "alpha": 1e-3, "beta": 1e-3, "variant": "slack", "frozen": True, "y_degree": 0}
     args.update(kwargs)
     with pytest.raises(ValueError, match=message):
-        T.theorem8(**args)
+        h2hinf_sos.theorem8(**args)

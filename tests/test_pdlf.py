@@ -8,7 +8,7 @@ import pytest
 
 from satfmu.synthesis.robust import pdlf
 from satfmu.synthesis.robust.lft_plant import PlantDataError, ProgramTooLargeError, TooManyVerticesError
-from satfmu.synthesis.robust.pdlf import PDLFResult, pdlf_hinf, pdlf_size, verify_pdlf
+from satfmu.synthesis.robust.pdlf import PDLFResult, pdlf_hinf, pdlf_size, certify_pdlf
 from satfmu.synthesis.robust.robust_design import design
 from satfmu.synthesis.core.system_norms import hinf_norm
 from tests.robust_plants import ALPHA, BETA, descriptor_plant, lft_plant, samples
@@ -43,8 +43,8 @@ def test_pdlf_bounds_the_sampled_norms_and_beats_a_common_lyapunov_function(gain
 
 def test_verify_pdlf_rejects_a_level_below_the_certificate(gain, results) -> None:
     p = results[True]
-    assert verify_pdlf(descriptor_plant(), gain, p.P0, p.Pk, p.F, p.gamma).ok
-    assert not verify_pdlf(descriptor_plant(), gain, p.P0, p.Pk, p.F, 0.9 * p.gamma).ok
+    assert certify_pdlf(descriptor_plant(), gain, p.P0, p.Pk, p.F, p.gamma).ok
+    assert not certify_pdlf(descriptor_plant(), gain, p.P0, p.Pk, p.F, 0.9 * p.gamma).ok
 
 
 def test_descriptor_state_scaling_is_a_similarity() -> None:
@@ -72,7 +72,7 @@ def test_a_badly_scaled_descriptor_is_analysed_in_its_own_coordinates(gain, resu
     r = pdlf_hinf(bad, gain * T)
     assert r.status == "optimal" and r.state_scaling is not None and "rescaled" in r.solver_status
     s = r.state_scaling
-    assert verify_pdlf(bad.scale_states(s), gain * T * s, r.P0, r.Pk, r.F, r.gamma).ok  # in its coordinates
+    assert certify_pdlf(bad.scale_states(s), gain * T * s, r.P0, r.Pk, r.F, r.gamma).ok  # in its coordinates
     # the norm does not depend on the coordinates: the same bound up to the back-off and the
     # solver's accuracy (measured 7e-6 relative)
     assert r.gamma == pytest.approx(results[False].gamma, rel=1e-3)

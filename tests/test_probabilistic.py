@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 from scipy.stats import binom
 
-from satfmu.synthesis.robust import demeter_design as dd
-from satfmu.synthesis.robust import demeter_random as dr
-from satfmu.synthesis.robust import probabilistic as pr
-from satfmu.synthesis.robust import sequential as sq
+from satfmu.synthesis.robust import demeter_design
+from satfmu.synthesis.robust import demeter_random
+from satfmu.synthesis.robust import probabilistic
+from satfmu.synthesis.robust import sequential
 from satfmu.synthesis.robust.demeter_variants import Variant, design_model
 from satfmu.synthesis.robust.lft_plant import OptionError
 
@@ -21,48 +21,48 @@ ROW1 = Variant((1,), (1,), 1, 1)
 def test_sample_size_bounds() -> None:
     # docs/models.md's figures: 132 worst case and 726 Chernoff at the seed's (0.1, 1e-6); 962
     # scenarios for row 1's 46 decision variables at (0.1, 1e-9)
-    assert pr.worst_case_samples(0.1, 1e-6) == 132
-    assert pr.chernoff_samples(0.1, 1e-6) == 726
-    assert pr.scenario_samples(46, 0.1, 1e-9) == 962
-    assert dr.n_decision(design_model(ROW1)) == 46
+    assert probabilistic.worst_case_samples(0.1, 1e-6) == 132
+    assert probabilistic.chernoff_samples(0.1, 1e-6) == 726
+    assert probabilistic.scenario_samples(46, 0.1, 1e-9) == 962
+    assert demeter_random.n_decision(design_model(ROW1)) == 46
     for d, eps, delta in ((1, 0.1, 1e-3), (10, 0.05, 1e-6), (46, 0.1, 1e-9)):
-        n = pr.scenario_samples(d, eps, delta)  # the smallest N meeting the binomial tail
+        n = probabilistic.scenario_samples(d, eps, delta)  # the smallest N meeting the binomial tail
         assert binom.cdf(d - 1, n, eps) <= delta < binom.cdf(d - 1, n - 1, eps)
-    assert pr.chernoff_accuracy(726, 1e-6) <= 0.1 < pr.chernoff_accuracy(725, 1e-6)
+    assert probabilistic.chernoff_accuracy(726, 1e-6) <= 0.1 < probabilistic.chernoff_accuracy(725, 1e-6)
     assert math.ceil(math.log(1e6) / math.log(1 / 0.9)) == 132  # the closed form itself
     for bad in (0.0, 1.0, float("nan")):
         with pytest.raises(OptionError):
-            pr.worst_case_samples(bad, 1e-6)
+            probabilistic.worst_case_samples(bad, 1e-6)
         with pytest.raises(OptionError):
-            pr.chernoff_samples(0.1, bad)
+            probabilistic.chernoff_samples(0.1, bad)
     with pytest.raises(OptionError):
-        pr.scenario_samples(0, 0.1, 1e-6)
+        probabilistic.scenario_samples(0, 0.1, 1e-6)
     # the R-RoMulOC toolbox's count (scensamplenb): 1055 for row 1 (15.8 x (20.72 + 46) = 1054.2),
     # sufficient, so never below the exact one
-    assert pr.scenario_samples(46, 0.1, 1e-9, bound="romuloc") == 1055
+    assert probabilistic.scenario_samples(46, 0.1, 1e-9, bound="romuloc") == 1055
     for d, eps, delta in ((1, 0.1, 1e-3), (10, 0.05, 1e-6), (46, 0.1, 1e-9), (300, 0.1, 1e-9)):
-        assert pr.scenario_samples(d, eps, delta, "romuloc") >= pr.scenario_samples(d, eps, delta)
+        assert probabilistic.scenario_samples(d, eps, delta, "romuloc") >= probabilistic.scenario_samples(d, eps, delta)
     with pytest.raises(OptionError, match="bound must be one of"):
-        pr.scenario_samples(46, 0.1, 1e-9, bound="calafiore")
+        probabilistic.scenario_samples(46, 0.1, 1e-9, bound="calafiore")
 
 
 def test_worst_case_and_level_statements() -> None:
     v = np.array([0.5, 2.0, np.nan, 1.0])
-    wc = pr.worst_case(v, 0.1, 1e-6)
+    wc = probabilistic.worst_case(v, 0.1, 1e-6)
     assert wc.estimate == np.inf and not wc.sufficient  # a failed sample is the worst case
     assert "NOT guaranteed: needs N >= 132" in wc.text()
-    lp = pr.level_probability(v, 1.0, 1e-6)
+    lp = probabilistic.level_probability(v, 1.0, 1e-6)
     assert lp.probability == 0.5 and lp.n == 4  # NaN does not meet the level
     assert lp.accuracy == pytest.approx(math.sqrt(math.log(2e6) / 8), rel=1e-15)
-    wc = pr.worst_case(np.arange(200.0))
+    wc = probabilistic.worst_case(np.arange(200.0))
     assert wc.sufficient and wc.estimate == 199.0 and "<= 0.1 with confidence 0.999999" in wc.text()
     with pytest.raises(OptionError):
-        pr.worst_case([])
+        probabilistic.worst_case([])
 
 
 @pytest.fixture(scope="module")
-def scen() -> dr.ScenarioResult:
-    return dr.scenario(ROW1, n=60, seed=0)
+def scen() -> demeter_random.ScenarioResult:
+    return demeter_random.scenario(ROW1, n=60, seed=0)
 
 
 @pytest.mark.slow
@@ -77,7 +77,7 @@ def test_scenario_design_row1(scen) -> None:
     dm = design_model(ROW1)
     A, Bu, _ = dm.state_space(dm.sample(60, np.random.default_rng(0)))
     ev = np.linalg.eigvals(A + Bu @ scen.K).real
-    assert ev.max() < -dd.ALPHA and ev.min() > -dd.BETA
+    assert ev.max() < -demeter_design.ALPHA and ev.min() > -demeter_design.BETA
     a = scen.analysis
     assert a.n == 132 and a.hinf.sufficient
     # the analysis samples are others: the bounds need not hold there, but the loop is stable
@@ -92,8 +92,8 @@ def test_random_direction_i2p_is_below_the_worst_direction() -> None:
     # the random direction's peak is at most the worst direction's (up to rounding, 1e-12
     # relative), and below it somewhere; the H-infinity and pole values are the same.
     dm = design_model(ROW1)
-    K = dd.deterministic(ROW1, n_samples=0, analysis=False).K
-    worst, rand = (dr.analyse(ROW1, K, n=40, seed=3, i2p_direction=d) for d in ("worst", "random"))
+    K = demeter_design.deterministic(ROW1, n_samples=0, analysis=False).K
+    worst, rand = (demeter_random.analyse(ROW1, K, n=40, seed=3, i2p_direction=d) for d in ("worst", "random"))
     assert (worst.i2p_direction, rand.i2p_direction) == ("worst", "random")
     assert rand.hinf.estimate == worst.hinf.estimate and rand.max_real_pole == worst.max_real_pole
     assert rand.i2p.estimate <= worst.i2p.estimate * (1 + 1e-12)
@@ -101,16 +101,16 @@ def test_random_direction_i2p_is_below_the_worst_direction() -> None:
     deltas = dm.sample(40, rng)
     u = rng.normal(size=(40, dm.B2.shape[1]))
     u /= np.linalg.norm(u, axis=1, keepdims=True)
-    per_worst = dd.closed_loop_values(dm, K, deltas)["i2p"]
-    per_rand = dd.closed_loop_values(dm, K, deltas, u)["i2p"]
+    per_worst = demeter_design.closed_loop_values(dm, K, deltas)["i2p"]
+    per_rand = demeter_design.closed_loop_values(dm, K, deltas, u)["i2p"]
     assert np.all(per_rand <= per_worst * (1 + 1e-12)) and np.any(per_rand < 0.99 * per_worst)
     with pytest.raises(OptionError, match="i2p_direction must be one of"):
-        dr.analyse(ROW1, K, n=5, i2p_direction="mean")
+        demeter_random.analyse(ROW1, K, n=5, i2p_direction="mean")
 
 
 @pytest.mark.slow
 def test_closed_loop_task_is_pure_and_picklable(scen) -> None:
-    task = dr.ClosedLoopSamples(ROW1, scen.K)
+    task = demeter_random.ClosedLoopSamples(ROW1, scen.K)
     deltas = design_model(ROW1).sample(20, np.random.default_rng(4))
     first = task(deltas)
     clone = pickle.loads(pickle.dumps(task))
@@ -167,20 +167,20 @@ def test_campaign_of_a_design_unstable_for_some_samples(tmp_path, capsys) -> Non
 
 def test_sequential_method_lowers_the_deterministic_levels() -> None:
     # ln(pi^2 / (6e-6)) / ln(1 / 0.9) = 135.85: round 1 draws 136 plants; more rounds, more
-    assert sq.validation_samples(1, 0.1, 1e-6) == 136 and sq.validation_samples(2, 0.1, 1e-6) == 150
+    assert sequential.validation_samples(1, 0.1, 1e-6) == 136 and sequential.validation_samples(2, 0.1, 1e-6) == 150
     with pytest.raises(OptionError):
-        sq.validation_samples(0, 0.1, 1e-6)
-    same = dr.sequential_design(ROW1, scale=1.0, max_updates=5)
+        sequential.validation_samples(0, 0.1, 1e-6)
+    same = demeter_random.sequential_design(ROW1, scale=1.0, max_updates=5)
     # the deterministic certificate holds on the whole box: every sampled LMI is negative definite;
     # updates (measured 0 or 4, by the coordinates of design_scale) only push the largest
     # eigenvalue past the method's strictness margin (1e-7)
     assert same.validated and same.result.samples >= 136
     assert all(-1e-7 < v < 0 for v in same.result.violations)
-    lower = dr.sequential_design(ROW1, scale=0.994, max_updates=60)
+    lower = demeter_random.sequential_design(ROW1, scale=0.994, max_updates=60)
     # measured: 4 updates, 773 samples, well under a second (255.0, 2.55 against 256.6, 2.566)
     assert lower.validated and 0 < lower.result.updates <= 60
     assert lower.result.gamma < same.result.gamma and lower.result.nu < same.result.nu
     assert "P(specs violated at gamma" in lower.result.text()
     # an independent look at 300 fresh plants: stable, inside the region, below the levels
-    a = dr.analyse(ROW1, lower.K, n=300, seed=21)
+    a = demeter_random.analyse(ROW1, lower.K, n=300, seed=21)
     assert a.in_region and a.hinf.estimate <= lower.result.gamma and a.i2p.estimate <= lower.result.nu

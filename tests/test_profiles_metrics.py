@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from satfmu.fmus.profiles import ProfileError, make
-from satfmu.sims.scenario import metrics as M
+from satfmu.sims.scenario import metrics
 
 T = np.arange(0.0, 10.0001, 0.5)
 
@@ -143,26 +143,26 @@ def test_l2_ratio_against_closed_form() -> None:
     # trapezoid on z: equal for a constant signal).
     t = np.linspace(0, 10, 101)
     w = np.ones((101, 2))
-    r = M.l2_ratio_curve(t, 0.5 * w, w)
+    r = metrics.l2_ratio_curve(t, 0.5 * w, w)
     assert math.isnan(r[0]) and np.allclose(r[1:], 0.5, rtol=1e-14)
     # z = t (ramp), w = 1: ||z||_T^2 = T^3/3 (trapezoid is exact up to O(dt^2) -> 1e-3 rel)
-    r = M.l2_ratio_curve(t, t[:, None], np.ones((101, 1)))
+    r = metrics.l2_ratio_curve(t, t[:, None], np.ones((101, 1)))
     assert r[-1] == pytest.approx(math.sqrt(1000 / 3) / math.sqrt(10), rel=1e-3)
 
 
 def test_settling_peak_rms_saturation() -> None:
     t = np.linspace(0, 10, 1001)
     y = np.exp(-t)[:, None]
-    assert M.settling_time(t, y, 0.01) == pytest.approx(math.log(100), abs=0.01)  # grid 0.01 s
-    assert M.settling_time(t, np.ones((1001, 1)), 0.5) == math.inf
-    assert M.peak(np.array([[1.0, -3.0], [2.0, 0.5]])) == 3.0
-    assert M.rms(t, np.full((1001, 1), 2.0)) == pytest.approx(2.0, rel=1e-14)
+    assert metrics.settling_time(t, y, 0.01) == pytest.approx(math.log(100), abs=0.01)  # grid 0.01 s
+    assert metrics.settling_time(t, np.ones((1001, 1)), 0.5) == math.inf
+    assert metrics.peak(np.array([[1.0, -3.0], [2.0, 0.5]])) == 3.0
+    assert metrics.rms(t, np.full((1001, 1), 2.0)) == pytest.approx(2.0, rel=1e-14)
     u = np.where(t < 2.0, 5.0, 1.0)[:, None]
-    assert M.time_in_saturation(t, u, 5.0) == pytest.approx(2.0, abs=1e-9)  # held samples, dt = 0.01
+    assert metrics.time_in_saturation(t, u, 5.0) == pytest.approx(2.0, abs=1e-9)  # held samples, dt = 0.01
 
 
 def test_metric_result_bounds() -> None:
-    assert M.MetricResult("a", "peak", 1.0, None, 2.0).passed
-    assert not M.MetricResult("a", "peak", 3.0, None, 2.0).passed
-    assert not M.MetricResult("a", "peak", 1.0, 1.5, None).passed
-    assert not M.MetricResult("a", "l2_ratio", math.nan, None, 2.0).passed  # NaN never passes
+    assert metrics.MetricResult("a", "peak", 1.0, None, 2.0).passed
+    assert not metrics.MetricResult("a", "peak", 3.0, None, 2.0).passed
+    assert not metrics.MetricResult("a", "peak", 1.0, 1.5, None).passed
+    assert not metrics.MetricResult("a", "l2_ratio", math.nan, None, 2.0).passed  # NaN never passes

@@ -14,7 +14,7 @@ import pandas as pd
 import pytest
 from distributed import Client
 
-from satfmu.sims.campaign import engine as C
+from satfmu.sims.campaign import engine
 from satfmu.fmus.errors import DesignMismatchWarning, ScenarioError
 from satfmu.sims.scenario.spec import Scenario
 from satfmu.sims.campaign.replay import replay
@@ -26,10 +26,10 @@ U_MAX = {"plant.u_max": {"kind": "uniform", "low": -5.0, "high": 5.0}}  # N m; d
 
 
 def ran(tmp_path: Path, client: Client, fmu_dir: Path, data: dict, n: int, chunk: int = 2
-        ) -> tuple[C.Campaign, pd.DataFrame, Path]:
+        ) -> tuple[engine.Campaign, pd.DataFrame, Path]:
     """A finished campaign of ``data`` (seed SEED) in ``tmp_path/campaigns``: campaign, rows, folder."""
     camp = campaign(Scenario.from_dict(data), n, seed=SEED, chunk=chunk, fmu_dir=fmu_dir)
-    rows = C.run(camp, tmp_path / "campaigns", client=client)
+    rows = engine.run(camp, tmp_path / "campaigns", client=client)
     return camp, rows, tmp_path / "campaigns" / camp.name
 
 
@@ -45,7 +45,7 @@ def test_a_replayed_sample_is_the_campaign_row_bit_for_bit(tmp_path: Path, clien
     out = tmp_path / "replays"
     for k in (0, 3, 4):  # chunks 0, 1 and the last, short one
         with warnings.catch_warnings():
-            warnings.simplefilter("error", C.CampaignWarning)  # no difference from the row
+            warnings.simplefilter("error", engine.CampaignWarning)  # no difference from the row
             warnings.simplefilter("ignore", DesignMismatchWarning)  # the inertia is dispersed
             res = replay(folder, k, out_dir=out)
         row = rows.iloc[k]
@@ -82,7 +82,7 @@ def test_a_replay_that_differs_from_the_row_is_reported(tmp_path: Path, client: 
     monkeypatch.setattr("satfmu.sims.campaign.replay.campaign_row", lambda f, k: stored)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DesignMismatchWarning)
-        with pytest.warns(C.CampaignWarning, match=r"sample 1 replayed differently .* in peak \|u\|"):
+        with pytest.warns(engine.CampaignWarning, match=r"sample 1 replayed differently .* in peak \|u\|"):
             replay(folder, 1)
 
 
@@ -159,9 +159,9 @@ def test_bad_input_exits_2_with_one_line_and_writes_nothing(tmp_path: Path, clie
 
 def test_a_demeter_campaign_folder_is_refused(tmp_path: Path, client: Client, capsys: pytest.CaptureFixture) -> None:
     """A campaign folder of `campaign demeter` (no scenario in its campaign.json) is not replayed."""
-    from satfmu.sims.workflows import demeter_reports
+    from satfmu.sims.workflows import demeter_studies
 
-    report = demeter_reports.campaign(tmp_path / "campaigns", samples=20, chunk=10,
+    report = demeter_studies.campaign(tmp_path / "campaigns", samples=20, chunk=10,
                                       scheduler=client.scheduler.address, name="demeter")
     assert report is not None and (tmp_path / "campaigns" / "demeter" / "campaign.json").is_file()
     bad([tmp_path / "campaigns" / "demeter", "--sample", 0], r"not the folder of a scenario campaign",

@@ -24,7 +24,7 @@ import pytest
 from distributed import Client
 from scipy import stats
 
-from satfmu.sims.campaign import engine as C
+from satfmu.sims.campaign import engine
 from satfmu.sims.scenario.run import run as run_scenario
 from satfmu.sims.scenario.spec import Scenario
 from satfmu.sims.campaign.scenario_task import campaign
@@ -63,7 +63,7 @@ def campaigns(tmp_path_factory: pytest.TempPathFactory, client: Client, fmu_dir:
     for ctrl in CONTROLLERS:
         camp = campaign(Scenario.from_dict(scenario_data(ctrl)), N, seed=SEED, chunk=4, fmu_dir=fmu_dir,
                         name=ctrl)
-        C.run(camp, out, client=client)
+        engine.run(camp, out, client=client)
         folders[ctrl] = out / ctrl
     return folders
 
@@ -125,7 +125,7 @@ def test_campaign_statistics_in_the_page_are_those_of_the_rows(page: Path, campa
     doc = tree(page)
     mixed = False
     for ctrl, folder in campaigns.items():
-        rows = C.load(folder)
+        rows = engine.load(folder)
         sec = section(doc, ctrl)
         for metric in scenario_data(ctrl)["metrics"]:
             row = sec.xpath(f'.//table[@class="statistics"]/tr[@data-metric="{metric["name"]}"]')[0]
@@ -158,7 +158,7 @@ def test_campaign_statistics_in_the_page_are_those_of_the_rows(page: Path, campa
 def test_worst_samples_show_their_rows(page: Path, campaigns: dict[str, Path]) -> None:
     doc = tree(page)
     for ctrl, folder in campaigns.items():
-        rows = C.load(folder).set_index("sample")
+        rows = engine.load(folder).set_index("sample")
         shown = section(doc, ctrl).xpath('.//table[@class="worst"]/tr[@data-sample]')
         assert len(shown) == 5  # --worst default
         for tr in shown:
@@ -177,7 +177,7 @@ def test_campaigns_side_by_side(page: Path, campaigns: dict[str, Path]) -> None:
     doc = tree(page)
     table = doc.xpath('//section[@id="comparison"]//table[@class="comparison"]')[0]
     for ctrl, folder in campaigns.items():
-        rows = C.load(folder)
+        rows = engine.load(folder)
         for metric in scenario_data(ctrl)["metrics"]:
             tr = table.xpath(f'./tr[@data-metric="{metric["name"]}"]')[0]
             rate = tr.xpath(f'./td[@data-campaign="{ctrl}"][@data-column="rate"]')[0]
@@ -190,7 +190,7 @@ def test_campaigns_side_by_side(page: Path, campaigns: dict[str, Path]) -> None:
     worst = doc.xpath('//section[@id="comparison"]//table[@class="comparison-worst"]')[0]
     assert [th.text_content() for th in worst.xpath("./tr[1]/th")][1:] == list(CONTROLLERS)
     # the same dispersions and seed: every campaign's sample k flew the same plant
-    loaded = [C.load(f) for f in campaigns.values()]
+    loaded = [engine.load(f) for f in campaigns.values()]
     for col in ("plant.I_x", "plant.omega_0[1]"):
         assert all(np.array_equal(loaded[0][col], other[col]) for other in loaded[1:])
 
@@ -370,7 +370,7 @@ def test_the_page_renders_in_chromium(page: Path, campaigns: dict[str, Path], fm
     value of the rows and an FMU digest; the browser console has no error."""
     from selenium.webdriver.common.by import By
 
-    rows = C.load(campaigns["mrp_hinf_satfmu"])
+    rows = engine.load(campaigns["mrp_hinf_satfmu"])
     peak = rows["peak |u|"].to_numpy(dtype=float)
     metric = next(m for m in scenario_data("mrp_hinf_satfmu")["metrics"] if m["name"] == "peak |u|")
     rate = percent(within(peak, metric).sum() / N)

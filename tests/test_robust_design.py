@@ -11,7 +11,7 @@ import pytest
 from satfmu.synthesis.core import lmi
 from satfmu.synthesis.robust import certificate, constraint_generation, rescaling, robust_design, solve_strategy
 from satfmu.synthesis.robust.lft_plant import LFTPlant, OptionError, PlantDataError, TooManyVerticesError
-from satfmu.synthesis.robust.robust_design import BACKOFFS, EPS, Multiplier, RobustDesign, design, i2p_bound, verify
+from satfmu.synthesis.robust.robust_design import BACKOFFS, EPS, Multiplier, RobustDesign, design, i2p_bound, certify
 from satfmu.synthesis.core.system_norms import hinf_norm, impulse_to_peak
 from tests.robust_plants import ALPHA, BETA, lft_plant, sampled_loops, samples, scalar_plant
 
@@ -249,16 +249,16 @@ def test_toolbox_convention_is_the_toolbox_lmis() -> None:
 
 def test_a_certificate_is_checked_in_its_own_convention() -> None:
     # Both conventions at once (H-infinity and impulse-to-peak with one Y) give different
-    # certificates; each verifies in its own convention, and verify() rejects a convention it
+    # certificates; each verifies in its own convention, and certify() rejects a convention it
     # does not know.
     plant = _certain_plant()
     for c in ("satfmu", "romuloc"):
         d = design(plant, alpha=0.1, beta=10.0, convention=c)
         assert d.status == "optimal"
         options = {"alpha": 0.1, "beta": 10.0}
-        assert verify(plant, d.K, d.Y, d.gamma, d.nu, {}, convention=c, **options).ok
+        assert certify(plant, d.K, d.Y, d.gamma, d.nu, {}, convention=c, **options).ok
     with pytest.raises(OptionError, match="convention must be one of"):
-        verify(plant, d.K, d.Y, d.gamma, d.nu, {}, alpha=0.1, beta=10.0, convention="matlab")
+        certify(plant, d.K, d.Y, d.gamma, d.nu, {}, alpha=0.1, beta=10.0, convention="matlab")
     with pytest.raises(OptionError, match="convention must be one of"):
         design(plant, convention="ROMULOC")
 
@@ -297,13 +297,13 @@ def test_fixed_gain_analysis_and_impulse_bound(plant, designs) -> None:
 def test_verify_rejects_wrong_certificates(plant, designs) -> None:
     d = designs["norm"]
     kw = {"alpha": ALPHA, "beta": BETA}
-    assert verify(plant, d.K, d.Y, d.gamma, d.nu, d.multipliers, **kw).ok
-    assert not verify(plant, 3 * d.K, d.Y, d.gamma, d.nu, d.multipliers, **kw).ok  # another gain
-    assert not verify(plant, d.K, d.Y, 0.5 * d.gamma, d.nu, d.multipliers, **kw).ok  # level too low
-    assert not verify(plant, d.K, d.Y, d.gamma, 0.5 * d.nu, d.multipliers, **kw).ok
+    assert certify(plant, d.K, d.Y, d.gamma, d.nu, d.multipliers, **kw).ok
+    assert not certify(plant, 3 * d.K, d.Y, d.gamma, d.nu, d.multipliers, **kw).ok  # another gain
+    assert not certify(plant, d.K, d.Y, 0.5 * d.gamma, d.nu, d.multipliers, **kw).ok  # level too low
+    assert not certify(plant, d.K, d.Y, d.gamma, 0.5 * d.nu, d.multipliers, **kw).ok
     mu = d.multipliers["hinf"]
     bent = dict(d.multipliers, hinf=Multiplier("norm", mu.Q, mu.S + 1e-3 * np.eye(3), mu.R))
-    check = verify(plant, d.K, d.Y, d.gamma, d.nu, bent, **kw)
+    check = certify(plant, d.K, d.Y, d.gamma, d.nu, bent, **kw)
     assert not check.ok and check.structure_error == pytest.approx(2e-3)  # S + S^T on the diagonal
 
 
@@ -312,7 +312,7 @@ def test_no_program_is_minimized_twice(plant, monkeypatch) -> None:
     once (the solver is deterministic: the same program again gives the same answer), and the
     status names every solve made."""
     programs: list[bytes] = []
-    minimize, verify_plants = solve_strategy._minimize, certificate._verify_plants
+    minimize, verify_plants = solve_strategy._minimize, certificate._certify_plants
 
     def counted(plants, K, **options):
         programs.append(np.concatenate([plants[0].A.ravel(), plants[0].Bu.ravel()]).tobytes())
@@ -322,7 +322,7 @@ def test_no_program_is_minimized_twice(plant, monkeypatch) -> None:
         return dataclasses.replace(verify_plants(*args, **kwargs), margin=-1.0)
 
     patch(monkeypatch, "_minimize", counted)
-    patch(monkeypatch, "_verify_plants", rejected)
+    patch(monkeypatch, "_certify_plants", rejected)
     d = design(plant, alpha=ALPHA, beta=BETA)
     assert d.status == "unverified" and d.K is None
     assert len(programs) == rescaling.RESCALE_DEPTH + 1 == len(set(programs))  # one per coordinates
@@ -336,7 +336,7 @@ def test_a_well_scaled_minimizer_tries_the_larger_back_offs_before_rescaling(pla
     at 1e-3 is the answer: no second program (DEMETER row 12: 71 s instead of 226 s); with
     every Y taken as ill-scaled, the rescaled program comes first."""
     found: list = []
-    minimize, verify_plants = solve_strategy._minimize, certificate._verify_plants
+    minimize, verify_plants = solve_strategy._minimize, certificate._certify_plants
 
     def counted(plants, K, **options):
         found.append(minimize(plants, K, **options))
@@ -347,7 +347,7 @@ def test_a_well_scaled_minimizer_tries_the_larger_back_offs_before_rescaling(pla
         return check if nu > found[-1].nu * (1 + 5e-4) else dataclasses.replace(check, margin=-1.0)
 
     patch(monkeypatch, "_minimize", counted)
-    patch(monkeypatch, "_verify_plants", tight)
+    patch(monkeypatch, "_certify_plants", tight)
     d = design(plant, alpha=ALPHA, beta=BETA)
     diag = np.diag(found[0].Y)
     assert diag.max() / diag.min() < rescaling.RESCALE_SPREAD  # the case under test
@@ -443,7 +443,7 @@ def test_a_subset_is_judged_on_its_own_lmis(plant, designs) -> None:
     """A program of some LMIs of a plant is judged on those (and Y, the i2p blocks): a gain with a
     failing alpha LMI passes a check of its H-infinity LMI alone, not one that holds alpha."""
     d = designs["norm"]
-    bad = verify(plant, d.K, d.Y, d.gamma, d.nu, d.multipliers, alpha=ALPHA + 50.0, beta=BETA)
+    bad = certify(plant, d.K, d.Y, d.gamma, d.nu, d.multipliers, alpha=ALPHA + 50.0, beta=BETA)
     assert not bad.ok and bad.max_eig["alpha"].max() > 0 and bad.max_eig["hinf"].max() < 0
     assert certificate._judged_on(bad, frozenset({"hinf", "beta"})).ok
     assert not certificate._judged_on(bad, frozenset({"hinf", "alpha"})).ok
@@ -457,7 +457,7 @@ def test_scenario_minimizer_is_checked_at_every_back_off(plant, monkeypatch) -> 
     rng = np.random.default_rng(5)
     plants = [plant.at(d) for d in rng.uniform(-1, 1, (120, plant.n_params))]
     found: list = []
-    minimize, real_verify = solve_strategy._minimize, certificate.verify
+    minimize, real_verify = solve_strategy._minimize, certificate.certify
 
     def counted(subset, K, **options):
         found.append(minimize(subset, K, **options))
@@ -469,7 +469,7 @@ def test_scenario_minimizer_is_checked_at_every_back_off(plant, monkeypatch) -> 
 
     patch(monkeypatch, "SCENARIO_FIRST", len(plants))  # every plant in the first subset
     patch(monkeypatch, "_minimize", counted)
-    patch(monkeypatch, "verify", tight)
+    patch(monkeypatch, "certify", tight)
     d = design(plants, alpha=ALPHA, beta=BETA)
     assert d.status == "optimal" and len(found) == 1 and d.backoff == 1e-3 and d.check.ok
     assert d.solver_status.endswith("the minimizer verified at back-off 0.001")

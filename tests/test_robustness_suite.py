@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 
 from satfmu.sims import robustness
-from satfmu.sims.robustness import CASES, CYCLES_CASE, NATIVE, PYTHONFMU, Report, rss_bound_kib
+from satfmu.sims.robustness import CASES, CYCLES_CASE, NATIVE, PYTHONFMU, SuiteResult, rss_bound_kib
 
 FAST_CYCLES = 100
 """Instantiate/free cycles of the fast run (1000 take ~2 min more, mostly demeter_flexible_py at
@@ -22,7 +22,7 @@ FAST_CYCLES = 100
 PLANT = "mrp_satellite.fmu"
 
 
-def _check_clean(report: Report, fmus: list[str], cycles: int) -> None:
+def _check_clean(report: SuiteResult, fmus: list[str], cycles: int) -> None:
     """Every FMU of ``satfmu.fmus`` ran every case, with no failure, no crash and RSS within bound."""
     bad = [f"{r.fmu} / {r.case}: {r.verdict} {r.detail}" for r in report.failures + report.crashes]
     assert not bad, "\n".join(bad)

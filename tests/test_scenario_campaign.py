@@ -12,7 +12,7 @@ import pytest
 from distributed import Client
 from scipy import stats
 
-from satfmu.sims.campaign import engine as C
+from satfmu.sims.campaign import engine
 from satfmu.fmus.errors import DesignMismatchWarning, ScenarioError
 from satfmu.sims.scenario.run import run
 from satfmu.sims.scenario.spec import Scenario
@@ -58,10 +58,10 @@ def toml(path: Path, data: dict) -> Path:
 
 
 def rows(tmp_path: Path, client: Client, fmu_dir: Path, data: dict, n: int, chunk: int
-         ) -> tuple[C.Campaign, pd.DataFrame]:
+         ) -> tuple[engine.Campaign, pd.DataFrame]:
     """The campaign of ``data`` (seed SEED) and its rows, run in ``tmp_path/chunk<chunk>``."""
     camp = campaign(Scenario.from_dict(data), n, seed=SEED, chunk=chunk, fmu_dir=fmu_dir)
-    return camp, C.run(camp, tmp_path / f"chunk{chunk}", client=client)
+    return camp, engine.run(camp, tmp_path / f"chunk{chunk}", client=client)
 
 
 def test_rows_are_the_scenario_runs_of_the_samples_whatever_the_chunks(tmp_path: Path, client: Client,
@@ -234,17 +234,17 @@ def test_the_folder_records_its_scenario_and_fmus_and_refuses_other_binaries(tmp
     for name in ("mrp_satellite.fmu", "mrp_hinf_published.fmu"):
         shutil.copy(fmu_dir / name, own / name)
     camp = campaign(Scenario.from_dict(mrp()), 2, seed=SEED, chunk=2, fmu_dir=own)
-    C.run(camp, tmp_path / "out", client=client)
+    engine.run(camp, tmp_path / "out", client=client)
     again = reopen(tmp_path / "out" / camp.name)
     a, b = again.identity(), camp.identity()
     assert {k: (a[k], b[k]) for k in a if a[k] != b[k]} == {}
     assert again.task == camp.task
     with open(own / "mrp_hinf_published.fmu", "ab") as fh:  # trailing bytes: zip readers ignore them
         fh.write(b"\0")
-    with pytest.raises(C.CampaignError, match=r"context differs in fmus\.controller"):
-        C.run(campaign(Scenario.from_dict(mrp()), 2, seed=SEED, chunk=2, fmu_dir=own), tmp_path / "out",
+    with pytest.raises(engine.CampaignError, match=r"context differs in fmus\.controller"):
+        engine.run(campaign(Scenario.from_dict(mrp()), 2, seed=SEED, chunk=2, fmu_dir=own), tmp_path / "out",
               client=client)
-    with pytest.raises(C.CampaignError, match="controller in .* are not the ones the campaign ran"):
+    with pytest.raises(engine.CampaignError, match="controller in .* are not the ones the campaign ran"):
         reopen(tmp_path / "out" / camp.name)
 
 
@@ -252,14 +252,14 @@ def test_envelopes_are_the_percentiles_of_the_sampled_runs(tmp_path: Path, clien
     """Envelopes of plant.phi over 6 samples, 8 time points: the percentiles (numpy, independently)
     of the samples' own runs at those times; a refused sample (negative u_max) is left out; the
     table is in the folder; a signal not recorded and points < 2 are refused."""
-    from satfmu.sims.campaign import envelopes as E
+    from satfmu.sims.campaign import envelopes
 
     data = mrp(dispersions={**DISPERSIONS, "plant.u_max": {"kind": "uniform", "low": -5.0, "high": 5.0}})
     res = run_campaign(data, 6, tmp_path, seed=SEED, chunk=3, fmu_dir=fmu_dir, scheduler=client.scheduler.address,
                        envelopes=["plant.phi"], points=8)
     assert not any("@" in c for c in res.rows.columns)  # the traces are not rows
     sc = Scenario.from_dict(data)
-    steps = E.trace_steps(41, 8)
+    steps = envelopes.trace_steps(41, 8)
     assert steps.tolist() == [0, 6, 11, 17, 23, 29, 34, 40]
     ran = res.rows.loc[res.rows["failed"] == 0, "sample"].tolist()
     assert 0 < len(ran) < 6
@@ -269,14 +269,14 @@ def test_envelopes_are_the_percentiles_of_the_sampled_runs(tmp_path: Path, clien
     env = pd.read_parquet(res.folder / ENVELOPES)
     pd.testing.assert_frame_equal(env, res.envelopes)
     assert env["time"].tolist() == grid(sc)[steps].tolist()  # the master's communication times
-    for level in E.LEVELS:  # the same numbers through the same numpy call: exact
+    for level in envelopes.LEVELS:  # the same numbers through the same numpy call: exact
         assert env[f"plant.phi:p{level:g}"].tolist() == np.percentile(traces, level, axis=0).tolist()
     assert env["plant.phi:p0"].tolist() == traces.min(axis=0).tolist()
     with pytest.raises(ScenarioError, match=r"envelopes\[1\]: plant.w_d\[1\] is not recorded"):
         campaign(data, 2, fmu_dir=fmu_dir, envelopes=["plant.phi", "plant.w_d"])
-    with pytest.raises(C.CampaignError, match="envelope points must be an integer >= 2"):
+    with pytest.raises(engine.CampaignError, match="envelope points must be an integer >= 2"):
         campaign(data, 2, fmu_dir=fmu_dir, envelopes=["plant.phi"], points=1)
-    with pytest.raises(C.CampaignError, match="context differs in envelopes"):  # same folder, other envelopes
+    with pytest.raises(engine.CampaignError, match="context differs in envelopes"):  # same folder, other envelopes
         run_campaign(data, 6, tmp_path, seed=SEED, chunk=3, fmu_dir=fmu_dir, scheduler=client.scheduler.address,
                      envelopes=["plant.phi"], points=9, name=res.campaign.name)
 

@@ -6,7 +6,7 @@ import pytest
 import sympy as sp
 
 from satfmu.synthesis.core.polynomial import Poly, PolyMatrix, monomials, quadratic_form
-from satfmu.synthesis.core.sos import SOSError, SOSProgram, newton_basis, verify
+from satfmu.synthesis.core.sos import SOSError, SOSProgram, newton_basis, certify
 
 x, y = sp.symbols("x y", real=True)
 
@@ -40,7 +40,7 @@ def _prove(expr: sp.Expr) -> tuple[SOSProgram, list]:
     prog = SOSProgram(2)
     prog.add_sos(Poly.from_sympy(expr, [x, y]), "p")
     sol = prog.solve()
-    return prog, verify(prog, sol)
+    return prog, certify(prog, sol)
 
 
 def test_sos_polynomial_is_certified() -> None:
@@ -75,7 +75,7 @@ def test_a_failed_solve_is_retried_on_the_policys_next_rung(monkeypatch) -> None
     sol = prog.solve(max_iter=80)
     assert seen == [{"max_iter": 80}, {"max_iter": 80, **RELAXED_TOLERANCES}]
     assert sol.status == "NumericalError; retry clarabel relaxed: optimal"
-    assert verify(prog, sol)[0].certified
+    assert certify(prog, sol)[0].certified
 
 
 def test_failures_on_every_rung_say_what_each_returned(monkeypatch) -> None:
@@ -102,9 +102,9 @@ def test_global_lower_bound_by_sos() -> None:
     sol = prog.solve(objective=obj)
     # the bound is tight (univariate: non-negative = SOS); interior-point accuracy ~1e-8
     assert sol.y[g[0]] == pytest.approx(-0.25, abs=1e-6)
-    assert verify(prog, sol)[0].certified
+    assert certify(prog, sol)[0].certified
     sol.y[g[0]] += 0.1  # tampered decision value: claims a bound above the true minimum
-    check = verify(prog, sol)[0]
+    check = certify(prog, sol)[0]
     assert not check.certified and check.residual == pytest.approx(0.1, rel=1e-6)
 
 
@@ -120,7 +120,7 @@ def test_lyapunov_function_for_a_nonlinear_system() -> None:
     prog.add_sos(-Vdot, "-dV/dt")
     sol = prog.solve()
     assert sol.solver == "CLARABEL"  # solved by the default solver, no fallback needed
-    checks = verify(prog, sol)
+    checks = certify(prog, sol)
     assert all(c.certified for c in checks), [c.to_json() for c in checks]
     from scipy.integrate import solve_ivp
 
@@ -137,10 +137,10 @@ def test_tampered_certificate_is_rejected() -> None:
     G = sol.grams[key]
     w, V = np.linalg.eigh(G)
     sol.grams[key] = G - (w[0] + 1e-3) * np.outer(V[:, 0], V[:, 0])  # one eigenvalue to -1e-3
-    check = verify(prog, sol)[0]
+    check = certify(prog, sol)[0]
     assert not check.certified and check.min_eig == pytest.approx(-1e-3, rel=1e-6)
     sol.grams[key] = G + np.eye(len(G))  # PSD but no longer z^T G z = p: residual 1 > margin
-    check = verify(prog, sol)[0]
+    check = certify(prog, sol)[0]
     assert not check.certified and check.residual == pytest.approx(1.0, rel=1e-6)
 
 
@@ -155,7 +155,7 @@ def test_sos_matrix_on_a_region() -> None:
     ball = Poly.from_sympy(sp.Rational(81, 100) - x**2, [x])
     prog.add_sos_matrix(M, "M on |x| <= 0.9", region=[ball], multiplier_degree=0, label="|x| <= 0.9")
     sol = prog.solve()
-    assert all(c.certified for c in verify(prog, sol))
+    assert all(c.certified for c in certify(prog, sol))
 
 
 def test_verify_expands_the_polynomials_without_the_programs_matching_map(monkeypatch) -> None:
@@ -177,7 +177,7 @@ def test_verify_expands_the_polynomials_without_the_programs_matching_map(monkey
     sol.grams[key] = G
     z = sp.Matrix([sp.Mul(*[v**int(e) for v, e in zip((x, y), row)]) for row in prog.sos[0].basis])
     diff = sp.Poly(sp.expand(p - (z.T * sp.Matrix(G) * z)[0]), x, y)
-    check = verify(prog, sol)[0]
+    check = certify(prog, sol)[0]
     assert check.residual == pytest.approx(max(abs(float(c)) for c in diff.coeffs()), rel=1e-9)
     assert check.residual == pytest.approx(1e-3, rel=1e-6) and not check.certified
 
@@ -203,7 +203,7 @@ def test_sign_symmetry_splits_the_gram_matrices_of_a_lyapunov_search() -> None:
     assert [[len(b) for b in c.blocks] for c in whole.sos] == [[5], [7]]
     # the blocks' certificate is verified on the original program: full Gram matrices, zero
     # between the blocks, residuals expanded from the polynomials
-    checks = verify(split, sol)
+    checks = certify(split, sol)
     assert all(c.certified for c in checks), [c.to_json() for c in checks]
     G = sol.grams["1:-dV/dt"]
     odd, even = split.sos[1].blocks
@@ -223,7 +223,7 @@ def test_sign_symmetry_keeps_the_optimum(sign_symmetry: bool) -> None:
     sol = prog.solve(objective=-prog.selector(g))
     blocks = sorted(len(b) for b in prog.sos[0].blocks)
     assert blocks == ([1, 1, 1, 3] if sign_symmetry else [6])
-    assert verify(prog, sol)[0].certified
+    assert certify(prog, sol)[0].certified
     t = np.linspace(-2, 2, 4001)
     X, Y = np.meshgrid(t, t)
     true_min = float((X**4 + Y**4 + X**2 * Y**2 - 3 * X**2 - 2 * Y**2).min())

@@ -204,5 +204,5 @@ def test_sampled_controllers_pass_on_their_output_one_step_later_in_jacobi_order
         late[f"bdot.m[{i}]"][1:] = res_ft[f"bdot.m[{i}]"][:-1]
     bad = verify.sampled_order_check(sc, fmu_dir, "native", late, ["bdot"])
     assert not bad.passed and bad.max_deviation > 1e-4 and bad.worst_variable.startswith("bdot.m")
-    report = verify.ScenarioReport("x", "x.ssp", 1, 1, 0.0, True, 0.0, [], bad)
+    report = verify.ScenarioVerification("x", "x.ssp", 1, 1, 0.0, True, 0.0, [], bad)
     assert not report.passed and "FAIL" in verify.markdown([report])

@@ -730,7 +730,7 @@ def summarize(df: pd.DataFrame, column: str, *, level: float | None = None, epsi
     for label, value in (("epsilon", epsilon), ("delta", delta)):
         if not 0.0 < value < 1.0:
             raise CampaignError(f"{label} must be in (0, 1), got {value!r}")
-    from satfmu.synthesis.robust import probabilistic as pr
+    from satfmu.synthesis.robust import probabilistic
 
     values = df[column].to_numpy(dtype=np.float64)
     if values.size == 0:
@@ -739,12 +739,12 @@ def summarize(df: pd.DataFrame, column: str, *, level: float | None = None, epsi
     with np.errstate(invalid="ignore"):  # inf - inf in the mean of +-inf samples
         stats = (float(ok.mean()), float(ok.min()), float(ok.max())) if ok.size else (math.nan,) * 3
     summary = Summary(column, int(values.size), int(values.size - ok.size), int(np.isinf(ok).sum()), *stats,
-                      epsilon, delta, pr.worst_case_samples(epsilon, delta))
+                      epsilon, delta, probabilistic.worst_case_samples(epsilon, delta))
     if level is not None:
         summary.level = float(level)
         summary.p = float(np.mean(values <= level))
-        summary.eps_n = pr.chernoff_accuracy(values.size, delta)
-        summary.n_chernoff = pr.chernoff_samples(epsilon, delta)
+        summary.eps_n = probabilistic.chernoff_accuracy(values.size, delta)
+        summary.n_chernoff = probabilistic.chernoff_samples(epsilon, delta)
     return summary
 
 

@@ -174,7 +174,7 @@ class SampledOrderCheck:
 
 
 @dataclass
-class ScenarioReport:
+class ScenarioVerification:
     """Verification of one scenario.
 
     Attributes
@@ -564,7 +564,7 @@ def _master(scenario: Scenario, fmu_dir: Path, backend: str, exchange: str, extr
 
 
 def verify(name_or_path: "str | Path | Scenario", fmu_dir: Path, out_dir: Path, backend: str = "native",
-           engines: tuple[str, ...] = ("libcosim", "ecos"), allow_stale: bool = False) -> ScenarioReport:
+           engines: tuple[str, ...] = ("libcosim", "ecos"), allow_stale: bool = False) -> ScenarioVerification:
     """Verify one scenario against the other engines (see the module docstring).
 
     Parameters
@@ -593,7 +593,7 @@ def verify(name_or_path: "str | Path | Scenario", fmu_dir: Path, out_dir: Path, 
 
 
 def _verify(scenario: Scenario, fmu_dir: Path, out_dir: Path, backend: str, engines: tuple[str, ...]
-            ) -> ScenarioReport:
+            ) -> ScenarioVerification:
     """:func:`verify` of a scenario :func:`satfmu.sims.scenario.run.check` accepted."""
     d = scenario.data
     target = ssp.target(scenario, out_dir)
@@ -613,7 +613,7 @@ def _verify(scenario: Scenario, fmu_dir: Path, out_dir: Path, backend: str, engi
     direct = feedthrough_outputs(sim)
     order_dev = max((float(np.max(np.abs(res_ft[q] - res_j[q])) / max(1e-300, float(np.max(np.abs(res_j[q])))))
                      for q in record if np.any(res_j[q] != 0)), default=0.0)
-    report = ScenarioReport(scenario.name, str(ssp_path), len(record), len(res_j), master_seconds,
+    report = ScenarioVerification(scenario.name, str(ssp_path), len(record), len(res_j), master_seconds,
                             all(m.passed for m in metrics), order_dev)
     if sampled:
         report.sampled_order = sampled_order_check(scenario, fmu_dir, backend, res_ft, sampled)
@@ -656,12 +656,12 @@ def _verify(scenario: Scenario, fmu_dir: Path, out_dir: Path, backend: str, engi
     return report
 
 
-def markdown(reports: list[ScenarioReport]) -> str:
+def markdown(reports: list[ScenarioVerification]) -> str:
     """The reports as a Markdown table (one row per scenario and engine).
 
     Parameters
     ----------
-    reports : list of ScenarioReport
+    reports : list of ScenarioVerification
         The reports of :func:`verify`, one per scenario.
     """
     lines = ["| scenario | engine | variables x points | max deviation / allowance (worst variable) | "
@@ -693,7 +693,7 @@ def markdown(reports: list[ScenarioReport]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def report_files(out_dir: Path) -> tuple[Path, Path]:
+def result_files(out_dir: Path) -> tuple[Path, Path]:
     """``verify.md`` and ``verify.json`` of ``out_dir``.
 
     Parameters
@@ -704,12 +704,12 @@ def report_files(out_dir: Path) -> tuple[Path, Path]:
     return out_dir / "verify.md", out_dir / "verify.json"
 
 
-def write(reports: list[ScenarioReport], out_dir: Path) -> tuple[Path, Path]:
+def write(reports: list[ScenarioVerification], out_dir: Path) -> tuple[Path, Path]:
     """Write ``verify.md`` and ``verify.json`` into ``out_dir``, each whole or not at all.
 
     Parameters
     ----------
-    reports : list of ScenarioReport
+    reports : list of ScenarioVerification
         The reports of :func:`verify`, one per scenario.
     out_dir : Path
         The report folder (it must exist).
@@ -719,7 +719,7 @@ def write(reports: list[ScenarioReport], out_dir: Path) -> tuple[Path, Path]:
     tuple of Path
         The Markdown and the JSON file.
     """
-    md, js = report_files(out_dir)
+    md, js = result_files(out_dir)
     payload = [dict(asdict(r), passed=r.passed) for r in reports]
     for path, text in ((md, markdown(reports)), (js, json.dumps(payload, indent=2, default=str))):
         write_atomically(path, lambda tmp: tmp.write_text(text))
@@ -728,31 +728,31 @@ def write(reports: list[ScenarioReport], out_dir: Path) -> tuple[Path, Path]:
 
 @dataclass
 class VerifyRun:
-    """The reports of :func:`verify_all` and the files they were written to.
+    """The verifications of :func:`verify_all` and the files they were written to.
 
     Attributes
     ----------
-    reports : list of ScenarioReport
+    scenarios : list of ScenarioVerification
         One per scenario, in the order verified.
     md_path : Path
-        The Markdown report (``verify.md``).
+        The Markdown table (``verify.md``).
     json_path : Path
-        The JSON report (``verify.json``).
+        The JSON results (``verify.json``).
     """
 
-    reports: list[ScenarioReport]
+    scenarios: list[ScenarioVerification]
     md_path: Path
     json_path: Path
 
     @property
     def failed(self) -> list[str]:
         """The scenarios that did not pass."""
-        return [r.scenario for r in self.reports if not r.passed]
+        return [r.scenario for r in self.scenarios if not r.passed]
 
     def text(self) -> str:
         """The table of every scenario and engine, and the tally."""
-        return (markdown(self.reports).split("\n\n")[0] + f"\n{len(self.reports) - len(self.failed)}/"
-                f"{len(self.reports)} scenarios pass; report: {self.md_path}, {self.json_path}")
+        return (markdown(self.scenarios).split("\n\n")[0] + f"\n{len(self.scenarios) - len(self.failed)}/"
+                f"{len(self.scenarios)} scenarios pass; results: {self.md_path}, {self.json_path}")
 
 
 def verify_all(fmu_dir: Path, out_dir: Path, names: Sequence[str | Path] = (), backend: str = "native",
@@ -788,7 +788,7 @@ def verify_all(fmu_dir: Path, out_dir: Path, names: Sequence[str | Path] = (), b
         What a run refuses.
     """
     scenarios = [load(name) for name in list(names) or [p.stem for p in shipped_scenarios()]]
-    for f in report_files(Path(out_dir)):
+    for f in result_files(Path(out_dir)):
         f.unlink(missing_ok=True)
     folders = [check(scenario, fmu_dir, backend, allow_stale) for scenario in scenarios]  # before any work
     reports = []

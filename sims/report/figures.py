@@ -204,14 +204,15 @@ def scatter(rows: pd.DataFrame, metrics: Sequence[Metric], dispersed: Sequence[s
     str
         An ``<svg>`` element: a row of panels per metric, a column per dispersed value.
     """
-    from satfmu.sims.scenario import metrics as M
+    from satfmu.sims.scenario import metrics as scenario_metrics
 
     fig, axes = plt.subplots(len(metrics), len(dispersed), figsize=(max(6.5, 2.6 * len(dispersed) + 0.8),
                                                                     2.3 * len(metrics) + 0.4),
                              squeeze=False, sharex="col", sharey="row")
     for i, m in enumerate(metrics):
         y = rows[m.name].to_numpy(dtype=float)
-        ok = np.array([M.MetricResult(m.name, m.kind, float(v), m.min, m.max, m.unit).passed for v in y], bool)
+        ok = np.array([scenario_metrics.MetricResult(m.name, m.kind, float(v), m.min, m.max,
+                                                     m.unit).passed for v in y], bool)
         _, note = _finite(y)
         for j, d in enumerate(dispersed):
             ax = axes[i, j]
@@ -295,7 +296,7 @@ def compare_strips(series: Mapping[str, np.ndarray], metric: Metric) -> str:
         An ``<svg>`` element. Non-finite values (a settling time never reached, a sample that
         did not run) are counted in the row's label, not drawn.
     """
-    from satfmu.sims.scenario import metrics as M
+    from satfmu.sims.scenario import metrics as scenario_metrics
 
     labels = list(series)
     fig, ax = plt.subplots(figsize=(8.5, 0.75 * len(labels) + 1.1))
@@ -308,7 +309,8 @@ def compare_strips(series: Mapping[str, np.ndarray], metric: Metric) -> str:
         if finite.size:
             ax.boxplot(finite, positions=[k], vert=False, widths=0.5, showfliers=False, manage_ticks=False,
                        medianprops={"color": f"C{k % 10}"})
-            ok = np.array([M.MetricResult(metric.name, metric.kind, float(v), metric.min, metric.max).passed
+            ok = np.array([scenario_metrics.MetricResult(metric.name, metric.kind, float(v), metric.min,
+                                                         metric.max).passed
                            for v in finite], bool)
             y = k + jitter.uniform(-0.18, 0.18, finite.size)
             ax.scatter(finite[ok], y[ok], s=10, color=f"C{k % 10}", alpha=0.8, rasterized=True, zorder=3)

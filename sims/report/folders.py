@@ -23,7 +23,7 @@ from typing import Any
 
 import pandas as pd
 
-from satfmu.sims.scenario import metrics as M
+from satfmu.sims.scenario import metrics as scenario_metrics
 from satfmu.sims.cosim import preflight
 from satfmu.sims.scenario.provisioning import fmu_paths
 from satfmu.sims.scenario.spec import Scenario
@@ -87,7 +87,7 @@ class RunFolder:
     folder: Path
     backend: str
     scenario: Scenario
-    metrics: list[M.MetricResult]
+    metrics: list[scenario_metrics.MetricResult]
     results: pd.DataFrame
     units: dict[str, str]
     fmus: dict[str, FmuFile]
@@ -208,7 +208,7 @@ def _run(folder: Path, summary_file: Path, fmu_dir: str | Path | None) -> RunFol
     summary = _json(summary_file)
     try:
         name, metrics = summary["scenario"], [
-            M.MetricResult(m["name"], m["kind"], _float(m["value"]), m["min"], m["max"], m["unit"])
+            scenario_metrics.MetricResult(m["name"], m["kind"], _float(m["value"]), m["min"], m["max"], m["unit"])
             for m in summary["metrics"]]
         warnings = [str(w) for w in summary.get("warnings", [])]
     except (TypeError, KeyError, ValueError) as exc:
@@ -244,13 +244,13 @@ def _float(v: Any) -> float:
 
 
 def _campaign(folder: Path, fmu_dir: str | Path | None, confidence: float, worst: int) -> CampaignFolder:
-    from satfmu.sims.campaign import engine as C
+    from satfmu.sims.campaign import engine
     from satfmu.sims.campaign.scenario_task import reopen
     from satfmu.sims.campaign.statistics import statistics as campaign_statistics
 
     try:
         camp = reopen(folder, fmu_dir)
-        rows = C.load(folder)
+        rows = engine.load(folder)
         statistics = campaign_statistics(camp.task.scenario, rows, confidence, worst)
     except (CampaignError, ScenarioError) as exc:
         raise ReportError(f"cannot report on {folder}: {exc}") from None

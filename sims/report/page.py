@@ -18,7 +18,7 @@ import numpy as np
 from markupsafe import Markup
 
 from satfmu.fmus.atomic import write_atomically
-from satfmu.sims.scenario import metrics as M
+from satfmu.sims.scenario import metrics as scenario_metrics
 from satfmu.sims.scenario.spec import Metric
 from satfmu.sims.report import figures, limits, proved
 from satfmu.sims.report.folders import (CampaignFolder, Folder, ReportError, RunFolder, envelope_signals, read_folder)
@@ -67,7 +67,7 @@ def exact(value: Any) -> str:
     return "" if value is None else repr(float(value))
 
 
-def bounds(metric: Metric | M.MetricResult) -> str:
+def bounds(metric: Metric | scenario_metrics.MetricResult) -> str:
     """``min 6.1, max 6.3``, in the metric's unit (empty: no bound).
 
     Parameters

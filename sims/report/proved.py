@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from satfmu.controllers import artifact as A
+from satfmu.controllers import artifact
 from satfmu.fmus import archive
 from satfmu.sims.cosim import preflight
 from satfmu.sims.report.folders import FmuFile
@@ -120,10 +120,10 @@ def read_artifact(path: Path) -> dict[str, Any] | None:
         The file is not a zip archive, or its artifact is not JSON.
     """
     try:
-        text = archive.read_entry(path, RESOURCE, A.MAX_BYTES)
+        text = archive.read_entry(path, RESOURCE, artifact.MAX_BYTES)
     except (OSError, archive.UnsafeFmuError) as exc:
         raise ValueError(f"{path}: not a readable FMU ({exc})") from None
-    return None if text is None else A.decode(text, f"{path}:{RESOURCE}")
+    return None if text is None else artifact.decode(text, f"{path}:{RESOURCE}")
 
 
 def claims(fmu: FmuFile) -> Claims | None:
@@ -151,8 +151,8 @@ def claims(fmu: FmuFile) -> Claims | None:
     if data is None:
         return None
     try:
-        A.parse(data, where=f"{fmu.path.name}:{RESOURCE}")
-    except A.ArtifactError as exc:
+        artifact.parse(data, where=f"{fmu.path.name}:{RESOURCE}")
+    except artifact.ArtifactError as exc:
         return Claims(fmu, sha, data, str(exc))
     return Claims(fmu, sha, data)
 

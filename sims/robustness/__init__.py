@@ -6,8 +6,8 @@ instance in a worker), :mod:`.cases`, :mod:`.memory`, :mod:`.states` (corrupted 
 :mod:`.host_cases` (invalid fmi2Instantiate, fmi2SetDebugLogging and fmi2SerializeFMUstate
 arguments) (what each case does), :mod:`.table` (the cases and their expectations per backend),
 :mod:`.worker` (the child
-process), :mod:`.runner` (the parent: workers, crashes, time-outs, :class:`Report`),
-:mod:`.report` (Markdown and CSV), :mod:`.command` (the command line).
+process), :mod:`.runner` (the parent: workers, crashes, time-outs, :class:`SuiteResult`),
+:mod:`.results` (Markdown and CSV), :mod:`.command` (the command line).
 
 Every ``*.fmu`` of a folder is driven through fmpy's low-level FMI 2.0 API
 (``fmpy.fmi2.FMU2Slave``, raw ``fmi2*`` calls so the exact status is seen) with
@@ -71,10 +71,10 @@ from __future__ import annotations
 
 from satfmu.sims.robustness.command import main
 from satfmu.sims.robustness.memory import rss_bound_kib
-from satfmu.sims.robustness.runner import Report, Row, run
+from satfmu.sims.robustness.runner import SuiteResult, Row, run
 from satfmu.sims.robustness.table import CASES, CYCLES_CASE, FAR_CASE, Case, Settings, always_applies
 from satfmu.sims.robustness.target import BACKENDS, NATIVE, PYTHONFMU
 from satfmu.sims.robustness.worker import ABORT_ENV
 
-__all__ = ["ABORT_ENV", "BACKENDS", "CASES", "CYCLES_CASE", "FAR_CASE", "NATIVE", "PYTHONFMU", "Case", "Report", "Row",
-           "Settings", "always_applies", "main", "rss_bound_kib", "run"]
+__all__ = ["ABORT_ENV", "BACKENDS", "CASES", "CYCLES_CASE", "FAR_CASE", "NATIVE", "PYTHONFMU", "Case", "Row",
+           "Settings", "SuiteResult", "always_applies", "main", "rss_bound_kib", "run"]

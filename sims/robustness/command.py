@@ -7,7 +7,7 @@ from pathlib import Path
 
 from satfmu.sims.robustness.cases import FAR_FACTOR
 from satfmu.sims.robustness.runner import run
-from satfmu.sims.robustness.report import markdown
+from satfmu.sims.robustness.results import markdown
 from satfmu.sims.robustness.table import Settings
 from satfmu.sims.robustness.target import discover
 from satfmu.sims.robustness.worker import work

@@ -17,7 +17,7 @@ from satfmu.fmus import archive
 from satfmu.sims.robustness.cases import FAR_FACTOR
 from satfmu.sims.robustness.instance import NO_RESULT, OK, STATUS_NAMES, Outcome, short
 from satfmu.sims.robustness.memory import WARMUP_CYCLES, rss_bound_kib
-from satfmu.sims.robustness.report import write
+from satfmu.sims.robustness.results import write
 from satfmu.sims.robustness.table import (CASE_BY_NAME, CASES, CYCLES_CASE, FAR_CASE, FLIPS_CASE, FULL_SCAN_BITS,
                                    HUGE_CASES, Case, Settings)
 from satfmu.sims.robustness.target import BACKENDS, Target, describe, discover
@@ -264,7 +264,7 @@ def run_fmu(target: Target, settings: Settings, workdir: Path) -> list[Row]:
 
 
 @dataclass
-class Report:
+class SuiteResult:
     """Results of a run.
 
     Attributes
@@ -338,7 +338,7 @@ class Report:
 
 
 def run(fmu_dir: Path, fmus: list[str] | None = None, cycles: int = 1000, out: Path | None = None, *,
-        far_factor: float = FAR_FACTOR, flips: int | None = None) -> Report:
+        far_factor: float = FAR_FACTOR, flips: int | None = None) -> SuiteResult:
     """Run every case on every FMU of ``fmu_dir`` (or on ``fmus``), each FMU in child processes.
 
     Parameters
@@ -358,7 +358,7 @@ def run(fmu_dir: Path, fmus: list[str] | None = None, cycles: int = 1000, out: P
 
     Returns
     -------
-    Report
+    SuiteResult
     """
     settings = Settings(cycles, far_factor, flips)
     started = time.monotonic()
@@ -366,7 +366,7 @@ def run(fmu_dir: Path, fmus: list[str] | None = None, cycles: int = 1000, out: P
     with tempfile.TemporaryDirectory(prefix="satfmu_robustness_") as tmp:
         for path in discover(Path(fmu_dir), fmus):
             rows += _run_path(path, settings, Path(tmp))
-    report = Report(rows, settings, time.monotonic() - started)
+    report = SuiteResult(rows, settings, time.monotonic() - started)
     if out is not None:
         write(report, Path(out))
     return report

@@ -5,7 +5,7 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from satfmu.sims.robustness import cases as c
+from satfmu.sims.robustness import cases as worker_cases
 from satfmu.sims.robustness.cases import FAR_FACTOR, STEPS, UNKNOWN_VR
 from satfmu.sims.robustness.host_cases import host_cases
 from satfmu.sims.robustness.instance import ERROR, OK, Outcome
@@ -145,68 +145,68 @@ def _cases() -> tuple[Case, ...]:
     cases = []
     for label, value in (("nan", math.nan), ("+inf", math.inf), ("-inf", -math.inf)):
         cases.append(Case(f"input = {label}", f"setReal of the first Real input to {label} in StepComplete",
-                          _both(rejected(NON_FINITE)), c.set_input(value), _needs("input", NO_INPUT)))
+                          _both(rejected(NON_FINITE)), worker_cases.set_input(value), _needs("input", NO_INPUT)))
     cases.append(Case("input = 1e300", "setReal of the first Real input to 1e300, then a default step",
-                      _same(lambda b: ok_or_clean_error(*HUGE_FRAGMENTS[b])), c.huge_input,
+                      _same(lambda b: ok_or_clean_error(*HUGE_FRAGMENTS[b])), worker_cases.huge_input,
                       _needs("input", NO_INPUT)))
     for label, value in (("nan", math.nan), ("+inf", math.inf), ("-inf", -math.inf)):
         cases.append(Case(f"parameter = {label}", f"setReal of the first Real parameter to {label} in "
-                          "InitializationMode", _both(rejected(NON_FINITE)), c.set_parameter(value),
+                          "InitializationMode", _both(rejected(NON_FINITE)), worker_cases.set_parameter(value),
                           _needs("parameter", NO_PARAMETER)))
     cases.append(Case("parameter = 1e300", "setReal of the first Real parameter to 1e300 in InitializationMode, "
                       "then a default step", _same(lambda b: ok_or_clean_error(*HUGE_FRAGMENTS[b])),
-                      c.huge_parameter, _needs("parameter", NO_PARAMETER)))
+                      worker_cases.huge_parameter, _needs("parameter", NO_PARAMETER)))
     step_msg = "communicationStepSize must be finite and > 0"
     cases += [
-        Case("doStep h = 0", "fmi2DoStep with a zero step", _both(rejected(step_msg)), c.step_size(0.0)),
+        Case("doStep h = 0", "fmi2DoStep with a zero step", _both(rejected(step_msg)), worker_cases.step_size(0.0)),
         Case("doStep h < 0", "fmi2DoStep with minus the default step", _both(rejected(step_msg)),
-             c.step_size(-1.0)),
-        Case("doStep h = nan", "fmi2DoStep with a NaN step", _both(rejected(step_msg)), c.step_nan),
+             worker_cases.step_size(-1.0)),
+        Case("doStep h = nan", "fmi2DoStep with a NaN step", _both(rejected(step_msg)), worker_cases.step_nan),
         Case("doStep at wrong time", "fmi2DoStep from t = 1 s while the FMU is at 0 s",
-             _both(rejected("differs from the FMU time")), c.step_wrong_time),
+             _both(rejected("differs from the FMU time")), worker_cases.step_wrong_time),
         Case(FAR_CASE, "one step of `far_factor` (default 1e4) default step sizes from the default start; "
-             "outputs finite if OK", _same(lambda b: ok_or_clean_error(*HUGE_FRAGMENTS[b])), c.far_step,
+             "outputs finite if OK", _same(lambda b: ok_or_clean_error(*HUGE_FRAGMENTS[b])), worker_cases.far_step,
              settings=("far_factor",)),
         Case("doStep before init", "fmi2DoStep in Instantiated",
-             _both(rejected("must not be called in state Instantiated")), c.step_before_init),
+             _both(rejected("must not be called in state Instantiated")), worker_cases.step_before_init),
         Case("getReal before init", "fmi2GetReal of an output in Instantiated",
-             _both(rejected("must not be called in state Instantiated")), c.get_before_init,
+             _both(rejected("must not be called in state Instantiated")), worker_cases.get_before_init,
              _needs("outputs", "no Real output")),
         Case("exitInit without enter", "fmi2ExitInitializationMode in Instantiated",
-             _both(rejected("must not be called in state Instantiated")), c.exit_without_enter),
+             _both(rejected("must not be called in state Instantiated")), worker_cases.exit_without_enter),
         Case("exitInit twice", "fmi2ExitInitializationMode in StepComplete",
-             _both(rejected("must not be called in state StepComplete")), c.exit_twice),
+             _both(rejected("must not be called in state StepComplete")), worker_cases.exit_twice),
         Case("enterInit twice", "fmi2EnterInitializationMode in InitializationMode",
-             _both(rejected("must not be called in state InitializationMode")), c.enter_twice),
+             _both(rejected("must not be called in state InitializationMode")), worker_cases.enter_twice),
         Case("setupExperiment start = nan", "fmi2SetupExperiment with a NaN start time",
-             _both(rejected("non-finite startTime")), c.setup_nan),
+             _both(rejected("non-finite startTime")), worker_cases.setup_nan),
         Case("fixed parameter after init", "setting a non-tunable parameter (to its own value) in StepComplete",
-             _both(rejected("cannot be set in state StepComplete")), c.parameter_after_init,
+             _both(rejected("cannot be set in state StepComplete")), worker_cases.parameter_after_init,
              _needs("fixed", "no non-tunable parameter")),
         Case("set after terminate", "setting an input (else a parameter) to its own value in Terminated",
-             _both(rejected("cannot be set in state Terminated")), c.set_after_terminate),
+             _both(rejected("cannot be set in state Terminated")), worker_cases.set_after_terminate),
         Case("doStep after terminate", "fmi2DoStep in Terminated",
-             _both(rejected("must not be called in state Terminated")), c.step_after_terminate),
+             _both(rejected("must not be called in state Terminated")), worker_cases.step_after_terminate),
         Case("parameter < min", "a parameter with a declared min set below it in InitializationMode",
-             _both(rejected("outside its range")), c.out_of_range(below=True),
+             _both(rejected("outside its range")), worker_cases.out_of_range(below=True),
              _needs("below", "no parameter with a min")),
         Case("parameter > max", "a parameter with a declared max set above it in InitializationMode",
-             _both(rejected("outside its range")), c.out_of_range(below=False),
+             _both(rejected("outside its range")), worker_cases.out_of_range(below=False),
              _needs("above", "no parameter with a max")),
         # pythonfmu checks the type and the value reference itself: only its own exception text
         Case("setReal on Integer/Boolean", "fmi2SetReal on an Integer or Boolean parameter",
              _both(rejected("has another type")),
-             c.real_on_non_real, _needs("non_real", "no Integer/Boolean parameter")),
+             worker_cases.real_on_non_real, _needs("non_real", "no Integer/Boolean parameter")),
         Case("setInteger on Real", "fmi2SetInteger on a Real parameter",
              _both(rejected("has another type")),
-             c.integer_on_real, _needs("parameter", NO_PARAMETER)),
+             worker_cases.integer_on_real, _needs("parameter", NO_PARAMETER)),
         Case("setReal unknown vr", f"fmi2SetReal of value reference {UNKNOWN_VR}",
-             _both(rejected(f"unknown value reference {UNKNOWN_VR}")), c.unknown_vr("set")),
+             _both(rejected(f"unknown value reference {UNKNOWN_VR}")), worker_cases.unknown_vr("set")),
         Case("getReal unknown vr", f"fmi2GetReal of value reference {UNKNOWN_VR}",
-             _both(rejected(f"unknown value reference {UNKNOWN_VR}")), c.unknown_vr("get")),
+             _both(rejected(f"unknown value reference {UNKNOWN_VR}")), worker_cases.unknown_vr("get")),
         Case("FMU state round trip", f"get (and serialize/deserialize) the state after {STEPS} driven steps, "
              f"step {STEPS} more, restore, repeat: identical outputs",
-             _same(lambda b: Expect((OK,), (), "OK, outputs identical bit for bit")), c.state_round_trip,
+             _same(lambda b: Expect((OK,), (), "OK, outputs identical bit for bit")), worker_cases.state_round_trip,
              _needs_state),
         Case(CYCLES_CASE, "instantiate, initialize, one step, terminate, free; RSS before and after",
              {b: Expect((OK,), (), f"OK, RSS growth <= {RSS_SLACK_KIB} + {RSS_PER_CYCLE_KIB[b]:g} KiB/cycle")
@@ -236,23 +236,23 @@ def _needs_serialize(target: Target) -> str | None:
 
 def _issue26_cases() -> tuple[Case, ...]:
     from satfmu.sims.robustness import limits as lim
-    from satfmu.sims.robustness import states as st
+    from satfmu.sims.robustness import states
 
     cases = []
     refused = rejected(*STATE_FRAGMENTS)
     cases += [
         Case(FLIPS_CASE, "every bit of the serialized state flipped in turn (`--flips N`: a "
              "seeded sample), each deserialized and set: none accepted",
-             _both(refused), st.bit_flips, _needs_serialize,
+             _both(refused), states.bit_flips, _needs_serialize,
              settings=("flips",)),
         Case("FMU state: half zeroed", "the first half, the second half, all of the serialized state zeroed",
-             _both(refused), st.half_zeroed, _needs_serialize),
+             _both(refused), states.half_zeroed, _needs_serialize),
         Case("FMU state: wrong size", "the serialized state one byte short, one byte longer, empty",
-             _both(rejected("not a state of this FMU")), st.wrong_size,
+             _both(rejected("not a state of this FMU")), states.wrong_size,
              _needs_serialize),
         Case("FMU state: of another model", "a well-formed state of another model (another model identity with a "
              "valid checksum)", _both(rejected("not a state of this FMU")),
-             st.of_another_model, _needs_serialize),
+             states.of_another_model, _needs_serialize),
     ]
     huge = {NATIVE: ok_or_clean_error(*HUGE_STEP_FRAGMENTS),
             PYTHONFMU: ok_or_clean_error(*HUGE_STEP_FRAGMENTS, *HUGE_FRAGMENTS[PYTHONFMU])}

@@ -1,1 +1,1 @@
-"""The per-method workflows: analyses of a design, detumbling campaigns, the DEMETER loops and reports."""
+"""The per-method workflows: analyses of a design, detumbling campaigns, the DEMETER loops and studies."""

@@ -1,4 +1,4 @@
-"""Analyses of a design that write their files and return a report (``satfmu analyze NAME``).
+"""Analyses of a design that write their files and return their result (``satfmu analyze NAME``).
 
 - :func:`h2hinf_sweep`: the gamma-lambda trade-off of seed 001's Theorem 8, both variants
   (CSV and PNG);
@@ -6,7 +6,7 @@
   one box, and the map cell by cell (JSON and PNG);
 - :func:`l2`: the three L2-gain estimates of a controller's closed loop (diagonal, sampled, SOS).
 
-Each report's ``text()`` is what the command line prints.
+Each result's ``text()`` is what the command line prints.
 """
 from __future__ import annotations
 
@@ -25,7 +25,7 @@ Progress = Callable[[int, int, str], None]
 
 
 @dataclass
-class SweepReport:
+class SweepResult:
     """What :func:`h2hinf_sweep` computed and wrote.
 
     Parameters
@@ -52,7 +52,7 @@ class SweepReport:
 
 def h2hinf_sweep(out_dir: Path, gammas: Sequence[float] = (1.0, 0.8, 0.7, 0.6, 0.55), *, region: float = 0.45,
                  alpha_range: tuple[float, float] = (0.05, 2.0), evaluations: int = 12,
-                 progress: Progress | None = None) -> SweepReport:
+                 progress: Progress | None = None) -> SweepResult:
     """The certified H2 bound lambda against the L2 bound gamma, both Theorem 8 variants.
 
     Parameters
@@ -77,16 +77,16 @@ def h2hinf_sweep(out_dir: Path, gammas: Sequence[float] = (1.0, 0.8, 0.7, 0.6, 0
                             progress=progress, region=region)
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    report = SweepReport(rows, h2hinf_sos.sweep_csv(rows),
+    result = SweepResult(rows, h2hinf_sos.sweep_csv(rows),
                          {"csv": out_dir / "gamma_lambda.csv", "png": out_dir / "gamma_lambda.png"})
-    report.files["csv"].write_text(report.csv)
-    plots.tradeoff(rows, report.files["png"],
+    result.files["csv"].write_text(result.csv)
+    plots.tradeoff(rows, result.files["png"],
                    f"Seed 001 Theorem 8 on |sigma| <= {region:g}: certified H2 bound vs gamma")
-    return report
+    return result
 
 
 @dataclass
-class RegionReport:
+class RegionResult:
     """What :func:`vscmg_region` computed and wrote.
 
     Parameters
@@ -128,7 +128,7 @@ class RegionReport:
 def vscmg_region(out_dir: Path, artifact: str | Path = "vscmg_sdre_approx", *,
                  box_q2: tuple[float, float] | None = None, box_w4: tuple[float, float] | None = None,
                  q2: tuple[float, float] = (0.05, 1.52), w4: tuple[float, float] = (-1.8, 1.8),
-                 cells: tuple[int, int] = (7, 6), progress: Progress | None = None) -> RegionReport:
+                 cells: tuple[int, int] = (7, 6), progress: Progress | None = None) -> RegionResult:
     """Seed 002 section 4 re-posed: the SOS stability region of an approximated SDRE servo.
 
     Parameters
@@ -149,32 +149,33 @@ def vscmg_region(out_dir: Path, artifact: str | Path = "vscmg_sdre_approx", *,
     from satfmu.controllers import artifact as artifacts
     from satfmu.sims.scenario import plots
     from satfmu.fmus.profiles import make
-    from satfmu.synthesis.servo import vscmg_region as vr
+    from satfmu.synthesis.servo import vscmg_region as servo_vscmg_region
     from satfmu.synthesis.servo.sdre import SEED_REFERENCE_PROFILES, simulate_servo
 
     art = artifacts.load(paths.find_artifact(artifact))
     if not isinstance(art, artifacts.ServoArtifact):
         raise ValueError(f"artifact {art.name!r} is not a gain-scheduled servo (kind servo_gain_schedule)")
-    loop = vr.ClosedLoop.build(art)
-    box_q2, box_w4 = ((*b,) if b else d for b, d in zip((box_q2, box_w4), vr.OPERATING_BOX))
-    box = vr.certify(loop, box_q2, box_w4)
-    trig = vr.trig_check(loop, box) if box.Y is not None else {}
-    found = vr.map_region(loop, np.linspace(*q2, cells[0] + 1), np.linspace(*w4, cells[1] + 1), progress=progress)
+    loop = servo_vscmg_region.ClosedLoop.build(art)
+    box_q2, box_w4 = ((*b,) if b else d for b, d in zip((box_q2, box_w4), servo_vscmg_region.OPERATING_BOX))
+    box = servo_vscmg_region.certify(loop, box_q2, box_w4)
+    trig = servo_vscmg_region.trig_check(loop, box) if box.Y is not None else {}
+    found = servo_vscmg_region.map_region(loop, np.linspace(*q2, cells[0] + 1), np.linspace(*w4, cells[1] + 1),
+                                          progress=progress)
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    report = RegionReport(art.name, box, {**trig, **vr.cos_errors(box.q2)}, found,
+    result = RegionResult(art.name, box, {**trig, **servo_vscmg_region.cos_errors(box.q2)}, found,
                           {"json": out_dir / "region.json", "png": out_dir / "region.png"})
-    report.files["json"].write_text(json.dumps(vr.region_data(loop, box, trig, found), indent=1))
+    result.files["json"].write_text(json.dumps(servo_vscmg_region.region_data(loop, box, trig, found), indent=1))
     refs = [make(SEED_REFERENCE_PROFILES[n]) for n in ("q2_ref", "q4_ref")]
     run = simulate_servo(lambda x: art.gain_at(art.scheduling_values({"q2": x[1], "w4": x[5]})),
                          lambda t: np.stack([r.sample(t) for r in refs], axis=1), plant_params={"friction_on": 0})
-    plots.region_map(found, report.files["png"], [box], (run.x[:, 1], run.x[:, 5]),
+    plots.region_map(found, result.files["png"], [box], (run.x[:, 1], run.x[:, 5]),
                      f"Seed 002 section 4 re-posed: SOS stability region of {art.name} (frozen SDC loop off p4)")
-    return report
+    return result
 
 
 @dataclass
-class L2Report:
+class L2Result:
     """The three L2-gain estimates of :func:`l2` (c: the gain w -> sigma; kv: V = kv x^T P x).
 
     Parameters
@@ -240,7 +241,7 @@ class L2Report:
 
 
 def l2(controller: str | Path, *, rate_max: float = 0.2, sigma_max: float = 0.9, kv: float = 1e4,
-       samples: int = 200_000) -> L2Report:
+       samples: int = 200_000) -> L2Result:
     """The L2 gain of a controller's closed loop with the MRP satellite, three ways.
 
     Parameters
@@ -269,6 +270,6 @@ def l2(controller: str | Path, *, rate_max: float = 0.2, sigma_max: float = 0.9,
     diagonal, best = l2_gain.diagonal_gain(form, kv), l2_gain.diagonal_gain(form)
     sampled = l2_gain.sampled_gain(form, region, n_samples=samples)
     try:
-        return L2Report(form.controller, region, kv, diagonal, best, sampled, l2_gain.sos_gain(form, region))
+        return L2Result(form.controller, region, kv, diagonal, best, sampled, l2_gain.sos_gain(form, region))
     except SOSError as exc:
-        return L2Report(form.controller, region, kv, diagonal, best, sampled, None, str(exc))
+        return L2Result(form.controller, region, kv, diagonal, best, sampled, None, str(exc))

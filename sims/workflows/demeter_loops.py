@@ -46,7 +46,7 @@ from satfmu.controllers import artifact as artifacts
 from satfmu.fmus.atomic import write_atomically
 from satfmu.fmus.declared import toml_text
 from satfmu.fmus.plants.demeter import WHEEL_MOMENTUM_MAX
-from satfmu.sims.campaign import envelopes as E
+from satfmu.sims.campaign import envelopes
 from satfmu.controllers import paths
 from satfmu.sims.scenario import SHIPPED_SCENARIOS
 from satfmu.sims.scenario.spec import Scenario
@@ -460,7 +460,7 @@ def run(fmu_dir: Path, artifact: str | Path, *, n: int = 100, seed: int = 0, sto
     """
     import tempfile
 
-    from satfmu.sims.campaign import engine as C
+    from satfmu.sims.campaign import engine
     from satfmu.sims.campaign.scenario_task import campaign
 
     art, variant = load_design(artifact)
@@ -471,12 +471,12 @@ def run(fmu_dir: Path, artifact: str | Path, *, n: int = 100, seed: int = 0, sto
     keep = {"theta": [f"ctrl.xw[{axis}]"], "rate": [f"ctrl.xw[{axis}]"],
             "both": [f"plant.theta[{axis}]", f"plant.theta_dot[{axis}]", f"plant.wheel_saturated[{axis}]"]}
     with tempfile.TemporaryDirectory(prefix="satfmu_demeter_") as tmp, \
-            C.cluster_client(None, client, workers) as active:
+            engine.cluster_client(None, client, workers) as active:
         rows, tasks = {}, {}
         for start, sc in scenarios.items():
             camp = campaign(sc, n, seed=seed, chunk=max(1, -(-n // (4 * workers))), fmu_dir=fmu_dir,
                             envelopes=keep[start], points=points)
-            rows[start], tasks[start] = C.run(camp, Path(out_dir or tmp), client=active), camp.task
+            rows[start], tasks[start] = engine.run(camp, Path(out_dir or tmp), client=active), camp.task
     failed = {start: r.loc[r["failed"] > 0, "sample"].tolist() for start, r in rows.items()}
     if any(failed.values()):
         raise RuntimeError(f"DEMETER loops that did not run (sample indices): {failed}")
@@ -484,7 +484,7 @@ def run(fmu_dir: Path, artifact: str | Path, *, n: int = 100, seed: int = 0, sto
     t = recorded_times(scenarios["both"])[list(steps)]
 
     def traces(start: str, signal: str) -> np.ndarray:
-        return rows[start][E.trace_columns(signal, len(steps))].to_numpy()
+        return rows[start][envelopes.trace_columns(signal, len(steps))].to_numpy()
 
     deltas = deltas_of(rows["both"], dm, variant)
     theta = traces("both", f"plant.theta[{axis}]")

@@ -106,7 +106,7 @@ def linear_campaign(gains: dict[str, np.ndarray], n_runs: int = 2000, seed: int 
     ValueError
         If n_runs < 2 or orbits < 1.
     """
-    from satfmu.synthesis.periodic import cubesat_periodic, periodic_hinf as ph
+    from satfmu.synthesis.periodic import cubesat_periodic, periodic_hinf
 
     if n_runs < 2 or orbits < 1:
         raise ValueError("need n_runs >= 2 and orbits >= 1")
@@ -114,10 +114,10 @@ def linear_campaign(gains: dict[str, np.ndarray], n_runs: int = 2000, seed: int 
     n = orbits * sys_.dims[0]
     out = []
     for i, (label, F) in enumerate(gains.items()):
-        x, u = ph.monte_carlo(sys_, F, w0, n, n_runs, seed + i)
+        x, u = periodic_hinf.monte_carlo(sys_, F, w0, n, n_runs, seed + i)
         sq = (x**2).sum(axis=2)
-        exact = np.trace(ph.second_moment(sys_, F, np.outer(w0, w0), n), axis1=1, axis2=2)
-        out.append(LinearRun(label, ph.ms_spectral_radius(sys_, F), np.arange(n + 1), exact, sq.mean(axis=0),
+        exact = np.trace(periodic_hinf.second_moment(sys_, F, np.outer(w0, w0), n), axis1=1, axis2=2)
+        out.append(LinearRun(label, periodic_hinf.ms_spectral_radius(sys_, F), np.arange(n + 1), exact, sq.mean(axis=0),
                              sq.std(axis=0) / math.sqrt(n_runs), np.linalg.norm(x, axis=2),
                              np.linalg.norm(u, axis=2)))
     return out
@@ -259,7 +259,7 @@ GAIN_SETS = {"satfmu": "cubesat_periodic_satfmu", "published": "cubesat_periodic
 
 
 @dataclass
-class DetumbleReport:
+class DetumbleResult:
     """What :func:`run` computed and wrote: the linear campaign and the nonlinear sweep.
 
     Parameters
@@ -302,7 +302,7 @@ class DetumbleReport:
 
 def run(fmu_dir: Path, out_dir: Path, *, samples: int = 2000, seed: int = 0,
         rates: Sequence[float] = DEFAULT_RATES, progress: Callable[[int, int, str], None] | None = None
-        ) -> DetumbleReport:
+        ) -> DetumbleResult:
     """Seed 003 Fig. 2 on the linear model (:func:`linear_campaign`) and the nonlinear sweep (:func:`sweep`).
 
     The scenario's FMUs missing from ``fmu_dir`` are built first
@@ -350,4 +350,4 @@ def run(fmu_dir: Path, out_dir: Path, *, samples: int = 2000, seed: int = 0,
             fh.write(f"{r.controller},{r.w0:.6g},{r.final_ratio:.6g},{r.min_ratio:.6g},{r.effort:.6g},{r.detumbled}\n")
     plots.detumble_sweep(rows, files["sweep_png"], "Seed 003 on the nonlinear plant: two orbits from |w(0)| "
                          "along [0.05, -0.04, 0.03]")
-    return DetumbleReport(runs, samples, rows, files)
+    return DetumbleResult(runs, samples, rows, files)

@@ -14,7 +14,7 @@ Layers (each a function or class with a test):
 4. :meth:`SOSProgram.solve`: Clarabel on those arrays, under the solve policy of
    :mod:`satfmu.synthesis.core.solve_policy`; returns a :class:`SOSSolution` with
    the decision values and Gram matrices.
-5. :func:`verify`: re-checks each SOS constraint without the solver and without the
+5. :func:`certify`: re-checks each SOS constraint without the solver and without the
    program's matching map: minimum eigenvalue of the Gram matrix, the coefficients of
    ``p - z^T G z`` expanded from the polynomials, and a sampled check of the polynomial
    inequality. A constraint is *certified* when ``lambda_min(G) >= N * max|residual|``
@@ -200,7 +200,7 @@ class Check:
     sampled_min : float
         Smallest value of ``p`` at the sampled points (``-residual`` without a basis).
     certified : bool
-        SOS to the solver's accuracy (the tolerances of :func:`verify`).
+        SOS to the solver's accuracy (the tolerances of :func:`certify`).
     exact : bool
         Certified and ``lambda_min(G) >= N * residual`` (below).
     """
@@ -243,7 +243,7 @@ class SOSProgram:
     >>> prog = SOSProgram(2)
     >>> _ = prog.add_sos(Poly.from_sympy(x**2 - 2*x*y + 2*y**2, [x, y]), "p")
     >>> sol = prog.solve()
-    >>> all(c.certified for c in verify(prog, sol))
+    >>> all(c.certified for c in certify(prog, sol))
     True
     """
 
@@ -579,7 +579,7 @@ class SOSProgram:
         Returns
         -------
         SOSSolution
-            Decision values, Gram matrices, status and times; check them with :func:`verify`.
+            Decision values, Gram matrices, status and times; check them with :func:`certify`.
 
         Raises
         ------
@@ -752,13 +752,13 @@ def check_numbers(checks: list[Check]) -> dict[str, float]:
     Parameters
     ----------
     checks : list of Check
-        The checks of :func:`verify`; ``min_eig``, ``residual`` and ``sampled_min`` of each
+        The checks of :func:`certify`; ``min_eig``, ``residual`` and ``sampled_min`` of each
         are reported.
     """
     return {f"{c.name}: {k}": float(getattr(c, k)) for c in checks for k in ("min_eig", "residual", "sampled_min")}
 
 
-def verify(prog: SOSProgram, sol: SOSSolution, n_samples: int = 2000, sample_radius: float = 1.0,
+def certify(prog: SOSProgram, sol: SOSSolution, n_samples: int = 2000, sample_radius: float = 1.0,
            seed: int = 0, eig_tol: float = 1e-7, res_tol: float = 1e-7) -> list[Check]:
     """Re-check every SOS constraint from the numbers alone (no solver).
 

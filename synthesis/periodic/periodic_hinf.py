@@ -19,7 +19,7 @@ the gains ``F(k) = Z(k)^T Y(k)^-1`` make ``u = F(k) x`` exponentially stable in 
 (ESMS) with the H-infinity level ``gamma`` from w to z.
 
 - :func:`design`: the LMIs at a given gamma (cvxpy + Clarabel), re-verified without the
-  solver (:func:`verify`: every block's largest eigenvalue, Y's smallest, with the gains
+  solver (:func:`certify`: every block's largest eigenvalue, Y's smallest, with the gains
   actually returned) before anything is returned as feasible.
 - :func:`gamma_min` (the level minimized directly: the LMIs are affine in gamma^2) and
   :func:`bisect_gamma` (feasibility bisection); each checks the other in the tests.
@@ -137,7 +137,7 @@ class PeriodicDesign:
     F : numpy.ndarray, shape (N, m2, n)
         The gains ``F(k) = Z(k)^T Y(k)^-1`` of ``u = F(k) x``.
     check : LMICheck
-        The solver-independent check of the LMIs (:func:`verify`), passed.
+        The solver-independent check of the LMIs (:func:`certify`), passed.
     solver_status : str
         What the solver reported.
     solve_seconds : float
@@ -227,7 +227,7 @@ def lmi_block(sys: PeriodicSystem, Y: np.ndarray, Z: np.ndarray, gamma: float, k
     return (L + L.T) / 2
 
 
-def verify(sys: PeriodicSystem, Y: np.ndarray, Z: np.ndarray, gamma: float) -> LMICheck:
+def certify(sys: PeriodicSystem, Y: np.ndarray, Z: np.ndarray, gamma: float) -> LMICheck:
     """Check Theorem 2's LMIs and Y(k) > 0 with numpy eigenvalues (no solver involved).
 
     The blocks are evaluated for the scaled system (:meth:`PeriodicSystem.scaled`, a
@@ -280,7 +280,7 @@ EPS = 1e-6
 
 
 def design(sys: PeriodicSystem, gamma: float, eps: float = EPS) -> PeriodicDesign | None:
-    """Solve Theorem 2 at ``gamma``; None if infeasible or if the solution fails :func:`verify`.
+    """Solve Theorem 2 at ``gamma``; None if infeasible or if the solution fails :func:`certify`.
 
     Parameters
     ----------
@@ -309,7 +309,7 @@ def design(sys: PeriodicSystem, gamma: float, eps: float = EPS) -> PeriodicDesig
 def _solved(sys: PeriodicSystem, prob: cp.Problem, Y: list, Z: list, gamma: float | None
             ) -> PeriodicDesign | None:
 
-    out = solve_policy.solve_cvxpy(prob)  # an inaccurate solution is judged by verify() below
+    out = solve_policy.solve_cvxpy(prob)  # an inaccurate solution is judged by certify() below
     if not out.solved or Y[0].value is None:
         return None
     a2 = sys.output_scale() ** 2  # the problem was posed for the scaled system
@@ -317,7 +317,7 @@ def _solved(sys: PeriodicSystem, prob: cp.Problem, Y: list, Z: list, gamma: floa
     Zv = np.stack([np.asarray(z.value) for z in Z]) / a2
     if gamma is None:  # the minimized level, checked at a hair above the solver's value
         gamma = float(np.sqrt(prob.value)) * (1 + 1e-6)
-    check = verify(sys, Yv, Zv, gamma)
+    check = certify(sys, Yv, Zv, gamma)
     if not check.ok:
         return None
     F = np.stack([np.linalg.solve(Yv[k], Zv[k]).T for k in range(len(Y))])

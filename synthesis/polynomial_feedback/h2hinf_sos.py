@@ -64,7 +64,7 @@ from satfmu.fmus import codegen
 from satfmu.fmus.plants import mrp_satellite
 from satfmu.fmus.model import Model
 from satfmu.synthesis.core.polynomial import Poly, PolyMatrix, monomials
-from satfmu.synthesis.core.sos import Check, SOSError, SOSProgram, SOSSolution, check_numbers, verify
+from satfmu.synthesis.core.sos import Check, SOSError, SOSProgram, SOSSolution, check_numbers, certify
 
 X0_200 = np.array([0.0, 0.0, 0.0, 0.5992, -0.7976, 0.6517])
 """Seed 000's 200 deg rest-to-rest start (docs/models.md's x(0), outside every certifiable region)."""
@@ -236,7 +236,7 @@ class Theorem8Result:
 
     @property
     def certified(self) -> bool:
-        """Every SOS constraint passed :func:`satfmu.synthesis.core.sos.verify` and X2, Xinf and the
+        """Every SOS constraint passed :func:`satfmu.synthesis.core.sos.certify` and X2, Xinf and the
         lambda block are positive semidefinite (to 1e-9), checked without the solver."""
         return all(c.certified for c in self.checks) and _psd_margin(self) >= -1e-9
 
@@ -421,7 +421,7 @@ def theorem8(gamma: float, alpha: float, beta: float, variant: str = "slack", re
     sol = prog.solve(objective=objective, tol_feas=1e-10, tol_gap_abs=1e-10, tol_gap_rel=1e-10)
     solve_s = sol.timings["solve"]
     t2 = time.perf_counter()
-    checks = verify(prog, sol, sample_radius=region)
+    checks = certify(prog, sol, sample_radius=region)
     timings = {"build": t1 - t0 + sol.timings["build"] - prog.build_seconds, "solve": solve_s,
                "verify": time.perf_counter() - t2}
 

@@ -45,7 +45,7 @@ from satfmu.controllers.artifact import ControllerArtifact
 from satfmu.fmus.plants import mrp_satellite
 from satfmu.fmus.model import Model
 from satfmu.synthesis.core.polynomial import Poly
-from satfmu.synthesis.core.sos import Check, SOSError, SOSProgram, verify
+from satfmu.synthesis.core.sos import Check, SOSError, SOSProgram, certify
 
 KV_GRID = np.logspace(-2, 9, 111)
 """Default kv search grid (log-spaced; refined by a bounded scalar search)."""
@@ -643,7 +643,7 @@ def sos_gain(form: HJIForm, region: Region, kv: float | None = None, multiplier_
     unless ``kv`` is given. The optimum of each program sits on the boundary of the SOS
     cone, so the certificate is re-solved at ``alpha (1 - backoff)`` with ``beta`` fixed to
     ``(1 - backoff)`` times its optimum: a strictly feasible point the verification
-    (:func:`satfmu.synthesis.core.sos.verify`) can check with margin. ``c`` is reported for that point.
+    (:func:`satfmu.synthesis.core.sos.certify`) can check with margin. ``c`` is reported for that point.
 
     Parameters
     ----------
@@ -706,6 +706,6 @@ def sos_gain(form: HJIForm, region: Region, kv: float | None = None, multiplier_
     alpha *= 1 - backoff
     beta = beta_opt * (1 - backoff)
     _, prog, sol = solve(alpha, beta)
-    checks = verify(prog, sol, sample_radius=float(np.sqrt(4.0)))  # unit box x unit ball
+    checks = certify(prog, sol, sample_radius=float(np.sqrt(4.0)))  # unit box x unit ball
     c = 1.0 / (2.0 * np.sqrt(alpha * beta))
     return SOSGain(float(c), float(1 / alpha), float(beta), checks, n_programs, timings)

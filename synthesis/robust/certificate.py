@@ -1,7 +1,7 @@
 """The independent check of a robust certificate: every LMI rebuilt in numpy, without the solver.
 
-:func:`verify` rebuilds the dual robust LMIs of one plant from a returned ``K, Y``, levels and
-multipliers; ``_verify_plants`` does so for the several plants of one program (judged, with a
+:func:`certify` rebuilds the dual robust LMIs of one plant from a returned ``K, Y``, levels and
+multipliers; ``_certify_plants`` does so for the several plants of one program (judged, with a
 constraint generation's subset, on the LMIs that program imposed: ``_judged_on``) and merges
 their checks (``_merge_checks``).
 """
@@ -19,7 +19,7 @@ from satfmu.synthesis.robust.lft_plant import LFTPlant, PlantDataError, _block_s
 from satfmu.synthesis.robust.multipliers import Multiplier, _dg_structure_error, _vertex_condition, _vertex_deltas
 
 
-def verify(plant: LFTPlant, K, Y, gamma: float | None, nu: float, multipliers: dict[str, Multiplier], *,
+def certify(plant: LFTPlant, K, Y, gamma: float | None, nu: float, multipliers: dict[str, Multiplier], *,
            alpha: float, beta: float | None, sector: float | None = None, convention: str = "satfmu"
            ) -> RobustCheck:
     """Check the dual robust LMIs of :func:`~satfmu.synthesis.robust.robust_design.design` /
@@ -85,10 +85,10 @@ def verify(plant: LFTPlant, K, Y, gamma: float | None, nu: float, multipliers: d
     return _finish_check(neg, pos, structure)
 
 
-def _verify_plants(plants: tuple[LFTPlant, ...], K, Y, gamma, nu, multipliers: dict[str, Multiplier], *,
+def _certify_plants(plants: tuple[LFTPlant, ...], K, Y, gamma, nu, multipliers: dict[str, Multiplier], *,
                    alpha: float, beta: float | None, sector: float | None, convention: str,
                    only: Selection = None) -> RobustCheck:
-    """:func:`verify` at every plant, merged: the smallest margin, names prefixed as
+    """:func:`certify` at every plant, merged: the smallest margin, names prefixed as
     :func:`~satfmu.synthesis.robust.dual_lmis._key`; with ``only``, each plant's check judged on
     the robust LMIs the program imposed (:func:`_judged_on`)."""
     options: dict[str, Any] = {"alpha": alpha, "beta": beta, "sector": sector, "convention": convention}
@@ -96,7 +96,7 @@ def _verify_plants(plants: tuple[LFTPlant, ...], K, Y, gamma, nu, multipliers: d
     for i, plant in enumerate(plants):
         own = multipliers if len(plants) == 1 else {k.split("/", 1)[1]: v for k, v in multipliers.items()
                                                     if k.startswith(f"{i}/")}
-        check = verify(plant, K, Y, gamma, nu, own, **options)
+        check = certify(plant, K, Y, gamma, nu, own, **options)
         checks.append(check if only is None else _judged_on(check, only[i]))
     return checks[0] if len(plants) == 1 else _merge_checks(checks)
 

@@ -1,7 +1,7 @@
 """The solver-independent check of a certificate: its record, rounding allowance, tolerances, conventions.
 
 :class:`RobustCheck` holds the extreme eigenvalues of the matrices that a check rebuilds in numpy
-(:func:`~satfmu.synthesis.robust.certificate.verify`, :func:`~satfmu.synthesis.robust.pdlf.verify_pdlf`)
+(:func:`~satfmu.synthesis.robust.certificate.certify`, :func:`~satfmu.synthesis.robust.pdlf.certify_pdlf`)
 and the margin they leave over the rounding allowance. Here too: the tolerances the robust LMIs
 are solved and checked with (:data:`ABS_MARGIN`, :data:`EPS`) and the conventions that put the
 levels into them (:data:`CONVENTIONS`), with their option checks.

@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from satfmu.synthesis.robust.certificate import _merge_checks, verify
+from satfmu.synthesis.robust.certificate import _merge_checks, certify
 from satfmu.synthesis.robust.checks import RobustCheck, _allowance
 from satfmu.synthesis.robust.design_result import RobustDesign
 from satfmu.synthesis.robust.dual_lmis import ROBUST_LMIS, _specs
@@ -62,7 +62,7 @@ def _constraint_generation(plants: tuple[LFTPlant, ...], K: np.ndarray | None, r
     Each plant brings its robust LMIs (:func:`_specs`: "hinf", "alpha", "beta", "sector") and
     its i2p blocks ("i2p", one per distinct ``(B2, C2)``); the subset is a set of such
     ``(plant, LMI)`` pairs. Minimize over every LMI of the first :data:`SCENARIO_FIRST` plants;
-    :func:`verify` every plant at the minimizer (levels at each of :data:`BACKOFFS` in turn
+    :func:`certify` every plant at the minimizer (levels at each of :data:`BACKOFFS` in turn
     while only LMIs of the subset fail: larger levels loosen every LMI); if any outside the
     subset is violated, the next subset is the LMIs that bind (dual weight above
     :data:`SUPPORT_TOL`; one left out once stays in when it comes back, so the rounds end; if
@@ -72,7 +72,7 @@ def _constraint_generation(plants: tuple[LFTPlant, ...], K: np.ndarray | None, r
     subset fail, the back-off solves at the minimizer's levels in those coordinates
     (:func:`_back_off`, from the back-off that verified in the last round: DEMETER row 13
     failed at 1e-4 and 1e-3 and verified at 1e-2 in each round; failing them, the subset's
-    certified solve :func:`_rescaled_program`) and :func:`verify` of every plant at the
+    certified solve :func:`_rescaled_program`) and :func:`certify` of every plant at the
     answer; LMIs it violates join the subset and the rounds go on.
 
     Leaving out LMIs that do not bind keeps the optimum (convex program, complementary
@@ -121,7 +121,7 @@ def _constraint_generation(plants: tuple[LFTPlant, ...], K: np.ndarray | None, r
     def check_all(K, Y, gamma, nu) -> tuple[list[RobustCheck], list[tuple[int, str]]]:
         """Every plant's check in the coordinates T, and the worst violated LMIs outside the subset
         (Y > 0 is in every subset)."""
-        checks = [verify(p.scale_states(T), K, Y, gamma, nu, {}, **check_options) for p in plants]
+        checks = [certify(p.scale_states(T), K, Y, gamma, nu, {}, **check_options) for p in plants]
         inside = set(active)
         worst = sorted((v, key) for i, c in enumerate(checks) if not c.ok for name, v in _lmi_margins(c).items()
                        if v <= 0 and name != "Y" and (key := (rep[i] if name == "i2p" else i, name)) not in inside)

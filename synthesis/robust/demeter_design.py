@@ -19,7 +19,9 @@
 from __future__ import annotations
 
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from scipy.linalg import matrix_balance
@@ -40,6 +42,26 @@ BETA = 10.0
 W_HINF, W_I2P = 1.0, 100.0
 """The seed's objective weights, "+1*hinfty(usysIW1) +100*i2p(usysIW2)"."""
 
+
+
+def seed_design(plant: LFTPlant | Sequence[LFTPlant], **kwargs: Any) -> RobustDesign:
+    """:func:`~satfmu.synthesis.robust.robust_design.design` with the seed's objective weights and
+    pole region (:data:`W_HINF`, :data:`W_I2P`, :data:`ALPHA`, :data:`BETA`).
+
+    Parameters
+    ----------
+    plant : LFTPlant or sequence of LFTPlant
+        The uncertain plant, or certain plants (a scenario design).
+    **kwargs
+        The other keyword arguments of :func:`~satfmu.synthesis.robust.robust_design.design`
+        (``uncertainty``, ``convention``, ...).
+
+    Returns
+    -------
+    RobustDesign
+        The design.
+    """
+    return design(plant, w_hinf=W_HINF, w_i2p=W_I2P, alpha=ALPHA, beta=BETA, **kwargs)
 
 def state_scale(dm: DesignModel) -> np.ndarray:
     """T of ``x = T x_s``: the states' sizes, balanced.
@@ -469,7 +491,7 @@ def deterministic(variant: Variant, *, n_samples: int = 100, seed: int = 0, anal
     plant = scaled_lft(dm, T)
     t0 = time.perf_counter()
     des, kind, note = robust_multipliers(
-        lambda kind: design(plant, w_hinf=W_HINF, w_i2p=W_I2P, alpha=ALPHA, beta=BETA, uncertainty=kind,
+        lambda kind: seed_design(plant, uncertainty=kind,
                             convention=convention), uncertainty_kind(variant))
     out = DeterministicResult(variant, kind, des, None if des.K is None else des.K / T,
                               seconds={"design": time.perf_counter() - t0}, obstruction=coincident_modes(variant),

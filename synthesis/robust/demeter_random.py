@@ -26,12 +26,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from satfmu.synthesis.robust import demeter_design as dd
-from satfmu.synthesis.robust import probabilistic as pr
-from satfmu.synthesis.robust import sequential as sq
+from satfmu.synthesis.robust import demeter_design
+from satfmu.synthesis.robust import probabilistic
+from satfmu.synthesis.robust import sequential
 from satfmu.synthesis.robust.demeter_variants import DesignModel, Variant, design_model
 from satfmu.synthesis.robust.lft_plant import OptionError
-from satfmu.synthesis.robust.robust_design import RobustDesign, design
+from satfmu.synthesis.robust.robust_design import RobustDesign
 
 SCENARIO_EPSILON, SCENARIO_DELTA = 0.1, 1e-9
 """The scenario design's violation level and confidence (docs/models.md: N = 962 for row 1)."""
@@ -55,9 +55,8 @@ def design_scale(dm: DesignModel) -> np.ndarray:
         :func:`~satfmu.synthesis.robust.demeter_design.state_scale`
         alone if the nominal design fails.
     """
-    T = dd.state_scale(dm)
-    nominal = design(dd.scaled_lft(dm, T).at(np.zeros(len(dm.parameters))), w_hinf=dd.W_HINF,
-                     w_i2p=dd.W_I2P, alpha=dd.ALPHA, beta=dd.BETA)
+    T = demeter_design.state_scale(dm)
+    nominal = demeter_design.seed_design(demeter_design.scaled_lft(dm, T).at(np.zeros(len(dm.parameters))))
     return T if nominal.Y is None else T * np.sqrt(np.diag(nominal.Y))
 
 
@@ -100,15 +99,15 @@ class Analysis:
     seed: int
     max_real_pole: float
     min_real_pole: float
-    hinf: pr.WorstCase
-    i2p: pr.WorstCase
+    hinf: probabilistic.WorstCase
+    i2p: probabilistic.WorstCase
     seconds: float
     i2p_direction: str = "worst"
     """How the impulse of w2 was taken (:data:`I2P_DIRECTIONS`)."""
 
     @property
     def in_region(self) -> bool:
-        return self.max_real_pole < -dd.ALPHA and self.min_real_pole > -dd.BETA
+        return self.max_real_pole < -demeter_design.ALPHA and self.min_real_pole > -demeter_design.BETA
 
 
 @dataclass(frozen=True)
@@ -161,7 +160,7 @@ class ClosedLoopSamples:
         return self._dm
 
     def __call__(self, deltas: np.ndarray) -> dict[str, np.ndarray]:
-        return dd.closed_loop_values(self.design_model(), self.K, deltas)
+        return demeter_design.closed_loop_values(self.design_model(), self.K, deltas)
 
     def __getstate__(self) -> dict:
         return {"variant": self.variant, "K": self.K, "_dm": None}  # rebuilt in the worker
@@ -210,7 +209,7 @@ def analyse(variant: Variant, K: np.ndarray, *, n: int | None = None, seed: int 
     """
     if i2p_direction not in I2P_DIRECTIONS:
         raise OptionError(f"i2p_direction must be one of {I2P_DIRECTIONS}, got {i2p_direction!r}")
-    n = pr.worst_case_samples(epsilon, delta) if n is None else n
+    n = probabilistic.worst_case_samples(epsilon, delta) if n is None else n
     dm = design_model(variant)
     t0 = time.perf_counter()
     rng = np.random.default_rng(seed)
@@ -219,9 +218,10 @@ def analyse(variant: Variant, K: np.ndarray, *, n: int | None = None, seed: int 
     if i2p_direction == "random":
         u = rng.normal(size=(n, dm.B2.shape[1]))
         directions = u / np.linalg.norm(u, axis=1, keepdims=True)
-    v = dd.closed_loop_values(dm, np.asarray(K, float), deltas, directions)
+    v = demeter_design.closed_loop_values(dm, np.asarray(K, float), deltas, directions)
     return Analysis(n, seed, float(v["max_real_pole"].max()), float(v["min_real_pole"].min()),
-                    pr.worst_case(v["hinf"], epsilon, delta), pr.worst_case(v["i2p"], epsilon, delta),
+                    probabilistic.worst_case(v["hinf"], epsilon, delta), probabilistic.worst_case(v["i2p"], epsilon,
+                                                                                                  delta),
                     time.perf_counter() - t0, i2p_direction)
 
 
@@ -305,14 +305,14 @@ def scenario(variant: Variant, *, epsilon: float = SCENARIO_EPSILON, delta: floa
     """
     dm = design_model(variant)
     d = n_decision(dm)
-    n = pr.scenario_samples(d, epsilon, delta, sample_bound) if n is None else n
+    n = probabilistic.scenario_samples(d, epsilon, delta, sample_bound) if n is None else n
     if n < 1:
         raise OptionError(f"n must be >= 1, got {n!r}")
     t0 = time.perf_counter()
     T = design_scale(dm)
-    P = dd.scaled_lft(dm, T)
+    P = demeter_design.scaled_lft(dm, T)
     plants = [P.at(x) for x in dm.sample(n, np.random.default_rng(seed))]
-    des = design(plants, w_hinf=dd.W_HINF, w_i2p=dd.W_I2P, alpha=dd.ALPHA, beta=dd.BETA, convention=convention)
+    des = demeter_design.seed_design(plants, convention=convention)
     out = ScenarioResult(variant, des, None if des.K is None else des.K / T, n, d, epsilon, delta,
                          seconds={"design": time.perf_counter() - t0})
     if analysis and out.K is not None:
@@ -340,7 +340,7 @@ class SequentialDesign:
 
     variant: Variant
     deterministic: RobustDesign
-    result: sq.SequentialResult
+    result: sequential.SequentialResult
     K: np.ndarray | None
 
     @property
@@ -379,17 +379,18 @@ def sequential_design(variant: Variant, *, scale: float = 0.99, epsilon: float =
         If the variant has no deterministic design to start from.
     """
     dm = design_model(variant)
-    T0 = dd.state_scale(dm)  # the deterministic design's own coordinates (as deterministic())
-    plant = dd.scaled_lft(dm, T0)
-    det, _, _ = dd.robust_multipliers(
-        lambda kind: design(plant, w_hinf=dd.W_HINF, w_i2p=dd.W_I2P, alpha=dd.ALPHA, beta=dd.BETA, uncertainty=kind),
-        dd.uncertainty_kind(variant))
+    T0 = demeter_design.state_scale(dm)  # the deterministic design's own coordinates (as deterministic())
+    plant = demeter_design.scaled_lft(dm, T0)
+    det, _, _ = demeter_design.robust_multipliers(
+        lambda kind: demeter_design.seed_design(plant, uncertainty=kind),
+        demeter_design.uncertainty_kind(variant))
     if det.K is None:
         raise ValueError(f"{variant.label}: no deterministic design to start from ({det.status})")
     T = design_scale(dm)
     s = T / T0  # x_T0 = s x_T: Y and the gain carried over exactly
     Y0 = det.Y / s[:, None] / s[None, :]
-    res = sq.sequential(dd.scaled_lft(dm, T), BoxSampler(len(dm.parameters)), det.gamma * scale, det.nu * scale,
-                        Y0, (det.K * s) @ Y0, alpha=dd.ALPHA, beta=dd.BETA, epsilon=epsilon, delta=delta,
-                        max_updates=max_updates, seed=seed)
+    res = sequential.sequential(demeter_design.scaled_lft(dm, T), BoxSampler(len(dm.parameters)), det.gamma * scale,
+                                det.nu * scale, Y0, (det.K * s) @ Y0, alpha=demeter_design.ALPHA,
+                                beta=demeter_design.BETA, epsilon=epsilon, delta=delta, max_updates=max_updates,
+                                seed=seed)
     return SequentialDesign(variant, det, res, res.K / T if res.status == "validated" else None)

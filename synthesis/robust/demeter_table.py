@@ -26,8 +26,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from satfmu.synthesis.robust import demeter_design as dd
-from satfmu.synthesis.robust import demeter_random as dr
+from satfmu.synthesis.robust import demeter_design
+from satfmu.synthesis.robust import demeter_random
 from satfmu.synthesis.robust.demeter_variants import SEED_TABLE1, SEED_TABLE1_COLUMNS, Variant, design_model
 
 METHODS = ("Prob", "Det")
@@ -86,7 +86,8 @@ class Row:
     total_seconds: float = math.nan
     note: str = ""
     seed: tuple[float, ...] | None = None
-    result: dd.DeterministicResult | dr.ScenarioResult | None = field(default=None, repr=False, compare=False)
+    result: demeter_design.DeterministicResult | demeter_random.ScenarioResult | None = field(default=None, repr=False,
+                                                                                              compare=False)
     """The design behind the row (gain, certificates)."""
 
 
@@ -132,22 +133,22 @@ def run_row(variant: Variant, method: str, *, n_scenarios: int | None = None, se
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")
     t0 = time.perf_counter()
     row = Row(variant, method, "", seed=SEED_TABLE1.get((variant, method)))
-    res: dd.DeterministicResult | dr.ScenarioResult
+    res: demeter_design.DeterministicResult | demeter_random.ScenarioResult
     if method == "Det":
-        res = dd.deterministic(variant, n_samples=n_samples, seed=seed, convention=convention)
+        res = demeter_design.deterministic(variant, n_samples=n_samples, seed=seed, convention=convention)
         design, K = res.design, res.K
         if K is not None:
             row.det_hinf, row.det_i2p = _value(res.analysis_hinf, "gamma"), _value(res.analysis_i2p, "nu")
             row.note = "; ".join(n for n in (res.note, res.analysis_skipped) if n)
         obstruction = res.obstruction
     else:
-        res = dr.scenario(variant, n=n_scenarios, seed=seed, analysis=False, convention=convention)
+        res = demeter_random.scenario(variant, n=n_scenarios, seed=seed, analysis=False, convention=convention)
         design, K = res.design, res.K
         if K is not None:
             dm = design_model(variant)
-            a = dd.analyse(dm, K, dr.design_scale(dm))
+            a = demeter_design.analyse(dm, K, demeter_random.design_scale(dm))
             row.det_hinf, row.det_i2p = _value(a.hinf, "gamma"), _value(a.i2p, "nu")
-        obstruction = dd.coincident_modes(variant)
+        obstruction = demeter_design.coincident_modes(variant)
         row.note = "; ".join([f"{res.n_samples} scenarios"] + ([n for n in (a.i2p_note, a.skipped) if n]
                                                                if K is not None else []))
     row.seconds, row.result = res.seconds["design"], res
@@ -165,7 +166,7 @@ def run_row(variant: Variant, method: str, *, n_scenarios: int | None = None, se
         # a design with a gain is "optimal": both bounds are set (the weights W_HINF, W_I2P are > 0)
         assert design.nu is not None and design.gamma is not None
         row.design_i2p, row.design_hinf = design.nu, design.gamma
-        p = dr.analyse(variant, K, seed=seed + 1)
+        p = demeter_random.analyse(variant, K, seed=seed + 1)
         row.prob_i2p, row.prob_hinf = p.i2p.estimate, p.hinf.estimate
         if not p.in_region:
             row.note = (row.note + "; " if row.note else "") + f"sampled max Re {p.max_real_pole:.2e} 1/s"

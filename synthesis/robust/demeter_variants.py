@@ -38,7 +38,7 @@ from typing import Any
 
 import numpy as np
 
-from satfmu.controllers import state_feedback as sf
+from satfmu.controllers import state_feedback
 from satfmu.fmus.plants import demeter
 from satfmu.fmus.errors import VariantError
 
@@ -446,7 +446,7 @@ class DesignModel:
             If K does not have shape (n_axes, n) or is not finite.
         """
         try:
-            return sf.design_gains(K, self.variant.axes, self.variant.wheels, self.Q)
+            return state_feedback.design_gains(K, self.variant.axes, self.variant.wheels, self.Q)
         except ValueError as exc:
             raise VariantError(str(exc)) from None
 
@@ -514,7 +514,7 @@ def parameters(variant: Variant) -> list[UncertainParameter]:
             i, j = ax[k1], ax[k2]
             out.append(UncertainParameter(f"J{i + 1}{j + 1}", "Jprod", (k1, k2), float(demeter.J0[i, j]),
                                           INERTIA_PRODUCT_SPREAD, inertia))
-    ngr = len(sf.flexible_groups(variant.appendages, variant.model_type))
+    ngr = len(state_feedback.flexible_groups(variant.appendages, variant.model_type))
     for g in range(ngr):
         tag = "" if ngr == 1 else f"{variant.appendages[g]}"
         lo, hi = demeter.OMEGA_RANGE
@@ -548,10 +548,10 @@ def design_model(variant: Variant, L: np.ndarray | None = None) -> DesignModel:
     if L_full.shape != (demeter.N_AXES, demeter.N_FLEX) or not np.all(np.isfinite(L_full)):
         raise VariantError(f"L must be a finite 3 x 8 matrix, got shape {np.shape(L_full)}")
     ax = [a - 1 for a in variant.axes]
-    groups = sf.flexible_groups(variant.appendages, variant.model_type)
+    groups = state_feedback.flexible_groups(variant.appendages, variant.model_type)
     L_used = np.zeros_like(L_full)
     L_used[np.ix_(ax, sum(groups, []))] = L_full[np.ix_(ax, sum(groups, []))]
-    L_r, Q, mode_group = sf.reduction(variant.axes, groups, L_full)
+    L_r, Q, mode_group = state_feedback.reduction(variant.axes, groups, L_full)
     return _assemble(variant, parameters(variant), groups, L_used, Q, L_r, mode_group)
 
 
@@ -659,7 +659,7 @@ def _assemble(variant: Variant, params: list[UncertainParameter], groups: list[l
             add(r, U + i, -wn2)
             r += 1
     assert r == rows, (r, rows)
-    names = sf.design_states(variant.axes, nr, wheels)
+    names = state_feedback.design_states(variant.axes, nr, wheels)
     C1 = np.zeros((na, n))
     C1[:, th] = np.eye(na)
     B2 = np.zeros((n, 2 * na))

@@ -23,7 +23,7 @@ class RobustDesign:
 
     ``status``: ``"optimal"`` (solved and verified: K, gamma, nu, Y, multipliers certified),
     ``"infeasible"`` (the solver proved infeasibility), ``"unverified"`` (a solution that failed
-    :func:`~satfmu.synthesis.robust.certificate.verify`, or no usable solver answer; K, gamma, nu
+    :func:`~satfmu.synthesis.robust.certificate.certify`, or no usable solver answer; K, gamma, nu
     are then None, ``check`` tells why). ``gamma`` (H-infinity bound, units of z1/w1) and ``nu``
     (peak bound, units of z2 per unit impulse of w2) are the bounds of the program's optimal levels
     times ``1 + backoff`` (the first of :data:`~satfmu.synthesis.robust.solve_strategy.BACKOFFS`
@@ -57,7 +57,7 @@ class RobustDesign:
         The multiplier of each robust LMI, by name (``"hinf"``, ``"alpha"``, ...; ``"i/hinf"``
         for plant i of several); empty for a plant without uncertain parameters.
     check : RobustCheck or None
-        :func:`~satfmu.synthesis.robust.certificate.verify` of the returned certificate, or of the
+        :func:`~satfmu.synthesis.robust.certificate.certify` of the returned certificate, or of the
         last one tried when it failed; None when the solver gave no solution.
     solver_objective : float or None
         The minimized objective (not certified).

@@ -8,7 +8,7 @@ common Lyapunov matrix. The program's size is estimated before it is built
 (:func:`pdlf_size`, :data:`PDLF_MAX_ENTRIES`). As in :mod:`satfmu.synthesis.robust.robust_design`, the
 minimizer is checked at the backed-off levels (:data:`~satfmu.synthesis.robust.solve_strategy.BACKOFFS`), then,
 if it fails, back-off solves follow, and a
-result is ``"optimal"`` only when :func:`verify_pdlf` has re-checked every vertex LMI in numpy;
+result is ``"optimal"`` only when :func:`certify_pdlf` has re-checked every vertex LMI in numpy;
 when the minimization gives no usable optimum, a bisection on gamma from the nominal loop's
 exact norm (:func:`satfmu.synthesis.core.system_norms.hinf_norm`) finds the smallest verified level.
 """
@@ -48,7 +48,7 @@ class PDLFResult:
     :data:`PDLF_BISECTION_TOL` of the smallest it could not verify); ``P0``, ``Pk`` (shape (N,
     n, n), zeros if ``common``) the Lyapunov matrix ``P(delta) = P0 + sum delta_k Pk[k]``; ``F``
     the slack, shape (2 n + n_v + m_w, n + n_v). With ``state_scaling`` (T) the certificate
-    holds in the coordinates ``x = diag(T) x_s``: ``verify_pdlf(desc.scale_states(T), K * T, P0,
+    holds in the coordinates ``x = diag(T) x_s``: ``certify_pdlf(desc.scale_states(T), K * T, P0,
     Pk, F, gamma)`` (:meth:`AffineDescriptor.scale_states`; gamma does not depend on them).
     Status and times as :class:`~satfmu.synthesis.robust.design_result.RobustDesign`.
 
@@ -65,7 +65,7 @@ class PDLFResult:
     F : numpy.ndarray, shape (2 n + n_v + m_w, n + n_v), or None
         The slack matrix.
     check : satfmu.synthesis.robust.checks.RobustCheck or None
-        :func:`verify_pdlf` of the certificate returned, or of the last one that failed.
+        :func:`certify_pdlf` of the certificate returned, or of the last one that failed.
     common : bool
         One common Lyapunov matrix (``Pk = 0``) instead of a PDLF.
     n_vertices : int
@@ -113,7 +113,7 @@ def _pdlf_lmi(desc: AffineDescriptor, K: np.ndarray, P, F, g, delta: np.ndarray,
     return (L + L.T) / 2
 
 
-def verify_pdlf(desc: AffineDescriptor, K, P0, Pk, F, gamma: float) -> RobustCheck:
+def certify_pdlf(desc: AffineDescriptor, K, P0, Pk, F, gamma: float) -> RobustCheck:
     """Check :func:`pdlf_hinf`'s LMIs at every vertex with numpy: ``P(delta_v) > 0`` (``"P"``)
     and the dilated H-infinity LMI at ``g = gamma^2`` (``"hinf"``), one eigenvalue per vertex.
 
@@ -321,7 +321,7 @@ def _minimized(desc: AffineDescriptor, K: np.ndarray, common: bool, eps: float, 
     P0v, Pkv, Fv = _pdlf_values(prog, desc, P0, Pk, F)
     check = None
     for b in BACKOFFS:
-        check = verify_pdlf(desc, K, P0v, Pkv, Fv, root * (1 + b))
+        check = certify_pdlf(desc, K, P0v, Pkv, Fv, root * (1 + b))
         if check.ok:
             info["solver_status"] += f"; the minimizer verified at back-off {b:g}"
             return _Minimum(PDLFResult("optimal", root * (1 + b), P0v, Pkv, Fv, check, **info, backoff=b))
@@ -338,7 +338,7 @@ def _timed_solve(prog: lmi.LMIProgram, objective: lmi.Affine, maximize: bool, in
 def _pdlf_at(desc: AffineDescriptor, K: np.ndarray, common: bool, gamma: float, info: dict, label: str,
              ladder: solve_policy.RungMemory) -> tuple[PDLFResult | None, RobustCheck | None]:
     """The largest common margin of the PDLF LMIs at level ``gamma`` (bounded by 1), verified:
-    ``(result, check)``; result None if the certificate fails :func:`verify_pdlf`."""
+    ``(result, check)``; result None if the certificate fails :func:`certify_pdlf`."""
     t0 = time.perf_counter()
     prog = lmi.LMIProgram()
     t = prog.variable()
@@ -351,7 +351,7 @@ def _pdlf_at(desc: AffineDescriptor, K: np.ndarray, common: bool, gamma: float, 
     if not prog.solution.solved or prog.value(t)[0, 0] <= 0:
         return None, None
     P0v, Pkv, Fv = _pdlf_values(prog, desc, P0, Pk, F)
-    check = verify_pdlf(desc, K, P0v, Pkv, Fv, gamma)
+    check = certify_pdlf(desc, K, P0v, Pkv, Fv, gamma)
     if not check.ok:
         return None, check
     return PDLFResult("optimal", gamma, P0v, Pkv, Fv, check, **info), check

@@ -33,7 +33,7 @@ at back-off 1e-3, and the two rescalings that came first took 130 s of 226)."""
 def _rescaled_program(plants: tuple[LFTPlant, ...], K: np.ndarray | None, rescale: bool, depth: int = RESCALE_DEPTH,
                       minimizer: _Minimizer | RobustDesign | None = None, **options) -> RobustDesign:
     """The minimizer certified at the first back-off (:func:`_certified`); if that fails
-    :func:`~satfmu.synthesis.robust.certificate.verify`, the same again (up to ``depth`` times) in
+    :func:`~satfmu.synthesis.robust.certificate.certify`, the same again (up to ``depth`` times) in
     the coordinates where the minimizer's Y has a unit diagonal (``x = diag(sqrt(Y_ii)) x_s``);
     failing that, the larger back-offs at the same minimizer. When Y's diagonal spans less than
     :data:`RESCALE_SPREAD`, the larger back-offs come before the rescaling (the scaling is not what
@@ -103,7 +103,7 @@ def _in_our_coordinates(plants: tuple[LFTPlant, ...], rescale: bool, **options) 
     the toolbox's forms the constants ``Bw Bw^T`` and ``B2 B2^T`` fix Y's size, which follows the
     slow momentum mode's Gramian (DEMETER: 10^5 times the stiff states' entries), and the
     interior-point iterates stall (two-axis rows: NumericalError, or a certificate that fails
-    :func:`~satfmu.synthesis.robust.certificate.verify` at every back-off, in 30 s); ours keeps the
+    :func:`~satfmu.synthesis.robust.certificate.certify` at every back-off, in 30 s); ours keeps the
     levels on both sides of each LMI and converges. In its coordinates the toolbox's program is well
     scaled: DEMETER row 10 then takes one solve (1.6 s) and its minimizer verifies at the first
     back-off. Any well-scaled coordinates do: the D-G design's Y is within a factor of a few of the

@@ -108,7 +108,7 @@ Gramian (``Y >= c G``, from the H-infinity LMI; DEMETER's momentum pseudo-integr
 gamma) and ``nu^2 >= c'`` in ``"romuloc"`` (nu bounded below whatever gamma; gamma free).
 
 Every result returned as ``"optimal"`` has been re-verified without the solver
-(:func:`~satfmu.synthesis.robust.certificate.verify`): each LMI rebuilt in numpy from the
+(:func:`~satfmu.synthesis.robust.certificate.certify`): each LMI rebuilt in numpy from the
 returned matrices (with the returned K), its extreme eigenvalue of the right sign with a margin;
 otherwise ``"unverified"``. An optimal interior-point solution lies within the solver's accuracy
 (about 1e-8 of the largest entry) of the boundary, often too close for such a check. So the
@@ -141,7 +141,7 @@ from typing import Any
 import numpy as np
 
 from satfmu.synthesis.core import solve_policy
-from satfmu.synthesis.robust.certificate import verify
+from satfmu.synthesis.robust.certificate import certify
 from satfmu.synthesis.robust.checks import ABS_MARGIN, CONVENTIONS, EPS, RobustCheck, _check_convention, _check_eps
 from satfmu.synthesis.robust.constraint_generation import (SCENARIO_BATCH, SCENARIO_FIRST, SUPPORT_TOL,
                                                            _constraint_generation)
@@ -155,7 +155,7 @@ from satfmu.synthesis.robust.solve_strategy import BACKOFFS
 # the entry points, and the public names of the modules that implement them (importable from here)
 __all__ = ["ABS_MARGIN", "BACKOFFS", "CONVENTIONS", "EPS", "MAX_VERTICES", "RESCALE_DEPTH", "RESCALE_SPREAD",
            "ROBUST_LMIS", "SCENARIO_BATCH", "SCENARIO_FIRST", "SUPPORT_TOL", "Multiplier", "RobustCheck",
-           "RobustDesign", "Selection", "design", "i2p_bound", "verify"]
+           "RobustDesign", "Selection", "design", "i2p_bound", "certify"]
 
 
 def _check_options(w_hinf: float, w_i2p: float, alpha: float, beta: float | None, uncertainty: str,
@@ -227,7 +227,7 @@ def design(plant: LFTPlant | Sequence[LFTPlant], K=None, *, w_hinf: float = 1.0,
     eps : float
         Strictness of the LMIs in the solver.
     rescale : bool
-        If the certificate fails :func:`~satfmu.synthesis.robust.certificate.verify`, solve once more in
+        If the certificate fails :func:`~satfmu.synthesis.robust.certificate.certify`, solve once more in
         the coordinates where the first solve's Y has a unit diagonal (see ``state_scaling`` of
         the result); a ``"romuloc"`` synthesis is solved in the coordinates of the ``"satfmu"``
         design (``rescaling._in_our_coordinates``; False: in the caller's, once).
@@ -239,7 +239,7 @@ def design(plant: LFTPlant | Sequence[LFTPlant], K=None, *, w_hinf: float = 1.0,
     -------
     RobustDesign
         ``status == "optimal"`` only if re-verified by
-        :func:`~satfmu.synthesis.robust.certificate.verify`; an infeasible problem returns
+        :func:`~satfmu.synthesis.robust.certificate.certify`; an infeasible problem returns
         ``"infeasible"`` (no exception).
 
     Raises
@@ -292,7 +292,7 @@ def i2p_bound(plant: LFTPlant | Sequence[LFTPlant], K, *, alpha: float = 0.0, un
     eps : float, optional
         Strictness of the LMIs in the solver.
     rescale : bool, optional
-        If the certificate fails :func:`~satfmu.synthesis.robust.certificate.verify`, solve once more in
+        If the certificate fails :func:`~satfmu.synthesis.robust.certificate.certify`, solve once more in
         better-conditioned coordinates (as :func:`design`).
 
     Returns

@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from satfmu.synthesis.core import lmi, solve_policy
-from satfmu.synthesis.robust.certificate import _verify_plants
+from satfmu.synthesis.robust.certificate import _certify_plants
 from satfmu.synthesis.robust.design_result import RobustDesign, _failed
 from satfmu.synthesis.robust.dual_lmis import Selection, _bound, _robust_constraints, _selected_specs, _specs
 from satfmu.synthesis.robust.lft_plant import LFTPlant, _sym
@@ -27,7 +27,7 @@ nu (or g) are fixed at ``(1 + b)`` times the solver's values and the smallest st
 of all the LMIs is maximized (a second solve), so that the certificate checked without the
 solver is far from the solver's accuracy (about 1e-8 relative to the largest entry). A larger b
 is tried only when the certificate at the smaller one fails
-:func:`~satfmu.synthesis.robust.certificate.verify`: a poorly conditioned program (DEMETER's
+:func:`~satfmu.synthesis.robust.certificate.certify`: a poorly conditioned program (DEMETER's
 momentum mode at -1e-3 1/s) can report an optimum slightly below the true one, and no strictly
 feasible point exists at 1e-4 above it."""
 
@@ -136,7 +136,7 @@ def _back_off(plants: tuple[LFTPlant, ...], K: np.ndarray | None, m: _Minimizer,
         Kv = np.linalg.solve(Yv, back.value(Wb).T).T if K is None else K
         mults = {k: f() for k, f in values.items()}
         g, nv = (None if g is None else _bound(convention, g)), _bound(convention, nv)
-        check = _verify_plants(plants, Kv, Yv, g, nv, mults, alpha=alpha, beta=beta, sector=sector,
+        check = _certify_plants(plants, Kv, Yv, g, nv, mults, alpha=alpha, beta=beta, sector=sector,
                                convention=convention, only=only)
         if check.ok:
             return RobustDesign("optimal", Kv, g, nv, Yv, mults, check, m.optimum, **m.info, **times, backoff=b)
@@ -151,7 +151,7 @@ def _certified(plants: tuple[LFTPlant, ...], K: np.ndarray | None, m: _Minimizer
     convention = m.info["convention"]
     for b in backoffs:
         g, nv = m.levels(convention, b)
-        check = _verify_plants(plants, m.K, m.Y, g, nv, m.multipliers, alpha=options["alpha"], beta=options["beta"],
+        check = _certify_plants(plants, m.K, m.Y, g, nv, m.multipliers, alpha=options["alpha"], beta=options["beta"],
                                sector=options.get("sector"), convention=convention, only=options.get("only"))
         if check.ok:
             status = m.times["solver_status"] + f"; the minimizer verified at back-off {b:g}"

@@ -26,7 +26,7 @@ from satfmu.controllers.artifact import SERVO_KIND, FORMAT, FORMAT_VERSION, desi
 from satfmu.controllers.servo_sdc import OUTPUTS, RATES, TRACKED
 from satfmu.fmus.plants import vscmg
 from satfmu.synthesis.servo.sdre import Servo
-from satfmu.fmus.errors import FitVerificationError
+from satfmu.fmus.errors import FitCertificationError
 
 Q2_RANGE = (0.15, 1.25)
 """Gimbal-2 angle range of the grid, rad (covers the seed's pi/18 to 1 + pi/18; substitute)."""
@@ -225,13 +225,13 @@ def _servo_data(name: str, description: str, gain: list, certificate: dict, prov
 
 
 OFFGRID_TOL = 2e-2
-"""Largest off-grid error of a fit (relative to the largest gain entry) :func:`verify` accepts.
+"""Largest off-grid error of a fit (relative to the largest gain entry) :func:`certify` accepts.
 It catches a broken fit (wrong grid, extrapolation); the closed-loop consequences of the
 approximation are checked by the simulation and proved by :mod:`satfmu.synthesis.servo.vscmg_region`.
 The shipped degree-4 fit's worst point, a corner at q2 = 0.22 rad, w4 = -0.58 rad/s, is 1.0e-2."""
 
 
-def verify(result: GainFit, servo: Servo, max_re_tol: float = 1e-6) -> dict[str, float]:
+def certify(result: GainFit, servo: Servo, max_re_tol: float = 1e-6) -> dict[str, float]:
     """Check a fitted gain independently of the least-squares fit; the numbers it measured.
 
     - Off-grid accuracy: the checked SDRE gain at the midpoints of the fit grid (points the
@@ -261,7 +261,7 @@ def verify(result: GainFit, servo: Servo, max_re_tol: float = 1e-6) -> dict[str,
 
     Raises
     ------
-    FitVerificationError
+    FitCertificationError
         Naming every bound that failed.
     """
     from satfmu.fmus.profiles import make
@@ -293,13 +293,13 @@ def verify(result: GainFit, servo: Servo, max_re_tol: float = 1e-6) -> dict[str,
                  (("sim_e2_final", 1e-3), ("sim_e4_final", 1e-4), ("sim_peak_T1", 0.6), ("sim_peak_T2", 2.4))
                  if not abs(numbers[k]) < bound]
     if failures:
-        raise FitVerificationError("fitted SDRE gain rejected: " + "; ".join(failures))
+        raise FitCertificationError("fitted SDRE gain rejected: " + "; ".join(failures))
     return numbers
 
 
 def approximated_sdre_data(result: GainFit, servo: Servo, checks: dict[str, float],
                            name: str = "vscmg_sdre_approx") -> dict:
-    """Artifact data of the approximated SDRE servo; ``checks`` from :func:`verify`.
+    """Artifact data of the approximated SDRE servo; ``checks`` from :func:`certify`.
 
     Parameters
     ----------
@@ -308,7 +308,7 @@ def approximated_sdre_data(result: GainFit, servo: Servo, checks: dict[str, floa
     servo : satfmu.synthesis.servo.sdre.Servo
         The servo it approximates (its factorization and weights are recorded).
     checks : dict
-        The numbers of :func:`verify`, recorded in the certificate.
+        The numbers of :func:`certify`, recorded in the certificate.
     name : str, optional
         The artifact's name, lower_snake_case (the controller FMU's modelIdentifier).
 
@@ -377,7 +377,7 @@ def synthesize(n_q2: int = 23, n_w4: int = 25, degrees: range = range(1, 9), cv_
 
     The approximation uses the seed's w1-free SDC with w2 := 0 (a gain in q2 and w4 only,
     fitted in sin q2 and w4 with the degree rule of :func:`fit`);
-    the fit is verified by :func:`verify` with the plant's own factorization on the same
+    the fit is verified by :func:`certify` with the plant's own factorization on the same
     grid before its data is returned. With ``region`` the SOS stability region of
     :mod:`satfmu.synthesis.servo.vscmg_region` is solved on its operating box and the certificate says
     what it proved (status ``certified`` only if it holds).
@@ -406,12 +406,12 @@ def synthesize(n_q2: int = 23, n_w4: int = 25, degrees: range = range(1, 9), cv_
 
     Raises
     ------
-    FitVerificationError, satfmu.controllers.riccati.RiccatiCheckError
-        If the fit fails :func:`verify`, or a Riccati solution fails its checks.
+    FitCertificationError, satfmu.controllers.riccati.RiccatiCheckError
+        If the fit fails :func:`certify`, or a Riccati solution fails its checks.
     """
     servo = Servo("w1_free", freeze_w2=True)
     result = fit(*sdre_grid(servo, n_q2, n_w4), degrees=degrees, cv_tol=cv_tol)
-    checks = verify(result, servo)
+    checks = certify(result, servo)
     approx = approximated_sdre_data(result, servo, checks)
     if region:
         from satfmu.controllers.artifact import ServoArtifact, parse
@@ -431,7 +431,7 @@ def table(result: GainFit, checks: dict[str, float]) -> str:
     result : GainFit
         The fit.
     checks : dict
-        The numbers of :func:`verify`.
+        The numbers of :func:`certify`.
     """
     lines = ["degree  CV RMS rel. error"]
     lines += [f"{d:6d}  {e:.3e}{'  <- chosen' if d == result.degree else ''}" for d, e in result.cv_errors.items()]

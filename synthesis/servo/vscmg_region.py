@@ -30,7 +30,7 @@ other than the conserved-p4 mode at 0 decays at least at ``eps / (2 lambda_max(Y
 the scaled coordinates), with one common Lyapunov matrix ``Y``: the seed's "robust
 stability" of the frozen SDC loop. It is not a proof for the nonlinear plant (the SDC
 freezes w2 := 0, and p changes with q2). Each certificate is re-checked without the solver:
-Gram eigenvalues and residuals (:func:`satfmu.synthesis.core.sos.verify`), a bound turning them into a
+Gram eigenvalues and residuals (:func:`satfmu.synthesis.core.sos.certify`), a bound turning them into a
 margin on the box (``_rigorous_margin``), and the Lyapunov inequality and the decay
 rate on samples of the true trigonometric model (:func:`trig_check`).
 """
@@ -52,7 +52,8 @@ from satfmu.fmus.plants import vscmg
 from satfmu.fmus.model import Model
 from satfmu.synthesis.core.polynomial import Poly, PolyMatrix, monomials
 from satfmu.synthesis.servo.sdre import Servo
-from satfmu.synthesis.core.sos import Check, SOSError, SOSProgram, verify
+from satfmu.synthesis.core import sos
+from satfmu.synthesis.core.sos import Check, SOSError, SOSProgram
 
 OPERATING_BOX = ((0.17, 1.24), (-0.6, 0.6))
 """(q2 rad, w4 rad/s) box of the seed's manoeuvre (docs/models.md **substitute** bounds)."""
@@ -170,7 +171,7 @@ class BoxCertificate:
     """The outcome of :func:`certify` on one box.
 
     ``certified``: the SOS program was solved with ``eps > 0``, every constraint passed
-    :func:`satfmu.synthesis.core.sos.verify` and the rigorous margin is positive. ``Y`` is in the servo
+    :func:`satfmu.synthesis.core.sos.certify` and the rigorous margin is positive. ``Y`` is in the servo
     state's own coordinates (``V = xe^T Y xe``); ``decay`` is the guaranteed decay rate of the
     frozen modes off p4, 1/s.
 
@@ -348,7 +349,7 @@ def certify(loop: ClosedLoop, q2: tuple[float, float], w4: tuple[float, float], 
     except SOSError as exc:
         return BoxCertificate(q2, w4, False, str(exc), seconds=time.perf_counter() - t0)
     e = float(-sol.objective)
-    checks = verify(prog, sol)
+    checks = sos.certify(prog, sol)
     margin = _rigorous_margin(prog, checks, sol, e)
     Yx = Y.evaluate(np.zeros(2), sol.y)
     decay = e / (2 * float(np.linalg.eigvalsh(Yx).max()))

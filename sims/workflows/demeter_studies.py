@@ -1,4 +1,4 @@
-"""Seed 004's workflows on the DEMETER satellite, each writing its files and returning a report.
+"""Seed 004's workflows on the DEMETER satellite, each writing its files and returning its result.
 
 - :func:`table1`: the rows of the seed's Table 1, both methods, beside the seed's numbers;
 - :func:`figures`: Figs 4-5, random closed loops through the FMUs (with and without the wheel
@@ -6,7 +6,7 @@
 - :func:`campaign`: closed-loop poles, exact H-infinity and impulse-to-peak of sampled plants
   under a design, on Dask (:mod:`satfmu.sims.campaign.engine`), with the worst-case and Chernoff statements.
 
-Each report's ``text()`` is what the command line prints.
+Each result's ``text()`` is what the command line prints.
 """
 from __future__ import annotations
 
@@ -24,7 +24,7 @@ Progress = Callable[[int, int, str], None]
 
 
 @dataclass
-class Table1Report:
+class Table1Result:
     """The rows :func:`table1` computed, the files it wrote and its wall time.
 
     Parameters
@@ -58,7 +58,7 @@ class Table1Report:
 
 
 def table1(out_dir: Path, rows: Sequence[int] | None = None, *, scenarios: int | None = None,
-           progress: Progress | None = None, convention: str = "satfmu", jobs: int = 1) -> Table1Report:
+           progress: Progress | None = None, convention: str = "satfmu", jobs: int = 1) -> Table1Result:
     """Seed 004 Table 1: the selected rows, both methods; the files are rewritten after each row,
     keeping the rows of earlier runs that this one does not redo.
 
@@ -103,12 +103,12 @@ def table1(out_dir: Path, rows: Sequence[int] | None = None, *, scenarios: int |
     options: dict[str, Any] = {"n_scenarios": scenarios, "progress": progress, "jobs": jobs}
     if convention != "both":
         found = demeter_table.run(keys, out_dir=out_dir, convention=convention, **options)
-        return Table1Report(found, [out_dir / "table1.md", out_dir / "table1.csv"], time.perf_counter() - t0, jobs)
+        return Table1Result(found, [out_dir / "table1.md", out_dir / "table1.csv"], time.perf_counter() - t0, jobs)
     found = []
     for conv in BOTH:
         found += demeter_table.run(keys, out_dir=out_dir / conv, convention=conv, **options)
     table1_comparison(out_dir)
-    return Table1Report(found, [out_dir / "table1.md"] + [out_dir / c / f for c in BOTH
+    return Table1Result(found, [out_dir / "table1.md"] + [out_dir / c / f for c in BOTH
                                                           for f in ("table1.md", "table1.csv")],
                         time.perf_counter() - t0, jobs)
 
@@ -151,7 +151,7 @@ def table1_comparison(out_dir: Path) -> Path:
 
 
 @dataclass
-class FiguresReport:
+class FiguresResult:
     """The loops of :func:`figures`: FMUs with wheel limits, FMUs without, the design model.
 
     Parameters
@@ -191,7 +191,7 @@ class FiguresReport:
 
 def figures(fmu_dir: Path, out_dir: Path, artifact: str | Path = "demeter_row1_det", *, samples: int = 100,
             seed: int = 0, stop_time: float = 60.0, step_size: float = 1e-3,
-            linear_stop_time: float = 10000.0) -> FiguresReport:
+            linear_stop_time: float = 10000.0) -> FiguresResult:
     """Seed 004 Figs 4-5 through the FMUs (with and without wheel limits: scenario campaigns of
     :func:`satfmu.sims.workflows.demeter_loops.scenario`) and on the design model (the same plants, exactly).
 
@@ -219,18 +219,18 @@ def figures(fmu_dir: Path, out_dir: Path, artifact: str | Path = "demeter_row1_d
     art, _ = demeter_loops.load_design(artifact)
     catalog.ensure(fmu_dir, ["demeter_flexible", art.name])
     out_dir = Path(out_dir)
-    report = FiguresReport({}, step_size)
+    result = FiguresResult({}, step_size)
     for limits in ("wheels", "linear"):
-        report.loops[limits] = demeter_loops.run(Path(fmu_dir), artifact, n=samples, seed=seed, stop_time=stop_time,
+        result.loops[limits] = demeter_loops.run(Path(fmu_dir), artifact, n=samples, seed=seed, stop_time=stop_time,
                                                  step_size=step_size, limits=limits)
-    report.loops["design"] = demeter_loops.linear(artifact, deltas=report.loops["wheels"].deltas,
+    result.loops["design"] = demeter_loops.linear(artifact, deltas=result.loops["wheels"].deltas,
                                                   stop_time=linear_stop_time)  # the same plants
-    report.files = {key: demeter_loops.plot(loops, out_dir) for key, loops in report.loops.items()}
-    return report
+    result.files = {key: demeter_loops.plot(loops, out_dir) for key, loops in result.loops.items()}
+    return result
 
 
 @dataclass
-class CampaignReport:
+class ProbabilisticCampaign:
     """The samples of :func:`campaign` and the statements on each result column.
 
     Parameters
@@ -261,7 +261,7 @@ class CampaignReport:
 def campaign(out_dir: Path, artifact: str | Path = "demeter_row1_det", *, samples: int = 100_000, seed: int = 0,
              chunk: int = 5000, workers: int = 2, scheduler: str | None = None, epsilon: float = 0.1,
              delta: float = 1e-6, name: str | None = None,
-             progress: Callable[[int, int], None] | None = None) -> CampaignReport:
+             progress: Callable[[int, int], None] | None = None) -> ProbabilisticCampaign:
     """Seed 004 Monte Carlo: poles, exact H-infinity and i2p of sampled plants under a design.
 
     Resumable: running it again skips the chunks already written (:func:`satfmu.sims.campaign.engine.run`).
@@ -290,17 +290,17 @@ def campaign(out_dir: Path, artifact: str | Path = "demeter_row1_det", *, sample
         ``progress(done, total)`` in chunks.
     """
     from satfmu.sims.campaign import engine as campaigns
-    from satfmu.synthesis.robust import demeter_design as dd
-    from satfmu.synthesis.robust import demeter_random as dr
+    from satfmu.synthesis.robust import demeter_design
+    from satfmu.synthesis.robust import demeter_random
 
     art, variant = demeter_loops.load_design(artifact)
-    task = dr.ClosedLoopSamples(variant, np.array(art.design["K"]))
+    task = demeter_random.ClosedLoopSamples(variant, np.array(art.design["K"]))
     camp = campaigns.Campaign(name=name or f"{art.name}-n{samples}-s{seed}", task=task, n=samples, seed=seed,
-                              chunk=chunk, sampler=dr.BoxSampler(len(task.design_model().parameters)))
+                              chunk=chunk, sampler=demeter_random.BoxSampler(len(task.design_model().parameters)))
     df = campaigns.run(camp, Path(out_dir), scheduler=scheduler, n_workers=workers, progress=progress)
     numbers = art.certificate.get("numbers", {})
     levels = {"hinf": numbers.get("analysis_hinf_pdlf"), "i2p": numbers.get("analysis_i2p"),
-              "max_real_pole": -dd.ALPHA}
-    return CampaignReport(camp.name, Path(out_dir) / camp.name, df,
+              "max_real_pole": -demeter_design.ALPHA}
+    return ProbabilisticCampaign(camp.name, Path(out_dir) / camp.name, df,
                           [campaigns.summarize(df, column, level=level, epsilon=epsilon, delta=delta)
                            for column, level in levels.items()])
