@@ -124,7 +124,9 @@ lint: $(VENV)/.installed
 docs: $(VENV)/.installed
 	@$(STAGE) docs $(VENV)/bin/sphinx-build -q -W --keep-going -n -b html docs build/docs
 
-test: build browser-deps lint
+# the FMU build and mypy run side by side (the build leaves a core partly idle)
+test: browser-deps $(VENV)/.installed
+	@$(MAKE) --no-print-directory -j2 build lint
 	@$(STAGE) --show tests $(PYTEST)
 
 # the bench extra (Drake, SumOfSquares.py): `make test-all` runs the tests that pose our SOS programs in

@@ -28,6 +28,22 @@ def pytest_unconfigure(config: pytest.Config) -> None:
     shutil.rmtree(os.environ["SATFMU_HOME"], ignore_errors=True)
 
 
+LONGEST_FIRST = ("test_docs.py", "test_cli.py", "test_example_own_spacecraft.py", "test_robustness_suite.py",
+                 "test_pythonfmu_parity.py", "test_compiled_loop.py", "test_generated_text.py", "test_build_cache.py",
+                 "test_report.py", "test_campaign.py", "test_demeter_table.py", "test_l2_gain.py")
+"""The test files that take longest (10-55 s each on one core; ``pytest --durations=0``), longest
+first. ``make test`` hands whole files to its workers in collection order (xdist's loadfile), so
+these start first and the short files fill in at the end: no worker is left running a long file
+alone while the other idles."""
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    """Collection order: the files of :data:`LONGEST_FIRST` first, in its order, then the others as
+    collected (the tests of a file keep their order)."""
+    rank = {name: k for k, name in enumerate(LONGEST_FIRST)}
+    items.sort(key=lambda item: rank.get(item.path.name, len(rank)))
+
+
 @pytest.fixture(scope="session")
 def fmu_dir() -> Path:
     """``build/fmus`` with every FMU of the catalog (:func:`satfmu.controllers.catalog.build_all`).
