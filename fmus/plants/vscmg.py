@@ -71,7 +71,9 @@ class Inertias:
     Attributes
     ----------
     KA, KB : sympy.Expr
-        Inertias of bodies A and B about the gimbal-4 axis, kg m^2 (they enter only ``J2``).
+        Inertias of gimbal 4 (``KA``) and gimbal 3 (``KB``) about the gimbal-4 axis, kg m^2 (seed
+        002 section 2: "Moment of inertia of Gimbal3 and Gimbal4"); gimbal 3 is locked, so both
+        turn with gimbal 4 and enter only ``J2``.
     IC, JC, KC : sympy.Expr
         Inertias of body C (turned by gimbal 2, it carries the rotor) about its three axes,
         kg m^2.
