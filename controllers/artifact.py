@@ -32,7 +32,9 @@ Schema (format_version 1)::
 Every kind records in ``provenance.design_plant`` the plant it was designed for
 (:func:`design_plant_record`): ``{"model": str, "digest": "sha256:...", "parameters":
 {name: value}}`` with the physical parameters the design used (a scenario that pairs the
-controller with a plant whose values differ is warned about, :func:`plant_mismatches`).
+controller with a plant whose values differ is warned about, :func:`plant_mismatches`), and
+``"limits": {name: value}``, the plant's actuator limits (:data:`LIMIT_PARAMETERS`) the design
+was made for: a controller FMU clips its commands at them by default.
 """
 from __future__ import annotations
 
@@ -53,6 +55,10 @@ if TYPE_CHECKING:
     from satfmu.fmus.model import Model
 
 FORMAT = "satfmu-controller"
+LIMIT_PARAMETERS = {"u_max": "N.m", "m_max": "A.m2"}
+"""Plant parameters that are actuator limits (per axis): the torque limit of the MRP satellite,
+the dipole limit of the magnetorquer cubesat. :func:`design_plant_record` records the plant's
+values in ``design_plant.limits``."""
 FORMAT_VERSION = 1
 KIND = "polynomial_state_feedback"
 SERVO_KIND = "servo_gain_schedule"
@@ -297,6 +303,9 @@ def design_plant_record(plant: "Model", names: list[str] | None = None, values: 
         raise ValueError(f"plant {plant.name!r} has no parameters {unknown}")
     record = {"model": plant.name, "digest": model_digest(plant),
               "parameters": {n: float(values.get(n, by_name[n].start)) for n in names}}
+    limits = {n: float(values.get(n, by_name[n].start)) for n in LIMIT_PARAMETERS if n in by_name}
+    if limits:
+        record["limits"] = limits
     if ranges:
         record["ranges"] = {n: [float(lo), float(hi)] for n, (lo, hi) in ranges.items()}
     return record
@@ -888,6 +897,9 @@ def _provenance(data: dict, where: str) -> dict[str, Any]:
             if not (isinstance(v, list) and len(v) == 2
                     and _finite(v[0], f"{w}.ranges.{k}") <= _finite(v[1], f"{w}.ranges.{k}")):
                 raise _fail(f"{w}.ranges.{k}", "must be [low, high] with low <= high")
+        for k, v in (_get(rec, "limits", dict, w) if "limits" in rec else {}).items():
+            if k not in LIMIT_PARAMETERS or not _finite(v, f"{w}.limits.{k}") > 0:
+                raise _fail(f"{w}.limits.{k}", f"must be one of {sorted(LIMIT_PARAMETERS)}, a number > 0")
     return prov
 
 

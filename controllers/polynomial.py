@@ -17,6 +17,8 @@ from satfmu.fmus.errors import ArtifactError
 from satfmu.fmus.model import Model, Output, Variable, saturate
 
 ARTIFACTS = Path(__file__).resolve().parent / "artifacts"
+DEFAULT_U_MAX = 5.0
+"""``u_max`` of a controller FMU whose artifact records no torque limit: seed 000's 5 N m."""
 
 
 def build(artifact: ControllerArtifact) -> Model:
@@ -32,12 +34,14 @@ def build(artifact: ControllerArtifact) -> Model:
     -------
     Model
         The law ``u = sat(p(x))``, with the parameters ``saturation_on`` and ``u_max`` (in the
-        unit of the first output, default 5).
+        unit of the first output; default the torque limit of the plant the design was made for,
+        ``provenance.design_plant.limits.u_max``, else :data:`DEFAULT_U_MAX`).
     """
     inputs = [Variable(s["name"], s["unit"], f"Measured plant state {s['name']}") for s in artifact.states]
     sat_on = Variable("saturation_on", "1", "Clip every command to +-u_max", 0, "Boolean")
+    limit = artifact.provenance.get("design_plant", {}).get("limits", {}).get("u_max", DEFAULT_U_MAX)
     u_max = Variable("u_max", artifact.outputs[0]["unit"], "Command limit per output (when saturation_on)",
-                     5.0, min=0.0)
+                     float(limit), min=0.0)
     x = [v.symbol for v in inputs]
     outputs = []
     for out, terms in zip(artifact.outputs, artifact.terms):

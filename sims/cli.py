@@ -517,7 +517,9 @@ def parser() -> argparse.ArgumentParser:
     hi.add_argument("--rate-max", type=float, default=0.2, help="L2 region |omega_i| <= rate-max, rad/s")
     hi.add_argument("--sigma-max", type=float, default=0.9, help="L2 region |sigma| <= sigma-max")
     hi.add_argument("--coefficient-limit", type=float, default=1.0, help="bound on every K coefficient")
-    hi.add_argument("--torque-budget", type=float, default=6.5, help="largest peak |u_i| on the manoeuvre, N m")
+    hi.add_argument("--torque-budget", type=float, default=None,
+                    help="largest peak |u_i| on the manoeuvre, N m (default: the --spacecraft's torque_limit, "
+                         "else 6.5)")
     hi.add_argument("--samples", type=_positive_int, default=20_000, help="random points of the sampled L2 check")
     hi.set_defaults(fn=_synth_hinf)
     mixed = argparse.ArgumentParser(add_help=False)

@@ -134,9 +134,13 @@ def _mrp_plant(plant: Model | Spacecraft | None) -> Model:
     return plant
 
 
+SEED_TORQUE_BUDGET = 6.5
+"""Default peak-torque budget of :func:`design_hinf` without a spacecraft torque limit, N m."""
+
+
 @fails_with_design_error
 def design_hinf(plant: Model | Spacecraft | None = None, *, name: str = "mrp_hinf_satfmu",
-                start: dict[str, float] | None = None, torque_budget: float = 6.5, horizon: float = 120.0,
+                start: dict[str, float] | None = None, torque_budget: float | None = None, horizon: float = 120.0,
                 region: float = 0.9, rate_max: float = 0.2, sigma_max: float = 0.9,
                 coefficient_limit: float = 1.0, decay_rates: Sequence[float] | None = None,
                 n_samples: int = 20_000, progress: Progress | None = None) -> Design:
@@ -153,8 +157,10 @@ def design_hinf(plant: Model | Spacecraft | None = None, *, name: str = "mrp_hin
         Start of the manoeuvre each iterate is judged on, as plant parameters
         (:func:`satfmu.synthesis.polynomial_feedback.two_step.manoeuvre` builds one from an axis and an angle); default
         seed 000's 200 deg start.
-    torque_budget : float
-        Largest acceptable peak ``|u_i|`` on that manoeuvre, N m.
+    torque_budget : float, optional
+        Largest acceptable peak ``|u_i|`` on that manoeuvre, N m. Default the spacecraft's
+        torque limit when ``plant`` is a :class:`Spacecraft` that has one, else
+        :data:`SEED_TORQUE_BUDGET` (seed 000's manoeuvre needs about 6.1 N m).
     horizon : float
         Length of the manoeuvre; the attitude error must be < 0.1 deg at its end, s.
     region : float
@@ -179,6 +185,9 @@ def design_hinf(plant: Model | Spacecraft | None = None, *, name: str = "mrp_hin
     from satfmu.synthesis.polynomial_feedback import l2_gain, two_step
 
     model = _mrp_plant(plant)
+    if torque_budget is None:
+        limit = plant.torque_limit if isinstance(plant, Spacecraft) else None
+        torque_budget = SEED_TORQUE_BUDGET if limit is None else limit
     result = two_step.two_step(model, region=region, l2_region=l2_gain.Region(rate_max, sigma_max),
                                coefficient_limit=coefficient_limit, torque_budget=torque_budget,
                                decay_rates=two_step.DECAY_RATES if decay_rates is None else decay_rates,

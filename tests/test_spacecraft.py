@@ -189,3 +189,60 @@ def test_seed_003_design_for_your_own_cubesat():
         designs.design_cubesat_periodic(plant=Spacecraft("skewed", [[0.01, 0.001, 0], [0.001, 0.012, 0],
                                                                     [0, 0, 0.004]]))
     assert isinstance(refused.value.__cause__, ValueError)  # the cubesat model's refusal, chained
+
+
+# ----------------------------------------------------------------------------- limits reach the controller
+def test_the_design_plant_records_its_actuator_limits() -> None:
+    from satfmu.fmus.plants import cubesat
+
+    assert artifacts.design_plant_record(mrp_satellite.build(Spacecraft("own", OWN, torque_limit=20.0)))[
+        "limits"] == {"u_max": 20.0}
+    assert artifacts.design_plant_record(cubesat.MODEL)["limits"] == {"m_max": 0.2}  # the plant's default, A m^2
+
+
+def _with_limits(limits: object) -> dict:
+    data = artifacts.load(artifacts.__file__.replace("artifact.py", "artifacts/mrp_hinf_published.json")).to_json()
+    data["provenance"]["design_plant"]["limits"] = limits
+    return data
+
+
+@pytest.mark.parametrize("limits, match", [
+    ({"u_max": -1.0}, r"design_plant\.limits\.u_max: must be one of"),
+    ({"u_max": float("nan")}, r"design_plant\.limits\.u_max: must be a finite number"),
+    ({"thrust": 1.0}, r"design_plant\.limits\.thrust: must be one of \['m_max', 'u_max'\]"),
+    ([20.0], r"'limits' must be dict")])
+def test_bad_limits_are_refused(limits: object, match: str) -> None:
+    with pytest.raises(artifacts.ArtifactError, match=match):
+        artifacts.parse(_with_limits(limits))
+
+
+def test_the_controller_fmu_clips_at_the_design_plants_torque_limit_by_default() -> None:
+    from satfmu.controllers import polynomial
+
+    def u_max(art: artifacts.Artifact) -> float:
+        return next(v.start for v in polynomial.build(art).parameters if v.name == "u_max")
+
+    assert u_max(artifacts.parse(_with_limits({"u_max": 20.0}))) == 20.0
+    # an artifact that records no limit (every shipped one) keeps seed 000's 5 N m
+    shipped = artifacts.load(artifacts.__file__.replace("artifact.py", "artifacts/mrp_hinf_published.json"))
+    assert "limits" not in shipped.provenance["design_plant"] and u_max(shipped) == polynomial.DEFAULT_U_MAX == 5.0
+
+
+@pytest.mark.parametrize("plant, budget", [(Spacecraft("own", OWN, torque_limit=20.0), 20.0),
+                                           (Spacecraft("own", OWN), 6.5), (None, 6.5)])
+def test_design_hinf_takes_the_spacecrafts_torque_limit_as_its_budget(monkeypatch: pytest.MonkeyPatch,
+                                                                      plant: Spacecraft | None,
+                                                                      budget: float) -> None:
+    from satfmu.synthesis import designs
+    from satfmu.synthesis.polynomial_feedback import two_step
+
+    class Stop(Exception):
+        pass
+
+    def fake(model: object, **kw: object) -> None:
+        raise Stop(kw["torque_budget"])
+
+    monkeypatch.setattr(two_step, "two_step", fake)
+    with pytest.raises(designs.DesignError) as exc:
+        designs.design_hinf(plant)
+    assert isinstance(exc.value.__cause__, Stop) and exc.value.__cause__.args == (budget,)
