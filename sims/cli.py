@@ -503,8 +503,8 @@ def parser() -> argparse.ArgumentParser:
     _fmu_dir(out, "build the controller FMUs here ('' to skip)")
     craft = argparse.ArgumentParser(add_help=False)
     craft.add_argument("--spacecraft", metavar="FILE", default=None,
-                       help="spacecraft TOML file (name, inertia tensor, [actuators] torque_limit) to design for "
-                            "(default: the seed's own spacecraft; cubesat-periodic: principal moments only)")
+                       help="spacecraft TOML file (name, inertia tensor, [actuators] torque_limit, dipole_limit) to "
+                            "design for (default: the seed's own spacecraft; cubesat-periodic: principal moments only)")
     hi = command(designs, "mrp-hinf", "seed 000: two-step nonlinear H-infinity iteration", parents=[out, craft])
     hi.add_argument("--name", default="mrp_hinf_satfmu", help="artifact and FMU name")
     hi.add_argument("--angle", type=float, default=None,

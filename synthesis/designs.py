@@ -10,11 +10,14 @@ their controller FMUs. ``satfmu synth NAME`` is a thin layer over :data:`DESIGNS
 """
 from __future__ import annotations
 
+import dataclasses
 import functools
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, ParamSpec, Sequence
+
+import numpy as np
 
 from satfmu.fmus.model import Model
 from satfmu.fmus.plants.spacecraft import Spacecraft
@@ -294,7 +297,9 @@ def design_cubesat_periodic(gamma: float | None = None, plant: Spacecraft | None
         Design level (default ``gamma_min (1 + GAMMA_MARGIN)``).
     plant : Spacecraft, optional
         Your cubesat, in principal axes (three moments; default seed 003's). The published
-        gains are then only analysed on it (their artifact is seed 003's alone).
+        gains are then only analysed on it (their artifact is seed 003's alone). Its
+        ``dipole_limit`` is recorded as the design plant's ``m_max`` (else the plant's 0.2 A m^2),
+        and the summary states the rates up to which the gains stay within it.
     name, published_name : str
         Artifact names of the design and of the published gains.
 
@@ -308,11 +313,18 @@ def design_cubesat_periodic(gamma: float | None = None, plant: Spacecraft | None
     from satfmu.synthesis.periodic import cubesat_periodic
 
     r = cubesat_periodic.synthesize(gamma, inertia=None if plant is None else cubesat.principal_moments(plant))
+    if plant is not None and plant.dipole_limit is not None:
+        r = dataclasses.replace(r, parameters={**r.parameters, "m_max": plant.dipole_limit})
+    m_max = r.parameters.get("m_max", next(v.start for v in cubesat.MODEL.parameters if v.name == "m_max"))
+    row = float(np.max(np.linalg.norm(r.design.F, axis=2)))  # largest |F_k[i, :]|, A m^2 s/rad
     lo, hi, n = r.bracket
     lines = [f"seed 003 Theorem 2: gamma_min {r.gamma_min:.4f} (minimized); bisection bracket [{lo:.4f}, "
              f"{hi:.4f}] in {n} solves; the seed's gamma {cubesat_periodic.GAMMA_SEED:g} is "
              f"{'feasible' if r.numbers['seed_gamma_feasible'] else 'infeasible'}"]
     lines += [f"  {k}: {v:.6g}" for k, v in r.numbers.items()]
+    lines.append(f"  dipole limit {m_max:g} A m^2 per axis: the gains command at most that for |omega| <= "
+                 f"{m_max / row:.3g} rad/s (largest gain row {row:.4g} A m^2 per rad/s); faster, the "
+                 "magnetorquers clip, which the design's linear model leaves out")
     lines.append("  gains F(k) (rows m_x, m_y, m_z; columns omega_x, omega_y, omega_z), ours | published:")
     for k, (f, p) in enumerate(zip(r.design.F, cubesat_periodic.PUBLISHED_GAINS)):
         lines += [f"    k={k} " + " ".join(f"{v:8.4f}" for v in f[i]) + "  | " + " ".join(f"{v:8.4f}" for v in p[i])

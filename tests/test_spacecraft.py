@@ -177,12 +177,17 @@ def test_seed_003_design_for_your_own_cubesat():
     published gains get no artifact for it. Products of inertia are refused (principal axes)."""
     from satfmu.synthesis import designs
 
-    d = designs.design_cubesat_periodic(plant=Spacecraft("cube6u", [0.01, 0.012, 0.004]))
+    d = designs.design_cubesat_periodic(plant=Spacecraft("cube6u", [0.01, 0.012, 0.004], dipole_limit=0.05))
     assert [a["name"] for a in d.artifacts] == ["cubesat_periodic_satfmu"]
     art = artifacts.parse(d.artifact)
     assert art.certificate["status"] == "certified"
     rec = art.provenance["design_plant"]["parameters"]
     assert (rec["I_x"], rec["I_y"], rec["I_z"]) == (0.01, 0.012, 0.004)
+    # the dipole limit is the design plant's m_max, and the summary says up to which rate the gains respect it
+    assert art.provenance["design_plant"]["limits"] == {"m_max": 0.05}
+    row = float(np.max(np.linalg.norm(d.result.design.F, axis=2)))
+    assert f"dipole limit 0.05 A m^2 per axis: the gains command at most that for |omega| <= {0.05 / row:.3g} rad/s" \
+        in d.summary
     # 6.67 on 1/0.005 = 200: the same 3.3 % of 1/0.01 = 100 is 3.335
     assert art.provenance["sigma"][0] == pytest.approx(3.335)
     with pytest.raises(designs.DesignError, match="principal axes") as refused:
@@ -246,3 +251,19 @@ def test_design_hinf_takes_the_spacecrafts_torque_limit_as_its_budget(monkeypatc
     with pytest.raises(designs.DesignError) as exc:
         designs.design_hinf(plant)
     assert isinstance(exc.value.__cause__, Stop) and exc.value.__cause__.args == (budget,)
+
+
+def test_the_dipole_limit_is_read_checked_and_written(tmp_path) -> None:
+    f = tmp_path / "cube.toml"
+    f.write_text('name = "cube"\ninertia = [0.01, 0.05, 0.05]\n[actuators]\ndipole_limit = 0.2\n')
+    sc = Spacecraft.from_toml(f)
+    assert sc.dipole_limit == 0.2 and sc.torque_limit is None
+    assert Spacecraft.from_dict(sc.to_dict()) == sc and sc.to_dict()["actuators"] == {"dipole_limit": 0.2}
+    assert "m_max" not in sc.parameters()  # the MRP plant's parameters: inertia and u_max only
+    refused = r"cube: actuators\.dipole_limit: must be a finite number > 0 \(A m\^2\)"
+    for bad in (0.0, -1.0, float("inf"), True, "0.2"):
+        with pytest.raises(SpacecraftError, match=refused):
+            Spacecraft("cube", [0.01, 0.05, 0.05], dipole_limit=bad)
+    f.write_text('name = "cube"\ninertia = [0.01, 0.05, 0.05]\n[actuators]\ndipole_limt = 0.2\n')
+    with pytest.raises(SpacecraftError, match="dipole_limit"):  # the closest known key
+        Spacecraft.from_toml(f)

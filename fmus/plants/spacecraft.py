@@ -10,6 +10,7 @@ satellite take one, so that a controller is designed for *your* spacecraft. A TO
                [-1.0, 0.5, 80.0]]       # (J_xy = -integral of x y dm), symmetric
     [actuators]
     torque_limit = 5.0                  # N m per body axis (optional)
+    dipole_limit = 0.2                  # A m^2 per magnetorquer axis (optional)
 
 ``inertia`` may also be three principal moments ``[I_x, I_y, I_z]``. The tensor is
 checked: finite, symmetric, positive definite, and its principal moments satisfy the
@@ -33,7 +34,7 @@ SYMMETRY_RTOL = 1e-9
 PARAMETERS = {"I_x": (0, 0), "I_y": (1, 1), "I_z": (2, 2), "I_xy": (0, 1), "I_xz": (0, 2), "I_yz": (1, 2)}
 """Plant parameter name -> entry of the inertia tensor it holds."""
 _KEYS = ("name", "description", "inertia", "actuators")
-_ACTUATOR_KEYS = ("torque_limit",)
+_ACTUATOR_KEYS = ("torque_limit", "dipole_limit")
 
 
 @dataclass(frozen=True, init=False)
@@ -48,36 +49,34 @@ class Spacecraft:
         3 x 3 inertia tensor about the centre of mass in body axes, kg m^2 (symmetric
         positive definite, products of inertia off the diagonal), or 3 principal moments.
     torque_limit : float, optional
-        Actuator torque limit per body axis, N m (the plant's ``u_max``).
+        Actuator torque limit per body axis, N m (the MRP plant's ``u_max``).
     description : str
         Free text.
+    dipole_limit : float, optional
+        Magnetorquer dipole limit per body axis, A m^2 (the cubesat plant's ``m_max``).
 
     Raises
     ------
     SpacecraftError
         If the tensor is not 3 x 3 (or 3 moments), not finite, not symmetric, not positive
-        definite or violates the triangle inequality, or the torque limit is not positive.
+        definite or violates the triangle inequality, or a limit is not positive.
     """
 
     name: str
     inertia: tuple[tuple[float, float, float], ...]
     torque_limit: float | None = None
     description: str = field(default="", compare=False)
+    dipole_limit: float | None = None
 
     def __init__(self, name: str, inertia: ArrayLike, torque_limit: float | None = None,
-                 description: str = "") -> None:
+                 description: str = "", *, dipole_limit: float | None = None) -> None:
         if not isinstance(name, str) or not name:
             raise SpacecraftError(f"name: must be a non-empty string, got {name!r}")
         object.__setattr__(self, "name", name)
         object.__setattr__(self, "inertia", _tensor(inertia, f"{name}: inertia"))
-        if torque_limit is not None:
-            t = torque_limit
-            if isinstance(t, bool) or not isinstance(t, (int, float)) or not math.isfinite(t) or t <= 0:
-                raise SpacecraftError(f"{name}: actuators.torque_limit: must be a finite number > 0 (N m), "
-                                      f"got {t!r}")
-            torque_limit = float(t)
-        object.__setattr__(self, "torque_limit", torque_limit)
+        object.__setattr__(self, "torque_limit", _limit(torque_limit, f"{name}: actuators.torque_limit", "N m"))
         object.__setattr__(self, "description", description)
+        object.__setattr__(self, "dipole_limit", _limit(dipole_limit, f"{name}: actuators.dipole_limit", "A m^2"))
 
     @property
     def tensor(self) -> np.ndarray:
@@ -102,8 +101,9 @@ class Spacecraft:
         data: dict[str, Any] = {"name": self.name, "inertia": [list(r) for r in self.inertia]}
         if self.description:
             data["description"] = self.description
-        if self.torque_limit is not None:
-            data["actuators"] = {"torque_limit": self.torque_limit}
+        limits = {"torque_limit": self.torque_limit, "dipole_limit": self.dipole_limit}
+        if any(v is not None for v in limits.values()):
+            data["actuators"] = {k: v for k, v in limits.items() if v is not None}
         return data
 
     @classmethod
@@ -114,7 +114,8 @@ class Spacecraft:
         ----------
         data : mapping of str to object
             ``name``, ``inertia`` (kg m^2), optional ``description`` and an optional
-            ``actuators`` table with ``torque_limit`` (N m), as in the module's example.
+            ``actuators`` table with ``torque_limit`` (N m) and ``dipole_limit`` (A m^2), as in
+            the module's example.
         where : str, optional
             Where the data comes from (a file name), the prefix of error messages. Default
             ``"spacecraft"``.
@@ -140,7 +141,8 @@ class Spacecraft:
             raise SpacecraftError(f"{where}: actuators: expected a table, got {type(act).__name__}")
         check_keys(act, _ACTUATOR_KEYS, f"{where}: actuators", SpacecraftError)
         try:
-            return cls(data["name"], data["inertia"], act.get("torque_limit"), data.get("description", ""))
+            return cls(data["name"], data["inertia"], act.get("torque_limit"), data.get("description", ""),
+                       dipole_limit=act.get("dipole_limit"))
         except SpacecraftError as exc:
             raise SpacecraftError(f"{where}: {exc}") from None
 
@@ -164,6 +166,15 @@ class Spacecraft:
             If the file is missing, not TOML, or its description is invalid.
         """
         return cls.from_dict(read_toml(Path(path), "spacecraft", SpacecraftError), where=str(path))
+
+
+def _limit(value: Any, where: str, unit: str) -> float | None:
+    """``value`` as a float, None kept; refused unless a finite number > 0."""
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
+        raise SpacecraftError(f"{where}: must be a finite number > 0 ({unit}), got {value!r}")
+    return float(value)
 
 
 def _tensor(raw: Any, where: str) -> tuple[tuple[float, float, float], ...]:
