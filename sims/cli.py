@@ -304,7 +304,7 @@ def _synth_vscmg(args: argparse.Namespace) -> int:
     from satfmu.synthesis import designs
 
     return _write_design(designs.design_vscmg_sdre(tuple(args.grid), args.max_degree, args.cv_tol,
-                                                   not args.skip_region), args)
+                                                   not args.skip_region, progress=_progress), args)
 
 
 def _synth_cubesat(args: argparse.Namespace) -> int:
@@ -320,7 +320,7 @@ def _synth_demeter(args: argparse.Namespace) -> int:
     try:
         design = designs.design_demeter(args.axes, args.appendages, args.model_type, args.uncertainty_type,
                                         not args.no_wheels, name=args.name, n_samples=args.samples,
-                                        convention=args.convention)
+                                        convention=args.convention, progress=_progress)
     except designs.DesignError as exc:
         if exc.__cause__ is not None:  # bad input or an error of a step: exit 2 as any other
             raise

@@ -22,9 +22,7 @@ import numpy as np
 from satfmu.fmus.model import Model
 from satfmu.fmus.plants.spacecraft import Spacecraft
 from satfmu.fmus.errors import DesignError, SatfmuError
-
-Progress = Callable[[int, int, str], None]
-"""``progress(done, total, message)``."""
+from satfmu.synthesis.core.progress import Progress
 
 _P = ParamSpec("_P")
 
@@ -249,7 +247,7 @@ def design_h2hinf(gamma: float, plant: Model | Spacecraft | None = None, *, name
 
 @fails_with_design_error
 def design_vscmg_sdre(grid: tuple[int, int] = (23, 25), max_degree: int = 8, cv_tol: float | None = None,
-                      region: bool = True) -> Design:
+                      region: bool = True, progress: Progress | None = None) -> Design:
     """Seed 002: the approximated SDRE servo (polynomial gain fit, SOS stability region) and the
     LQ servo, for seed 002's VSCMG plant (its parameters as published).
 
@@ -264,6 +262,8 @@ def design_vscmg_sdre(grid: tuple[int, int] = (23, 25), max_degree: int = 8, cv_
         :data:`satfmu.synthesis.servo.gain_fit.CV_TOL`; 0: the smallest error).
     region : bool
         Solve the SOS stability region (without it the artifact stays "sampled").
+    progress : callable, optional
+        ``progress(done, total, message)`` after each stage (grid, fit, check, region, LQ).
 
     Raises
     ------
@@ -277,7 +277,8 @@ def design_vscmg_sdre(grid: tuple[int, int] = (23, 25), max_degree: int = 8, cv_
             or not all(isinstance(n, int) and not isinstance(n, bool) and n >= 2 for n in grid)):
         raise DesignError(f"grid must be two integers >= 2 (SDRE grid points over q2 and w4), got {grid!r:.80}")
     tol: dict[str, Any] = {} if cv_tol is None else {"cv_tol": cv_tol if cv_tol > 0 else None}
-    result, approx, lq = gain_fit.synthesize(*grid, degrees=range(1, max_degree + 1), region=region, **tol)
+    result, approx, lq = gain_fit.synthesize(*grid, degrees=range(1, max_degree + 1), region=region,
+                                             progress=progress, **tol)
     cert = approx["certificate"]
     summary = (f"certificate: {cert['status']}: {cert['proved']}\n"
               + gain_fit.table(result, {k: v for k, v in cert["numbers"].items() if not k.startswith("fit_")}))
@@ -340,7 +341,7 @@ def design_cubesat_periodic(gamma: float | None = None, plant: Spacecraft | None
 @fails_with_design_error
 def design_demeter(axes: Sequence[int] = (1,), appendages: Sequence[int] = (1,), model_type: int = 1,
                    uncertainty_type: int = 1, wheels: bool = True, *, name: str = "demeter_row1_det",
-                   n_samples: int = 100, convention: str = "satfmu") -> Design:
+                   n_samples: int = 100, convention: str = "satfmu", progress: Progress | None = None) -> Design:
     """Seed 004: deterministic robust state feedback of a DEMETER variant (Table 1, Det).
 
     Parameters
@@ -360,6 +361,8 @@ def design_demeter(axes: Sequence[int] = (1,), appendages: Sequence[int] = (1,),
     convention : {"satfmu", "romuloc"}
         LMI forms and objective of the design (:func:`satfmu.synthesis.robust.robust_design.design`); the
         artifact records it.
+    progress : callable, optional
+        ``progress(done, total, message)`` after each stage (design, analysis, sampled check).
 
     Raises
     ------
@@ -372,7 +375,7 @@ def design_demeter(axes: Sequence[int] = (1,), appendages: Sequence[int] = (1,),
     from satfmu.synthesis.robust.demeter_variants import Variant
 
     variant = Variant(tuple(axes), tuple(appendages), model_type, uncertainty_type, wheels)
-    row = demeter_table.run_row(variant, "Det", n_samples=n_samples, convention=convention)
+    row = demeter_table.run_row(variant, "Det", n_samples=n_samples, convention=convention, progress=progress)
     lines = [demeter_table.markdown([row])]
     r = row.result
     assert isinstance(r, demeter_design.DeterministicResult)  # a "Det" row holds the deterministic design

@@ -18,6 +18,7 @@
 """
 from __future__ import annotations
 
+import logging
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -29,11 +30,14 @@ from scipy.linalg import matrix_balance
 from satfmu.controllers.artifact import design_plant_record
 from satfmu.fmus.plants import demeter
 from satfmu.synthesis.core import solve_policy
+from satfmu.synthesis.core.progress import Progress, Stages
 from satfmu.synthesis.robust.demeter_variants import RATE_WORST, THETA_WORST, DesignModel, Variant, design_model
 from satfmu.synthesis.robust.lft_plant import AffineDescriptor, LFTPlant, ProgramTooLargeError
 from satfmu.synthesis.robust.pdlf import PDLFResult, pdlf_hinf
 from satfmu.synthesis.robust.robust_design import RobustDesign, design, i2p_bound
 from satfmu.synthesis.core.system_norms import hinf_norm, impulse_to_peak
+
+LOG = logging.getLogger(__name__)
 
 ALPHA = 1e-4
 """Pole region: Re s < -ALPHA, 1/s (seed: region('plane', -1e-4))."""
@@ -463,7 +467,7 @@ def analyse(dm: DesignModel, K: np.ndarray, T: np.ndarray | None = None) -> Anal
 
 
 def deterministic(variant: Variant, *, n_samples: int = 100, seed: int = 0, analysis: bool = True,
-                  convention: str = "satfmu") -> DeterministicResult:
+                  convention: str = "satfmu", progress: Progress | None = None) -> DeterministicResult:
     """Design, analyse and check one variant (see the module docstring); the design's LMIs and
     objective in ``convention`` (:func:`satfmu.synthesis.robust.robust_design.design`: ours, or the R-RoMulOC
     toolbox's); the analysis does not depend on it.
@@ -480,6 +484,9 @@ def deterministic(variant: Variant, *, n_samples: int = 100, seed: int = 0, anal
         Run the deterministic analysis of the gain (:func:`analyse`).
     convention : {"satfmu", "romuloc"}, optional
         How the levels enter the design's LMIs and objective.
+    progress : callable, optional
+        ``progress(done, total, message)`` after each stage (design, analysis, sampled check);
+        the stages are logged too (:class:`satfmu.synthesis.core.progress.Stages`).
 
     Returns
     -------
@@ -489,10 +496,11 @@ def deterministic(variant: Variant, *, n_samples: int = 100, seed: int = 0, anal
     dm = design_model(variant)
     T = state_scale(dm)
     plant = scaled_lft(dm, T)
+    stages = Stages(2 + bool(analysis), progress, LOG)
     t0 = time.perf_counter()
-    des, kind, note = robust_multipliers(
-        lambda kind: seed_design(plant, uncertainty=kind,
-                            convention=convention), uncertainty_kind(variant))
+    with stages.stage(f"robust design of {variant.label}"):
+        des, kind, note = robust_multipliers(lambda kind: seed_design(plant, uncertainty=kind, convention=convention),
+                                             uncertainty_kind(variant))
     out = DeterministicResult(variant, kind, des, None if des.K is None else des.K / T,
                               seconds={"design": time.perf_counter() - t0}, obstruction=coincident_modes(variant),
                               note=note and f"design: {note}")
@@ -501,13 +509,15 @@ def deterministic(variant: Variant, *, n_samples: int = 100, seed: int = 0, anal
     if analysis:
         if des.state_scaling is not None:  # the design's own well-conditioned coordinates
             T = T * des.state_scaling
-        a = analyse(dm, out.K, T)
+        with stages.stage("analysis of the gain (PDLF H-infinity, impulse-to-peak)"):
+            a = analyse(dm, out.K, T)
         out.analysis_hinf, out.analysis_hinf_common, out.analysis_i2p = a.hinf, a.hinf_common, a.i2p
         out.analysis_skipped = a.skipped
         out.note = "; ".join(n for n in (out.note, a.i2p_note) if n)
         out.seconds["analysis"] = a.seconds
     t0 = time.perf_counter()
-    out.check = sampled_check(dm, out.K, n_samples, seed)
+    with stages.stage(f"check on {n_samples} sampled plants"):
+        out.check = sampled_check(dm, out.K, n_samples, seed)
     out.seconds["sampled check"] = time.perf_counter() - t0
     return out
 

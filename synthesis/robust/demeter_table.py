@@ -26,6 +26,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from satfmu.synthesis.core.progress import Progress
 from satfmu.synthesis.robust import demeter_design
 from satfmu.synthesis.robust import demeter_random
 from satfmu.synthesis.robust.demeter_variants import SEED_TABLE1, SEED_TABLE1_COLUMNS, Variant, design_model
@@ -99,7 +100,7 @@ def _value(res, attr: str) -> float:
 
 
 def run_row(variant: Variant, method: str, *, n_scenarios: int | None = None, seed: int = 0, n_samples: int = 0,
-            convention: str = "satfmu") -> Row:
+            convention: str = "satfmu", progress: Progress | None = None) -> Row:
     """Design and analyse one row (module docstring). ``n_scenarios`` overrides the scenario count;
     ``n_samples`` plants are checked after a Det design (``result.check``); the designs' LMIs and
     objective in ``convention`` (:func:`satfmu.synthesis.robust.robust_design.design`).
@@ -118,6 +119,9 @@ def run_row(variant: Variant, method: str, *, n_scenarios: int | None = None, se
     n_samples : int, optional
         Plants of the sampled check after a Det design.
     convention : {"satfmu", "romuloc"}, optional
+    progress : callable, optional
+        ``progress(done, total, message)`` after each stage of a Det row
+        (:func:`satfmu.synthesis.robust.demeter_design.deterministic`).
         How the levels enter the designs' LMIs and objective.
 
     Returns
@@ -135,7 +139,8 @@ def run_row(variant: Variant, method: str, *, n_scenarios: int | None = None, se
     row = Row(variant, method, "", seed=SEED_TABLE1.get((variant, method)))
     res: demeter_design.DeterministicResult | demeter_random.ScenarioResult
     if method == "Det":
-        res = demeter_design.deterministic(variant, n_samples=n_samples, seed=seed, convention=convention)
+        res = demeter_design.deterministic(variant, n_samples=n_samples, seed=seed, convention=convention,
+                                           progress=progress)
         design, K = res.design, res.K
         if K is not None:
             row.det_hinf, row.det_i2p = _value(res.analysis_hinf, "gamma"), _value(res.analysis_i2p, "nu")

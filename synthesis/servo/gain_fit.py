@@ -16,6 +16,7 @@ the SOS certificate's Gram matrices grow with the square of the degree.
 """
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass
 from itertools import combinations_with_replacement
 from typing import cast
@@ -27,6 +28,9 @@ from satfmu.controllers.servo_sdc import OUTPUTS, RATES, TRACKED
 from satfmu.fmus.plants import vscmg
 from satfmu.synthesis.servo.sdre import Servo
 from satfmu.fmus.errors import FitCertificationError
+from satfmu.synthesis.core.progress import Progress, Stages
+
+LOG = logging.getLogger(__name__)
 
 Q2_RANGE = (0.15, 1.25)
 """Gimbal-2 angle range of the grid, rad (covers the seed's pi/18 to 1 + pi/18; substitute)."""
@@ -372,7 +376,7 @@ START_STATE = np.array([0.0, np.pi / 18, 0.0, 0.0, 0.0, 0.0])
 
 
 def synthesize(n_q2: int = 23, n_w4: int = 25, degrees: range = range(1, 9), cv_tol: float | None = CV_TOL,
-               region: bool = True) -> tuple[GainFit, dict, dict]:
+               region: bool = True, progress: Progress | None = None) -> tuple[GainFit, dict, dict]:
     """Seed 002's approximated SDRE and the LQ baseline: the fit and both artifacts' data.
 
     The approximation uses the seed's w1-free SDC with w2 := 0 (a gain in q2 and w4 only,
@@ -394,6 +398,9 @@ def synthesize(n_q2: int = 23, n_w4: int = 25, degrees: range = range(1, 9), cv_
         The degree rule's tolerance (:func:`fit`).
     region : bool, optional
         Solve the SOS stability region and record it in the certificate.
+    progress : callable, optional
+        ``progress(done, total, message)`` after each stage (grid, fit, check, region, LQ); the
+        stages are logged too (:class:`satfmu.synthesis.core.progress.Stages`).
 
     Returns
     -------
@@ -409,18 +416,26 @@ def synthesize(n_q2: int = 23, n_w4: int = 25, degrees: range = range(1, 9), cv_
     FitCertificationError, satfmu.controllers.riccati.RiccatiCheckError
         If the fit fails :func:`certify`, or a Riccati solution fails its checks.
     """
+    stages = Stages(4 + bool(region), progress, LOG)
     servo = Servo("w1_free", freeze_w2=True)
-    result = fit(*sdre_grid(servo, n_q2, n_w4), degrees=degrees, cv_tol=cv_tol)
-    checks = certify(result, servo)
+    with stages.stage(f"SDRE gains on the {n_q2} x {n_w4} grid"):
+        grid = sdre_grid(servo, n_q2, n_w4)
+    with stages.stage("polynomial gain fit"):
+        result = fit(*grid, degrees=degrees, cv_tol=cv_tol)
+    with stages.stage(f"fit of degree {result.degree} certified against the plant's factorization"):
+        checks = certify(result, servo)
     approx = approximated_sdre_data(result, servo, checks)
     if region:
         from satfmu.controllers.artifact import ServoArtifact, parse
         from satfmu.synthesis.servo import vscmg_region
 
         # approximated_sdre_data writes a servo_gain_schedule record, which parses to a ServoArtifact
-        cert, trig = vscmg_region.certify_operating_box(cast(ServoArtifact, parse(approx)))
+        with stages.stage("SOS stability region of the fitted law on the operating box"):
+            cert, trig = vscmg_region.certify_operating_box(cast(ServoArtifact, parse(approx)))
         approx["certificate"] = vscmg_region.artifact_certificate(approx["certificate"], cert, trig)
-    return result, approx, lq_data(Servo("gyro_on_w2"), START_STATE)
+    with stages.stage("LQ servo"):
+        lq = lq_data(Servo("gyro_on_w2"), START_STATE)
+    return result, approx, lq
 
 
 def table(result: GainFit, checks: dict[str, float]) -> str:
