@@ -14,14 +14,13 @@ import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Sequence
+from typing import Any, Sequence
 
 import numpy as np
 
 from satfmu.controllers import paths
+from satfmu.synthesis.core.progress import Progress
 
-Progress = Callable[[int, int, str], None]
-"""``progress(done, total, message)``."""
 
 
 @dataclass

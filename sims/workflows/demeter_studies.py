@@ -18,9 +18,8 @@ import numpy as np
 
 from satfmu.controllers import catalog
 from satfmu.sims.workflows import demeter_loops
+from satfmu.synthesis.core.progress import Progress
 
-Progress = Callable[[int, int, str], None]
-"""``progress(done, total, message)``."""
 
 
 @dataclass

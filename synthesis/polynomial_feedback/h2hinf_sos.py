@@ -52,7 +52,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 import sympy as sp
@@ -65,6 +65,7 @@ from satfmu.fmus.plants import mrp_satellite
 from satfmu.fmus.model import Model
 from satfmu.synthesis.core.polynomial import Poly, PolyMatrix, monomials
 from satfmu.synthesis.core.sos import Check, SOSError, SOSProgram, SOSSolution, check_numbers, certify
+from satfmu.synthesis.core.progress import Progress
 
 X0_200 = np.array([0.0, 0.0, 0.0, 0.5992, -0.7976, 0.6517])
 """Seed 000's 200 deg rest-to-rest start (docs/models.md's x(0), outside every certifiable region)."""
@@ -436,7 +437,6 @@ def theorem8(gamma: float, alpha: float, beta: float, variant: str = "slack", re
                           Qh, Rh, sol, timings)
 
 
-Progress = Callable[[int, int, str], None]
 _REJECTED = 1e12
 """Objective given to the line search for an infeasible or uncertified point."""
 

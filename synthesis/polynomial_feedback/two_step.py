@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
-from typing import Any, Callable, Mapping, Sequence, cast
+from typing import Any, Mapping, Sequence, cast
 
 import numpy as np
 
@@ -43,14 +43,13 @@ from satfmu.fmus import reference
 from satfmu.fmus.model import Model
 from satfmu.synthesis.polynomial_feedback import hinf_sos, l2_gain
 from satfmu.synthesis.core.sos import SOSError, check_numbers
+from satfmu.synthesis.core.progress import Progress
 
 DECAY_RATES = tuple(0.0025 * np.sqrt(2.0) ** k for k in range(10))
 """Default schedule of certified decay rates lambda, 1/s (geometric, factor sqrt 2)."""
 SIGMA_200 = {"sigma_0[1]": 0.5992, "sigma_0[2]": -0.7976, "sigma_0[3]": 0.6517}
 """Seed 000's 200 deg start, s(0) = k tan(200 deg / 4)."""
 
-Progress = Callable[[int, int, str], None]
-"""``progress(done, total, message)``."""
 
 
 @dataclass
@@ -254,7 +253,7 @@ def two_step(plant: Model | None = None, region: float = 0.9,
         Length of the judged manoeuvre, s.
     progress : callable, optional
         Called as ``progress(done, total, message)`` before each step of each iteration and
-        once at the end (:data:`Progress`).
+        once at the end (``satfmu.synthesis.core.progress.Progress``).
 
     Returns
     -------
