@@ -297,7 +297,8 @@ def _synth_h2hinf(args: argparse.Namespace) -> int:
 
     return _write_design(designs.design_h2hinf(
         args.gamma, _spacecraft(args), name=args.name, variant=args.variant, region=args.region,
-        alpha_range=tuple(args.alpha_range), evaluations=args.evaluations, progress=_progress), args)
+        alpha_range=None if args.alpha_range is None else tuple(args.alpha_range), evaluations=args.evaluations,
+        progress=_progress), args)
 
 
 def _synth_vscmg(args: argparse.Namespace) -> int:
@@ -404,7 +405,8 @@ def _detumble(args: argparse.Namespace) -> int:
 def _analyze_sweep(args: argparse.Namespace) -> int:
     from satfmu.sims.workflows import analysis
 
-    print(analysis.h2hinf_sweep(Path(args.out), args.gammas, region=args.region, alpha_range=tuple(args.alpha_range),
+    alpha_range = None if args.alpha_range is None else tuple(args.alpha_range)
+    print(analysis.h2hinf_sweep(Path(args.out), args.gammas, region=args.region, alpha_range=alpha_range,
                                 evaluations=args.evaluations, progress=_progress).text())
     return 0
 
@@ -524,8 +526,9 @@ def parser() -> argparse.ArgumentParser:
     hi.set_defaults(fn=_synth_hinf)
     mixed = argparse.ArgumentParser(add_help=False)
     mixed.add_argument("--region", type=float, default=0.45, help="certificate region |sigma| <= r (< 1), any rate")
-    mixed.add_argument("--alpha-range", type=float, nargs=2, default=(0.05, 2.0), metavar=("LOW", "HIGH"),
-                       help="line-search interval of alpha and beta")
+    mixed.add_argument("--alpha-range", type=float, nargs=2, default=None, metavar=("LOW", "HIGH"),
+                       help="line-search interval of alpha and beta, s (default: 0.01 to 1 times the plant's "
+                            "time to turn one radian)")
     mixed.add_argument("--evaluations", type=_positive_int, default=12, help="SDPs per line search (alpha, then beta)")
     h2 = command(designs, "mrp-h2hinf", "seed 001: mixed H2/H-infinity (Theorem 8) at one gamma",
                  parents=[out, craft, mixed])

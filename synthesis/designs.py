@@ -198,9 +198,14 @@ def design_hinf(plant: Model | Spacecraft | None = None, *, name: str = "mrp_hin
 
 @fails_with_design_error
 def design_h2hinf(gamma: float, plant: Model | Spacecraft | None = None, *, name: str = "mrp_h2hinf_satfmu",
-                  variant: str = "slack", region: float = 0.45, alpha_range: tuple[float, float] = (0.05, 2.0),
+                  variant: str = "slack", region: float = 0.45, alpha_range: tuple[float, float] | None = None,
                   evaluations: int = 12, progress: Progress | None = None) -> Design:
     """Seed 001: mixed H2/H-infinity state feedback (Theorem 8) at one L2-gain bound ``gamma``.
+
+    Each SOS program is solved in units balanced for the plant and its certificate checked in
+    the user's (:mod:`satfmu.synthesis.polynomial_feedback.coordinates`). Before any of them,
+    the conditions are screened at the origin (~2 s): a ``gamma`` that even the linearization
+    cannot certify is refused there, with the smallest ``gamma`` it can.
 
     Parameters
     ----------
@@ -214,8 +219,9 @@ def design_h2hinf(gamma: float, plant: Model | Spacecraft | None = None, *, name
         Separate Lyapunov matrices and slack (the seed's design) or one common matrix.
     region : float
         Certificate region ``|sigma| <= region`` (< 1), any rate.
-    alpha_range : (float, float)
-        Line-search interval of the seed's scalars alpha and beta.
+    alpha_range : (float, float), optional
+        Line-search interval of the seed's scalars alpha and beta, s (default
+        :func:`satfmu.synthesis.polynomial_feedback.h2hinf_sos.default_bounds`: the plant's time scale).
     evaluations : int
         SDPs per line search.
     progress : callable, optional
@@ -224,21 +230,26 @@ def design_h2hinf(gamma: float, plant: Model | Spacecraft | None = None, *, name
     Raises
     ------
     DesignError
-        If no design is certified at ``gamma``, the closed-loop check fails, or on bad input (the
-        cause chained).
+        If no design is certified at ``gamma`` (why, and what would change it), the closed-loop
+        check fails, or on bad input (the cause chained).
     """
     from satfmu.synthesis.polynomial_feedback import h2hinf_sos
 
     model = _mrp_plant(plant)
-    found = h2hinf_sos.search(gamma, variant, bounds=(*alpha_range,), max_evaluations=evaluations,
-                              progress=progress, region=region, model=model)
+    found = h2hinf_sos.search(gamma, variant, bounds=None if alpha_range is None else (*alpha_range,),
+                              max_evaluations=evaluations, progress=progress, region=region, model=model)
     r = found.best
     if r is None:
-        raise DesignError(f"no certified {variant} design at gamma = {gamma:g} on |sigma| <= {region:g} "
-                          f"({len(found.evaluations)} SDPs; try a larger gamma or region)")
+        raise DesignError(f"no certified {variant} design at gamma = {gamma:g} on |sigma| <= {region:g}: "
+                          f"{found.reason()}")
     check = h2hinf_sos.closed_loop_check(r, model=model)
-    summary = (f"{r.proved}\n  alpha = {r.alpha:.4g}, beta = {r.beta:.4g}, {len(found.evaluations)} SDPs; "
-               f"simulated J2 = {check.j2:.4f} over {check.stop_time:g} s (bound {r.lam:.4f}), max |sigma| "
+    c = r.coordinates
+    screen = found.screen
+    summary = (f"{r.proved}\n  alpha = {r.alpha:.4g} s, beta = {r.beta:.4g} s, {len(found.evaluations)} SDPs"
+               + (f" after the screen at the origin ({screen.seconds:.1f} s, frozen lambda >= "
+                  f"{np.min(screen.lam):.4f})" if screen is not None else "")
+               + f"; solved in units of {c.time:.3g} s, {c.rate:.3g} rad/s, {c.torque:.3g} N m, checked in SI"
+               f"\n  simulated J2 = {check.j2:.4f} over {check.stop_time:g} s (bound {r.lam:.4f}), max |sigma| "
                f"{check.max_tilde:.4f}, linearization max Re eig {check.max_real_eig:.4f} 1/s")
     if not check.passed:
         raise DesignError(f"{summary}\nthe closed-loop check failed: the design is not saved")

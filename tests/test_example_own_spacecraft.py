@@ -3,7 +3,10 @@ the seed 000 design for a spacecraft with products of inertia, certified, flown 
 FMUs from 90 deg, and the published controller flagged on that plant."""
 from __future__ import annotations
 
+import subprocess
 import sys
+
+import pytest
 
 from tests.test_examples import _run, user  # noqa: F401  (the module fixture)
 
@@ -17,3 +20,32 @@ def test_design_for_your_own_spacecraft_and_its_gate(user):  # noqa: F811
     gate = _run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "test_own_spacecraft.py"],
                 work, env).stdout
     assert "3 passed" in gate
+
+
+def _h2hinf(user, *args: str) -> str:  # noqa: F811
+    work, env = user
+    return _run([sys.executable, "own_spacecraft_h2hinf.py", *args], work, env).stdout
+
+
+def test_mixed_design_for_your_own_spacecraft_quick(user):  # noqa: F811
+    # one SOS program (the search's first point certifies for this bus): certified in balanced
+    # units, checked in SI, and the FMU loop's H2 cost within the bound (measured 0.685 of it)
+    out = _h2hinf(user, "--quick")
+    assert "certificate: certified" in out and "checked in SI" in out
+    assert "ok   H2 cost" in out and "ok   peak torque" in out
+    ratio = float(out.rsplit("certified bound: ", 1)[1].split()[0])
+    assert 0.5 < ratio < 1.0  # a bound, not far above the cost: 0.685 measured
+
+
+@pytest.mark.slow
+def test_mixed_design_for_your_own_spacecraft_full(user):  # noqa: F811
+    out = _h2hinf(user)
+    assert "certificate: certified" in out and "12 SDPs" in out and "ok   H2 cost" in out
+
+
+def test_mixed_design_refuses_a_gamma_out_of_reach_at_once(user):  # noqa: F811
+    work, env = user
+    done = subprocess.run([sys.executable, "own_spacecraft_h2hinf.py", "--gamma", "0.05"], cwd=work, env=env,
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 3, done.stdout + done.stderr
+    assert "refused:" in done.stdout and "Choose gamma >=" in done.stdout and "SOS programs" not in done.stdout

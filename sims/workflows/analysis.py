@@ -50,7 +50,7 @@ class SweepResult:
 
 
 def h2hinf_sweep(out_dir: Path, gammas: Sequence[float] = (1.0, 0.8, 0.7, 0.6, 0.55), *, region: float = 0.45,
-                 alpha_range: tuple[float, float] = (0.05, 2.0), evaluations: int = 12,
+                 alpha_range: tuple[float, float] | None = None, evaluations: int = 12,
                  progress: Progress | None = None) -> SweepResult:
     """The certified H2 bound lambda against the L2 bound gamma, both Theorem 8 variants.
 
@@ -62,8 +62,9 @@ def h2hinf_sweep(out_dir: Path, gammas: Sequence[float] = (1.0, 0.8, 0.7, 0.6, 0
         L2-gain bounds w -> sigma (> 0).
     region : float
         Certificate region ``|sigma| <= region`` (< 1), any rate.
-    alpha_range : (float, float)
-        Line-search interval of alpha and beta.
+    alpha_range : (float, float), optional
+        Line-search interval of alpha and beta, s (default
+        :func:`satfmu.synthesis.polynomial_feedback.h2hinf_sos.default_bounds`).
     evaluations : int
         SDPs per line search (alpha, then beta).
     progress : callable, optional
@@ -72,8 +73,8 @@ def h2hinf_sweep(out_dir: Path, gammas: Sequence[float] = (1.0, 0.8, 0.7, 0.6, 0
     from satfmu.sims.scenario import plots
     from satfmu.synthesis.polynomial_feedback import h2hinf_sos
 
-    rows = h2hinf_sos.sweep(list(gammas), bounds=(*alpha_range,), max_evaluations=evaluations,
-                            progress=progress, region=region)
+    rows = h2hinf_sos.sweep(list(gammas), bounds=None if alpha_range is None else (*alpha_range,),
+                            max_evaluations=evaluations, progress=progress, region=region)
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     result = SweepResult(rows, h2hinf_sos.sweep_csv(rows),

@@ -418,7 +418,8 @@ class SOSProgram:
 
     def add_sos_matrix(self, M: PolyMatrix, name: str, region: list[Poly] | None = None,
                        multiplier_degree: int = 2, label: str = "global",
-                       multiplier_rows: Sequence[int] | None = None) -> SOSConstraint:
+                       multiplier_rows: Sequence[int] | None = None,
+                       multiplier_weights: Sequence[float] | None = None) -> SOSConstraint:
         """Require ``M(x) >= 0`` as an SOS matrix: ``v^T M(x) v`` SOS in ``(x, v)``.
 
         With ``region`` the condition holds where the region polynomials are ``>= 0``:
@@ -445,6 +446,10 @@ class SOSProgram:
         multiplier_rows : sequence of int, optional
             The rows ``R`` of ``v`` the multipliers act on (indices in ``0 .. dim - 1``); default
             all.
+        multiplier_weights : sequence of float, optional
+            Positive weights ``W``, one per row of ``R`` in increasing row order: the multipliers
+            are ``v_R^T W v_R * s_i(x)`` (a diagonal congruence of the condition scales them so).
+            Default all 1.
 
         Returns
         -------
@@ -454,7 +459,8 @@ class SOSProgram:
         Raises
         ------
         satfmu.fmus.errors.SOSError
-            If ``multiplier_rows`` is empty or out of range.
+            If ``multiplier_rows`` is empty or out of range, or the weights are not one positive
+            number per row.
         """
         q = quadratic_form(M)
         dim = M.shape[0]
@@ -466,7 +472,10 @@ class SOSProgram:
             # v_R^T v_R = sum_{i in R} v_i^2 in (x, v)
             vexp = np.zeros((rows.size, dim), np.int64)
             vexp[np.arange(rows.size), rows] = 2
-            vv = Poly.numeric(np.hstack([np.zeros((rows.size, self.n_vars), np.int64), vexp]), np.ones(rows.size))
+            w = np.ones(rows.size) if multiplier_weights is None else np.asarray(multiplier_weights, float)
+            if w.shape != (rows.size,) or not np.all(np.isfinite(w) & (w > 0)):
+                raise SOSError(f"{name}: multiplier_weights must be {rows.size} positive numbers")
+            vv = Poly.numeric(np.hstack([np.zeros((rows.size, self.n_vars), np.int64), vexp]), w)
             for k, g in enumerate(region):
                 s = self.new_poly(monomials(self.n_vars, multiplier_degree))
                 self.add_sos(s, f"{name}: multiplier {k}")
@@ -489,7 +498,7 @@ class SOSProgram:
         """
         (self.equalities if kind == "eq" else self.inequalities).append((sps.csr_matrix(A), np.asarray(b, float)))
 
-    def add_psd_constant(self, M: list[list[Poly]], name: str, margin: float = 0.0) -> None:
+    def add_psd_constant(self, M: list[list[Poly]], name: str, margin: float | np.ndarray = 0.0) -> None:
         """A constant polynomial matrix (one degree-0 term per entry) with ``M - margin I`` PSD.
 
         Parameters
@@ -499,8 +508,9 @@ class SOSProgram:
             its symmetric part is constrained.
         name : str
             Name of the constraint (error messages).
-        margin : float, optional
-            Required smallest eigenvalue. Default 0.
+        margin : float or numpy.ndarray, optional
+            Required smallest eigenvalue, or the diagonal ``d`` of a margin ``M - diag(d)`` PSD.
+            Default 0.
 
         Raises
         ------
@@ -509,7 +519,8 @@ class SOSProgram:
         """
         if any(e.exps.shape[0] != 1 or e.exps.any() for row in M for e in row):
             raise SOSError(f"{name}: add_psd_constant needs constant entries")
-        entries = [[(e.C, float(e.c0[0]) - (margin if i == j else 0.0)) for j, e in enumerate(row)]
+        d = np.broadcast_to(np.asarray(margin, float), (len(M),))
+        entries = [[(e.C, float(e.c0[0]) - (d[i] if i == j else 0.0)) for j, e in enumerate(row)]
                    for i, row in enumerate(M)]
         self.psd.append((name, entries))
 

@@ -24,8 +24,8 @@ with ``G11 = G13 = A F + Bu Y + (A F + Bu Y)^T`` and ``G12 = X2 - F + a (A F + B
 Choices (docs/models.md, "Checked numerically before building", and what we measured):
 
 - ``Y = Y~(x~) + Kg(x) F``: ``Kg`` cancels the actuated rows of ``A(x)`` (the gyroscopic
-  torque; :class:`SplitPlant`), so the conditions involve ``A~(x~)`` only and hold for
-  *every* rate, on ``|x~| <= r`` (S-procedure). The law is
+  torque; :class:`satfmu.synthesis.polynomial_feedback.split_plant.SplitPlant`), so the
+  conditions involve ``A~(x~)`` only and hold for *every* rate, on ``|x~| <= r`` (S-procedure). The law is
   ``u = omega x I omega + Y~(sigma) F^-1 x``.
 - ``X2``, ``Xinf`` and ``F`` are constant, so the ``dX/dx`` terms vanish and the law is a
   polynomial (no linear solve at run time). A state-dependent ``F`` cannot widen the
@@ -66,112 +66,14 @@ from satfmu.fmus.model import Model
 from satfmu.synthesis.core.polynomial import Poly, PolyMatrix, monomials
 from satfmu.synthesis.core.sos import Check, SOSError, SOSProgram, SOSSolution, check_numbers, certify
 from satfmu.synthesis.core.progress import Progress
+from satfmu.synthesis.polynomial_feedback.coordinates import Coordinates
+from satfmu.synthesis.polynomial_feedback.split_plant import SplitPlant, split
 
 X0_200 = np.array([0.0, 0.0, 0.0, 0.5992, -0.7976, 0.6517])
 """Seed 000's 200 deg rest-to-rest start (docs/models.md's x(0), outside every certifiable region)."""
 X0_90 = np.concatenate([np.zeros(3), X0_200[3:] / np.linalg.norm(X0_200[3:]) * np.tan(np.pi / 8)])
 """Default x(0) of the H2 bound: 90 deg rest-to-rest about the 200 deg case's axis."""
 VARIANTS = ("slack", "common")
-
-
-@dataclass(frozen=True)
-class SplitPlant:
-    """The SDC plant split as Theorem 8 needs it (parameters at their defaults).
-
-    ``x~`` (``tilde``) are the states whose rows of ``[Bu Bw]`` are zero, the others are
-    ``actuated``. ``Kg(x) = -(Bu^T Bu)^-1 Bu^T A(x)`` cancels the actuated rows of A (for
-    the MRP satellite: the gyroscopic torque, ``Kg x = omega x I omega``), so with
-    ``Y = Y~(x~) + Kg F`` the conditions only involve ``A~ = A + Bu Kg``, a function of x~.
-
-    Attributes
-    ----------
-    symbols : tuple of sympy.Symbol
-        The model's state symbols ``x``, in state order (n of them).
-    tilde : tuple of int
-        Indices in ``x`` of the unactuated states ``x~`` (the MRPs).
-    actuated : tuple of int
-        Indices in ``x`` of the other states (the body rates).
-    A_tilde : satfmu.synthesis.core.polynomial.PolyMatrix
-        ``A + Bu Kg``, shape (n, n), as polynomials in ``x~`` (below).
-    Kg : sympy.Matrix
-        The cancelling feedback gain, shape (m, n), in the state symbols (below).
-    Bu : numpy.ndarray, shape (n, m)
-        Input matrix of the control torque ``u`` (N m).
-    Bw : numpy.ndarray, shape (n, m)
-        Input matrix of the disturbance torque ``w`` (N m).
-    C : numpy.ndarray, shape (len(tilde), n)
-        Performance output matrix (below).
-    """
-
-    symbols: tuple[sp.Symbol, ...]
-    tilde: tuple[int, ...]
-    actuated: tuple[int, ...]
-    A_tilde: PolyMatrix
-    """``A + Bu Kg`` as polynomials in x~."""
-    Kg: sp.Matrix
-    """The cancelling feedback gain, in the state symbols."""
-    Bu: np.ndarray
-    Bw: np.ndarray
-    C: np.ndarray
-    """``z = C x = x~`` (seed 001: the MRPs)."""
-
-    @property
-    def n(self) -> int:
-        return len(self.symbols)
-
-    @property
-    def m(self) -> int:
-        return self.Bu.shape[1]
-
-    @property
-    def tilde_symbols(self) -> list[sp.Symbol]:
-        return [self.symbols[i] for i in self.tilde]
-
-    @property
-    def tilde_name(self) -> str:
-        return _base(self.symbols[self.tilde[0]])
-
-    @property
-    def actuated_name(self) -> str:
-        return _base(self.symbols[self.actuated[0]])
-
-
-def _base(s: sp.Symbol) -> str:
-    return str(s).split("[", 1)[0]
-
-
-CANCEL_TOL = 1e-12
-"""Relative size of a coefficient of ``A + Bu Kg`` taken as round-off of the cancellation."""
-
-
-def _split(model: Model, frozen: bool) -> SplitPlant:
-    xs = [s.symbol for s in model.states]
-    subs = {v.symbol: v.start for v in model.parameters}
-    sdc = model.sdc
-    if sdc is None:
-        raise ValueError(f"model {model.name!r} has no SDC form")
-    A = sp.Matrix(sdc.A.subs(subs))
-    if frozen:
-        A = A.subs({x: 0 for x in xs})
-    B = sp.Matrix(sdc.B.subs(subs))
-    m = B.shape[1] // 2
-    Bu = B[:, :m]
-    tilde = tuple(i for i in range(len(xs)) if all(B[i, j] == 0 for j in range(B.shape[1])))
-    actuated = tuple(i for i in range(len(xs)) if i not in tilde)
-    Kg = sp.simplify(-(Bu.T * Bu).inv() * Bu.T * A)
-    # with products of inertia the cancellation leaves round-off (1e-17 omega): drop it
-    scale = max([abs(float(f)) for f in A.atoms(sp.Float)] + [1.0])
-    A_tilde = sp.expand(A + Bu * Kg).applyfunc(
-        lambda e: e.xreplace({f: 0 for f in e.atoms(sp.Float) if abs(f) < CANCEL_TOL * scale}))
-    xt = [xs[i] for i in tilde]
-    if not A_tilde.free_symbols <= set(xt):
-        raise ValueError(f"model {model.name!r}: A + Bu Kg depends on "
-                         f"{sorted(map(str, A_tilde.free_symbols - set(xt)))}, not only on x~")
-    C = np.zeros((len(tilde), len(xs)))
-    C[np.arange(len(tilde)), list(tilde)] = 1.0
-    Bn = np.array(B, float)
-    return SplitPlant(tuple(xs), tilde, actuated, PolyMatrix.from_sympy(A_tilde, xt), Kg,
-                      Bn[:, :m], Bn[:, m:], C)
 
 
 @dataclass
@@ -207,9 +109,11 @@ class Theorem8Result:
     Qh, Rh : numpy.ndarray
         The H2 weights, shapes (n, n) and (m, m) (below).
     solution : satfmu.synthesis.core.sos.SOSSolution
-        The solver's output.
+        The solver's output mapped to the user's units (decision values and Gram matrices).
     timings : dict of str to float, optional
         ``"build"``, ``"solve"`` and ``"verify"`` times, s.
+    coordinates : Coordinates, optional
+        The units the program was solved in (:mod:`satfmu.synthesis.polynomial_feedback.coordinates`).
     """
 
     variant: str
@@ -234,6 +138,8 @@ class Theorem8Result:
     """The H2 weights the design used."""
     solution: SOSSolution
     timings: dict[str, float] = field(default_factory=dict)
+    coordinates: Coordinates = field(default_factory=Coordinates.identity)
+    """The units the program was solved in (the certificate is checked in the user's)."""
 
     @property
     def certified(self) -> bool:
@@ -299,10 +205,120 @@ def _psd_margin(r: Theorem8Result) -> float:
                      np.linalg.eigvalsh(lam_block).min() / max(1.0, r.lam)))
 
 
+@dataclass
+class _Program:
+    """Theorem 8 posed on one plant in one set of units, with its decision matrices."""
+
+    prog: SOSProgram
+    F: PolyMatrix
+    X2: PolyMatrix
+    Xinf: PolyMatrix
+    Y: PolyMatrix
+    lam_idx: np.ndarray
+    label: str
+    """The region the conditions hold on."""
+
+
+def _program(plant: SplitPlant, gamma: float, alpha: float, beta: float, Qh: np.ndarray, Rh: np.ndarray,
+             x0: np.ndarray, margins: tuple[np.ndarray, np.ndarray, np.ndarray], h2_weights: np.ndarray,
+             hinf_weights: np.ndarray, *, variant: str, region: float, y_degree: int, multiplier_degree: int,
+             frozen: bool) -> _Program:
+    """Theorem 8's program (module notes) on ``plant`` with diagonal margins ``(H2, Hinf, X)`` and
+    the multiplier weight of every row of each condition."""
+    n, m, nt = plant.n, plant.m, len(plant.tilde)
+    prog = SOSProgram(nt)  # the conditions depend on x~ only
+    zero = np.zeros((1, nt), np.int64)
+    if variant == "common":
+        F = PolyMatrix(prog.new_symmetric(n))
+        X2 = Xinf = F
+    else:
+        F = PolyMatrix([[prog.new_poly(zero) for _ in range(n)] for _ in range(n)])
+        X2, Xinf = PolyMatrix(prog.new_symmetric(n)), PolyMatrix(prog.new_symmetric(n))
+    Y = PolyMatrix([[prog.new_poly(monomials(nt, y_degree)) for _ in range(n)] for _ in range(m)])
+    lam_idx = prog.new_variables(1)
+
+    def const(M: np.ndarray) -> PolyMatrix:
+        return PolyMatrix.constant(M, nt)
+
+    # A F + Bu Y with Y = Y~ + Kg F: the actuated rows of A cancel (A~ = A + Bu Kg)
+    AFBY = plant.A_tilde @ F + const(plant.Bu) @ Y
+    G11 = AFBY + AFBY.T
+    FFt = F + F.T
+    M2 = PolyMatrix.block([
+        [G11, None, None, None],
+        [X2 - F + AFBY.T.scale(alpha), -FFt.scale(alpha), None, None],
+        [F, F.scale(alpha), const(-np.linalg.inv(Qh)), None],
+        [Y, Y.scale(alpha), None, const(-np.linalg.inv(Rh))],
+    ])
+    CF = const(plant.C) @ F
+    Minf = PolyMatrix.block([
+        [G11, None, None, None],
+        [Xinf - F + AFBY.T.scale(beta), -FFt.scale(beta), None, None],
+        [const(plant.Bw.T), None, const(-gamma**2 * np.eye(plant.Bw.shape[1])), None],
+        [CF, CF.scale(beta), None, const(-np.eye(plant.C.shape[0]))],
+    ])
+    if frozen:  # constant matrices: plain LMIs, no region
+        regions, label = None, "x = 0 (A frozen at the origin: the linearization)"
+    else:
+        regions = [Poly.from_sympy(region**2 - sum(x**2 for x in plant.tilde_symbols), plant.tilde_symbols)]
+        label = f"|{plant.tilde_name}| <= {region:g}, any {plant.actuated_name}"
+    for name, M, margin, weights in (("H2", M2, margins[0], h2_weights), ("Hinf", Minf, margins[1], hinf_weights)):
+        # only the first two block rows are quadratic in x~; the weight rows are at most
+        # linear and need no multiplier (smaller Gram basis)
+        rows = range(2 * n) if y_degree <= 1 else range(M.shape[0])
+        prog.add_sos_matrix((M + const(np.diag(margin))).symmetric_from_lower().scale(-1.0), f"-M_{name}",
+                            region=regions, multiplier_degree=multiplier_degree, label=label,
+                            multiplier_rows=rows, multiplier_weights=weights[list(rows)].tolist())
+    prog.add_psd_constant(X2.entries, "X2 > 0", margin=margins[2])
+    if variant == "slack":
+        prog.add_psd_constant(Xinf.entries, "Xinf > 0", margin=margins[2])
+    # [lambda x0^T; x0 X2] >= 0
+    lam = Poly(zero, np.zeros(1), prog.selector(lam_idx))
+    x0c = [Poly.constant(v, nt) for v in x0]
+    block = [[lam] + x0c] + [[x0c[i]] + X2.entries[i] for i in range(n)]
+    prog.add_psd_constant(block, "lambda bound")
+    return _Program(prog, F, X2, Xinf, Y, lam_idx, label)
+
+
+def _in_user_units(scaled: _Program, user: _Program, sol: SOSSolution, coords: Coordinates, plant: SplitPlant,
+                   rows: tuple[np.ndarray, np.ndarray]) -> SOSSolution:
+    """The scaled program's solution as a solution of the user-unit program: the decision
+    matrices mapped back (``T F T``, ``torque Y T``; multipliers and lambda unchanged) and each
+    SOS-matrix Gram matrix by its congruence (a basis monomial ``v_i z(x)`` scales by ``D_i``)."""
+    y = np.array(sol.y, float)
+    Yu = coords.gain_numerator(plant, PolyMatrix([[p.value(sol.y) for p in row] for row in scaled.Y.entries]))
+    for M, values in ((user.F, coords.matrix(plant, scaled.F.evaluate(np.zeros(scaled.F.n_vars), sol.y))),
+                      (user.X2, coords.matrix(plant, scaled.X2.evaluate(np.zeros(scaled.X2.n_vars), sol.y))),
+                      (user.Xinf, coords.matrix(plant, scaled.Xinf.evaluate(np.zeros(scaled.Xinf.n_vars), sol.y)))):
+        for i, row in enumerate(M.entries):
+            for j, p in enumerate(row):
+                y[p.C.indices] = values[i, j]
+    for row, urow in zip(user.Y.entries, Yu.entries):
+        for p, pu in zip(row, urow):
+            # the same exponent rows in the same order: Y's coefficients are fresh variables
+            order = {tuple(e): k for k, e in enumerate(pu.exps)}
+            y[p.C.indices] = [pu.c0[order[tuple(e)]] if tuple(e) in order else 0.0 for e in p.exps]
+    grams = {}
+    for k, (cs, cu) in enumerate(zip(scaled.prog.sos, user.prog.sos)):
+        key = f"{k}:{cs.name}"
+        if key not in sol.grams:
+            continue
+        if not np.array_equal(cs.basis, cu.basis):
+            raise SOSError(f"{cs.name}: the scaled and user-unit programs have different Gram bases")
+        G = sol.grams[key]
+        if cs.basis.shape[1] > scaled.prog.n_vars:  # SOS matrix: basis v_i z(x)
+            d = rows[0] if cs.name == "-M_H2" else rows[1]
+            scale = d[np.argmax(cs.basis[:, scaled.prog.n_vars:], axis=1)]
+            G = G * np.outer(scale, scale)
+        grams[key] = G
+    return SOSSolution(y, grams, sol.status, sol.solver, float(y[user.lam_idx[0]]), dict(sol.timings))
+
+
 def theorem8(gamma: float, alpha: float, beta: float, variant: str = "slack", region: float = 0.45,
              y_degree: int = 1, Qh: np.ndarray | None = None, Rh: np.ndarray | None = None,
              x0: np.ndarray = X0_90, margin: float = 1e-6, multiplier_degree: int = 0,
-             frozen: bool = False, model: Model | None = None) -> Theorem8Result:
+             frozen: bool = False, model: Model | None = None,
+             coordinates: Coordinates | None = None) -> Theorem8Result:
     """Solve Theorem 8 at fixed ``gamma``, ``alpha``, ``beta`` (minimize lambda).
 
     Parameters
@@ -333,6 +349,11 @@ def theorem8(gamma: float, alpha: float, beta: float, variant: str = "slack", re
     model : Model, optional
         The plant, with an SDC form whose input columns are ``[u w]`` (default the MRP
         satellite, ``satfmu.fmus.plants.mrp_satellite.MODEL``).
+    coordinates : Coordinates, optional
+        Units of the solved program (default
+        :meth:`satfmu.synthesis.polynomial_feedback.coordinates.Coordinates.balanced` for this plant,
+        weights and scalars; ``Coordinates.identity()``: the user's units). The result and its
+        certificate are in the user's units whatever these are.
 
     Raises
     ------
@@ -351,7 +372,7 @@ def theorem8(gamma: float, alpha: float, beta: float, variant: str = "slack", re
     if int(y_degree) != y_degree or y_degree < 0:
         raise ValueError(f"y_degree must be a non-negative integer, got {y_degree}")
     t0 = time.perf_counter()
-    plant = _split(model, frozen)
+    plant = split(model, frozen)
     n, m, nt = plant.n, plant.m, len(plant.tilde)
     Qh = np.eye(n) if Qh is None else np.asarray(Qh, float)
     Rh = np.eye(m) if Rh is None else np.asarray(Rh, float)
@@ -362,83 +383,199 @@ def theorem8(gamma: float, alpha: float, beta: float, variant: str = "slack", re
     if x0.shape != (n,) or not np.all(np.isfinite(x0)):
         raise ValueError(f"x0 must be {n} finite numbers")
 
-    prog = SOSProgram(nt)  # the conditions depend on x~ only
-    zero = np.zeros((1, nt), np.int64)
-    if variant == "common":
-        F = PolyMatrix(prog.new_symmetric(n))
-        X2 = Xinf = F
-    else:
-        F = PolyMatrix([[prog.new_poly(zero) for _ in range(n)] for _ in range(n)])
-        X2, Xinf = PolyMatrix(prog.new_symmetric(n)), PolyMatrix(prog.new_symmetric(n))
-    Y = PolyMatrix([[prog.new_poly(monomials(nt, y_degree)) for _ in range(n)] for _ in range(m)])
-    lam_idx = prog.new_variables(1)
-
-    def const(M: np.ndarray) -> PolyMatrix:
-        return PolyMatrix.constant(M, nt)
-
-    # A F + Bu Y with Y = Y~ + Kg F: the actuated rows of A cancel (A~ = A + Bu Kg)
-    AFBY = plant.A_tilde @ F + const(plant.Bu) @ Y
-    G11 = AFBY + AFBY.T
-    FFt = F + F.T
-    M2 = PolyMatrix.block([
-        [G11, None, None, None],
-        [X2 - F + AFBY.T.scale(alpha), -FFt.scale(alpha), None, None],
-        [F, F.scale(alpha), const(-np.linalg.inv(Qh)), None],
-        [Y, Y.scale(alpha), None, const(-np.linalg.inv(Rh))],
-    ])
-    CF = const(plant.C) @ F
-    Minf = PolyMatrix.block([
-        [G11, None, None, None],
-        [Xinf - F + AFBY.T.scale(beta), -FFt.scale(beta), None, None],
-        [const(plant.Bw.T), None, const(-gamma**2 * np.eye(m)), None],
-        [CF, CF.scale(beta), None, const(-np.eye(n - m))],
-    ])
-    if frozen:  # constant matrices: plain LMIs, no region
-        regions, label = None, "x = 0 (A frozen at the origin: the linearization)"
-    else:
-        regions = [Poly.from_sympy(region**2 - sum(x**2 for x in plant.tilde_symbols), plant.tilde_symbols)]
-        label = f"|{plant.tilde_name}| <= {region:g}, any {plant.actuated_name}"
-    def margins(a: float, weights: int) -> PolyMatrix:  # e diag(I, a I, I): F + F^T >= e I
-        return const(margin * np.diag(np.concatenate([np.ones(n), np.full(n, a), np.ones(weights)])))
-
-    for name, M in (("H2", M2 + margins(alpha, n + m)), ("Hinf", Minf + margins(beta, m + n - m))):
-        # only the first two block rows are quadratic in x~; the weight rows are at most
-        # linear and need no multiplier (smaller Gram basis)
-        prog.add_sos_matrix(M.symmetric_from_lower().scale(-1.0), f"-M_{name}", region=regions,
-                            multiplier_degree=multiplier_degree, label=label,
-                            multiplier_rows=range(2 * n) if y_degree <= 1 else None)
-    prog.add_psd_constant(X2.entries, "X2 > 0", margin=margin)
-    if variant == "slack":
-        prog.add_psd_constant(Xinf.entries, "Xinf > 0", margin=margin)
-    # [lambda x0^T; x0 X2] >= 0
-    lam = Poly(zero, np.zeros(1), prog.selector(lam_idx))
-    x0c = [Poly.constant(v, nt) for v in x0]
-    block = [[lam] + x0c] + [[x0c[i]] + X2.entries[i] for i in range(n)]
-    prog.add_psd_constant(block, "lambda bound")
-    objective = prog.selector(lam_idx)
+    coords = (Coordinates.balanced(plant, Qh, Rh, alpha, beta) if coordinates is None else coordinates)
+    scaled = coords.plant(plant)
+    Qs, Rs = coords.weights(plant, Qh, Rh)
+    e = margin
+    # the margins of the scaled program, e diag(I, a I, I) on each condition (so F + F^T >= e I)
+    m2 = e * np.concatenate([np.ones(n), np.full(n, coords.scalar(alpha)), np.ones(n + m)])
+    minf = e * np.concatenate([np.ones(n), np.full(n, coords.scalar(beta)), np.ones(n)])
+    options: dict[str, Any] = dict(variant=variant, region=region, y_degree=y_degree,
+                                   multiplier_degree=multiplier_degree, frozen=frozen)
+    solved = _program(scaled, coords.gamma(gamma), coords.scalar(alpha), coords.scalar(beta), Qs, Rs,
+                      coords.state(plant, x0), (m2, minf, np.full(n, e)), np.ones(len(m2)), np.ones(len(minf)),
+                      **options)
     t1 = time.perf_counter()
     # tighter than Clarabel's defaults (1e-8): the optimum sits on the cone boundary and the
     # independent verification checks coefficient residuals at 1e-7 relative
-    sol = prog.solve(objective=objective, tol_feas=1e-10, tol_gap_abs=1e-10, tol_gap_rel=1e-10)
-    solve_s = sol.timings["solve"]
+    sol = solved.prog.solve(objective=solved.prog.selector(solved.lam_idx), tol_feas=1e-10, tol_gap_abs=1e-10,
+                            tol_gap_rel=1e-10)
     t2 = time.perf_counter()
-    checks = certify(prog, sol, sample_radius=region)
-    timings = {"build": t1 - t0 + sol.timings["build"] - prog.build_seconds, "solve": solve_s,
+    # the same conditions in the user's units: the congruences D M' D of the module notes
+    d2, dinf = coords.h2_rows(plant), coords.hinf_rows(plant)
+    t = coords.states(plant)
+    user = _program(plant, gamma, alpha, beta, Qh, Rh, x0, (d2**2 * m2, dinf**2 * minf, t**2 * e),
+                    d2**2, dinf**2, **options)
+    user_sol = _in_user_units(solved, user, sol, coords, plant, (d2, dinf))
+    checks = certify(user.prog, user_sol, sample_radius=region)
+    timings = {"build": t1 - t0 + sol.timings["build"], "solve": sol.timings["solve"],
                "verify": time.perf_counter() - t2}
 
     def num(M: PolyMatrix) -> np.ndarray:
-        return np.array([[float(e.value(sol.y).c0[0]) if e.exps.shape[0] else 0.0 for e in row] for row in M.entries])
+        return M.evaluate(np.zeros(nt), user_sol.y)
 
     def polys(M: PolyMatrix) -> list[list[Poly]]:
-        return [[e.value(sol.y) for e in row] for row in M.entries]
+        return [[p.value(user_sol.y) for p in row] for row in M.entries]
 
-    return Theorem8Result(variant, float(gamma), float(alpha), float(beta), float(sol.y[lam_idx[0]]),
-                          num(X2), num(Xinf), num(F), polys(Y), plant, checks, label, float(region), x0,
-                          Qh, Rh, sol, timings)
+    return Theorem8Result(variant, float(gamma), float(alpha), float(beta), float(user_sol.y[user.lam_idx[0]]),
+                          num(user.X2), num(user.Xinf), num(user.F), polys(user.Y), plant, checks, user.label,
+                          float(region), x0, Qh, Rh, user_sol, timings, coords)
 
 
 _REJECTED = 1e12
 """Objective given to the line search for an infeasible or uncertified point."""
+
+
+SCREEN_POINTS = 7
+"""Values of ``alpha = beta`` of the screen (:func:`screen`), log-spaced over the search bounds."""
+FLOOR_STEPS = 8
+"""Quadruplings of gamma the screen tries to find the linearization's gamma floor."""
+
+
+@dataclass
+class Screen:
+    """Theorem 8 at the origin (A frozen, LMIs) before any SOS solve: a necessary condition.
+
+    At ``x~ = 0`` every SOS-matrix condition of :func:`theorem8` reduces to the frozen LMIs with
+    the same margins (the multiplier terms are positive semidefinite there), so where the frozen
+    program is infeasible so is the SOS program, on every region. Each frozen solve takes ~0.2 s.
+
+    Attributes
+    ----------
+    gamma : float
+        The L2-gain bound screened (N m -> 1).
+    alphas : numpy.ndarray
+        The values of ``alpha = beta`` tried, s.
+    lam : numpy.ndarray
+        The frozen lambda at each (inf: infeasible): a lower bound of the SOS design's lambda.
+    gamma_floor : float or None
+        When no alpha is feasible: the smallest gamma found feasible at the origin (within a
+        factor 4^(1/32)), None if none up to ``gamma 4^FLOOR_STEPS``.
+    floor_alpha : float or None
+        The alpha = beta of that floor, s.
+    seconds : float
+        Time taken, s.
+    """
+
+    gamma: float
+    alphas: np.ndarray
+    lam: np.ndarray
+    gamma_floor: float | None
+    floor_alpha: float | None
+    seconds: float
+
+    @property
+    def feasible(self) -> bool:
+        """Some alpha passed the necessary condition."""
+        return bool(np.isfinite(self.lam).any())
+
+    def bounds(self) -> tuple[float, float]:
+        """The alpha range worth searching: the feasible alphas widened by one grid step, s."""
+        ok = np.flatnonzero(np.isfinite(self.lam))
+        lo, hi = max(ok.min() - 1, 0), min(ok.max() + 1, len(self.alphas) - 1)
+        return float(self.alphas[lo]), float(self.alphas[hi])
+
+    def reason(self) -> str:
+        """Why no design can be certified (the screen failed), with what would change it."""
+        tried = (f"alpha = beta in [{self.alphas[0]:.3g}, {self.alphas[-1]:.3g}] s "
+                 f"({len(self.alphas)} values)")
+        head = (f"Theorem 8 fails at the origin: its linearization (A frozen at x = 0, a necessary "
+                f"condition of the SOS conditions on any region) is infeasible at gamma = {self.gamma:g} for {tried}")
+        if self.gamma_floor is None:
+            return (f"{head}, and still at gamma = {self.gamma * 4**FLOOR_STEPS:g}: the plant or the weights "
+                    f"do not suit Theorem 8")
+        return (f"{head}; it is feasible from gamma = {self.gamma_floor:.4g} "
+                f"(alpha = beta = {self.floor_alpha:.3g} s). Choose gamma >= {self.gamma_floor:.4g}; "
+                f"a smaller region cannot help")
+
+
+def _frozen_lam(gamma: float, a: float, variant: str, kwargs: dict[str, Any]) -> float:
+    try:
+        r = theorem8(gamma, a, a, variant, **{**kwargs, "frozen": True, "y_degree": 0})
+    except SOSError:
+        return float("inf")
+    return r.lam if r.certified else float("inf")
+
+
+def screen(gamma: float, variant: str = "slack", bounds: tuple[float, float] | None = None,
+           points: int = SCREEN_POINTS, **kwargs: Any) -> Screen:
+    """Check Theorem 8's necessary condition at the origin over the alpha range (:class:`Screen`).
+
+    Parameters
+    ----------
+    gamma : float
+        L2-gain bound (N m -> 1).
+    variant : {"slack", "common"}, optional
+        The design variant. Default ``"slack"``.
+    bounds : tuple of (float, float), optional
+        The alpha range, s (default :func:`default_bounds`).
+    points : int, optional
+        Values of ``alpha = beta`` tried, log-spaced. Default :data:`SCREEN_POINTS`.
+    **kwargs
+        Passed to :func:`theorem8` (``model``, ``Qh``, ``Rh``, ``x0``, ``margin``; ``frozen`` and
+        ``y_degree`` are set here, ``region`` and ``multiplier_degree`` unused).
+
+    Returns
+    -------
+    Screen
+        The frozen lambda per alpha and, if none is feasible, the gamma floor.
+    """
+    t0 = time.perf_counter()
+    kw = {k: v for k, v in kwargs.items() if k not in ("frozen", "y_degree", "multiplier_degree")}
+    bounds = default_bounds(kw.get("model"), kw.get("Qh"), kw.get("Rh")) if bounds is None else bounds
+    alphas = np.logspace(np.log10(bounds[0]), np.log10(bounds[1]), points)
+    lam = np.array([_frozen_lam(gamma, a, variant, kw) for a in alphas])
+    floor = floor_alpha = None
+    if not np.isfinite(lam).any():
+        low = gamma
+        for _ in range(FLOOR_STEPS):
+            g = low * 4
+            feasible = [a for a in alphas if np.isfinite(_frozen_lam(g, a, variant, kw))]
+            if feasible:
+                floor_alpha, high = feasible[0], g
+                for _ in range(5):  # bisection in log gamma at that alpha: within 4^(1/32)
+                    mid = float(np.sqrt(low * high))
+                    low, high = (low, mid) if np.isfinite(_frozen_lam(mid, floor_alpha, variant, kw)) else (mid, high)
+                floor = float(high)
+                break
+            low = g
+    return Screen(float(gamma), alphas, lam, floor, None if floor_alpha is None else float(floor_alpha),
+                  time.perf_counter() - t0)
+
+
+def default_bounds(model: Model | None = None, Qh: np.ndarray | None = None,
+                   Rh: np.ndarray | None = None) -> tuple[float, float]:
+    """The default range of alpha and beta for ``model``: ``(0.01, 1) / rate``, s.
+
+    ``rate`` is the plant's balanced rate unit (:meth:`Coordinates.balanced`): ``1 / rate`` is
+    the time its LQR turns one radian in, so the range follows the plant's time scale (seed
+    000's satellite: 0.019 to 1.9 s; a 0.01 kg m^2 cubesat: 0.00085 to 0.085 s).
+
+    Parameters
+    ----------
+    model : Model, optional
+        The plant (default the MRP satellite).
+    Qh, Rh : numpy.ndarray, optional
+        The H2 weights (default identities).
+
+    Returns
+    -------
+    tuple of (float, float)
+        ``(low, high)``, s.
+    """
+    plant = split(mrp_satellite.MODEL if model is None else model, frozen=True)
+    Qh = np.eye(plant.n) if Qh is None else np.asarray(Qh, float)
+    Rh = np.eye(plant.m) if Rh is None else np.asarray(Rh, float)
+    rate = Coordinates.balanced(plant, Qh, Rh, 1.0, 1.0).rate
+    return 0.01 / rate, 1.0 / rate
+
+
+def _failed_check(r: Theorem8Result) -> str:
+    """The first check ``r`` failed, with its numbers."""
+    bad = [c for c in r.checks if not c.certified]
+    if bad:
+        return f"{bad[0].name}: min eig {bad[0].min_eig:.1e}, residual {bad[0].residual:.1e}"
+    return f"PSD margin {_psd_margin(r):.1e}"
 
 
 @dataclass
@@ -451,21 +588,47 @@ class SearchResult:
         The certified design of smallest lambda (None: no evaluation gave one).
     evaluations : list of tuple of (float, float, float)
         Every SDP solved (below).
+    screen : Screen or None
+        The screen at the origin run first (None when skipped).
+    notes : list of str
+        Per evaluation: ``"certified"``, ``"infeasible"`` or why the solution was not certified.
     """
 
     best: Theorem8Result | None
     evaluations: list[tuple[float, float, float]]
     """``(alpha, beta, lambda)`` per SDP (lambda inf where infeasible or not certified)."""
+    screen: Screen | None = None
+    notes: list[str] = field(default_factory=list)
+
+    def reason(self) -> str:
+        """Why no design was certified, and what would change it (empty when one was)."""
+        if self.best is not None:
+            return ""
+        if self.screen is not None and not self.screen.feasible:
+            return self.screen.reason()
+        uncertified = [n for n in self.notes if n.startswith("not certified")]
+        text = (f"{len(self.evaluations)} SOS programs over alpha, beta: "
+                f"{self.notes.count('infeasible')} infeasible, {len(uncertified)} solved but not certified"
+                + (f" ({uncertified[0]})" if uncertified else ""))
+        if self.screen is not None:
+            k = int(np.argmin(self.screen.lam))
+            text += (f"; they hold at the origin (frozen lambda {self.screen.lam[k]:.4g} at alpha = "
+                     f"{self.screen.alphas[k]:.3g} s), so the region is what fails: a smaller region or a larger "
+                     f"gamma may be certified")
+        return text
 
 
-def search(gamma: float, variant: str = "slack", bounds: tuple[float, float] = (0.05, 2.0),
+def search(gamma: float, variant: str = "slack", bounds: tuple[float, float] | None = None,
            xatol: float = 0.1, max_evaluations: int = 20, progress: Progress | None = None,
-           **kwargs: Any) -> SearchResult:
+           screened: bool = True, **kwargs: Any) -> SearchResult:
     """Minimize the certified lambda over alpha and beta (one SDP per evaluation).
 
-    Golden section (Brent, bounded) on ``log10 alpha`` with ``beta = alpha``, then on
-    ``log10 beta`` at the best alpha; ``xatol`` in decades. Infeasible, failed and
-    uncertified SDPs count as rejected. ``kwargs`` go to :func:`theorem8`.
+    First the screen at the origin (:func:`screen`, ~0.2 s per point): where it fails no SOS
+    program is solved and the result says why (:meth:`SearchResult.reason`); otherwise the
+    search runs over the alphas it passed (widened by a grid step). Then golden section (Brent,
+    bounded) on ``log10 alpha`` with ``beta = alpha``, then on ``log10 beta`` at the best alpha;
+    ``xatol`` in decades. Infeasible, failed and uncertified SDPs count as rejected. ``kwargs``
+    go to :func:`theorem8`.
 
     Parameters
     ----------
@@ -474,13 +637,18 @@ def search(gamma: float, variant: str = "slack", bounds: tuple[float, float] = (
     variant : {"slack", "common"}, optional
         The design variant (:func:`theorem8`). Default ``"slack"``.
     bounds : tuple of (float, float), optional
-        ``(low, high)`` range of alpha and of beta, ``0 < low < high``. Default (0.05, 2).
+        ``(low, high)`` range of alpha and of beta, ``0 < low < high``, s. Default
+        :func:`default_bounds` of the plant.
     xatol : float, optional
         Tolerance of each line search in ``log10`` of alpha or beta (decades). Default 0.1.
     max_evaluations : int, optional
         Most SDPs solved, both line searches together. Default 20.
     progress : callable, optional
         ``progress(done, total, message)``, called before each SDP and once at the end.
+    screened : bool, optional
+        Run :func:`screen` first (False: search the whole range). Default True.
+    **kwargs
+        Passed to :func:`theorem8`.
 
     Returns
     -------
@@ -492,10 +660,21 @@ def search(gamma: float, variant: str = "slack", bounds: tuple[float, float] = (
     ValueError
         If ``bounds`` is not ``0 < low < high``.
     """
+    if bounds is None:
+        bounds = default_bounds(kwargs.get("model"), kwargs.get("Qh"), kwargs.get("Rh"))
     if not (0 < bounds[0] < bounds[1] and np.all(np.isfinite(bounds))):
         raise ValueError(f"bounds must satisfy 0 < low < high, got {bounds}")
     evaluations: list[tuple[float, float, float]] = []
+    notes: list[str] = []
     best: list[Theorem8Result] = []
+    checked = None
+    if screened and not kwargs.get("frozen", False):
+        if progress is not None:
+            progress(0, max_evaluations, f"{variant}, gamma = {gamma:g}: screening the linearization")
+        checked = screen(gamma, variant, bounds, **kwargs)
+        if not checked.feasible:
+            return SearchResult(None, [], checked, [])
+        bounds = checked.bounds()
 
     def solve(a: float, b: float) -> float:
         if len(evaluations) >= max_evaluations:
@@ -505,9 +684,12 @@ def search(gamma: float, variant: str = "slack", bounds: tuple[float, float] = (
                      f"{variant}, gamma = {gamma:g}: alpha = {a:.3g}, beta = {b:.3g}")
         try:
             r: Theorem8Result | None = theorem8(gamma, a, b, variant, **kwargs)
+            notes.append("certified")
         except SOSError:
             r = None
+            notes.append("infeasible")
         if r is not None and not r.certified:
+            notes[-1] = f"not certified: {_failed_check(r)}"
             r = None
         evaluations.append((a, b, r.lam if r is not None else float("inf")))
         if r is not None and (not best or r.lam < best[0].lam):
@@ -522,7 +704,7 @@ def search(gamma: float, variant: str = "slack", bounds: tuple[float, float] = (
         minimize_scalar(lambda t: solve(a, 10**t), bounds=(lo, hi), method="bounded", options=opts)
     if progress is not None:
         progress(max_evaluations, max_evaluations, "done")
-    return SearchResult(best[0] if best else None, evaluations)
+    return SearchResult(best[0] if best else None, evaluations, checked, notes)
 
 
 @dataclass(frozen=True)
@@ -551,7 +733,7 @@ class SweepRow:
     n_sdps: int
 
 
-def sweep(gammas: list[float], bounds: tuple[float, float] = (0.05, 2.0), max_evaluations: int = 12,
+def sweep(gammas: list[float], bounds: tuple[float, float] | None = None, max_evaluations: int = 12,
           progress: Progress | None = None, **kwargs: Any) -> list[SweepRow]:
     """:func:`search` at every gamma for both variants (``kwargs`` go to :func:`theorem8`).
 
@@ -560,7 +742,8 @@ def sweep(gammas: list[float], bounds: tuple[float, float] = (0.05, 2.0), max_ev
     gammas : list of float
         The L2-gain bounds (N m -> 1), each finite and > 0; searched from the largest down.
     bounds : tuple of (float, float), optional
-        ``(low, high)`` range of alpha and beta (:func:`search`). Default (0.05, 2).
+        ``(low, high)`` range of alpha and beta, s (:func:`search`). Default
+        :func:`default_bounds` of the plant.
     max_evaluations : int, optional
         Most SDPs per search. Default 12.
     progress : callable, optional
@@ -735,4 +918,7 @@ def artifact_data(result: Theorem8Result, name: str, check: ClosedLoopCheck,
             "Xinf": result.Xinf.tolist(), "F": result.F.tolist(),
         },
         provenance={"source": "satfmu satfmu.synthesis.polynomial_feedback.h2hinf_sos.theorem8 (seed 001 Theorem 8)",
-                    "solver": result.solution.solver, "timings_s": result.timings})
+                    "solver": result.solution.solver, "timings_s": result.timings,
+                    "solved_in_units": {"time_s": result.coordinates.time, "rate_rad_per_s": result.coordinates.rate,
+                                        "torque_N_m": result.coordinates.torque,
+                                        "note": "the certificate is checked in SI units"}})

@@ -1,0 +1,431 @@
+"""The "methods x spacecraft" table of issue 53: every design method of the five seed papers tried
+on three spacecraft.
+
+One row per (method, spacecraft): the outcome (the artifact's certificate status when the design
+returns, usually ``certified``; ``refused`` when it raises :class:`satfmu.DesignError`; ``not
+offered`` when the method takes no spacecraft), its key numbers or the refusal's reason (the
+message's first 200 characters), the design's wall time, and whether the designed controller's
+FMU closed loop passes a short scenario on that spacecraft.
+
+Spacecraft: ``seed_000`` (:data:`satfmu.SEED_000`, diag(15, 16, 12.5) kg m^2, 5 N m), ``bus``
+(200 kg class, products of inertia, 20 N m) and ``cubesat_3u`` (diag(0.01, 0.05, 0.05) kg m^2,
+0.01 N m, 0.2 A m^2).
+
+Methods (:mod:`satfmu.synthesis.designs`):
+
+- ``hinf``: seed 000, :func:`satfmu.design_hinf` judged on a 90 deg manoeuvre about (1, -1, 1)
+  within the spacecraft's torque limit; reduced to one certified decay rate (0.02 1/s) and 5000
+  samples of the L2 estimate unless ``--full``. Numbers: certificate status, L2 gain bound ``c``.
+- ``h2hinf``: seed 001, :func:`satfmu.design_h2hinf` at gamma 0.7 (gamma 5 for the cubesat), 6
+  SDPs per line search (12 with ``--full``). Numbers: gamma, lambda, alpha, beta and the
+  summary's first line.
+- ``sdre``: seed 002, :func:`satfmu.design_vscmg_sdre`: "not offered" while it has no ``plant``
+  parameter (issue 53 item 2); once it has one, it is called with ``plant=spacecraft``.
+- ``periodic``: seed 003, :func:`satfmu.design_cubesat_periodic` (principal axes only). Numbers:
+  gamma and the summary's first line.
+- ``robust``: seed 004, :func:`satfmu.design_demeter`: "not offered" while it has no ``plant``
+  parameter (issue 53 item 3), as ``sdre``.
+
+Closed loop (``hinf`` and ``h2hinf``, when designed): the artifact is written into a temporary
+satfmu home (``$SATFMU_HOME`` is set to a temporary folder for the whole run, so nothing reaches
+the user's folder; FMUs are built there on demand) and the 90 deg rest-to-rest manoeuvre runs
+through the native FMUs (plant ``mrp_satellite`` with the spacecraft's parameters, no
+saturation) for 120 s (seed_000), 300 s (bus) or 60 s (cubesat_3u). It passes when the angle
+error at the end is below :data:`ANGLE_BOUND_DEG` and the peak torque within the spacecraft's
+torque limit. The other methods' controllers are not run.
+
+Prints the table as Markdown (and the total wall time), writes it with ``--out`` and the raw rows
+as JSON with ``--json``; progress goes to stderr. The reduced table took 272 s on 2 shared
+cores::
+
+    python bench/design_table.py [--full] [--only METHOD] [--spacecraft NAME] [--out FILE] [--json FILE]
+"""
+from __future__ import annotations
+
+import argparse
+import inspect
+import json
+import math
+import os
+import sys
+import tempfile
+import time
+import warnings
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Sequence
+
+import satfmu
+from satfmu.synthesis import designs
+
+SPACECRAFT: dict[str, satfmu.Spacecraft] = {
+    "seed_000": satfmu.SEED_000,
+    "bus": satfmu.Spacecraft("bus", [[100.0, 2.0, -1.0], [2.0, 120.0, 0.5], [-1.0, 0.5, 80.0]], torque_limit=20.0),
+    "cubesat_3u": satfmu.Spacecraft("cubesat_3u", [0.01, 0.05, 0.05], torque_limit=1e-2, dipole_limit=0.2),
+}
+"""The table's columns: name -> spacecraft."""
+METHODS: dict[str, str] = {
+    "hinf": "000 design_hinf",
+    "h2hinf": "001 design_h2hinf",
+    "sdre": "002 design_vscmg_sdre",
+    "periodic": "003 design_cubesat_periodic",
+    "robust": "004 design_demeter",
+}
+"""Method key (``--only``) -> its label in the table (seed number and design function)."""
+NOT_OFFERED_ISSUE = {"sdre": "issue 53 item 2", "robust": "issue 53 item 3"}
+"""Methods that may not take a spacecraft yet -> the item of issue 53 that asks for it."""
+H2HINF_GAMMA = {"seed_000": 0.7, "bus": 0.7, "cubesat_3u": 5.0}
+"""The L2-gain bound of seed 001's design per spacecraft."""
+STOP_TIME = {"seed_000": 120.0, "bus": 300.0, "cubesat_3u": 60.0}
+"""Length of the closed-loop manoeuvre per spacecraft, s."""
+ANGLE_BOUND_DEG = 0.1
+"""Largest attitude angle error at the end of the manoeuvre that passes, deg."""
+MANOEUVRE_DEG, MANOEUVRE_AXIS = 90.0, (1.0, -1.0, 1.0)
+REASON_CHARS = 200
+"""A refusal's reason is cut to this many characters in the table (the JSON keeps it whole)."""
+
+
+@dataclass
+class Row:
+    """One (method, spacecraft) cell of the table.
+
+    Attributes
+    ----------
+    method, spacecraft : str
+        Keys of :data:`METHODS` and :data:`SPACECRAFT`.
+    outcome : str
+        The certificate status of a design (``"certified"``, ...), ``"refused"`` or ``"not offered"``.
+    numbers : str
+        Key numbers of the design, the refusal's reason, or why the method is not offered.
+    seconds : float or None
+        Wall time of the design call, s (None: not run).
+    closed_loop : str
+        The closed-loop scenario's verdict and figures, or why none ran.
+    details : dict
+        Raw data for the JSON file (full message, certificate numbers, metrics).
+    """
+
+    method: str
+    spacecraft: str
+    outcome: str
+    numbers: str
+    seconds: float | None
+    closed_loop: str = "not run"
+    details: dict[str, Any] = field(default_factory=dict)
+
+
+def offers_plant(function: Callable[..., Any]) -> bool:
+    """Whether a design function takes a spacecraft: it has a parameter named ``plant``.
+
+    Parameters
+    ----------
+    function : callable
+        A design function (its ``functools.wraps`` wrapper is seen through).
+
+    Returns
+    -------
+    bool
+        True if ``inspect.signature(function)`` has a ``plant`` parameter.
+    """
+    return "plant" in inspect.signature(function).parameters
+
+
+def shorten(text: str, limit: int = REASON_CHARS) -> str:
+    """``text`` on one line (runs of whitespace made one space), cut to ``limit`` characters with "...".
+
+    Parameters
+    ----------
+    text : str
+        Any message.
+    limit : int
+        Largest length of the result.
+
+    Returns
+    -------
+    str
+        The shortened text.
+    """
+    flat = " ".join(text.split())
+    return flat if len(flat) <= limit else flat[:limit - 3].rstrip() + "..."
+
+
+def cell(text: str) -> str:
+    """``text`` safe in a Markdown table cell: one line, ``|`` escaped."""
+    return " ".join(str(text).split()).replace("|", "\\|")
+
+
+def markdown(rows: Sequence[Row]) -> str:
+    """The rows as a Markdown table: method | spacecraft | outcome | numbers or reason | time | closed loop.
+
+    Parameters
+    ----------
+    rows : sequence of Row
+        The table's rows, in order.
+
+    Returns
+    -------
+    str
+        The table, one line per row after the header and its rule, no trailing newline.
+    """
+    lines = ["| method | spacecraft | outcome | numbers / reason | design time | closed loop |",
+             "|---|---|---|---|---:|---|"]
+    for r in rows:
+        t = "-" if r.seconds is None else f"{r.seconds:.1f} s"
+        lines.append("| " + " | ".join(cell(c) for c in (METHODS.get(r.method, r.method), r.spacecraft, r.outcome,
+                                                             r.numbers, t, r.closed_loop)) + " |")
+    return "\n".join(lines)
+
+
+def not_offered(method: str, spacecraft: str, function: Callable[..., Any]) -> Row | None:
+    """The "not offered" row of ``method`` on ``spacecraft`` if ``function`` takes no ``plant``, else None.
+
+    Parameters
+    ----------
+    method, spacecraft : str
+        Keys of :data:`METHODS` and :data:`SPACECRAFT`.
+    function : callable
+        The method's design function.
+
+    Returns
+    -------
+    Row or None
+        The row (nothing run) or None when the method takes a spacecraft.
+    """
+    if offers_plant(function):
+        return None
+    issue = NOT_OFFERED_ISSUE.get(method, "issue 53")
+    return Row(method, spacecraft, "not offered", f"not offered ({issue}): {function.__name__} takes no plant",
+               None, "not run", {"signature": str(inspect.signature(function))})
+
+
+def scenario(controller: str, spacecraft: satfmu.Spacecraft, stop_time: float) -> satfmu.Scenario:
+    """The 90 deg rest-to-rest manoeuvre of ``spacecraft`` under ``controller`` through the FMUs.
+
+    Parameters
+    ----------
+    controller : str
+        Artifact (controller FMU) name.
+    spacecraft : Spacecraft
+        The plant's inertia and torque limit.
+    stop_time : float
+        Length of the run, s.
+
+    Returns
+    -------
+    Scenario
+        Metrics: the angle error at the end (max :data:`ANGLE_BOUND_DEG`) and the peak torque
+        (max the spacecraft's torque limit).
+    """
+    start = satfmu.manoeuvre(MANOEUVRE_DEG, axis=MANOEUVRE_AXIS)
+    return satfmu.Scenario(
+        name=f"table_{controller}", stop_time=stop_time, step_size=0.05,
+        description=f"{spacecraft.name}: {MANOEUVRE_DEG:g} deg rest-to-rest under {controller}",
+        fmus={"plant": satfmu.FmuSpec(model="mrp_satellite", parameters={**spacecraft.parameters(), **start}),
+              "controller": satfmu.FmuSpec(model=controller)},
+        connections=[satfmu.Connection("plant.omega", "controller.omega"),
+                     satfmu.Connection("plant.sigma", "controller.sigma"),
+                     satfmu.Connection("controller.u", "plant.u")],
+        record=["plant.phi", "controller.u"],
+        metrics=[satfmu.Metric("angle error", "final", ["plant.phi"], scale=180.0 / math.pi, unit="deg",
+                               max=ANGLE_BOUND_DEG),
+                 satfmu.Metric("peak torque", "peak", ["controller.u"], unit="N m", max=spacecraft.torque_limit)])
+
+
+def closed_loop(design: satfmu.Design, spacecraft: satfmu.Spacecraft, stop_time: float) -> tuple[str, dict[str, Any]]:
+    """Write ``design``'s artifact into the user's artifact folder (the run's temporary home) and
+    fly :func:`scenario` with it.
+
+    Parameters
+    ----------
+    design : Design
+        A returned seed 000 or 001 design.
+    spacecraft : Spacecraft
+        The spacecraft it was designed for.
+    stop_time : float
+        Length of the run, s.
+
+    Returns
+    -------
+    str
+        ``"pass: ..."`` or ``"FAIL: ..."`` with the final angle error and peak torque, or ``"error: ..."``
+        when the run raised a satfmu error.
+    dict
+        The metrics' values, bounds and pass/fail, the run's wall time and any warnings.
+    """
+    design.write(satfmu.user_artifacts(), fmu_dir=None)
+    t0 = time.perf_counter()
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", satfmu.SatfmuWarning)
+            result = satfmu.run(scenario(design.names[0], spacecraft, stop_time))
+    except satfmu.SatfmuError as exc:
+        return f"error: {shorten(str(exc), 120)}", {"error": str(exc), "seconds": time.perf_counter() - t0}
+    metrics = {m.name: m for m in result.metrics}
+    angle, peak = metrics["angle error"], metrics["peak torque"]
+    text = (f"{'pass' if result.passed else 'FAIL'}: {angle.value:.3g} deg at {stop_time:g} s "
+            f"(<= {ANGLE_BOUND_DEG:g}), peak {peak.value:.3g} of {spacecraft.torque_limit:g} N m")
+    details = {"passed": result.passed, "seconds": time.perf_counter() - t0, "stop_time": stop_time,
+               "metrics": {m.name: {"value": m.value, "max": m.max, "unit": m.unit, "passed": m.passed}
+                           for m in result.metrics},
+               "warnings": [str(w.message) for w in caught]}
+    return text, details
+
+
+def design_row(method: str, name: str, full: bool) -> Row:
+    """Run ``method`` on the spacecraft ``name`` and make its row (closed loop included).
+
+    Parameters
+    ----------
+    method : str
+        Key of :data:`METHODS`.
+    name : str
+        Key of :data:`SPACECRAFT`.
+    full : bool
+        The methods' default sizes instead of the reduced ones.
+
+    Returns
+    -------
+    Row
+        The row; a :class:`satfmu.DesignError` becomes a "refused" row (any other error propagates).
+    """
+    craft = SPACECRAFT[name]
+    artifact = f"table_{method}_{name}"
+    call: Callable[[], satfmu.Design]
+    if method == "hinf":
+        reduced: dict[str, Any] = {} if full else {"decay_rates": (0.02,), "n_samples": 5_000}
+        call = lambda: designs.design_hinf(  # noqa: E731
+            craft, name=artifact, start=satfmu.manoeuvre(MANOEUVRE_DEG, axis=MANOEUVRE_AXIS),
+            torque_budget=craft.torque_limit, **reduced)
+    elif method == "h2hinf":
+        call = lambda: designs.design_h2hinf(H2HINF_GAMMA[name], craft, name=artifact,  # noqa: E731
+                                             evaluations=12 if full else 6)
+    elif method == "periodic":
+        call = lambda: designs.design_cubesat_periodic(plant=craft, name=artifact)  # noqa: E731
+    elif method in ("sdre", "robust"):
+        function = designs.design_vscmg_sdre if method == "sdre" else designs.design_demeter
+        row = not_offered(method, name, function)
+        if row is not None:
+            return row
+        kwargs: dict[str, Any] = {"plant": craft}
+        if "name" in inspect.signature(function).parameters:
+            kwargs["name"] = artifact
+        call = lambda: function(**kwargs)  # noqa: E731
+    else:
+        raise ValueError(f"unknown method {method!r} (known: {', '.join(METHODS)})")
+    gamma_note = f"gamma = {H2HINF_GAMMA[name]:g}: " if method == "h2hinf" else ""
+    t0 = time.perf_counter()
+    try:
+        design = call()
+    except satfmu.DesignError as exc:
+        seconds = time.perf_counter() - t0
+        return Row(method, name, "refused", gamma_note + shorten(str(exc)), seconds, "not run",
+                   {"message": str(exc)})
+    seconds = time.perf_counter() - t0
+    cert = design.artifact.get("certificate", {})
+    status = str(cert.get("status", "designed"))
+    first = design.summary.splitlines()[0] if design.summary else ""
+    details: dict[str, Any] = {"summary": design.summary, "certificate_status": status,
+                               "certificate_numbers": cert.get("numbers", {})}
+    if method == "hinf":
+        c = cert["l2_gain"]["c"]
+        numbers = f"L2 gain c = {c:.4g} on {cert['l2_gain']['region']}"
+        details["l2_gain"] = {k: v for k, v in cert["l2_gain"].items() if k != "checks"}
+    elif method == "h2hinf":
+        r = design.result
+        numbers = (f"gamma = {r.gamma:g}, lambda = {r.lam:.4g}, alpha = {r.alpha:.4g} s, beta = {r.beta:.4g} s; "
+                   f"{shorten(first, 160)}")
+        details.update(gamma=r.gamma, lam=r.lam, alpha=r.alpha, beta=r.beta)
+    elif method == "periodic":
+        gamma = float(design.result.design.gamma)
+        numbers = f"gamma = {gamma:.4g}; {shorten(first, 160)}"
+        details["gamma"] = gamma
+    else:
+        numbers = shorten(first, 160)
+    row = Row(method, name, status, numbers, seconds, "not run", details)
+    if method in ("hinf", "h2hinf"):
+        row.closed_loop, row.details["closed_loop"] = closed_loop(design, craft, STOP_TIME[name])
+    elif method == "periodic":
+        row.closed_loop = "not run (magnetorquer plant; cf. scenario cubesat_detumble)"
+    return row
+
+
+def table(methods: Sequence[str], spacecraft: Sequence[str], full: bool,
+          log: Callable[[str], None] = lambda s: None) -> list[Row]:
+    """Every (method, spacecraft) row, methods outer.
+
+    Parameters
+    ----------
+    methods : sequence of str
+        Keys of :data:`METHODS`.
+    spacecraft : sequence of str
+        Keys of :data:`SPACECRAFT`.
+    full : bool
+        The methods' default sizes instead of the reduced ones.
+    log : callable, optional
+        Called with a progress line before and after each row.
+
+    Returns
+    -------
+    list of Row
+        The rows.
+    """
+    rows = []
+    for method in methods:
+        for name in spacecraft:
+            log(f"[{method} x {name}] ...")
+            t0 = time.perf_counter()
+            row = design_row(method, name, full)
+            log(f"[{method} x {name}] {row.outcome} in {time.perf_counter() - t0:.1f} s; closed loop: "
+                f"{row.closed_loop}")
+            rows.append(row)
+    return rows
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the table and print it (see the module docstring).
+
+    Parameters
+    ----------
+    argv : sequence of str, optional
+        Command-line arguments (default ``sys.argv[1:]``).
+
+    Returns
+    -------
+    int
+        0.
+    """
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--full", action="store_true", help="the methods' default sizes (slower)")
+    parser.add_argument("--only", choices=list(METHODS), action="append", help="run only this method (repeatable)")
+    parser.add_argument("--spacecraft", choices=list(SPACECRAFT), action="append",
+                        help="run only on this spacecraft (repeatable)")
+    parser.add_argument("--out", type=Path, help="also write the Markdown table here")
+    parser.add_argument("--json", type=Path, help="write the raw rows here as JSON")
+    args = parser.parse_args(argv)
+
+    def log(line: str) -> None:
+        print(line, file=sys.stderr, flush=True)
+
+    t0 = time.perf_counter()
+    with tempfile.TemporaryDirectory(prefix="satfmu_design_table_") as home:
+        os.environ["SATFMU_HOME"] = home  # artifacts and FMUs of this run only, removed at the end
+        log(f"SATFMU_HOME={home}")
+        rows = table(args.only or list(METHODS), args.spacecraft or list(SPACECRAFT), args.full, log)
+    total = time.perf_counter() - t0
+    mode = "full" if args.full else "reduced (design_hinf: decay_rates=(0.02,), n_samples=5000; design_h2hinf: " \
+                                    "evaluations=6)"
+    text = (f"# Design methods x spacecraft (issue 53)\n\nMode: {mode}. Closed loop: {MANOEUVRE_DEG:g} deg "
+            f"rest-to-rest about {MANOEUVRE_AXIS}, native FMUs, no saturation; pass = angle error at the end <= "
+            f"{ANGLE_BOUND_DEG:g} deg and peak torque <= the torque limit.\n\n{markdown(rows)}\n\n"
+            f"Total wall time: {total:.0f} s.\n")
+    print(text, end="")
+    if args.out:
+        args.out.write_text(text)
+    if args.json:
+        args.json.write_text(json.dumps({"mode": "full" if args.full else "reduced", "total_seconds": total,
+                                         "rows": [asdict(r) for r in rows]}, indent=1, default=str) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
