@@ -199,7 +199,8 @@ def design_hinf(plant: Model | Spacecraft | None = None, *, name: str = "mrp_hin
 @fails_with_design_error
 def design_h2hinf(gamma: float, plant: Model | Spacecraft | None = None, *, name: str = "mrp_h2hinf_satfmu",
                   variant: str = "slack", region: float = 0.45, alpha_range: tuple[float, float] | None = None,
-                  evaluations: int = 12, progress: Progress | None = None) -> Design:
+                  evaluations: int = 12, weights: tuple[np.ndarray, np.ndarray] | None = None,
+                  progress: Progress | None = None) -> Design:
     """Seed 001: mixed H2/H-infinity state feedback (Theorem 8) at one L2-gain bound ``gamma``.
 
     Each SOS program is solved in units balanced for the plant and its certificate checked in
@@ -224,6 +225,11 @@ def design_h2hinf(gamma: float, plant: Model | Spacecraft | None = None, *, name
         :func:`satfmu.synthesis.polynomial_feedback.h2hinf_sos.default_bounds`: the plant's time scale).
     evaluations : int
         SDPs per line search.
+    weights : (numpy.ndarray, numpy.ndarray), optional
+        The H2 weights ``(Qh, Rh)``, 6 x 6 on ``(omega, sigma)`` and 3 x 3 on ``u``. Default
+        ``Qh = I6`` and, for a :class:`Spacecraft` with a torque limit, Bryson's rule on the
+        input, ``Rh = I3 / torque_limit^2`` (N^-2 m^-2), so that the law's torque is weighed
+        against what the actuators give; else the seed's ``Rh = I3``.
     progress : callable, optional
         ``progress(done, total, message)`` after each step.
 
@@ -236,8 +242,12 @@ def design_h2hinf(gamma: float, plant: Model | Spacecraft | None = None, *, name
     from satfmu.synthesis.polynomial_feedback import h2hinf_sos
 
     model = _mrp_plant(plant)
+    limit = plant.torque_limit if isinstance(plant, Spacecraft) else None
+    if weights is None:
+        weights = (np.eye(6), np.eye(3) / (1.0 if limit is None else limit**2))
     found = h2hinf_sos.search(gamma, variant, bounds=None if alpha_range is None else (*alpha_range,),
-                              max_evaluations=evaluations, progress=progress, region=region, model=model)
+                              max_evaluations=evaluations, progress=progress, region=region, model=model,
+                              Qh=np.asarray(weights[0], float), Rh=np.asarray(weights[1], float))
     r = found.best
     if r is None:
         raise DesignError(f"no certified {variant} design at gamma = {gamma:g} on |sigma| <= {region:g}: "
@@ -250,7 +260,10 @@ def design_h2hinf(gamma: float, plant: Model | Spacecraft | None = None, *, name
                   f"{np.min(screen.lam):.4f})" if screen is not None else "")
                + f"; solved in units of {c.time:.3g} s, {c.rate:.3g} rad/s, {c.torque:.3g} N m, checked in SI"
                f"\n  simulated J2 = {check.j2:.4f} over {check.stop_time:g} s (bound {r.lam:.4f}), max |sigma| "
-               f"{check.max_tilde:.4f}, linearization max Re eig {check.max_real_eig:.4f} 1/s")
+               f"{check.max_tilde:.4f}, linearization max Re eig {check.max_real_eig:.4f} 1/s"
+               f"\n  peak |u_i| {check.peak_torque:.4g} N m from the H2 start"
+               + ("" if limit is None else f" ({'within' if check.peak_torque <= limit else 'ABOVE'} the torque limit "
+                                           f"{limit:g} N m; Rh = {r.Rh[0, 0]:.4g} I3)"))
     if not check.passed:
         raise DesignError(f"{summary}\nthe closed-loop check failed: the design is not saved")
     return Design("mrp-h2hinf", [h2hinf_sos.artifact_data(r, name, check, model)], summary, r)

@@ -32,20 +32,23 @@ def test_mixed_design_for_your_own_spacecraft_quick(user):  # noqa: F811
     # units, checked in SI, and the FMU loop's H2 cost within the bound (measured 0.685 of it)
     out = _h2hinf(user, "--quick")
     assert "certificate: certified" in out and "checked in SI" in out
-    assert "ok   H2 cost" in out and "ok   peak torque" in out
-    ratio = float(out.rsplit("certified bound: ", 1)[1].split()[0])
-    assert 0.5 < ratio < 1.0  # a bound, not far above the cost: 0.685 measured
+    assert "within the torque limit 20 N m; Rh = 0.0025 I3" in out and "ok   peak torque" in out  # Bryson: 1/20^2
+    ratio = float(out.rsplit("ratio ", 1)[1].split()[0])
+    assert 0.4 < ratio <= 1.0  # within the bound, and the bound not loose (measured 0.614; continuous 0.610)
 
 
 @pytest.mark.slow
 def test_mixed_design_for_your_own_spacecraft_full(user):  # noqa: F811
     out = _h2hinf(user)
-    assert "certificate: certified" in out and "12 SDPs" in out and "ok   H2 cost" in out
+    assert "certificate: certified" in out and "12 SDPs" in out and "ok   peak torque" in out
+    assert float(out.rsplit("ratio ", 1)[1].split()[0]) <= 1.0
 
 
 def test_mixed_design_refuses_a_gamma_out_of_reach_at_once(user):  # noqa: F811
+    # the bus's linearization needs gamma >= 0.026 with Rh = I3 / 20^2 (measured): 0.01 is refused
+    # by the screen (~6 s), before any SOS program
     work, env = user
-    done = subprocess.run([sys.executable, "own_spacecraft_h2hinf.py", "--gamma", "0.05"], cwd=work, env=env,
+    done = subprocess.run([sys.executable, "own_spacecraft_h2hinf.py", "--gamma", "0.01"], cwd=work, env=env,
                           capture_output=True, text=True, timeout=300)
     assert done.returncode == 3, done.stdout + done.stderr
     assert "refused:" in done.stdout and "Choose gamma >=" in done.stdout and "SOS programs" not in done.stdout

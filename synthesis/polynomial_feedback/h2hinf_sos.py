@@ -808,6 +808,8 @@ class ClosedLoopCheck:
         Length of the simulation, s.
     lam : float
         The certified bound lambda of the design.
+    peak_torque : float
+        Largest ``|u_i|`` along the trajectory (at the integrator's steps), N m.
     """
 
     j2: float
@@ -821,6 +823,7 @@ class ClosedLoopCheck:
     stop_time: float
     lam: float
     """The certified bound."""
+    peak_torque: float = float("nan")
 
     @property
     def passed(self) -> bool:
@@ -867,9 +870,10 @@ def closed_loop_check(result: Theorem8Result, stop_time: float = 300.0,
     f = f.subs({v.symbol: 0 for v in model.inputs[m:]})
     J = np.array(f.jacobian(xs).subs({x: 0 for x in xs}), float)
     tilde = np.linalg.norm(sol.y[list(result.plant.tilde)], axis=0)
+    peak = max(float(np.abs(np.asarray(u_of(x), float)).max()) for x in sol.y[:n].T)
     return ClosedLoopCheck(float(sol.y[n, -1]) if sol.success else float("inf"),
                            float(xT @ np.linalg.solve(result.X2, xT)), float(tilde.max()),
-                           float(np.linalg.eigvals(J).real.max()), stop_time, result.lam)
+                           float(np.linalg.eigvals(J).real.max()), stop_time, result.lam, peak)
 
 
 def artifact_data(result: Theorem8Result, name: str, check: ClosedLoopCheck,
@@ -913,8 +917,10 @@ def artifact_data(result: Theorem8Result, name: str, check: ClosedLoopCheck,
                         f"simulated J2 over {check.stop_time:g} s": check.j2,
                         "simulated tail bound x(T)^T X2^-1 x(T)": check.tail,
                         f"max |{result.plant.tilde_name}| along the x0 trajectory": check.max_tilde,
-                        "max real part of eig(Acl(0))": check.max_real_eig},
-            "h2": {"lambda": result.lam, "x0": result.x0.tolist(), "sublevel_set_in_region": result.h2_proved},
+                        "max real part of eig(Acl(0))": check.max_real_eig,
+                        "peak |u_i| along the x0 trajectory (N m)": check.peak_torque},
+            "h2": {"lambda": result.lam, "x0": result.x0.tolist(), "sublevel_set_in_region": result.h2_proved,
+                   "Qh": result.Qh.tolist(), "Rh": result.Rh.tolist()},
             "Xinf": result.Xinf.tolist(), "F": result.F.tolist(),
         },
         provenance={"source": "satfmu satfmu.synthesis.polynomial_feedback.h2hinf_sos.theorem8 (seed 001 Theorem 8)",
