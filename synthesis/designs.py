@@ -222,7 +222,7 @@ def design_h2hinf(gamma: float, plant: Model | Spacecraft | None = None, *, name
         Certificate region ``|sigma| <= region`` (< 1), any rate.
     alpha_range : (float, float), optional
         Line-search interval of the seed's scalars alpha and beta, s (default
-        :func:`satfmu.synthesis.polynomial_feedback.h2hinf_sos.default_bounds`: the plant's time scale).
+        :func:`satfmu.synthesis.polynomial_feedback.h2hinf_search.default_bounds`: the plant's time scale).
     evaluations : int
         SDPs per line search.
     weights : (numpy.ndarray, numpy.ndarray), optional
@@ -239,13 +239,13 @@ def design_h2hinf(gamma: float, plant: Model | Spacecraft | None = None, *, name
         If no design is certified at ``gamma`` (why, and what would change it), the closed-loop
         check fails, or on bad input (the cause chained).
     """
-    from satfmu.synthesis.polynomial_feedback import h2hinf_sos
+    from satfmu.synthesis.polynomial_feedback import h2hinf_search, h2hinf_sos
 
     model = _mrp_plant(plant)
     limit = plant.torque_limit if isinstance(plant, Spacecraft) else None
     if weights is None:
         weights = (np.eye(6), np.eye(3) / (1.0 if limit is None else limit**2))
-    found = h2hinf_sos.search(gamma, variant, bounds=None if alpha_range is None else (*alpha_range,),
+    found = h2hinf_search.search(gamma, variant, bounds=None if alpha_range is None else (*alpha_range,),
                               max_evaluations=evaluations, progress=progress, region=region, model=model,
                               Qh=np.asarray(weights[0], float), Rh=np.asarray(weights[1], float))
     r = found.best

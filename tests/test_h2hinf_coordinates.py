@@ -13,7 +13,7 @@ from satfmu.fmus.plants import mrp_satellite
 from satfmu.fmus.plants.spacecraft import SEED_000, Spacecraft
 from satfmu.synthesis.core.sos import SOSError, SOSProgram
 from satfmu.synthesis.core.polynomial import Poly
-from satfmu.synthesis.polynomial_feedback import h2hinf_sos, split_plant
+from satfmu.synthesis.polynomial_feedback import h2hinf_search, h2hinf_sos, split_plant
 from satfmu.synthesis.polynomial_feedback.coordinates import Coordinates
 
 BUS = Spacecraft("bus", [[100.0, 2.0, -1.0], [2.0, 120.0, 0.5], [-1.0, 0.5, 80.0]])
@@ -110,7 +110,7 @@ def test_screen_refuses_a_gamma_the_linearization_cannot_reach():
     # the cubesat's disturbance enters through J^-1 = 100 1/(kg m^2): the frozen LMIs need gamma
     # well above 1e-3; the screen says so without an SOS solve
     model = mrp_satellite.build(CUBESAT)
-    found = h2hinf_sos.search(1e-3, model=model)
+    found = h2hinf_search.search(1e-3, model=model)
     assert found.best is None and found.evaluations == []
     s = found.screen
     assert s is not None and not s.feasible and s.gamma_floor is not None and s.gamma_floor > 1e-3
@@ -118,14 +118,14 @@ def test_screen_refuses_a_gamma_the_linearization_cannot_reach():
     assert f"Choose gamma >= {s.gamma_floor:.4g}" in reason and "region cannot help" in reason
     assert "larger region" not in reason
     # the floor is right: feasible just above it at its alpha, infeasible a factor 1.2 below
-    assert h2hinf_sos._frozen_lam(s.gamma_floor, s.floor_alpha, "slack", {"model": model}) < np.inf
-    assert h2hinf_sos._frozen_lam(s.gamma_floor / 1.2, s.floor_alpha, "slack", {"model": model}) == np.inf
+    assert h2hinf_search._frozen_lam(s.gamma_floor, s.floor_alpha, "slack", {"model": model}) < np.inf
+    assert h2hinf_search._frozen_lam(s.gamma_floor / 1.2, s.floor_alpha, "slack", {"model": model}) == np.inf
 
 
 def test_default_bounds_follow_the_plant_time_scale():
-    lo, hi = h2hinf_sos.default_bounds()
+    lo, hi = h2hinf_search.default_bounds()
     assert (lo, hi) == pytest.approx((0.01 / 0.5266, 1 / 0.5266), rel=1e-3)
-    lo_c, hi_c = h2hinf_sos.default_bounds(mrp_satellite.build(CUBESAT))
+    lo_c, hi_c = h2hinf_search.default_bounds(mrp_satellite.build(CUBESAT))
     assert hi_c == pytest.approx(1 / 11.696, rel=1e-3) and lo_c == pytest.approx(hi_c / 100)
 
 

@@ -13,7 +13,7 @@ import sympy as sp
 
 from satfmu.controllers import artifact as artifacts
 from satfmu.fmus.plants import mrp_satellite
-from satfmu.synthesis.polynomial_feedback import h2hinf_sos, split_plant
+from satfmu.synthesis.polynomial_feedback import h2hinf_search, h2hinf_sos, split_plant
 from satfmu.synthesis.core.sos import SOSError
 
 A_B = 0.3  # near the line search's optimum at gamma = 1
@@ -120,20 +120,20 @@ def test_model_without_sdc_form_is_refused() -> None:
 def test_frozen_search_and_sweep_are_consistent(tmp_path) -> None:
     # frozen LMIs solve in ~0.1 s: the line search and sweep logic on a cheap program
     kw = {"frozen": True, "y_degree": 0, "margin": 1e-7, "x0": h2hinf_sos.X0_200}
-    found = h2hinf_sos.search(0.8, "slack", bounds=(1e-4, 1e-1), max_evaluations=4, **kw)
+    found = h2hinf_search.search(0.8, "slack", bounds=(1e-4, 1e-1), max_evaluations=4, **kw)
     assert found.best is not None and len(found.evaluations) <= 8
     assert found.best.lam == min(e[2] for e in found.evaluations)
-    rows = h2hinf_sos.sweep([1.0, 0.6], bounds=(1e-4, 1e-1), max_evaluations=3, **kw)
+    rows = h2hinf_search.sweep([1.0, 0.6], bounds=(1e-4, 1e-1), max_evaluations=3, **kw)
     lam = {(r.gamma, r.variant): r.lam for r in rows}
     assert lam[(0.6, "slack")] >= lam[(1.0, "slack")] * (1 - 1e-6)  # non-increasing in gamma
     assert all(lam[(g, "slack")] <= lam[(g, "common")] * (1 + 1e-6) for g in (1.0, 0.6))
-    csv_text = h2hinf_sos.sweep_csv(rows)
+    csv_text = h2hinf_search.sweep_csv(rows)
     assert csv_text.splitlines()[0] == "gamma,variant,lambda,alpha,beta,sdps" and len(csv_text.splitlines()) == 5
     from satfmu.sims.scenario import plots
 
     plots.tradeoff(rows, tmp_path / "t.png", "test")
     assert (tmp_path / "t.png").stat().st_size > 1000
     with pytest.raises(ValueError, match="gammas"):
-        h2hinf_sos.sweep([0.0])
+        h2hinf_search.sweep([0.0])
     with pytest.raises(ValueError, match="bounds"):
-        h2hinf_sos.search(1.0, bounds=(1.0, 0.1))
+        h2hinf_search.search(1.0, bounds=(1.0, 0.1))

@@ -90,8 +90,8 @@ def tradeoff(rows: Sequence, path: Path, title: str = "") -> None:
 
     Parameters
     ----------
-    rows : sequence of satfmu.synthesis.polynomial_feedback.h2hinf_sos.SweepRow
-        The points of the trade-off (:func:`satfmu.synthesis.polynomial_feedback.h2hinf_sos.sweep`).
+    rows : sequence of satfmu.synthesis.polynomial_feedback.h2hinf_search.SweepRow
+        The points of the trade-off (:func:`satfmu.synthesis.polynomial_feedback.h2hinf_search.sweep`).
     path : Path
         The PNG file to write.
     title : str, optional

@@ -29,7 +29,7 @@ class SweepResult:
 
     Parameters
     ----------
-    rows : list of satfmu.synthesis.polynomial_feedback.h2hinf_sos.SweepRow
+    rows : list of satfmu.synthesis.polynomial_feedback.h2hinf_search.SweepRow
         One point of the trade-off per gamma and variant (lambda inf: none certified).
     csv : str
         The rows as CSV text.
@@ -38,7 +38,7 @@ class SweepResult:
     """
 
     rows: list
-    """:class:`satfmu.synthesis.polynomial_feedback.h2hinf_sos.SweepRow` per gamma and variant (lambda inf:
+    """:class:`satfmu.synthesis.polynomial_feedback.h2hinf_search.SweepRow` per gamma and variant (lambda inf:
     none certified)."""
     csv: str
     """The rows as CSV text (the content of ``files["csv"]``)."""
@@ -64,20 +64,20 @@ def h2hinf_sweep(out_dir: Path, gammas: Sequence[float] = (1.0, 0.8, 0.7, 0.6, 0
         Certificate region ``|sigma| <= region`` (< 1), any rate.
     alpha_range : (float, float), optional
         Line-search interval of alpha and beta, s (default
-        :func:`satfmu.synthesis.polynomial_feedback.h2hinf_sos.default_bounds`).
+        :func:`satfmu.synthesis.polynomial_feedback.h2hinf_search.default_bounds`).
     evaluations : int
         SDPs per line search (alpha, then beta).
     progress : callable, optional
         Called after each SDP search.
     """
     from satfmu.sims.scenario import plots
-    from satfmu.synthesis.polynomial_feedback import h2hinf_sos
+    from satfmu.synthesis.polynomial_feedback import h2hinf_search
 
-    rows = h2hinf_sos.sweep(list(gammas), bounds=None if alpha_range is None else (*alpha_range,),
+    rows = h2hinf_search.sweep(list(gammas), bounds=None if alpha_range is None else (*alpha_range,),
                             max_evaluations=evaluations, progress=progress, region=region)
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    result = SweepResult(rows, h2hinf_sos.sweep_csv(rows),
+    result = SweepResult(rows, h2hinf_search.sweep_csv(rows),
                          {"csv": out_dir / "gamma_lambda.csv", "png": out_dir / "gamma_lambda.png"})
     result.files["csv"].write_text(result.csv)
     plots.tradeoff(rows, result.files["png"],
