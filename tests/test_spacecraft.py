@@ -193,7 +193,8 @@ def test_seed_003_design_for_your_own_cubesat():
     with pytest.raises(designs.DesignError, match="principal axes") as refused:
         designs.design_cubesat_periodic(plant=Spacecraft("skewed", [[0.01, 0.001, 0], [0.001, 0.012, 0],
                                                                     [0, 0, 0.004]]))
-    assert isinstance(refused.value.__cause__, ValueError)  # the cubesat model's refusal, chained
+    assert isinstance(refused.value.__cause__, SpacecraftError)  # the cubesat model's refusal, chained
+    assert not str(refused.value).startswith("ValueError")  # satfmu's own error: its message as it is
 
 
 # ----------------------------------------------------------------------------- limits reach the controller

@@ -40,6 +40,7 @@ import sympy as sp
 from typing import TYPE_CHECKING
 
 from satfmu.fmus.model import Model, Output, State, Variable, saturate, states, symbols, vector
+from satfmu.fmus.errors import SpacecraftError
 
 if TYPE_CHECKING:
     from satfmu.fmus.plants.spacecraft import Spacecraft
@@ -206,14 +207,14 @@ def principal_moments(spacecraft: "Spacecraft | None") -> tuple[float, float, fl
 
     Raises
     ------
-    ValueError
+    satfmu.fmus.errors.SpacecraftError
         If the spacecraft has products of inertia: this model is written in principal axes.
     """
     if spacecraft is None:
         return INERTIA_SEED_003
     J = spacecraft.inertia
     if any(J[i][j] != 0.0 for i in range(3) for j in range(3) if i != j):
-        raise ValueError(f"{spacecraft.name}: the magnetorquer cubesat model is written in principal axes; "
+        raise SpacecraftError(f"{spacecraft.name}: the magnetorquer cubesat model is written in principal axes; "
                          f"give the inertia as three principal moments (no products of inertia)")
     return (J[0][0], J[1][1], J[2][2])
 
