@@ -74,3 +74,18 @@ def test_the_command_line_draws_the_stages(capsys: pytest.CaptureFixture) -> Non
     cli._progress(3, 3, "check on 100 sampled plants (1.0 s)")
     err = capsys.readouterr().err
     assert "1/3 robust design (2.0 s)" in err and err.endswith("\n") and "3/3 check on 100" in err
+
+
+def test_the_mixed_design_search_reports_each_sdp_with_its_outcome_and_time(caplog: pytest.LogCaptureFixture) -> None:
+    from satfmu.synthesis.polynomial_feedback import h2hinf_search
+
+    seen: list[tuple[int, int, str]] = []
+    with caplog.at_level(logging.INFO, logger=h2hinf_search.__name__):
+        # frozen LMIs (~0.3 s each): the search's reporting without SOS programs
+        h2hinf_search.search(0.8, "slack", bounds=(1e-4, 1e-1), max_evaluations=3, frozen=True, y_degree=0,
+                             progress=lambda d, t, m: seen.append((d, t, m)))
+    sdps = [m for _, _, m in seen if ": SDP " in m]
+    assert [d for d, _, m in seen if ": SDP " in m] == [1, 2, 3] and all(t == 3 for _, t, _ in seen)
+    assert all(m.startswith("slack, gamma = 0.8: SDP ") and " s)" in m and "lambda 2.01" in m for m in sdps), sdps
+    assert seen[-1] == (3, 3, "done")
+    assert len([r for r in caplog.records if ": SDP " in r.getMessage()]) == 3

@@ -8,6 +8,7 @@ search over gammas for both variants (the gamma-lambda trade-off of docs/models.
 """
 from __future__ import annotations
 
+import logging
 import time
 from dataclasses import dataclass, field
 from typing import Any
@@ -22,6 +23,8 @@ from satfmu.synthesis.core.sos import SOSError
 from satfmu.synthesis.polynomial_feedback.coordinates import Coordinates
 from satfmu.synthesis.polynomial_feedback.h2hinf_sos import VARIANTS, Theorem8Result, _psd_margin, theorem8
 from satfmu.synthesis.polynomial_feedback.split_plant import split
+
+LOG = logging.getLogger(__name__)
 
 _REJECTED = 1e12
 """Objective given to the line search for an infeasible or uncertified point."""
@@ -247,7 +250,9 @@ def search(gamma: float, variant: str = "slack", bounds: tuple[float, float] | N
     max_evaluations : int, optional
         Most SDPs solved, both line searches together. Default 20.
     progress : callable, optional
-        ``progress(done, total, message)``, called before each SDP and once at the end.
+        ``progress(done, total, message)``: after the screen and after each SDP (its alpha,
+        beta, outcome and time, and the best lambda so far; also logged at INFO), and once at
+        the end.
     screened : bool, optional
         Run :func:`screen` first (False: search the whole range). Default True.
     **kwargs
@@ -271,20 +276,26 @@ def search(gamma: float, variant: str = "slack", bounds: tuple[float, float] | N
     notes: list[str] = []
     best: list[Theorem8Result] = []
     checked = None
-    if screened and not kwargs.get("frozen", False):
+    head = f"{variant}, gamma = {gamma:g}"
+
+    def report(message: str) -> None:
+        LOG.info("%s: %s", head, message)
         if progress is not None:
-            progress(0, max_evaluations, f"{variant}, gamma = {gamma:g}: screening the linearization")
+            progress(len(evaluations), max_evaluations, f"{head}: {message}")
+
+    if screened and not kwargs.get("frozen", False):
         checked = screen(gamma, variant, bounds, **kwargs)
         if not checked.feasible:
+            report(f"screen at the origin failed ({checked.seconds:.1f} s)")
             return SearchResult(None, [], checked, [])
         bounds = checked.bounds()
+        report(f"screen at the origin passed ({checked.seconds:.1f} s): alpha in [{bounds[0]:.3g}, "
+               f"{bounds[1]:.3g}] s")
 
     def solve(a: float, b: float) -> float:
         if len(evaluations) >= max_evaluations:
             return _REJECTED
-        if progress is not None:
-            progress(len(evaluations), max_evaluations,
-                     f"{variant}, gamma = {gamma:g}: alpha = {a:.3g}, beta = {b:.3g}")
+        t0 = time.perf_counter()
         try:
             r: Theorem8Result | None = theorem8(gamma, a, b, variant, **kwargs)
             notes.append("certified")
@@ -297,6 +308,9 @@ def search(gamma: float, variant: str = "slack", bounds: tuple[float, float] | N
         evaluations.append((a, b, r.lam if r is not None else float("inf")))
         if r is not None and (not best or r.lam < best[0].lam):
             best[:] = [r]
+        outcome = f"lambda {r.lam:.4g}" if r is not None else notes[-1]
+        report(f"SDP {len(evaluations)}: alpha = {a:.3g} s, beta = {b:.3g} s: {outcome} "
+               f"({time.perf_counter() - t0:.1f} s)" + (f"; best lambda {best[0].lam:.4g}" if best else ""))
         return r.lam if r is not None else _REJECTED
 
     lo, hi = np.log10(bounds)
