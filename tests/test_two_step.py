@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 
 import numpy as np
 import pytest
@@ -68,6 +69,8 @@ def test_progress_is_reported(progress_log: list[tuple[int, int, str]], run: Two
     assert progress_log, "no progress reported"
     assert progress_log[-1] == (2, 2, "done")
     assert any("step 2, L2 gain" in msg for _, _, msg in progress_log)
+    # each step with its time into the iteration: "... (at 3.2 s)"
+    assert all(msg == "done" or re.search(r" \(at \d+\.\d s\)$", msg) for _, _, msg in progress_log), progress_log
     assert [d for d, _, _ in progress_log] == sorted(d for d, _, _ in progress_log)  # monotone
 
 

@@ -30,6 +30,7 @@ accepted iterate.
 """
 from __future__ import annotations
 
+import logging
 import time
 from dataclasses import dataclass, field
 from typing import Any, Mapping, Sequence, cast
@@ -44,6 +45,8 @@ from satfmu.fmus.model import Model
 from satfmu.synthesis.polynomial_feedback import hinf_sos, l2_gain
 from satfmu.synthesis.core.sos import SOSError, check_numbers
 from satfmu.synthesis.core.progress import Progress
+
+LOG = logging.getLogger(__name__)
 
 DECAY_RATES = tuple(0.0025 * np.sqrt(2.0) ** k for k in range(10))
 """Default schedule of certified decay rates lambda, 1/s (geometric, factor sqrt 2)."""
@@ -252,8 +255,9 @@ def two_step(plant: Model | None = None, region: float = 0.9,
     horizon : float
         Length of the judged manoeuvre, s.
     progress : callable, optional
-        Called as ``progress(done, total, message)`` before each step of each iteration and
-        once at the end (``satfmu.synthesis.core.progress.Progress``).
+        Called as ``progress(done, total, message)`` before each step of each iteration (with
+        the time into the iteration; also logged at INFO, as each iteration's verdict) and once
+        at the end (``satfmu.synthesis.core.progress.Progress``).
 
     Returns
     -------
@@ -291,8 +295,10 @@ def two_step(plant: Model | None = None, region: float = 0.9,
         t0 = time.perf_counter()
 
         def report(msg: str) -> None:
+            text = f"iteration {k}, lambda = {lam:.5f} 1/s: {msg} (at {time.perf_counter() - t0:.1f} s)"
+            LOG.info("%s", text)
             if progress is not None:
-                progress(k, total, f"iteration {k}, lambda = {lam:.5f} 1/s: {msg}")
+                progress(k, total, text)
 
         report("step 1, state feedback (Theorem 1)")
         design, sos, sampled, diagonal = None, None, None, None
@@ -325,6 +331,8 @@ def two_step(plant: Model | None = None, region: float = 0.9,
         it = Iterate(k, lam, design, sos, sampled, diagonal, peak, err, not reason, reason,
                      time.perf_counter() - t0)
         iterates.append(it)
+        LOG.info("iteration %d: %s in %.1f s", k, "accepted" if it.accepted else f"rejected: {reason}",
+                 it.seconds)
         if it.accepted:
             best = it
         elif best is not None or design is None or peak > torque_budget:
