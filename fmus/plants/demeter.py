@@ -22,6 +22,13 @@ The model is linear apart from the wheel limits, whose law is frozen per integra
 substep; the FMUs step it with the exact flow (``integrator="exact"``) and cut a step where
 a wheel reaches its momentum bound, so any communication step is exact (no RK4 error).
 
+Any spacecraft of this kind: :func:`build` takes a
+:class:`~satfmu.fmus.plants.flexible_spacecraft.FlexibleSpacecraft` (hub inertia, appendages
+with any number of modes, wheel limits and dynamics; default
+:data:`~satfmu.fmus.plants.flexible_spacecraft.DEMETER`, the model ``demeter_flexible`` with the
+seed's numbers); eta then has one coordinate per mode, and Z, W hold one ``zeta``, ``omega``
+parameter per mode group (an appendage whose modes share them, as the seed's, or a single mode).
+
 The matrices come from one function, :func:`second_order`, used with sympy symbols for the
 FMU (solved through the Schur complement of the identity block, a 3 x 3 inverse) and with
 numbers for :func:`state_space` (the direct model with a full inverse of M), which the tests
@@ -36,35 +43,35 @@ import numpy as np
 import sympy as sp
 
 from satfmu.fmus.model import Definitions, Model, Output, Variable, states, symbols, vector
+from satfmu.fmus.plants.flexible_spacecraft import (COUPLING_MAX, DAMPING_MAX, DEMETER, FREQUENCY_MIN,
+                                                     FlexibleSpacecraft)
 
 N_AXES = 3
-N_APPENDAGES = 4
-N_FLEX = 2 * N_APPENDAGES
+N_APPENDAGES = len(DEMETER.appendages)
+N_FLEX = len(DEMETER.modes)
 
-J0 = np.array([[31.38, -1.11, -0.26], [-1.11, 21.19, -0.78], [-0.26, -0.78, 35.70]])
+J0 = DEMETER.tensor
 """Nominal inertia, kg m^2 (seed section 2.3)."""
 
-L_SUBSTITUTE = np.array([[0.30, -0.06, 0.26, 0.05, 0.10, 0.04, 0.08, -0.03],
-                         [0.05, 0.12, -0.04, 0.11, 0.28, -0.05, 0.24, 0.06],
-                         [0.14, 0.04, 0.12, -0.04, 0.06, 0.12, 0.05, 0.10]])
+L_SUBSTITUTE = DEMETER.coupling
 """Coupling matrix L (3 x 8), a **substitute** (the seed's reference value is not published):
 columns [a1 bending, a1 torsion, a2 bending, ..., a4 torsion], every appendage coupled to every
 axis; sigma_max = 0.51 (docs/models.md)."""
 
-OMEGA_RANGE = (0.2 * 2 * np.pi, 0.6 * 2 * np.pi)
+OMEGA_RANGE = (DEMETER.groups[0].frequency.low, DEMETER.groups[0].frequency.high)
 """Interval of the appendages' natural frequencies, rad/s."""
-ZETA_RANGE = (5e-4, 5e-3)
+ZETA_RANGE = (DEMETER.groups[0].damping.low, DEMETER.groups[0].damping.high)
 """Interval of the appendages' damping ratios."""
 OMEGA_NOMINAL = sum(OMEGA_RANGE) / 2
 ZETA_NOMINAL = sum(ZETA_RANGE) / 2
 
-WHEEL_TORQUE_MAX = 5e-3
+WHEEL_TORQUE_MAX = DEMETER.wheels.torque_limit
 """satT, N m."""
-WHEEL_MOMENTUM_MAX = 0.12
+WHEEL_MOMENTUM_MAX = DEMETER.wheels.momentum_limit
 """satW, N m s."""
-WHEEL_WN = 2 * np.pi * 2.0
+WHEEL_WN = DEMETER.wheels.natural_frequency
 """Natural frequency of the substitute wheel dynamics H(s), rad/s."""
-WHEEL_ZETA = 0.7
+WHEEL_ZETA = DEMETER.wheels.damping
 """Damping of the substitute wheel dynamics H(s) (Re of its poles -zw wn = -8.8 rad/s, inside
 the design's pole region Re > -10)."""
 
@@ -144,11 +151,14 @@ def second_order(J: np.ndarray, S: np.ndarray, L: np.ndarray, zeta: np.ndarray, 
 
 
 def state_space(J: np.ndarray, L: np.ndarray, zeta: np.ndarray, omega: np.ndarray, *,
-                exact_root: bool = False, pairs: bool = True) -> tuple[np.ndarray, np.ndarray]:
+                exact_root: bool = False, pairs: bool = True,
+                groups: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Direct first-order model ``x' = A x + B tau``, x = (theta, theta', eta, eta').
 
     Built with a full inverse of M (independent of the FMU's Schur-complement route);
-    ``zeta``, ``omega`` as in :func:`second_order`.
+    ``zeta``, ``omega`` as in :func:`second_order`, or per mode group with ``groups``. For a
+    flexible spacecraft ``sc`` at its nominal values: ``state_space(sc.tensor, sc.coupling,
+    sc.nominal_damping, sc.nominal_frequency, groups=sc.mode_group)``.
 
     Parameters
     ----------
@@ -165,6 +175,10 @@ def state_space(J: np.ndarray, L: np.ndarray, zeta: np.ndarray, omega: np.ndarra
         (:func:`sqrt_inertia`). Default False.
     pairs : bool, optional
         One ``zeta``, ``omega`` per appendage (default True) or per coordinate.
+    groups : numpy.ndarray of int, shape (nf,), optional
+        The group of each flexible coordinate
+        (:attr:`~satfmu.fmus.plants.flexible_spacecraft.FlexibleSpacecraft.mode_group`): ``zeta``,
+        ``omega`` then hold one value per group and ``pairs`` is ignored.
 
     Returns
     -------
@@ -173,6 +187,8 @@ def state_space(J: np.ndarray, L: np.ndarray, zeta: np.ndarray, omega: np.ndarra
     B : numpy.ndarray, shape (2 (na + nf), na)
         Input matrix of the body torque ``tau`` (N m).
     """
+    if groups is not None:
+        zeta, omega, pairs = np.asarray(zeta)[groups], np.asarray(omega)[groups], False
     M, C, K, F = second_order(J, sqrt_inertia(J, exact_root), L, zeta, omega, pairs)
     n = M.shape[0]
     MinvKCF = np.linalg.solve(M, np.hstack([K, C, F]))
@@ -212,20 +228,24 @@ def wheel_state_space(wn: float = WHEEL_WN, zw: float = WHEEL_ZETA) -> tuple[np.
 
 
 def parameter_values(J: np.ndarray | None = None, L: np.ndarray | None = None,
-                     zeta: np.ndarray | None = None, omega: np.ndarray | None = None) -> dict[str, float]:
-    """FMU parameter names and values of a concrete plant (defaults: nominal J0, substitute L,
-    interval midpoints).
+                     zeta: np.ndarray | None = None, omega: np.ndarray | None = None, *,
+                     spacecraft: FlexibleSpacecraft = DEMETER) -> dict[str, float]:
+    """FMU parameter names and values of a concrete plant (defaults: the spacecraft's nominal
+    values; for ``DEMETER`` the nominal J0, substitute L, interval midpoints).
 
     Parameters
     ----------
     J : numpy.ndarray, shape (3, 3), optional
-        Inertia matrix, kg m^2 (its upper triangle is used); default :data:`J0`.
-    L : numpy.ndarray, shape (3, 8), optional
-        Coupling matrix; default :data:`L_SUBSTITUTE`.
-    zeta : numpy.ndarray, shape (4,), optional
-        Damping ratio of each appendage; default the midpoint of :data:`ZETA_RANGE`.
-    omega : numpy.ndarray, shape (4,), optional
-        Natural frequency of each appendage, rad/s; default the midpoint of :data:`OMEGA_RANGE`.
+        Inertia matrix, kg m^2 (its upper triangle is used); default the spacecraft's.
+    L : numpy.ndarray, shape (3, nf), optional
+        Coupling matrix (nf modes; 3 x 8 for DEMETER); default the spacecraft's.
+    zeta : numpy.ndarray, shape (ng,), optional
+        Damping ratio of each mode group (each appendage for DEMETER, ng = 4); default the
+        nominal values.
+    omega : numpy.ndarray, shape (ng,), optional
+        Natural frequency of each mode group, rad/s; default the nominal values.
+    spacecraft : FlexibleSpacecraft, optional
+        The plant's spacecraft (its modes and mode groups give the shapes); default ``DEMETER``.
 
     Returns
     -------
@@ -237,16 +257,17 @@ def parameter_values(J: np.ndarray | None = None, L: np.ndarray | None = None,
     ValueError
         If a matrix or vector has the wrong shape.
     """
-    J = J0 if J is None else np.asarray(J, float)
-    L = L_SUBSTITUTE if L is None else np.asarray(L, float)
-    zeta = np.full(N_APPENDAGES, ZETA_NOMINAL) if zeta is None else np.asarray(zeta, float)
-    omega = np.full(N_APPENDAGES, OMEGA_NOMINAL) if omega is None else np.asarray(omega, float)
-    if J.shape != (3, 3) or L.shape != (3, N_FLEX) or zeta.shape != (4,) or omega.shape != (4,):
-        raise ValueError("J must be 3x3, L 3x8, zeta and omega 4 values each")
+    J = spacecraft.tensor if J is None else np.asarray(J, float)
+    L = spacecraft.coupling if L is None else np.asarray(L, float)
+    zeta = spacecraft.nominal_damping if zeta is None else np.asarray(zeta, float)
+    omega = spacecraft.nominal_frequency if omega is None else np.asarray(omega, float)
+    nf, ng = len(spacecraft.modes), len(spacecraft.groups)
+    if J.shape != (3, 3) or L.shape != (3, nf) or zeta.shape != (ng,) or omega.shape != (ng,):
+        raise ValueError(f"J must be 3x3, L 3x{nf}, zeta and omega {ng} values each")
     out = {f"J[{i + 1},{j + 1}]": float(J[i, j]) for i, j in _upper()}
-    out.update({f"L[{i + 1},{j + 1}]": float(L[i, j]) for i in range(3) for j in range(N_FLEX)})
-    out.update({f"zeta[{k + 1}]": float(zeta[k]) for k in range(4)})
-    out.update({f"omega[{k + 1}]": float(omega[k]) for k in range(4)})
+    out.update({f"L[{i + 1},{j + 1}]": float(L[i, j]) for i in range(3) for j in range(nf)})
+    out.update({f"zeta[{k + 1}]": float(zeta[k]) for k in range(ng)})
+    out.update({f"omega[{k + 1}]": float(omega[k]) for k in range(ng)})
     return out
 
 
@@ -254,30 +275,68 @@ def _upper() -> list[tuple[int, int]]:
     return [(i, i) for i in range(3)] + [(i, j) for i, j in itertools.combinations(range(3), 2)]
 
 
-def build() -> Model:
-    """The symbolic flexible DEMETER model (3 axes, 4 appendages, 3 reaction wheels)."""
+def model_name(spacecraft: FlexibleSpacecraft) -> str:
+    """The name of the plant model of ``spacecraft``: ``"demeter_flexible"`` for ``DEMETER``, else
+    ``"flexible_<name>"`` (the spacecraft checks its name: a letter, then letters, digits, '_').
+
+    Parameters
+    ----------
+    spacecraft : FlexibleSpacecraft
+        The spacecraft.
+
+    Returns
+    -------
+    str
+        The model name (the FMU's modelIdentifier).
+    """
+    return "demeter_flexible" if spacecraft == DEMETER else f"flexible_{spacecraft.name}"
+
+
+def build(spacecraft: FlexibleSpacecraft = DEMETER) -> Model:
+    """The symbolic flexible plant of ``spacecraft`` (3 axes, its appendages, 3 reaction wheels).
+
+    Parameters
+    ----------
+    spacecraft : FlexibleSpacecraft, optional
+        Its inertia (kg m^2), couplings, nominal mode frequencies (rad/s) and damping ratios and
+        wheel limits (N m, N m s) and dynamics are the parameters' defaults; its modes give the
+        flexible coordinates, its mode groups the ``zeta[g]``, ``omega[g]`` parameters. Default
+        :data:`~satfmu.fmus.plants.flexible_spacecraft.DEMETER` (the model ``demeter_flexible``);
+        another spacecraft gives a model named by :func:`model_name`.
+
+    Returns
+    -------
+    Model
+        The plant, states (theta, theta_dot, eta, eta_dot, h_w, h_f, h_f_dot), inputs
+        (u_c, T_d).
+    """
+    J0s, Ls, w = spacecraft.tensor, spacecraft.coupling, spacecraft.wheels
+    nf, groups = Ls.shape[1], spacecraft.groups
     jvars = {(i, j): Variable(f"J[{i + 1},{j + 1}]", "kg.m2",
                               f"Inertia {'moment' if i == j else 'product'} J{i + 1}{j + 1}",
-                              start=float(J0[i, j]), min=1e-6 if i == j else None)
+                              start=float(J0s[i, j]), min=1e-6 if i == j else None)
              for i, j in _upper()}
     lvars = [[Variable(f"L[{i + 1},{j + 1}]", "1",
-                       f"Coupling of flexible coordinate {j + 1} (appendage {j // 2 + 1} "
-                       f"{'bending' if j % 2 == 0 else 'torsion'}) with axis {i + 1}",
-                       start=float(L_SUBSTITUTE[i, j]), min=-10.0, max=10.0)
-              for j in range(N_FLEX)] for i in range(3)]
-    zvars = vector("zeta", 4, "1", "Damping ratio of appendage {i}", ZETA_NOMINAL, min=0.0, max=10.0)
-    wvars = vector("omega", 4, "rad/s", "Natural frequency of appendage {i}", OMEGA_NOMINAL, min=1e-6)
+                       f"Coupling of flexible coordinate {j + 1} (appendage {a + 1} {mode.kind}) with axis {i + 1}",
+                       start=float(Ls[i, j]), min=-COUPLING_MAX, max=COUPLING_MAX)
+              for j, (a, mode) in enumerate(spacecraft.modes)] for i in range(3)]
+    labels = [f"appendage {g.appendage + 1}" + ("" if g.kind is None else f" {g.kind}") for g in groups]
+    zvars = [Variable(f"zeta[{k + 1}]", "1", f"Damping ratio of {label}", g.damping.nominal, min=0.0,
+                      max=DAMPING_MAX) for k, (g, label) in enumerate(zip(groups, labels))]
+    wvars = [Variable(f"omega[{k + 1}]", "rad/s", f"Natural frequency of {label}", g.frequency.nominal,
+                      min=FREQUENCY_MIN) for k, (g, label) in enumerate(zip(groups, labels))]
     wheels_on = Variable("wheels_on", "1", "Reaction wheels between the command and the body "
                          "(false: the command is the body torque)", 1, "Boolean")
-    t_max = Variable("wheel_torque_max", "N.m", "Wheel torque limit satT", WHEEL_TORQUE_MAX, min=1e-12)
-    h_max = Variable("wheel_momentum_max", "N.m.s", "Wheel momentum limit satW", WHEEL_MOMENTUM_MAX, min=1e-12)
-    wn = Variable("wheel_wn", "rad/s", "Natural frequency of the wheel dynamics H(s)", WHEEL_WN, min=1e-6)
-    zw = Variable("wheel_zeta", "1", "Damping ratio of the wheel dynamics H(s)", WHEEL_ZETA, min=0.0)
+    t_max = Variable("wheel_torque_max", "N.m", "Wheel torque limit satT", w.torque_limit, min=1e-12)
+    h_max = Variable("wheel_momentum_max", "N.m.s", "Wheel momentum limit satW", w.momentum_limit, min=1e-12)
+    wn = Variable("wheel_wn", "rad/s", "Natural frequency of the wheel dynamics H(s)", w.natural_frequency,
+                  min=1e-6)
+    zw = Variable("wheel_zeta", "1", "Damping ratio of the wheel dynamics H(s)", w.damping, min=0.0)
 
     x_th = states("theta", 3, "rad", "attitude angle about axis {i}")
     x_thd = states("theta_dot", 3, "rad/s", "attitude rate about axis {i}")
-    x_eta = states("eta", N_FLEX, "1", "flexible coordinate {i} (mass-normalized, sqrt(kg m^2))")
-    x_etad = states("eta_dot", N_FLEX, "1/s", "rate of flexible coordinate {i}")
+    x_eta = states("eta", nf, "1", "flexible coordinate {i} (mass-normalized, sqrt(kg m^2))")
+    x_etad = states("eta_dot", nf, "1/s", "rate of flexible coordinate {i}")
     x_hw = states("h_w", 3, "N.m.s", "momentum of wheel {i} (integrated clipped command, limited)")
     x_hf = states("h_f", 3, "N.m.s", "momentum of wheel {i} through the wheel dynamics H(s)")
     x_hfd = states("h_f_dot", 3, "N.m", "torque of wheel {i} on the body (derivative of h_f)")
@@ -290,11 +349,12 @@ def build() -> Model:
         Jsym[i, j] = Jsym[j, i] = v.symbol
     S = np.diag([d(f"sqrt_J{i + 1}", sp.sqrt(Jsym[i, i])) for i in range(3)])
     L = np.array([[v.symbol for v in row] for row in lvars], dtype=object)
-    M, C, K, F = (sp.Matrix(a) for a in second_order(Jsym, S, L, np.array([v.symbol for v in zvars]),
-                                                      np.array([v.symbol for v in wvars])))
+    group = spacecraft.mode_group
+    M, C, K, F = (sp.Matrix(a) for a in second_order(Jsym, S, L, np.array([v.symbol for v in zvars])[group],
+                                                      np.array([v.symbol for v in wvars])[group], pairs=False))
     na = 3
     M11, M12 = M[:na, :na], M[:na, na:]
-    if M[na:, na:] != sp.eye(N_FLEX) or C[:na, :] != sp.zeros(na, C.shape[1]) or K[:na, :] != sp.zeros(na, K.shape[1]):
+    if M[na:, na:] != sp.eye(nf) or C[:na, :] != sp.zeros(na, C.shape[1]) or K[:na, :] != sp.zeros(na, K.shape[1]):
         raise AssertionError("second_order no longer has the identity block the Schur route assumes")
     # Schur complement of the identity block: Jr theta'' = tau + M12 (C22 eta' + K22 eta)
     Jr = M11 - M12 * M12.T
@@ -344,10 +404,16 @@ def build() -> Model:
                 for i in range(3)]
     params = (list(jvars.values()) + [v for row in lvars for v in row] + zvars + wvars
               + [wheels_on, t_max, h_max, wn, zw])
+    if spacecraft == DEMETER:
+        description = ("DEMETER satellite, linearized attitude with 4 flexible appendages and 3 reaction "
+                       "wheels (seed 004: robust and randomized LMI design)")
+    else:
+        description = (f"Flexible spacecraft {spacecraft.name}, linearized attitude with "
+                       f"{len(spacecraft.appendages)} flexible appendage(s) ({nf} modes) and 3 reaction wheels "
+                       "(the plant of seed 004, eq. (4))")
     return Model(
-        name="demeter_flexible",
-        description="DEMETER satellite, linearized attitude with 4 flexible appendages and 3 reaction "
-                    "wheels (seed 004: robust and randomized LMI design)",
+        name=model_name(spacecraft),
+        description=description,
         states=all_states, inputs=uc + td, parameters=params, outputs=outputs, rhs=rhs, post_step=post,
         definitions=list(d), default_stop_time=600.0, default_step_size=0.1, integrator="exact",
         switch_time=switch)
@@ -355,9 +421,21 @@ def build() -> Model:
 
 
 @lru_cache(maxsize=None)
-def model() -> Model:
-    """The DEMETER plant model, built on first use (about 4 s of sympy), then shared."""
-    return build()
+def model(spacecraft: FlexibleSpacecraft = DEMETER) -> Model:
+    """The plant model of ``spacecraft`` (default ``DEMETER``), built on first use (about 2 s of
+    sympy for DEMETER in a fresh process, 0.5 s once sympy is warm), then shared.
+
+    Parameters
+    ----------
+    spacecraft : FlexibleSpacecraft, optional
+        The spacecraft (:func:`build`). Default ``DEMETER``.
+
+    Returns
+    -------
+    Model
+        :func:`build` of ``spacecraft``.
+    """
+    return build(spacecraft)
 
 
 def __getattr__(name: str) -> Model:
