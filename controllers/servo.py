@@ -35,6 +35,11 @@ from satfmu.fmus.plants import vscmg
 from satfmu.fmus.model import MIN_SAMPLE_PERIOD, Model, Output, Sampler, State, Variable, vector
 
 
+def _times_second(unit: str) -> str:
+    """The unit of a signal's time integral (``"rad"`` -> ``"rad.s"``, ``"1"`` -> ``"s"``)."""
+    return "s" if unit == "1" else f"{unit}.s"
+
+
 def servo_model(name: str, description: str, plant: str, tracked: list[dict], rates: list[dict],
                 outputs: list[dict], gain: list[list[sp.Expr]], parameters: Sequence[Variable] = (),
                 sampler: Sampler | None = None, extra_outputs: Sequence[Output] = ()) -> Model:
@@ -73,15 +78,17 @@ def servo_model(name: str, description: str, plant: str, tracked: list[dict], ra
     Returns
     -------
     Model
-        The servo, integrals of the tracking errors as states (rad s).
+        The servo, integrals of the tracking errors as states (the tracked unit times s).
     """
     start = vscmg.measured_defaults() if plant == vscmg.MODEL.name else {}
     tracked_v = [Variable(t["name"], t["unit"], f"Measured {t['name']}", start.get(t["name"], 0.0)) for t in tracked]
     refs = [Variable(t["reference"], t["unit"], f"Reference of {t['name']}", start.get(t["name"], 0.0))
             for t in tracked]
     rates_v = [Variable(r["name"], r["unit"], f"Measured {r['name']}", start.get(r["name"], 0.0)) for r in rates]
-    integrals = [State(Variable(f"int_e_{t['name']}", "rad.s", f"Integral of the {t['name']} tracking error"),
-                       Variable(f"int_e_{t['name']}_0", "rad.s", f"Initial integral of the {t['name']} error"))
+    integrals = [State(Variable(f"int_e_{t['name']}", _times_second(t["unit"]),
+                                f"Integral of the {t['name']} tracking error"),
+                       Variable(f"int_e_{t['name']}_0", _times_second(t["unit"]),
+                                f"Initial integral of the {t['name']} error"))
                  for t in tracked]
     e = [r.symbol - y.symbol for r, y in zip(refs, tracked_v)]
     xe = [s.symbol for s in integrals] + e + [r.symbol for r in rates_v]

@@ -33,7 +33,7 @@ Designs
     One per method of the five seed papers; each returns a :class:`Design` whose ``.write()``
     saves the artifact into :func:`user_artifacts` and can build its FMUs:
     :func:`design_hinf` (seed 000), :func:`design_h2hinf` (seed 001),
-    :func:`design_vscmg_sdre` (seed 002), :func:`design_cubesat_periodic` (seed 003),
+    :func:`design_sdre` and :func:`design_vscmg_sdre` (seed 002), :func:`design_cubesat_periodic` (seed 003),
     :func:`design_demeter` (seed 004); :class:`DesignError`.
 Artifacts
     :func:`load_artifact`, :func:`find_artifact`, :func:`user_artifacts`.
@@ -78,6 +78,7 @@ _EXPORTS = {
     "write_report": "satfmu.sims.report",
     "Design": "satfmu.synthesis.designs", "design_hinf": "satfmu.synthesis.designs",
     "design_h2hinf": "satfmu.synthesis.designs", "design_vscmg_sdre": "satfmu.synthesis.designs",
+    "design_sdre": "satfmu.synthesis.designs",
     "design_cubesat_periodic": "satfmu.synthesis.designs", "design_demeter": "satfmu.synthesis.designs",
     "fmu_cache": "satfmu.controllers.paths", "user_artifacts": "satfmu.controllers.paths",
     "find_artifact": "satfmu.controllers.paths",

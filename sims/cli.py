@@ -14,6 +14,7 @@ Usage::
     satfmu robustness [--fmu NAME ...] [--cycles 1000] [--flips N] [--fmu-dir DIR] [--out results/robustness]
     satfmu synth mrp-hinf [--name mrp_hinf_satfmu] [--samples 20000] [--out controllers/artifacts] [--fmu-dir DIR] ...
     satfmu synth mrp-h2hinf --gamma G [--variant slack|common] [--region 0.45] [--name ...] ...
+    satfmu synth mrp-sdre [--spacecraft FILE] [--s-max S] [--w-max W] [--max-degree 2] [--skip-region] [--name ...]
     satfmu synth vscmg-sdre [--grid 23 25] [--max-degree 8] [--cv-tol TOL] [--out ...] [--fmu-dir DIR]
     satfmu synth cubesat-periodic [--gamma G] [--out ...] [--fmu-dir DIR]
     satfmu synth demeter [--axes 1] [--appendages 1] [--model-type 1] [--uncertainty-type 1] [--no-wheels]
@@ -301,6 +302,14 @@ def _synth_h2hinf(args: argparse.Namespace) -> int:
         progress=_progress), args)
 
 
+def _synth_sdre(args: argparse.Namespace) -> int:
+    from satfmu.synthesis import designs
+
+    return _write_design(designs.design_sdre(_spacecraft(args), name=args.name, s_max=args.s_max, w_max=args.w_max,
+                                             max_degree=args.max_degree, region=not args.skip_region,
+                                             progress=_progress), args)
+
+
 def _synth_vscmg(args: argparse.Namespace) -> int:
     from satfmu.synthesis import designs
 
@@ -536,6 +545,15 @@ def parser() -> argparse.ArgumentParser:
     h2.add_argument("--variant", choices=["slack", "common"], default="slack", help="Theorem 8 variant")
     h2.add_argument("--name", default="mrp_h2hinf_satfmu", help="artifact and FMU name")
     h2.set_defaults(fn=_synth_h2hinf)
+    sd = command(designs, "mrp-sdre", "seed 002's method for your rigid spacecraft: SDRE servo, gain fit, SOS region",
+                 parents=[out, craft])
+    sd.add_argument("--s-max", type=float, default=None, help="MRP bound of the fitted box (default a 90 deg turn)")
+    sd.add_argument("--w-max", type=float, default=None,
+                    help="rate bound of the fitted box, rad/s (default from the torque limit and inertia)")
+    sd.add_argument("--max-degree", type=int, choices=[0, 1, 2], default=2, help="largest fit degree tried")
+    sd.add_argument("--skip-region", action="store_true", help="do not solve the SOS stability region")
+    sd.add_argument("--name", default="mrp_sdre_servo", help="artifact and FMU name")
+    sd.set_defaults(fn=_synth_sdre)
     vs = command(designs, "vscmg-sdre", "seed 002: approximated SDRE (gain fit) and LQ servo artifacts",
                  parents=[out])
     vs.add_argument("--grid", type=_positive_int, nargs=2, default=(23, 25), metavar=("N_Q2", "N_W4"),

@@ -310,6 +310,61 @@ def design_vscmg_sdre(grid: tuple[int, int] = (23, 25), max_degree: int = 8, cv_
 
 
 @fails_with_design_error
+def design_sdre(plant: Model | Spacecraft | None = None, *, name: str = "mrp_sdre_servo",
+                s_max: float | None = None, w_max: float | None = None, max_degree: int = 2,
+                weights: tuple[np.ndarray, np.ndarray] | None = None, region: bool = True,
+                progress: Progress | None = None) -> Design:
+    """Seed 002's method for your rigid spacecraft: the SDRE servo of the MRP satellite, a
+    least-squares polynomial fit of its gain over the operating box, checked, and the SOS
+    stability region of the fitted law (:mod:`satfmu.synthesis.servo.mrp_sdre`).
+
+    Parameters
+    ----------
+    plant : Spacecraft or satfmu.fmus.model.Model, optional
+        Your spacecraft (inertia tensor, torque limit) or an MRP satellite model; default seed
+        000's satellite.
+    name : str
+        Artifact and controller FMU name.
+    s_max : float, optional
+        MRP bound of the operating box the gain is fitted on (1); default
+        :func:`satfmu.synthesis.servo.mrp_sdre.default_box` (a 90 deg rotation).
+    w_max : float, optional
+        Rate bound of the box, rad/s; default from the spacecraft's torque limit and inertia.
+    max_degree : int
+        Largest polynomial degree of the fit tried (at most 2: the region's SOS program).
+    weights : (numpy.ndarray, numpy.ndarray), optional
+        The servo weights ``(Q, R)``, 9 x 9 on ``[int e, e, omega]`` and 3 x 3 on ``u``; default
+        :func:`satfmu.controllers.mrp_servo_sdc.default_weights` (``R = I3 / torque_limit^2``).
+    region : bool
+        Solve the SOS stability region (without it the artifact records the sampled checks only).
+    progress : callable, optional
+        ``progress(done, total, message)`` after each stage (samples, fit, check, region).
+
+    Raises
+    ------
+    DesignError
+        If the fit fails its checks, a Riccati solution fails its own, or on bad input (the cause
+        chained).
+    """
+    from satfmu.synthesis.servo import mrp_sdre
+
+    if isinstance(max_degree, bool) or not isinstance(max_degree, int) or not 0 <= max_degree <= mrp_sdre.MAX_DEGREE:
+        raise DesignError(f"max_degree must be an integer in 0..{mrp_sdre.MAX_DEGREE}, got {max_degree!r:.40}")
+    Q, R = (None, None) if weights is None else (np.asarray(weights[0], float), np.asarray(weights[1], float))
+    r = mrp_sdre.synthesize(_mrp_plant(plant), s_max=s_max, w_max=w_max, degrees=range(0, max_degree + 1), Q=Q, R=R,
+                            region=region, name=name, progress=progress)
+    cert = r.artifact["certificate"]
+    n = cert["numbers"]
+    summary = (f"certificate: {cert['status']}: {cert['proved']}\n  region: {cert['region']}\n"
+               f"  fit: degree {r.fit.degree}, off-sample error max {n['offgrid_max_rel_error']:.3g}, RMS "
+               f"{n['offgrid_rms_rel_error']:.3g} (relative to the largest gain entry); frozen loops max Re "
+               f"{n['frozen_max_re']:.4g} 1/s; 90 deg slew (simulated, unsaturated): {n['sim_final_angle_deg']:.3g} "
+               f"deg at {n['sim_stop_time']:g} s, peak torque {n['sim_peak_torque']:.4g} N m\n  stages: "
+               + ", ".join(f"{k} {v:.1f} s" for k, v in r.seconds.items()))
+    return Design("mrp-sdre", [r.artifact], summary, r)
+
+
+@fails_with_design_error
 def design_cubesat_periodic(gamma: float | None = None, plant: Spacecraft | None = None, *,
                             name: str = "cubesat_periodic_satfmu",
                             published_name: str = "cubesat_periodic_published") -> Design:
@@ -421,7 +476,7 @@ def design_demeter(axes: Sequence[int] = (1,), appendages: Sequence[int] = (1,),
 
 
 DESIGNS: dict[str, Callable[..., Design]] = {
-    "mrp-hinf": design_hinf, "mrp-h2hinf": design_h2hinf, "vscmg-sdre": design_vscmg_sdre,
+    "mrp-hinf": design_hinf, "mrp-h2hinf": design_h2hinf, "mrp-sdre": design_sdre, "vscmg-sdre": design_vscmg_sdre,
     "cubesat-periodic": design_cubesat_periodic, "demeter": design_demeter,
 }
 """``satfmu synth NAME`` -> its design function."""

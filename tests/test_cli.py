@@ -265,8 +265,8 @@ def _shipped_digest() -> dict[str, str]:
     return {f.name: hashlib.sha256(f.read_bytes()).hexdigest() for f in sorted(SHIPPED_ARTIFACTS.glob("*.json"))}
 
 
-SYNTH_DEFAULT_RUNS = [["cubesat-periodic"], ["mrp-hinf"], ["mrp-h2hinf", "--gamma", "1.0"], ["vscmg-sdre"],
-                      ["demeter"]]
+SYNTH_DEFAULT_RUNS = [["cubesat-periodic"], ["mrp-hinf"], ["mrp-h2hinf", "--gamma", "1.0"], ["mrp-sdre"],
+                      ["vscmg-sdre"], ["demeter"]]
 
 
 def test_synth_writes_to_the_user_folder_by_default(tmp_path, monkeypatch):
@@ -452,3 +452,20 @@ def test_commands_refuse_an_artifact_that_contradicts_its_claims(argv: list[str]
     assert err.strip().splitlines() == [f"satfmu {argv[0]}: error: {f}: " + err.split(f"{f}: ", 1)[1].strip()]
     assert message in err
     assert not list(out.rglob("*.fmu")) and not list(out.rglob("*.parquet"))  # refused before any work
+
+
+def test_synth_mrp_sdre_for_a_spacecraft_file(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    # seed 002's method on the user's rigid spacecraft (products of inertia, 20 N m), without the
+    # region (52 s for this tensor; tests/test_mrp_sdre.py proves one): fit, checks, artifact
+    craft = tmp_path / "bus.toml"
+    craft.write_text('name = "bus"\ninertia = [[100, 2, -1], [2, 120, 0.5], [-1, 0.5, 80]]\n'
+                     '[actuators]\ntorque_limit = 20.0\n')
+    code = main(["synth", "mrp-sdre", "--spacecraft", str(craft), "--skip-region", "--name", "bus_sdre",
+                 "--out", str(tmp_path / "art"), "--fmu-dir", ""])
+    out = capsys.readouterr().out
+    assert code == 0, out
+    assert "fit: degree 2" in out and "frozen loops max Re -0.1" in out  # measured -0.162 1/s
+    art = json.loads((tmp_path / "art" / "bus_sdre.json").read_text())
+    assert art["kind"] == "servo_gain_schedule" and art["plant"] == "mrp_satellite"
+    assert art["provenance"]["design_plant"]["parameters"]["I_xy"] == 2.0
+    assert art["provenance"]["design_plant"]["limits"]["u_max"] == 20.0

@@ -86,6 +86,9 @@ BAD_DESIGNS: list[tuple[str, Callable[[], object], str, type | None]] = [
     ("h2hinf, a cubesat model as plant",
      lambda: designs.design_h2hinf(1.0, plant=satfmu.cubesat_plant()), "MRP satellite model", None),
     ("vscmg, a spacecraft as grid", lambda: designs.design_vscmg_sdre(satfmu.SEED_000), "grid must be", None),
+    ("sdre, a fit degree the region cannot take", lambda: designs.design_sdre(max_degree=3),
+     r"max_degree must be an integer in 0\.\.2", None),
+    ("sdre, a NaN box", lambda: designs.design_sdre(s_max=float("nan")), "s_max", ValueError),
     ("cubesat, a negative gamma", lambda: designs.design_cubesat_periodic(gamma=-1.0),
      "gamma must be finite and > 0", ValueError),
     ("demeter, an axis that does not exist", lambda: designs.design_demeter(axes=(7,)),
@@ -121,5 +124,6 @@ def test_the_guard_keeps_a_design_error_and_chains_any_other() -> None:
     with pytest.raises(designs.DesignError, match="^ZeroDivisionError: division by zero$") as wrapped:
         breaks()
     assert isinstance(wrapped.value.__cause__, ZeroDivisionError)
-    for name in ("design_hinf", "design_h2hinf", "design_vscmg_sdre", "design_cubesat_periodic", "design_demeter"):
+    for name in ("design_hinf", "design_h2hinf", "design_sdre", "design_vscmg_sdre", "design_cubesat_periodic",
+                 "design_demeter"):
         assert getattr(satfmu, name).__wrapped__.__name__ == name  # guarded, signature and docstring kept
