@@ -20,8 +20,9 @@ Methods (:mod:`satfmu.synthesis.designs`):
   whose 0.01 N m cannot hold its MRPs against more; its default weight ``Rh = I / 0.01^2``), 6
   SDPs per line search (12 with ``--full``). Numbers: gamma, lambda, alpha, beta and the
   summary's first line.
-- ``sdre``: seed 002, :func:`satfmu.design_vscmg_sdre`: "not offered" while it has no ``plant``
-  parameter (issue 53 item 2); once it has one, it is called with ``plant=spacecraft``.
+- ``sdre``: seed 002's method for a rigid spacecraft, :func:`satfmu.design_sdre` (SDRE servo of the
+  MRP plant, gain fit over the operating box, SOS region of the fitted law). Numbers: the fit's
+  degree and off-sample error, the certified region.
 - ``periodic``: seed 003, :func:`satfmu.design_cubesat_periodic` (principal axes only). Numbers:
   gamma and the summary's first line.
 - ``robust``: seed 004, :func:`satfmu.design_demeter`: "not offered" while it has no ``plant``
@@ -57,6 +58,7 @@ from pathlib import Path
 from typing import Any, Callable, Sequence
 
 import satfmu
+from satfmu.controllers import mrp_servo_sdc
 from satfmu.synthesis import designs
 
 SPACECRAFT: dict[str, satfmu.Spacecraft] = {
@@ -68,12 +70,12 @@ SPACECRAFT: dict[str, satfmu.Spacecraft] = {
 METHODS: dict[str, str] = {
     "hinf": "000 design_hinf",
     "h2hinf": "001 design_h2hinf",
-    "sdre": "002 design_vscmg_sdre",
+    "sdre": "002 design_sdre",
     "periodic": "003 design_cubesat_periodic",
     "robust": "004 design_demeter",
 }
 """Method key (``--only``) -> its label in the table (seed number and design function)."""
-NOT_OFFERED_ISSUE = {"sdre": "issue 53 item 2", "robust": "issue 53 item 3"}
+NOT_OFFERED_ISSUE = {"robust": "issue 53 item 3"}
 """Methods that may not take a spacecraft yet -> the item of issue 53 that asks for it."""
 H2HINF_GAMMA = {"seed_000": 0.7, "bus": 0.7, "cubesat_3u": 100.0}
 """The L2-gain bound of seed 001's design per spacecraft."""
@@ -199,7 +201,7 @@ def not_offered(method: str, spacecraft: str, function: Callable[..., Any]) -> R
                None, "not run", {"signature": str(inspect.signature(function))})
 
 
-def scenario(controller: str, spacecraft: satfmu.Spacecraft, stop_time: float) -> satfmu.Scenario:
+def scenario(controller: str, spacecraft: satfmu.Spacecraft, stop_time: float, servo: bool = False) -> satfmu.Scenario:
     """The 90 deg rest-to-rest manoeuvre of ``spacecraft`` under ``controller`` through the FMUs.
 
     Parameters
@@ -210,6 +212,9 @@ def scenario(controller: str, spacecraft: satfmu.Spacecraft, stop_time: float) -
         The plant's inertia and torque limit.
     stop_time : float
         Length of the run, s.
+    servo : bool, optional
+        The controller is an MRP SDRE servo (:mod:`satfmu.controllers.mrp_servo_sdc`: its signals
+        connect element by element, its reference stays 0). Default False.
 
     Returns
     -------
@@ -223,27 +228,31 @@ def scenario(controller: str, spacecraft: satfmu.Spacecraft, stop_time: float) -
         description=f"{spacecraft.name}: {MANOEUVRE_DEG:g} deg rest-to-rest under {controller}",
         fmus={"plant": satfmu.FmuSpec(model="mrp_satellite", parameters={**spacecraft.parameters(), **start}),
               "controller": satfmu.FmuSpec(model=controller)},
-        connections=[satfmu.Connection("plant.omega", "controller.omega"),
-                     satfmu.Connection("plant.sigma", "controller.sigma"),
-                     satfmu.Connection("controller.u", "plant.u")],
+        connections=([satfmu.Connection(a, b) for a, b in mrp_servo_sdc.plant_connections()] if servo else
+                     [satfmu.Connection("plant.omega", "controller.omega"),
+                      satfmu.Connection("plant.sigma", "controller.sigma"),
+                      satfmu.Connection("controller.u", "plant.u")]),
         record=["plant.phi", "controller.u"],
         metrics=[satfmu.Metric("angle error", "final", ["plant.phi"], scale=180.0 / math.pi, unit="deg",
                                max=ANGLE_BOUND_DEG),
                  satfmu.Metric("peak torque", "peak", ["controller.u"], unit="N m", max=spacecraft.torque_limit)])
 
 
-def closed_loop(design: satfmu.Design, spacecraft: satfmu.Spacecraft, stop_time: float) -> tuple[str, dict[str, Any]]:
+def closed_loop(design: satfmu.Design, spacecraft: satfmu.Spacecraft, stop_time: float,
+                servo: bool = False) -> tuple[str, dict[str, Any]]:
     """Write ``design``'s artifact into the user's artifact folder (the run's temporary home) and
     fly :func:`scenario` with it.
 
     Parameters
     ----------
     design : Design
-        A returned seed 000 or 001 design.
+        A returned seed 000, 001 or 002 (rigid spacecraft) design.
     spacecraft : Spacecraft
         The spacecraft it was designed for.
     stop_time : float
         Length of the run, s.
+    servo : bool, optional
+        The design is an MRP SDRE servo (:func:`scenario`). Default False.
 
     Returns
     -------
@@ -258,7 +267,7 @@ def closed_loop(design: satfmu.Design, spacecraft: satfmu.Spacecraft, stop_time:
     try:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", satfmu.SatfmuWarning)
-            result = satfmu.run(scenario(design.names[0], spacecraft, stop_time))
+            result = satfmu.run(scenario(design.names[0], spacecraft, stop_time, servo))
     except satfmu.SatfmuError as exc:
         return f"error: {shorten(str(exc), 120)}", {"error": str(exc), "seconds": time.perf_counter() - t0}
     metrics = {m.name: m for m in result.metrics}
@@ -302,8 +311,10 @@ def design_row(method: str, name: str, full: bool) -> Row:
                                              evaluations=12 if full else 6)
     elif method == "periodic":
         call = lambda: designs.design_cubesat_periodic(plant=craft, name=artifact)  # noqa: E731
-    elif method in ("sdre", "robust"):
-        function = designs.design_vscmg_sdre if method == "sdre" else designs.design_demeter
+    elif method == "sdre":
+        call = lambda: designs.design_sdre(craft, name=artifact)  # noqa: E731
+    elif method == "robust":
+        function = designs.design_demeter
         row = not_offered(method, name, function)
         if row is not None:
             return row
@@ -336,6 +347,10 @@ def design_row(method: str, name: str, full: bool) -> Row:
         numbers = (f"gamma = {r.gamma:g}, lambda = {r.lam:.4g}, alpha = {r.alpha:.4g} s, beta = {r.beta:.4g} s; "
                    f"{shorten(first, 160)}")
         details.update(gamma=r.gamma, lam=r.lam, alpha=r.alpha, beta=r.beta)
+    elif method == "sdre":
+        n = cert["numbers"]
+        numbers = (f"fit degree {design.result.fit.degree}, off-sample error {n['offgrid_max_rel_error']:.3g}; "
+                   f"region {shorten(cert['region'], 140)}")
     elif method == "periodic":
         gamma = float(design.result.design.gamma)
         numbers = f"gamma = {gamma:.4g}; {shorten(first, 160)}"
@@ -343,8 +358,9 @@ def design_row(method: str, name: str, full: bool) -> Row:
     else:
         numbers = shorten(first, 160)
     row = Row(method, name, status, numbers, seconds, "not run", details)
-    if method in ("hinf", "h2hinf"):
-        row.closed_loop, row.details["closed_loop"] = closed_loop(design, craft, STOP_TIME[name])
+    if method in ("hinf", "h2hinf", "sdre"):
+        row.closed_loop, row.details["closed_loop"] = closed_loop(design, craft, STOP_TIME[name],
+                                                                  servo=method == "sdre")
     elif method == "periodic":
         row.closed_loop = "not run (magnetorquer plant; cf. scenario cubesat_detumble)"
     return row

@@ -69,10 +69,10 @@ def test_not_offered_follows_the_plant_parameter(design_table: ModuleType) -> No
 
     assert not design_table.offers_plant(_guarded(without))
     assert design_table.offers_plant(_guarded(with_plant))  # seen through functools.wraps
-    row = design_table.not_offered("sdre", "bus", _guarded(without))
+    row = design_table.not_offered("robust", "bus", _guarded(without))
     assert row is not None and row.outcome == "not offered" and row.seconds is None
-    assert "issue 53 item 2" in row.numbers and row.spacecraft == "bus"
-    assert design_table.not_offered("sdre", "bus", _guarded(with_plant)) is None
+    assert "issue 53 item 3" in row.numbers and row.spacecraft == "bus"
+    assert design_table.not_offered("robust", "bus", _guarded(with_plant)) is None
     robust = design_table.not_offered("robust", "cubesat_3u", without)
     assert robust is not None and "issue 53 item 3" in robust.numbers
 
@@ -82,7 +82,8 @@ def test_the_shipped_design_functions_are_classified_by_their_signature(design_t
 
     assert design_table.offers_plant(designs.design_hinf)
     assert design_table.offers_plant(designs.design_cubesat_periodic)
-    for method, function in (("sdre", designs.design_vscmg_sdre), ("robust", designs.design_demeter)):
+    assert design_table.offers_plant(designs.design_sdre)
+    for method, function in (("robust", designs.design_demeter),):
         row = design_table.not_offered(method, "bus", function)
         assert (row is None) == design_table.offers_plant(function)
         # a design_row of a method that is not offered runs nothing and takes no time

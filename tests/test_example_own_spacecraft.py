@@ -52,3 +52,21 @@ def test_mixed_design_refuses_a_gamma_out_of_reach_at_once(user):  # noqa: F811
                           capture_output=True, text=True, timeout=300)
     assert done.returncode == 3, done.stdout + done.stderr
     assert "refused:" in done.stdout and "Choose gamma >=" in done.stdout and "SOS programs" not in done.stdout
+
+
+def test_sdre_servo_for_your_own_spacecraft_quick(user):  # noqa: F811
+    # seed 002's method on the bus without the SOS region: the fit's checks, then the servo FMU
+    # flies the 90 deg slew on the saturated plant FMU (measured: 1 deg at 26.2 s, 1.8e-9 deg at 120 s)
+    work, env = user
+    out = _run([sys.executable, "own_spacecraft_sdre.py", "--quick"], work, env).stdout
+    assert "certificate: sampled" in out and "fit: degree 2" in out
+    assert "ok   angle error at 120 s" in out and "ok   time to 1 deg" in out
+    settle = float(out.split("time to 1 deg: ", 1)[1].split()[0])
+    assert 20.0 < settle < 35.0  # the LQ time constant at the origin is ~4 s (slowest eigenvalue -0.235 1/s)
+
+
+@pytest.mark.slow
+def test_sdre_servo_for_your_own_spacecraft_with_its_region(user):  # noqa: F811
+    work, env = user
+    out = _run([sys.executable, "own_spacecraft_sdre.py"], work, env).stdout
+    assert "certificate: certified" in out and "ok   angle error at 120 s" in out
