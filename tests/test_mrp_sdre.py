@@ -178,3 +178,17 @@ def test_bus_full_synthesis() -> None:
     assert res.region is not None and res.region.certified
     assert res.region.rest_angle_deg > 90.0
     assert artifact.parse(res.artifact).certificate["status"] == "certified"
+
+
+def test_a_cubesat_box_too_wide_for_the_fit_is_refused_with_what_helps() -> None:
+    # 3U cubesat (0.01/0.05/0.05 kg m^2, 0.01 N m): over the default box (90 deg, 0.56 rad/s) the
+    # SDRE gain bends more than degree 2 follows (measured off-sample error 0.322 > 0.25); on
+    # |sigma_i| <= 0.2 (45 deg) the fit passes (measured 0.105)
+    import satfmu
+
+    sc = satfmu.Spacecraft("cubesat", [0.01, 0.05, 0.05], torque_limit=1e-2)
+    with pytest.raises(satfmu.DesignError, match=r"off-sample error 0\.3\d* > 0\.25 .*a smaller box"):
+        satfmu.design_sdre(sc, region=False)
+    d = satfmu.design_sdre(sc, s_max=0.2, region=False)
+    assert d.artifact["certificate"]["status"] == "sampled"
+    assert d.artifact["certificate"]["numbers"]["offgrid_max_rel_error"] < 0.2

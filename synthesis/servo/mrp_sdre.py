@@ -653,7 +653,12 @@ def check_fit(result: GainFit, servo: MRPServo, s_max: float, w_max: float, n: i
     if not numbers["sim_final_angle_deg"] < 1.0:
         failures.append(f"90 deg manoeuvre ends {numbers['sim_final_angle_deg']:.3g} deg from the reference")
     if failures:
-        raise FitCertificationError("fitted SDRE gain rejected: " + "; ".join(failures))
+        hint = ""
+        if numbers["offgrid_max_rel_error"] > OFFGRID_TOL or numbers["offgrid_rms_rel_error"] > OFFGRID_RMS_TOL:
+            hint = (f" (the SDRE gain varies more over |sigma_i| <= {s_max:.3g}, |omega_i| <= {w_max:.3g} rad/s than "
+                    f"polynomials of degree <= {MAX_DEGREE} follow: a smaller box, s_max and w_max, brings the fit "
+                    f"closer)")
+        raise FitCertificationError("fitted SDRE gain rejected: " + "; ".join(failures) + hint)
     return numbers
 
 
