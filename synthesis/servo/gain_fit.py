@@ -29,6 +29,7 @@ from satfmu.fmus.plants import vscmg
 from satfmu.synthesis.servo.sdre import Servo
 from satfmu.fmus.errors import FitCertificationError
 from satfmu.synthesis.core.progress import Progress, Stages
+from satfmu.synthesis.servo.polynomial_fit import cross_validated_fit
 
 LOG = logging.getLogger(__name__)
 
@@ -191,26 +192,10 @@ def fit(points: np.ndarray, gains: np.ndarray, degrees: range = range(1, 9), fol
     n = len(points)
     if n < 2 * len(exponents(max(degrees))):
         raise ValueError(f"{n} grid points are too few for degree {max(degrees)}")
-    Y = gains.reshape(n, -1)
-    scale = float(np.max(np.abs(Y)))
-    fold = np.random.default_rng(seed).permutation(n) % folds
-    cv = {}
-    for d in degrees:
-        X = _design(points, d)
-        err = []
-        for k in range(folds):
-            train, test = fold != k, fold == k
-            c, *_ = np.linalg.lstsq(X[train], Y[train], rcond=None)
-            err.append(X[test] @ c - Y[test])
-        cv[d] = float(np.sqrt(np.mean(np.concatenate(err) ** 2)) / scale)
-    within = [d for d in degrees if cv_tol is not None and cv[d] <= cv_tol]
-    best = within[0] if within else min(cv, key=cv.__getitem__)
-    X = _design(points, best)
-    c, *_ = np.linalg.lstsq(X, Y, rcond=None)
-    resid = X @ c - Y
+    best, c, cv, max_err, rms_err = cross_validated_fit(_design, points, gains.reshape(n, -1), degrees, folds,
+                                                        seed, cv_tol)
     coeffs = c.T.reshape(gains.shape[1], gains.shape[2], -1)
-    return GainFit(best, coeffs, cv, float(np.max(np.abs(resid)) / scale),
-                   float(np.sqrt(np.mean(resid**2)) / scale), points, gains, cv_tol)
+    return GainFit(best, coeffs, cv, max_err, rms_err, points, gains, cv_tol)
 
 
 def _terms(coeffs: np.ndarray, degree: int) -> list[dict]:

@@ -55,6 +55,7 @@ from satfmu.fmus.plants.spacecraft import PARAMETERS, Spacecraft
 from satfmu.synthesis.core import sos
 from satfmu.synthesis.core.polynomial import Poly, monomials
 from satfmu.synthesis.core.progress import Progress, Stages
+from satfmu.synthesis.servo.polynomial_fit import cross_validated_fit
 
 LOG = logging.getLogger(__name__)
 
@@ -453,25 +454,9 @@ def fit(points: np.ndarray, gains: np.ndarray, degrees: range = range(0, MAX_DEG
     n = len(points)
     if n < 2 * len(exponents(6, max(degrees))):
         raise ValueError(f"{n} points are too few for degree {max(degrees)}")
-    Y = gains.reshape(n, -1)
-    scale = float(np.max(np.abs(Y)))
-    fold = np.random.default_rng(seed).permutation(n) % folds
-    cv = {}
-    for d in degrees:
-        X = _design(points, d)
-        err = []
-        for k in range(folds):
-            train, test = fold != k, fold == k
-            c, *_ = np.linalg.lstsq(X[train], Y[train], rcond=None)
-            err.append(X[test] @ c - Y[test])
-        cv[d] = float(np.sqrt(np.mean(np.concatenate(err) ** 2)) / scale)
-    within = [d for d in degrees if cv_tol is not None and cv[d] <= cv_tol]
-    best = within[0] if within else min(cv, key=cv.__getitem__)
-    X = _design(points, best)
-    c, *_ = np.linalg.lstsq(X, Y, rcond=None)
-    resid = X @ c - Y
-    return GainFit(best, c.T.reshape(3, 9, -1), cv, float(np.max(np.abs(resid)) / scale),
-                   float(np.sqrt(np.mean(resid**2)) / scale), points, gains, cv_tol)
+    best, c, cv, max_err, rms_err = cross_validated_fit(_design, points, gains.reshape(n, -1), degrees, folds,
+                                                        seed, cv_tol)
+    return GainFit(best, c.T.reshape(3, 9, -1), cv, max_err, rms_err, points, gains, cv_tol)
 
 
 @dataclass
