@@ -70,7 +70,7 @@ in simulation, no proof; not_verified: nothing checked."""
 _NAME = re.compile(r"^[a-z][a-z0-9_]*$")
 SCHEDULING_FUNCTIONS = {"sin": np.sin, "cos": np.cos}
 """Functions a servo's scheduling variable may apply to a measured signal (rad)."""
-_SCHEDULING = re.compile(r"^(?:(?P<f>[a-z]+)\((?P<inner>\w+)\)|(?P<plain>\w+))$")
+_SCHEDULING = re.compile(r"^(?:(?P<f>[a-z]+)\((?P<inner>\w+(?:\[\d+\])?)\)|(?P<plain>\w+(?:\[\d+\])?))$")
 
 
 def scheduling_signal(entry: str) -> tuple[str | None, str]:

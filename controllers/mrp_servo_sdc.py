@@ -17,14 +17,9 @@ The law is ``u = -K(x) xe``, ``K = R^-1 Be^T P`` of the Riccati equation of ``(A
 (:func:`satfmu.controllers.riccati.riccati_gain`; the pair is stabilizable at every state since
 ``B(sigma) B(sigma)^T = (1 + |sigma|^2)^2 I3``, so no shift is needed, :data:`EPS` = 0).
 
-Signal names. The servo FMU is built by :func:`satfmu.controllers.servo.servo_model`, which names
-the integral state of a tracked signal ``int_e_<name>`` with the initial-value parameter
-``int_e_<name>_0``; for a vector element ``sigma[1]`` that is ``int_e_sigma[1]_0``, not a valid
-FMI name, and a servo artifact's ``scheduling`` entries must be plain identifiers
-(:func:`satfmu.controllers.artifact.scheduling_signal`). The measured signals are therefore the
-scalars ``sigma_1 .. sigma_3`` and ``omega_1 .. omega_3`` (a scenario connects them element by
-element, :func:`plant_connections`); the references ``sigma_ref[i]`` and the commands ``u[i]``
-(N m, the plant's input names) are vectors and connect by name.
+Signal names: the servo's inputs are named as the plant's outputs (``sigma[i]``, ``omega[i]``)
+and its commands as the plant's inputs (``u[i]``, N m), so a scenario connects the vectors by
+name (:func:`plant_connections`); the references are ``sigma_ref[i]``.
 
 One definition for both sides: the design (:mod:`satfmu.synthesis.servo.mrp_sdre`) grids, fits and
 certifies the law of these matrices and weights, and an online SDRE FMU of the MRP plant would
@@ -51,9 +46,9 @@ PLANT_STATES = ("omega[1]", "omega[2]", "omega[3]", "sigma[1]", "sigma[2]", "sig
 EPS = 0.0
 """Riccati shift, 1/s: none is needed, the servo pair is stabilizable at every state."""
 
-TRACKED = [{"name": f"sigma_{i}", "reference": f"sigma_ref[{i}]", "unit": "1"} for i in (1, 2, 3)]
-"""The tracked MRPs (measured as ``sigma_i`` from the plant's ``sigma[i]``) and their references."""
-RATES = [{"name": f"omega_{i}", "unit": "rad/s"} for i in (1, 2, 3)]
+TRACKED = [{"name": f"sigma[{i}]", "reference": f"sigma_ref[{i}]", "unit": "1"} for i in (1, 2, 3)]
+"""The tracked MRPs (the plant's ``sigma[i]``) and their references."""
+RATES = [{"name": f"omega[{i}]", "unit": "rad/s"} for i in (1, 2, 3)]
 """The measured body rates (from the plant's ``omega[i]``)."""
 OUTPUTS = [{"name": f"u[{i}]", "unit": "N.m", "description": f"Commanded control torque about body axis {i}"}
            for i in (1, 2, 3)]
@@ -80,12 +75,10 @@ def plant_connections(plant: str = "plant", controller: str = "controller") -> l
     Returns
     -------
     list of tuple of (str, str)
-        ``plant.sigma[i] -> controller.sigma_i``, ``plant.omega[i] -> controller.omega_i`` and
-        ``controller.u -> plant.u`` (the vector by name).
+        ``plant.sigma -> controller.sigma``, ``plant.omega -> controller.omega`` and
+        ``controller.u -> plant.u`` (the vectors by name).
     """
-    out = [(f"{plant}.sigma[{i}]", f"{controller}.sigma_{i}") for i in (1, 2, 3)]
-    out += [(f"{plant}.omega[{i}]", f"{controller}.omega_{i}") for i in (1, 2, 3)]
-    return out + [(f"{controller}.u", f"{plant}.u")]
+    return [(f"{plant}.{v}", f"{controller}.{v}") for v in ("sigma", "omega")] + [(f"{controller}.u", f"{plant}.u")]
 
 
 def servo_matrices(model: Model) -> tuple[sp.Matrix, sp.Matrix]:

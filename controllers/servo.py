@@ -35,6 +35,13 @@ from satfmu.fmus.plants import vscmg
 from satfmu.fmus.model import MIN_SAMPLE_PERIOD, Model, Output, Sampler, State, Variable, vector
 
 
+def _initial(name: str) -> str:
+    """The name of the parameter holding the initial value of state ``name`` (``x`` -> ``x_0``,
+    the vector element ``x[2]`` -> ``x_0[2]``)."""
+    base, bracket, index = name.partition("[")
+    return f"{base}_0{bracket}{index}"
+
+
 def _times_second(unit: str) -> str:
     """The unit of a signal's time integral (``"rad"`` -> ``"rad.s"``, ``"1"`` -> ``"s"``)."""
     return "s" if unit == "1" else f"{unit}.s"
@@ -87,7 +94,7 @@ def servo_model(name: str, description: str, plant: str, tracked: list[dict], ra
     rates_v = [Variable(r["name"], r["unit"], f"Measured {r['name']}", start.get(r["name"], 0.0)) for r in rates]
     integrals = [State(Variable(f"int_e_{t['name']}", _times_second(t["unit"]),
                                 f"Integral of the {t['name']} tracking error"),
-                       Variable(f"int_e_{t['name']}_0", _times_second(t["unit"]),
+                       Variable(_initial(f"int_e_{t['name']}"), _times_second(t["unit"]),
                                 f"Initial integral of the {t['name']} error"))
                  for t in tracked]
     e = [r.symbol - y.symbol for r, y in zip(refs, tracked_v)]
