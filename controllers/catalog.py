@@ -88,6 +88,7 @@ SIGNALS = ("signal_constant", "signal_step", "signal_sinusoid", "signal_cosine_r
 GENERIC: dict[str, Callable[[], FmuSource]] = {
     "vscmg_sdre_online": functools.partial(_online_sdre, "vscmg_sdre_online"),
     "vscmg_sdre_online_w1free": functools.partial(_online_sdre, "vscmg_sdre_online_w1free"),
+    "mrp_sdre_online": functools.partial(_online_sdre, "mrp_sdre_online"),
     "vscmg_backstepping": _backstepping, "cubesat_bdot": _bdot,
     **{name: functools.partial(_signal, name.removeprefix("signal_")) for name in SIGNALS}}
 """Model name -> source of the designs without an artifact (online SDRE, backstepping, B-dot)

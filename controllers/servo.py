@@ -28,10 +28,11 @@ from typing import Sequence
 
 import sympy as sp
 
-from satfmu.controllers import riccati, servo_sdc
+from satfmu.controllers import mrp_servo_sdc, riccati, servo_sdc
 from satfmu.controllers.artifact import ServoArtifact, scheduling_signal
 from satfmu.controllers.polynomial import sympy_polynomial
-from satfmu.fmus.plants import vscmg
+from satfmu.fmus.plants import mrp_satellite, vscmg
+from satfmu.fmus.plants.spacecraft import SEED_000, Spacecraft
 from satfmu.fmus.model import MIN_SAMPLE_PERIOD, Model, Output, Sampler, State, Variable, vector
 
 
@@ -145,20 +146,24 @@ ONLINE_VARIANTS = {"vscmg_sdre_online": ("gyro_on_w2", False), "vscmg_sdre_onlin
 approximated SDRE fits (its closed-loop deviation measures the fit alone)."""
 
 
+MRP_ONLINE = "mrp_sdre_online"
+"""The online SDRE servo of the rigid MRP satellite (:func:`build_online_mrp`)."""
+
+
 def build_online(name: str = "vscmg_sdre_online") -> Model:
-    """Symbolic model of the VSCMG's online SDRE servo (seed 002, eq. 5-12), one of
-    :data:`ONLINE_VARIANTS`.
+    """Symbolic model of a shipped online SDRE servo: the VSCMG's (seed 002, eq. 5-12), one of
+    :data:`ONLINE_VARIANTS`, or the MRP satellite's, :data:`MRP_ONLINE` (:func:`build_online_mrp`).
 
     The model's parameters (besides the plant inertias the SDC uses and the compensation's):
-    ``control_period`` (s), ``Q[1..7]`` and ``R[1..2]`` (the diagonals of Qe, Re, default the
-    seed's) and ``riccati_eps`` (1/s). Extra outputs: the relative residual and the largest
-    closed-loop real part (1/s) of the solution in use.
+    ``control_period`` (s), ``Q[1..n]`` and ``R[1..m]`` (the diagonals of Qe, Re; the VSCMG's
+    default the seed's) and ``riccati_eps`` (1/s). Extra outputs: the relative residual and the
+    largest closed-loop real part (1/s) of the solution in use.
 
     Parameters
     ----------
     name : str, optional
-        A key of :data:`ONLINE_VARIANTS`: the model's name, which selects the SDC factorization
-        and whether w2 is frozen at 0.
+        A key of :data:`ONLINE_VARIANTS` (the model's name, which selects the SDC factorization
+        and whether w2 is frozen at 0) or :data:`MRP_ONLINE`.
 
     Returns
     -------
@@ -168,18 +173,64 @@ def build_online(name: str = "vscmg_sdre_online") -> Model:
     Raises
     ------
     KeyError
-        If ``name`` is not one of :data:`ONLINE_VARIANTS`.
+        If ``name`` is none of these.
     """
+    if name == MRP_ONLINE:
+        return build_online_mrp()
     factorization, freeze_w2 = ONLINE_VARIANTS[name]
     Ae, Be = servo_sdc.servo_matrices(vscmg.MODEL, factorization, freeze_w2)
+    sdc = factorization + (" at w2 = 0" if freeze_w2 else "")
+    return _online(name, f"Online SDRE servo of the VSCMG (seed 002, {sdc} SDC): checked Riccati gain every "
+                   "control period", vscmg.MODEL, Ae, Be, servo_sdc.Q_SEED.diagonal().tolist(),
+                   servo_sdc.R_SEED.diagonal().tolist(), servo_sdc.EPS, "seed 002 eq. 10",
+                   (servo_sdc.TRACKED, servo_sdc.RATES, servo_sdc.OUTPUTS))
+
+
+def build_online_mrp(spacecraft: Spacecraft | None = None, name: str = MRP_ONLINE) -> Model:
+    """Symbolic model of the MRP satellite's online SDRE servo (seed 002's method on a rigid
+    spacecraft): the gain of :func:`satfmu.controllers.mrp_servo_sdc.servo_matrices` solved and
+    checked every control period.
+
+    The inertia (``I_x`` ... ``I_yz``, kg m^2) and the weights (``Q[1..9]``, ``R[1..3]``) are
+    parameters: one FMU serves every spacecraft, given its ``Spacecraft.parameters()`` and
+    :func:`satfmu.controllers.mrp_servo_sdc.default_weights` (or any weights).
+
+    Parameters
+    ----------
+    spacecraft : Spacecraft, optional
+        Whose inertia and default weights are the parameters' start values (default seed 000's
+        satellite).
+    name : str, optional
+        The model's name. Default :data:`MRP_ONLINE`.
+
+    Returns
+    -------
+    Model
+        The servo of :func:`servo_model` with the gain held by a routine sampler.
+    """
+    spacecraft = SEED_000 if spacecraft is None else spacecraft
+    plant = mrp_satellite.build(spacecraft)
+    Ae, Be = mrp_servo_sdc.servo_matrices(plant)
+    Q, R = mrp_servo_sdc.default_weights(spacecraft)
+    return _online(name, "Online SDRE servo of the rigid MRP satellite (seed 002's method): checked Riccati "
+                   "gain every control period; inertia and weights are parameters", plant, Ae, Be,
+                   Q.diagonal().tolist(), R.diagonal().tolist(), mrp_servo_sdc.EPS,
+                   "satfmu.controllers.mrp_servo_sdc.default_weights",
+                   (mrp_servo_sdc.TRACKED, mrp_servo_sdc.RATES, mrp_servo_sdc.OUTPUTS))
+
+
+def _online(name: str, description: str, plant: Model, Ae: sp.Matrix, Be: sp.Matrix, q0: Sequence[float],
+            r0: Sequence[float], eps0: float, weights_from: str,
+            signals: tuple[list[dict], list[dict], list[dict]]) -> Model:
+    """The online SDRE servo of ``plant`` with the SDC servo matrices ``Ae``, ``Be``."""
     n, m = Be.shape
     used = set().union(*(sp.sympify(e).free_symbols for e in list(Ae) + list(Be)))
-    inertias = [v for v in vscmg.MODEL.parameters if v.symbol in used]
-    q = vector("Q", n, "1", "Diagonal entry {i} of the servo state weight Qe (seed 002 eq. 10)",
-               [float(v) for v in servo_sdc.Q_SEED.diagonal()], min=0.0)
-    r = vector("R", m, "1", "Diagonal entry {i} of the input weight Re (seed 002 eq. 10)",
-               [float(v) for v in servo_sdc.R_SEED.diagonal()], min=1e-12)
-    eps = Variable("riccati_eps", "1/s", "Shift of the Riccati pair (Ae - eps I, Be)", servo_sdc.EPS, min=0.0)
+    inertias = [v for v in plant.parameters if v.symbol in used]
+    q = vector("Q", n, "1", "Diagonal entry {i} of the servo state weight Qe (" + weights_from + ")",
+               [float(v) for v in q0], min=0.0)
+    r = vector("R", m, "1", "Diagonal entry {i} of the input weight Re (" + weights_from + ")",
+               [float(v) for v in r0], min=1e-12)
+    eps = Variable("riccati_eps", "1/s", "Shift of the Riccati pair (Ae - eps I, Be)", eps0, min=0.0)
     period = Variable("control_period", "s", "Gain update period (the gain is held in between)", 0.01,
                       min=MIN_SAMPLE_PERIOD)
     held = [Variable(f"K_{i + 1}_{j + 1}", "1", f"SDRE gain entry ({i + 1}, {j + 1})") for i in range(m)
@@ -193,7 +244,6 @@ def build_online(name: str = "vscmg_sdre_online") -> Model:
                        held[-2].symbol),
                 Output(Variable("riccati_max_re", "1/s", "Largest real part of the closed-loop eigenvalues "
                                 "of the SDC pair in use"), held[-1].symbol)]
-    sdc = factorization + (" at w2 = 0" if freeze_w2 else "")
-    return servo_model(name, f"Online SDRE servo of the VSCMG (seed 002, {sdc} SDC): checked "
-                       "Riccati gain every control period", vscmg.MODEL.name, servo_sdc.TRACKED,
-                       servo_sdc.RATES, servo_sdc.OUTPUTS, K, inertias + q + r + [eps, period], sampler, monitors)
+    tracked, rates, outputs = signals
+    return servo_model(name, description, plant.name, tracked, rates, outputs, K, inertias + q + r + [eps, period],
+                       sampler, monitors)
