@@ -360,8 +360,40 @@ def design_sdre(plant: Model | Spacecraft | None = None, *, name: str = "mrp_sdr
                f"{n['offgrid_rms_rel_error']:.3g} (relative to the largest gain entry); frozen loops max Re "
                f"{n['frozen_max_re']:.4g} 1/s; 90 deg slew (simulated, unsaturated): {n['sim_final_angle_deg']:.3g} "
                f"deg at {n['sim_stop_time']:g} s, peak torque {n['sim_peak_torque']:.4g} N m\n  stages: "
-               + ", ".join(f"{k} {v:.1f} s" for k, v in r.seconds.items()))
+               + ", ".join(f"{k} {v:.1f} s" for k, v in r.seconds.items())
+               + _online_line(r.servo))
     return Design("mrp-sdre", [r.artifact], summary, r)
+
+
+def _online_line(servo: Any) -> str:
+    Q, R = servo.weights
+    if np.count_nonzero(Q - np.diag(np.diagonal(Q))) or np.count_nonzero(R - np.diag(np.diagonal(R))):
+        return "\n  the online SDRE FMU mrp_sdre_online takes diagonal weights only: not this servo's"
+    return ("\n  the online SDRE of this servo: FMU mrp_sdre_online with the parameters "
+            + ", ".join(f"{k} = {v:.6g}" for k, v in sdre_online_parameters(servo).items()))
+
+
+def sdre_online_parameters(servo: Any) -> dict[str, float]:
+    """The parameters that make the shipped online SDRE FMU ``mrp_sdre_online`` the servo ``servo``
+    of a design (:func:`design_sdre`): the plant's inertia (kg m^2) and the weights' diagonals.
+
+    Parameters
+    ----------
+    servo : satfmu.synthesis.servo.mrp_sdre.MRPServo
+        The design's servo (``Design.result.servo``).
+
+    Returns
+    -------
+    dict of str to float
+        ``I_x ... I_yz``, ``Q[1..9]``, ``R[1..3]`` (the diagonals: the FMU takes diagonal weights).
+    """
+    from satfmu.fmus.plants.spacecraft import PARAMETERS
+
+    values = {v.name: float(v.start) for v in servo.model.parameters if v.name in PARAMETERS}
+    Q, R = servo.weights
+    values.update({f"Q[{i + 1}]": float(q) for i, q in enumerate(np.diagonal(Q))})
+    values.update({f"R[{i + 1}]": float(x) for i, x in enumerate(np.diagonal(R))})
+    return values
 
 
 @fails_with_design_error

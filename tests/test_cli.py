@@ -465,6 +465,8 @@ def test_synth_mrp_sdre_for_a_spacecraft_file(tmp_path: Path, capsys: pytest.Cap
     out = capsys.readouterr().out
     assert code == 0, out
     assert "fit: degree 2" in out and "frozen loops max Re -0.1" in out  # measured -0.162 1/s
+    # the shipped online FMU made this servo: the bus's inertia and Bryson's R = I3 / 20^2
+    assert "FMU mrp_sdre_online with the parameters I_x = 100, I_y = 120" in out and "R[1] = 0.0025" in out
     art = json.loads((tmp_path / "art" / "bus_sdre.json").read_text())
     assert art["kind"] == "servo_gain_schedule" and art["plant"] == "mrp_satellite"
     assert art["provenance"]["design_plant"]["parameters"]["I_xy"] == 2.0

@@ -201,19 +201,19 @@ def test_online_sdre_fmu_serves_any_spacecraft_through_its_parameters(tmp_path: 
     the fitted law it approximates: the fitted servo's run ends at 1e-3 deg (the test above)."""
     from satfmu.controllers import servo as servo_models
 
+    from satfmu.synthesis.designs import sdre_online_parameters
+
     model = servo_models.build_online(servo_models.MRP_ONLINE)
     fmu = catalog.builder("native")(model, tmp_path / "fmus", {})
-    Q, R = sdc.default_weights(BUS)
-    weights = {**{f"Q[{i + 1}]": float(q) for i, q in enumerate(Q.diagonal())},
-               **{f"R[{i + 1}]": float(r) for i, r in enumerate(R.diagonal())}}
-    inertia = {k: v for k, v in BUS.parameters().items() if k != "u_max"}
+    online = sdre_online_parameters(mrp_sdre.MRPServo(mrp_satellite.build(BUS)))
+    assert online["I_xy"] == 2.0 and online["R[1]"] == pytest.approx(1 / 20.0**2)
     x0 = mrp_sdre.rest_to_rest_start()
     start = {f"sigma_0[{i + 1}]": float(x0[3 + i]) for i in range(3)}
     scenario = satfmu.Scenario(
         name="mrp_sdre_online_90deg", stop_time=60.0, step_size=0.05, base_dir=tmp_path,
         fmus={"plant": satfmu.FmuSpec(model="mrp_satellite",
                                       parameters={**BUS.parameters(), **start, "saturation_on": True}),
-              "controller": satfmu.FmuSpec(path=str(fmu.relative_to(tmp_path)), parameters={**inertia, **weights})},
+              "controller": satfmu.FmuSpec(path=str(fmu.relative_to(tmp_path)), parameters=online)},
         connections=[satfmu.Connection(a, b) for a, b in sdc.plant_connections()],
         record=["plant.phi", "controller.u", "controller.riccati_residual"],
         metrics=[satfmu.Metric("angle error at 60 s", "final", ["plant.phi"], scale=180.0 / math.pi, unit="deg",
