@@ -111,9 +111,10 @@ def source(name: str) -> FmuSource:
     Parameters
     ----------
     name : str
-        A plant or generic model name (:data:`PLANTS`, :data:`GENERIC`), or the name of a
-        controller artifact, looked up by :func:`satfmu.controllers.paths.find_artifact` (the user's
-        artifacts first, then the shipped ones).
+        A plant or generic model name (:data:`PLANTS`, :data:`GENERIC`), the flexible plant of a
+        user's spacecraft that a design artifact was made for (:func:`flexible_plant`), or the
+        name of a controller artifact, looked up by :func:`satfmu.controllers.paths.find_artifact`
+        (the user's artifacts first, then the shipped ones).
 
     Raises
     ------
@@ -123,6 +124,9 @@ def source(name: str) -> FmuSource:
     make = PLANTS.get(name) or GENERIC.get(name)
     if make is not None:
         return make()
+    flexible = flexible_plant(name)
+    if flexible is not None:
+        return flexible
     try:
         path = paths.find_artifact(name)
     except FileNotFoundError:
@@ -131,6 +135,50 @@ def source(name: str) -> FmuSource:
                          f"{', '.join(map(str, paths.artifact_folders()))})"
                          + paths.did_you_mean(name, models + paths.artifact_names())) from None
     return artifact_source(path)
+
+
+def flexible_plant(name: str) -> FmuSource | None:
+    """The flexible plant ``flexible_<spacecraft>`` of a user's spacecraft, from the design
+    artifacts made for it (the spacecraft's description is their ``design.variant.spacecraft``),
+    or None if the name is not of that form or no artifact was made for such a plant.
+
+    Parameters
+    ----------
+    name : str
+        A model name (:func:`satfmu.fmus.plants.demeter.model_name`).
+
+    Raises
+    ------
+    ValueError
+        If artifacts made for that plant describe different spacecraft (two files, one name).
+    """
+    from satfmu.controllers import artifact as artifacts
+    from satfmu.controllers import state_feedback
+    from satfmu.fmus.plants import demeter
+
+    if not name.startswith("flexible_"):
+        return None
+    found: dict[object, Path] = {}
+    for folder in paths.artifact_folders():
+        for path in sorted(folder.glob("*.json")) if folder.is_dir() else []:
+            if path.name.startswith("."):
+                continue
+            try:
+                art = artifacts.load(path)
+            except artifacts.ArtifactError:
+                continue  # not this function's to report: a run names the broken artifact it uses
+            if not isinstance(art, artifacts.GainArtifact) or art.plant != name or not art.design:
+                continue
+            try:
+                spacecraft = state_feedback.design_spacecraft(art.design)
+            except ValueError:
+                continue
+            if demeter.model_name(spacecraft) == name:
+                found.setdefault(spacecraft, path)
+    if len(found) > 1:
+        raise ValueError(f"{name}: the design artifacts {', '.join(map(str, found.values()))} describe different "
+                         "spacecraft of that name; rename one (its description's name) or remove it")
+    return next((FmuSource(demeter.model(sc), {}) for sc in found), None)
 
 
 def ensure(fmu_dir: Path, names: Iterable[str], backend: str = "native", rebuild_stale: bool = False
@@ -222,7 +270,9 @@ def controller_source(art: Artifact, data: bytes | None = None) -> FmuSource:
     elif isinstance(art, artifacts.PeriodicArtifact):
         model = magnetic.build_periodic(art)
     elif isinstance(art, artifacts.GainArtifact):
-        model = state_feedback.build(art.gains, name=art.name, description=art.description)
+        n_flex = len(state_feedback.design_spacecraft(art.design).modes) if art.design else None
+        model = state_feedback.build(art.gains, name=art.name, description=art.description,
+                                     **({} if n_flex is None else {"n_flex": n_flex}))
     else:
         model = polynomial.build(art)
     record = art.provenance.get("design_plant")

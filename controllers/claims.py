@@ -236,11 +236,15 @@ def _lyapunov(data: dict[str, Any]) -> list[str]:
 
 def _design_gains(data: dict[str, Any]) -> list[str]:
     """The gains ``design.K`` gives against the artifact's ``gains``, per gain block."""
-    from satfmu.controllers.state_feedback import gains_of_design
+    from satfmu.controllers.state_feedback import design_spacecraft, gains_of_design
 
     params = data["provenance"].get("design_plant", {}).get("parameters", {})
     try:
-        L = np.array([[params[f"L[{i},{j}]"] for j in range(1, 9)] for i in range(1, 4)], float)
+        n_flex = len(design_spacecraft(data["design"]).modes)
+    except ValueError as exc:
+        return [f"design.{exc}"]
+    try:
+        L = np.array([[params[f"L[{i},{j}]"] for j in range(1, n_flex + 1)] for i in range(1, 4)], float)
     except KeyError as exc:
         return [f"design.K: provenance.design_plant.parameters lacks the coupling {exc.args[0]} the design used, "
                 "so design.K cannot be checked against gains"]

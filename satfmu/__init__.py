@@ -7,7 +7,11 @@ Your spacecraft and its plant
     :class:`Spacecraft` (name, inertia tensor, torque limit; ``Spacecraft.from_toml``),
     :data:`SEED_000` (the seed 000 paper's satellite), :func:`mrp_plant` (the MRP satellite
     model of a spacecraft), :func:`cubesat_plant` (the magnetorquer cubesat of seed 003, in
-    principal axes), :func:`manoeuvre` (a rest-to-rest start by axis and angle).
+    principal axes), :func:`manoeuvre` (a rest-to-rest start by axis and angle);
+    :class:`FlexibleSpacecraft` (a rigid hub with flexible appendages, their modes' frequency
+    and damping intervals, reaction wheels; ``FlexibleSpacecraft.from_toml``) with its parts
+    :class:`Appendage`, :class:`Mode`, :class:`Interval`, :class:`Wheels`,
+    :class:`InertiaUncertainty`, and :data:`DEMETER` (seed 004's satellite).
 Scenarios
     :class:`Scenario` (``from_toml``, ``from_dict``, or built from :class:`FmuSpec`,
     :class:`Connection`, :class:`Metric`), :func:`run` -> :class:`Result` (metrics,
@@ -68,6 +72,8 @@ _EXPORTS = {
         "EngineError", "ScenarioError", "DesignMismatchWarning", "StaleFmuWarning", "SspError", "DispersionError",
         "CampaignError", "CampaignWarning", "DesignError", "ShadowedArtifactWarning", "ReportError")},
     "Spacecraft": "satfmu.fmus.plants.spacecraft", "SEED_000": "satfmu.fmus.plants.spacecraft",
+    **{name: "satfmu.fmus.plants.flexible_spacecraft" for name in (
+        "FlexibleSpacecraft", "Appendage", "Mode", "Interval", "Wheels", "InertiaUncertainty", "DEMETER")},
     "Scenario": "satfmu.sims.scenario.spec", "FmuSpec": "satfmu.sims.scenario.spec",
     "Connection": "satfmu.sims.scenario.spec",
     "Metric": "satfmu.sims.scenario.spec", "Result": "satfmu.sims.scenario.result",

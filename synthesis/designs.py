@@ -20,6 +20,7 @@ from typing import Any, Callable, ParamSpec, Sequence
 import numpy as np
 
 from satfmu.fmus.model import Model
+from satfmu.fmus.plants.flexible_spacecraft import DEMETER, FlexibleSpacecraft
 from satfmu.fmus.plants.spacecraft import Spacecraft
 from satfmu.fmus.errors import DesignError, SatfmuError
 from satfmu.synthesis.core.progress import Progress
@@ -451,27 +452,39 @@ def design_cubesat_periodic(gamma: float | None = None, plant: Spacecraft | None
 
 @fails_with_design_error
 def design_demeter(axes: Sequence[int] = (1,), appendages: Sequence[int] = (1,), model_type: int = 1,
-                   uncertainty_type: int = 1, wheels: bool = True, *, name: str = "demeter_row1_det",
-                   n_samples: int = 100, convention: str = "satfmu", progress: Progress | None = None) -> Design:
-    """Seed 004: deterministic robust state feedback of a DEMETER variant (Table 1, Det).
+                   uncertainty_type: int = 1, wheels: bool = True, *, plant: FlexibleSpacecraft | None = None,
+                   name: str | None = None, n_samples: int = 100, convention: str = "satfmu",
+                   analysis: bool = True, progress: Progress | None = None) -> Design:
+    """Seed 004: deterministic robust state feedback of a variant of DEMETER or of your flexible
+    spacecraft (Table 1, Det), with its deterministic and randomized analyses.
 
     Parameters
     ----------
     axes, appendages : sequence of int
         The variant's axes and appendages, 1-based.
     model_type : {1, 2}
-        1: independent appendages, 2: identical.
+        1: each appendage (mode group) its own frequency and damping, 2: identical appendages.
     uncertainty_type : {1, 2, 3}
         1: norm-bounded (D-G), 2: intervals (vertices), 3: inertia norm-bounded.
     wheels : bool
         Design with the wheel dynamics H(s).
-    name : str
-        Artifact and controller FMU name.
+    plant : FlexibleSpacecraft, optional
+        Your spacecraft (:class:`satfmu.fmus.plants.flexible_spacecraft.FlexibleSpacecraft`): its
+        hub inertia and inertia box, its appendages' modes with their frequency and damping
+        intervals, its wheels' limits and dynamics. Default DEMETER (the seed's).
+    name : str, optional
+        Artifact and controller FMU name; default ``"demeter_row1_det"`` for DEMETER, else
+        ``"<spacecraft>_robust"``.
     n_samples : int
         Sampled plants of the independent check.
     convention : {"satfmu", "romuloc"}
         LMI forms and objective of the design (:func:`satfmu.synthesis.robust.robust_design.design`); the
         artifact records it.
+    analysis : bool
+        Run the deterministic analysis of the gain (parameter-dependent H-infinity bound,
+        impulse-to-peak bound). The design's own certificate (one Lyapunov matrix over the whole
+        box) does not need it; it takes seconds for DEMETER's Table 1 rows and minutes for a box
+        of 5 or more parameters. Default True.
     progress : callable, optional
         ``progress(done, total, message)`` after each stage (design, analysis, sampled check).
 
@@ -481,12 +494,19 @@ def design_demeter(axes: Sequence[int] = (1,), appendages: Sequence[int] = (1,),
         If the variant is infeasible (with the obstruction when one is proved), or on bad input
         (the cause chained).
     """
+    from satfmu.fmus.plants import demeter
     from satfmu.synthesis.robust import demeter_design
     from satfmu.synthesis.robust import demeter_table
     from satfmu.synthesis.robust.demeter_variants import Variant
 
-    variant = Variant(tuple(axes), tuple(appendages), model_type, uncertainty_type, wheels)
-    row = demeter_table.run_row(variant, "Det", n_samples=n_samples, convention=convention, progress=progress)
+    if plant is not None and not isinstance(plant, FlexibleSpacecraft):
+        raise DesignError(f"plant must be a satfmu.FlexibleSpacecraft (a rigid hub with flexible appendages and "
+                          f"reaction wheels), got {type(plant).__name__}")
+    spacecraft = DEMETER if plant is None else plant
+    name = name or ("demeter_row1_det" if spacecraft == DEMETER else f"{spacecraft.name}_robust")
+    variant = Variant(tuple(axes), tuple(appendages), model_type, uncertainty_type, wheels, spacecraft)
+    row = demeter_table.run_row(variant, "Det", n_samples=n_samples, convention=convention, progress=progress,
+                                analysis=analysis)
     lines = [demeter_table.markdown([row])]
     r = row.result
     assert isinstance(r, demeter_design.DeterministicResult)  # a "Det" row holds the deterministic design
@@ -504,6 +524,9 @@ def design_demeter(axes: Sequence[int] = (1,), appendages: Sequence[int] = (1,),
     lines.append(f"{c.n} sampled plants (seed {c.seed}): Re s in [{c.min_real_pole:.3g}, {c.max_real_pole:.3g}] 1/s, "
                  f"largest exact H-infinity {c.hinf.max():.4g}, i2p {c.i2p.max():.4g}; H-infinity bound with one "
                  f"Lyapunov matrix: {'none' if common is None else format(common, '.4g')}")
+    if spacecraft != DEMETER:
+        lines.append(f"plant FMU: {demeter.model_name(spacecraft)} (built from the artifact's "
+                     "design.variant.spacecraft; scenarios name it as a model)")
     return Design("demeter", [demeter_design.artifact_data(r, name)], "\n".join(lines), r)
 
 

@@ -45,7 +45,7 @@ from scipy.linalg import expm
 from satfmu.controllers import artifact as artifacts
 from satfmu.fmus.atomic import write_atomically
 from satfmu.fmus.declared import toml_text
-from satfmu.fmus.plants.demeter import WHEEL_MOMENTUM_MAX
+from satfmu.fmus.plants import demeter
 from satfmu.sims.campaign import envelopes
 from satfmu.controllers import paths
 from satfmu.sims.scenario import SHIPPED_SCENARIOS
@@ -249,6 +249,7 @@ def scenario(artifact: str | Path = "demeter_row1_det", *, start: str = "both", 
         raise ValueError(f"limits must be 'linear' or 'wheels', got {limits!r}")
     art, variant = load_design(artifact)
     dm, axis = design_model(variant), variant.axes[0]
+    momentum_limit = variant.spacecraft.wheels.momentum_limit
     plant = {k: v for k, v in dm.fmu_parameters(np.zeros(len(dm.parameters))).items()}
     on_theta, on_rate = STARTS[start]
     plant.update({f"theta_0[{axis}]": THETA_WORST if on_theta else 0.0,
@@ -269,7 +270,8 @@ def scenario(artifact: str | Path = "demeter_row1_det", *, start: str = "both", 
                        "the design's parameter box",
         "reference": "docs/models.md, Seed 004; the artifact's certificate (impulse-to-peak bound w2 -> z2)",
         "record": [xw, theta, f"plant.theta_dot[{axis}]", h_w, f"plant.wheel_saturated[{axis}]"],
-        "fmus": {"plant": {"model": "demeter_flexible", "parameters": plant}, "ctrl": {"model": art.name}},
+        "fmus": {"plant": {"model": demeter.model_name(variant.spacecraft), "parameters": plant},
+                 "ctrl": {"model": art.name}},
         "connections": [{"from": f"plant.{m}", "to": f"ctrl.{m}"} for m in MEASURED]
         + [{"from": "ctrl.u_c", "to": "plant.u_c"}],
         "metrics": [
@@ -280,8 +282,8 @@ def scenario(artifact: str | Path = "demeter_row1_det", *, start: str = "both", 
              "description": "within the worst-case initial attitude error (the loop converges slowly: slowest "
                             "pole -3e-4 1/s; a held command above ~1.5 ms diverges)"},
             {"name": "peak wheel momentum", "kind": "peak", "signals": [h_w], "unit": "N.m.s",
-             "max": WHEEL_MOMENTUM_MAX, "description": "below the wheels' momentum limit satW (the seed: momentum "
-                                                       "saturation is critical)"},
+             "max": momentum_limit, "description": "below the wheels' momentum limit satW (the seed: momentum "
+                                                   "saturation is critical)"},
             {"name": "time at the momentum limit", "kind": "time_in_saturation",
              "signals": [f"plant.wheel_saturated[{axis}]"], "limit": 0.5, "unit": "s", "max": 0.0}],
         "dispersions": dispersions, "campaign": dict(CAMPAIGN)})
@@ -376,7 +378,7 @@ def uniform_points(n_rows: int, points: int) -> int:
 def fmu_parameter(p: UncertainParameter, dm: DesignModel, variant: Variant) -> str:
     """The plant FMU parameter (``"plant.J[1,1]"``, ``"plant.omega[1]"``) that an uncertain parameter
     of the design model sets: a principal inertia (the square of ``p``'s value for ``sqrtJ``), a
-    product of inertia, or the damping or frequency of its mode group's appendage.
+    product of inertia, or the damping or frequency of the spacecraft's mode group it covers.
 
     Parameters
     ----------
@@ -390,16 +392,18 @@ def fmu_parameter(p: UncertainParameter, dm: DesignModel, variant: Variant) -> s
     Raises
     ------
     ValueError
-        A mode group of several appendages (one value for several FMU parameters).
+        A design group covering several of the plant's mode groups (one value for several FMU
+        parameters).
     """
     if p.kind in ("sqrtJ", "Jprod"):
         i, j = sorted(variant.axes[k] for k in (p.index * 2)[:2])
         return f"plant.J[{i},{j}]"
-    appendages = sorted({c // 2 for c in dm.groups[p.index[0]]})
-    if len(appendages) != 1:
-        raise ValueError(f"{variant.label}: {p.name} is shared by appendages {[a + 1 for a in appendages]}; "
+    members = dm.members[p.index[0]]
+    if len(members) != 1:
+        raise ValueError(f"{variant.label}: {p.name} is shared by the plant's mode groups {[g + 1 for g in members]} "
+                         f"(appendages {sorted({variant.spacecraft.groups[g].appendage + 1 for g in members})}); "
                          "a scenario dispersion draws one value per FMU parameter")
-    return f"plant.{p.kind}[{appendages[0] + 1}]"
+    return f"plant.{p.kind}[{members[0] + 1}]"
 
 
 def deltas_of(rows: "pd.DataFrame", dm: DesignModel, variant: Variant) -> np.ndarray:

@@ -29,6 +29,7 @@ from scipy.linalg import matrix_balance
 
 from satfmu.controllers.artifact import design_plant_record
 from satfmu.fmus.plants import demeter
+from satfmu.fmus.plants.flexible_spacecraft import DEMETER
 from satfmu.synthesis.core import solve_policy
 from satfmu.synthesis.core.progress import Progress, Stages
 from satfmu.synthesis.robust.demeter_variants import RATE_WORST, THETA_WORST, DesignModel, Variant, design_model
@@ -72,7 +73,8 @@ def state_scale(dm: DesignModel) -> np.ndarray:
 
     Starts from the sizes in the seed's worst-case manoeuvre (rad for theta (15 deg), rad/s for
     theta' (0.08 deg/s), modal coordinates 0.1, their rates 0.01, xi 10 rad s, xw 0.1 N m s, wheel
-    torque 5e-3 N m (satT), its rate 5e-2 N m/s), then balances the magnitudes of the open-loop
+    torque the wheels' torque limit satT (DEMETER: 5e-3 N m), its rate 10 satT per second), then
+    balances the magnitudes of the open-loop
     couplings ``|A| + |Bp| |Cq|`` (:func:`scipy.linalg.matrix_balance`, powers of 2), so that no
     path of the loop is 10^3 times another: the slow momentum mode (-a) and the stiff flexible
     coupling then stay within the solver's relative accuracy (without this, the robust row-1
@@ -93,7 +95,8 @@ def state_scale(dm: DesignModel) -> np.ndarray:
     parts = [np.full(na, THETA_WORST), np.full(na, RATE_WORST), np.full(nr, 0.1), np.full(nr, 0.01),
              np.full(na, 10.0), np.full(na, 0.1)]
     if dm.variant.wheels:
-        parts += [np.full(na, 5e-3), np.full(na, 5e-2)]
+        sat = dm.variant.spacecraft.wheels.torque_limit
+        parts += [np.full(na, sat), np.full(na, 10 * sat)]
     T0 = np.concatenate(parts)
     L = dm.lft()
     coupling = np.abs(L["A"]) + np.abs(L["Bp"]) @ np.abs(L["Cq"])
@@ -186,21 +189,27 @@ def oscillator(omega: float, zeta: float) -> np.ndarray:
 
 def coincident_modes(variant: Variant) -> CoincidentModes | None:
     """The obstruction of :class:`CoincidentModes`, or None if the variant's groups cannot
-    leave a coordinate undriven (one group, or no more reduced coordinates than axes).
+    leave a coordinate undriven (one group, no more reduced coordinates than axes, groups
+    whose frequency or damping intervals differ, or a known frequency: no sweep).
 
     Parameters
     ----------
     variant : Variant
-        The model variant (its design model is built with the substitute coupling; the
+        The model variant (its design model is built with the spacecraft's coupling; the
         obstruction does not depend on L).
     """
     dm = design_model(variant)
     if len(dm.groups) < 2 or dm.nr <= dm.na:
         return None
-    omega = [p for p in dm.parameters if p.kind == "omega"][0]
-    zeta = [p for p in dm.parameters if p.kind == "zeta"][0]
-    lo, hi = omega.value(-1.0), omega.value(1.0)
-    z = zeta.value(1.0)
+    spacecraft = variant.spacecraft
+    if len({(spacecraft.groups[m[0]].frequency, spacecraft.groups[m[0]].damping) for m in dm.members}) > 1:
+        return None
+    omega = [p for p in dm.parameters if p.kind == "omega"]
+    if not omega:
+        return None
+    zeta = [p for p in dm.parameters if p.kind == "zeta"]
+    lo, hi = omega[0].value(-1.0), omega[0].value(1.0)
+    z = zeta[0].value(1.0) if zeta else dm.fixed[("zeta", (0,))]
     ev = np.linalg.eigvals(oscillator(lo, z) @ oscillator(hi, z))
     return CoincidentModes((lo, hi), z, (hi - lo) / (2 * np.sqrt(lo * hi)), ev, dm.nr - dm.na)
 
@@ -515,6 +524,8 @@ def deterministic(variant: Variant, *, n_samples: int = 100, seed: int = 0, anal
         out.analysis_skipped = a.skipped
         out.note = "; ".join(n for n in (out.note, a.i2p_note) if n)
         out.seconds["analysis"] = a.seconds
+    else:
+        out.analysis_skipped = "Deterministic analysis not run (analysis=False)"
     t0 = time.perf_counter()
     with stages.stage(f"check on {n_samples} sampled plants"):
         out.check = sampled_check(dm, out.K, n_samples, seed)
@@ -523,8 +534,8 @@ def deterministic(variant: Variant, *, n_samples: int = 100, seed: int = 0, anal
 
 
 def design_record(dm: DesignModel) -> dict:
-    """``provenance.design_plant`` of a design over ``dm``'s box: the DEMETER FMU's parameters at
-    the box centre, with the interval each uncertain one spans over the box.
+    """``provenance.design_plant`` of a design over ``dm``'s box: the spacecraft's plant FMU's
+    parameters at the box centre, with the interval each uncertain one spans over the box.
 
     Parameters
     ----------
@@ -540,7 +551,7 @@ def design_record(dm: DesignModel) -> dict:
     centre, lows, highs = (dm.fmu_parameters(np.full(n, d)) for d in (0.0, -1.0, 1.0))
     real = {k: float(v) for k, v in centre.items() if not isinstance(v, bool)}
     ranges = {k: (min(lows[k], highs[k]), max(lows[k], highs[k])) for k in real if lows[k] != highs[k]}
-    return design_plant_record(demeter.model(), list(real), real, ranges)
+    return design_plant_record(demeter.model(dm.variant.spacecraft), list(real), real, ranges)
 
 
 def artifact_data(result: DeterministicResult, name: str) -> dict:
@@ -580,6 +591,8 @@ def artifact_data(result: DeterministicResult, name: str) -> dict:
         if res is not None and res.status == "optimal":
             numbers[key] = getattr(res, attr)
     forms = "satfmu's" if d.convention == "satfmu" else "the R-RoMulOC toolbox's"
+    sc = result.variant.spacecraft
+    seed = sc == DEMETER
     proved = (f"One Lyapunov matrix (quadratic stability, {d.uncertainty} multipliers, {forms} LMI forms and "
               f"objective, re-verified in numpy) "
               f"for the Fig. 3 design model of {result.variant.label}: closed-loop poles in "
@@ -590,14 +603,17 @@ def artifact_data(result: DeterministicResult, name: str) -> dict:
                                     else f"{result.analysis_skipped}. ")
               + f"Sampled: {c.n} plants, seed {c.seed}.")
     return {"format": "satfmu-controller", "format_version": 1, "kind": "linear_state_feedback", "name": name,
-            "description": f"Seed 004 deterministic robust state feedback, {result.variant.label}",
-            "plant": demeter.MODEL.name,
+            "description": f"{'Seed 004' if seed else 'Seed 004 method,'} deterministic robust state feedback, "
+                           f"{result.variant.label}",
+            "plant": demeter.model_name(sc),
             "outputs": [{"name": f"u_c[{i + 1}]", "unit": "N.m", "description": f"Commanded wheel torque, axis {i + 1}"}
                         for i in range(3)],
             "gains": dm.fmu_gains(result.K),
             "certificate": {"status": "certified", "proved": proved, "region": box, "numbers": numbers},
             "provenance": {"source": "satfmu synth demeter (satfmu.synthesis.robust.demeter_design.deterministic)",
-                           "seed": "004, Table 1 Det", "coupling_L": "substitute (docs/models.md)",
+                           "seed": "004, Table 1 Det" if seed else "004's method (Det) for a user's spacecraft",
+                           "coupling_L": "substitute (docs/models.md)" if seed
+                           else f"the spacecraft description ({sc.name}, design.variant.spacecraft)",
                            "design_plant": design_record(dm)},
             "design": {"variant": result.variant.to_dict(),
                        "states": dm.state_names, "K": result.K.tolist(),

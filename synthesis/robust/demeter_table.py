@@ -100,7 +100,7 @@ def _value(res, attr: str) -> float:
 
 
 def run_row(variant: Variant, method: str, *, n_scenarios: int | None = None, seed: int = 0, n_samples: int = 0,
-            convention: str = "satfmu", progress: Progress | None = None) -> Row:
+            convention: str = "satfmu", progress: Progress | None = None, analysis: bool = True) -> Row:
     """Design and analyse one row (module docstring). ``n_scenarios`` overrides the scenario count;
     ``n_samples`` plants are checked after a Det design (``result.check``); the designs' LMIs and
     objective in ``convention`` (:func:`satfmu.synthesis.robust.robust_design.design`).
@@ -119,10 +119,14 @@ def run_row(variant: Variant, method: str, *, n_scenarios: int | None = None, se
     n_samples : int, optional
         Plants of the sampled check after a Det design.
     convention : {"satfmu", "romuloc"}, optional
+        How the levels enter the designs' LMIs and objective.
     progress : callable, optional
         ``progress(done, total, message)`` after each stage of a Det row
         (:func:`satfmu.synthesis.robust.demeter_design.deterministic`).
-        How the levels enter the designs' LMIs and objective.
+    analysis : bool, optional
+        Run the deterministic analysis of a Det row's gain (the parameter-dependent H-infinity
+        bound and the impulse-to-peak bound; minutes for a box of 5 or more parameters). Default
+        True.
 
     Returns
     -------
@@ -140,7 +144,7 @@ def run_row(variant: Variant, method: str, *, n_scenarios: int | None = None, se
     res: demeter_design.DeterministicResult | demeter_random.ScenarioResult
     if method == "Det":
         res = demeter_design.deterministic(variant, n_samples=n_samples, seed=seed, convention=convention,
-                                           progress=progress)
+                                           progress=progress, analysis=analysis)
         design, K = res.design, res.K
         if K is not None:
             row.det_hinf, row.det_i2p = _value(res.analysis_hinf, "gamma"), _value(res.analysis_i2p, "nu")
@@ -264,7 +268,8 @@ def _cell(v: float) -> str:
 
 
 def markdown(rows: list[Row]) -> str:
-    """The table, ours then the seed's value in each cell ("ours / seed").
+    """The table, ours then the seed's value in each cell ("ours / seed"; ours alone in a row
+    that is not one of the seed's, such as a variant of your spacecraft).
 
     Parameters
     ----------
@@ -280,9 +285,12 @@ def markdown(rows: list[Row]) -> str:
             "prob i2p | prob Hinf | seconds | note |")
     lines = [head, "|" + "---|" * 14]
     for r in rows:
-        seed = r.seed if r.seed is not None else (None,) * len(SEED_TABLE1_COLUMNS)
-        cells = [f"{_cell(getattr(r, c))} / {'infeasible' if s is None else _cell(s)}"
-                 for c, s in zip(SEED_TABLE1_COLUMNS, seed)]
+        if _key(r) not in SEED_TABLE1:
+            cells = [_cell(getattr(r, c)) for c in SEED_TABLE1_COLUMNS]
+        else:
+            seed = r.seed if r.seed is not None else (None,) * len(SEED_TABLE1_COLUMNS)
+            cells = [f"{_cell(getattr(r, c))} / {'infeasible' if s is None else _cell(s)}"
+                     for c, s in zip(SEED_TABLE1_COLUMNS, seed)]
         v = r.variant
         lines.append(f"| {','.join(map(str, v.axes))} | {','.join(map(str, v.appendages))} | {v.model_type} | "
                      f"{v.uncertainty_type} | {r.method} | {r.status} | " + " | ".join(cells) + f" | {r.note} |")

@@ -40,7 +40,8 @@ import numpy as np
 
 from satfmu.controllers import state_feedback
 from satfmu.fmus.plants import demeter
-from satfmu.fmus.errors import VariantError
+from satfmu.fmus.errors import SpacecraftError, VariantError
+from satfmu.fmus.plants.flexible_spacecraft import DEMETER, FlexibleSpacecraft, Wheels
 
 PSEUDO_INTEGRATOR_POLE = 1e-3
 """a of the input pseudo-integrator 1/(s + a), 1/s (seed section 3)."""
@@ -48,8 +49,6 @@ THETA_WORST = 15 * np.pi / 180
 """Worst-case initial attitude error, rad (seed: 15 deg)."""
 RATE_WORST = 0.08 * np.pi / 180
 """Worst-case initial rate, rad/s (seed: 0.08 deg/s)."""
-INERTIA_DIAGONAL_SPREAD = 0.3
-INERTIA_PRODUCT_SPREAD = 3.0
 LFT_ROUNDING = 1e-13
 """Entries of an LFT matrix below this times its largest entry are rounding residue, set to 0."""
 
@@ -75,6 +74,16 @@ class Variant:
         1: norm-bounded; 2: intervals; 3: inertia norm-bounded, the rest uniform in intervals.
     wheels : bool
         Reaction-wheel dynamics H(s) in the model.
+    spacecraft : FlexibleSpacecraft, optional
+        The spacecraft whose axes and appendages are selected: its inertia, modes, their
+        intervals (the uncertainty box), wheel limits and dynamics. Default the seed's
+        :data:`~satfmu.fmus.plants.flexible_spacecraft.DEMETER`.
+
+    Raises
+    ------
+    VariantError
+        A selection outside the spacecraft, an unknown type, or ``model_type`` 2 (identical
+        appendages) over appendages whose modes' intervals differ.
     """
 
     axes: tuple[int, ...] = (1,)
@@ -82,10 +91,13 @@ class Variant:
     model_type: int = 1
     uncertainty_type: int = 1
     wheels: bool = True
+    spacecraft: FlexibleSpacecraft = DEMETER
 
     def __post_init__(self) -> None:
+        if not isinstance(self.spacecraft, FlexibleSpacecraft):
+            raise VariantError(f"spacecraft must be a FlexibleSpacecraft, got {self.spacecraft!r}")
         for name, sel, top in (("axes", self.axes, demeter.N_AXES),
-                               ("appendages", self.appendages, demeter.N_APPENDAGES)):
+                               ("appendages", self.appendages, len(self.spacecraft.appendages))):
             if not sel or len(set(sel)) != len(sel) or any(not isinstance(i, (int, np.integer)) or not 1 <= i <= top
                                                           for i in sel):
                 raise VariantError(f"{name} must be distinct integers in 1..{top}, got {sel!r}")
@@ -94,11 +106,25 @@ class Variant:
             raise VariantError(f"model_type must be 1 or 2, got {self.model_type!r}")
         if self.uncertainty_type not in (1, 2, 3):
             raise VariantError(f"uncertainty_type must be 1, 2 or 3, got {self.uncertainty_type!r}")
+        if self.model_type == 2:
+            dynamics = {(g.frequency, g.damping) for g in self.spacecraft.groups
+                        if g.appendage + 1 in self.appendages}
+            if len(dynamics) > 1:
+                raise VariantError(
+                    f"model_type 2 treats appendages {list(self.appendages)} as identical (one frequency and one "
+                    f"damping ratio), but their modes' intervals differ: "
+                    + "; ".join(f"frequency {f.to_value()} rad/s, damping {d.to_value()}" for f, d in sorted(
+                        dynamics, key=lambda fd: (fd[0].low, fd[0].high, fd[1].low)))
+                    + ". Use model_type 1 (each appendage its own)")
 
     def to_dict(self) -> dict:
-        """JSON form (a design artifact's ``design.variant``); :meth:`from_dict` reads it back."""
-        return {"axes": list(self.axes), "appendages": list(self.appendages), "model_type": self.model_type,
-                "uncertainty_type": self.uncertainty_type, "wheels": self.wheels}
+        """JSON form (a design artifact's ``design.variant``; the spacecraft's description
+        unless it is DEMETER); :meth:`from_dict` reads it back."""
+        out = {"axes": list(self.axes), "appendages": list(self.appendages), "model_type": self.model_type,
+               "uncertainty_type": self.uncertainty_type, "wheels": self.wheels}
+        if self.spacecraft != DEMETER:
+            out["spacecraft"] = self.spacecraft.to_dict()
+        return out
 
     @classmethod
     def from_dict(cls, data: dict) -> Variant:
@@ -108,7 +134,9 @@ class Variant:
         ----------
         data : dict
             ``axes`` and ``appendages`` (lists of int, 1-based), ``model_type``,
-            ``uncertainty_type`` (int) and ``wheels`` (bool), as written by :meth:`to_dict`.
+            ``uncertainty_type`` (int), ``wheels`` (bool) and optionally ``spacecraft`` (a
+            :meth:`~satfmu.fmus.plants.flexible_spacecraft.FlexibleSpacecraft.to_dict` form; default
+            DEMETER), as written by :meth:`to_dict`.
 
         Returns
         -------
@@ -120,14 +148,20 @@ class Variant:
             If a key is missing or a value is not valid for :class:`Variant`.
         """
         try:
+            spacecraft = (FlexibleSpacecraft.from_dict(data["spacecraft"], where="spacecraft")
+                          if "spacecraft" in data else DEMETER)
             return cls(tuple(data["axes"]), tuple(data["appendages"]), data["model_type"], data["uncertainty_type"],
-                       bool(data["wheels"]))
+                       bool(data["wheels"]), spacecraft)
         except (KeyError, TypeError) as exc:
             raise VariantError(f"not a variant: {data!r}") from exc
+        except SpacecraftError as exc:
+            raise VariantError(f"not a variant: {exc}") from None
 
     @property
     def label(self) -> str:
-        return (f"axes {','.join(map(str, self.axes))} | appendages {','.join(map(str, self.appendages))} | "
+        """One line naming the selection (and the spacecraft unless it is DEMETER)."""
+        craft = "" if self.spacecraft == DEMETER else f"{self.spacecraft.name} | "
+        return (f"{craft}axes {','.join(map(str, self.axes))} | appendages {','.join(map(str, self.appendages))} | "
                 f"model {self.model_type} | unc {self.uncertainty_type} | wheels {int(self.wheels)}")
 
 
@@ -194,11 +228,11 @@ class DesignModel:
         Names of the ``n`` design states, in order (theta, theta', eta_r, eta_r', xi, xw, and
         the wheel's y, y' with wheels).
     groups : list of list of int
-        Plant flexible coordinates (0-based, of the 8) of each group sharing omega, zeta.
-    L : numpy.ndarray, shape (3, 8)
+        Plant flexible coordinates (0-based columns of L) of each group sharing omega, zeta.
+    L : numpy.ndarray, shape (3, nf)
         Coupling used (dimensionless; columns of unselected appendages and rows of unselected
-        axes zero).
-    Q : numpy.ndarray, shape (nr, 8)
+        axes zero; nf the spacecraft's modes, 8 for DEMETER).
+    Q : numpy.ndarray, shape (nr, nf)
         Reduced flexible coordinates from the plant's: ``eta_r = Q eta``.
     L_r : numpy.ndarray, shape (na, nr)
         Reduced coupling.
@@ -219,6 +253,12 @@ class DesignModel:
         :data:`RATE_WORST` on theta'.
     C2 : numpy.ndarray, shape (na, n)
         Output ``z2 = xw`` (N m s).
+    members : list of list of int, optional
+        The spacecraft's mode groups (:attr:`~satfmu.fmus.plants.flexible_spacecraft.FlexibleSpacecraft.groups`,
+        0-based: the plant FMU's ``zeta[g]``, ``omega[g]``) that each design group covers.
+    fixed : dict, optional
+        The known parameters (an interval of zero width), ``(kind, index)`` -> value, keyed as
+        :class:`UncertainParameter`'s ``kind`` and ``index``, in the unit of its ``nominal``.
     meta : dict, optional
         Free-form annotations; empty by default (satfmu sets and reads none).
     """
@@ -227,11 +267,11 @@ class DesignModel:
     parameters: list[UncertainParameter]
     state_names: list[str]
     groups: list[list[int]]
-    """Plant flexible coordinates (0-based, of the 8) of each group sharing omega, zeta."""
+    """Plant flexible coordinates (0-based columns of L) of each group sharing omega, zeta."""
     L: np.ndarray
-    """Coupling used, 3 x 8 (columns of unselected appendages zero)."""
+    """Coupling used, 3 x nf (columns of unselected appendages zero)."""
     Q: np.ndarray
-    """Reduced flexible coordinates from the plant's: eta_r = Q eta, shape (nr, 8)."""
+    """Reduced flexible coordinates from the plant's: eta_r = Q eta, shape (nr, nf)."""
     L_r: np.ndarray
     """Reduced coupling, (na, nr)."""
     mode_group: np.ndarray
@@ -243,6 +283,8 @@ class DesignModel:
     C1: np.ndarray
     B2: np.ndarray
     C2: np.ndarray
+    members: list[list[int]] = field(default_factory=list)
+    fixed: dict[tuple[str, tuple[int, ...]], float] = field(default_factory=dict)
     meta: dict = field(default_factory=dict)
 
     @property
@@ -283,16 +325,17 @@ class DesignModel:
         J = np.zeros((na, na))
         ng = len(self.groups)
         zeta, omega = np.zeros(ng), np.zeros(ng)
-        for p, d in zip(self.parameters, delta):
-            v = p.value(d)
-            if p.kind == "sqrtJ":
-                S[p.index[0], p.index[0]] = v
-            elif p.kind == "Jprod":
-                J[p.index] = J[p.index[::-1]] = v
-            elif p.kind == "omega":
-                omega[p.index[0]] = v
+        values = [*((kind, index, v) for (kind, index), v in self.fixed.items()),
+                  *((p.kind, p.index, p.value(d)) for p, d in zip(self.parameters, delta))]
+        for kind, index, v in values:
+            if kind == "sqrtJ":
+                S[index[0], index[0]] = v
+            elif kind == "Jprod":
+                J[index] = J[index[::-1]] = v
+            elif kind == "omega":
+                omega[index[0]] = v
             else:
-                zeta[p.index[0]] = v
+                zeta[index[0]] = v
         J += S @ S
         return {"J": J, "S": S, "zeta": zeta, "omega": omega}
 
@@ -357,7 +400,7 @@ class DesignModel:
         v = self.values(delta)
         A0, B0 = demeter.state_space(v["J"], self.L_r, v["zeta"][self.mode_group], v["omega"][self.mode_group],
                                      pairs=False)
-        return _augment(A0, B0, self.na, self.nr, self.variant.wheels)
+        return _augment(A0, B0, self.na, self.nr, self.variant.spacecraft.wheels if self.variant.wheels else None)
 
     def sample(self, n: int, rng: np.random.Generator) -> np.ndarray:
         """``n`` parameter vectors delta, uniform in the box (shape (n, N)).
@@ -372,9 +415,9 @@ class DesignModel:
         return rng.uniform(-1.0, 1.0, (n, len(self.parameters)))
 
     def fmu_parameters(self, delta: np.ndarray) -> dict[str, float | bool]:
-        """Parameters of the plant FMU that make it this variant at ``delta``: unselected axes
-        decoupled (their products of inertia and rows of L zero), unselected appendages
-        removed (their columns of L zero).
+        """Parameters of the spacecraft's plant FMU (:func:`satfmu.fmus.plants.demeter.build`) that
+        make it this variant at ``delta``: unselected axes decoupled (their products of inertia
+        and rows of L zero), unselected appendages removed (their columns of L zero).
 
         Parameters
         ----------
@@ -388,15 +431,14 @@ class DesignModel:
             ``"wheels_on"``.
         """
         v = self.values(delta)
-        J = np.diag(np.diag(demeter.J0)).astype(float)
+        sc = self.variant.spacecraft
+        J = np.diag(np.diag(sc.tensor)).astype(float)
         ax = [a - 1 for a in self.variant.axes]
         J[np.ix_(ax, ax)] = v["J"]
-        zeta = np.full(demeter.N_APPENDAGES, demeter.ZETA_NOMINAL)
-        omega = np.full(demeter.N_APPENDAGES, demeter.OMEGA_NOMINAL)
-        for g, cols in enumerate(self.groups):
-            for a in {c // 2 for c in cols}:
-                zeta[a], omega[a] = v["zeta"][g], v["omega"][g]
-        out = demeter.parameter_values(J, self.L, zeta, omega)
+        zeta, omega = sc.nominal_damping.copy(), sc.nominal_frequency.copy()
+        for g, members in enumerate(self.members):
+            zeta[members], omega[members] = v["zeta"][g], v["omega"][g]
+        out = demeter.parameter_values(J, self.L, zeta, omega, spacecraft=sc)
         out["wheels_on"] = bool(self.variant.wheels)
         return out
 
@@ -451,11 +493,12 @@ class DesignModel:
             raise VariantError(str(exc)) from None
 
 
-def _augment(A0: np.ndarray, B0: np.ndarray, na: int, nr: int, wheels: bool
+def _augment(A0: np.ndarray, B0: np.ndarray, na: int, nr: int, wheels: Wheels | None
              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Plant (theta, theta', eta_r, eta_r') + xi, xw (+ y, y'): the design model's A, Bu, B1."""
+    """Plant (theta, theta', eta_r, eta_r') + xi, xw (+ y, y' of ``wheels``, None: no wheel
+    dynamics): the design model's A, Bu, B1."""
     npl = A0.shape[0]
-    nw = 2 * na if wheels else 0
+    nw = 2 * na if wheels is not None else 0
     n = npl + 2 * na + nw
     A = np.zeros((n, n))
     Bu = np.zeros((n, na))
@@ -466,9 +509,9 @@ def _augment(A0: np.ndarray, B0: np.ndarray, na: int, nr: int, wheels: bool
     A[xi:xi + na, :na] = np.eye(na)
     A[xw:xw + na, xw:xw + na] = -PSEUDO_INTEGRATOR_POLE * np.eye(na)
     Bu[xw:xw + na] = np.eye(na)
-    if wheels:
+    if wheels is not None:
         y, yd = xw + na, xw + 2 * na
-        wn2, c = _wheel_coefficients()
+        wn2, c = _wheel_coefficients(wheels)
         A[:npl, y:y + na] = B0
         A[y:y + na, yd:yd + na] = np.eye(na)
         A[yd:yd + na, y:y + na] = -wn2 * np.eye(na)
@@ -481,14 +524,72 @@ def _augment(A0: np.ndarray, B0: np.ndarray, na: int, nr: int, wheels: bool
     return A, Bu, B1
 
 
-def _wheel_coefficients() -> tuple[float, float]:
+def _wheel_coefficients(wheels: Wheels) -> tuple[float, float]:
     """``(wn^2, 2 zw wn)`` of the wheel ``y'' = wn^2 (u_c - y) - 2 zw wn y'`` (the plant's H(s))."""
-    Aw, _, _ = demeter.wheel_state_space()
+    Aw, _, _ = demeter.wheel_state_space(wheels.natural_frequency, wheels.damping)
     return -Aw[2, 1], -Aw[2, 2]
+
+
+def _group_tag(spacecraft: FlexibleSpacecraft, g: int) -> str:
+    """The suffix naming the spacecraft's mode group ``g`` (0-based): the appendage's number for
+    shared dynamics (``"2"``), else the appendage's and the mode's (``"2_1"``)."""
+    group = spacecraft.groups[g]
+    if group.kind is None:
+        return f"{group.appendage + 1}"
+    first = sum(len(a.modes) for a in spacecraft.appendages[:group.appendage])
+    return f"{group.appendage + 1}_{group.columns[0] - first + 1}"
+
+
+def _members(spacecraft: FlexibleSpacecraft, groups: list[list[int]]) -> list[list[int]]:
+    """The spacecraft's mode groups (0-based) that each design group's coordinates cover."""
+    return [[k for k, g in enumerate(spacecraft.groups) if set(g.columns) <= set(cols)] for cols in groups]
+
+
+def _box(variant: Variant) -> tuple[list[UncertainParameter], dict[tuple[str, tuple[int, ...]], float]]:
+    """The uncertain parameters of a variant in the order of delta, and the known ones (an
+    interval of zero width) by ``(kind, index)``."""
+    sc = variant.spacecraft
+    ax = [a - 1 for a in variant.axes]
+    unc = sc.inertia_uncertainty
+    spread, product = (0.0, 0.0) if unc is None else (unc.moment_spread, unc.product_spread)
+    inertia = "norm-bounded" if variant.uncertainty_type in (1, 3) else "uniform"
+    modes = "norm-bounded" if variant.uncertainty_type == 1 else "uniform"
+    out: list[UncertainParameter] = []
+    fixed: dict[tuple[str, tuple[int, ...]], float] = {}
+
+    def add(name: str, kind: str, index: tuple[int, ...], centre: float, half: float, distribution: str) -> None:
+        if half > 0:
+            out.append(UncertainParameter(name, kind, index, centre, half, distribution))
+        else:
+            fixed[(kind, index)] = centre
+
+    def interval(lo: float, hi: float) -> tuple[float, float]:
+        return (lo + hi) / 2, (hi - lo) / 2
+
+    for k, i in enumerate(ax):
+        add(f"sqrtJ{i + 1}{i + 1}", "sqrtJ", (k,), *interval(float(np.sqrt((1 - spread) * sc.tensor[i, i])),
+                                                            float(np.sqrt((1 + spread) * sc.tensor[i, i]))), inertia)
+    for k1 in range(len(ax)):
+        for k2 in range(k1 + 1, len(ax)):
+            i, j = ax[k1], ax[k2]
+            add(f"J{i + 1}{j + 1}", "Jprod", (k1, k2), float(sc.tensor[i, j]), product, inertia)
+    groups = state_feedback.flexible_groups(sc, variant.appendages, variant.model_type)
+    for g, members in enumerate(_members(sc, groups)):
+        tag = "" if len(groups) == 1 else _group_tag(sc, members[0])
+        first = sc.groups[members[0]]  # model_type 2: every member has the same intervals (Variant checks)
+        add(f"omega{tag}", "omega", (g,), *interval(first.frequency.low, first.frequency.high), modes)
+        add(f"zeta{tag}", "zeta", (g,), *interval(first.damping.low, first.damping.high), modes)
+    return out, fixed
 
 
 def parameters(variant: Variant) -> list[UncertainParameter]:
     """The uncertain parameters of a variant, in the order of delta.
+
+    The box comes from the variant's spacecraft: the roots of the principal inertias of the
+    selected axes over ``[(1 - s) J_ii, (1 + s) J_ii]`` and their products over ``J_ij +- p``
+    (its :class:`~satfmu.fmus.plants.flexible_spacecraft.InertiaUncertainty`; DEMETER: 30 %,
+    3 kg m^2), the natural frequency and damping ratio of each mode group over their
+    intervals. A parameter whose interval has zero width is known and not in the list.
 
     Parameters
     ----------
@@ -501,39 +602,19 @@ def parameters(variant: Variant) -> list[UncertainParameter]:
     list of UncertainParameter
         Roots of the principal inertias, products of inertia, then omega and zeta of each group.
     """
-    ax = [a - 1 for a in variant.axes]
-    inertia = "norm-bounded" if variant.uncertainty_type in (1, 3) else "uniform"
-    modes = "norm-bounded" if variant.uncertainty_type == 1 else "uniform"
-    out = []
-    for k, i in enumerate(ax):
-        lo, hi = (np.sqrt((1 - INERTIA_DIAGONAL_SPREAD) * demeter.J0[i, i]),
-                  np.sqrt((1 + INERTIA_DIAGONAL_SPREAD) * demeter.J0[i, i]))
-        out.append(UncertainParameter(f"sqrtJ{i + 1}{i + 1}", "sqrtJ", (k,), (lo + hi) / 2, (hi - lo) / 2, inertia))
-    for k1 in range(len(ax)):
-        for k2 in range(k1 + 1, len(ax)):
-            i, j = ax[k1], ax[k2]
-            out.append(UncertainParameter(f"J{i + 1}{j + 1}", "Jprod", (k1, k2), float(demeter.J0[i, j]),
-                                          INERTIA_PRODUCT_SPREAD, inertia))
-    ngr = len(state_feedback.flexible_groups(variant.appendages, variant.model_type))
-    for g in range(ngr):
-        tag = "" if ngr == 1 else f"{variant.appendages[g]}"
-        lo, hi = demeter.OMEGA_RANGE
-        out.append(UncertainParameter(f"omega{tag}", "omega", (g,), (lo + hi) / 2, (hi - lo) / 2, modes))
-        lo, hi = demeter.ZETA_RANGE
-        out.append(UncertainParameter(f"zeta{tag}", "zeta", (g,), (lo + hi) / 2, (hi - lo) / 2, modes))
-    return out
+    return _box(variant)[0]
 
 
 def design_model(variant: Variant, L: np.ndarray | None = None) -> DesignModel:
-    """The uncertain design model of ``variant`` (coupling ``L``, default the substitute).
+    """The uncertain design model of ``variant`` (coupling ``L``, default the spacecraft's).
 
     Parameters
     ----------
     variant : Variant
         The model variant.
-    L : numpy.ndarray, shape (3, 8), optional
-        Coupling of the 3 axes with the 8 flexible coordinates (dimensionless); default
-        :data:`satfmu.fmus.plants.demeter.L_SUBSTITUTE`.
+    L : numpy.ndarray, shape (3, nf), optional
+        Coupling of the 3 axes with the spacecraft's nf flexible coordinates (dimensionless);
+        default the spacecraft's own (DEMETER: :data:`satfmu.fmus.plants.demeter.L_SUBSTITUTE`).
 
     Returns
     -------
@@ -542,21 +623,32 @@ def design_model(variant: Variant, L: np.ndarray | None = None) -> DesignModel:
     Raises
     ------
     VariantError
-        If ``L`` is not a finite 3 x 8 matrix.
+        If ``L`` is not a finite 3 x nf matrix, or nothing in the variant is uncertain (a
+        robust design needs a box: give the spacecraft an inertia uncertainty or a mode an
+        interval).
     """
-    L_full = demeter.L_SUBSTITUTE if L is None else np.asarray(L, float)
-    if L_full.shape != (demeter.N_AXES, demeter.N_FLEX) or not np.all(np.isfinite(L_full)):
-        raise VariantError(f"L must be a finite 3 x 8 matrix, got shape {np.shape(L_full)}")
+    sc = variant.spacecraft
+    L_full = sc.coupling if L is None else np.asarray(L, float)
+    if L_full.shape != (demeter.N_AXES, len(sc.modes)) or not np.all(np.isfinite(L_full)):
+        raise VariantError(f"L must be a finite 3 x {len(sc.modes)} matrix, got shape {np.shape(L_full)}")
+    params, fixed = _box(variant)
+    if not params:
+        raise VariantError(f"{variant.label}: nothing is uncertain (every interval has zero width): a robust design "
+                           f"needs a box; give {sc.name} an [inertia_uncertainty] or its modes' frequency or damping "
+                           "an interval")
     ax = [a - 1 for a in variant.axes]
-    groups = state_feedback.flexible_groups(variant.appendages, variant.model_type)
+    groups = state_feedback.flexible_groups(sc, variant.appendages, variant.model_type)
     L_used = np.zeros_like(L_full)
     L_used[np.ix_(ax, sum(groups, []))] = L_full[np.ix_(ax, sum(groups, []))]
     L_r, Q, mode_group = state_feedback.reduction(variant.axes, groups, L_full)
-    return _assemble(variant, parameters(variant), groups, L_used, Q, L_r, mode_group)
+    dm = _assemble(variant, params, fixed, groups, L_used, Q, L_r, mode_group)
+    dm.members = _members(sc, groups)
+    return dm
 
 
-def _assemble(variant: Variant, params: list[UncertainParameter], groups: list[list[int]], L_used: np.ndarray,
-              Q: np.ndarray, L_r: np.ndarray, mode_group: np.ndarray) -> DesignModel:
+def _assemble(variant: Variant, params: list[UncertainParameter], fixed: dict[tuple[str, tuple[int, ...]], float],
+              groups: list[list[int]], L_used: np.ndarray, Q: np.ndarray, L_r: np.ndarray,
+              mode_group: np.ndarray) -> DesignModel:
     """The affine descriptor of the design model (columns x', x, v, u, w1)."""
     na, nr = L_r.shape
     wheels = variant.wheels
@@ -576,11 +668,11 @@ def _assemble(variant: Variant, params: list[UncertainParameter], groups: list[l
     N0 = np.zeros((rows, cols))
     Nk = np.zeros((len(params), rows, cols))
 
-    def coef(kind: str, index: tuple[int, ...]) -> tuple[float, float, int]:
+    def coef(kind: str, index: tuple[int, ...]) -> tuple[float, float, int | None]:
         for k, p in enumerate(params):
             if p.kind == kind and p.index == index:
                 return p.nominal, p.half_width, k
-        raise KeyError((kind, index))
+        return fixed[(kind, index)], 0.0, None
 
     r = 0
 
@@ -647,7 +739,7 @@ def _assemble(variant: Variant, params: list[UncertainParameter], groups: list[l
         add(r, U + i, -1.0)
         r += 1
     if wheels:
-        wn2, cw = _wheel_coefficients()
+        wn2, cw = _wheel_coefficients(variant.spacecraft.wheels)
         for i in range(na):
             add(r, XD + y[i], 1.0)
             add(r, X + yd[i], -1.0)
@@ -668,7 +760,8 @@ def _assemble(variant: Variant, params: list[UncertainParameter], groups: list[l
         B2[thd[i], 2 * i + 1] = RATE_WORST
     C2 = np.zeros((na, n))
     C2[:, xw] = np.eye(na)
-    return DesignModel(variant, params, names, groups, L_used, Q, L_r, mode_group, N0, Nk, n, n_v, C1, B2, C2)
+    return DesignModel(variant, params, names, groups, L_used, Q, L_r, mode_group, N0, Nk, n, n_v, C1, B2, C2,
+                       fixed=dict(fixed))
 
 
 _INF = float("inf")
