@@ -1,15 +1,18 @@
 """The "methods x spacecraft" table of issue 53: every design method of the five seed papers tried
-on three spacecraft.
+on three rigid spacecraft and a flexible one.
 
 One row per (method, spacecraft): the outcome (the artifact's certificate status when the design
 returns, usually ``certified``; ``refused`` when it raises :class:`satfmu.DesignError`; ``not
-offered`` when the method takes no spacecraft), its key numbers or the refusal's reason (the
+applicable`` when the method is for the other kind of spacecraft: seed 004's for a flexible
+spacecraft with reaction wheels, the others for a rigid body), its key numbers or the refusal's reason (the
 message's first 200 characters), the design's wall time, and whether the designed controller's
 FMU closed loop passes a short scenario on that spacecraft.
 
 Spacecraft: ``seed_000`` (:data:`satfmu.SEED_000`, diag(15, 16, 12.5) kg m^2, 5 N m), ``bus``
-(200 kg class, products of inertia, 20 N m) and ``cubesat_3u`` (diag(0.01, 0.05, 0.05) kg m^2,
-0.01 N m, 0.2 A m^2).
+(200 kg class, products of inertia, 20 N m), ``cubesat_3u`` (diag(0.01, 0.05, 0.05) kg m^2,
+0.01 N m, 0.2 A m^2) and ``my_flex`` (the flexible spacecraft of
+``examples/my_flexible_spacecraft.toml``: 60 kg m^2 hub with products of inertia, a solar array
+with bending and torsion modes of their own, an antenna boom, wheels of 0.02 N m and 0.5 N m s).
 
 Methods (:mod:`satfmu.synthesis.designs`):
 
@@ -25,8 +28,10 @@ Methods (:mod:`satfmu.synthesis.designs`):
   degree and off-sample error, the certified region.
 - ``periodic``: seed 003, :func:`satfmu.design_cubesat_periodic` (principal axes only). Numbers:
   gamma and the summary's first line.
-- ``robust``: seed 004, :func:`satfmu.design_demeter`: "not offered" while it has no ``plant``
-  parameter (issue 53 item 3), as ``sdre``.
+- ``robust``: seed 004, :func:`satfmu.design_demeter` on axis 1 with both appendages of
+  ``my_flex`` (norm-bounded box, wheel dynamics), its deterministic analysis only with ``--full``
+  (minutes for this 7-parameter box). Numbers: the design's H-infinity and impulse-to-peak bounds
+  over the box, the sampled check.
 
 Closed loop (``hinf`` and ``h2hinf``, when designed): the artifact is written into a temporary
 satfmu home (``$SATFMU_HOME`` is set to a temporary folder for the whole run, so nothing reaches
@@ -34,7 +39,11 @@ the user's folder; FMUs are built there on demand) and the 90 deg rest-to-rest m
 through the native FMUs (plant ``mrp_satellite`` with the spacecraft's parameters, no
 saturation) for 120 s (seed_000), 300 s (bus) or 120 s (cubesat_3u). It passes when the angle
 error at the end is below :data:`ANGLE_BOUND_DEG` and the peak torque within the spacecraft's
-torque limit. The other methods' controllers are not run.
+torque limit. ``robust``: the worst initial error (15 deg, 0.08 deg/s on axis 1) through the
+native FMUs of the flexible plant (built from the artifact's description, wheel limits on) and
+the controller, 60 s at 1 ms (:func:`satfmu.sims.workflows.demeter_loops.scenario`: the
+certified impulse-to-peak bound on the wheel-momentum proxy, the wheel momentum below its limit,
+the attitude within the initial error). The periodic controllers are not run.
 
 Prints the table as Markdown (and the total wall time), writes it with ``--out`` and the raw rows
 as JSON with ``--json``; progress goes to stderr. The reduced table took 272 s on 2 shared
@@ -45,7 +54,6 @@ cores::
 from __future__ import annotations
 
 import argparse
-import inspect
 import json
 import math
 import os
@@ -59,12 +67,15 @@ from typing import Any, Callable, Sequence
 
 import satfmu
 from satfmu.controllers import mrp_servo_sdc
+from satfmu.sims.workflows import demeter_loops
 from satfmu.synthesis import designs
 
-SPACECRAFT: dict[str, satfmu.Spacecraft] = {
+FLEXIBLE = Path(__file__).resolve().parents[1] / "examples" / "my_flexible_spacecraft.toml"
+SPACECRAFT: dict[str, satfmu.Spacecraft | satfmu.FlexibleSpacecraft] = {
     "seed_000": satfmu.SEED_000,
     "bus": satfmu.Spacecraft("bus", [[100.0, 2.0, -1.0], [2.0, 120.0, 0.5], [-1.0, 0.5, 80.0]], torque_limit=20.0),
     "cubesat_3u": satfmu.Spacecraft("cubesat_3u", [0.01, 0.05, 0.05], torque_limit=1e-2, dipole_limit=0.2),
+    "my_flex": satfmu.FlexibleSpacecraft.from_toml(FLEXIBLE),
 }
 """The table's columns: name -> spacecraft."""
 METHODS: dict[str, str] = {
@@ -75,8 +86,10 @@ METHODS: dict[str, str] = {
     "robust": "004 design_demeter",
 }
 """Method key (``--only``) -> its label in the table (seed number and design function)."""
-NOT_OFFERED_ISSUE = {"robust": "issue 53 item 3"}
-"""Methods that may not take a spacecraft yet -> the item of issue 53 that asks for it."""
+FLEXIBLE_METHODS = ("robust",)
+"""The methods for a flexible spacecraft (:class:`satfmu.FlexibleSpacecraft`); the others take a rigid one."""
+ROBUST_AXES, ROBUST_APPENDAGES = (1,), (1, 2)
+"""The robust design's variant on a flexible spacecraft."""
 H2HINF_GAMMA = {"seed_000": 0.7, "bus": 0.7, "cubesat_3u": 100.0}
 """The L2-gain bound of seed 001's design per spacecraft."""
 STOP_TIME = {"seed_000": 120.0, "bus": 300.0, "cubesat_3u": 120.0}
@@ -97,9 +110,9 @@ class Row:
     method, spacecraft : str
         Keys of :data:`METHODS` and :data:`SPACECRAFT`.
     outcome : str
-        The certificate status of a design (``"certified"``, ...), ``"refused"`` or ``"not offered"``.
+        The certificate status of a design (``"certified"``, ...), ``"refused"`` or ``"not applicable"``.
     numbers : str
-        Key numbers of the design, the refusal's reason, or why the method is not offered.
+        Key numbers of the design, the refusal's reason, or why the method does not apply.
     seconds : float or None
         Wall time of the design call, s (None: not run).
     closed_loop : str
@@ -115,22 +128,6 @@ class Row:
     seconds: float | None
     closed_loop: str = "not run"
     details: dict[str, Any] = field(default_factory=dict)
-
-
-def offers_plant(function: Callable[..., Any]) -> bool:
-    """Whether a design function takes a spacecraft: it has a parameter named ``plant``.
-
-    Parameters
-    ----------
-    function : callable
-        A design function (its ``functools.wraps`` wrapper is seen through).
-
-    Returns
-    -------
-    bool
-        True if ``inspect.signature(function)`` has a ``plant`` parameter.
-    """
-    return "plant" in inspect.signature(function).parameters
 
 
 def shorten(text: str, limit: int = REASON_CHARS) -> str:
@@ -179,26 +176,27 @@ def markdown(rows: Sequence[Row]) -> str:
     return "\n".join(lines)
 
 
-def not_offered(method: str, spacecraft: str, function: Callable[..., Any]) -> Row | None:
-    """The "not offered" row of ``method`` on ``spacecraft`` if ``function`` takes no ``plant``, else None.
+def not_applicable(method: str, spacecraft: str) -> Row | None:
+    """The "not applicable" row of ``method`` on ``spacecraft`` when the method is for the other
+    kind of spacecraft (:data:`FLEXIBLE_METHODS`), else None.
 
     Parameters
     ----------
     method, spacecraft : str
         Keys of :data:`METHODS` and :data:`SPACECRAFT`.
-    function : callable
-        The method's design function.
 
     Returns
     -------
     Row or None
-        The row (nothing run) or None when the method takes a spacecraft.
+        The row (nothing run) or None when the method applies.
     """
-    if offers_plant(function):
+    flexible = isinstance(SPACECRAFT[spacecraft], satfmu.FlexibleSpacecraft)
+    if (method in FLEXIBLE_METHODS) == flexible:
         return None
-    issue = NOT_OFFERED_ISSUE.get(method, "issue 53")
-    return Row(method, spacecraft, "not offered", f"not offered ({issue}): {function.__name__} takes no plant",
-               None, "not run", {"signature": str(inspect.signature(function))})
+    why = ("a rigid spacecraft: seed 004's method designs for flexible appendages and reaction wheels "
+           "(satfmu.FlexibleSpacecraft)" if not flexible else
+           "a flexible spacecraft: this method designs for a rigid body (satfmu.Spacecraft)")
+    return Row(method, spacecraft, "not applicable", why, None, "not run")
 
 
 def scenario(controller: str, spacecraft: satfmu.Spacecraft, stop_time: float, servo: bool = False) -> satfmu.Scenario:
@@ -281,6 +279,35 @@ def closed_loop(design: satfmu.Design, spacecraft: satfmu.Spacecraft, stop_time:
     return text, details
 
 
+def flexible_loop(design: satfmu.Design) -> tuple[str, dict[str, Any]]:
+    """Write a robust design's artifact into the user's artifact folder (the run's temporary home)
+    and fly its worst initial error through the FMUs (:func:`satfmu.sims.workflows.demeter_loops.scenario`).
+
+    Parameters
+    ----------
+    design : Design
+        A returned seed 004 design for a flexible spacecraft.
+
+    Returns
+    -------
+    str
+        ``"pass: ..."`` or ``"FAIL: ..."`` with the peak of the wheel-momentum proxy against its
+        certified bound and the peak wheel momentum against the limit.
+    dict
+        The metrics' values, bounds and pass/fail, and the run's wall time.
+    """
+    design.write(satfmu.user_artifacts(), fmu_dir=None)
+    t0 = time.perf_counter()
+    result = satfmu.run(demeter_loops.scenario(design.names[0], start="both"))
+    m = {x.name: x for x in result.metrics}
+    xw, h = m["peak |z2| = |xw|"], m["peak wheel momentum"]
+    text = (f"{'pass' if result.passed else 'FAIL'}: peak xw {xw.value:.3g} (bound {xw.max:.3g}) N m s, "
+            f"wheel momentum {h.value:.3g} of {h.max:g} N m s, theta(60 s) {m['|theta| at the end'].value:.3g} rad")
+    return text, {"passed": result.passed, "seconds": time.perf_counter() - t0,
+                  "metrics": {x.name: {"value": x.value, "max": x.max, "unit": x.unit, "passed": x.passed}
+                              for x in result.metrics}}
+
+
 def design_row(method: str, name: str, full: bool) -> Row:
     """Run ``method`` on the spacecraft ``name`` and make its row (closed loop included).
 
@@ -296,12 +323,19 @@ def design_row(method: str, name: str, full: bool) -> Row:
     Returns
     -------
     Row
-        The row; a :class:`satfmu.DesignError` becomes a "refused" row (any other error propagates).
+        The row; a :class:`satfmu.DesignError` becomes a "refused" row (any other error propagates);
+        a method for the other kind of spacecraft, a "not applicable" row (:func:`not_applicable`).
     """
+    row = not_applicable(method, name)
+    if row is not None:
+        return row
     craft = SPACECRAFT[name]
     artifact = f"table_{method}_{name}"
     call: Callable[[], satfmu.Design]
-    if method == "hinf":
+    if isinstance(craft, satfmu.FlexibleSpacecraft):
+        call = lambda: designs.design_demeter(ROBUST_AXES, ROBUST_APPENDAGES, plant=craft,  # noqa: E731
+                                              name=artifact, analysis=full)
+    elif method == "hinf":
         reduced: dict[str, Any] = {} if full else {"decay_rates": (0.02,), "n_samples": 5_000}
         call = lambda: designs.design_hinf(  # noqa: E731
             craft, name=artifact, start=satfmu.manoeuvre(MANOEUVRE_DEG, axis=MANOEUVRE_AXIS),
@@ -313,15 +347,6 @@ def design_row(method: str, name: str, full: bool) -> Row:
         call = lambda: designs.design_cubesat_periodic(plant=craft, name=artifact)  # noqa: E731
     elif method == "sdre":
         call = lambda: designs.design_sdre(craft, name=artifact)  # noqa: E731
-    elif method == "robust":
-        function = designs.design_demeter
-        row = not_offered(method, name, function)
-        if row is not None:
-            return row
-        kwargs: dict[str, Any] = {"plant": craft}
-        if "name" in inspect.signature(function).parameters:
-            kwargs["name"] = artifact
-        call = lambda: function(**kwargs)  # noqa: E731
     else:
         raise ValueError(f"unknown method {method!r} (known: {', '.join(METHODS)})")
     gamma_note = f"gamma = {H2HINF_GAMMA[name]:g}: " if method == "h2hinf" else ""
@@ -356,9 +381,15 @@ def design_row(method: str, name: str, full: bool) -> Row:
         numbers = f"gamma = {gamma:.4g}; {shorten(first, 160)}"
         details["gamma"] = gamma
     else:
-        numbers = shorten(first, 160)
+        n, check = cert["numbers"], design.result.check
+        numbers = (f"axis 1, appendages 1-2, {len(cert['region'].split(' in ')) - 1} parameters: H-inf < "
+                   f"{n['design_hinf_bound']:.4g} rad/(N m), i2p < {n['design_i2p_bound']:.4g} N m s; "
+                   f"{check.n} sampled plants: H-inf {n['sampled_max_hinf']:.4g}, i2p {n['sampled_max_i2p']:.4g}, "
+                   f"max Re s {n['sampled_max_real_pole']:.2g} 1/s")
     row = Row(method, name, status, numbers, seconds, "not run", details)
-    if method in ("hinf", "h2hinf", "sdre"):
+    if isinstance(craft, satfmu.FlexibleSpacecraft):
+        row.closed_loop, row.details["closed_loop"] = flexible_loop(design)
+    elif method in ("hinf", "h2hinf", "sdre"):
         row.closed_loop, row.details["closed_loop"] = closed_loop(design, craft, STOP_TIME[name],
                                                                   servo=method == "sdre")
     elif method == "periodic":

@@ -146,10 +146,17 @@ def flexible_groups(spacecraft: FlexibleSpacecraft, appendages: Sequence[int], m
     return [sum(cols, [])] if model_type == 2 else cols
 
 
+COUPLING_RANK_TOL = 1e-9
+"""Singular values of a group's coupling below this times the largest are zero (:func:`reduce_coupling`)."""
+
+
 def reduce_coupling(L_g: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Reduced coupling and projection of one group: ``(L_r, Q)`` with ``L_g eta = L_r (Q eta)``,
-    ``L_r = (L_g L_g^T)^(1/2)`` and ``Q = L_r^-1 L_g`` (orthonormal rows) when the group has
-    more coordinates than axes, else ``(L_g, I)``.
+    """Reduced coupling and projection of one group: ``(L_r, Q)`` with ``L_g eta = L_r (Q eta)``
+    and Q of orthonormal rows. With no more coordinates than axes, ``(L_g, I)``; with more and
+    ``L_g`` of full row rank, ``L_r = (L_g L_g^T)^(1/2)``, ``Q = L_r^-1 L_g`` (the seed's
+    section 2.6); with more and a lower rank r (couplings along fewer directions than axes),
+    the r leading singular directions ``L_g = U S V^T``: ``L_r = U_r S_r``, ``Q = V_r^T``. The
+    other combinations of the coordinates do not reach the body.
 
     Parameters
     ----------
@@ -159,15 +166,20 @@ def reduce_coupling(L_g: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     Returns
     -------
     L_r : numpy.ndarray, shape (n_axes, n_reduced)
-        Reduced coupling, ``n_reduced = min(n_axes, n_coords)``.
+        Reduced coupling: ``n_reduced = n_coords`` up to ``n_axes``, else the rank of ``L_g``
+        (0 for a group that does not couple to the axes).
     Q : numpy.ndarray, shape (n_reduced, n_coords)
         Projection onto the reduced coordinates.
     """
     na, nc = L_g.shape
     if nc <= na:
         return L_g.copy(), np.eye(nc)
-    L_r = np.real(sqrtm(L_g @ L_g.T))
-    return L_r, np.linalg.solve(L_r, L_g)
+    U, sv, Vt = np.linalg.svd(L_g, full_matrices=False)
+    rank = int(np.sum(sv > COUPLING_RANK_TOL * sv[0])) if sv[0] > 0 else 0
+    if rank == na:
+        L_r = np.real(sqrtm(L_g @ L_g.T))
+        return L_r, np.linalg.solve(L_r, L_g)
+    return U[:, :rank] * sv[:rank], Vt[:rank]
 
 
 def reduction(axes: Sequence[int], groups: list[list[int]], L: np.ndarray

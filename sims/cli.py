@@ -17,9 +17,9 @@ Usage::
     satfmu synth mrp-sdre [--spacecraft FILE] [--s-max S] [--w-max W] [--max-degree 2] [--skip-region] [--name ...]
     satfmu synth vscmg-sdre [--grid 23 25] [--max-degree 8] [--cv-tol TOL] [--out ...] [--fmu-dir DIR]
     satfmu synth cubesat-periodic [--gamma G] [--out ...] [--fmu-dir DIR]
-    satfmu synth demeter [--axes 1] [--appendages 1] [--model-type 1] [--uncertainty-type 1] [--no-wheels]
-                         [--samples 100] [--name demeter_row1_det] [--convention satfmu|romuloc] [--out ...]
-                         [--fmu-dir DIR]
+    satfmu synth demeter [--spacecraft FILE] [--axes 1] [--appendages 1] [--model-type 1] [--uncertainty-type 1]
+                         [--no-wheels] [--samples 100] [--skip-analysis] [--name demeter_row1_det]
+                         [--convention satfmu|romuloc] [--out ...] [--fmu-dir DIR]
     satfmu table1 [--rows 1 2 ...] [--scenarios N] [--convention satfmu|romuloc|both] [--compare] [--out results/table1]
     satfmu figures demeter [--artifact demeter_row1_det] [--samples 100] [--stop 60] [--step 0.001] [--fmu-dir DIR]
                            [--out results/demeter]
@@ -325,12 +325,15 @@ def _synth_cubesat(args: argparse.Namespace) -> int:
 
 
 def _synth_demeter(args: argparse.Namespace) -> int:
+    from satfmu.fmus.plants.flexible_spacecraft import FlexibleSpacecraft
     from satfmu.synthesis import designs
 
+    plant = FlexibleSpacecraft.from_toml(args.spacecraft) if args.spacecraft else None
     try:
         design = designs.design_demeter(args.axes, args.appendages, args.model_type, args.uncertainty_type,
-                                        not args.no_wheels, name=args.name, n_samples=args.samples,
-                                        convention=args.convention, progress=_progress)
+                                        not args.no_wheels, plant=plant, name=args.name, n_samples=args.samples,
+                                        convention=args.convention, analysis=not args.skip_analysis,
+                                        progress=_progress)
     except designs.DesignError as exc:
         if exc.__cause__ is not None:  # bad input or an error of a step: exit 2 as any other
             raise
@@ -574,8 +577,12 @@ def parser() -> argparse.ArgumentParser:
     cs.add_argument("--published-name", default="cubesat_periodic_published",
                     help="artifact and FMU name of the published gains")
     cs.set_defaults(fn=_synth_cubesat)
-    dm = command(designs, "demeter",
-                 "seed 004: deterministic robust state feedback of a DEMETER variant (Table 1 Det)", parents=[out])
+    dm = command(designs, "demeter", "seed 004: deterministic robust state feedback of a variant of DEMETER or of "
+                                     "your flexible spacecraft (Table 1 Det)", parents=[out])
+    dm.add_argument("--spacecraft", metavar="FILE", default=None,
+                    help="flexible spacecraft TOML file (hub inertia and its uncertainty, appendages with their "
+                         "modes' coupling, frequency and damping intervals, wheel limits; docs/models.md) to design "
+                         "for (default: DEMETER, the seed's)")
     dm.add_argument("--axes", type=_positive_int, nargs="+", default=[1], help="axes, 1-based")
     dm.add_argument("--appendages", type=_positive_int, nargs="+", default=[1], help="appendages, 1-based")
     dm.add_argument("--model-type", type=int, choices=[1, 2], default=1,
@@ -584,7 +591,11 @@ def parser() -> argparse.ArgumentParser:
                     help="1: norm-bounded (D-G), 2: intervals (vertices), 3: inertia norm-bounded")
     dm.add_argument("--no-wheels", action="store_true", help="design without the wheel dynamics H(s)")
     dm.add_argument("--samples", type=_positive_int, default=100, help="sampled plants of the independent check")
-    dm.add_argument("--name", default="demeter_row1_det", help="artifact and FMU name")
+    dm.add_argument("--skip-analysis", action="store_true",
+                    help="skip the deterministic analysis of the gain (the design's certificate does not need it; "
+                         "minutes for a box of 5 or more parameters)")
+    dm.add_argument("--name", default=None,
+                    help="artifact and FMU name (default demeter_row1_det, or <spacecraft>_robust with --spacecraft)")
     dm.add_argument("--convention", choices=("satfmu", "romuloc"), default="satfmu",
                     help="LMI forms and objective: ours or the R-RoMulOC toolbox's (default: satfmu)")
     dm.set_defaults(fn=_synth_demeter)

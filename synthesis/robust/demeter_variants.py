@@ -98,8 +98,8 @@ class Variant:
             raise VariantError(f"spacecraft must be a FlexibleSpacecraft, got {self.spacecraft!r}")
         for name, sel, top in (("axes", self.axes, demeter.N_AXES),
                                ("appendages", self.appendages, len(self.spacecraft.appendages))):
-            if not sel or len(set(sel)) != len(sel) or any(not isinstance(i, (int, np.integer)) or not 1 <= i <= top
-                                                          for i in sel):
+            if not sel or len(set(sel)) != len(sel) or any(
+                    isinstance(i, bool) or not isinstance(i, (int, np.integer)) or not 1 <= i <= top for i in sel):
                 raise VariantError(f"{name} must be distinct integers in 1..{top}, got {sel!r}")
             object.__setattr__(self, name, tuple(sorted(int(i) for i in sel)))
         if self.model_type not in (1, 2):
@@ -150,8 +150,10 @@ class Variant:
         try:
             spacecraft = (FlexibleSpacecraft.from_dict(data["spacecraft"], where="spacecraft")
                           if "spacecraft" in data else DEMETER)
+            if not isinstance(data["wheels"], bool):
+                raise VariantError(f"not a variant: wheels must be true or false, got {data['wheels']!r}")
             return cls(tuple(data["axes"]), tuple(data["appendages"]), data["model_type"], data["uncertainty_type"],
-                       bool(data["wheels"]), spacecraft)
+                       data["wheels"], spacecraft)
         except (KeyError, TypeError) as exc:
             raise VariantError(f"not a variant: {data!r}") from exc
         except SpacecraftError as exc:
@@ -345,8 +347,8 @@ class DesignModel:
         d = d.reshape(-1, len(self.parameters)) if stack and d.ndim == 2 else d.reshape(-1)
         if (d.shape[-1:] != (len(self.parameters),) or not np.all(np.isfinite(d))
                 or np.abs(d).max(initial=0) > 1 + 1e-12):
-            raise VariantError(f"delta must be {len(self.parameters)} finite numbers in [-1, 1] "
-                               f"{'per row ' if stack else ''}, got shape {np.shape(delta)}")
+            raise VariantError(f"delta must be {len(self.parameters)} finite numbers in [-1, 1]"
+                               f"{' per row' if stack and np.ndim(delta) == 2 else ''}, got shape {np.shape(delta)}")
         return d
 
     def N(self, delta: np.ndarray) -> np.ndarray:
@@ -641,6 +643,12 @@ def design_model(variant: Variant, L: np.ndarray | None = None) -> DesignModel:
     L_used = np.zeros_like(L_full)
     L_used[np.ix_(ax, sum(groups, []))] = L_full[np.ix_(ax, sum(groups, []))]
     L_r, Q, mode_group = state_feedback.reduction(variant.axes, groups, L_full)
+    for g, cols in enumerate(groups):
+        if not np.any(L_full[np.ix_(ax, cols)]) or g not in mode_group:
+            modes = [f"{sc.appendages[a].name} {m.kind}" for c in cols for a, m in [sc.modes[c]]]
+            raise VariantError(f"{variant.label}: the modes {modes} do not couple to axes {list(variant.axes)} "
+                               "(their coupling L there is zero): they do not enter the design; leave their "
+                               "appendage out of the variant or select the axes it couples to")
     dm = _assemble(variant, params, fixed, groups, L_used, Q, L_r, mode_group)
     dm.members = _members(sc, groups)
     return dm
