@@ -17,8 +17,8 @@ Usage::
     satfmu synth mrp-sdre [--spacecraft FILE] [--s-max S] [--w-max W] [--max-degree 2] [--skip-region] [--name ...]
     satfmu synth vscmg-sdre [--grid 23 25] [--max-degree 8] [--cv-tol TOL] [--out ...] [--fmu-dir DIR]
     satfmu synth cubesat-periodic [--gamma G] [--out ...] [--fmu-dir DIR]
-    satfmu synth demeter [--spacecraft FILE] [--axes 1] [--appendages 1] [--model-type 1] [--uncertainty-type 1]
-                         [--no-wheels] [--samples 100] [--skip-analysis] [--name demeter_row1_det]
+    satfmu synth demeter [--spacecraft FILE] [--method Det|Prob] [--axes 1] [--appendages 1] [--model-type 1]
+                         [--uncertainty-type 1] [--no-wheels] [--samples 100] [--skip-analysis] [--name ...]
                          [--convention satfmu|romuloc] [--out ...] [--fmu-dir DIR]
     satfmu table1 [--rows 1 2 ...] [--scenarios N] [--convention satfmu|romuloc|both] [--compare] [--out results/table1]
     satfmu figures demeter [--artifact demeter_row1_det] [--samples 100] [--stop 60] [--step 0.001] [--fmu-dir DIR]
@@ -331,7 +331,8 @@ def _synth_demeter(args: argparse.Namespace) -> int:
     plant = FlexibleSpacecraft.from_toml(args.spacecraft) if args.spacecraft else None
     try:
         design = designs.design_demeter(args.axes, args.appendages, args.model_type, args.uncertainty_type,
-                                        not args.no_wheels, plant=plant, name=args.name, n_samples=args.samples,
+                                        not args.no_wheels, plant=plant, name=args.name, method=args.method,
+                                        n_samples=args.samples,
                                         convention=args.convention, analysis=not args.skip_analysis,
                                         progress=_progress)
     except designs.DesignError as exc:
@@ -577,8 +578,8 @@ def parser() -> argparse.ArgumentParser:
     cs.add_argument("--published-name", default="cubesat_periodic_published",
                     help="artifact and FMU name of the published gains")
     cs.set_defaults(fn=_synth_cubesat)
-    dm = command(designs, "demeter", "seed 004: deterministic robust state feedback of a variant of DEMETER or of "
-                                     "your flexible spacecraft (Table 1 Det)", parents=[out])
+    dm = command(designs, "demeter", "seed 004: robust (Det) or scenario (Prob) state feedback of a variant of "
+                                     "DEMETER or of your flexible spacecraft (Table 1)", parents=[out])
     dm.add_argument("--spacecraft", metavar="FILE", default=None,
                     help="flexible spacecraft TOML file (hub inertia and its uncertainty, appendages with their "
                          "modes' coupling, frequency and damping intervals, wheel limits; docs/models.md) to design "
@@ -591,11 +592,15 @@ def parser() -> argparse.ArgumentParser:
                     help="1: norm-bounded (D-G), 2: intervals (vertices), 3: inertia norm-bounded")
     dm.add_argument("--no-wheels", action="store_true", help="design without the wheel dynamics H(s)")
     dm.add_argument("--samples", type=_positive_int, default=100, help="sampled plants of the independent check")
+    dm.add_argument("--method", choices=("Det", "Prob"), default="Det",
+                    help="Det: deterministic robust design, certified over the box (default); Prob: scenario design "
+                         "on sampled plants (certified when the analysis proves its i2p bound over the box)")
     dm.add_argument("--skip-analysis", action="store_true",
                     help="skip the deterministic analysis of the gain (the design's certificate does not need it; "
                          "minutes for a box of 5 or more parameters)")
     dm.add_argument("--name", default=None,
-                    help="artifact and FMU name (default demeter_row1_det, or <spacecraft>_robust with --spacecraft)")
+                    help="artifact and FMU name (default demeter_row1_det or _prob; with --spacecraft "
+                         "<spacecraft>_robust or _robust_prob)")
     dm.add_argument("--convention", choices=("satfmu", "romuloc"), default="satfmu",
                     help="LMI forms and objective: ours or the R-RoMulOC toolbox's (default: satfmu)")
     dm.set_defaults(fn=_synth_demeter)

@@ -453,10 +453,10 @@ def design_cubesat_periodic(gamma: float | None = None, plant: Spacecraft | None
 @fails_with_design_error
 def design_demeter(axes: Sequence[int] = (1,), appendages: Sequence[int] = (1,), model_type: int = 1,
                    uncertainty_type: int = 1, wheels: bool = True, *, plant: FlexibleSpacecraft | None = None,
-                   name: str | None = None, n_samples: int = 100, convention: str = "satfmu",
+                   name: str | None = None, method: str = "Det", n_samples: int = 100, convention: str = "satfmu",
                    analysis: bool = True, progress: Progress | None = None) -> Design:
-    """Seed 004: deterministic robust state feedback of a variant of DEMETER or of your flexible
-    spacecraft (Table 1, Det), with its deterministic and randomized analyses.
+    """Seed 004: robust state feedback of a variant of DEMETER or of your flexible spacecraft
+    (Table 1), deterministic or randomized, with its deterministic and randomized analyses.
 
     Parameters
     ----------
@@ -473,10 +473,16 @@ def design_demeter(axes: Sequence[int] = (1,), appendages: Sequence[int] = (1,),
         hub inertia and inertia box, its appendages' modes with their frequency and damping
         intervals, its wheels' limits and dynamics. Default DEMETER (the seed's).
     name : str, optional
-        Artifact and controller FMU name; default ``"demeter_row1_det"`` for DEMETER, else
-        ``"<spacecraft>_robust"``.
+        Artifact and controller FMU name; default ``"demeter_row1_det"`` (``"demeter_row1_prob"``)
+        for DEMETER, else ``"<spacecraft>_robust"`` (``"<spacecraft>_robust_prob"``).
+    method : {"Det", "Prob"}
+        ``"Det"``: the deterministic robust design, certified over the whole box (one Lyapunov
+        matrix). ``"Prob"``: the scenario design on the Campi-Garatti number of plants drawn in
+        the box (epsilon 0.1, confidence 1 - 1e-9); its artifact is ``"certified"`` when the
+        deterministic analysis proves its impulse-to-peak bound over the whole box, else
+        ``"sampled"``.
     n_samples : int
-        Sampled plants of the independent check.
+        Sampled plants of the independent check (at least 1).
     convention : {"satfmu", "romuloc"}
         LMI forms and objective of the design (:func:`satfmu.synthesis.robust.robust_design.design`); the
         artifact records it.
@@ -495,39 +501,53 @@ def design_demeter(axes: Sequence[int] = (1,), appendages: Sequence[int] = (1,),
         (the cause chained).
     """
     from satfmu.fmus.plants import demeter
-    from satfmu.synthesis.robust import demeter_design
+    from satfmu.synthesis.robust import demeter_design, demeter_random
     from satfmu.synthesis.robust import demeter_table
     from satfmu.synthesis.robust.demeter_variants import Variant
 
     if plant is not None and not isinstance(plant, FlexibleSpacecraft):
         raise DesignError(f"plant must be a satfmu.FlexibleSpacecraft (a rigid hub with flexible appendages and "
                           f"reaction wheels), got {type(plant).__name__}")
+    if method not in ("Det", "Prob"):
+        raise DesignError(f"method must be 'Det' (deterministic robust) or 'Prob' (scenario), got {method!r}")
+    if isinstance(n_samples, bool) or not isinstance(n_samples, int) or n_samples < 1:
+        raise DesignError(f"n_samples must be an integer >= 1 (the independent check), got {n_samples!r}")
     spacecraft = DEMETER if plant is None else plant
-    name = name or ("demeter_row1_det" if spacecraft == DEMETER else f"{spacecraft.name}_robust")
+    if name is None:
+        default = {"Det": "demeter_row1_det", "Prob": "demeter_row1_prob"} if spacecraft == DEMETER else {
+            "Det": f"{spacecraft.name}_robust", "Prob": f"{spacecraft.name}_robust_prob"}
+        name = default[method]
     variant = Variant(tuple(axes), tuple(appendages), model_type, uncertainty_type, wheels, spacecraft)
-    row = demeter_table.run_row(variant, "Det", n_samples=n_samples, convention=convention, progress=progress,
+    row = demeter_table.run_row(variant, method, n_samples=n_samples, convention=convention, progress=progress,
                                 analysis=analysis)
     lines = [demeter_table.markdown([row])]
     r = row.result
-    assert isinstance(r, demeter_design.DeterministicResult)  # a "Det" row holds the deterministic design
+    assert isinstance(r, (demeter_design.DeterministicResult, demeter_random.ScenarioResult))
     if not r.feasible:
-        if r.obstruction is not None and r.obstruction.proves_infeasible:
-            o = r.obstruction
+        o = demeter_design.coincident_modes(variant)
+        if o is not None and o.proves_infeasible:
             lines.append(f"infeasible for any common-Lyapunov design: at coincident omega, {o.n_free} combination(s) "
                          f"of the modes are free oscillators; over omega in [{o.omega[0]:.4g}, {o.omega[1]:.4g}] "
                          f"rad/s they need zeta > {o.required_zeta:.4g} (the box has zeta <= {o.zeta:g}); "
                          f"eig(A_lo A_hi) = {', '.join(f'{v.real:.4g}' for v in o.eigenvalues)}")
         raise DesignError("\n".join(lines))
     c = r.check
-    assert c is not None  # deterministic() checks every feasible design
-    common = getattr(r.analysis_hinf_common, "gamma", None)
+    assert c is not None  # a feasible row with n_samples > 0 is checked
+    if isinstance(r, demeter_design.DeterministicResult):
+        common = getattr(r.analysis_hinf_common, "gamma", None)
+        data = demeter_design.artifact_data(r, name)
+    else:
+        common = getattr(r.deterministic.hinf_common, "gamma", None) if r.deterministic else None
+        lines.append(f"scenario design on {r.n_samples} plants: with confidence 1 - {r.delta:g} it violates its "
+                     f"bounds on a set of plants of probability <= {r.epsilon:g}")
+        data = demeter_random.artifact_data(r, name)
     lines.append(f"{c.n} sampled plants (seed {c.seed}): Re s in [{c.min_real_pole:.3g}, {c.max_real_pole:.3g}] 1/s, "
                  f"largest exact H-infinity {c.hinf.max():.4g}, i2p {c.i2p.max():.4g}; H-infinity bound with one "
                  f"Lyapunov matrix: {'none' if common is None else format(common, '.4g')}")
     if spacecraft != DEMETER:
         lines.append(f"plant FMU: {demeter.model_name(spacecraft)} (built from the artifact's "
                      "design.variant.spacecraft; scenarios name it as a model)")
-    return Design("demeter", [demeter_design.artifact_data(r, name)], "\n".join(lines), r)
+    return Design("demeter", [data], "\n".join(lines), r)
 
 
 DESIGNS: dict[str, Callable[..., Design]] = {

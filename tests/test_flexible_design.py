@@ -483,6 +483,43 @@ def test_deterministic_analysis_of_the_user_design(design: satfmu.Design) -> Non
 
 
 # ----------------------------------------------------------------------- the controller's shape
+def test_scenario_design_for_the_user_plant(home: Path) -> None:
+    # the randomized design of the same variant: 962 plants (Campi-Garatti at epsilon 0.1, delta
+    # 1e-9), ~6 s; without the deterministic analysis its artifact is "sampled", never "certified"
+    d = satfmu.design_demeter(AXES, APPENDAGES, plant=MY_FLEX, method="Prob", analysis=False, n_samples=50)
+    art = d.artifact
+    assert d.names == ["my_flex_robust_prob"] and art["plant"] == "flexible_my_flex"
+    cert = art["certificate"]
+    assert cert["status"] == "sampled" and "Not analysed over the whole box" in cert["proved"]
+    n = cert["numbers"]
+    assert n["scenarios"] == 962 and n["scenario_epsilon"] == 0.1 and n["scenario_delta"] == 1e-9
+    assert "analysis_i2p" not in n and "Campi-Garatti" in cert["proved"]
+    # measured 225.6 and 2.257, as the deterministic design's to 4 digits: 1 % for solver versions
+    assert n["design_hinf_bound"] == pytest.approx(225.6, rel=1e-2)
+    assert n["design_i2p_bound"] == pytest.approx(2.257, rel=1e-2)
+    # the check draws other plants than the design's (seed 2, not 0) and stays within the bounds
+    assert "50 plants, seed 2" in cert["proved"]
+    assert n["sampled_max_i2p"] <= n["design_i2p_bound"] and n["sampled_max_real_pole"] < 0
+    assert "scenario design on 962 plants" in d.summary
+    assert art["provenance"]["seed"] == "004's method (Prob) for a user's spacecraft"
+    path = d.write()[0]
+    assert satfmu.load_artifact(path).certificate["status"] == "sampled"  # the claims check passes
+    with pytest.raises(DesignError, match="method must be"):
+        satfmu.design_demeter(AXES, APPENDAGES, plant=MY_FLEX, method="prob")
+    with pytest.raises(DesignError, match="n_samples must be"):
+        satfmu.design_demeter(AXES, APPENDAGES, plant=MY_FLEX, n_samples=0)
+
+
+@pytest.mark.slow
+def test_scenario_design_analysed_over_the_box_is_certified(home: Path) -> None:
+    # with the deterministic analysis (~4 min) the i2p bound is proved over the whole box
+    # (measured 0.1917 N m s, PDLF H-infinity 22.7)
+    d = satfmu.design_demeter(AXES, APPENDAGES, plant=MY_FLEX, method="Prob", name="my_flex_prob_analysed")
+    cert = d.artifact["certificate"]
+    assert cert["status"] == "certified" and "Over the whole box" in cert["proved"]
+    assert cert["numbers"]["analysis_i2p"] == pytest.approx(0.1917, rel=0.05)  # a solver's optimum
+
+
 def test_state_feedback_for_three_modes() -> None:
     blocks = state_feedback.gain_blocks(3)
     assert blocks["K_eta"] == ("eta", 3, "N.m") and blocks["K_eta_dot"] == ("eta_dot", 3, "N.m.s")

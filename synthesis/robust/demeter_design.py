@@ -575,24 +575,15 @@ def artifact_data(result: DeterministicResult, name: str) -> dict:
     ValueError
         If the result has no gain or no sampled check.
     """
-    if result.K is None:  # not result.feasible
-        raise ValueError(f"{result.variant.label}: no design to save ({result.design.status})")
+    d = result.design
+    if result.K is None or d.gamma is None or d.nu is None:  # not result.feasible
+        raise ValueError(f"{result.variant.label}: no design to save ({d.status})")
     if result.check is None:
         raise ValueError(f"{result.variant.label}: no sampled check to record (deterministic() makes it)")
-    dm = design_model(result.variant)
-    d, c = result.design, result.check
-    box = ", ".join(f"{p.name} in [{p.value(-1):.6g}, {p.value(1):.6g}]" for p in dm.parameters)
-    numbers = {"design_hinf_bound": d.gamma, "design_i2p_bound": d.nu, "sampled_max_hinf": float(c.hinf.max()),
-               "sampled_max_i2p": float(c.i2p.max()), "sampled_max_real_pole": c.max_real_pole,
-               "sampled_min_real_pole": c.min_real_pole, "design_seconds": result.seconds["design"]}
-    for key, res, attr in (("analysis_hinf_pdlf", result.analysis_hinf, "gamma"),
-                           ("analysis_hinf_common", result.analysis_hinf_common, "gamma"),
-                           ("analysis_i2p", result.analysis_i2p, "nu")):
-        if res is not None and res.status == "optimal":
-            numbers[key] = getattr(res, attr)
+    numbers = {"design_hinf_bound": d.gamma, "design_i2p_bound": d.nu,
+               **checked_numbers(result.check, result.analysis_hinf, result.analysis_hinf_common, result.analysis_i2p),
+               "design_seconds": result.seconds["design"]}
     forms = "satfmu's" if d.convention == "satfmu" else "the R-RoMulOC toolbox's"
-    sc = result.variant.spacecraft
-    seed = sc == DEMETER
     proved = (f"One Lyapunov matrix (quadratic stability, {d.uncertainty} multipliers, {forms} LMI forms and "
               f"objective, re-verified in numpy) "
               f"for the Fig. 3 design model of {result.variant.label}: closed-loop poles in "
@@ -601,20 +592,88 @@ def artifact_data(result: DeterministicResult, name: str) -> dict:
               f"time-varying). " + (f"Parameter-dependent analysis: ||w1 -> z1||_inf < "
                                     f"{numbers['analysis_hinf_pdlf']:.6g}. " if "analysis_hinf_pdlf" in numbers
                                     else f"{result.analysis_skipped}. ")
-              + f"Sampled: {c.n} plants, seed {c.seed}.")
+              + f"Sampled: {result.check.n} plants, seed {result.check.seed}.")
+    return gain_artifact(result.variant, result.K, name, status="certified", proved=proved, numbers=numbers,
+                         method="Det", convention=d.convention,
+                         source="satfmu synth demeter (satfmu.synthesis.robust.demeter_design.deterministic)")
+
+
+def checked_numbers(check: SampledCheck, hinf: PDLFResult | None = None, hinf_common: PDLFResult | None = None,
+                    i2p: RobustDesign | None = None) -> dict[str, float]:
+    """The certificate numbers of a gain's sampled check and of its deterministic analysis.
+
+    Parameters
+    ----------
+    check : SampledCheck
+        The gain's loops on sampled plants (:func:`sampled_check`).
+    hinf, hinf_common : PDLFResult, optional
+        Its H-infinity bounds over the box, parameter-dependent and common Lyapunov function.
+    i2p : RobustDesign, optional
+        Its impulse-to-peak bound over the box.
+
+    Returns
+    -------
+    dict of str to float
+        ``sampled_max_hinf`` (rad/(N m)), ``sampled_max_i2p`` (N m s), ``sampled_max_real_pole``,
+        ``sampled_min_real_pole`` (1/s), and each analysis bound that was proved:
+        ``analysis_hinf_pdlf``, ``analysis_hinf_common``, ``analysis_i2p``.
+    """
+    numbers = {"sampled_max_hinf": float(check.hinf.max()), "sampled_max_i2p": float(check.i2p.max()),
+               "sampled_max_real_pole": check.max_real_pole, "sampled_min_real_pole": check.min_real_pole}
+    for key, res, attr in (("analysis_hinf_pdlf", hinf, "gamma"), ("analysis_hinf_common", hinf_common, "gamma"),
+                           ("analysis_i2p", i2p, "nu")):
+        if res is not None and res.status == "optimal":
+            numbers[key] = getattr(res, attr)
+    return numbers
+
+
+def gain_artifact(variant: Variant, K: np.ndarray, name: str, *, status: str, proved: str,
+                  numbers: dict[str, float], method: str, convention: str, source: str) -> dict:
+    """The controller artifact (kind ``linear_state_feedback``) of a gain on a variant's design
+    model: the FMU gains, the certificate, the box, the design plant and the design record.
+
+    Parameters
+    ----------
+    variant : Variant
+        The model variant (its spacecraft names the plant and is recorded unless DEMETER).
+    K : numpy.ndarray, shape (na, n)
+        Gain of ``u = K x`` on the design states, physical units.
+    name : str
+        Name of the controller artifact.
+    status : {"certified", "sampled"}
+        The certificate's status.
+    proved : str
+        What was proved (or checked), in words with the numbers.
+    numbers : dict of str to float
+        The certificate's numbers.
+    method : {"Det", "Prob"}
+        The design method (Table 1's): deterministic robust or scenario design.
+    convention : {"satfmu", "romuloc"}
+        The LMI forms of the design.
+    source : str
+        The function that made it.
+
+    Returns
+    -------
+    dict
+        The artifact's data (format ``satfmu-controller``, version 1).
+    """
+    dm = design_model(variant)
+    box = ", ".join(f"{p.name} in [{p.value(-1):.6g}, {p.value(1):.6g}]" for p in dm.parameters)
+    sc = variant.spacecraft
+    seed = sc == DEMETER
+    what = {"Det": "deterministic robust", "Prob": "scenario (randomized)"}[method]
     return {"format": "satfmu-controller", "format_version": 1, "kind": "linear_state_feedback", "name": name,
-            "description": f"{'Seed 004' if seed else 'Seed 004 method,'} deterministic robust state feedback, "
-                           f"{result.variant.label}",
+            "description": f"{'Seed 004' if seed else 'Seed 004 method,'} {what} state feedback, {variant.label}",
             "plant": demeter.model_name(sc),
             "outputs": [{"name": f"u_c[{i + 1}]", "unit": "N.m", "description": f"Commanded wheel torque, axis {i + 1}"}
                         for i in range(3)],
-            "gains": dm.fmu_gains(result.K),
-            "certificate": {"status": "certified", "proved": proved, "region": box, "numbers": numbers},
-            "provenance": {"source": "satfmu synth demeter (satfmu.synthesis.robust.demeter_design.deterministic)",
-                           "seed": "004, Table 1 Det" if seed else "004's method (Det) for a user's spacecraft",
+            "gains": dm.fmu_gains(K),
+            "certificate": {"status": status, "proved": proved, "region": box, "numbers": numbers},
+            "provenance": {"source": source, "seed": f"004, Table 1 {method}" if seed
+                           else f"004's method ({method}) for a user's spacecraft",
                            "coupling_L": "substitute (docs/models.md)" if seed
                            else f"the spacecraft description ({sc.name}, design.variant.spacecraft)",
                            "design_plant": design_record(dm)},
-            "design": {"variant": result.variant.to_dict(),
-                       "states": dm.state_names, "K": result.K.tolist(),
-                       "weights": {"hinf": W_HINF, "i2p": W_I2P}, "convention": d.convention}}
+            "design": {"variant": variant.to_dict(), "states": dm.state_names, "K": np.asarray(K).tolist(),
+                       "weights": {"hinf": W_HINF, "i2p": W_I2P}, "convention": convention}}

@@ -249,6 +249,12 @@ class ScenarioResult:
         Probabilistic analysis of the gain (None: not run, or no design).
     seconds : dict of str to float, optional
         Wall time, s, of ``"design"`` and ``"analysis"``.
+    seed : int, optional
+        Seed of the sampled plants of the program.
+    deterministic : satfmu.synthesis.robust.demeter_design.Analysis, optional
+        Deterministic analysis of the gain over the whole box (None: not run).
+    check : satfmu.synthesis.robust.demeter_design.SampledCheck, optional
+        The gain's loops on plants drawn afresh in the box (None: not run).
     """
 
     variant: Variant
@@ -260,6 +266,9 @@ class ScenarioResult:
     delta: float
     analysis: Analysis | None = None
     seconds: dict[str, float] = field(default_factory=dict)
+    seed: int = 0
+    deterministic: demeter_design.Analysis | None = None
+    check: demeter_design.SampledCheck | None = None
 
     @property
     def feasible(self) -> bool:
@@ -314,11 +323,69 @@ def scenario(variant: Variant, *, epsilon: float = SCENARIO_EPSILON, delta: floa
     plants = [P.at(x) for x in dm.sample(n, np.random.default_rng(seed))]
     des = demeter_design.seed_design(plants, convention=convention)
     out = ScenarioResult(variant, des, None if des.K is None else des.K / T, n, d, epsilon, delta,
-                         seconds={"design": time.perf_counter() - t0})
+                         seconds={"design": time.perf_counter() - t0}, seed=seed)
     if analysis and out.K is not None:
         out.analysis = analyse(variant, out.K, seed=seed + 1)
         out.seconds["analysis"] = out.analysis.seconds
     return out
+
+
+def artifact_data(result: ScenarioResult, name: str) -> dict:
+    """The controller artifact (kind ``linear_state_feedback``) of a scenario design: the FMU
+    gains, the scenario guarantee, and what the deterministic analysis proved over the whole box.
+
+    The status is ``"certified"`` when the deterministic analysis proved the impulse-to-peak
+    bound over the box (a common Lyapunov matrix: stability for every parameter of the box),
+    else ``"sampled"`` (the scenario guarantee and the sampled check only).
+
+    Parameters
+    ----------
+    result : ScenarioResult
+        A feasible result of :func:`scenario` with its sampled check (``result.check``) and,
+        optionally, its deterministic analysis (``result.deterministic``).
+    name : str
+        Name of the controller artifact.
+
+    Returns
+    -------
+    dict
+        The artifact's data (format ``satfmu-controller``, version 1).
+
+    Raises
+    ------
+    ValueError
+        If the result has no gain or no sampled check.
+    """
+    d, a = result.design, result.deterministic
+    if result.K is None or d.gamma is None or d.nu is None:
+        raise ValueError(f"{result.variant.label}: no design to save ({d.status})")
+    if result.check is None:
+        raise ValueError(f"{result.variant.label}: no sampled check to record (demeter_design.sampled_check)")
+    numbers = {"design_hinf_bound": d.gamma, "design_i2p_bound": d.nu, "scenarios": result.n_samples,
+               "scenario_epsilon": result.epsilon, "scenario_delta": result.delta,
+               **demeter_design.checked_numbers(result.check, *((a.hinf, a.hinf_common, a.i2p) if a else ())),
+               "design_seconds": result.seconds["design"]}
+    forms = "satfmu's" if d.convention == "satfmu" else "the R-RoMulOC toolbox's"
+    proved = (f"Scenario design ({forms} LMI forms and objective, re-verified in numpy): one Lyapunov matrix for "
+              f"the Fig. 3 design model of {result.variant.label} at {result.n_samples} plants drawn uniformly in the "
+              f"box (seed {result.seed}): closed-loop poles in {-demeter_design.BETA:g} < Re s < "
+              f"{-demeter_design.ALPHA:g} 1/s, ||w1 -> z1||_inf < {d.gamma:.6g} rad/(N m), impulse-to-peak w2 -> z2 "
+              f"< {d.nu:.6g} N m s at each. With confidence 1 - {result.delta:g}, the plants of the box where these "
+              f"fail have probability at most {result.epsilon:g} (Campi-Garatti, {result.n_decision} decision "
+              "variables). ")
+    certified = "analysis_i2p" in numbers
+    if certified:
+        proved += (f"Over the whole box (deterministic analysis, re-verified): stability and impulse-to-peak "
+                   f"w2 -> z2 < {numbers['analysis_i2p']:.6g} N m s"
+                   + (f", ||w1 -> z1||_inf < {numbers['analysis_hinf_pdlf']:.6g} rad/(N m) (parameter-dependent "
+                      "Lyapunov function)" if "analysis_hinf_pdlf" in numbers else "") + ". ")
+    else:
+        proved += "Not analysed over the whole box. "
+    proved += f"Sampled: {result.check.n} plants, seed {result.check.seed}."
+    return demeter_design.gain_artifact(
+        result.variant, result.K, name, status="certified" if certified else "sampled", proved=proved,
+        numbers=numbers, method="Prob", convention=d.convention,
+        source="satfmu synth demeter --method Prob (satfmu.synthesis.robust.demeter_random.scenario)")
 
 
 @dataclass

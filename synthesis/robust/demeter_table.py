@@ -102,7 +102,8 @@ def _value(res, attr: str) -> float:
 def run_row(variant: Variant, method: str, *, n_scenarios: int | None = None, seed: int = 0, n_samples: int = 0,
             convention: str = "satfmu", progress: Progress | None = None, analysis: bool = True) -> Row:
     """Design and analyse one row (module docstring). ``n_scenarios`` overrides the scenario count;
-    ``n_samples`` plants are checked after a Det design (``result.check``); the designs' LMIs and
+    ``n_samples`` plants are checked after a design (``result.check``; seed ``seed`` after a Det
+    design, ``seed + 2`` after a Prob one, whose program drew its plants with ``seed``); the designs' LMIs and
     objective in ``convention`` (:func:`satfmu.synthesis.robust.robust_design.design`).
 
     Parameters
@@ -114,19 +115,19 @@ def run_row(variant: Variant, method: str, *, n_scenarios: int | None = None, se
     n_scenarios : int, optional
         Number of scenarios of a Prob design; default the Campi-Garatti count.
     seed : int, optional
-        Seed of the sampled plants of the design or the check; the probabilistic analysis
-        uses ``seed + 1``.
+        Seed of the sampled plants of the design (Prob) or the check (Det); the probabilistic
+        analysis uses ``seed + 1``, a Prob row's check ``seed + 2``.
     n_samples : int, optional
-        Plants of the sampled check after a Det design.
+        Plants of the sampled check after a design (``result.check``).
     convention : {"satfmu", "romuloc"}, optional
         How the levels enter the designs' LMIs and objective.
     progress : callable, optional
         ``progress(done, total, message)`` after each stage of a Det row
         (:func:`satfmu.synthesis.robust.demeter_design.deterministic`).
     analysis : bool, optional
-        Run the deterministic analysis of a Det row's gain (the parameter-dependent H-infinity
-        bound and the impulse-to-peak bound; minutes for a box of 5 or more parameters). Default
-        True.
+        Run the deterministic analysis of the row's gain over the box (the parameter-dependent
+        H-infinity bound and the impulse-to-peak bound; minutes for a box of 5 or more
+        parameters). Default True.
 
     Returns
     -------
@@ -153,13 +154,20 @@ def run_row(variant: Variant, method: str, *, n_scenarios: int | None = None, se
     else:
         res = demeter_random.scenario(variant, n=n_scenarios, seed=seed, analysis=False, convention=convention)
         design, K = res.design, res.K
+        notes = [f"{res.n_samples} scenarios"]
         if K is not None:
             dm = design_model(variant)
-            a = demeter_design.analyse(dm, K, demeter_random.design_scale(dm))
-            row.det_hinf, row.det_i2p = _value(a.hinf, "gamma"), _value(a.i2p, "nu")
+            if n_samples:
+                res.check = demeter_design.sampled_check(dm, K, n_samples, seed + 2)  # not the design's plants
+            if analysis:
+                a = demeter_design.analyse(dm, K, demeter_random.design_scale(dm))
+                res.deterministic = a
+                row.det_hinf, row.det_i2p = _value(a.hinf, "gamma"), _value(a.i2p, "nu")
+                notes += [n for n in (a.i2p_note, a.skipped) if n]
+            else:
+                notes.append("Deterministic analysis not run (analysis=False)")
         obstruction = demeter_design.coincident_modes(variant)
-        row.note = "; ".join([f"{res.n_samples} scenarios"] + ([n for n in (a.i2p_note, a.skipped) if n]
-                                                               if K is not None else []))
+        row.note = "; ".join(notes)
     row.seconds, row.result = res.seconds["design"], res
     if K is None:
         blocked = obstruction is not None and obstruction.proves_infeasible
