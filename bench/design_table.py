@@ -43,7 +43,11 @@ torque limit. ``robust``: the worst initial error (15 deg, 0.08 deg/s on axis 1)
 native FMUs of the flexible plant (built from the artifact's description, wheel limits on) and
 the controller, 60 s at 1 ms (:func:`satfmu.sims.workflows.demeter_loops.scenario`: the
 certified impulse-to-peak bound on the wheel-momentum proxy, the wheel momentum below its limit,
-the attitude within the initial error). The periodic controllers are not run.
+the attitude within the initial error). ``periodic``: the gains beside B-dot on the nonlinear
+magnetorquer plant (the spacecraft's moments, dipole clipped at its limit) from
+:data:`DAMPING_RATE`, two orbits (:func:`satfmu.sims.workflows.detumble.rate_scenario`); passes
+when they bring ``|w|`` down 10x (the periodic design is a rate-damping law: it does not detumble
+from tumbling rates, docs/models.md).
 
 Prints the table as Markdown (and the total wall time), writes it with ``--out`` and the raw rows
 as JSON with ``--json``; progress goes to stderr. The reduced table took 272 s on 2 shared
@@ -67,7 +71,7 @@ from typing import Any, Callable, Sequence
 
 import satfmu
 from satfmu.controllers import mrp_servo_sdc
-from satfmu.sims.workflows import demeter_loops
+from satfmu.sims.workflows import demeter_loops, detumble
 from satfmu.synthesis import designs
 
 FLEXIBLE = Path(__file__).resolve().parents[1] / "examples" / "my_flexible_spacecraft.toml"
@@ -96,6 +100,8 @@ STOP_TIME = {"seed_000": 120.0, "bus": 300.0, "cubesat_3u": 120.0}
 """Length of the closed-loop manoeuvre per spacecraft, s."""
 ANGLE_BOUND_DEG = 0.1
 """Largest attitude angle error at the end of the manoeuvre that passes, deg."""
+DAMPING_RATE = 1e-3
+"""Initial rate of the periodic designs' loop (rate damping after detumbling), rad/s."""
 MANOEUVRE_DEG, MANOEUVRE_AXIS = 90.0, (1.0, -1.0, 1.0)
 REASON_CHARS = 200
 """A refusal's reason is cut to this many characters in the table (the JSON keeps it whole)."""
@@ -308,6 +314,39 @@ def flexible_loop(design: satfmu.Design) -> tuple[str, dict[str, Any]]:
                               for x in result.metrics}}
 
 
+def periodic_loop(design: satfmu.Design, spacecraft: satfmu.Spacecraft) -> tuple[str, dict[str, Any]]:
+    """Write a periodic design's artifact into the user's artifact folder (the run's temporary home)
+    and fly it beside B-dot on the nonlinear magnetorquer plant from :data:`DAMPING_RATE`, two orbits
+    (:func:`satfmu.sims.workflows.detumble.rate_scenario`): it passes when the periodic gains bring
+    ``|w|`` down 10x.
+
+    Parameters
+    ----------
+    design : Design
+        A returned seed 003 design.
+    spacecraft : Spacecraft
+        The spacecraft it was designed for (principal axes).
+
+    Returns
+    -------
+    str
+        ``"pass: ..."`` or ``"FAIL: ..."`` with both laws' ``|w(end)| / |w(0)|``.
+    dict
+        The metrics' values, bounds and pass/fail, and the run's wall time.
+    """
+    design.write(satfmu.user_artifacts(), fmu_dir=None)
+    t0 = time.perf_counter()
+    result = satfmu.run(detumble.rate_scenario(spacecraft, design.names[0], DAMPING_RATE, expected="periodic"))
+    m = {x.name: x for x in result.metrics}
+    text = (f"{'pass' if result.passed else 'FAIL'}: from {DAMPING_RATE:g} rad/s, |w| after two orbits "
+            f"{m['periodic: |w(end)| / |w(0)|'].value:.3g} of |w(0)| (<= {detumble.REDUCTION:g}; B-dot "
+            f"{m['bdot: |w(end)| / |w(0)|'].value:.3g}), dipole clipped at "
+            f"{spacecraft.dipole_limit or 0.2:g} A m^2")
+    return text, {"passed": result.passed, "seconds": time.perf_counter() - t0, "rate": DAMPING_RATE,
+                  "metrics": {x.name: {"value": x.value, "max": x.max, "unit": x.unit, "passed": x.passed}
+                              for x in result.metrics}}
+
+
 def design_row(method: str, name: str, full: bool) -> Row:
     """Run ``method`` on the spacecraft ``name`` and make its row (closed loop included).
 
@@ -393,7 +432,7 @@ def design_row(method: str, name: str, full: bool) -> Row:
         row.closed_loop, row.details["closed_loop"] = closed_loop(design, craft, STOP_TIME[name],
                                                                   servo=method == "sdre")
     elif method == "periodic":
-        row.closed_loop = "not run (magnetorquer plant; cf. scenario cubesat_detumble)"
+        row.closed_loop, row.details["closed_loop"] = periodic_loop(design, craft)
     return row
 
 

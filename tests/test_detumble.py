@@ -42,3 +42,34 @@ def test_detumbled_band_is_the_contiguous_run_ending_at_the_largest_success() ->
     band = detumble.detumbled_band(rows)
     assert band["a"] == (1e-1, 1.0) and all(math.isnan(v) for v in band["b"])
     assert "| 0.1 | 0.05 (10x) |" in detumble.sweep_table(rows[:4])
+
+
+def test_rate_scenario_flies_your_cubesat_beside_b_dot_and_refuses_bad_input() -> None:
+    import satfmu
+    from satfmu.controllers.magnetic import bdot_gain
+
+    sc = satfmu.Spacecraft("my_3u", [0.01, 0.05, 0.05], dipole_limit=0.15)
+    scn = detumble.rate_scenario(sc, "my_3u_periodic", 2e-3, expected="periodic", orbits=1)
+    plant = scn.fmus["periodic_plant"].parameters
+    assert (plant["I_x"], plant["I_y"], plant["I_z"], plant["m_max"], plant["saturation_on"]) == (
+        0.01, 0.05, 0.05, 0.15, True)
+    w0 = np.array([plant[f"omega_0[{i}]"] for i in (1, 2, 3)])
+    assert np.linalg.norm(w0) == pytest.approx(2e-3, rel=1e-12)  # along the seed's substitute direction
+    assert np.allclose(w0 / 2e-3, detumble.W0_DIRECTION / np.linalg.norm(detumble.W0_DIRECTION), rtol=1e-12)
+    assert scn.fmus["bdot_plant"].parameters == plant and scn.fmus["periodic"].model == "my_3u_periodic"
+    assert scn.fmus["bdot"].parameters["bdot_gain"] == pytest.approx(bdot_gain(j_min=0.01), rel=1e-15)
+    assert scn.stop_time == 5400.0
+    bounds = {m.name: m.max for m in scn.metrics}
+    assert bounds["periodic: |w(end)| / |w(0)|"] == detumble.REDUCTION and bounds["bdot: |w(end)| / |w(0)|"] is None
+    # no dipole limit: the plant's own m_max
+    assert "m_max" not in detumble.rate_scenario(satfmu.Spacecraft("s", [0.01, 0.05, 0.05]), "c", 1e-3).fmus[
+        "bdot_plant"].parameters
+    for rate in (0.0, -1e-3, math.nan, math.inf):
+        with pytest.raises(ValueError, match="rate"):
+            detumble.rate_scenario(sc, "c", rate)
+    with pytest.raises(ValueError, match="expected"):
+        detumble.rate_scenario(sc, "c", 1e-3, expected="lqr")
+    with pytest.raises(ValueError):
+        detumble.rate_scenario(sc, "c", 1e-3, orbits=0)
+    with pytest.raises(satfmu.SatfmuError, match="principal axes"):
+        detumble.rate_scenario(satfmu.Spacecraft("p", [[0.01, 1e-4, 0], [1e-4, 0.05, 0], [0, 0, 0.05]]), "c", 1e-3)

@@ -9,6 +9,8 @@
   from small to tumbling: the final ``|w| / |w(0)|`` after two orbits and the dipole effort
   ``integral |m|^2 dt`` of each controller, and the largest initial rate each one detumbles
   (``|w|`` reduced 10x within two orbits).
+- :func:`rate_scenario`: your cubesat's periodic gains beside B-dot on the nonlinear plant from
+  one initial rate, as a scenario to run or gate.
 """
 from __future__ import annotations
 
@@ -21,7 +23,8 @@ import numpy as np
 
 from satfmu.sims.scenario.provisioning import ensure_fmus
 from satfmu.sims.scenario.run import simulate
-from satfmu.sims.scenario.spec import Scenario, load
+from satfmu.fmus.plants.spacecraft import Spacecraft
+from satfmu.sims.scenario.spec import Connection, FmuSpec, Metric, Scenario, load
 
 SCENARIO = "cubesat_detumble"
 CONTROLLERS = {"periodic LMI (satfmu)": ("lmi_plant", "lmi"), "periodic LMI (published)": ("pub_plant", "pub"),
@@ -201,6 +204,79 @@ def sweep(fmu_dir: Path, rates: Sequence[float], backend: str = "native",
         if progress:
             progress(j + 1, len(rates), f"|w(0)| = {rate:.3g} rad/s")
     return rows
+
+
+LAWS = ("periodic", "bdot")
+"""The laws of :func:`rate_scenario`: the periodic gains and B-dot."""
+
+
+def rate_scenario(spacecraft: Spacecraft, controller: str, rate: float, *, expected: str | None = None,
+                  orbits: int = 2) -> Scenario:
+    """A periodic gain controller and B-dot on your cubesat, each on its own copy of the nonlinear
+    magnetorquer plant, from the same initial rate.
+
+    The plant (``magnetorquer_cubesat``, seed 003's Fourier field and orbit) takes the spacecraft's
+    principal moments and clips each dipole component at its ``dipole_limit`` (the plant's 0.2
+    A m^2 when it has none); B-dot's gain is :func:`satfmu.controllers.magnetic.bdot_gain` with the
+    spacecraft's smallest moment. The initial rate lies along :data:`W0_DIRECTION`.
+
+    Parameters
+    ----------
+    spacecraft : Spacecraft
+        Your cubesat, principal axes (:class:`satfmu.fmus.plants.spacecraft.Spacecraft`).
+    controller : str
+        The periodic gain controller (artifact and FMU name, e.g. from
+        :func:`satfmu.synthesis.designs.design_cubesat_periodic`).
+    rate : float
+        Initial rate ``|w(0)|``, rad/s, finite and > 0.
+    expected : {"periodic", "bdot"}, optional
+        The law that must bring ``|w|`` to :data:`REDUCTION` of ``|w(0)|`` in the run (its metric
+        gets that bound); the other law's ratio is only reported. Default: both only reported.
+    orbits : int, optional
+        Length of the run in orbits of the field (90 min each), at least 1.
+
+    Returns
+    -------
+    Scenario
+        Instances ``periodic_plant``, ``periodic``, ``bdot_plant``, ``bdot``; metrics per law:
+        ``"<law>: |w(end)| / |w(0)|"`` and ``"<law>: peak dipole"`` (A m^2).
+
+    Raises
+    ------
+    ValueError
+        If ``rate`` is not finite and > 0, ``orbits`` < 1 or ``expected`` is not a law.
+    satfmu.fmus.errors.SpacecraftError
+        If the spacecraft has products of inertia.
+    """
+    from satfmu.controllers.magnetic import bdot_gain
+    from satfmu.fmus.plants import cubesat
+
+    if not (math.isfinite(rate) and rate > 0) or orbits < 1:
+        raise ValueError(f"need a finite rate > 0 rad/s and orbits >= 1, got {rate!r} and {orbits!r}")
+    if expected is not None and expected not in LAWS:
+        raise ValueError(f"expected must be one of {LAWS}, got {expected!r}")
+    moments = cubesat.principal_moments(spacecraft)
+    direction = W0_DIRECTION / np.linalg.norm(W0_DIRECTION)
+    plant: dict[str, float | bool] = {
+        **{f"I_{a}": v for a, v in zip("xyz", moments)}, "saturation_on": True,
+        **({} if spacecraft.dipole_limit is None else {"m_max": spacecraft.dipole_limit}),
+        **{f"omega_0[{i + 1}]": float(rate * c) for i, c in enumerate(direction)}}
+    models = {"periodic": (controller, "omega", {}), "bdot": ("cubesat_bdot", "b_body",
+                                                             {"bdot_gain": bdot_gain(j_min=min(moments))})}
+    fmus, connections, metrics = {}, [], []
+    for law, (model, measured, params) in models.items():
+        fmus[f"{law}_plant"] = FmuSpec(model="magnetorquer_cubesat", parameters=plant)
+        fmus[law] = FmuSpec(model=model, parameters=params)
+        connections += [Connection(f"{law}_plant.{measured}", f"{law}.{measured}"),
+                        Connection(f"{law}.m", f"{law}_plant.m")]
+        metrics += [Metric(f"{law}: |w(end)| / |w(0)|", "final", [f"{law}_plant.rate_norm"], scale=1.0 / rate,
+                           unit="1", max=REDUCTION if law == expected else None),
+                    Metric(f"{law}: peak dipole", "peak", [f"{law}.m"], unit="A m^2")]
+    return Scenario(name=f"{spacecraft.name}_{controller}_from_{rate:g}", stop_time=orbits * cubesat.ORBIT_PERIOD_SEED,
+                    step_size=1.0, fmus=fmus, connections=connections, metrics=metrics,
+                    description=f"{spacecraft.name}: {controller} and B-dot from |w(0)| = {rate:g} rad/s, "
+                                f"{orbits} orbits, dipole clipped",
+                    record=[f"{law}_plant.rate_norm" for law in LAWS] + [f"{law}.m" for law in LAWS])
 
 
 def detumbled_band(rows: Sequence[SweepRow]) -> dict[str, tuple[float, float]]:
