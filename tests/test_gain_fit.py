@@ -26,7 +26,7 @@ def test_fit_accuracy_improves_with_degree_and_the_artifact_evaluates_the_fit(ap
     assert all(result.cv_errors[d] > gain_fit.CV_TOL for d in result.cv_errors if d < result.degree)
     assert result.max_rel_error < gain_fit.OFFGRID_TOL
     # The artifact's polynomials are the fit (JSON round trip at 17 digits: rounding only).
-    pts = result.grid
+    pts = result.points
     assert np.max(np.abs(art.gain_at(pts) - result.evaluate(pts))) < 1e-9
 
 

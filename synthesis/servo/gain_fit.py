@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import logging
 from dataclasses import dataclass
-from itertools import combinations_with_replacement
 from typing import cast
 
 import numpy as np
@@ -29,7 +28,7 @@ from satfmu.fmus.plants import vscmg
 from satfmu.synthesis.servo.sdre import Servo
 from satfmu.fmus.errors import FitCertificationError
 from satfmu.synthesis.core.progress import Progress, Stages
-from satfmu.synthesis.servo.polynomial_fit import cross_validated_fit
+from satfmu.synthesis.servo.polynomial_fit import PolynomialFit, fit_gains
 
 LOG = logging.getLogger(__name__)
 
@@ -46,76 +45,30 @@ CV_TOL = 2e-3
 """Cross-validated RMS error (relative to the largest gain entry) the chosen degree must reach."""
 
 
-def exponents(degree: int) -> list[tuple[int, int]]:
-    """Monomial exponents (i, j) of sin(q2)^i w4^j with i + j <= degree, graded order.
-
-    Parameters
-    ----------
-    degree : int
-        Total degree of the polynomials, >= 0.
-
-    Returns
-    -------
-    list of tuple of (int, int)
-        ``(degree + 1) (degree + 2) / 2`` exponent pairs, by increasing total degree.
-    """
-    out = []
-    for d in range(degree + 1):
-        for combo in combinations_with_replacement((0, 1), d):
-            out.append((combo.count(0), combo.count(1)))
-    return out
-
-
-def _design(points: np.ndarray, degree: int) -> np.ndarray:
-    return np.column_stack([points[:, 0] ** i * points[:, 1] ** j for i, j in exponents(degree)])
-
-
 @dataclass
-class GainFit:
-    """Fitted gain polynomials and their accuracy on the grid.
+class GainFit(PolynomialFit):
+    """The SDRE gain (2x7) fitted on the monomials of ``(sin q2, w4)`` over the grid
+    (:class:`satfmu.synthesis.servo.polynomial_fit.PolynomialFit`: ``points`` are the grid's
+    ``(sin q2, w4)``, 1 and rad/s; ``gains`` the SDRE gains there, shape (n, 2, 7)).
 
     Attributes
     ----------
     degree : int
         Total degree chosen by cross-validation.
-    coefficients : (2, 7, n_terms) array
-        Coefficients of each gain entry's polynomial, in the order of :func:`exponents`.
+    coefficients : numpy.ndarray, shape (2, 7, n_terms)
+        Coefficients of each gain entry, in the order of
+        ``satfmu.synthesis.servo.polynomial_fit.exponents(2, degree)``.
     cv_errors : dict of int to float
         Cross-validated RMS error (relative to the largest gain entry) per degree tried.
     max_rel_error, rms_rel_error : float
-        Over the grid, ``|K_fit - K|`` relative to the largest ``|K|`` entry.
-    grid : (n, 2) array
-        (sin q2, w4) points, 1 and rad/s.
-    gains : (n, 2, 7) array
-        SDRE gains on the grid.
+        Largest and RMS ``|K_fit - K|`` on the samples, relative to the largest ``|K|`` entry.
+    points : numpy.ndarray, shape (n, 2)
+        The grid's ``(sin q2, w4)`` points, 1 and rad/s.
+    gains : numpy.ndarray, shape (n, 2, 7)
+        The SDRE gains there.
     cv_tol : float or None
-        The tolerance the degree was chosen with (:func:`fit`).
+        The tolerance the degree was chosen with.
     """
-
-    degree: int
-    coefficients: np.ndarray
-    cv_errors: dict[int, float]
-    max_rel_error: float
-    rms_rel_error: float
-    grid: np.ndarray
-    gains: np.ndarray
-    cv_tol: float | None = None
-
-    def evaluate(self, points: np.ndarray) -> np.ndarray:
-        """K at (sin q2, w4) points, shape (n, 2, 7).
-
-        Parameters
-        ----------
-        points : numpy.ndarray, shape (n, 2) or (2,)
-            ``(sin q2, w4)`` points (1, rad/s).
-
-        Returns
-        -------
-        numpy.ndarray, shape (n, 2, 7)
-            The fitted gain at each point (a single point gives n = 1).
-        """
-        X = _design(np.atleast_2d(points), self.degree)
-        return np.einsum("nt,ijt->nij", X, self.coefficients)
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
         """K (2x7) at the plant state x = [q1, q2, q4, w1, w2, w4] (the law of
@@ -189,17 +142,7 @@ def fit(points: np.ndarray, gains: np.ndarray, degrees: range = range(1, 9), fol
     points, gains = np.asarray(points, float), np.asarray(gains, float)
     if points.ndim != 2 or points.shape[1] != 2 or gains.shape[0] != points.shape[0]:
         raise ValueError(f"points must be (n, 2) and gains (n, ...), got {points.shape} and {gains.shape}")
-    n = len(points)
-    if n < 2 * len(exponents(max(degrees))):
-        raise ValueError(f"{n} grid points are too few for degree {max(degrees)}")
-    best, c, cv, max_err, rms_err = cross_validated_fit(_design, points, gains.reshape(n, -1), degrees, folds,
-                                                        seed, cv_tol)
-    coeffs = c.T.reshape(gains.shape[1], gains.shape[2], -1)
-    return GainFit(best, coeffs, cv, max_err, rms_err, points, gains, cv_tol)
-
-
-def _terms(coeffs: np.ndarray, degree: int) -> list[dict]:
-    return [{"c": float(c), "e": list(e)} for c, e in zip(coeffs, exponents(degree)) if c != 0.0]
+    return GainFit(*fit_gains(points, gains, degrees, folds, seed, cv_tol), points, gains, cv_tol)
 
 
 def _servo_data(name: str, description: str, gain: list, certificate: dict, provenance: dict,
@@ -256,14 +199,14 @@ def certify(result: GainFit, servo: Servo, max_re_tol: float = 1e-6) -> dict[str
     from satfmu.fmus.profiles import make
     from satfmu.synthesis.servo.sdre import SEED_REFERENCE_PROFILES, simulate_servo
 
-    sq = np.unique(result.grid[:, 0])
-    w4 = np.unique(result.grid[:, 1])
+    sq = np.unique(result.points[:, 0])
+    w4 = np.unique(result.points[:, 1])
     mid = np.array([(a, b) for a in (sq[1:] + sq[:-1]) / 2 for b in (w4[1:] + w4[:-1]) / 2])
     exact = np.array([servo(np.array([0.0, np.arcsin(a), 0.0, 0.0, 0.0, b])) for a, b in mid])
     err = (result.evaluate(mid) - exact).reshape(len(mid), -1)
     scale = float(np.max(np.abs(exact)))
     max_re = -np.inf
-    for a, b in np.concatenate([result.grid, mid]):
+    for a, b in np.concatenate([result.points, mid]):
         x = np.array([0.0, np.arcsin(a), 0.0, 0.0, 0.0, b])
         A, B = servo.matrices(x)
         max_re = max(max_re, float(np.max(np.linalg.eigvals(A - B @ result(x)).real)))
@@ -306,11 +249,11 @@ def approximated_sdre_data(result: GainFit, servo: Servo, checks: dict[str, floa
     dict
         The artifact's JSON data, kind ``servo_gain_schedule``, status ``sampled``.
     """
-    gain = [[_terms(result.coefficients[i, j], result.degree) for j in range(7)] for i in range(2)]
+    gain = result.terms()
     fit_info = {"degree": result.degree, "scheduling": SCHEDULING, "cv_tol": result.cv_tol,
                 "cv_rms_rel_error": {str(k): v for k, v in result.cv_errors.items()},
                 "max_rel_error": result.max_rel_error, "rms_rel_error": result.rms_rel_error,
-                "grid": {"q2": list(Q2_RANGE), "w4": list(W4_RANGE), "points": len(result.grid)}}
+                "grid": {"q2": list(Q2_RANGE), "w4": list(W4_RANGE), "points": len(result.points)}}
     cert = {"status": "sampled",
             "proved": "checked by sampling, not proved: the frozen closed loop Ae - Be K_fit has no eigenvalue "
                       "right of the conserved-p4 mode at 0 on the fit grid and its midpoints; off-grid fit error; "

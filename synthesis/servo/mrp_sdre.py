@@ -39,7 +39,6 @@ import logging
 import math
 import time
 from dataclasses import dataclass, field
-from itertools import combinations_with_replacement
 from typing import Any, Callable
 
 import numpy as np
@@ -48,14 +47,15 @@ import sympy as sp
 from satfmu.controllers.artifact import FORMAT, FORMAT_VERSION, SERVO_KIND, design_plant_record
 from satfmu.controllers.mrp_servo_sdc import (EPS, OUTPUTS, RATES, SCHEDULING, SIGMA_90DEG, TRACKED,
                                               default_weights, servo_matrices, servo_state, slew_rate)
-from satfmu.controllers.riccati import RiccatiCheck, RiccatiCheckError, riccati_gain
+from satfmu.controllers.riccati import riccati_gain
 from satfmu.fmus.errors import FitCertificationError, SOSError
 from satfmu.fmus.model import Model
 from satfmu.fmus.plants.spacecraft import PARAMETERS, Spacecraft
 from satfmu.synthesis.core import sos
 from satfmu.synthesis.core.polynomial import Poly, monomials
 from satfmu.synthesis.core.progress import Progress, Stages
-from satfmu.synthesis.servo.polynomial_fit import cross_validated_fit
+from satfmu.synthesis.servo.sdc_servo import SdcServo
+from satfmu.synthesis.servo.polynomial_fit import PolynomialFit, exponents, fit_gains
 
 LOG = logging.getLogger(__name__)
 
@@ -75,33 +75,6 @@ OFFGRID_RMS_TOL = 0.03
 EPS_FRACTION = 0.01
 """``eps`` of the region condition as a fraction of the origin's decay ``lambda_min(L^-1 (Q + K^T R K) L^-T)``:
 the certified decrease ``V' <= -eps |y|^2`` is 1 % of the LQ loop's at the origin."""
-
-
-def exponents(n_vars: int, degree: int) -> list[tuple[int, ...]]:
-    """Monomial exponents of total degree <= ``degree`` in ``n_vars`` variables, graded order.
-
-    Parameters
-    ----------
-    n_vars : int
-        Number of variables, >= 1.
-    degree : int
-        Total degree, >= 0.
-
-    Returns
-    -------
-    list of tuple of int
-        ``binomial(n_vars + degree, degree)`` exponent tuples, by increasing total degree.
-    """
-    out = []
-    for d in range(degree + 1):
-        for combo in combinations_with_replacement(range(n_vars), d):
-            out.append(tuple(combo.count(i) for i in range(n_vars)))
-    return out
-
-
-def _design(points: np.ndarray, degree: int) -> np.ndarray:
-    E = np.array(exponents(points.shape[1], degree))
-    return np.prod(points[:, None, :] ** E[None, :, :], axis=2)
 
 
 def _finite_positive(value: float, name: str) -> float:
@@ -164,8 +137,10 @@ def _check_weights(Q: np.ndarray, R: np.ndarray) -> tuple[np.ndarray, np.ndarray
 
 
 @dataclass
-class MRPServo:
-    """Numerical SDRE servo of the MRP plant: Ae, Be at a plant state and the checked gain.
+class MRPServo(SdcServo):
+    """Numerical SDRE servo of the MRP plant (:class:`satfmu.synthesis.servo.sdc_servo.SdcServo`):
+    Ae (9x9), Be (9x3) at a plant state ``[omega, sigma]`` (rad/s, 1) and the checked gain K (3x9,
+    ``u = -K xe`` in N m).
 
     Parameters
     ----------
@@ -196,10 +171,7 @@ class MRPServo:
             self.Q = Q0 if self.Q is None else self.Q
             self.R = R0 if self.R is None else self.R
         self.Q, self.R = _check_weights(self.Q, self.R)
-        args = (self.model.state_symbols, self.model.parameter_symbols)
-        self._A: Callable = sp.lambdify(args, Ae, "numpy", cse=True)
-        self._B: Callable = sp.lambdify(args, Be, "numpy", cse=True)
-        self._p = self.model.parameter_vector()
+        self._compile(self.model, Ae, Be)
 
     @property
     def weights(self) -> tuple[np.ndarray, np.ndarray]:
@@ -207,55 +179,15 @@ class MRPServo:
         assert self.Q is not None and self.R is not None
         return self.Q, self.R
 
-    def matrices(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Ae (9x9) and Be (9x3) at the plant state ``x``.
+    def describe_state(self, x: np.ndarray) -> str:
+        """The rates and MRPs of the plant state ``[omega, sigma]`` (rad/s, 1).
 
         Parameters
         ----------
         x : numpy.ndarray, shape (6,)
-            Plant state ``[omega (rad/s), sigma (1)]``.
-
-        Returns
-        -------
-        tuple of numpy.ndarray
-            ``(Ae, Be)``.
-
-        Raises
-        ------
-        ValueError
-            If ``x`` is not 6 finite values.
+            The plant state.
         """
-        x = np.array(x, float)
-        if x.shape != (6,) or not np.all(np.isfinite(x)):
-            raise ValueError(f"plant state must be 6 finite values [omega, sigma], got {x!r}")
-        return np.asarray(self._A(x, self._p), float), np.asarray(self._B(x, self._p), float)
-
-    def gain(self, x: np.ndarray) -> tuple[np.ndarray, RiccatiCheck]:
-        """K (3x9) at the plant state ``x`` and its check; ``u = -K xe`` (N m).
-
-        Parameters
-        ----------
-        x : numpy.ndarray, shape (6,)
-            Plant state ``[omega (rad/s), sigma (1)]``.
-
-        Returns
-        -------
-        K : numpy.ndarray, shape (3, 9)
-            The gain.
-        check : satfmu.controllers.riccati.RiccatiCheck
-            The checks of the Riccati solution.
-
-        Raises
-        ------
-        satfmu.controllers.riccati.RiccatiCheckError
-            If the Riccati solution at ``x`` fails a check (the message gives the state).
-        """
-        A, B = self.matrices(x)
-        Q, R = self.weights
-        try:
-            return riccati_gain(A, B, Q, R, self.eps)
-        except RiccatiCheckError as exc:
-            raise RiccatiCheckError(f"{exc} at omega = {x[:3]} rad/s, sigma = {x[3:]}") from exc
+        return f"omega = {x[:3]} rad/s, sigma = {x[3:]}"
 
     def riccati_at_origin(self) -> np.ndarray:
         """The Riccati solution ``P0`` (9x9) of the LQ servo at the origin (``V = xe^T P0 xe``)."""
@@ -356,53 +288,29 @@ def sdre_samples(servo: MRPServo, s_max: float, w_max: float, n: int = 256, seed
 
 
 @dataclass
-class GainFit:
-    """Fitted gain polynomials in the plant state and their accuracy on the samples.
+class GainFit(PolynomialFit):
+    """The SDRE servo's gain (3x9) fitted on the monomials of the plant state (an instance of
+    :class:`satfmu.synthesis.servo.polynomial_fit.PolynomialFit`: ``points`` are the sampled states
+    ``[omega, sigma]``, rad/s and 1; ``gains`` the SDRE gains there, shape (n, 3, 9)).
 
     Attributes
     ----------
     degree : int
         Total degree chosen by cross-validation.
     coefficients : numpy.ndarray, shape (3, 9, n_terms)
-        Coefficients of each gain entry, in the order of ``exponents(6, degree)``.
+        Coefficients of each gain entry, in the order of
+        ``satfmu.synthesis.servo.polynomial_fit.exponents(6, degree)``.
     cv_errors : dict of int to float
         Cross-validated RMS error (relative to the largest gain entry) per degree tried.
-    max_rel_error : float
-        Largest ``|K_fit - K|`` on the samples, relative to the largest ``|K|`` entry.
-    rms_rel_error : float
-        RMS of the same.
+    max_rel_error, rms_rel_error : float
+        Largest and RMS ``|K_fit - K|`` on the samples, relative to the largest ``|K|`` entry.
     points : numpy.ndarray, shape (n, 6)
-        The samples ``[omega, sigma]`` (rad/s, 1).
+        The sampled plant states ``[omega, sigma]``, rad/s and 1.
     gains : numpy.ndarray, shape (n, 3, 9)
-        The SDRE gains at the samples.
+        The SDRE gains there.
     cv_tol : float or None
         The tolerance the degree was chosen with.
     """
-
-    degree: int
-    coefficients: np.ndarray
-    cv_errors: dict[int, float]
-    max_rel_error: float
-    rms_rel_error: float
-    points: np.ndarray
-    gains: np.ndarray
-    cv_tol: float | None = None
-
-    def evaluate(self, points: np.ndarray) -> np.ndarray:
-        """K at plant states, shape (n, 3, 9).
-
-        Parameters
-        ----------
-        points : numpy.ndarray, shape (n, 6) or (6,)
-            Plant states ``[omega, sigma]`` (rad/s, 1).
-
-        Returns
-        -------
-        numpy.ndarray, shape (n, 3, 9)
-            The fitted gain at each state.
-        """
-        X = _design(np.atleast_2d(np.asarray(points, float)), self.degree)
-        return np.einsum("nt,ijt->nij", X, self.coefficients)
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
         """K (3x9) at the plant state ``x`` (6 values: rad/s, 1)."""
@@ -451,12 +359,7 @@ def fit(points: np.ndarray, gains: np.ndarray, degrees: range = range(0, MAX_DEG
         raise ValueError(f"degrees must lie in 0 .. {MAX_DEGREE} (the region's SOS program), got {degrees}")
     if folds < 2:
         raise ValueError(f"folds must be >= 2, got {folds}")
-    n = len(points)
-    if n < 2 * len(exponents(6, max(degrees))):
-        raise ValueError(f"{n} points are too few for degree {max(degrees)}")
-    best, c, cv, max_err, rms_err = cross_validated_fit(_design, points, gains.reshape(n, -1), degrees, folds,
-                                                        seed, cv_tol)
-    return GainFit(best, c.T.reshape(3, 9, -1), cv, max_err, rms_err, points, gains, cv_tol)
+    return GainFit(*fit_gains(points, gains, degrees, folds, seed, cv_tol), points, gains, cv_tol)
 
 
 @dataclass
@@ -851,10 +754,6 @@ def certify_region(result: GainFit, servo: MRPServo, iterations: int = 8, eps_fr
                              time.perf_counter() - t0, msg, lo == c_top)
 
 
-def _terms(coeffs: np.ndarray, degree: int) -> list[dict]:
-    return [{"c": float(c), "e": list(e)} for c, e in zip(coeffs, exponents(6, degree)) if c != 0.0]
-
-
 def artifact_data(result: GainFit, servo: MRPServo, checks: dict[str, float], region: RegionCertificate | None,
                   box: tuple[float, float], name: str = "mrp_sdre_servo") -> dict[str, Any]:
     """The ``servo_gain_schedule`` artifact data of the fitted servo for plant ``mrp_satellite``.
@@ -883,7 +782,7 @@ def artifact_data(result: GainFit, servo: MRPServo, checks: dict[str, float], re
         The artifact's JSON data (validate with :func:`satfmu.controllers.artifact.parse`).
     """
     s_max, w_max = box
-    gain = [[_terms(result.coefficients[i, j], result.degree) for j in range(9)] for i in range(3)]
+    gain = result.terms()
     fit_info = {"degree": result.degree, "scheduling": SCHEDULING, "cv_tol": result.cv_tol,
                 "cv_rms_rel_error": {str(k): v for k, v in result.cv_errors.items()},
                 "max_rel_error": result.max_rel_error, "rms_rel_error": result.rms_rel_error,

@@ -13,17 +13,18 @@ from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
-import sympy as sp
 
-from satfmu.controllers.riccati import RiccatiCheck, RiccatiCheckError, riccati_gain
-from satfmu.controllers.servo_sdc import EPS, PLANT_STATES, Q_SEED, R_SEED, servo_matrices, servo_state
+from satfmu.controllers.servo_sdc import EPS, Q_SEED, R_SEED, servo_matrices, servo_state
 from satfmu.fmus.plants import vscmg
 from satfmu.fmus.model import Model
+from satfmu.synthesis.servo.sdc_servo import SdcServo
 
 
 @dataclass
-class Servo:
-    """Numerical SDRE servo: Ae, Be at a plant state and the checked gain.
+class Servo(SdcServo):
+    """Numerical SDRE servo of the VSCMG (:class:`satfmu.synthesis.servo.sdc_servo.SdcServo`): Ae (7x7),
+    Be (7x2) at a plant state ``[q1, q2, q4, w1, w2, w4]`` (rad, rad/s) and the checked gain K (2x7,
+    ``[T1, T2]`` in N m per servo state).
 
     Parameters
     ----------
@@ -51,63 +52,26 @@ class Servo:
     model: Model = field(default_factory=lambda: vscmg.MODEL, repr=False)
 
     def __post_init__(self) -> None:
-        Ae, Be = servo_matrices(self.model, self.factorization, self.freeze_w2)
-        args = (self.model.state_symbols, self.model.parameter_symbols)
-        self._A: Callable = sp.lambdify(args, Ae, "numpy", cse=True)
-        self._B: Callable = sp.lambdify(args, Be, "numpy", cse=True)
-        self._p = self.model.parameter_vector(self.plant_params)
+        self._compile(self.model, *servo_matrices(self.model, self.factorization, self.freeze_w2), self.plant_params)
         self.Q, self.R = np.asarray(self.Q, float), np.asarray(self.R, float)
         if self.Q.shape != (7, 7) or self.R.shape != (2, 2):
             raise ValueError(f"Q must be 7x7 and R 2x2, got {self.Q.shape} and {self.R.shape}")
 
-    def matrices(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Ae (7x7) and Be (7x2) at the plant state ``x`` (6 values).
+    @property
+    def weights(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(Q, R)``, shapes (7, 7) and (2, 2)."""
+        return self.Q, self.R
+
+    def describe_state(self, x: np.ndarray) -> str:
+        """``q2`` and the rates of the plant state ``[q1, q2, q4, w1, w2, w4]`` (rad, rad/s), and the SDC
+        factorization.
 
         Parameters
         ----------
         x : numpy.ndarray, shape (6,)
-            Plant state ``[q1, q2, q4, w1, w2, w4]`` (rad, rad/s).
-
-        Raises
-        ------
-        ValueError
-            If ``x`` is not 6 finite values.
+            The plant state.
         """
-        x = np.array(x, float)
-        if x.shape != (6,) or not np.all(np.isfinite(x)):
-            raise ValueError(f"plant state must be 6 finite values {PLANT_STATES}, got {x!r}")
-        return np.asarray(self._A(x, self._p), float), np.asarray(self._B(x, self._p), float)
-
-    def gain(self, x: np.ndarray) -> tuple[np.ndarray, RiccatiCheck]:
-        """K (2x7) at the plant state ``x`` and its check; u = -K xe.
-
-        Parameters
-        ----------
-        x : numpy.ndarray, shape (6,)
-            Plant state ``[q1, q2, q4, w1, w2, w4]`` (rad, rad/s).
-
-        Returns
-        -------
-        K : numpy.ndarray, shape (2, 7)
-            The gain, ``[T1, T2]`` (N m) per servo state.
-        check : satfmu.controllers.riccati.RiccatiCheck
-            The checks of the Riccati solution.
-
-        Raises
-        ------
-        satfmu.controllers.riccati.RiccatiCheckError
-            If the Riccati solution at ``x`` fails a check (the message gives the state).
-        """
-        A, B = self.matrices(x)
-        try:
-            return riccati_gain(A, B, self.Q, self.R, self.eps)
-        except RiccatiCheckError as exc:
-            raise RiccatiCheckError(f"{exc} at q2 = {x[1]:.4g} rad, w = [{x[3]:.4g}, {x[4]:.4g}, {x[5]:.4g}] "
-                                    f"rad/s ({self.factorization} SDC)") from exc
-
-    def __call__(self, x: np.ndarray) -> np.ndarray:
-        """The checked gain K (2x7) at the plant state ``x`` (the law of :func:`simulate_servo`)."""
-        return self.gain(x)[0]
+        return f"q2 = {x[1]:.4g} rad, w = [{x[3]:.4g}, {x[4]:.4g}, {x[5]:.4g}] rad/s ({self.factorization} SDC)"
 
 
 SEED_REFERENCE_PROFILES = {
