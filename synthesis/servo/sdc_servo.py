@@ -22,7 +22,7 @@ class SdcServo(ABC):
     gain ``K = R^-1 Be^T P`` of the shifted pair ``(Ae - eps I, Be)``
     (:func:`satfmu.controllers.riccati.riccati_gain`).
 
-    Subclasses call :meth:`_compile` once and give :attr:`weights`, :attr:`eps` and
+    Subclasses call ``_compile`` once and give :attr:`weights`, :attr:`eps` and
     :meth:`describe_state`.
     """
 
