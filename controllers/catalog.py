@@ -54,6 +54,12 @@ def _plant(module: str) -> Callable[[], FmuSource]:
     return lambda: FmuSource(importlib.import_module(module).MODEL, {})
 
 
+def _wheel_plant(n: int) -> FmuSource:
+    from satfmu.fmus.plants import wheel_spacecraft
+
+    return FmuSource(wheel_spacecraft.MODELS[n], {})
+
+
 def _online_sdre(name: str) -> FmuSource:
     from satfmu.controllers import servo
 
@@ -81,7 +87,8 @@ def _signal(kind: str) -> FmuSource:
 PLANTS: dict[str, Callable[[], FmuSource]] = {
     "mrp_satellite": _plant("satfmu.fmus.plants.mrp_satellite"), "vscmg": _plant("satfmu.fmus.plants.vscmg"),
     "magnetorquer_cubesat": _plant("satfmu.fmus.plants.cubesat"),
-    "demeter_flexible": _plant("satfmu.fmus.plants.demeter")}
+    "demeter_flexible": _plant("satfmu.fmus.plants.demeter"),
+    "mrp_satellite_rw3": functools.partial(_wheel_plant, 3), "mrp_satellite_rw4": functools.partial(_wheel_plant, 4)}
 """Plant model name -> its source (built on call)."""
 SIGNALS = ("signal_constant", "signal_step", "signal_sinusoid", "signal_cosine_ramp")
 """Model names of the generic signal generators (:data:`satfmu.fmus.signals.GENERIC`, ``signal_<kind>``)."""

@@ -8,6 +8,8 @@ Your spacecraft and its plant
     :data:`SEED_000` (the seed 000 paper's satellite), :func:`mrp_plant` (the MRP satellite
     model of a spacecraft), :func:`cubesat_plant` (the magnetorquer cubesat of seed 003, in
     principal axes), :func:`manoeuvre` (a rest-to-rest start by axis and angle);
+    :class:`ReactionWheel` (a wheel of the spacecraft's array) and :func:`wheel_plant` (the MRP
+    satellite with its reaction wheels integrated);
     :class:`FlexibleSpacecraft` (a rigid hub with flexible appendages, their modes' frequency
     and damping intervals, reaction wheels; ``FlexibleSpacecraft.from_toml``) with its parts
     :class:`Appendage`, :class:`Mode`, :class:`Interval`, :class:`Wheels`,
@@ -72,6 +74,7 @@ _EXPORTS = {
         "EngineError", "ScenarioError", "DesignMismatchWarning", "StaleFmuWarning", "SspError", "DispersionError",
         "CampaignError", "CampaignWarning", "DesignError", "ShadowedArtifactWarning", "ReportError")},
     "Spacecraft": "satfmu.fmus.plants.spacecraft", "SEED_000": "satfmu.fmus.plants.spacecraft",
+    "ReactionWheel": "satfmu.fmus.plants.wheels",
     **{name: "satfmu.fmus.plants.flexible_spacecraft" for name in (
         "FlexibleSpacecraft", "Appendage", "Mode", "Interval", "Wheels", "InertiaUncertainty", "DEMETER")},
     "Scenario": "satfmu.sims.scenario.spec", "FmuSpec": "satfmu.sims.scenario.spec",
@@ -90,7 +93,7 @@ _EXPORTS = {
     "find_artifact": "satfmu.controllers.paths",
     "manoeuvre": "satfmu.synthesis.polynomial_feedback.two_step",
 }
-_FUNCTIONS = {"run", "build", "mrp_plant", "cubesat_plant", "load_artifact"}
+_FUNCTIONS = {"run", "build", "mrp_plant", "wheel_plant", "cubesat_plant", "load_artifact"}
 __all__ = sorted([*_EXPORTS, *_FUNCTIONS, "__version__"])
 
 
@@ -179,6 +182,40 @@ def mrp_plant(spacecraft: "Spacecraft | None" = None) -> "Model":
     from satfmu.fmus.plants import mrp_satellite
 
     return mrp_satellite.MODEL if spacecraft is None else mrp_satellite.build(spacecraft)
+
+
+def wheel_plant(spacecraft: "Spacecraft | None" = None, n_wheels: int = 4) -> "Model":
+    """The MRP satellite with its reaction wheel array integrated (``mrp_satellite_rw<N>``).
+
+    Parameters
+    ----------
+    spacecraft : Spacecraft, optional
+        A spacecraft with wheels (``Spacecraft(..., wheels=[ReactionWheel(...), ...])``); its
+        inertia (wheels included) and wheels become the parameters' defaults. Default: the
+        shipped plant of ``n_wheels`` (3 orthogonal or 4 in a pyramid). A spacecraft with 3 or 4
+        wheels runs in the shipped FMU too, with
+        ``satfmu.fmus.plants.wheel_spacecraft.parameters(spacecraft)`` as its parameters.
+    n_wheels : {3, 4}, optional
+        The shipped plant's number of wheels, without a spacecraft.
+
+    Returns
+    -------
+    satfmu.fmus.model.Model
+        The symbolic model.
+
+    Raises
+    ------
+    ValueError
+        If the spacecraft has no wheels, or ``n_wheels`` is not 3 or 4 without one.
+    """
+    from satfmu.fmus.plants import wheel_spacecraft
+
+    if spacecraft is not None:
+        return wheel_spacecraft.build(spacecraft)
+    if n_wheels not in wheel_spacecraft.MODELS:
+        raise ValueError(f"n_wheels must be one of {sorted(wheel_spacecraft.MODELS)} without a spacecraft, "
+                         f"got {n_wheels!r}")
+    return wheel_spacecraft.MODELS[n_wheels]
 
 
 def cubesat_plant(spacecraft: "Spacecraft | None" = None) -> "Model":

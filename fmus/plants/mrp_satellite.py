@@ -65,6 +65,73 @@ def mrp_kinematics_matrix(s: sp.Matrix) -> sp.Matrix:
     return (1 - (s.T * s)[0]) * sp.eye(3) + 2 * skew(s) + 2 * s * s.T
 
 
+def inertia_parameters(spacecraft: Spacecraft, prefix: str = "") -> list[Variable]:
+    """The six inertia parameters, from I_x to I_yz (kg m^2), with the spacecraft's tensor as defaults.
+
+    Parameters
+    ----------
+    spacecraft : Spacecraft
+        Its inertia tensor gives the defaults.
+    prefix : str, optional
+        Text put before each description (what the inertia is of).
+
+    Returns
+    -------
+    list of Variable
+        ``I_x, I_y, I_z, I_xy, I_xz, I_yz``; the moments are > 0.
+    """
+    return [Variable(name, "kg.m2", prefix + (f"Moment of inertia about body axis {_AXES[name]}" if i == j else
+                                              f"Product of inertia (tensor entry J[{i}][{j}]) of body axes "
+                                              f"{_AXES[name]}"),
+                     start=spacecraft.inertia[i][j], min=1e-9 if i == j else None)
+            for name, (i, j) in PARAMETERS.items()]
+
+
+def shadow_parameter() -> Variable:
+    """The Boolean parameter ``shadow_switching`` (off by default)."""
+    return Variable("shadow_switching", "1",
+                    "Switch to the MRP shadow set (sigma -> -sigma/|sigma|^2) when |sigma| > 1", 0, "Boolean")
+
+
+def shadow_post(s: sp.Matrix, enabled: sp.Symbol) -> list[sp.Expr]:
+    """The post-step map of the MRPs: the shadow set ``-s / |s|^2`` when ``enabled`` and ``|s| > 1``.
+
+    Parameters
+    ----------
+    s : sympy.Matrix
+        The MRP states, 3 x 1.
+    enabled : sympy.Symbol
+        The symbol of :func:`shadow_parameter`.
+
+    Returns
+    -------
+    list of sympy.Expr
+        The three switched MRPs.
+    """
+    s2 = (s.T * s)[0]
+    switch = sp.And(enabled > sp.Rational(1, 2), s2 > 1)
+    # Max(s2, 1) equals s2 wherever the branch is taken; it keeps the hoisted division finite.
+    return [sp.Piecewise((-si / sp.Max(s2, 1), switch), (si, True)) for si in s]
+
+
+def phi_output(s: sp.Matrix) -> Output:
+    """The output ``phi``, the principal rotation angle ``4 atan(|s|)`` of the MRPs ``s`` (rad).
+
+    Parameters
+    ----------
+    s : sympy.Matrix
+        The MRP states, 3 x 1.
+
+    Returns
+    -------
+    Output
+        The output.
+    """
+    return Output(Variable("phi", "rad", "Principal rotation angle 4 atan(|sigma|) of the "
+                           "attitude (exceeds pi on the long way round, |sigma| > 1)"),
+                  4 * sp.atan(sp.sqrt((s.T * s)[0])))
+
+
 def build(spacecraft: Spacecraft = SEED_000, omega_0: tuple[float, float, float] = (0.0, 0.0, 0.0),
           sigma_0: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> Model:
     """The symbolic MRP satellite model of ``spacecraft``.
@@ -80,15 +147,11 @@ def build(spacecraft: Spacecraft = SEED_000, omega_0: tuple[float, float, float]
     sigma_0 : 3 floats
         Default initial MRP attitude (FMU parameters ``sigma_0[i]``).
     """
-    inertia = [Variable(name, "kg.m2", (f"Moment of inertia about body axis {_AXES[name]}" if i == j else
-                                        f"Product of inertia (tensor entry J[{i}][{j}]) of body axes {_AXES[name]}"),
-                        start=spacecraft.inertia[i][j], min=1e-9 if i == j else None)
-               for name, (i, j) in PARAMETERS.items()]
+    inertia = inertia_parameters(spacecraft)
     sat_on = Variable("saturation_on", "1", "Saturate the command torque at +-u_max", 0, "Boolean")
     u_max = Variable("u_max", "N.m", "Actuator torque limit per axis (when saturation_on)",
                      spacecraft.torque_limit or 5.0, min=0.0)
-    shadow = Variable("shadow_switching", "1",
-                      "Switch to the MRP shadow set (sigma -> -sigma/|sigma|^2) when |sigma| > 1", 0, "Boolean")
+    shadow = shadow_parameter()
     xw = states("omega", 3, "rad/s", "body angular rate about body axis {i}", omega_0)
     xs = states("sigma", 3, "1", "modified Rodrigues parameter {i} (body w.r.t. reference)", sigma_0)
     u = vector("u", 3, "N.m", "Commanded control torque about body axis {i}")
@@ -103,10 +166,7 @@ def build(spacecraft: Spacecraft = SEED_000, omega_0: tuple[float, float, float]
     omega_dot = J_inv * (-w.cross(J * w) + u_applied + wdist)
     sigma_dot = mrp_kinematics_matrix(s) * w / 4
 
-    s2 = (s.T * s)[0]
-    switch = sp.And(shadow.symbol > sp.Rational(1, 2), s2 > 1)
-    # Max(s2, 1) equals s2 wherever the branch is taken; it keeps the hoisted division finite.
-    post = sp.Matrix(list(w) + [sp.Piecewise((-si / sp.Max(s2, 1), switch), (si, True)) for si in s])
+    post = sp.Matrix(list(w) + shadow_post(s, shadow.symbol))
 
     # SDC form (seed 000 eq. 35-37 when the products vanish): x' = A(x) x + B [u; w_d], saturation off.
     S = sp.Matrix([[0, (Iy - Iz) * w[2], 0], [0, 0, (Iz - Ix) * w[0]], [(Ix - Iy) * w[1], 0, 0]])
@@ -118,10 +178,7 @@ def build(spacecraft: Spacecraft = SEED_000, omega_0: tuple[float, float, float]
     B = sp.Matrix(sp.BlockMatrix([[Binv, Binv], [sp.zeros(3, 3), sp.zeros(3, 3)]]))
     sdc = SDCForm(A, B, tuple(v.name for v in u + wd), {"saturation_on": 0.0})
 
-    outputs = ([Output(v.variable, v.symbol) for v in xw + xs]
-               + [Output(Variable("phi", "rad", "Principal rotation angle 4 atan(|sigma|) of the "
-                                  "attitude (exceeds pi on the long way round, |sigma| > 1)"),
-                         4 * sp.atan(sp.sqrt(s2)))])
+    outputs = [Output(v.variable, v.symbol) for v in xw + xs] + [phi_output(s)]
     return Model(
         name="mrp_satellite",
         description="Rigid satellite, MRP attitude, torque inputs (seed 000: nonlinear "

@@ -11,29 +11,37 @@ satellite take one, so that a controller is designed for *your* spacecraft. A TO
     [actuators]
     torque_limit = 5.0                  # N m per body axis (optional)
     dipole_limit = 0.2                  # A m^2 per magnetorquer axis (optional)
+    [[wheels]]                          # a reaction wheel array (optional, at least 3 wheels)
+    axis = [1.0, 0.0, 0.0]              # one table per wheel: satfmu.fmus.plants.wheels
+    inertia = 0.05
+    torque_limit = 0.2
+    speed_limit = 600.0
 
 ``inertia`` may also be three principal moments ``[I_x, I_y, I_z]``. The tensor is
 checked: finite, symmetric, positive definite, and its principal moments satisfy the
-triangle inequality ``I_1 + I_2 >= I_3`` of every rigid body.
+triangle inequality ``I_1 + I_2 >= I_3`` of every rigid body. It is the whole spacecraft's,
+wheels included; with the wheels' spin inertias taken out (``J - sum Js g g^T``, the body that
+the wheel plant integrates) it must stay positive definite.
 """
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from satfmu.fmus.declared import check_keys, read_toml
 from satfmu.fmus.errors import SpacecraftError
+from satfmu.fmus.plants.wheels import ReactionWheel, check_array, spin_axes
 
 SYMMETRY_RTOL = 1e-9
 """Largest ``|J - J^T|`` relative to ``max |J|`` accepted as symmetric (rounding of a CAD export)."""
 PARAMETERS = {"I_x": (0, 0), "I_y": (1, 1), "I_z": (2, 2), "I_xy": (0, 1), "I_xz": (0, 2), "I_yz": (1, 2)}
 """Plant parameter name -> entry of the inertia tensor it holds."""
-_KEYS = ("name", "description", "inertia", "actuators")
+_KEYS = ("name", "description", "inertia", "actuators", "wheels")
 _ACTUATOR_KEYS = ("torque_limit", "dipole_limit")
 
 
@@ -54,12 +62,16 @@ class Spacecraft:
         Free text.
     dipole_limit : float, optional
         Magnetorquer dipole limit per body axis, A m^2 (the cubesat plant's ``m_max``).
+    wheels : sequence of ReactionWheel, optional
+        Its reaction wheel array (:mod:`satfmu.fmus.plants.wheels`), at least 3 wheels whose
+        axes span the body axes; default none.
 
     Raises
     ------
     SpacecraftError
         If the tensor is not 3 x 3 (or 3 moments), not finite, not symmetric, not positive
-        definite or violates the triangle inequality, or a limit is not positive.
+        definite or violates the triangle inequality, a limit is not positive, or the wheel
+        array cannot torque every axis or leaves no positive definite body inertia.
     """
 
     name: str
@@ -67,9 +79,11 @@ class Spacecraft:
     torque_limit: float | None = None
     description: str = field(default="", compare=False)
     dipole_limit: float | None = None
+    wheels: tuple[ReactionWheel, ...] = ()
 
     def __init__(self, name: str, inertia: ArrayLike, torque_limit: float | None = None,
-                 description: str = "", *, dipole_limit: float | None = None) -> None:
+                 description: str = "", *, dipole_limit: float | None = None,
+                 wheels: Sequence[ReactionWheel] = ()) -> None:
         if not isinstance(name, str) or not name:
             raise SpacecraftError(f"name: must be a non-empty string, got {name!r}")
         object.__setattr__(self, "name", name)
@@ -77,11 +91,25 @@ class Spacecraft:
         object.__setattr__(self, "torque_limit", _limit(torque_limit, f"{name}: actuators.torque_limit", "N m"))
         object.__setattr__(self, "description", description)
         object.__setattr__(self, "dipole_limit", _limit(dipole_limit, f"{name}: actuators.dipole_limit", "A m^2"))
+        object.__setattr__(self, "wheels", check_array(wheels, f"{name}: wheels") if len(wheels) else ())
+        if self.wheels:
+            body = self.body_inertia
+            if not np.linalg.eigvalsh(body)[0] > 0:
+                raise SpacecraftError(f"{name}: the inertia less the wheels' spin inertias (J - sum Js g g^T) is not "
+                                      f"positive definite (eigenvalues {np.linalg.eigvalsh(body).tolist()} kg m^2): "
+                                      "give the whole spacecraft's inertia, wheels included")
 
     @property
     def tensor(self) -> np.ndarray:
         """The inertia tensor as a 3 x 3 array, kg m^2."""
         return np.array(self.inertia)
+
+    @property
+    def body_inertia(self) -> np.ndarray:
+        """The inertia less the wheels' spin inertias, ``J - sum_i Js_i g_i g_i^T``, kg m^2 (3 x 3):
+        the body whose rate the wheel plant integrates beside the wheels' spin momenta."""
+        G = spin_axes(self.wheels) if self.wheels else np.zeros((3, 0))
+        return self.tensor - G @ np.diag([w.inertia for w in self.wheels]) @ G.T
 
     @property
     def principal_moments(self) -> np.ndarray:
@@ -104,6 +132,8 @@ class Spacecraft:
         limits = {"torque_limit": self.torque_limit, "dipole_limit": self.dipole_limit}
         if any(v is not None for v in limits.values()):
             data["actuators"] = {k: v for k, v in limits.items() if v is not None}
+        if self.wheels:
+            data["wheels"] = [w.to_dict() for w in self.wheels]
         return data
 
     @classmethod
@@ -114,8 +144,9 @@ class Spacecraft:
         ----------
         data : mapping of str to object
             ``name``, ``inertia`` (kg m^2), optional ``description`` and an optional
-            ``actuators`` table with ``torque_limit`` (N m) and ``dipole_limit`` (A m^2), as in
-            the module's example.
+            ``actuators`` table with ``torque_limit`` (N m) and ``dipole_limit`` (A m^2), and an
+            optional ``wheels`` list of tables (:meth:`satfmu.fmus.plants.wheels.ReactionWheel.from_dict`),
+            as in the module's example.
         where : str, optional
             Where the data comes from (a file name), the prefix of error messages. Default
             ``"spacecraft"``.
@@ -140,9 +171,14 @@ class Spacecraft:
         if not isinstance(act, Mapping):
             raise SpacecraftError(f"{where}: actuators: expected a table, got {type(act).__name__}")
         check_keys(act, _ACTUATOR_KEYS, f"{where}: actuators", SpacecraftError)
+        raw_wheels = data.get("wheels", [])
+        if not isinstance(raw_wheels, list):
+            raise SpacecraftError(f"{where}: wheels: expected a list of tables ([[wheels]]), got "
+                                  f"{type(raw_wheels).__name__}")
+        wheels = [ReactionWheel.from_dict(w, f"{where}: wheels[{k + 1}]") for k, w in enumerate(raw_wheels)]
         try:
             return cls(data["name"], data["inertia"], act.get("torque_limit"), data.get("description", ""),
-                       dipole_limit=act.get("dipole_limit"))
+                       dipole_limit=act.get("dipole_limit"), wheels=wheels)
         except SpacecraftError as exc:
             raise SpacecraftError(f"{where}: {exc}") from None
 
