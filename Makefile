@@ -129,8 +129,9 @@ test: browser-deps $(VENV)/.installed
 	@$(MAKE) --no-print-directory -j2 build lint
 	@$(STAGE) --show tests $(PYTEST)
 
-# the bench extra (Drake, SumOfSquares.py): `make test-all` runs the tests that pose our SOS programs in
-# Drake (tests/test_sos_bench.py, skipped without it), `make bench` compares with both
+# the bench extra (Drake, SumOfSquares.py, Basilisk): `make test-all` runs the tests that pose our SOS
+# programs in Drake (tests/test_sos_bench.py) and check the plants against Basilisk (tests/test_basilisk.py),
+# each skipped without it; `make bench` compares with all three
 bench-deps: $(VENV)/.bench-deps
 $(VENV)/.bench-deps: pyproject.toml | $(VENV)/.installed
 	@mkdir -p build/logs
@@ -150,6 +151,7 @@ bench: build bench-deps
 	$(PY) bench/sos_speed.py
 	$(PY) bench/sos_symmetry.py
 	$(PY) bench/sdre_speed.py
+	$(PY) bench/basilisk_compare.py
 
 clean:
 	rm -rf build results .pytest_cache

@@ -9,12 +9,12 @@ import pytest
 
 from satfmu.fmus import codegen
 from satfmu.fmus.errors import SpacecraftError
-from satfmu.fmus.plants import wheel_spacecraft as ws
+from satfmu.fmus.plants import wheel_spacecraft
 from satfmu.fmus.plants import wheels
 from satfmu.fmus.plants.spacecraft import Spacecraft
 from satfmu.fmus.pyslave import rk4_step
 
-RW4 = ws.MODELS[4]
+RW4 = wheel_spacecraft.MODELS[4]
 
 
 class Plant:
@@ -47,7 +47,7 @@ def _start(n: int, omega=(0.01, -0.02, 0.015), sigma=(0.1, 0.05, -0.1), speeds=N
 
 # ------------------------------------------------------------------------------------------ description
 def test_description_reads_writes_and_checks_a_wheel_array(tmp_path: Path) -> None:
-    sc = ws.SMALLSAT[4]
+    sc = wheel_spacecraft.SMALLSAT[4]
     assert Spacecraft.from_dict(sc.to_dict()) == sc  # round trip through the TOML keys
     G = wheels.spin_axes(sc.wheels)
     assert np.allclose(np.linalg.norm(G, axis=0), 1.0, atol=1e-15)
@@ -91,10 +91,10 @@ coulomb = 1e-4
     ({"spin": 1.0}, "spin"),
 ])
 def test_a_bad_wheel_is_refused_with_its_key(change: dict, message: str) -> None:
-    wheel = {**ws.SMALLSAT[3].wheels[0].to_dict(), **change}
+    wheel = {**wheel_spacecraft.SMALLSAT[3].wheels[0].to_dict(), **change}
     with pytest.raises(SpacecraftError, match=message):
         Spacecraft.from_dict({"name": "s", "inertia": [10.0, 10.0, 10.0],
-                              "wheels": [wheel, *[w.to_dict() for w in ws.SMALLSAT[3].wheels[1:]]]})
+                              "wheels": [wheel, *[w.to_dict() for w in wheel_spacecraft.SMALLSAT[3].wheels[1:]]]})
 
 
 def test_an_array_that_cannot_torque_every_axis_or_outweighs_the_body_is_refused() -> None:
@@ -111,7 +111,7 @@ def test_an_array_that_cannot_torque_every_axis_or_outweighs_the_body_is_refused
     with pytest.raises(SpacecraftError, match="list of tables"):
         Spacecraft.from_dict({"name": "s", "inertia": [1.0, 1.0, 1.0], "wheels": {"axis": [1, 0, 0]}})
     with pytest.raises(ValueError, match="no reaction wheels"):
-        ws.build(Spacecraft("s", [1.0, 1.0, 1.0]))
+        wheel_spacecraft.build(Spacecraft("s", [1.0, 1.0, 1.0]))
 
 
 # ------------------------------------------------------------------------------------------ dynamics
@@ -120,7 +120,7 @@ def test_total_momentum_is_conserved_while_the_wheels_slew_the_body(n: int) -> N
     # A body torque command (within every limit) with friction on: every torque is internal, so the
     # reference-frame momentum stays constant. 100 s of RK4 at 12.5 ms: the drift is the integration
     # error of the rotation (measured 1e-12 N m s of |H| ~ 10): 1e-10 relative leaves 100x margin.
-    plant = Plant(ws.MODELS[n])
+    plant = Plant(wheel_spacecraft.MODELS[n])
     x, ui = _start(n), plant.inputs(u=(0.05, -0.03, 0.02))
     H0 = plant.ys(x, ui, "H")
     x = plant.run(x, ui, 100.0)
@@ -134,7 +134,7 @@ def test_the_command_reaches_the_body_without_friction_and_splits_by_the_pseudo_
     plant = Plant(**{f"c_viscous[{i}]": 0.0 for i in range(1, 5)}, **{f"f_coulomb[{i}]": 0.0 for i in range(1, 5)})
     x, ui = _start(4), plant.inputs(u=(0.05, -0.03, 0.02))
     assert np.allclose(plant.ys(x, ui, "tau_wheels"), [0.05, -0.03, 0.02], rtol=0, atol=1e-15)
-    G = wheels.spin_axes(ws.SMALLSAT[4].wheels)
+    G = wheels.spin_axes(wheel_spacecraft.SMALLSAT[4].wheels)
     tau = plant.ys(x, ui, "tau_motor", 4)
     assert np.allclose(tau, -np.linalg.pinv(G) @ [0.05, -0.03, 0.02], rtol=0, atol=1e-15)  # minimum norm
 
@@ -158,7 +158,7 @@ def test_friction_is_viscous_plus_a_linearized_coulomb_term_and_its_reaction_act
     cv, fc, zone = 2e-6, 3e-4, 1e-4
     plant = Plant(**{f"c_viscous[{i}]": cv for i in range(1, 5)}, **{f"f_coulomb[{i}]": fc for i in range(1, 5)},
                   omega_coulomb=zone)
-    G = wheels.spin_axes(ws.SMALLSAT[4].wheels)
+    G = wheels.spin_axes(wheel_spacecraft.SMALLSAT[4].wheels)
     for speed, f in ((200.0, -(cv * 200.0 + fc)), (-50.0, cv * 50.0 + fc), (zone / 2, -(cv * zone / 2 + fc / 2))):
         x = _start(4, omega=(0.0, 0.0, 0.0), speeds=[speed, 0.0, 0.0, 0.0])
         # h1' = f (no command), the body feels -g1 f
@@ -213,7 +213,7 @@ def test_your_array_runs_in_the_shipped_plant_through_its_parameters() -> None:
     mine = Spacecraft("mine", [[30.0, 1.0, 0.0], [1.0, 40.0, -0.5], [0.0, -0.5, 25.0]],
                       wheels=wheels.pyramid(0.05, 0.2, 400.0, viscous=3e-6, coulomb=1e-4, elevation_deg=30.0))
     own = Plant(satfmu.wheel_plant(mine))
-    shipped = Plant(satfmu.wheel_plant(), **ws.parameters(mine))
+    shipped = Plant(satfmu.wheel_plant(), **wheel_spacecraft.parameters(mine))
     assert own.model.name == shipped.model.name == "mrp_satellite_rw4"
     x, ui = _start(4), own.inputs(u=(0.1, -0.2, 0.05))
     # the same model up to its defaults: the same numbers bit for bit
@@ -222,4 +222,4 @@ def test_your_array_runs_in_the_shipped_plant_through_its_parameters() -> None:
     with pytest.raises(ValueError, match="n_wheels"):
         satfmu.wheel_plant(n_wheels=5)
     with pytest.raises(ValueError, match="no reaction wheels"):
-        ws.parameters(Spacecraft("s", [1.0, 1.0, 1.0]))
+        wheel_spacecraft.parameters(Spacecraft("s", [1.0, 1.0, 1.0]))
