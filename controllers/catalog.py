@@ -88,8 +88,9 @@ PLANTS: dict[str, Callable[[], FmuSource]] = {
     "mrp_satellite": _plant("satfmu.fmus.plants.mrp_satellite"), "vscmg": _plant("satfmu.fmus.plants.vscmg"),
     "magnetorquer_cubesat": _plant("satfmu.fmus.plants.cubesat"),
     "demeter_flexible": _plant("satfmu.fmus.plants.demeter"),
-    "mrp_satellite_rw3": functools.partial(_wheel_plant, 3), "mrp_satellite_rw4": functools.partial(_wheel_plant, 4)}
-"""Plant model name -> its source (built on call)."""
+    "mrp_satellite_rw3": functools.partial(_wheel_plant, 3), "mrp_satellite_rw4": functools.partial(_wheel_plant, 4),
+    "orbit_environment": _plant("satfmu.fmus.environment.orbit")}
+"""Plant model name -> its source (built on call); the orbit and environment model among them."""
 SIGNALS = ("signal_constant", "signal_step", "signal_sinusoid", "signal_cosine_ramp")
 """Model names of the generic signal generators (:data:`satfmu.fmus.signals.GENERIC`, ``signal_<kind>``)."""
 GENERIC: dict[str, Callable[[], FmuSource]] = {

@@ -40,6 +40,7 @@ import sympy as sp
 from typing import TYPE_CHECKING
 
 from satfmu.fmus.model import Model, Output, State, Variable, saturate, states, symbols, vector
+from satfmu.fmus.environment.dipole import dipole_field
 from satfmu.fmus.errors import SpacecraftError
 
 if TYPE_CHECKING:
@@ -183,11 +184,8 @@ def dipole_field_orbit(tau: sp.Expr, p: dict[str, sp.Expr]) -> sp.Matrix:
     n = 2 * sp.pi / p["orbit_period"]
     u = p["orbit_arg_latitude_0"] + n * tau
     r_hat, C_oi = orbit_frame(u, p["orbit_inclination"], p["orbit_raan"])
-    lon = p["dipole_longitude"] + p["earth_rotation_angle_0"] + EARTH_RATE * tau
-    th = p["dipole_colatitude"]
-    m_hat = -sp.Matrix([sp.sin(th) * sp.cos(lon), sp.sin(th) * sp.sin(lon), sp.cos(th)])
-    radius = EARTH_RADIUS + p["orbit_altitude"]
-    b_eci = p["dipole_moment"] / radius**3 * (3 * (m_hat.T * r_hat)[0] * r_hat - m_hat)
+    b_eci = dipole_field(r_hat, EARTH_RADIUS + p["orbit_altitude"], p["earth_rotation_angle_0"] + EARTH_RATE * tau,
+                         p["dipole_moment"], p["dipole_colatitude"], p["dipole_longitude"])
     return C_oi * b_eci
 
 
