@@ -10,8 +10,9 @@ def dipole_field(r_hat: sp.Matrix, radius: sp.Expr, earth_angle: sp.Expr, moment
                  longitude: sp.Expr) -> sp.Matrix:
     """The tilted dipole's field in inertial axes, T.
 
-    ``b = (M / |r|^3) (3 (m . r_hat) r_hat - m)``. The moment ``m`` points from the north geomagnetic pole to the south one; the pole (at
-    ``colatitude`` and east ``longitude`` on the Earth) turns with the Earth, by ``earth_angle``
+    ``b = (M / |r|^3) (3 (m . r_hat) r_hat - m)``. The moment ``m`` points from the north
+    geomagnetic pole to the south one; the pole (at ``colatitude`` and east ``longitude`` on the
+    Earth) turns with the Earth, by ``earth_angle``
     about the inertial z axis.
 
     Parameters
