@@ -26,8 +26,11 @@ class Plant:
         self.n = (len(model.states) - 6) // 2
         self.outputs = [o.variable.name for o in model.outputs]
 
-    def inputs(self, u=(0.0, 0.0, 0.0), u_wheel=None, w_d=(0.0, 0.0, 0.0)) -> list[float]:
-        return [*u, *(u_wheel if u_wheel is not None else [0.0] * self.n), *w_d]
+    def inputs(self, u=(0.0, 0.0, 0.0), u_wheel=None, w_d=(0.0, 0.0, 0.0), **env: float) -> list[float]:
+        """The inputs in the model's order: the commands, then the environment's (by name, default their starts)."""
+        given = {**{f"u[{i + 1}]": v for i, v in enumerate(u)}, **{f"w_d[{i + 1}]": v for i, v in enumerate(w_d)},
+                 **{f"u_wheel[{i + 1}]": v for i, v in enumerate(u_wheel or [])}, **env}
+        return [float(given.get(v.name, v.start)) for v in self.model.inputs]
 
     def run(self, x: list[float], ui: list[float], stop: float, h: float = 0.05, substeps: int = 4) -> list[float]:
         for k in range(round(stop / h)):
@@ -210,8 +213,11 @@ def test_native_fmu_matches_the_generated_python_and_refuses_bad_parameters(fmu_
 def test_your_array_runs_in_the_shipped_plant_through_its_parameters() -> None:
     import satfmu
 
+    from satfmu.fmus.plants import surface
+
     mine = Spacecraft("mine", [[30.0, 1.0, 0.0], [1.0, 40.0, -0.5], [0.0, -0.5, 25.0]],
-                      wheels=wheels.pyramid(0.05, 0.2, 400.0, viscous=3e-6, coulomb=1e-4, elevation_deg=30.0))
+                      wheels=wheels.pyramid(0.05, 0.2, 400.0, viscous=3e-6, coulomb=1e-4, elevation_deg=30.0),
+                      facets=surface.box((1.5, 1.0, 2.0), offset=(0.1, 0.0, -0.05)), residual_dipole=(0.3, 0.0, 0.1))
     own = Plant(satfmu.wheel_plant(mine))
     shipped = Plant(satfmu.wheel_plant(), **wheel_spacecraft.parameters(mine))
     assert own.model.name == shipped.model.name == "mrp_satellite_rw4"
@@ -223,3 +229,6 @@ def test_your_array_runs_in_the_shipped_plant_through_its_parameters() -> None:
         satfmu.wheel_plant(n_wheels=5)
     with pytest.raises(ValueError, match="no reaction wheels"):
         wheel_spacecraft.parameters(Spacecraft("s", [1.0, 1.0, 1.0]))
+    # another number of facets is another model
+    assert wheel_spacecraft.build(Spacecraft("bare", [30.0, 40.0, 25.0], wheels=mine.wheels)).name == \
+        "mrp_satellite_rw4_f0"

@@ -37,21 +37,11 @@ import math
 import sympy as sp
 
 from satfmu.fmus.environment import atmosphere
+from satfmu.fmus.environment.constants import (ASTRONOMICAL_UNIT, EQUATORIAL_RADIUS, ERA_RATE, J2, MU_EARTH,
+                                               SUN_RADIUS)
 from satfmu.fmus.environment.dipole import dipole_field
 from satfmu.fmus.model import Model, Output, Variable
 
-MU_EARTH = 3.986004418e14
-"""Earth's gravitational parameter, m^3/s^2 (WGS 84 / EGM 96)."""
-EQUATORIAL_RADIUS = 6378137.0
-"""Earth's equatorial radius, m (WGS 84): J2's reference radius and the altitude's sphere."""
-J2 = 1.08262668e-3
-"""Earth's J2 (EGM 96, unnormalized)."""
-ERA_RATE = 2 * math.pi * 1.00273781191135448 / 86400.0
-"""Earth rotation angle rate, rad/s (IERS 2010: 2 pi 1.00273781191135448 per UT1 day)."""
-ASTRONOMICAL_UNIT = 1.495978707e11
-"""m."""
-SUN_RADIUS = 6.957e8
-"""The Sun's nominal radius, m (IAU 2015)."""
 KEPLER_ITERATIONS = 8
 """Newton steps on Kepler's equation: from Danby's start, 8 reach machine precision up to e = 0.9."""
 J2000 = _dt.datetime(2000, 1, 1, 12, 0, 0, tzinfo=_dt.timezone.utc)

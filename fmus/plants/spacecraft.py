@@ -16,6 +16,11 @@ satellite take one, so that a controller is designed for *your* spacecraft. A TO
     inertia = 0.05
     torque_limit = 0.2
     speed_limit = 600.0
+    residual_dipole = [0.1, 0.0, -0.05]  # A m^2, body axes (optional)
+    [[facets]]                          # the outer surface for drag and radiation (optional)
+    area = 1.5                          # one table per facet: satfmu.fmus.plants.surface
+    normal = [1.0, 0.0, 0.0]
+    centre_of_pressure = [0.5, 0.0, 0.02]
 
 ``inertia`` may also be three principal moments ``[I_x, I_y, I_z]``. The tensor is
 checked: finite, symmetric, positive definite, and its principal moments satisfy the
@@ -35,13 +40,14 @@ from numpy.typing import ArrayLike
 
 from satfmu.fmus.declared import check_keys, read_toml
 from satfmu.fmus.errors import SpacecraftError
+from satfmu.fmus.plants.surface import Facet
 from satfmu.fmus.plants.wheels import ReactionWheel, check_array, spin_axes
 
 SYMMETRY_RTOL = 1e-9
 """Largest ``|J - J^T|`` relative to ``max |J|`` accepted as symmetric (rounding of a CAD export)."""
 PARAMETERS = {"I_x": (0, 0), "I_y": (1, 1), "I_z": (2, 2), "I_xy": (0, 1), "I_xz": (0, 2), "I_yz": (1, 2)}
 """Plant parameter name -> entry of the inertia tensor it holds."""
-_KEYS = ("name", "description", "inertia", "actuators", "wheels")
+_KEYS = ("name", "description", "inertia", "actuators", "wheels", "facets", "residual_dipole")
 _ACTUATOR_KEYS = ("torque_limit", "dipole_limit")
 
 
@@ -65,6 +71,11 @@ class Spacecraft:
     wheels : sequence of ReactionWheel, optional
         Its reaction wheel array (:mod:`satfmu.fmus.plants.wheels`), at least 3 wheels whose
         axes span the body axes; default none.
+    facets : sequence of Facet, optional
+        Its outer surface as flat facets (:mod:`satfmu.fmus.plants.surface`), for the drag and
+        solar radiation torques; default none.
+    residual_dipole : 3 floats, optional
+        Its residual magnetic dipole in body axes, A m^2 (default zero).
 
     Raises
     ------
@@ -80,10 +91,13 @@ class Spacecraft:
     description: str = field(default="", compare=False)
     dipole_limit: float | None = None
     wheels: tuple[ReactionWheel, ...] = ()
+    facets: tuple[Facet, ...] = ()
+    residual_dipole: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
     def __init__(self, name: str, inertia: ArrayLike, torque_limit: float | None = None,
                  description: str = "", *, dipole_limit: float | None = None,
-                 wheels: Sequence[ReactionWheel] = ()) -> None:
+                 wheels: Sequence[ReactionWheel] = (), facets: Sequence[Facet] = (),
+                 residual_dipole: Sequence[float] = (0.0, 0.0, 0.0)) -> None:
         if not isinstance(name, str) or not name:
             raise SpacecraftError(f"name: must be a non-empty string, got {name!r}")
         object.__setattr__(self, "name", name)
@@ -92,6 +106,16 @@ class Spacecraft:
         object.__setattr__(self, "description", description)
         object.__setattr__(self, "dipole_limit", _limit(dipole_limit, f"{name}: actuators.dipole_limit", "A m^2"))
         object.__setattr__(self, "wheels", check_array(wheels, f"{name}: wheels") if len(wheels) else ())
+        if not all(isinstance(f, Facet) for f in facets):
+            raise SpacecraftError(f"{name}: facets: expected Facet items")
+        object.__setattr__(self, "facets", tuple(facets))
+        try:
+            dipole = np.asarray(residual_dipole, dtype=float)
+        except (TypeError, ValueError):
+            dipole = np.full(1, np.nan)
+        if dipole.shape != (3,) or not np.all(np.isfinite(dipole)):
+            raise SpacecraftError(f"{name}: residual_dipole: must be 3 finite numbers (A m^2), got {residual_dipole!r}")
+        object.__setattr__(self, "residual_dipole", tuple(float(v) for v in dipole))
         if self.wheels:
             body = self.body_inertia
             if not np.linalg.eigvalsh(body)[0] > 0:
@@ -134,6 +158,10 @@ class Spacecraft:
             data["actuators"] = {k: v for k, v in limits.items() if v is not None}
         if self.wheels:
             data["wheels"] = [w.to_dict() for w in self.wheels]
+        if self.facets:
+            data["facets"] = [f.to_dict() for f in self.facets]
+        if any(self.residual_dipole):
+            data["residual_dipole"] = list(self.residual_dipole)
         return data
 
     @classmethod
@@ -146,7 +174,8 @@ class Spacecraft:
             ``name``, ``inertia`` (kg m^2), optional ``description`` and an optional
             ``actuators`` table with ``torque_limit`` (N m) and ``dipole_limit`` (A m^2), and an
             optional ``wheels`` list of tables (:meth:`satfmu.fmus.plants.wheels.ReactionWheel.from_dict`),
-            as in the module's example.
+            an optional ``facets`` list of tables (:meth:`satfmu.fmus.plants.surface.Facet.from_dict`) and
+            an optional ``residual_dipole`` (A m^2), as in the module's example.
         where : str, optional
             Where the data comes from (a file name), the prefix of error messages. Default
             ``"spacecraft"``.
@@ -176,9 +205,15 @@ class Spacecraft:
             raise SpacecraftError(f"{where}: wheels: expected a list of tables ([[wheels]]), got "
                                   f"{type(raw_wheels).__name__}")
         wheels = [ReactionWheel.from_dict(w, f"{where}: wheels[{k + 1}]") for k, w in enumerate(raw_wheels)]
+        raw_facets = data.get("facets", [])
+        if not isinstance(raw_facets, list):
+            raise SpacecraftError(f"{where}: facets: expected a list of tables ([[facets]]), got "
+                                  f"{type(raw_facets).__name__}")
+        facets = [Facet.from_dict(f, f"{where}: facets[{k + 1}]") for k, f in enumerate(raw_facets)]
         try:
             return cls(data["name"], data["inertia"], act.get("torque_limit"), data.get("description", ""),
-                       dipole_limit=act.get("dipole_limit"), wheels=wheels)
+                       dipole_limit=act.get("dipole_limit"), wheels=wheels, facets=facets,
+                       residual_dipole=data.get("residual_dipole", (0.0, 0.0, 0.0)))
         except SpacecraftError as exc:
             raise SpacecraftError(f"{where}: {exc}") from None
 

@@ -7,7 +7,7 @@ from the parameters ``G_s[k,i]``), ``Js_i`` the spin inertias, ``J`` the whole s
 
     h_i  = Js_i (g_i . omega + Omega_i)                     wheel spin momentum, N m s
     h_i' = tau_i + f_i                                      motor torque and friction
-    Jb omega' = -omega x (Jb omega + Gs h) - Gs h' + tau_ext
+    Jb omega' = -omega x (Jb omega + Gs h) - Gs h' + tau_ext        (w_d and the environment's)
     Omega_i'  = h_i' / Js_i - g_i . omega'
     sigma'    = (1/4) B(sigma) omega
 
@@ -31,9 +31,15 @@ Friction (opposing the spin, continuous): ``f_i = -(c_viscous_i Omega_i + f_coul
 sat(Omega_i / omega_coulomb))``, Coulomb friction linear within ``|Omega| < omega_coulomb``
 (Basilisk's non-Stribeck law with its ``omegaLimitCycle``). Its reaction acts on the body.
 
-Built per number of wheels: :func:`build` (``mrp_satellite_rw<N>``); shipped: 3 orthogonal wheels
-(``mrp_satellite_rw3``) and 4 in a pyramid (``mrp_satellite_rw4``), the defaults from
-:data:`SMALLSAT`'s arrays.
+The environment's torques (gravity gradient, drag and solar radiation pressure on the facets,
+residual dipole: :mod:`satfmu.fmus.plants.environment_torques`) add to ``tau_ext`` when switched on,
+from the orbit model's outputs connected to the plant's inputs ``r``, ``v_air``, ``sun``,
+``sun_distance``, ``sunlit``, ``b``, ``density``; the attitude is then the body's from the inertial
+frame.
+
+Built per number of wheels and facets: :func:`build` (``mrp_satellite_rw<N>``, ``_f<M>`` added for
+another number of facets than 6); shipped: 3 orthogonal wheels (``mrp_satellite_rw3``) and 4 in a
+pyramid (``mrp_satellite_rw4``), with a box's six facets: the defaults of :data:`SMALLSAT`.
 """
 from __future__ import annotations
 
@@ -42,7 +48,7 @@ from typing import Sequence
 import sympy as sp
 
 from satfmu.fmus.model import Model, Output, Variable, states, symbols, vector
-from satfmu.fmus.plants import mrp_satellite, wheels as wheel_arrays
+from satfmu.fmus.plants import environment_torques, mrp_satellite, surface, wheels as wheel_arrays
 from satfmu.fmus.plants.spacecraft import PARAMETERS, Spacecraft
 from satfmu.fmus.plants.wheels import ReactionWheel
 
@@ -54,10 +60,17 @@ SMALLSAT_INERTIA = ((20.0, 0.0, 0.0), (0.0, 25.0, 0.0), (0.0, 0.0, 15.0))
 """Inertia of the shipped wheel plants' default spacecraft, kg m^2 (wheels included)."""
 _WHEEL = dict(inertia=0.02, torque_limit=0.1, speed_limit=600.0, viscous=1e-6, coulomb=2e-4)
 """Each default wheel: 0.02 kg m^2 (12 N m s at 600 rad/s), 0.1 N m, friction of a small wheel."""
+SMALLSAT_BOX = surface.box((1.0, 1.2, 1.5), offset=(0.01, -0.02, 0.05), specular=0.1, diffuse=0.2)
+"""The default surface: a 1 x 1.2 x 1.5 m box whose centre of mass is 1, -2, 5 cm off its centre."""
+SMALLSAT_DIPOLE = (0.05, -0.02, 0.1)
+"""The default residual dipole, A m^2."""
 SMALLSAT = {n: Spacecraft(f"smallsat_rw{n}", SMALLSAT_INERTIA, description=f"Shipped default: {n} wheels",
-                          wheels=arr)
+                          wheels=arr, facets=SMALLSAT_BOX, residual_dipole=SMALLSAT_DIPOLE)
             for n, arr in ((3, wheel_arrays.orthogonal(**_WHEEL)), (4, wheel_arrays.pyramid(**_WHEEL)))}
-"""The default spacecraft of the shipped wheel plants, by number of wheels: 3 orthogonal, 4 in a pyramid."""
+"""The default spacecraft of the shipped wheel plants, by number of wheels: 3 orthogonal, 4 in a pyramid,
+the box's six facets and a residual dipole."""
+FACETS = len(SMALLSAT_BOX)
+"""The shipped plants' number of facets; a spacecraft with another number gets ``_f<N>`` in its model name."""
 
 
 def dcm(s: sp.Matrix) -> sp.Matrix:
@@ -172,12 +185,17 @@ def build(spacecraft: Spacecraft, omega_0: Sequence[float] = (0.0, 0.0, 0.0),
     hdot = sp.Matrix(d_hdot)
     H_body = d_Jb * w + d_G * h
     d_wdot = sp.Matrix([sp.Symbol(f"d_wdot_{k}", real=True) for k in range(3)])
-    wdot = Jb_inv * (-w.cross(H_body) - d_G * hdot + symbols(wd))
+    d_C = sp.Matrix(3, 3, lambda a, b: sp.Symbol(f"d_C_{a}_{b}", real=True))  # inertial -> body
+    C = dcm(s)
+    defs += [(d_C[a, b], C[a, b]) for a in range(3) for b in range(3)]
+    env = environment_torques.build(spacecraft, d_C, J)
+    defs += env.definitions
+    wdot = Jb_inv * (-w.cross(H_body) - d_G * hdot + symbols(wd) + env.total)
     defs += [(d_wdot[k], wdot[k]) for k in range(3)]
     Om_dot = [d_hdot[i] / Js[i] - (d_G[:, i].T * d_wdot)[0] for i in range(n)]
     sigma_dot = mrp_satellite.mrp_kinematics_matrix(s) * w / 4
 
-    H_ref = dcm(s).T * H_body
+    H_ref = d_C.T * H_body
     outputs = ([Output(v.variable, v.symbol) for v in xw + xs]
                + [mrp_satellite.phi_output(s)]
                + [Output(v.variable, v.symbol) for v in xo]
@@ -190,15 +208,16 @@ def build(spacecraft: Spacecraft, omega_0: Sequence[float] = (0.0, 0.0, 0.0),
                + [Output(Variable(f"H[{k + 1}]", "N.m.s", f"Total angular momentum, reference axis {k + 1} "
                                   "(constant without external torque)"), H_ref[k]) for k in range(3)]
                + [Output(Variable("H_norm", "N.m.s", "Magnitude of the total angular momentum"),
-                         sp.sqrt((H_body.T * H_body)[0]))])
+                         sp.sqrt((H_body.T * H_body)[0]))]
+               + env.outputs)
     post = sp.Matrix(list(w) + mrp_satellite.shadow_post(s, shadow.symbol) + list(Om) + list(tm))
     return Model(
-        name=f"mrp_satellite_rw{n}",
+        name=f"mrp_satellite_rw{n}" + ("" if len(spacecraft.facets) == FACETS else f"_f{len(spacecraft.facets)}"),
         description=f"Rigid satellite, MRP attitude, {n} reaction wheels integrated with the body (motor torque "
                     "and speed limits, friction, motor lag); a body torque command is allocated to the wheels by "
                     "the minimum-norm pseudo-inverse, then clipped per wheel",
-        states=xw + xs + xo + xm, inputs=u + uw + wd,
-        parameters=inertia + axes + js + u_max + om_max + c_v + f_c + [om_c, lag, per_wheel, shadow],
+        states=xw + xs + xo + xm, inputs=u + uw + wd + env.inputs,
+        parameters=inertia + axes + js + u_max + om_max + c_v + f_c + [om_c, lag, per_wheel, shadow] + env.parameters,
         outputs=outputs, rhs=sp.Matrix(list(d_wdot) + list(sigma_dot) + Om_dot + cmd_dots), post_step=post,
         definitions=defs, default_stop_time=120.0, default_step_size=0.05)
 
@@ -215,7 +234,9 @@ def parameters(spacecraft: Spacecraft) -> dict[str, float]:
     -------
     dict of str to float
         ``I_x ... I_yz`` (kg m^2), ``G_s[k,i]``, ``J_s[i]`` (kg m^2), ``u_wheel_max[i]`` (N m),
-        ``Omega_max[i]`` (rad/s), ``c_viscous[i]`` (N m s/rad), ``f_coulomb[i]`` (N m).
+        ``Omega_max[i]`` (rad/s), ``c_viscous[i]`` (N m s/rad), ``f_coulomb[i]`` (N m), the facets'
+        ``facet_area[k]`` (m^2), ``facet_normal[j,k]``, ``facet_cp[j,k]`` (m), ``drag_coefficient[k]``,
+        ``specular[k]``, ``diffuse[k]`` and the residual dipole ``m_res[j]`` (A m^2).
 
     Raises
     ------
@@ -229,6 +250,12 @@ def parameters(spacecraft: Spacecraft) -> dict[str, float]:
         out.update({f"G_s[{k + 1},{i}]": w.axis[k] for k in range(3)})
         out.update({f"J_s[{i}]": w.inertia, f"u_wheel_max[{i}]": w.torque_limit, f"Omega_max[{i}]": w.speed_limit,
                     f"c_viscous[{i}]": w.viscous, f"f_coulomb[{i}]": w.coulomb})
+    for k, f in enumerate(spacecraft.facets, start=1):
+        out.update({f"facet_normal[{j + 1},{k}]": f.normal[j] for j in range(3)})
+        out.update({f"facet_cp[{j + 1},{k}]": f.centre_of_pressure[j] for j in range(3)})
+        out.update({f"facet_area[{k}]": f.area, f"drag_coefficient[{k}]": f.drag_coefficient,
+                    f"specular[{k}]": f.specular, f"diffuse[{k}]": f.diffuse})
+    out.update({f"m_res[{j + 1}]": v for j, v in enumerate(spacecraft.residual_dipole)})
     return out
 
 
