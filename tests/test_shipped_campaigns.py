@@ -20,7 +20,8 @@ CAMPAIGNS = [p.stem for p in shipped_scenarios() if "dispersions" in tomllib.loa
 GROUPS = {"mrp_slew_mc": ["mrp_slew_mc", "mrp_slew_mc_synth", "mrp_slew_mc_h2hinf"],
           "cubesat_detumble_mc": ["cubesat_detumble_mc_bdot", "cubesat_detumble_mc_periodic"],
           "vscmg_friction_mc": ["vscmg_friction_mc_online", "vscmg_friction_mc_approx"],
-          "demeter_row1_det": ["demeter_row1_det_both", "demeter_row1_det_theta", "demeter_row1_det_rate"]}
+          "demeter_row1_det": ["demeter_row1_det_both", "demeter_row1_det_theta", "demeter_row1_det_rate"],
+          "rw4_slew_mc": ["rw4_slew_mc"]}
 """Campaigns that differ only in the controller, or (seed 004's Figs 4-5) only in the initial state:
 the same draws for sample i, compared side by side."""
 STARTS = {"demeter_row1_det": {"theta_0[1]", "theta_dot_0[1]"}}
