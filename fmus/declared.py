@@ -79,6 +79,108 @@ def check_keys(data: Mapping[str, Any], keys: Iterable[str], where: str, error: 
             raise error(f"{where}: unknown key {k!r}" + (did_you_mean(k, keys) or f" (allowed: {', '.join(keys)})"))
 
 
+def check_table(data: Any, keys: Iterable[str], required: Iterable[str], where: str,
+                error: type[Exception]) -> Mapping[str, Any]:
+    """``data`` as a declared table: a mapping whose keys are all known and the required ones present.
+
+    Parameters
+    ----------
+    data : object
+        The declared table (a TOML table or its plain-data equivalent).
+    keys : iterable of str
+        The keys allowed in it.
+    required : iterable of str
+        The keys it must have.
+    where : str
+        Where the table comes from, the message's prefix.
+    error : type of Exception
+        The exception class raised with the message.
+
+    Returns
+    -------
+    mapping of str to object
+        ``data``.
+    """
+    if not isinstance(data, Mapping):
+        raise error(f"{where}: expected a table, got {type(data).__name__}")
+    check_keys(data, keys, where, error)
+    for key in required:
+        if key not in data:
+            raise error(f"{where}: missing key {key!r}")
+    return data
+
+
+def finite_number(raw: Any, where: str, unit: str, error: type[Exception], low: float = -math.inf,
+                  high: float = math.inf, open_low: bool = False) -> float:
+    """``raw`` as a float: a finite number (not a Boolean) within ``[low, high]`` (``(low, high]`` with
+    ``open_low``).
+
+    Parameters
+    ----------
+    raw : object
+        The declared value.
+    where : str
+        Which value it is, the message's prefix.
+    unit : str
+        Its unit, in the message.
+    error : type of Exception
+        The exception class raised with the message.
+    low, high : float, optional
+        The bounds.
+    open_low : bool, optional
+        Exclude ``low`` itself.
+
+    Returns
+    -------
+    float
+        The value.
+    """
+    ok = not isinstance(raw, bool) and isinstance(raw, (int, float)) and math.isfinite(raw)
+    if not ok or raw < low or (open_low and raw == low) or raw > high:
+        bounds = ([f"> {low:g}" if open_low else f">= {low:g}"] if low > -math.inf else []) + \
+            ([f"<= {high:g}"] if high < math.inf else [])
+        raise error(f"{where}: must be a finite number{' ' + ' and '.join(bounds) if bounds else ''} ({unit}), "
+                    f"got {raw!r}")
+    return float(raw)
+
+
+def vector3(raw: Any, where: str, error: type[Exception], unit_length: bool = False) -> tuple[float, float, float]:
+    """``raw`` as 3 finite floats; with ``unit_length``, a direction: not zero, and normalized unless it
+    is a unit vector already (then kept as given, so that a round trip is exact).
+
+    Parameters
+    ----------
+    raw : object
+        The declared value.
+    where : str
+        Which value it is, the message's prefix.
+    error : type of Exception
+        The exception class raised with the message.
+    unit_length : bool, optional
+        Read a direction.
+
+    Returns
+    -------
+    tuple of 3 float
+        The vector.
+    """
+    import numpy as np
+
+    try:
+        v = np.asarray(raw, dtype=float)
+    except (TypeError, ValueError):
+        raise error(f"{where}: must be 3 numbers, got {raw!r}") from None
+    if v.shape != (3,) or not np.all(np.isfinite(v)):
+        raise error(f"{where}: must be 3 finite numbers, got {raw!r}")
+    if unit_length:
+        norm = float(np.linalg.norm(v))
+        if norm == 0.0:
+            raise error(f"{where}: must not be the zero vector")
+        if abs(norm - 1.0) > 4 * np.finfo(float).eps:
+            v = v / norm
+    return (float(v[0]), float(v[1]), float(v[2]))
+
+
 MAX_TOML_BYTES = 16 << 20
 """The largest declaration file read (B): a scenario or spacecraft file is a few kB."""
 

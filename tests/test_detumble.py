@@ -73,3 +73,16 @@ def test_rate_scenario_flies_your_cubesat_beside_b_dot_and_refuses_bad_input() -
         detumble.rate_scenario(sc, "c", 1e-3, orbits=0)
     with pytest.raises(satfmu.SatfmuError, match="principal axes"):
         detumble.rate_scenario(satfmu.Spacecraft("p", [[0.01, 1e-4, 0], [1e-4, 0.05, 0], [0, 0, 0.05]]), "c", 1e-3)
+
+
+def test_b_dot_detumbles_in_the_orbit_models_field(fmu_dir: Path) -> None:
+    # cubesat_detumble_orbit: the orbit FMU's tilted dipole along the orbit axes feeds the plant's b_ext;
+    # measured 0.00196 rad/s after 3 h (0.00222 in the seed's Fourier field, cubesat_detumble)
+    import satfmu
+
+    result = satfmu.run("cubesat_detumble_orbit", fmu_dir=fmu_dir)
+    assert result.passed
+    final = next(m.value for m in result.metrics if m.name.startswith("B-dot"))
+    assert 0.001 < final < 0.004  # B-dot's equilibrium spins at ~2n = 2.2e-3 rad/s: near it, not below
+    b = np.linalg.norm(np.column_stack([result.results[f"orbit.b_orbit[{i}]"] for i in (1, 2, 3)]), axis=1)
+    assert 15e-6 < b.min() and b.max() < 60e-6  # a dipole at 500 km: ~22 uT at the equator, ~45 uT at the poles

@@ -147,3 +147,27 @@ def test_native_fmu_matches_the_generated_python_and_refuses_bad_elements(fmu_di
         with pytest.raises(Exception, match="fmi2SetReal failed"):
             simulate_fmu(str(fmu_dir / "orbit_environment.fmu"), stop_time=1.0, start_values=bad)
         assert f"'{next(iter(bad))}'" in capfd.readouterr().out  # the FMU's log names the variable
+
+
+def test_field_along_the_orbit_axes_is_the_cubesats_dipole_on_the_same_orbit() -> None:
+    # the magnetorquer cubesat's own dipole field (field_model 1) on the same circular orbit and the same
+    # Earth angle: the two differ only by the Earth rates (7.2921159e-5 vs 7.2921150e-5 rad/s: 3e-10 rad in
+    # 1000 s) and rounding
+    from satfmu.fmus.plants import cubesat
+
+    altitude, inc, raan, u0 = 500e3, math.radians(87.0), 0.4, 1.1
+    a = cubesat.EARTH_RADIUS + altitude
+    env = Environment(semi_major_axis=a, inclination=inc, raan=raan, mean_anomaly_0=u0, j2_on=0.0)
+    era0 = env.at(0.0)["earth_angle"]
+    gen = codegen.load_python(cubesat.MODEL)
+    p = cubesat.MODEL.parameter_vector({"field_model": 1, "orbit_altitude": altitude, "orbit_inclination": inc,
+                                        "orbit_raan": raan, "orbit_arg_latitude_0": u0,
+                                        "earth_rotation_angle_0": era0,
+                                        "orbit_period": 2 * math.pi * math.sqrt(a**3 / MU)}).tolist()
+    names = [o.variable.name for o in cubesat.MODEL.outputs]
+    x0 = [s.initial.start for s in cubesat.MODEL.states]
+    u = [0.0] * len(cubesat.MODEL.inputs)
+    for t in (0.0, 400.0, 1000.0):
+        y = dict(zip(names, gen.outputs(t, x0, u, p)))
+        theirs = np.array([y[f"b_orbit[{i}]"] for i in (1, 2, 3)])
+        assert np.allclose(env.vec(t, "b_orbit"), theirs, rtol=0, atol=1e-9 * np.linalg.norm(theirs))

@@ -83,7 +83,7 @@ coulomb = 1e-4
 
 
 @pytest.mark.parametrize("change, message", [
-    ({"axis": [0.0, 0.0, 0.0]}, "not all zero"),
+    ({"axis": [0.0, 0.0, 0.0]}, "zero vector"),
     ({"axis": [1.0, math.nan, 0.0]}, "finite"),
     ({"axis": [1.0, 0.0]}, "3 finite numbers"),
     ({"inertia": 0.0}, "inertia: must be a finite number > 0"),

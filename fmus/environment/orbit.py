@@ -21,7 +21,8 @@ frame (the mean equator and equinox of J2000, to this model's accuracy):
 - ``sunlit`` (1 lit, 0 in the umbra): a cylindrical shadow (``eclipse_model`` 0) or a conical one
   with the penumbra's fraction of the solar disc (1);
 - ``b`` (T): the tilted-dipole geomagnetic field (:func:`satfmu.fmus.environment.dipole.dipole_field`),
-  turning with the Earth rotation angle ``earth_angle`` (rad, from the epoch as UT1);
+  turning with the Earth rotation angle ``earth_angle`` (rad, from the epoch as UT1), and ``b_orbit``
+  (T) along the orbit axes of the magnetorquer cubesat (its ``b_ext`` inputs, ``field_model = 2``);
 - ``density`` (kg/m^3) at ``altitude`` (m, above a sphere of the equatorial radius): Vallado's
   piecewise exponential model (``density_model`` 0) or one exponential (1,
   :mod:`satfmu.fmus.environment.atmosphere`).
@@ -274,12 +275,21 @@ def build() -> Model:
         return [Output(Variable(f"{base}[{j + 1}]", unit, f"{what}, inertial axis {j + 1}"), values[j])
                 for j in range(3)]
 
+    # the orbit frame of the magnetorquer cubesat (o3 nadir, o2 against the orbit normal, o1 = o2 x o3:
+    # the velocity's direction on a circular orbit), and the field along its axes
+    o3 = -rs / radius
+    h_vec = rs.cross(vs)
+    o2 = -h_vec / _norm(h_vec)
+    b_orbit = sp.Matrix([(o.T * b_vec)[0] for o in (o2.cross(o3), o2, o3)])
     outputs = (vec("r", "m", "Position", rs) + vec("v", "m/s", "Velocity", vs)
                + vec("v_air", "m/s", "Velocity relative to the atmosphere turning with the Earth", v_air)
                + vec("sun", "1", "Unit vector from the spacecraft to the Sun", to_sun / sun_dist)
                + [Output(Variable("sun_distance", "m", "Distance to the Sun"), sun_dist),
                   Output(Variable("sunlit", "1", "Fraction of the solar disc seen (0 umbra, 1 lit)"), sunlit)]
                + vec("b", "T", "Geomagnetic field (tilted dipole)", b_vec)
+               + [Output(Variable(f"b_orbit[{j + 1}]", "T", f"Geomagnetic field along orbit axis {j + 1} (o1 "
+                                  "along the velocity, o2 against the orbit normal, o3 nadir)"), b_orbit[j])
+                  for j in range(3)]
                + [Output(Variable("density", "kg/m3", "Atmospheric density"), rho),
                   Output(Variable("altitude", "m", "Altitude above the equatorial radius"), alt),
                   Output(Variable("earth_angle", "rad", "Earth rotation angle (ECEF from inertial about z)"),

@@ -38,7 +38,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 from numpy.typing import ArrayLike
 
-from satfmu.fmus.declared import check_keys, read_toml
+from satfmu.fmus.declared import check_keys, read_toml, vector3
 from satfmu.fmus.errors import SpacecraftError
 from satfmu.fmus.plants.surface import Facet
 from satfmu.fmus.plants.wheels import ReactionWheel, check_array, spin_axes
@@ -109,13 +109,8 @@ class Spacecraft:
         if not all(isinstance(f, Facet) for f in facets):
             raise SpacecraftError(f"{name}: facets: expected Facet items")
         object.__setattr__(self, "facets", tuple(facets))
-        try:
-            dipole = np.asarray(residual_dipole, dtype=float)
-        except (TypeError, ValueError):
-            dipole = np.full(1, np.nan)
-        if dipole.shape != (3,) or not np.all(np.isfinite(dipole)):
-            raise SpacecraftError(f"{name}: residual_dipole: must be 3 finite numbers (A m^2), got {residual_dipole!r}")
-        object.__setattr__(self, "residual_dipole", tuple(float(v) for v in dipole))
+        object.__setattr__(self, "residual_dipole", vector3(residual_dipole, f"{name}: residual_dipole (A m^2)",
+                                                            SpacecraftError))
         if self.wheels:
             body = self.body_inertia
             if not np.linalg.eigvalsh(body)[0] > 0:

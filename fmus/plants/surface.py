@@ -21,7 +21,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from satfmu.fmus.declared import check_keys
+from satfmu.fmus.declared import check_table, finite_number, vector3
 from satfmu.fmus.errors import SpacecraftError
 
 _KEYS = ("area", "normal", "centre_of_pressure", "drag_coefficient", "specular", "diffuse")
@@ -29,29 +29,12 @@ DRAG_COEFFICIENT = 2.2
 """The usual flat-plate drag coefficient in free molecular flow."""
 
 
-def _vector(raw: Any, where: str, unit_length: bool) -> tuple[float, float, float]:
-    try:
-        v = np.asarray(raw, dtype=float)
-    except (TypeError, ValueError):
-        raise SpacecraftError(f"{where}: must be 3 numbers, got {raw!r}") from None
-    if v.shape != (3,) or not np.all(np.isfinite(v)):
-        raise SpacecraftError(f"{where}: must be 3 finite numbers, got {raw!r}")
-    if unit_length:
-        norm = float(np.linalg.norm(v))
-        if norm == 0.0:
-            raise SpacecraftError(f"{where}: must not be the zero vector")
-        if abs(norm - 1.0) > 4 * np.finfo(float).eps:  # a unit vector is kept as given
-            v = v / norm
-    return (float(v[0]), float(v[1]), float(v[2]))
-
-
 def _number(raw: Any, where: str, low: float, high: float, unit: str, open_low: bool = False) -> float:
-    ok = not isinstance(raw, bool) and isinstance(raw, (int, float)) and math.isfinite(raw)
-    if not ok or raw < low or (open_low and raw == low) or raw > high:
-        bound = f"> {low:g}" if open_low else f">= {low:g}"
-        raise SpacecraftError(f"{where}: must be a finite number {bound}" + (f" and <= {high:g}" if high < math.inf
-                                                                              else "") + f" ({unit}), got {raw!r}")
-    return float(raw)
+    return finite_number(raw, where, unit, SpacecraftError, low, high, open_low)
+
+
+def _vector(raw: Any, where: str, unit_length: bool) -> tuple[float, float, float]:
+    return vector3(raw, where, SpacecraftError, unit_length)
 
 
 @dataclass(frozen=True, init=False)
@@ -128,12 +111,7 @@ class Facet:
         SpacecraftError
             Unknown or missing keys, or a bad value.
         """
-        if not isinstance(data, Mapping):
-            raise SpacecraftError(f"{where}: expected a table, got {type(data).__name__}")
-        check_keys(data, _KEYS, where, SpacecraftError)
-        for key in _KEYS[:3]:
-            if key not in data:
-                raise SpacecraftError(f"{where}: missing key {key!r}")
+        check_table(data, _KEYS, _KEYS[:3], where, SpacecraftError)
         return cls(data["area"], data["normal"], data["centre_of_pressure"],
                    data.get("drag_coefficient", DRAG_COEFFICIENT), data.get("specular", 0.0),
                    data.get("diffuse", 0.0), where=where)

@@ -26,22 +26,18 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from satfmu.fmus.declared import check_keys
+from satfmu.fmus.declared import check_table, finite_number, vector3
 from satfmu.fmus.errors import SpacecraftError
 
 _KEYS = ("axis", "inertia", "torque_limit", "speed_limit", "viscous", "coulomb")
 
 
 def _positive(value: Any, where: str, unit: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
-        raise SpacecraftError(f"{where}: must be a finite number > 0 ({unit}), got {value!r}")
-    return float(value)
+    return finite_number(value, where, unit, SpacecraftError, 0.0, open_low=True)
 
 
 def _non_negative(value: Any, where: str, unit: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value < 0:
-        raise SpacecraftError(f"{where}: must be a finite number >= 0 ({unit}), got {value!r}")
-    return float(value)
+    return finite_number(value, where, unit, SpacecraftError, 0.0)
 
 
 @dataclass(frozen=True, init=False)
@@ -81,16 +77,7 @@ class ReactionWheel:
 
     def __init__(self, axis: Sequence[float], inertia: float, torque_limit: float, speed_limit: float,
                  viscous: float = 0.0, coulomb: float = 0.0, *, where: str = "wheel") -> None:
-        try:
-            a = np.asarray(axis, dtype=float)
-        except (TypeError, ValueError):
-            raise SpacecraftError(f"{where}: axis must be 3 numbers, got {axis!r}") from None
-        if a.shape != (3,) or not np.all(np.isfinite(a)) or np.linalg.norm(a) == 0.0:
-            raise SpacecraftError(f"{where}: axis must be 3 finite numbers, not all zero, got {axis!r}")
-        norm = float(np.linalg.norm(a))
-        if abs(norm - 1.0) > 4 * np.finfo(float).eps:  # a unit axis is kept as given: a round trip is exact
-            a = a / norm
-        object.__setattr__(self, "axis", tuple(float(v) for v in a))
+        object.__setattr__(self, "axis", vector3(axis, f"{where}: axis", SpacecraftError, unit_length=True))
         object.__setattr__(self, "inertia", _positive(inertia, f"{where}: inertia", "kg m^2"))
         object.__setattr__(self, "torque_limit", _positive(torque_limit, f"{where}: torque_limit", "N m"))
         object.__setattr__(self, "speed_limit", _positive(speed_limit, f"{where}: speed_limit", "rad/s"))
@@ -129,12 +116,7 @@ class ReactionWheel:
         SpacecraftError
             Unknown or missing keys, or a bad value.
         """
-        if not isinstance(data, Mapping):
-            raise SpacecraftError(f"{where}: expected a table, got {type(data).__name__}")
-        check_keys(data, _KEYS, where, SpacecraftError)
-        for key in _KEYS[:4]:
-            if key not in data:
-                raise SpacecraftError(f"{where}: missing key {key!r}")
+        check_table(data, _KEYS, _KEYS[:4], where, SpacecraftError)
         return cls(data["axis"], data["inertia"], data["torque_limit"], data["speed_limit"],
                    data.get("viscous", 0.0), data.get("coulomb", 0.0), where=where)
 
