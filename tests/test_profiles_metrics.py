@@ -166,3 +166,14 @@ def test_metric_result_bounds() -> None:
     assert not metrics.MetricResult("a", "peak", 3.0, None, 2.0).passed
     assert not metrics.MetricResult("a", "peak", 1.0, 1.5, None).passed
     assert not metrics.MetricResult("a", "l2_ratio", math.nan, None, 2.0).passed  # NaN never passes
+
+
+def test_time_to_limit_is_the_first_sample_at_the_level() -> None:
+    from satfmu.sims.scenario.metrics import time_to_limit
+
+    t = np.linspace(0.0, 10.0, 11)
+    y = np.column_stack([np.linspace(0.0, 5.0, 11), -np.linspace(0.0, 8.0, 11)])  # the second reaches -4 at t = 5
+    assert time_to_limit(t, y, 4.0) == 5.0
+    assert time_to_limit(t, y[:, 0], 4.0) == 8.0
+    assert time_to_limit(t, y, 100.0) == math.inf  # never reached
+    assert time_to_limit(t, y, 4.0 * (1 + 1e-10)) == 5.0  # within the relative tolerance 1e-9

@@ -209,6 +209,9 @@ def signal_lines(scenario: Scenario, signal: str, limits: Sequence[ActuatorLimit
         elif m.kind == "time_in_saturation" and m.limit is not None:
             out.append(Line("actuator", "level", float(m.limit) / scale, True,
                             f"{m.name}: saturation level {m.limit:g}{_scaled(m.scale)}"))
+        elif m.kind == "time_to_limit" and m.limit is not None:
+            out.append(Line("actuator", "level", float(m.limit) / scale, True,
+                            f"{m.name}: level {m.limit:g}{_scaled(m.scale)}"))
     for lim in limits:
         if b in _connected(scenario, lim.target):
             out.append(Line("actuator", "level", lim.value, True, lim.label, active=lim.active))

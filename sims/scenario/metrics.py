@@ -137,6 +137,30 @@ def time_in_saturation(t: np.ndarray, y: np.ndarray, limit: float, held: bool = 
     return float(np.sum(flags * dt))
 
 
+def time_to_limit(t: np.ndarray, y: np.ndarray, limit: float, rel_tol: float = 1e-9) -> float:
+    """The first sample time (s) at which any ``|y_i|`` reaches ``limit`` (within ``rel_tol``), ``inf``
+    when none does: when a wheel saturates under a momentum buildup, say.
+
+    Parameters
+    ----------
+    t : numpy.ndarray, shape (n,)
+        Sample times (s), increasing.
+    y : numpy.ndarray, shape (n,) or (n, k)
+        Signals, one column each.
+    limit : float
+        The level, in the unit of ``y``.
+    rel_tol : float, optional
+        Relative tolerance: ``|y_i| >= limit * (1 - rel_tol)`` counts as reached.
+
+    Returns
+    -------
+    float
+        The time, s, or ``inf``.
+    """
+    reached = np.any(np.abs(np.atleast_2d(y.T).T) >= limit * (1 - rel_tol), axis=1)
+    return float(t[np.argmax(reached)]) if reached.any() else math.inf
+
+
 def integral_square(t: np.ndarray, y: np.ndarray, held: Sequence[bool]) -> float:
     """``integral of sum_i y_i^2 dt`` over the run (e.g. an H2 cost with unit weights), each
     signal by its own rule (``held[i]``: left rectangle, else trapezoidal).
@@ -232,6 +256,11 @@ def _time_in_saturation(d: MetricInput) -> Evaluation:
     return time_in_saturation(d.t, d.y, float(d.limit), held=d.held), None
 
 
+def _time_to_limit(d: MetricInput) -> Evaluation:
+    assert d.limit is not None  # validate(): time_to_limit needs a limit (_NEEDS)
+    return time_to_limit(d.t, d.y, float(d.limit)), None
+
+
 def _integral_square(d: MetricInput) -> Evaluation:
     return integral_square(d.t, d.y, d.inputs), None
 
@@ -244,7 +273,8 @@ def _max_difference(d: MetricInput) -> Evaluation:
 
 EVALUATORS: dict[str, Callable[[MetricInput], Evaluation]] = {
     "final": _final, "peak": _peak, "rms": _rms, "settling_time": _settling_time, "l2_ratio": _l2_ratio,
-    "time_in_saturation": _time_in_saturation, "integral_square": _integral_square, "max_difference": _max_difference}
+    "time_in_saturation": _time_in_saturation, "time_to_limit": _time_to_limit, "integral_square": _integral_square,
+    "max_difference": _max_difference}
 """Metric kind -> the function that evaluates it on a :class:`MetricInput`: (value, curve or None)."""
 KINDS = tuple(EVALUATORS)
 """The metric kinds, in the order error messages list them."""

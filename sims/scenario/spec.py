@@ -30,7 +30,7 @@ with pass/fail bounds. Example (sims/scenario/shipped/mrp_200deg.toml)::
     [[metrics]]
     name = "angle error at the end"
     kind = "final"               # final, peak, rms, settling_time, l2_ratio, time_in_saturation,
-                                 # integral_square, max_difference
+                                 # time_to_limit, integral_square, max_difference
     signals = ["plant.phi"]
     scale = 57.29577951308232    # rad -> deg
     unit = "deg"
@@ -38,7 +38,8 @@ with pass/fail bounds. Example (sims/scenario/shipped/mrp_200deg.toml)::
 
 Metric fields: ``signals``, ``scale`` (applied to signals, tolerance and limit are in
 scaled units), ``unit``, ``min``/``max`` bounds; ``tolerance`` for settling_time,
-``limit`` for time_in_saturation, ``disturbances`` (the denominator signals) for
+``limit`` for time_in_saturation and time_to_limit (the first time any signal reaches it, inf if
+none does), ``disturbances`` (the denominator signals) for
 l2_ratio, whose value is the largest ratio over T and whose curve is plotted, ``versus``
 for max_difference (the largest ``|signal - versus|`` over time, signal by signal: an
 approximated law against the exact one, say).
@@ -126,7 +127,7 @@ class Metric:
         Label (unique within the scenario).
     kind : str
         One of ``final``, ``peak``, ``rms``, ``settling_time``, ``l2_ratio``,
-        ``time_in_saturation``, ``integral_square``, ``max_difference``.
+        ``time_in_saturation``, ``time_to_limit``, ``integral_square``, ``max_difference``.
     signals : list of str
         ``"instance.variable"`` names (base names expand).
     scale : float
@@ -139,7 +140,7 @@ class Metric:
     tolerance : float, optional
         Band of ``settling_time``.
     limit : float, optional
-        Saturation level of ``time_in_saturation``.
+        Saturation level of ``time_in_saturation``; the level of ``time_to_limit``.
     disturbances : list of str
         Denominator signals of ``l2_ratio``.
     versus : list of str

@@ -27,7 +27,8 @@ MAX_STEPS = 10_000_000
 MemoryError)."""
 CAMPAIGN_KEYS = {"samples": 1, "demo_samples": 1, "seed": 0}
 """Keys of a scenario's ``[campaign]`` table -> the least integer each takes."""
-_NEEDS = {"settling_time": "tolerance", "time_in_saturation": "limit", "l2_ratio": "disturbances",
+_NEEDS = {"settling_time": "tolerance", "time_in_saturation": "limit", "time_to_limit": "limit",
+          "l2_ratio": "disturbances",
           "max_difference": "versus"}
 
 
