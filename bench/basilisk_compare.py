@@ -43,6 +43,7 @@ from typing import Sequence
 import numpy as np
 
 import satfmu
+from satfmu.fmus.environment.constants import MU_EARTH
 from satfmu.fmus.plants import wheel_spacecraft, wheels
 
 STEP = 0.0125
@@ -300,7 +301,7 @@ def basilisk_torques(sigma: np.ndarray, r: np.ndarray, v: np.ndarray, sun: np.nd
     grav = simIncludeGravBody.gravBodyFactory()
     earth = grav.createEarth()
     earth.isCentralBody = True
-    earth.mu = wheel_spacecraft.environment_torques.MU_EARTH
+    earth.mu = MU_EARTH
     grav.addBodiesTo(body)
     gg = GravityGradientEffector.GravityGradientEffector()
     gg.ModelTag = "gg"

@@ -30,7 +30,6 @@ the wheel plant integrates) it must stay positive definite.
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping, Sequence
@@ -38,7 +37,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 from numpy.typing import ArrayLike
 
-from satfmu.fmus.declared import check_keys, read_toml, vector3
+from satfmu.fmus.declared import check_keys, finite_number, read_toml, vector3
 from satfmu.fmus.errors import SpacecraftError
 from satfmu.fmus.plants.surface import Facet
 from satfmu.fmus.plants.wheels import ReactionWheel, check_array, spin_axes
@@ -236,11 +235,7 @@ class Spacecraft:
 
 def _limit(value: Any, where: str, unit: str) -> float | None:
     """``value`` as a float, None kept; refused unless a finite number > 0."""
-    if value is None:
-        return None
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
-        raise SpacecraftError(f"{where}: must be a finite number > 0 ({unit}), got {value!r}")
-    return float(value)
+    return None if value is None else finite_number(value, where, unit, SpacecraftError, 0.0, open_low=True)
 
 
 def _tensor(raw: Any, where: str) -> tuple[tuple[float, float, float], ...]:
