@@ -102,6 +102,12 @@ def test_density_follows_the_exponential_models() -> None:
                       density_0=1e-12, density_altitude_0=500e3, scale_height=50e3)
     assert one.at(0.0)["density"] == pytest.approx(1e-12 * math.exp(-1.0), rel=1e-12)
     assert len(atmosphere.VALLADO_TABLE) == 28
+    # the band the model evaluates, as one exponential would need it (Basilisk's exponentialAtmosphere)
+    assert atmosphere.vallado_band(500e3) == (500e3, 6.967e-13, 63.822e3)
+    assert atmosphere.vallado_band(499_999.0) == (450e3, 1.585e-12, 60.828e3)  # a band is [h0, h1)
+    assert atmosphere.vallado_band(-10.0)[0] == 0.0 and atmosphere.vallado_band(5e6)[0] == 1000e3
+    h0, rho0, scale = atmosphere.vallado_band(475e3)
+    assert env.at(0.0)["density"] == pytest.approx(rho0 * math.exp(-(475e3 - h0) / scale), rel=1e-12)
 
 
 def test_dipole_field_has_its_textbook_magnitudes() -> None:

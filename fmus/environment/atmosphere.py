@@ -68,3 +68,26 @@ def vallado(h: sp.Expr) -> sp.Expr:
         return sp.Piecewise(*pieces, (sp.Float(VALLADO_TABLE[-1][column] * scale), True))
 
     return single_exponential(h, band(1, 1.0), band(0, 1e3), band(2, 1e3))
+
+
+def vallado_band(h: float) -> tuple[float, float, float]:
+    """The band of :data:`VALLADO_TABLE` that holds altitude ``h``, in SI units: what
+    :func:`vallado` evaluates there (and what one exponential, such as Basilisk's
+    ``exponentialAtmosphere``, needs to give the same density in that band).
+
+    Parameters
+    ----------
+    h : float
+        Altitude, m.
+
+    Returns
+    -------
+    tuple of float
+        The band's base altitude (m), its density there (kg/m^3) and its scale height (m).
+    """
+    row = VALLADO_TABLE[0]
+    for candidate in VALLADO_TABLE[1:]:
+        if h < candidate[0] * 1e3:
+            break
+        row = candidate
+    return row[0] * 1e3, row[1], row[2] * 1e3
