@@ -48,6 +48,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from satfmu.controllers import claims
+from satfmu.fmus.model import INDEX_TOL
 from satfmu.fmus.xml_text import xml_problem
 from satfmu.fmus.errors import ArtifactError
 
@@ -758,7 +759,7 @@ class PeriodicArtifact:
         Returns
         -------
         numpy.ndarray of int
-            ``floor(tau / Ts) mod N`` (:data:`INDEX_TOL` of a sample added before the floor), of the
+            ``floor(tau / Ts) mod N`` (:data:`satfmu.fmus.model.INDEX_TOL` of a sample added before the floor), of the
             shape of ``tau``.
         """
         return np.floor(np.asarray(tau, float) / self.sample_period + INDEX_TOL).astype(int) % self.n_samples
@@ -773,11 +774,6 @@ class PeriodicArtifact:
         if self.design:
             data["design"] = self.design
         return data
-
-
-INDEX_TOL = 1e-6
-"""Fraction of a sample period added before the floor of the gain index: an instant computed
-as 899.9999999999 s selects the gain of 900 s."""
 
 
 def _parse_periodic(data: dict, where: str, name: str, outputs: list) -> PeriodicArtifact:

@@ -91,6 +91,9 @@ PLANTS: dict[str, Callable[[], FmuSource]] = {
     "mrp_satellite_rw3": functools.partial(_wheel_plant, 3), "mrp_satellite_rw4": functools.partial(_wheel_plant, 4),
     "orbit_environment": _plant("satfmu.fmus.environment.orbit")}
 """Plant model name -> its source (built on call); the orbit and environment model among them."""
+SENSORS: dict[str, Callable[[], FmuSource]] = {
+    name: _plant(f"satfmu.fmus.sensors.{name}") for name in ("star_tracker", "rate_gyro", "magnetometer")}
+"""Sensor model name -> its source (:mod:`satfmu.fmus.sensors`)."""
 SIGNALS = ("signal_constant", "signal_step", "signal_sinusoid", "signal_cosine_ramp")
 """Model names of the generic signal generators (:data:`satfmu.fmus.signals.GENERIC`, ``signal_<kind>``)."""
 GENERIC: dict[str, Callable[[], FmuSource]] = {
@@ -104,11 +107,11 @@ and of the generic signal generators (native only: a scenario's profiles as FMUs
 
 
 def sources() -> list[FmuSource]:
-    """Plants first, then the controllers of the shipped artifacts (the DEMETER state feedback
+    """Plants and sensors first, then the controllers of the shipped artifacts (the DEMETER state feedback
     of Table 1 row 1 among them, every gain a parameter), then :data:`GENERIC`."""
     from satfmu.controllers import polynomial
 
-    out = [make() for make in PLANTS.values()]
+    out = [make() for make in (*PLANTS.values(), *SENSORS.values())]
     out += [artifact_source(path) for path in polynomial.shipped_artifacts()]
     return out + [make() for make in GENERIC.values()]
 
@@ -119,8 +122,8 @@ def source(name: str) -> FmuSource:
     Parameters
     ----------
     name : str
-        A plant or generic model name (:data:`PLANTS`, :data:`GENERIC`), the flexible plant of a
-        user's spacecraft that a design artifact was made for (:func:`flexible_plant`), or the
+        A plant, sensor or generic model name (:data:`PLANTS`, :data:`SENSORS`, :data:`GENERIC`),
+        the flexible plant of a user's spacecraft that a design artifact was made for (:func:`flexible_plant`), or the
         name of a controller artifact, looked up by :func:`satfmu.controllers.paths.find_artifact`
         (the user's artifacts first, then the shipped ones).
 
@@ -129,7 +132,7 @@ def source(name: str) -> FmuSource:
     ValueError
         If no model or artifact has that name (the message suggests the closest name).
     """
-    make = PLANTS.get(name) or GENERIC.get(name)
+    make = PLANTS.get(name) or SENSORS.get(name) or GENERIC.get(name)
     if make is not None:
         return make()
     flexible = flexible_plant(name)
@@ -138,7 +141,7 @@ def source(name: str) -> FmuSource:
     try:
         path = paths.find_artifact(name)
     except FileNotFoundError:
-        models = sorted({*PLANTS, *GENERIC})
+        models = sorted({*PLANTS, *SENSORS, *GENERIC})
         raise ValueError(f"no model or artifact named {name!r} (models: {', '.join(models)}; artifacts in "
                          f"{', '.join(map(str, paths.artifact_folders()))})"
                          + paths.did_you_mean(name, models + paths.artifact_names())) from None

@@ -23,9 +23,10 @@ import math
 
 import sympy as sp
 
-from satfmu.controllers.artifact import INDEX_TOL, PeriodicArtifact
+from satfmu.controllers.artifact import PeriodicArtifact
 from satfmu.fmus.plants import cubesat
-from satfmu.fmus.model import MIN_SAMPLE_PERIOD as MIN_PERIOD, Model, Output, Sampler, Variable, symbols, vector
+from satfmu.fmus.model import INDEX_TOL, MIN_SAMPLE_PERIOD as MIN_PERIOD
+from satfmu.fmus.model import Model, Output, Sampler, Variable, symbols, vector
 
 
 def build_periodic(artifact: PeriodicArtifact) -> Model:

@@ -20,6 +20,7 @@ import sympy as sp
 from sympy.printing.c import C99CodePrinter
 from sympy.printing.pycode import PythonCodePrinter
 
+from satfmu.fmus import noise
 from satfmu.fmus.digest import model_digest
 from satfmu.fmus.model import TIME_TOL, TIME_TOL_MAX, TIME_ULPS, Model, TableLookup
 
@@ -155,6 +156,24 @@ def functions(model: Model) -> list[LoweredFunction]:
     if key not in _LOWERED:
         _LOWERED[key] = tuple(_lower_all(model))
     return list(_LOWERED[key])
+
+
+def draws_noise(model: Model) -> bool:
+    """Whether the model's generated code calls the counter-based noise of :mod:`satfmu.fmus.noise`
+    (its Python and C forms are then emitted with it).
+
+    Parameters
+    ----------
+    model : Model
+        The model.
+
+    Returns
+    -------
+    bool
+        True when an expression of a generated function holds a noise function.
+    """
+    return any(e.has(*noise.NOISE_FUNCTIONS) for f in functions(model)
+               for e in [*f.results, *(v for _, v in f.temporaries)])
 
 
 def _lower_all(model: Model) -> list[LoweredFunction]:
@@ -293,6 +312,12 @@ class _Py(PythonCodePrinter):
     def _print_TableLookup(self, expr: TableLookup) -> str:
         return f"table_lookup({int(expr.args[0])}, {self._print(expr.args[1])})"
 
+    def _print_UniformNoise(self, expr: noise.UniformNoise) -> str:
+        return f"uniform_noise({', '.join(self._print(a) for a in expr.args)})"
+
+    def _print_GaussianNoise(self, expr: noise.GaussianNoise) -> str:
+        return f"gaussian_noise({', '.join(self._print(a) for a in expr.args)})"
+
 
 # The lookup of satfmu.fmus.model.Table.evaluate, one time at a time (generated Python and C).
 _PY_TABLE_LOOKUP = """
@@ -369,6 +394,8 @@ def python_source(model: Model, guid: str) -> str:
              f"INTEGRATOR = {model.integrator!r}",
              "TABLES = " + repr([(list(t.times), list(t.values), t.interpolation == "previous")
                                  for t in model.tables]), _PY_TABLE_LOOKUP]
+    if draws_noise(model):
+        lines.append(noise.PYTHON_SOURCE)
     sig = {"derivatives": "t, x, xp, u, p", "outputs": "t, x, u, p", "post_step": "t, x, xp, u, p",
            "sample_arguments": "t, x, u, p", "jacobian": "t, x, xp, u, p", "switch_time": "t, x, u, p"}
     for f in functions(model):
@@ -427,6 +454,12 @@ class _C(C99CodePrinter):
 
     def _print_TableLookup(self, expr: TableLookup) -> str:
         return f"table_lookup({int(expr.args[0])}, {self._print(expr.args[1])})"
+
+    def _print_UniformNoise(self, expr: noise.UniformNoise) -> str:
+        return f"uniform_noise({', '.join(self._print(a) for a in expr.args)})"
+
+    def _print_GaussianNoise(self, expr: noise.GaussianNoise) -> str:
+        return f"gaussian_noise({', '.join(self._print(a) for a in expr.args)})"
 
     def _print_Pow(self, expr: sp.Pow) -> str:
         return _product_power(self, expr, "1.0") or super()._print_Pow(expr)
@@ -579,6 +612,8 @@ def c_source(model: Model, guid: str) -> str:
                      + ", ".join(f"{{{len(tb.times)}, TABLE_{k}_T, TABLE_{k}_V, {int(tb.interpolation == 'previous')}}}"
                                  for k, tb in enumerate(model.tables)) + "};")
         lines.append(_C_TABLE_LOOKUP)
+    if draws_noise(model):
+        lines.append(noise.C_SOURCE)
     init = _state_initial(model) or [0]
     lines.append(f"static const int STATE_INITIAL[{max(1, n['NX'])}] = {{{', '.join(map(str, init))}}};")
     sig = {"derivatives": "double t, const double *x, const double *xp, const double *u, const double *p, "

@@ -236,7 +236,9 @@ def model_description(model: Model, caps: Capabilities) -> Element:
     used = sorted({v.unit for v in model.variables if v.type == "Real"})
     for name in used:
         unit = SubElement(units, "Unit", {"name": name})
-        SubElement(unit, "BaseUnit", {k: str(e) for k, e in UNITS[name].items()})
+        base = UNITS[name]
+        if base is not None:
+            SubElement(unit, "BaseUnit", {k: repr(e) if isinstance(e, float) else str(e) for k, e in base.items()})
     cats = SubElement(root, "LogCategories")
     for name, desc in LOG_CATEGORIES.items():
         SubElement(cats, "Category", {"name": name, "description": desc})

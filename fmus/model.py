@@ -27,8 +27,9 @@ from satfmu.fmus.errors import ModelDefinitionError
 
 VariableType = Literal["Real", "Integer", "Boolean"]
 
-#: SI units the project declares, as FMI 2.0 BaseUnit exponents.
-UNITS: dict[str, dict[str, int]] = {
+#: SI units the project declares, as FMI 2.0 BaseUnit exponents (and ``factor``: the unit is that many
+#: of the base unit's); None for a unit with no base unit of integer exponents (a noise density).
+UNITS: dict[str, dict[str, float] | None] = {
     "1": {},
     "s": {"s": 1},
     "rad": {"rad": 1},
@@ -51,6 +52,9 @@ UNITS: dict[str, dict[str, int]] = {
     "T": {"kg": 1, "s": -2, "A": -1},
     "A.m2": {"A": 1, "m": 2},
     "T.m3": {"kg": 1, "m": 3, "s": -2, "A": -1},
+    "arcsec": {"rad": 1, "factor": 4.84813681109536e-06},
+    "rad/s0.5": None,
+    "rad/s1.5": None,
 }
 
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*(\[[0-9]+(,[0-9]+)*\])?$")
@@ -166,6 +170,9 @@ MIN_SAMPLE_PERIOD = 1e-3
 the fastest period they use (the online SDRE's 0.01 s), and far above the time resolution (the
 instants of one FMU stay 1000 time tolerances apart at any time below 5.6e9 s, see
 :data:`TIME_TOL_MAX`); a 100 s step spans 1e5 instants (a native B-dot FMU takes ~1 ms for them)."""
+INDEX_TOL = 1e-6
+"""Fraction of a sample period added before the floor of a sample index: an instant computed
+as 899.9999999999 s counts as the one of 900 s (a gain schedule's index, a sensor's noise counter)."""
 
 
 @dataclass(frozen=True)
@@ -532,8 +539,9 @@ class Model:
             clash = {v.name for v in self.sampler.held} & set(fmu_names + symbol_names)
             if clash:
                 raise ModelDefinitionError(f"{self.name}: held values reuse names {sorted(clash)}")
+            defined = {sym for sym, _ in self.definitions}  # evaluated at the instant, like the arguments
             for e in self.sampler.arguments:
-                extra = sp.sympify(e).free_symbols - base - set(self.held_symbols)
+                extra = sp.sympify(e).free_symbols - base - set(self.held_symbols) - defined
                 if extra:
                     raise ModelDefinitionError(
                         f"{self.name}: sampler argument uses undeclared symbols {sorted(map(str, extra))}")
@@ -895,6 +903,23 @@ class Definitions(list):
             The flag, 1 where the condition holds, else 0 (test it with :func:`is_set`).
         """
         return self(name, sp.Piecewise((1, condition), (0, True), evaluate=False))
+
+    def vector(self, name: str, values: sp.Matrix) -> sp.Matrix:
+        """Record each entry of ``values`` as ``name_0``, ``name_1``, ... and return their symbols.
+
+        Parameters
+        ----------
+        name : str
+            Base name of the new symbols.
+        values : sympy.Matrix
+            The expressions, n x 1.
+
+        Returns
+        -------
+        sympy.Matrix
+            The symbols, n x 1.
+        """
+        return sp.Matrix([self(f"{name}_{i}", v) for i, v in enumerate(values)])
 
 
 def is_set(flag: sp.Expr) -> sp.Basic:

@@ -138,7 +138,7 @@ def test_importing_the_catalog_builds_no_model() -> None:
 
 def test_source_by_name_and_its_errors(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     assert catalog.source("signal_step").model.name == "signal_step"
-    for name in (*catalog.PLANTS, *catalog.GENERIC):  # the names are the models' own
+    for name in (*catalog.PLANTS, *catalog.SENSORS, *catalog.GENERIC):  # the names are the models' own
         assert catalog.source(name).model.name == name
     with pytest.raises(ValueError, match="did you mean 'mrp_satellite'"):
         catalog.source("mrp_satelite")

@@ -97,7 +97,7 @@ def stale_artifact(fmu: Path, model: str) -> str | None:
     """
     from satfmu.fmus.export import artifact_digest
 
-    if model in catalog.PLANTS or model in catalog.GENERIC:  # models of their own, no artifact
+    if any(model in group for group in (catalog.PLANTS, catalog.SENSORS, catalog.GENERIC)):  # no artifact: own models
         return None
     try:
         artifact = paths.find_artifact(model)
