@@ -78,6 +78,12 @@ def _bdot() -> FmuSource:
     return FmuSource(magnetic.build_bdot(), {})
 
 
+def _estimator() -> FmuSource:
+    from satfmu.controllers import estimator
+
+    return FmuSource(estimator.build(), {})
+
+
 def _signal(kind: str) -> FmuSource:
     from satfmu.fmus import signals
 
@@ -100,10 +106,11 @@ GENERIC: dict[str, Callable[[], FmuSource]] = {
     "vscmg_sdre_online": functools.partial(_online_sdre, "vscmg_sdre_online"),
     "vscmg_sdre_online_w1free": functools.partial(_online_sdre, "vscmg_sdre_online_w1free"),
     "mrp_sdre_online": functools.partial(_online_sdre, "mrp_sdre_online"),
-    "vscmg_backstepping": _backstepping, "cubesat_bdot": _bdot,
+    "vscmg_backstepping": _backstepping, "cubesat_bdot": _bdot, "attitude_mekf": _estimator,
     **{name: functools.partial(_signal, name.removeprefix("signal_")) for name in SIGNALS}}
-"""Model name -> source of the designs without an artifact (online SDRE, backstepping, B-dot)
-and of the generic signal generators (native only: a scenario's profiles as FMUs)."""
+"""Model name -> source of the designs without an artifact (online SDRE, backstepping, B-dot), of the
+attitude estimator (:mod:`satfmu.controllers.estimator`) and of the generic signal generators (native
+only: a scenario's profiles as FMUs)."""
 
 
 def sources() -> list[FmuSource]:
