@@ -45,6 +45,7 @@ import numpy as np
 import satfmu
 from satfmu.fmus.environment.constants import MU_EARTH
 from satfmu.fmus.plants import wheel_spacecraft, wheels
+from satfmu.sims.scenario.metrics import attitude_angle
 
 STEP = 0.0125
 """Integration step of both simulators (and the FMU's communication step), s."""
@@ -190,32 +191,6 @@ def run_satfmu(stop: float, torques: np.ndarray | None, fmu_dir: Path | None = N
             "H": np.column_stack([r[f"plant.H[{i}]"] for i in (1, 2, 3)])}
 
 
-def attitude_error(s1: np.ndarray, s2: np.ndarray) -> np.ndarray:
-    """The rotation angle between two MRP attitudes, row by row, rad: ``2 atan2(|v|, |w|)`` of the
-    relative quaternion ``(w, v) = q1^-1 q2`` (accurate near 0, where ``arccos`` of a dot product is
-    not: it cannot resolve angles below ~1e-8 rad).
-
-    Parameters
-    ----------
-    s1, s2 : numpy.ndarray, shape (n, 3)
-        The MRPs.
-
-    Returns
-    -------
-    numpy.ndarray, shape (n,)
-        The angles, rad, in [0, pi].
-    """
-    def quat(s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        s2 = np.sum(s * s, axis=1, keepdims=True)
-        return (1 - s2[:, 0]) / (1 + s2[:, 0]), 2 * s / (1 + s2)
-
-    w1, v1 = quat(s1)
-    w2, v2 = quat(s2)
-    w = w1 * w2 + np.sum(v1 * v2, axis=1)
-    v = w1[:, None] * v2 - w2[:, None] * v1 - np.cross(v1, v2)
-    return 2 * np.arctan2(np.linalg.norm(v, axis=1), np.abs(w))
-
-
 def compare(stop: float = 60.0, fmu_dir: Path | None = None) -> list[Row]:
     """Both cases; one :class:`Row` per quantity.
 
@@ -240,7 +215,7 @@ def compare(stop: float = 60.0, fmu_dir: Path | None = None) -> list[Row]:
     w_scale = float(np.max(np.abs(b["Omega"])))
     same = ("the same RK4 map at 12.5 ms (the same states and the same ODE, written in other terms): "
             "rounding accumulated over the run")
-    rows = [Row("wheels", "attitude angle between the two, rad", float(np.max(attitude_error(b["sigma"], s["sigma"]))),
+    rows = [Row("wheels", "attitude angle between the two, rad", float(np.max(attitude_angle(b["sigma"], s["sigma"]))),
                 1e-10, same + " (measured 5e-13 rad in 60 s)"),
             Row("wheels", "body rate, rad/s", float(np.max(np.abs(b["omega"] - s["omega"]))), 1e-11,
                 same + " (measured 7e-14 rad/s)"),

@@ -707,15 +707,18 @@ class Model:
         set of sympy.Symbol
             Time, state, previous-state, input and parameter symbols it depends on.
         """
-        free = set(sp.sympify(expr).free_symbols)
-        for sym, e in reversed(self.definitions):
-            if sym in free:
-                free = (free - {sym}) | sp.sympify(e).free_symbols
+        def expanded(symbols: set[sp.Symbol]) -> set[sp.Symbol]:
+            for sym, e in reversed(self.definitions):
+                if sym in symbols:
+                    symbols = (symbols - {sym}) | sp.sympify(e).free_symbols
+            return symbols
+
+        free = expanded(set(sp.sympify(expr).free_symbols))
         held = set(self.held_symbols)
         if free & held:
             free -= held
-            for e in self.sampler.arguments:  # type: ignore[union-attr]
-                free |= sp.sympify(e).free_symbols - held
+            for e in self.sampler.arguments:  # type: ignore[union-attr]  (they may use definitions)
+                free |= expanded(set(sp.sympify(e).free_symbols)) - held
         return free
 
     def output_dependencies(self) -> dict[str, list[str]]:

@@ -250,7 +250,7 @@ static int mekf_step(const double *v, double *held, char *message, size_t size) 
     memcpy(q, prev + MEKF_Q, sizeof q);
     memcpy(bias, prev + MEKF_BIAS, sizeof bias);
     mekf_unpack(prev + MEKF_P, P);
-    for (i = 0; i < 3; i++) w[i] = prev[MEKF_W + i] - bias[i];
+    for (i = 0; i < 3; i++) w[i] = 0.5 * (prev[MEKF_W + i] + omega_m[i]) - bias[i];
     mekf_propagate(q, P, w, dt, v[24], v[25]);
     last = prev[MEKF_T];
     if (fresh && v[9] > last + MEKF_TIME_TOLERANCE) {

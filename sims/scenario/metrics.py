@@ -183,6 +183,32 @@ def integral_square(t: np.ndarray, y: np.ndarray, held: Sequence[bool]) -> float
     return float(sum(_cumulative(t, y[:, i] ** 2, held[i])[-1] for i in range(y.shape[1])))
 
 
+def attitude_angle(s1: np.ndarray, s2: np.ndarray) -> np.ndarray:
+    """The rotation angle between two MRP attitudes, row by row, rad: ``2 atan2(|v|, |w|)`` of the
+    relative quaternion ``(v, w) = q1^-1 q2`` (accurate near 0, where ``arccos`` of a dot product is
+    not: it cannot resolve angles below ~1e-8 rad).
+
+    Parameters
+    ----------
+    s1, s2 : numpy.ndarray, shape (n, 3)
+        The MRPs (either set: the angle is the same for a shadow set).
+
+    Returns
+    -------
+    numpy.ndarray, shape (n,)
+        The angles, rad, in [0, pi].
+    """
+    def quaternion(s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        n2 = np.sum(s * s, axis=1, keepdims=True)
+        return (1 - n2[:, 0]) / (1 + n2[:, 0]), 2 * s / (1 + n2)
+
+    w1, v1 = quaternion(np.atleast_2d(s1))
+    w2, v2 = quaternion(np.atleast_2d(s2))
+    w = w1 * w2 + np.sum(v1 * v2, axis=1)
+    v = w1[:, None] * v2 - w2[:, None] * v1 - np.cross(v1, v2)
+    return 2 * np.arctan2(np.linalg.norm(v, axis=1), np.abs(w))
+
+
 @dataclass(frozen=True)
 class MetricInput:
     """What a metric reads of a recorded run, as the functions of :data:`EVALUATORS` take it.
@@ -209,6 +235,8 @@ class MetricInput:
         Denominator signals of ``l2_ratio`` (not scaled).
     disturbances_held : bool
         Whether every disturbance signal is held over each communication step.
+    scale : float
+        The metric's scale (``y`` and ``versus`` are already multiplied by it).
     """
 
     t: np.ndarray
@@ -220,6 +248,7 @@ class MetricInput:
     versus: np.ndarray | None = None
     disturbances: np.ndarray | None = None
     disturbances_held: bool = True
+    scale: float = 1.0
 
 
 Evaluation = tuple[float, np.ndarray | None]
@@ -271,10 +300,19 @@ def _max_difference(d: MetricInput) -> Evaluation:
     return peak(d.y - d.versus), None
 
 
+def _attitude_difference(d: MetricInput) -> Evaluation:
+    """The largest rotation angle between the MRP ``signals`` and the MRP ``versus`` (3 each: checked
+    by wire()), rad times the scale."""
+    assert d.versus is not None  # validate(): attitude_difference needs versus (_NEEDS)
+    if d.scale == 0:
+        return 0.0, None
+    return float(np.max(attitude_angle(d.y / d.scale, d.versus / d.scale))) * d.scale, None
+
+
 EVALUATORS: dict[str, Callable[[MetricInput], Evaluation]] = {
     "final": _final, "peak": _peak, "rms": _rms, "settling_time": _settling_time, "l2_ratio": _l2_ratio,
     "time_in_saturation": _time_in_saturation, "time_to_limit": _time_to_limit, "integral_square": _integral_square,
-    "max_difference": _max_difference}
+    "max_difference": _max_difference, "attitude_difference": _attitude_difference}
 """Metric kind -> the function that evaluates it on a :class:`MetricInput`: (value, curve or None)."""
 KINDS = tuple(EVALUATORS)
 """The metric kinds, in the order error messages list them."""

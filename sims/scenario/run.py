@@ -161,7 +161,7 @@ def evaluate(scenario: Scenario, res: np.ndarray, sim: CoSimulation
                            inputs=[c in inputs for c in cols], tolerance=m.tolerance, limit=m.limit,
                            versus=np.stack([res[c] for c in versus], axis=1) * m.scale if versus else None,
                            disturbances=np.stack([res[c] for c in disturbances], axis=1) if disturbances else None,
-                           disturbances_held=all(c in held for c in disturbances))
+                           disturbances_held=all(c in held for c in disturbances), scale=m.scale)
         value, curve = EVALUATORS[m.kind](data)  # validate(): a kind of the table, with the fields it needs
         if curve is not None:
             curves[m.name] = curve

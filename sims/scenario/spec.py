@@ -42,7 +42,9 @@ scaled units), ``unit``, ``min``/``max`` bounds; ``tolerance`` for settling_time
 none does), ``disturbances`` (the denominator signals) for
 l2_ratio, whose value is the largest ratio over T and whose curve is plotted, ``versus``
 for max_difference (the largest ``|signal - versus|`` over time, signal by signal: an
-approximated law against the exact one, say).
+approximated law against the exact one, say) and attitude_difference (the largest rotation
+angle between the MRP ``signals`` and the MRP ``versus``, 3 variables each, rad times ``scale``:
+an estimator's knowledge error).
 integral_square is ``integral of sum_i y_i^2 dt`` (an H2 cost with unit weights): plant
 outputs by the trapezoidal rule, FMU inputs (held over each step, e.g. ``plant.u``) by the
 left rectangle.

@@ -29,7 +29,7 @@ CAMPAIGN_KEYS = {"samples": 1, "demo_samples": 1, "seed": 0}
 """Keys of a scenario's ``[campaign]`` table -> the least integer each takes."""
 _NEEDS = {"settling_time": "tolerance", "time_in_saturation": "limit", "time_to_limit": "limit",
           "l2_ratio": "disturbances",
-          "max_difference": "versus"}
+          "max_difference": "versus", "attitude_difference": "versus"}
 
 
 def _number(v: Any, where: str, positive: bool = False) -> float:

@@ -272,3 +272,6 @@ def _check_signals(scenario: Scenario, sim: CoSimulation, where: str) -> None:
         if m.kind == "max_difference" and n["versus"] != n["signals"]:
             raise ScenarioError(f"{where}: metrics[{i}].versus: {n['versus']} variables for {n['signals']} "
                                 "in 'signals'")
+        if m.kind == "attitude_difference" and not n["signals"] == n["versus"] == 3:
+            raise ScenarioError(f"{where}: metrics[{i}]: attitude_difference compares two MRPs, 3 variables "
+                                f"each; got {n['signals']} in 'signals' and {n['versus']} in 'versus'")
