@@ -717,7 +717,7 @@ class Model:
         held = set(self.held_symbols)
         if free & held:
             free -= held
-            for e in self.sampler.arguments:  # type: ignore[union-attr]  (they may use definitions)
+            for e in self.sampler.arguments:  # type: ignore[union-attr]
                 free |= expanded(set(sp.sympify(e).free_symbols)) - held
         return free
 

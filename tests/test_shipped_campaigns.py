@@ -14,6 +14,7 @@ from satfmu.sims.scenario.spec import Scenario, load
 from satfmu.sims.campaign.scenario_task import campaign, campaign_size, explain
 from satfmu.sims.scenario.dispersions import Attitude, Distribution, Inertia
 from satfmu.sims.scenario import shipped_scenarios
+from satfmu.sims.workflows import sensing
 
 CAMPAIGNS = [p.stem for p in shipped_scenarios() if "dispersions" in tomllib.loads(p.read_text())]
 """Every shipped scenario with [dispersions]: a shipped campaign."""
@@ -21,7 +22,9 @@ GROUPS = {"mrp_slew_mc": ["mrp_slew_mc", "mrp_slew_mc_synth", "mrp_slew_mc_h2hin
           "cubesat_detumble_mc": ["cubesat_detumble_mc_bdot", "cubesat_detumble_mc_periodic"],
           "vscmg_friction_mc": ["vscmg_friction_mc_online", "vscmg_friction_mc_approx"],
           "demeter_row1_det": ["demeter_row1_det_both", "demeter_row1_det_theta", "demeter_row1_det_rate"],
-          "rw4_slew_mc": ["rw4_slew_mc"]}
+          "rw4_slew_mc": ["rw4_slew_mc", "rw4_slew_mc_synth", "rw4_slew_mc_h2hinf"],
+          "rw4_slew_sensed_mc": ["rw4_slew_sensed_mc", "rw4_slew_sensed_mc_synth", "rw4_slew_sensed_mc_h2hinf"],
+          "cubesat_detumble_mc_bdot_sensed": ["cubesat_detumble_mc_bdot_sensed"]}
 """Campaigns that differ only in the controller, or (seed 004's Figs 4-5) only in the initial state:
 the same draws for sample i, compared side by side."""
 STARTS = {"demeter_row1_det": {"theta_0[1]", "theta_dot_0[1]"}}
@@ -93,3 +96,22 @@ def test_the_campaigns_of_a_group_draw_the_same_samples(group: str, fmu_dir: Pat
     for i in (0, 7):
         draws = [sc.dispersions.sample(seed, i, nominal_values(sc, fmu_dir)) for sc in scenarios]
         assert all(d == draws[0] for d in draws)
+
+
+@pytest.mark.parametrize("controller", list(sensing.PAIRS))
+def test_a_sensed_campaign_draws_the_samples_of_its_true_state_twin(controller: str, fmu_dir: Path) -> None:
+    """The sensed campaign declares its twin's dispersions first, in the same order, then its
+    sensors': sample i is the same spacecraft, manoeuvre and environment in both (what lets
+    satfmu.sims.workflows.sensing compare them sample for sample)."""
+    ideal, sensed = (load(n) for n in sensing.PAIRS[controller])
+    assert ideal.campaign["seed"] == sensed.campaign["seed"]
+    shared = list(ideal.dispersions.data)
+    assert list(sensed.dispersions.data)[:len(shared)] == shared
+    assert all(sensed.dispersions.data[k] == ideal.dispersions.data[k] for k in shared)
+    extra = list(sensed.dispersions.data)[len(shared):]
+    assert extra and all(not k.startswith(("plant.", "orbit.")) for k in extra)  # the sensors' draws only
+    seed = ideal.campaign["seed"]
+    for i in (0, 7):
+        a = ideal.dispersions.sample(seed, i, nominal_values(ideal, fmu_dir))
+        b = sensed.dispersions.sample(seed, i, nominal_values(sensed, fmu_dir))
+        assert all(b[instance] == values for instance, values in a.items())
