@@ -172,7 +172,7 @@ instants of one FMU stay 1000 time tolerances apart at any time below 5.6e9 s, s
 :data:`TIME_TOL_MAX`); a 100 s step spans 1e5 instants (a native B-dot FMU takes ~1 ms for them)."""
 INDEX_TOL = 1e-6
 """Fraction of a sample period added before the floor of a sample index: an instant computed
-as 899.9999999999 s counts as the one of 900 s (a gain schedule's index, a sensor's noise counter)."""
+as 899.9999999999 s counts as the one of 900 s (a periodic gain schedule's index)."""
 
 
 @dataclass(frozen=True)

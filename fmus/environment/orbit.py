@@ -27,8 +27,10 @@ frame (the mean equator and equinox of J2000, to this model's accuracy):
   piecewise exponential model (``density_model`` 0) or one exponential (1,
   :mod:`satfmu.fmus.environment.atmosphere`).
 
-The epoch is ``epoch_j2000``: the seconds from 2000-01-01 12:00:00 to ``t = 0``, UTC, taken as UT1
-for the Earth's rotation (within 0.9 s) and as TT for the Sun (69 s early: 0.0008 deg).
+The epoch is ``epoch_j2000``: the seconds from 2000-01-01 12:00:00 UTC to the simulation time
+``epoch_time`` (default 0, so the elements are those of ``t = 0``), UTC, taken as UT1 for the
+Earth's rotation (within 0.9 s) and as TT for the Sun (69 s early: 0.0008 deg). A simulation that
+starts at ``t0`` with the elements of its start sets ``epoch_time = t0``.
 :func:`seconds_since_j2000`, :func:`circular` and :func:`from_tle` give the parameters.
 """
 from __future__ import annotations
@@ -181,14 +183,16 @@ def build() -> Model:
         Parameters: the mean elements at the epoch, the epoch, ``j2_on``, the eclipse, dipole and
         density models; outputs as in the module's docstring.
     """
-    t = Model.t
+    t_epoch = Variable("epoch_time", "s", "Simulation time of the epoch, at which the mean elements and epoch_j2000 "
+                       "hold (0: the elements are those of t = 0)", 0.0)
+    t = Model.t - t_epoch.symbol  # time from the epoch
     a = Variable("semi_major_axis", "m", "Mean semi-major axis at the epoch", EQUATORIAL_RADIUS + 500e3, min=1.0)
     e = Variable("eccentricity", "1", "Mean eccentricity", 0.0, min=0.0, max=0.9)
     inc = Variable("inclination", "rad", "Inclination to the J2000 equator", math.radians(97.4), min=0.0, max=math.pi)
     raan = Variable("raan", "rad", "Right ascension of the ascending node at the epoch", 0.0)
     argp = Variable("arg_perigee", "rad", "Argument of perigee at the epoch", 0.0)
-    m0 = Variable("mean_anomaly_0", "rad", "Mean anomaly at the epoch (t = 0)", 0.0)
-    epoch = Variable("epoch_j2000", "s", "Epoch (t = 0): seconds from 2000-01-01 12:00:00 UTC", DEFAULT_EPOCH)
+    m0 = Variable("mean_anomaly_0", "rad", "Mean anomaly at the epoch", 0.0)
+    epoch = Variable("epoch_j2000", "s", "Epoch (t = epoch_time): seconds from 2000-01-01 12:00:00 UTC", DEFAULT_EPOCH)
     j2_on = Variable("j2_on", "1", "Drift the node, perigee and mean anomaly at J2's secular rates", 1, "Boolean")
     eclipse = Variable("eclipse_model", "1", "Shadow: 0 cylindrical, 1 conical with penumbra", 1, "Integer",
                        min=0, max=1)
@@ -297,7 +301,7 @@ def build() -> Model:
     return Model(name="orbit_environment",
                  description="Keplerian orbit with J2 secular drift, the Sun and the Earth's shadow, a tilted-dipole "
                              "geomagnetic field and an exponential atmosphere, in inertial axes",
-                 states=[], inputs=[], parameters=[a, e, inc, raan, argp, m0, epoch, j2_on, eclipse, *dip,
+                 states=[], inputs=[], parameters=[a, e, inc, raan, argp, m0, epoch, t_epoch, j2_on, eclipse, *dip,
                                                    dens_model, *dens],
                  outputs=outputs, definitions=defs, default_stop_time=5400.0, default_step_size=1.0)
 

@@ -15,11 +15,16 @@ from __future__ import annotations
 
 import sympy as sp
 
-from satfmu.fmus.model import INDEX_TOL, MIN_SAMPLE_PERIOD, Model, Variable, vector
+from satfmu.fmus.model import Model, Variable, time_tolerance, vector
 from satfmu.fmus.noise import GaussianNoise
 
 SEED_MAX = 2**31 - 1
 """Largest seed (an FMU Integer)."""
+MIN_PERIOD = 5e-3
+"""Shortest sample period of a sensor, s (200 Hz: an attitude loop's sensors sample at 1-100 Hz).
+Five times :data:`satfmu.fmus.model.MIN_SAMPLE_PERIOD`: a pythonfmu sensor draws its noise in Python
+(~20 us an instant for the gyro's six draws), so that a 100 s step at the shortest period stays
+within the robustness suite's 1 s (2e4 instants)."""
 
 
 def timing(period: float, what: str) -> tuple[Variable, Variable, Variable]:
@@ -39,7 +44,7 @@ def timing(period: float, what: str) -> tuple[Variable, Variable, Variable]:
         ``seed`` (Integer, 0 .. :data:`SEED_MAX`).
     """
     return (Variable("sample_period", "s", f"Sample period of the {what}; the measurement is held in between",
-                     period, min=MIN_SAMPLE_PERIOD),
+                     period, min=MIN_PERIOD),
             Variable("sample_phase", "s", "Phase of the sample instants: they fall at k * sample_period - "
                      "sample_phase", 0.0),
             Variable("seed", "1", "Seed of the noise: a draw depends on (seed, sample instant) only", 0,
@@ -50,6 +55,10 @@ def sample_index(period: Variable, phase: Variable) -> sp.Expr:
     """The index ``k`` of the current sample instant ``t = k * period - phase`` (an integer; the
     instant of a start time between two instants counts as the earlier one's index).
 
+    A time within :func:`satfmu.fmus.model.time_tolerance` before an instant is that instant, as for
+    the FMU wrappers: at ``t = 1e9 s`` the time itself is rounded to 1.2e-7 s, far more than a fixed
+    fraction of a 50 ms period could absorb.
+
     Parameters
     ----------
     period, phase : Variable
@@ -58,9 +67,10 @@ def sample_index(period: Variable, phase: Variable) -> sp.Expr:
     Returns
     -------
     sympy.Expr
-        ``floor((t + phase) / period + INDEX_TOL)``.
+        ``floor((t + phase + time_tolerance(t)) / period)``.
     """
-    return sp.floor((Model.t + phase.symbol) / period.symbol + INDEX_TOL)
+    t = Model.t
+    return sp.floor((t + phase.symbol + time_tolerance(t)) / period.symbol)
 
 
 def gaussian(seed: Variable, k: sp.Expr, stream: int) -> sp.Expr:

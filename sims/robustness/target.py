@@ -49,11 +49,16 @@ class Var:
 SAMPLE_PERIODS = ("control_period", "sample_period")
 """Names of the sample-period parameters of the project's sampled FMUs (satfmu.fmus.model.Sampler.period:
 controllers/magnetic.py, controllers/servo.py); the huge-step cases also run at its declared minimum."""
-TIME_ORIGINS = {"step_time": 1.0, "start": 1.0, "stop": 1.0, "orbit_time_0": -1.0}
+TIME_ORIGINS = {"step_time": 1.0, "start": 1.0, "stop": 1.0, "orbit_time_0": -1.0, "epoch_time": 1.0,
+                "sample_phase": -1.0}
 """Parameters that place an FMU's time-dependent behaviour on the time axis, with the sign of their
 shift when the experiment starts t0 later (a step or ramp time moves by +t0; the orbit time at
 t = 0 of the cubesat plant and of the periodic schedules by -t0, so the orbit time at the start is
-kept): the start-time cases run the same experiment at t0 = 0 and at a large t0."""
+kept; the orbit model's epoch time by +t0; a sensor's sample phase by -t0, so its instants and its
+noise counter are the same): the start-time cases run the same experiment at t0 = 0 and at a large t0."""
+TIME_OUTPUTS = ("sample_time",)
+"""Outputs that are instants on the time axis (a sensor's measurement time): the start-time cases
+compare them less t0."""
 
 
 @dataclass(frozen=True)
