@@ -52,3 +52,15 @@ def test_campaign_samples_agree_with_the_same_closed_loop_in_basilisk(fmu_dir: P
     assert angle < 1e-3 and speed < 1e-4
     felt = max(abs(o.final_angle - b.final_angle) for o, b in zip(ours, bare[0]))
     assert felt > 100 * angle  # the torques compared are felt: they move the final angle far more than that
+
+
+@pytest.mark.slow
+def test_sensor_noise_statistics_agree_with_basilisk(fmu_dir: Path) -> None:
+    # bench/basilisk_sensors.py over 1000 s of 50 ms samples: each sensor's error statistics in Basilisk
+    # (imuSensor, starTracker, magnetometer) and in satfmu's FMU match the parameters and each other
+    # within five standard errors of a standard deviation (3.5 %; measured within 1 %)
+    bench = _bench("basilisk_sensors")
+    rows = bench.compare(1000.0, fmu_dir)
+    assert len(rows) == 4
+    failed = [r for r in rows if not r.passed]
+    assert not failed, bench.table(failed)

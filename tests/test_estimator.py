@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import math
+import tomllib
 from pathlib import Path
 
 import numpy as np
@@ -11,6 +12,7 @@ from scipy.spatial.transform import Rotation
 
 import satfmu
 from satfmu.controllers import mekf
+from satfmu.sims.scenario import SHIPPED_SCENARIOS
 
 BIAS = (2e-4, -1e-4, 5e-5)
 """The gyro's constant bias in these runs, rad/s (about 40 deg/h on axis 1)."""
@@ -128,3 +130,20 @@ def test_the_python_form_refuses_bad_values_by_name() -> None:
     later[mekf.ARGUMENTS.index("tracker_time")] = 0.2
     with pytest.raises(ValueError, match="not positive definite"):
         mekf.step(later + started)
+
+
+def test_with_every_noise_at_zero_the_sensed_loop_flies_as_the_true_state_loop(fmu_dir: Path) -> None:
+    data = tomllib.loads((SHIPPED_SCENARIOS / "rw4_slew_sensed_published.toml").read_text())
+    data["fmus"]["gyro"]["parameters"].update({"arw": 0.0, "rrw": 0.0, "bias_0[1]": 0.0, "bias_0[2]": 0.0,
+                                                 "bias_0[3]": 0.0})
+    data["fmus"]["tracker"]["parameters"].update({"noise_cross": 0.0, "noise_boresight": 0.0})
+    sensed = satfmu.run(satfmu.Scenario.from_dict(data), fmu_dir=fmu_dir)
+    ideal = satfmu.run("rw4_slew_published", fmu_dir=fmu_dir)
+    # what is left is the filter's model of the motion between samples: it turns the body at the mean of
+    # two sampled rates, which misses the torque's change within a 50 ms step: measured 1.3e-5 deg of
+    # knowledge error and 1.6e-5 deg of attitude difference at most during the 90 deg slew, 7e-7 deg at
+    # the end (bounds 5 times those)
+    value = {m.name: m.value for m in sensed.metrics}
+    assert value["knowledge error"] < 7e-5
+    phi = np.degrees(np.abs(sensed.results["plant.phi"] - ideal.results["plant.phi"]))
+    assert phi.max() < 8e-5 and phi[-1] < 4e-6
