@@ -98,8 +98,10 @@ PLANTS: dict[str, Callable[[], FmuSource]] = {
     "orbit_environment": _plant("satfmu.fmus.environment.orbit")}
 """Plant model name -> its source (built on call); the orbit and environment model among them."""
 SENSORS: dict[str, Callable[[], FmuSource]] = {
-    name: _plant(f"satfmu.fmus.sensors.{name}") for name in ("star_tracker", "rate_gyro", "magnetometer")}
-"""Sensor model name -> its source (:mod:`satfmu.fmus.sensors`)."""
+    name: _plant(f"satfmu.fmus.sensors.{name}")
+    for name in ("star_tracker", "rate_gyro", "magnetometer", "knowledge_error")}
+"""Sensor model name -> its source (:mod:`satfmu.fmus.sensors`; ``knowledge_error`` the diagnostic of an
+estimate against the truth)."""
 SIGNALS = ("signal_constant", "signal_step", "signal_sinusoid", "signal_cosine_ramp")
 """Model names of the generic signal generators (:data:`satfmu.fmus.signals.GENERIC`, ``signal_<kind>``)."""
 GENERIC: dict[str, Callable[[], FmuSource]] = {

@@ -147,3 +147,15 @@ def test_with_every_noise_at_zero_the_sensed_loop_flies_as_the_true_state_loop(f
     assert value["knowledge error"] < 7e-5
     phi = np.degrees(np.abs(sensed.results["plant.phi"] - ideal.results["plant.phi"]))
     assert phi.max() < 8e-5 and phi[-1] < 4e-6
+
+
+def test_the_knowledge_error_diagnostic_measures_the_estimate_against_the_truth(fmu_dir: Path) -> None:
+    r = satfmu.run("rw4_slew_sensed_published", fmu_dir=fmu_dir).results
+    error = _columns(r, "knowledge.error")
+    true = Rotation.from_mrp(_columns(r, "plant.sigma"))
+    estimate = Rotation.from_mrp(_columns(r, "ekf.sigma_est"))
+    # C_true = C(error) C_est, the filter's error state: the same rotation as scipy's (to rounding)
+    assert np.max(np.abs(error - (estimate.inv() * true).as_rotvec())) < 1e-15
+    assert np.allclose(r["knowledge.angle"], np.linalg.norm(error, axis=1), rtol=1e-12, atol=1e-18)
+    std = _columns(r, "ekf.attitude_std")
+    assert np.allclose(_columns(r, "knowledge.normalized"), error / std, rtol=1e-12)
