@@ -92,6 +92,7 @@ _EXPORTS = {
     "fmu_cache": "satfmu.controllers.paths", "user_artifacts": "satfmu.controllers.paths",
     "find_artifact": "satfmu.controllers.paths",
     "manoeuvre": "satfmu.synthesis.polynomial_feedback.two_step",
+    "margins": "satfmu.sims.workflows.analysis",
 }
 _FUNCTIONS = {"run", "build", "mrp_plant", "wheel_plant", "cubesat_plant", "load_artifact"}
 __all__ = sorted([*_EXPORTS, *_FUNCTIONS, "__version__"])

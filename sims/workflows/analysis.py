@@ -273,3 +273,86 @@ def l2(controller: str | Path, *, rate_max: float = 0.2, sigma_max: float = 0.9,
         return L2Result(form.controller, region, kv, diagonal, best, sampled, l2_gain.sos_gain(form, region))
     except SOSError as exc:
         return L2Result(form.controller, region, kv, diagonal, best, sampled, None, str(exc))
+
+
+@dataclass(frozen=True)
+class MarginsResult:
+    """The margins of a controller on its design plant, continuous and sampled
+    (:func:`margins`).
+
+    Parameters
+    ----------
+    controller : str
+        The controller (artifact name).
+    plant : str
+        Its design plant (model name).
+    continuous, sampled : satfmu.synthesis.core.margins.Margins
+        The loop in continuous time, and sampled at ``sample_time`` with a zero-order hold.
+    sample_time : float
+        The communication step of the sampled loop, s.
+    """
+
+    controller: str
+    plant: str
+    continuous: Any
+    sampled: Any
+    sample_time: float
+
+    def text(self) -> str:
+        """The margins as a readable table."""
+        lines = [f"{self.controller} on {self.plant} at the origin (loop broken at the plant input; sampled: "
+                 f"zero-order hold at {self.sample_time:g} s)"]
+        for label, m in (("continuous", self.continuous), (f"sampled {self.sample_time:g} s", self.sampled)):
+            lines.append(f"  {label}: closed loop {'stable' if m.closed_loop_stable else 'UNSTABLE'}; disk margins "
+                         f"(all inputs at once) {m.disk_gain_margin_db:.2f} dB, {m.disk_phase_margin_deg:.2f} deg; "
+                         f"peaks |S| {m.sensitivity_peak:.3f}, |T| {m.complementary_peak:.3f}")
+            for lm in m.loops:
+                lines.append(f"    loop {lm.channel}: gain margin {lm.gain_margin_db:.2f} dB, phase margin "
+                             f"{lm.phase_margin_deg:.2f} deg at {lm.gain_crossover:.4g} rad/s, delay margin "
+                             f"{lm.delay_margin:.4g} s")
+        return "\n".join(lines)
+
+
+def margins(controller: str | Path, sample_time: float = 0.05) -> MarginsResult:
+    """The linear margins of a controller on the plant it was designed for, at the origin.
+
+    Parameters
+    ----------
+    controller : str or Path
+        Artifact name or ``.json`` path: a controller whose model has no sampler.
+    sample_time : float, optional
+        Communication step of the sampled loop, s (> 0).
+
+    Returns
+    -------
+    MarginsResult
+
+    Raises
+    ------
+    ValueError
+        A sampled or time-periodic law (no linear time-invariant loop), an artifact without a
+        design plant, or a controller whose inputs and outputs are not the plant's by name.
+    """
+    from satfmu.controllers import artifact as artifacts
+    from satfmu.controllers import catalog
+    from satfmu.fmus.linearization import linearize
+    from satfmu.synthesis.core import margins as loop_margins
+
+    if not (sample_time > 0 and math.isfinite(sample_time)):
+        raise ValueError(f"sample_time must be a positive number of seconds, got {sample_time!r}")
+    path = paths.find_artifact(controller)
+    art = artifacts.load(path)
+    law = catalog.artifact_source(path).model
+    if law.sampler is not None:
+        raise ValueError(f"{art.name} is a sampled law (its gain changes at sample instants): its loop has no "
+                         "linear time-invariant margins")
+    plant_name = getattr(art, "plant", None)
+    if not plant_name:
+        raise ValueError(f"{art.name} names no design plant")
+    plant = catalog.source(plant_name).model
+    params = dict(art.provenance.get("design_plant", {}).get("parameters", {}))
+    K = linearize(law)
+    P = linearize(plant, parameters={k: v for k, v in params.items() if k in {p.name for p in plant.parameters}},
+                  inputs=K.outputs, outputs=K.inputs)
+    return MarginsResult(art.name, plant_name, loop_margins.margins(P, K), loop_margins.margins(P, K, sample_time),
+                         sample_time)

@@ -1,0 +1,300 @@
+"""Linear stability margins of a controller on its plant: loop at a time, disk margins, sensitivity peaks.
+
+The plant and the controller are linearized at an operating point from their symbolic models
+(:func:`satfmu.fmus.linearization.linearize`); the controller's inputs are the plant's outputs of
+the same names and its outputs the plant's inputs of the same names (as a scenario connects
+them). With ``P`` the plant from those inputs to those outputs and ``K`` the controller, the loop
+broken at the plant input is ``L = -K P`` (negative feedback: the loop is stable with its
+nominal gain when ``I + L`` has no zeros in the right half plane).
+
+- Loop at a time (input channel ``i``, the others closed): the loop transfer of channel ``i``,
+  ``L_i = -(G_ii + G_io (I - G_oo)^-1 G_oi)`` with ``G = K P``; its gain margin (dB), phase margin
+  (deg), the frequencies where they are read, and the delay margin ``PM / w_c`` (s).
+- The MIMO disk margins at the plant input (balanced, skew 0): the disk-based gain margin (dB) and
+  phase margin (deg) that hold for simultaneous, independent perturbations of every actuator
+  channel (python-control's structured bound, through slycot). Not at the output: for state
+  feedback the loop broken there has as many channels as states and the rank of the inputs
+  (slycot's ``ab13md`` does not return on such a 6 x 6 loop of rank 3).
+- The peaks of the largest singular value of ``S = (I + L)^-1`` and ``T = L (I + L)^-1``.
+
+Continuous time, and sampled: the plant discretized with a zero-order hold at the communication
+step (the controller's output held over it; a dynamic controller discretized likewise), which
+counts the hold's half-step delay. python-control (``control``) computes the margins; the tests
+hold its figures against :func:`sweep_margins`, a frequency sweep of our own.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import control
+import numpy as np
+
+from satfmu.fmus.linearization import Linearization
+
+FREQUENCIES = np.logspace(-5, 3, 400)
+"""Frequency grid of the disk margins and the sensitivity peaks, rad/s (cut at the Nyquist frequency
+of a sampled loop)."""
+LOWEST_CROSSOVER = 1e-6
+"""Phase crossovers below this frequency are not read as gain margins, rad/s: a loop with a double
+integrator reaches -180 deg only as the frequency goes to 0 (its gain unbounded there)."""
+MINREAL_TOL = 1e-8
+MARGIN_FREQUENCIES = np.logspace(-5, 3, 8000)
+"""Frequency grid of the loop-at-a-time margins, rad/s (python-control interpolates the crossovers
+between its points)."""
+"""Tolerance of the pole-zero cancellation of a loop's realization (python-control's ``minreal``)."""
+
+
+@dataclass(frozen=True)
+class LoopMargin:
+    """The classical margins of one loop broken at a time.
+
+    Parameters
+    ----------
+    channel : str
+        The plant input where the loop is broken.
+    gain_margin_db : float
+        Gain margin, dB: the smallest gain increase that destabilizes (inf when none does). A
+        double integrator under PD control crosses -180 deg only as the frequency goes to 0,
+        where the gain is unbounded: no gain reduction destabilizes it either.
+    lower_gain_margin_db : float
+        The smallest gain reduction that destabilizes, dB (negative; -inf when none does, read at
+        phase crossovers above :data:`LOWEST_CROSSOVER`).
+    phase_margin_deg : float
+        Phase margin, deg (inf when the gain never crosses 1).
+    phase_crossover : float
+        Frequency of the gain margin, rad/s (nan when none).
+    gain_crossover : float
+        Frequency of the phase margin, rad/s (nan when none).
+    delay_margin : float
+        The extra delay the loop tolerates, ``phase margin / gain crossover``, s.
+    """
+
+    channel: str
+    gain_margin_db: float
+    lower_gain_margin_db: float
+    phase_margin_deg: float
+    phase_crossover: float
+    gain_crossover: float
+    delay_margin: float
+
+
+@dataclass(frozen=True)
+class Margins:
+    """A controller's margins on its plant at one operating point, continuous or sampled.
+
+    Parameters
+    ----------
+    sample_time : float
+        0 for the continuous loop, else the communication step of the sampled loop, s.
+    closed_loop_stable : bool
+        Every closed-loop pole in the open left half plane (inside the unit circle when sampled).
+    loops : list of LoopMargin
+        One per plant input, loop at a time.
+    disk_gain_margin_db, disk_phase_margin_deg : float
+        Balanced MIMO disk margins at the plant input, dB and deg.
+    sensitivity_peak, complementary_peak : float
+        Peaks of the largest singular value of S and T at the plant input.
+    """
+
+    sample_time: float
+    closed_loop_stable: bool
+    loops: list[LoopMargin] = field(default_factory=list)
+    disk_gain_margin_db: float = math.nan
+    disk_phase_margin_deg: float = math.nan
+    sensitivity_peak: float = math.nan
+    complementary_peak: float = math.nan
+
+
+def _ss(lin: Linearization) -> control.StateSpace:
+    if lin.A.shape[0] == 0:
+        return control.ss([], [], [], lin.D)
+    return control.ss(lin.A, lin.B, lin.C, lin.D)
+
+
+def loop_transfers(plant: Linearization, controller: Linearization, sample_time: float = 0.0
+                   ) -> tuple[control.StateSpace, control.StateSpace]:
+    """The loop transfers at the plant input (``-K P``) and output (``-P K``).
+
+    Parameters
+    ----------
+    plant : Linearization
+        The plant, its inputs the controller's outputs and its outputs the controller's inputs
+        (by name, in any order).
+    controller : Linearization
+        The controller.
+    sample_time : float, optional
+        0: continuous; else both discretized with a zero-order hold at this step, s.
+
+    Returns
+    -------
+    at_input, at_output : control.StateSpace
+        ``m x m`` and ``p x p``.
+
+    Raises
+    ------
+    ValueError
+        A controller input that is no plant output, or a controller output that is no plant
+        input.
+    """
+    missing = [n for n in controller.inputs if n not in plant.outputs]
+    missing += [n for n in controller.outputs if n not in plant.inputs]
+    if missing:
+        raise ValueError(f"the controller's {', '.join(missing)} match no plant output or input of that name")
+    rows = [plant.outputs.index(n) for n in controller.inputs]
+    cols = [plant.inputs.index(n) for n in controller.outputs]
+    P = control.ss(plant.A, plant.B[:, cols], plant.C[rows, :], plant.D[np.ix_(rows, cols)])
+    K = _ss(controller)
+    if sample_time > 0:
+        P = control.c2d(P, sample_time, "zoh")
+        K = control.c2d(K, sample_time, "zoh") if controller.A.shape[0] else control.ss([], [], [], controller.D,
+                                                                                     sample_time)
+    return -K * P, -P * K
+
+
+def _channel_loop(G: control.StateSpace, i: int) -> control.StateSpace:
+    """``-(G_ii + G_io (I - G_oo)^-1 G_oi)``: channel ``i`` broken, the others closed (``G = K P``)."""
+    m = G.ninputs
+    others = [j for j in range(m) if j != i]
+    if not others:
+        return -G
+    g_ii = G[i, i]
+    if len(others) == 1:
+        g_io, g_oi, g_oo = G[i, others[0]], G[others[0], i], G[others[0], others[0]]
+    else:
+        g_io, g_oi, g_oo = G[[i], others], G[others, [i]], G[others, others]
+    eye = control.ss([], [], [], np.eye(len(others)), G.dt)
+    closed = control.feedback(eye, g_oo, sign=1)  # (I - G_oo)^-1
+    # the interconnection repeats the plant's states: cancel the pairs, or the margin search meets
+    # spurious crossings where the gain is 1e-16 (read as -320 dB gain margins)
+    return control.minreal(-(g_ii + g_io * closed * g_oi), tol=MINREAL_TOL, verbose=False)
+
+
+def margins(plant: Linearization, controller: Linearization, sample_time: float = 0.0) -> Margins:
+    """The margins of ``controller`` on ``plant`` (see the module's docstring).
+
+    Parameters
+    ----------
+    plant, controller : Linearization
+        As :func:`loop_transfers`.
+    sample_time : float, optional
+        0 for the continuous loop, else the communication step, s.
+
+    Returns
+    -------
+    Margins
+    """
+    L_in, _ = loop_transfers(plant, controller, sample_time)
+    G = -L_in
+    closed = control.feedback(control.ss([], [], [], np.eye(L_in.ninputs), L_in.dt), L_in, sign=-1)
+    poles = closed.poles()
+    stable = bool(np.all(np.abs(poles) < 1 - 1e-12) if sample_time > 0 else np.all(poles.real < 0))
+    omega = FREQUENCIES[FREQUENCIES < math.pi / sample_time] if sample_time > 0 else FREQUENCIES
+    loops = []
+    for i, name in enumerate(controller.outputs):
+        loops.append(_loop_margin(name, _channel_loop(G, i), _grid(sample_time)))
+    _, dgm, dpm = control.disk_margins(L_in, omega)
+    S_peak, T_peak = _peaks(L_in, omega)
+    return Margins(sample_time, stable, loops, 20 * math.log10(float(dgm)) if np.isfinite(dgm) else math.inf,
+                   float(dpm), S_peak, T_peak)
+
+
+def response(L: control.StateSpace, omega: np.ndarray) -> np.ndarray:
+    """The frequency response of a system: ``L(j omega)``, or ``L(e^{j omega T})`` when sampled.
+
+    Parameters
+    ----------
+    L : control.StateSpace
+        The system (continuous, or discrete with its ``dt``).
+    omega : numpy.ndarray
+        Frequencies, rad/s.
+
+    Returns
+    -------
+    numpy.ndarray
+        Complex, shape ``(outputs, inputs, len(omega))``.
+    """
+    points = 1j * omega if L.dt == 0 else np.exp(1j * omega * L.dt)
+    return np.asarray(L(points)).reshape(L.noutputs, L.ninputs, len(omega))
+
+
+def _grid(sample_time: float) -> np.ndarray:
+    """:data:`MARGIN_FREQUENCIES`, below the Nyquist frequency of a sampled loop."""
+    if sample_time > 0:
+        return MARGIN_FREQUENCIES[MARGIN_FREQUENCIES < 0.999 * math.pi / sample_time]
+    return MARGIN_FREQUENCIES
+
+
+def _loop_margin(channel: str, L: control.StateSpace, omega: np.ndarray) -> LoopMargin:
+    """The margins of one SISO loop from every crossover python-control finds on its frequency
+    response (``frd``: its polynomial search on a sampled loop's realization met spurious
+    crossovers, a 0.6 dB gain margin where the response gives none)."""
+    data = control.frd(response(L, omega)[0, 0], omega)
+    gms, pms, _, wpcs, wgcs, _ = control.stability_margins(data, returnall=True)
+    upper, lower, w_upper = math.inf, -math.inf, math.nan
+    for gm, w in zip(np.atleast_1d(gms), np.atleast_1d(wpcs)):
+        if not (np.isfinite(gm) and gm > 0 and w > LOWEST_CROSSOVER):
+            continue
+        db = 20 * math.log10(gm)
+        if db >= 0 and db < upper:
+            upper, w_upper = db, float(w)
+        elif db < 0:
+            lower = max(lower, db)
+    pm, w_c = math.inf, math.nan
+    for p, w in zip(np.atleast_1d(pms), np.atleast_1d(wgcs)):
+        if np.isfinite(p) and abs(float(p)) < abs(pm):
+            pm, w_c = float(p), float(w)
+    delay = math.radians(pm) / w_c if np.isfinite(pm) and np.isfinite(w_c) and w_c > 0 else math.inf
+    return LoopMargin(channel, upper, lower, pm, w_upper, w_c, delay)
+
+
+def _peaks(L: control.StateSpace, omega: np.ndarray) -> tuple[float, float]:
+    """Peaks over ``omega`` of the largest singular values of S and T."""
+    resp = response(L, omega)
+    eye = np.eye(L.ninputs)
+    s_max = t_max = 0.0
+    for k in range(len(omega)):
+        Lk = resp[:, :, k]
+        S = np.linalg.inv(eye + Lk)
+        s_max = max(s_max, float(np.linalg.norm(S, 2)))
+        t_max = max(t_max, float(np.linalg.norm(Lk @ S, 2)))
+    return s_max, t_max
+
+
+def sweep_margins(response: np.ndarray, omega: np.ndarray) -> tuple[float, float]:
+    """Gain margin (dB) and phase margin (deg) of a SISO loop from its frequency response alone: the
+    crossings of -180 deg and of gain 1 found on the grid and refined by linear interpolation (in
+    log frequency; a check of python-control's figures, written independently of it).
+
+    Parameters
+    ----------
+    response : numpy.ndarray
+        ``L(j omega)`` (or ``L(e^{j omega T})``) at ``omega``, complex.
+    omega : numpy.ndarray
+        Increasing frequencies, rad/s.
+
+    Returns
+    -------
+    tuple of float
+        The smallest gain margin over the phase crossovers (inf if none) and the smallest phase
+        margin over the gain crossovers (inf if none).
+    """
+    mag = np.abs(response)
+    phase = np.unwrap(np.angle(response))
+    gm, pm = math.inf, math.inf
+    for k in range(len(omega) - 1):
+        # gain crossover: |L| through 1
+        if (mag[k] - 1) * (mag[k + 1] - 1) < 0:
+            f = (0 - math.log(mag[k])) / (math.log(mag[k + 1]) - math.log(mag[k]))
+            ph = phase[k] + f * (phase[k + 1] - phase[k])
+            margin = math.degrees(ph) % 360.0 - 180.0  # distance of the phase from -180 deg, in (-180, 180]
+            pm = min(pm, margin)
+        # phase crossover: the phase through -180 deg (modulo 360)
+        a, b = phase[k] + math.pi, phase[k + 1] + math.pi  # 0 (mod 2 pi) at -180 deg
+        turns_a, turns_b = math.floor(a / (2 * math.pi)), math.floor(b / (2 * math.pi))
+        if turns_a != turns_b:
+            edge = 2 * math.pi * max(turns_a, turns_b)  # the multiple of 2 pi between a and b
+            f = (edge - a) / (b - a)
+            g = math.exp(math.log(mag[k]) + f * (math.log(mag[k + 1]) - math.log(mag[k])))
+            gm = min(gm, -20 * math.log10(g))
+    return gm, pm
