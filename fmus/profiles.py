@@ -43,6 +43,7 @@ from typing import Any, Callable
 import numpy as np
 
 from satfmu.fmus import signals
+from satfmu.fmus.declared import check_keys
 from satfmu.fmus.model import Model, ModelDefinitionError, Table
 from satfmu.fmus.errors import ProfileError
 
@@ -143,6 +144,17 @@ def _generic(kind: str, params: dict[str, float]) -> tuple[Callable[[np.ndarray]
             (lambda grid, unit: (signals.GENERIC[kind](unit), dict(params))))
 
 
+FIELDS: dict[str, tuple[str, ...]] = {
+    "constant": ("value",), "step": ("time", "before", "after"), "table": ("times", "values", "interpolation"),
+    "sinusoid": ("amplitude", "frequency_Hz", "phase_rad", "offset"), "random": ("seed", "std", "mean", "hold"),
+    "csv": ("file", "column", "time_column", "interpolation"),
+    "cosine_ramp": ("start", "stop", "before", "after", "derivative"),
+    "igrf": ("component", "epoch", "max_degree", "orbit_period", "orbit_time_0", "orbit_altitude",
+             "orbit_inclination", "orbit_raan", "orbit_arg_latitude_0", "earth_rotation_angle_0")}
+"""Profile kind -> the fields its declaration may have besides ``kind`` (another one is an error
+naming it, with the closest allowed field: a misspelt ``aftr`` is not read as a missing ``after``)."""
+
+
 def make(spec: dict[str, Any], where: str = "profile", base_dir: Path | None = None,
          step_size: float | None = None) -> Profile:
     """Validate a profile declaration and build it.
@@ -164,6 +176,8 @@ def make(spec: dict[str, Any], where: str = "profile", base_dir: Path | None = N
     """
     kind = spec.get("kind")
     where = f"{where} ({kind})"
+    if kind in FIELDS:  # an unknown kind is refused below, with the kinds
+        check_keys(spec, ("kind", *FIELDS[kind]), where, ProfileError)
     if kind == "constant":
         fns = _generic("constant", {"value": _num(spec, "value", where)})
     elif kind == "step":

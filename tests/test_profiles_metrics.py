@@ -8,6 +8,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import satfmu
+from satfmu.fmus import profiles
+from satfmu.fmus.errors import ScenarioError
 from satfmu.fmus.profiles import ProfileError, make
 from satfmu.sims.scenario import metrics
 
@@ -177,3 +180,20 @@ def test_time_to_limit_is_the_first_sample_at_the_level() -> None:
     assert time_to_limit(t, y[:, 0], 4.0) == 8.0
     assert time_to_limit(t, y, 100.0) == math.inf  # never reached
     assert time_to_limit(t, y, 4.0 * (1 + 1e-10)) == 5.0  # within the relative tolerance 1e-9
+
+
+def test_a_misspelt_or_extra_field_is_named() -> None:
+    # each kind takes its own fields: a misspelling is named with the closest field, not read as a
+    # missing one, and a field of another kind is refused, not ignored
+    with pytest.raises(ProfileError, match=r"unknown key 'aftr'.*'after'"):
+        profiles.make({"kind": "step", "time": 1.0, "before": 0.0, "aftr": 1.0})
+    with pytest.raises(ProfileError, match=r"unknown key 'value'"):
+        profiles.make({"kind": "step", "time": 1.0, "before": 0.0, "after": 1.0, "value": 2.0})
+    assert set(profiles.FIELDS) == {"constant", "step", "table", "sinusoid", "random", "csv", "cosine_ramp", "igrf"}
+
+
+def test_a_misspelt_plot_key_is_named() -> None:
+    data = {"name": "s", "stop_time": 1.0, "step_size": 0.1, "fmus": {"plant": {"model": "mrp_satellite"}},
+            "plot": {"pannels": [["plant.phi"]]}}
+    with pytest.raises(ScenarioError, match=r"plot: unknown key 'pannels'.*'panels'"):
+        satfmu.Scenario.from_dict(data)

@@ -76,6 +76,10 @@ def validate(data: Any, where: str = "scenario") -> None:
     if not isinstance(data, Mapping):
         raise ScenarioError(f"{where}: expected a table of keys, got {type(data).__name__}")
     check_keys(data, _TOP, where, ScenarioError)
+    plot = data.get("plot", {})
+    if not isinstance(plot, Mapping):
+        raise ScenarioError(f"{where}: [plot] must be a table")
+    check_keys(plot, ("panels",), f"{where}: plot", ScenarioError)
     for key in ("name", "stop_time", "step_size", "fmus"):
         if key not in data:
             raise ScenarioError(f"{where}: missing key {key!r}")
