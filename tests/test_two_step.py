@@ -86,6 +86,8 @@ def test_artifact_data_is_a_valid_certified_artifact(run: TwoStepResult) -> None
     assert l2["c"] == run.best.c  # copied, not recomputed: exact
     assert l2["kv"] == run.best.sos.kv
     assert l2["region"] == run.settings["l2_region"].label
+    # the function that made it, not a command line the design (made from Python here) never saw
+    assert art.provenance["source"] == "satfmu.synthesis.polynomial_feedback.two_step (seed 000 section 4)"
     iterations = art.provenance["iterations"]
     assert len(iterations) == 2
     for row in iterations:

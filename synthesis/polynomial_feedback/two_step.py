@@ -188,8 +188,9 @@ class TwoStepResult:
             "diagonal_c": best.diagonal[0] if best.diagonal else None,
             "diagonal_kv": best.diagonal[1] if best.diagonal else None,
         }
-        data["provenance"]["source"] = ("satfmu synth mrp-hinf (satfmu.synthesis.polynomial_feedback.two_step, "
-                                         "seed 000 section 4)")
+        # the function that made the design, whichever entry point called it (satfmu.design_hinf from
+        # Python, or satfmu synth mrp-hinf, which calls it)
+        data["provenance"]["source"] = "satfmu.synthesis.polynomial_feedback.two_step (seed 000 section 4)"
         data["provenance"]["settings"] = {k: (v.to_json() if hasattr(v, "to_json") else v)
                                           for k, v in self.settings.items()}
         data["provenance"]["iterations"] = [{k: _json_value(v) for k, v in it.row().items()}
