@@ -54,3 +54,12 @@ def test_names_are_the_implementations():
     from satfmu.sims.scenario.spec import Scenario
 
     assert satfmu.Scenario is Scenario and satfmu.Result is Result
+
+
+def test_result_metrics_are_in_order_and_by_name(fmu_dir) -> None:
+    result = satfmu.run("examples/my_scenario.toml", fmu_dir=fmu_dir)
+    assert [m.name for m in result.metrics] == ["angle error at the end", "peak torque"]  # a list, in order
+    assert result.metrics["peak torque"] is result.metrics[1]  # and a lookup by name
+    assert result.metrics["peak torque"].value < 5.0  # the scenario's bound (measured 0.72 N m)
+    with pytest.raises(KeyError, match="did you mean 'peak torque'"):
+        result.metrics["peak torqe"]

@@ -15,6 +15,31 @@ from satfmu.sims.scenario.metrics import MetricResult
 from satfmu.sims.scenario.spec import Scenario
 
 
+class Metrics(list):
+    """The metric results of a run, in the scenario's order, also indexed by name:
+    ``result.metrics[0]`` and ``result.metrics["peak torque"]`` are both a
+    :class:`~satfmu.sims.scenario.metrics.MetricResult` (``.value``, ``.passed``, ...).
+
+    Parameters
+    ----------
+    iterable : iterable of MetricResult, optional
+        The results (as ``list`` takes them).
+    """
+
+    def __getitem__(self, key: Any) -> Any:
+        if isinstance(key, str):
+            for m in self:
+                if m.name == key:
+                    return m
+            names = [m.name for m in self]
+            raise KeyError(f"no metric {key!r} (metrics: {names}){did_you_mean(key, names)}")
+        return super().__getitem__(key)
+
+    def names(self) -> list[str]:
+        """The metrics' names, in order."""
+        return [m.name for m in self]
+
+
 @dataclass
 class Result:
     """Outcome of one scenario run: the recorded signals, the metrics, pass/fail.
@@ -28,8 +53,9 @@ class Result:
     results : numpy structured array
         One row per communication time: ``time`` (s) and every recorded
         ``instance.variable`` (its unit: ``units``).
-    metrics : list of satfmu.sims.scenario.metrics.MetricResult
-        Name, value, unit, bounds and pass/fail of each metric.
+    metrics : Metrics
+        Name, value, unit, bounds and pass/fail of each metric, in order and by name
+        (``result.metrics["peak torque"].value``).
     files : dict of str to Path
         What :meth:`write` wrote (csv, plot, summary, l2_ratio_plot).
     l2_curves : dict of str to ndarray
@@ -51,7 +77,7 @@ class Result:
     name: str
     backend: str
     results: np.ndarray
-    metrics: list[MetricResult]
+    metrics: "Metrics | list[MetricResult]"  # a list becomes Metrics (__post_init__)
     files: dict[str, Path] = field(default_factory=dict)
     l2_curves: dict[str, np.ndarray] = field(default_factory=dict)
     units: dict[str, str] = field(default_factory=dict)
@@ -60,6 +86,10 @@ class Result:
     warnings: list[str] = field(default_factory=list)
     scenario: Scenario | None = None
     fmu_dir: Path | None = None
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.metrics, Metrics):
+            self.metrics = Metrics(self.metrics)
 
     @property
     def passed(self) -> bool:
