@@ -45,11 +45,30 @@ def test_design_mismatch_is_found_in_both_backends(backend: str, fmu_dir: Path, 
     f = tmp_path / "own.toml"
     f.write_text('name = "own"\nstop_time = 0.1\nstep_size = 0.1\n'
                  '[fmus.plant]\nmodel = "mrp_satellite"\nparameters = { I_x = 100.0 }\n'
-                 '[fmus.controller]\nmodel = "mrp_hinf_published"\n')
+                 '[fmus.controller]\nmodel = "mrp_hinf_published"\n'
+                 '[[connections]]\nfrom = "controller.u"\nto = "plant.u"\n')
     code = main(["run", str(f), "--backend", backend, "--strict", "--fmu-dir", str(fmu_dir), "--out", str(tmp_path)])
     err = capsys.readouterr().err
     assert code == 2 and f"{f}: design mismatch (strict): controller (mrp_hinf_published) on plant: I_x = 100 " \
                          "(designed for 15)" in err, err
+
+
+def test_a_design_mismatch_names_the_plant_the_controller_is_wired_to(fmu_dir: Path, tmp_path: Path,
+                                                                     capsys: pytest.CaptureFixture) -> None:
+    # two independent loops: the published controller on its design plant, and a second plant of another
+    # inertia with the same controller; only the second pair is a mismatch, named as wired
+    f = tmp_path / "two.toml"
+    f.write_text('name = "two"\nstop_time = 0.1\nstep_size = 0.1\n'
+                 '[fmus.plant_a]\nmodel = "mrp_satellite"\n'
+                 '[fmus.plant_b]\nmodel = "mrp_satellite"\nparameters = { I_x = 100.0 }\n'
+                 '[fmus.ctrl_a]\nmodel = "mrp_hinf_published"\n[fmus.ctrl_b]\nmodel = "mrp_hinf_published"\n'
+                 + "".join(f'[[connections]]\nfrom = "plant_{x}.{v}"\nto = "ctrl_{x}.{v}"\n'
+                           f'[[connections]]\nfrom = "ctrl_{x}.u"\nto = "plant_{x}.u"\n'
+                           for x in "ab" for v in ("omega",)))
+    code = main(["run", str(f), "--strict", "--fmu-dir", str(fmu_dir), "--out", str(tmp_path)])
+    err = capsys.readouterr().err
+    assert code == 2 and "ctrl_b (mrp_hinf_published) on plant_b: I_x = 100" in err, err
+    assert "on plant_a" not in err and "ctrl_a (" not in err
 
 
 def test_errors_exit_2_with_a_message(fmu_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture) -> None:

@@ -87,6 +87,18 @@ def _columns(sim: CoSimulation, names: list[str]) -> list[str]:
     return cols
 
 
+def _connected_to(scenario: Scenario, instance: str) -> set[str]:
+    """The instances a connection links directly with ``instance`` (either way)."""
+    out = set()
+    for c in scenario.connections:
+        src, dst = c.source.split(".", 1)[0], c.target.split(".", 1)[0]
+        if src == instance:
+            out.add(dst)
+        if dst == instance:
+            out.add(src)
+    return out
+
+
 def design_mismatches(scenario: Scenario, sim: CoSimulation, rtol: float | None = None) -> list[str]:
     """Controllers of the scenario paired with a plant whose parameters differ from the plant
     they were designed for (the artifact each controller FMU carries in its resources).
@@ -115,8 +127,8 @@ def design_mismatches(scenario: Scenario, sim: CoSimulation, rtol: float | None 
             continue
         art = artifacts.load(f)
         for pname, plant in sim.components.items():
-            if pname == cname:
-                continue
+            if pname == cname or pname not in _connected_to(scenario, cname):
+                continue  # only the plants the controller is wired to: another loop's plant is not its
             values = {v.name: float(v.start) for v in plant.model_description.modelVariables
                       if v.causality == "parameter" and v.type == "Real" and v.start is not None}
             values.update({k: float(v) for k, v in scenario.fmus[pname].parameters.items()
