@@ -33,6 +33,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 import satfmu
+from satfmu.fmus.sensors.common import ARCSEC
 
 STEP = 0.05
 """Sample period of every sensor in both, s."""
@@ -49,7 +50,6 @@ TRACKER_NOISE = 20.0
 """Star tracker noise per axis, arcsec."""
 MAG_NOISE = 2e-7
 """Magnetometer noise per axis, T."""
-ARCSEC = math.pi / 180 / 3600
 
 
 @dataclass

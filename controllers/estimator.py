@@ -13,7 +13,6 @@ filter the sensors' noise (``noise_cross``, ``noise_boresight``, ``boresight``, 
 """
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
 import sympy as sp
@@ -24,8 +23,6 @@ from satfmu.fmus.sensors import common
 
 NAME = "attitude_mekf"
 """The model's name."""
-ARCSEC = math.pi / 180 / 3600
-"""One arcsecond, rad."""
 
 
 def _packed(i: int) -> int:
@@ -74,7 +71,8 @@ def build() -> Model:
 
     held = [Variable(f"held_{name}[{i + 1}]" if n > 1 else f"held_{name}", "1", f"Filter value {name}"
                      + (f" {i + 1}" if n > 1 else "")) for name, n in mekf.HELD for i in range(n)]
-    values = {"dt": period.symbol, "noise_cross": cross.symbol * ARCSEC, "noise_boresight": roll.symbol * ARCSEC,
+    values = {"dt": period.symbol, "noise_cross": cross.symbol * common.ARCSEC,
+              "noise_boresight": roll.symbol * common.ARCSEC,
               "tracker_valid": valid.symbol, "tracker_time": t_m.symbol, "use_tracker": use_tracker.symbol,
               "use_magnetometer": use_mag.symbol, "noise_magnetometer": mag_noise.symbol, "arw": arw.symbol,
               "rrw": rrw.symbol, "p0_attitude": p0_att.symbol, "p0_bias": p0_bias.symbol}

@@ -45,6 +45,10 @@ def _mix(z: int) -> int:
     return z ^ (z >> 31)
 
 
+def _fraction(z: int, lane: int, half: float) -> float:
+    return ((_mix(z ^ lane) >> 11) + half) * 1.1102230246251565e-16
+
+
 def _hash(seed: float, counter: float, stream: float) -> int:
     h = _mix((int(seed) + GOLDEN) & MASK)
     h = _mix(((h ^ (int(stream) & MASK)) + GOLDEN) & MASK)
@@ -64,7 +68,7 @@ def uniform_noise(seed: float, counter: float, stream: float) -> float:
     float
         ``(m + 1/2) 2^-53`` for the 53-bit integer ``m`` of the hash: never 0 nor 1.
     """
-    return ((_mix(_hash(seed, counter, stream) ^ LANE_1) >> 11) + 0.5) * 1.1102230246251565e-16
+    return _fraction(_hash(seed, counter, stream), LANE_1, 0.5)
 
 
 def gaussian_noise(seed: float, counter: float, stream: float) -> float:
@@ -81,8 +85,8 @@ def gaussian_noise(seed: float, counter: float, stream: float) -> float:
         ``sqrt(-2 ln u1) cos(2 pi u2)`` with ``u1`` in (0, 1) and ``u2`` in [0, 1) from the hash.
     """
     h = _hash(seed, counter, stream)
-    u1 = ((_mix(h ^ LANE_1) >> 11) + 0.5) * 1.1102230246251565e-16
-    u2 = (_mix(h ^ LANE_2) >> 11) * 1.1102230246251565e-16
+    u1 = _fraction(h, LANE_1, 0.5)
+    u2 = _fraction(h, LANE_2, 0.0)
     return math.sqrt(-2.0 * math.log(u1)) * math.cos(6.283185307179586 * u2)
 
 
@@ -104,7 +108,7 @@ NOISE_FUNCTIONS = (UniformNoise, GaussianNoise)
 PYTHON_SOURCE = "\n".join(
     [f"{name} = {value:#x}" for name, value in (("MASK", MASK), ("GOLDEN", GOLDEN), ("MIX_1", MIX_1),
                                                  ("MIX_2", MIX_2), ("LANE_1", LANE_1), ("LANE_2", LANE_2))]
-    + ["", ""] + [inspect.getsource(f) for f in (_mix, _hash, uniform_noise, gaussian_noise)])
+    + ["", ""] + [inspect.getsource(f) for f in (_mix, _fraction, _hash, uniform_noise, gaussian_noise)])
 """The Python form, embedded in the generated Python of a model that draws noise (the module
 imports ``math``)."""
 
@@ -120,14 +124,16 @@ static inline uint64_t noise_hash(double seed, double counter, double stream) {{
     h = noise_mix((h ^ (uint64_t)(int64_t)stream) + UINT64_C({GOLDEN:#x}));
     return noise_mix(h + (uint64_t)(int64_t)counter * UINT64_C({GOLDEN:#x}));
 }}
+static inline double noise_fraction(uint64_t z, uint64_t lane, double half) {{
+    return ((double)(noise_mix(z ^ lane) >> 11) + half) * 1.1102230246251565e-16;
+}}
 static inline double uniform_noise(double seed, double counter, double stream) {{
-    return ((double)(noise_mix(noise_hash(seed, counter, stream) ^ UINT64_C({LANE_1:#x})) >> 11) + 0.5)
-        * 1.1102230246251565e-16;
+    return noise_fraction(noise_hash(seed, counter, stream), UINT64_C({LANE_1:#x}), 0.5);
 }}
 static inline double gaussian_noise(double seed, double counter, double stream) {{
     const uint64_t h = noise_hash(seed, counter, stream);
-    const double u1 = ((double)(noise_mix(h ^ UINT64_C({LANE_1:#x})) >> 11) + 0.5) * 1.1102230246251565e-16;
-    const double u2 = (double)(noise_mix(h ^ UINT64_C({LANE_2:#x})) >> 11) * 1.1102230246251565e-16;
+    const double u1 = noise_fraction(h, UINT64_C({LANE_1:#x}), 0.5);
+    const double u2 = noise_fraction(h, UINT64_C({LANE_2:#x}), 0.0);
     return sqrt(-2.0 * log(u1)) * cos(6.283185307179586 * u2);
 }}
 """

@@ -11,10 +11,10 @@ from scipy import stats
 from scipy.spatial.transform import Rotation
 
 import satfmu
+from satfmu.fmus.sensors.common import ARCSEC
 from satfmu.fmus import noise
 from satfmu.fmus.sensors import star_tracker
 
-ARCSEC = math.pi / 180 / 3600
 
 
 def test_noise_draws_are_standard_and_independent() -> None:

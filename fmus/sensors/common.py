@@ -13,11 +13,15 @@ attitude whose matrix is ``C(q_a) C(q_b)`` (first ``q_b``, then ``q_a``).
 """
 from __future__ import annotations
 
+import math
+
 import sympy as sp
 
 from satfmu.fmus.model import Model, Variable, time_tolerance, vector
 from satfmu.fmus.noise import GaussianNoise
 
+ARCSEC = math.pi / 180 / 3600
+"""One arcsecond, rad (the unit of the star tracker's noise)."""
 SEED_MAX = 2**31 - 1
 """Largest seed (an FMU Integer)."""
 MIN_PERIOD = 5e-3

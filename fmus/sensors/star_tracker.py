@@ -19,7 +19,6 @@ invalid, the last valid attitude is held (the identity before the first one) and
 """
 from __future__ import annotations
 
-import math
 
 import sympy as sp
 
@@ -31,8 +30,6 @@ STREAM = 100
 """First noise stream of the tracker (100-102: the noise angles; 103: the dropout draw)."""
 MAX_LATENCY = 8
 """Largest latency, in sample instants (the model holds that many past measurements)."""
-ARCSEC = math.pi / 180 / 3600
-"""One arcsecond, rad."""
 AXIS_SWITCH = 0.9
 """The cross axes are built from the body x axis unless ``|b_x|`` exceeds this (then from y)."""
 
@@ -78,8 +75,8 @@ def build() -> Model:
     e1 = define.vector("e1", common.unit(a.cross(b)))
     e2 = define.vector("e2", b.cross(e1))
     draws = [common.gaussian(seed, k, STREAM + i) for i in range(3)]
-    noise = define.vector("d_noise", cross.symbol * ARCSEC * (draws[0] * e1 + draws[1] * e2)
-                          + roll.symbol * ARCSEC * draws[2] * b)
+    noise = define.vector("d_noise", cross.symbol * common.ARCSEC * (draws[0] * e1 + draws[1] * e2)
+                          + roll.symbol * common.ARCSEC * draws[2] * b)
     q_true = define.vector("d_q_true", common.quaternion_of_mrp(symbols(sigma)))
     q_mis = define.vector("d_q_mis", common.quaternion_of_rotation(symbols(mis)))
     q_noise = define.vector("d_q_noise", common.quaternion_of_rotation(noise))
