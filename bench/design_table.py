@@ -59,7 +59,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import os
 import sys
 import tempfile
@@ -237,9 +236,9 @@ def scenario(controller: str, spacecraft: satfmu.Spacecraft, stop_time: float, s
                       satfmu.Connection("plant.sigma", "controller.sigma"),
                       satfmu.Connection("controller.u", "plant.u")]),
         record=["plant.phi", "controller.u"],
-        metrics=[satfmu.Metric("angle error", "final", ["plant.phi"], scale=180.0 / math.pi, unit="deg",
+        metrics=[satfmu.Metric("angle error", "final", ["plant.phi"], unit="deg",
                                max=ANGLE_BOUND_DEG),
-                 satfmu.Metric("peak torque", "peak", ["controller.u"], unit="N m", max=spacecraft.torque_limit)])
+                 satfmu.Metric("peak torque", "peak", ["controller.u"], unit="N.m", max=spacecraft.torque_limit)])
 
 
 def closed_loop(design: satfmu.Design, spacecraft: satfmu.Spacecraft, stop_time: float,

@@ -79,5 +79,6 @@ def build(name: str = "vscmg_backstepping") -> Model:
     outputs += [Output(Variable(f"e_{n}", "rad", f"Tracking error {n}_ref - {n}"), e) for n, e in errors.items()]
     inputs = [q2, q4] + refs["q2"] + refs["q4"] + rates
     return Model(name=name, description="Backstepping tracking controller of the VSCMG (seed 002 comparison)",
-                 states=[], inputs=inputs, parameters=inertias + gains["q2"] + gains["q4"] + comp,
+                 states=[], inputs=inputs, driven_inputs=tuple(v.name for v in inputs),
+                 parameters=inertias + gains["q2"] + gains["q4"] + comp,
                  outputs=outputs, definitions=d, default_stop_time=15.0, default_step_size=0.01)

@@ -115,6 +115,7 @@ def build() -> Model:
                  description="Multiplicative extended Kalman filter of the attitude and the gyro bias: gyro "
                              "propagation, star tracker and magnetometer updates, sampled with a zero-order hold",
                  states=[], inputs=omega_m + q_m + [valid, t_m] + b_m + b_ref,
+                 driven_inputs=tuple(v.name for v in omega_m),  # the tracker's and the field only if used
                  parameters=[period, use_tracker, use_mag, cross, roll, *bore, mag_noise, arw, rrw, p0_att, p0_bias,
                              *q_init],
                  outputs=outputs, sampler=sampler, default_stop_time=60.0, default_step_size=0.05)

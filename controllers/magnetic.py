@@ -65,6 +65,7 @@ def build_periodic(artifact: PeriodicArtifact) -> Model:
                for o, h in zip(artifact.outputs, held)]
     outputs.append(Output(Variable("gain_index", "1", "Index k of the gain in use (0 .. N-1)"), held[-1].symbol))
     return Model(name=artifact.name, description=artifact.description, states=[], inputs=inputs,
+                 driven_inputs=tuple(v.name for v in inputs),
                  parameters=[period, phase], outputs=outputs, sampler=sampler,
                  default_stop_time=2 * artifact.schedule_period, default_step_size=artifact.sample_period)
 
@@ -127,5 +128,6 @@ def build_bdot(name: str = "cubesat_bdot") -> Model:
                for i, h in enumerate(m_held)]
     return Model(name=name, description="B-dot detumbling law m = -(k_w/|b|) d(b/|b|)/dt (Avanzini-Giulietti "
                  "gain), sampled magnetometer, zero-order hold", states=[], inputs=b_in,
+                 driven_inputs=tuple(v.name for v in b_in),
                  parameters=[gain, period, b_min], outputs=outputs, sampler=sampler,
                  default_stop_time=2 * cubesat.ORBIT_PERIOD_SEED, default_step_size=1.0)

@@ -49,6 +49,7 @@ def build(artifact: ControllerArtifact) -> Model:
         var = Variable(out["name"], out["unit"], out.get("description", f"Command {out['name']}"))
         outputs.append(Output(var, saturate(poly, u_max.symbol, sat_on.symbol)))
     return Model(name=artifact.name, description=artifact.description, states=[], inputs=inputs,
+                 driven_inputs=tuple(v.name for v in inputs),
                  parameters=[sat_on, u_max], outputs=outputs)
 
 

@@ -113,6 +113,7 @@ def servo_model(name: str, description: str, plant: str, tracked: list[dict], ra
     outs += [Output(Variable(f"e_{t['name']}", t["unit"], f"Tracking error {t['reference']} - {t['name']}"), ei)
              for t, ei in zip(tracked, e)]
     return Model(name=name, description=description, states=integrals, inputs=tracked_v + refs + rates_v,
+                 driven_inputs=tuple(v.name for v in tracked_v + rates_v),  # a reference's default: the origin
                  parameters=parameters, outputs=outs + list(extra_outputs), rhs=sp.Matrix(e),
                  default_stop_time=15.0, default_step_size=0.01, default_h_max=0.01, sampler=sampler)
 

@@ -116,6 +116,7 @@ def build(gains: dict[str, float] | None = None, name: str = "demeter_state_feed
                 for i in range(3)] + [Output(s.variable, s.symbol) for s in x_xi + x_xw])
     return Model(name=name, description=description, states=x_xi + x_xw,
                  inputs=[v for vs in meas.values() for v in vs], parameters=params + [a], outputs=outputs,
+                 driven_inputs=tuple(v.name for vs in meas.values() for v in vs),
                  rhs=rhs, default_stop_time=600.0, default_step_size=0.1, integrator="exact")
 
 

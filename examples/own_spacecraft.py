@@ -13,7 +13,6 @@ on the same plant is then flagged: it was designed for another inertia.
 """
 from __future__ import annotations
 
-import math
 import warnings
 
 import satfmu
@@ -45,10 +44,10 @@ def scenario(controller: str = CONTROLLER) -> satfmu.Scenario:
                      satfmu.Connection("plant.sigma", "controller.sigma"),
                      satfmu.Connection("controller.u", "plant.u")],
         record=["plant.phi", "plant.omega", "controller.u"],
-        metrics=[satfmu.Metric("angle error at 120 s", "final", ["plant.phi"], scale=180.0 / math.pi, unit="deg",
+        metrics=[satfmu.Metric("angle error at 120 s", "final", ["plant.phi"], unit="deg",
                                max=0.1),
-                 satfmu.Metric("peak torque", "peak", ["controller.u"], unit="N m", max=TORQUE_BUDGET),
-                 satfmu.Metric("time to 1 deg", "settling_time", ["plant.phi"], scale=180.0 / math.pi, unit="s",
+                 satfmu.Metric("peak torque", "peak", ["controller.u"], unit="N.m", max=TORQUE_BUDGET),
+                 satfmu.Metric("time to 1 deg", "settling_time", ["plant.phi"], unit="deg",
                                tolerance=1.0, max=90.0)])
 
 

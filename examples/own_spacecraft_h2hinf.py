@@ -15,7 +15,6 @@ plant cannot reach is refused in seconds, with the gamma it can (try ``--gamma 0
 from __future__ import annotations
 
 import argparse
-import math
 
 import numpy as np
 
@@ -51,8 +50,8 @@ def scenario(design: satfmu.Design) -> satfmu.Scenario:
         record=["plant.phi", "plant.omega", "plant.sigma", "plant.u"],
         metrics=[satfmu.Metric("H2 cost, states", "integral_square", ["plant.omega", "plant.sigma"]),
                  satfmu.Metric("H2 cost, torque", "integral_square", ["plant.u"], scale=torque_scale),
-                 satfmu.Metric("peak torque", "peak", ["plant.u"], unit="N m", max=SPACECRAFT.torque_limit),
-                 satfmu.Metric("angle error at 600 s", "final", ["plant.phi"], scale=180.0 / math.pi, unit="deg",
+                 satfmu.Metric("peak torque", "peak", ["plant.u"], unit="N.m", max=SPACECRAFT.torque_limit),
+                 satfmu.Metric("angle error at 600 s", "final", ["plant.phi"], unit="deg",
                                max=0.1)])
 
 

@@ -14,7 +14,6 @@ on the plant FMU, with the plant's torque saturation on.
 from __future__ import annotations
 
 import argparse
-import math
 
 import satfmu
 from satfmu.controllers import mrp_servo_sdc
@@ -42,12 +41,12 @@ def scenario() -> satfmu.Scenario:
               "controller": satfmu.FmuSpec(model=CONTROLLER)},
         connections=[satfmu.Connection(a, b) for a, b in mrp_servo_sdc.plant_connections()],
         record=["plant.phi", "plant.omega", "controller.u"],
-        metrics=[satfmu.Metric("angle error at 120 s", "final", ["plant.phi"], scale=180.0 / math.pi, unit="deg",
+        metrics=[satfmu.Metric("angle error at 120 s", "final", ["plant.phi"], unit="deg",
                                max=0.01),
-                 satfmu.Metric("time to 1 deg", "settling_time", ["plant.phi"], scale=180.0 / math.pi, unit="s",
+                 satfmu.Metric("time to 1 deg", "settling_time", ["plant.phi"], unit="deg",
                                tolerance=1.0, max=60.0),
                  # the demand may pass the limit for a moment (measured 21.5 N m): the plant clips it
-                 satfmu.Metric("peak torque demanded", "peak", ["controller.u"], unit="N m")])
+                 satfmu.Metric("peak torque demanded", "peak", ["controller.u"], unit="N.m")])
 
 
 def main() -> int:

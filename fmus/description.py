@@ -22,7 +22,7 @@ from __future__ import annotations
 import copy
 import uuid
 from dataclasses import dataclass
-from xml.etree.ElementTree import Element, SubElement, indent, tostring
+from xml.etree.ElementTree import Element, SubElement, fromstring, indent, tostring
 
 from satfmu.fmus import __version__
 from satfmu.fmus.codegen import KIND_INPUT, KIND_PARAMETER, variable_table
@@ -37,6 +37,10 @@ WRAPPER_SOURCE = "fmi2_cosim.c"
 """The native FMU's one source file (``<SourceFiles>``), the generic wrapper ``fmus/c/fmi2_cosim.c``."""
 GUID_NAMESPACE = uuid.uuid5(uuid.NAMESPACE_URL, "https://satfmu/modelDescription/guid")
 """Namespace of the name-based GUIDs (:func:`description_guid`); fixed, so GUIDs are reproducible."""
+ANNOTATION_TOOL = "satfmu"
+"""``name`` of the description's ``VendorAnnotations/Tool`` that lists the model's driven inputs
+(``driven_inputs`` of :class:`satfmu.fmus.model.Model`): ``<DrivenInputs>`` holding one ``<Input name="..."/>``
+each."""
 VERSION_DIGEST_DIGITS = 16
 """Hex digits of the model digest in the ``version`` attribute (:func:`model_version`)."""
 
@@ -246,6 +250,11 @@ def model_description(model: Model, caps: Capabilities) -> Element:
         "startTime": "0.0", "stopTime": repr(float(model.default_stop_time)),
         "stepSize": repr(float(model.default_step_size))})
 
+    if model.driven_inputs:
+        tool = SubElement(SubElement(root, "VendorAnnotations"), "Tool", {"name": ANNOTATION_TOOL})
+        listed = SubElement(tool, "DrivenInputs")  # the schema allows one element in a Tool
+        for name in model.driven_inputs:
+            SubElement(listed, "Input", {"name": name})
     mvars = SubElement(root, "ModelVariables")
     variables = model.variables
     for row, v in zip(variable_table(model), variables):
@@ -281,6 +290,25 @@ def model_description(model: Model, caps: Capabilities) -> Element:
             _unknown(init, index[name], [index[d] for d in deps])
     root.set("guid", description_guid(model, root))
     return root
+
+
+def driven_inputs(description: bytes) -> list[str]:
+    """The inputs an FMU says a co-simulation must drive: the ``DrivenInputs/Input`` names of its
+    ``VendorAnnotations`` tool :data:`ANNOTATION_TOOL` (empty for an FMU without them).
+
+    Parameters
+    ----------
+    description : bytes
+        The FMU's ``modelDescription.xml``, already checked (:func:`satfmu.fmus.archive.check`).
+
+    Returns
+    -------
+    list of str
+        Variable names, in the description's order.
+    """
+    root = fromstring(description)
+    return [str(e.get("name")) for tool in root.findall("VendorAnnotations/Tool")
+            if tool.get("name") == ANNOTATION_TOOL for e in tool.findall("DrivenInputs/Input") if e.get("name")]
 
 
 def _unknown(parent: Element, index: int, deps: list[int]) -> None:

@@ -34,6 +34,11 @@ class SpacecraftError(SatfmuError, ValueError):
     """A spacecraft description is missing, malformed or not physical; the message names the key."""
 
 
+class UnitError(SatfmuError, ValueError):
+    """A unit satfmu does not know, or two units that do not convert into each other
+    (:mod:`satfmu.fmus.units`)."""
+
+
 class UnsafeFmuError(SatfmuError, ValueError):
     """An FMU file that satfmu refuses to read: not a zip archive, an unsafe entry, or beyond
     a limit of :class:`satfmu.fmus.archive.FmuLimits`. The message names the file, the entry and

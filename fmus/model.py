@@ -454,6 +454,12 @@ class Model:
         inputs held) at which the frozen piecewise law stops being valid (a momentum
         integrator reaching its bound, say), ``oo`` when never; the step is cut there and
         continues with the law of the new substep start, so the switch is exact too.
+    driven_inputs : tuple of str
+        Names of the inputs a co-simulation must drive (connect or feed from a profile): a
+        controller's, a sensor's or an estimator's measurements, whose start value is no
+        meaningful default. The FMU lists them in its ``VendorAnnotations``
+        (:func:`satfmu.fmus.description.driven_inputs`); a scenario leaving one undriven is refused.
+        Default none (a plant's torques and disturbances may stay at their start values).
     """
 
     name: str
@@ -473,6 +479,7 @@ class Model:
     integrator: Literal["rk4", "exact"] = "rk4"
     switch_time: sp.Expr | None = None
     tables: list[Table] = field(default_factory=list)
+    driven_inputs: tuple[str, ...] = ()
 
     t = sp.Symbol("t", real=True)
 
@@ -505,6 +512,9 @@ class Model:
             dup = {n for n in names if names.count(n) > 1}
             if dup:
                 raise ModelDefinitionError(f"{self.name}: duplicate variable names {sorted(dup)}")
+        unknown = sorted(set(self.driven_inputs) - {v.name for v in self.inputs})
+        if unknown:
+            raise ModelDefinitionError(f"{self.name}: driven_inputs {unknown} are not inputs of the model")
         for v in self.variables:
             if v.unit not in UNITS:
                 raise ModelDefinitionError(f"{self.name}: variable {v.name!r} has unknown unit {v.unit!r}")

@@ -66,7 +66,8 @@ if TYPE_CHECKING:
 _EXPORTS = {
     # every error and warning satfmu raises, under SatfmuError and SatfmuWarning (satfmu.fmus.errors)
     **{name: "satfmu.fmus.errors" for name in (
-        "SatfmuError", "SatfmuWarning", "ModelDefinitionError", "ProfileError", "SpacecraftError", "UnsafeFmuError",
+        "SatfmuError", "SatfmuWarning", "ModelDefinitionError", "ProfileError", "SpacecraftError", "UnitError",
+        "UnsafeFmuError",
         "FmuBuildError", "ArtifactError", "RiccatiCheckError", "LMIError", "SOSError", "SolverMemoryError",
         "SolverFailure", "FitCertificationError", "PeriodicSystemError", "RobustLMIError", "PlantDataError",
         "DeltaError", "TooManyVerticesError", "ProgramTooLargeError", "NotHurwitzError", "OptionError",

@@ -126,7 +126,7 @@ def mutated(path: str, value: object) -> dict:
     ("appendages", [], "must be a non-empty list of appendages"),
     ("appendages/0/modes", [], "modes: must be a non-empty list"),
     ("appendages/1/name", "solar_array", r"names must be distinct, \['solar_array'\] appear twice"),
-    ("wheels/momentum_limit", -0.1, r"wheels: momentum_limit: must be > 0 N m s"),
+    ("wheels/momentum_limit", -0.1, r"wheels: momentum_limit: must be > 0 N.m.s"),
     ("wheels/damping", True, "damping: must be a finite number"),
     ("inertia_uncertainty/moment_spread", 1.0, r"must be in \[0, 1\)"),
     ("name", "bus 50; system()", "is not a name"),

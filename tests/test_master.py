@@ -164,7 +164,8 @@ def test_a_failed_rerun_leaves_nothing_that_looks_complete(tmp_path: Path, fmu_d
     or in plotting, removes them first: no old summary saying "passed" beside new data."""
     from satfmu.sims.scenario import plots
 
-    ok = _write(tmp_path, BASE + 'record = ["plant.phi"]\n')
+    open_loop = 'unconnected = "zero"\nrecord = ["plant.phi"]\n'  # the controller's inputs at their start values
+    ok = _write(tmp_path, BASE + open_loop)
     out = tmp_path / "out"
     files = run(ok, fmu_dir, out_dir=out).files
     assert all(files[k].is_file() for k in ("csv", "plot", "summary"))
@@ -172,8 +173,8 @@ def test_a_failed_rerun_leaves_nothing_that_looks_complete(tmp_path: Path, fmu_d
     blow_up = '{ h_max = 1e6, "omega_0[1]" = 1e3, "omega_0[2]" = 1e3, "omega_0[3]" = 1e3 }'  # in range
     with pytest.raises(FmuCallError, match="the state became non-finite"):
         run(_write(tmp_path, BASE.replace(PLANT, f'{{ model = "mrp_satellite", parameters = {blow_up} }}')
-                   + 'record = ["plant.phi"]\n'), fmu_dir, out_dir=out)
-    ok = _write(tmp_path, BASE + 'record = ["plant.phi"]\n')
+                   + open_loop), fmu_dir, out_dir=out)
+    ok = _write(tmp_path, BASE + open_loop)
     assert sorted(p.name for p in folder.iterdir()) == []
     run(ok, fmu_dir, out_dir=out)
 

@@ -134,7 +134,7 @@ def test_artifact_fmu_closes_the_loop_with_the_plant_fmu(spacecraft: Spacecraft,
               "controller": satfmu.FmuSpec(path=str(fmu.relative_to(tmp_path)))},
         connections=[satfmu.Connection(a, b) for a, b in sdc.plant_connections()],
         record=["plant.phi", "controller.u"],
-        metrics=[satfmu.Metric("angle error at 60 s", "final", ["plant.phi"], scale=180.0 / math.pi, unit="deg",
+        metrics=[satfmu.Metric("angle error at 60 s", "final", ["plant.phi"], unit="deg",
                                max=0.1)])
     with warnings.catch_warnings():
         warnings.simplefilter("error", satfmu.DesignMismatchWarning)
@@ -216,7 +216,7 @@ def test_online_sdre_fmu_serves_any_spacecraft_through_its_parameters(tmp_path: 
               "controller": satfmu.FmuSpec(path=str(fmu.relative_to(tmp_path)), parameters=online)},
         connections=[satfmu.Connection(a, b) for a, b in sdc.plant_connections()],
         record=["plant.phi", "controller.u", "controller.riccati_residual"],
-        metrics=[satfmu.Metric("angle error at 60 s", "final", ["plant.phi"], scale=180.0 / math.pi, unit="deg",
+        metrics=[satfmu.Metric("angle error at 60 s", "final", ["plant.phi"], unit="deg",
                                max=0.1),
                  satfmu.Metric("Riccati residual", "peak", ["controller.riccati_residual"], max=1e-8)])
     res = satfmu.run(scenario, out_dir=tmp_path / "out")

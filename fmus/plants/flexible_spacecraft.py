@@ -284,7 +284,7 @@ class Wheels:
     damping: float = WHEEL_ZETA
 
     def __post_init__(self) -> None:
-        for key, unit in (("torque_limit", "N m"), ("momentum_limit", "N m s")):
+        for key, unit in (("torque_limit", "N.m"), ("momentum_limit", "N.m.s")):
             value = _number(getattr(self, key), key)
             if value <= 0:
                 raise SpacecraftError(f"{key}: must be > 0 {unit}, got {value!r}")

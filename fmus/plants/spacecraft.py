@@ -101,7 +101,7 @@ class Spacecraft:
             raise SpacecraftError(f"name: must be a non-empty string, got {name!r}")
         object.__setattr__(self, "name", name)
         object.__setattr__(self, "inertia", _tensor(inertia, f"{name}: inertia"))
-        object.__setattr__(self, "torque_limit", _limit(torque_limit, f"{name}: actuators.torque_limit", "N m"))
+        object.__setattr__(self, "torque_limit", _limit(torque_limit, f"{name}: actuators.torque_limit", "N.m"))
         object.__setattr__(self, "description", description)
         object.__setattr__(self, "dipole_limit", _limit(dipole_limit, f"{name}: actuators.dipole_limit", "A m^2"))
         object.__setattr__(self, "wheels", check_array(wheels, f"{name}: wheels") if len(wheels) else ())

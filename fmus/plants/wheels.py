@@ -79,10 +79,10 @@ class ReactionWheel:
                  viscous: float = 0.0, coulomb: float = 0.0, *, where: str = "wheel") -> None:
         object.__setattr__(self, "axis", vector3(axis, f"{where}: axis", SpacecraftError, unit_length=True))
         object.__setattr__(self, "inertia", _positive(inertia, f"{where}: inertia", "kg m^2"))
-        object.__setattr__(self, "torque_limit", _positive(torque_limit, f"{where}: torque_limit", "N m"))
+        object.__setattr__(self, "torque_limit", _positive(torque_limit, f"{where}: torque_limit", "N.m"))
         object.__setattr__(self, "speed_limit", _positive(speed_limit, f"{where}: speed_limit", "rad/s"))
         object.__setattr__(self, "viscous", _non_negative(viscous, f"{where}: viscous", "N m s/rad"))
-        object.__setattr__(self, "coulomb", _non_negative(coulomb, f"{where}: coulomb", "N m"))
+        object.__setattr__(self, "coulomb", _non_negative(coulomb, f"{where}: coulomb", "N.m"))
 
     @property
     def momentum_limit(self) -> float:

@@ -47,7 +47,8 @@ def build() -> Model:
     return Model(name="knowledge_error",
                  description="Diagnostic: the attitude error of an estimate against the truth, its angle, and each "
                              "component over the estimator's standard deviation",
-                 states=[], inputs=est + true + std, parameters=[], outputs=outputs, definitions=define,
+                 states=[], inputs=est + true + std,
+                 driven_inputs=tuple(v.name for v in est + true), parameters=[], outputs=outputs, definitions=define,
                  default_stop_time=60.0, default_step_size=0.05)
 
 

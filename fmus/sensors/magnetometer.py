@@ -54,7 +54,7 @@ def build() -> Model:
                  description="Three-axis magnetometer: the inertial field in the body axes of the true attitude, "
                              "with noise, bias, scale factor, misalignment, quantization and range, sampled with a "
                              "zero-order hold; seeded noise of (seed, sample instant)",
-                 states=[], inputs=b_in + sigma,
+                 states=[], inputs=b_in + sigma, driven_inputs=tuple(v.name for v in b_in + sigma),
                  parameters=[period, phase, seed, noise, *bias, *scale, *mis, lsb, limit],
                  outputs=outputs, sampler=sampler, definitions=define, default_stop_time=60.0, default_step_size=0.1)
 

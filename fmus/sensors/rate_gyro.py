@@ -70,7 +70,8 @@ def build() -> Model:
                  description="Three-axis rate gyro: angle and rate random walk, constant bias, scale factor, "
                              "misalignment, quantization and range, sampled with a zero-order hold; seeded noise "
                              "of (seed, sample instant)",
-                 states=[], inputs=omega, parameters=[period, phase, seed, arw, rrw, *bias, *scale, *mis, lsb, limit],
+                 states=[], inputs=omega, driven_inputs=tuple(v.name for v in omega),
+                 parameters=[period, phase, seed, arw, rrw, *bias, *scale, *mis, lsb, limit],
                  outputs=outputs, sampler=sampler, default_stop_time=60.0, default_step_size=0.05)
 
 

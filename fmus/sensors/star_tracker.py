@@ -119,7 +119,7 @@ def build() -> Model:
                  description="Star tracker: attitude quaternion with noise about the cross axes and the "
                              "boresight, a fixed misalignment, latency in samples, an outage window and random "
                              "dropouts, sampled with a zero-order hold; seeded noise of (seed, sample instant)",
-                 states=[], inputs=sigma,
+                 states=[], inputs=sigma, driven_inputs=tuple(v.name for v in sigma),
                  parameters=[period, phase, seed, cross, roll, *bore, *mis, latency, out_start, out_stop, dropout],
                  outputs=outputs, sampler=sampler, definitions=define, default_stop_time=60.0,
                  default_step_size=0.2)

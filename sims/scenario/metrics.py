@@ -218,7 +218,8 @@ class MetricInput:
     t : numpy.ndarray, shape (n,)
         Sample times (s), increasing.
     y : numpy.ndarray, shape (n, k)
-        The metric's signals, one column each, times the metric's scale.
+        The metric's signals, one column each, in the metric's unit (converted from the declared
+        one, :func:`satfmu.sims.scenario.conversions.metric_conversion`, times its scale).
     held : bool
         Whether every signal is held over each communication step (an FMU input fed by the
         master, or a connected output).
@@ -226,17 +227,18 @@ class MetricInput:
         One per column of ``y``: whether that signal is an FMU input the master sets
         (``integral_square`` integrates it by the left rectangle rule).
     tolerance : float, optional
-        Band of ``settling_time``, in the scaled unit.
+        Band of ``settling_time``, in the unit of ``y``.
     limit : float, optional
-        Saturation level of ``time_in_saturation``, in the scaled unit.
+        Saturation level of ``time_in_saturation``, in the unit of ``y``.
     versus : numpy.ndarray, shape (n, k), optional
-        Reference signals of ``max_difference``, times the metric's scale.
+        Reference signals of ``max_difference``, in the unit of ``y``.
     disturbances : numpy.ndarray, shape (n, m), optional
         Denominator signals of ``l2_ratio`` (not scaled).
     disturbances_held : bool
         Whether every disturbance signal is held over each communication step.
     scale : float
-        The metric's scale (``y`` and ``versus`` are already multiplied by it).
+        The factor ``y`` and ``versus`` were multiplied by (an ``attitude_difference`` divides
+        it out to read the MRPs, and gives its angle, rad, times it).
     """
 
     t: np.ndarray
@@ -333,7 +335,8 @@ class MetricResult:
     min, max : float or None
         Pass/fail bounds, in ``unit``; None: no bound.
     unit : str, optional
-        Unit of the value and bounds (after the metric's scale), e.g. ``"deg"``.
+        Unit of the value and bounds, e.g. ``"deg"``; ``"s"`` for a time, ``"N2.m2.s"`` for an
+        ``integral_square`` of torques (:func:`satfmu.sims.scenario.conversions.value_unit`).
     """
 
     name: str

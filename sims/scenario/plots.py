@@ -9,11 +9,12 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+from matplotlib.figure import Figure  # noqa: E402
 import numpy as np  # noqa: E402
 
 
-def time_series(res: np.ndarray, panels: Sequence[Sequence[str]], path: Path, title: str = "",
-                units: Mapping[str, str] | None = None) -> None:
+def time_series(res: np.ndarray, panels: Sequence[Sequence[str]], path: Path | None = None, title: str = "",
+                units: Mapping[str, str] | None = None) -> Figure:
     """One panel per group of recorded columns, against time; y label = the columns' unit.
 
     Columns of different FMU instances in one panel are overlaid: one colour per
@@ -28,15 +29,22 @@ def time_series(res: np.ndarray, panels: Sequence[Sequence[str]], path: Path, ti
         (``"instance.variable"``), as :func:`satfmu.sims.scenario.run.simulate` returns it.
     panels : sequence of sequence of str
         The columns of each panel, top to bottom.
-    path : Path
-        The PNG file to write.
+    path : Path, optional
+        The PNG file to write (default: none written).
     title : str, optional
         Figure title (wrapped at 100 characters).
     units : mapping of str to str, optional
         Column -> unit, for the y labels; a column without one is labelled ``1``.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The figure, outside pyplot's figure manager (nothing to close; a notebook shows it,
+        ``fig.axes`` draws on it, ``fig.savefig`` writes it again).
     """
     styles = ["-", "--", ":", "-."]
-    fig, axes = plt.subplots(len(panels), 1, sharex=True, figsize=(8, 2.2 * len(panels) + 0.6), squeeze=False)
+    fig = Figure(figsize=(8, 2.2 * len(panels) + 0.6))
+    axes = fig.subplots(len(panels), 1, sharex=True, squeeze=False)
     for ax, cols in zip(axes[:, 0], panels):
         instances = list(dict.fromkeys(c.split(".", 1)[0] for c in cols))
         rank: dict[str, int] = {}
@@ -55,8 +63,9 @@ def time_series(res: np.ndarray, panels: Sequence[Sequence[str]], path: Path, ti
     axes[-1, 0].set_xlabel("time (s)")
     fig.suptitle(textwrap.fill(title, 100), fontsize=9)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    if path is not None:
+        fig.savefig(path, dpi=110)
+    return fig
 
 
 def l2_ratio(t: np.ndarray, curves: Mapping[str, tuple[np.ndarray, float | None]], path: Path,

@@ -5,13 +5,16 @@ import csv
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from satfmu.fmus.atomic import write_atomically
 from satfmu.fmus.declared import did_you_mean
 from satfmu.sims.scenario.metrics import MetricResult
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 from satfmu.sims.scenario.spec import Scenario
 
 
@@ -125,20 +128,26 @@ class Result:
                 "metrics": [m.to_json() for m in self.metrics],
                 "files": {k: str(v) for k, v in self.files.items()}, "warnings": self.warnings}
 
-    def plot(self, path: str | Path) -> Path:
-        """Plot the recorded signals (the scenario's panels) to a PNG file; returns its path.
+    def plot(self, path: str | Path | None = None) -> Figure:
+        """The recorded signals against time, one panel per group of the scenario's ``[plot]``.
 
         Parameters
         ----------
-        path : path
-            The PNG file (its folder is created if missing).
+        path : path, optional
+            A PNG file to write it to as well (its folder is created if missing).
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+            The figure to draw on or show (``fig.axes[0]`` is the top panel); it is not held
+            by pyplot, so nothing needs closing.
         """
         from satfmu.sims.scenario import plots
 
-        path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        plots.time_series(self.results, self.panels, path, title=self.title, units=self.units)
-        return path
+        if path is not None:
+            Path(path).parent.mkdir(parents=True, exist_ok=True)
+        return plots.time_series(self.results, self.panels, None if path is None else Path(path), title=self.title,
+                                 units=self.units)
 
     def write(self, folder: str | Path) -> dict[str, Path]:
         """Write ``<name>_<backend>.csv``, the plot(s), ``scenario_<backend>.json`` and

@@ -14,6 +14,7 @@ import numpy as np
 
 from satfmu.fmus.errors import ScenarioError
 from satfmu.sims.cosim.master import CoSimulation
+from satfmu.sims.scenario.conversions import converted, metric_conversion, record_conversions
 from satfmu.sims.scenario.metrics import EVALUATORS, MetricInput, MetricResult
 from satfmu.sims.scenario.provisioning import ensure_fmus
 from satfmu.sims.scenario.result import Result, clear_outputs
@@ -154,18 +155,22 @@ def evaluate(scenario: Scenario, res: np.ndarray, sim: CoSimulation
     """
     t = res["time"]
     held, inputs = sim.held_signals(), sim.input_signals()
+    where = str(scenario.path) if scenario.path else f"scenario {scenario.name!r}"
     out, curves = [], {}
-    for m in scenario.metrics:
+    for i, m in enumerate(scenario.metrics):
         cols, versus, disturbances = (_columns(sim, names) for names in (m.signals, m.versus, m.disturbances))
-        data = MetricInput(t, np.stack([res[c] for c in cols], axis=1) * m.scale, held=all(c in held for c in cols),
+        conv = metric_conversion(m, sim, {"signals": cols, "versus": versus, "disturbances": disturbances},
+                                 f"{where}: metrics[{i}]")
+        data = MetricInput(t, np.stack([res[c] for c in cols], axis=1) * conv.signals,
+                           held=all(c in held for c in cols),
                            inputs=[c in inputs for c in cols], tolerance=m.tolerance, limit=m.limit,
-                           versus=np.stack([res[c] for c in versus], axis=1) * m.scale if versus else None,
+                           versus=np.stack([res[c] for c in versus], axis=1) * conv.versus if versus else None,
                            disturbances=np.stack([res[c] for c in disturbances], axis=1) if disturbances else None,
-                           disturbances_held=all(c in held for c in disturbances), scale=m.scale)
+                           disturbances_held=all(c in held for c in disturbances), scale=conv.scale)
         value, curve = EVALUATORS[m.kind](data)  # validate(): a kind of the table, with the fields it needs
         if curve is not None:
             curves[m.name] = curve
-        out.append(MetricResult(m.name, m.kind, value, m.min, m.max, m.unit))
+        out.append(MetricResult(m.name, m.kind, value, m.min, m.max, conv.unit))
     return out, curves
 
 
@@ -215,8 +220,9 @@ def run(scenario: "str | Path | Mapping[str, Any] | Scenario", fmu_dir: str | Pa
     mres, curves = evaluate(sc, res, sim)
     panels = sc.plot.get("panels") or [[r] for r in sc.record] or [m.signals for m in sc.metrics]
     cols = [_columns(sim, p) for p in panels]
-    result = Result(sc.name, backend, res, mres, l2_curves=curves,
-                    units={c: sim.unit(c) for c in res.dtype.names if c != "time"}, panels=cols,
+    shown = record_conversions(sc, sim, [c for c in res.dtype.names if c != "time"])
+    result = Result(sc.name, backend, converted(res, shown), mres, l2_curves=curves,
+                    units={c: unit for c, (_, unit) in shown.items()}, panels=cols,
                     title=f"{sc.name}: {sc.description}", warnings=list(sim.mismatches), scenario=sc, fmu_dir=folder)
     if out_dir is not None:
         result.write(Path(out_dir) / sc.name)

@@ -30,24 +30,31 @@ with pass/fail bounds. Example (sims/scenario/shipped/mrp_200deg.toml)::
     [[metrics]]
     name = "angle error at the end"
     kind = "final"               # final, peak, rms, settling_time, l2_ratio, time_in_saturation,
-                                 # time_to_limit, integral_square, max_difference
+                                 # time_to_limit, integral_square, max_difference, attitude_difference
     signals = ["plant.phi"]
-    scale = 57.29577951308232    # rad -> deg
-    unit = "deg"
+    unit = "deg"                 # converted from the declared rad
     max = 0.1
 
-Metric fields: ``signals``, ``scale`` (applied to signals, tolerance and limit are in
-scaled units), ``unit``, ``min``/``max`` bounds; ``tolerance`` for settling_time,
+Metric fields: ``signals``, ``unit`` (the signals are converted to it from their FMU's
+declared unit, :mod:`satfmu.sims.scenario.conversions`; bounds, ``tolerance`` and ``limit`` are
+in it; the value's own unit follows from the kind: s for the times, the unit squared times s
+for ``integral_square``), ``scale`` (a further factor, e.g. a weight; it may not convert units
+as well), ``min``/``max`` bounds; ``tolerance`` for settling_time,
 ``limit`` for time_in_saturation and time_to_limit (the first time any signal reaches it, inf if
 none does), ``disturbances`` (the denominator signals) for
 l2_ratio, whose value is the largest ratio over T and whose curve is plotted, ``versus``
 for max_difference (the largest ``|signal - versus|`` over time, signal by signal: an
 approximated law against the exact one, say) and attitude_difference (the largest rotation
-angle between the MRP ``signals`` and the MRP ``versus``, 3 variables each, rad times ``scale``:
-an estimator's knowledge error).
+angle between the MRP ``signals`` and the MRP ``versus``, 3 variables each, rad converted to
+``unit``: an estimator's knowledge error).
 integral_square is ``integral of sum_i y_i^2 dt`` (an H2 cost with unit weights): plant
 outputs by the trapezoidal rule, FMU inputs (held over each step, e.g. ``plant.u``) by the
 left rectangle.
+
+A ``record`` entry may ask for a unit too: ``record = [{ signal = "plant.phi", unit = "deg" },
+"plant.omega"]`` (the CSV, the plots and a campaign's envelopes show it in deg). An input of a
+controller, a sensor or an estimator that nothing drives is an error naming it, unless the
+scenario says ``unconnected = "zero"`` (:func:`satfmu.sims.scenario.wiring.undriven`).
 
 A ``[dispersions]`` table declares what each Monte Carlo sample draws (syntax:
 :mod:`satfmu.sims.scenario.dispersions`); :meth:`Scenario.sample` is the scenario of one sample. A
@@ -133,10 +140,11 @@ class Metric:
     signals : list of str
         ``"instance.variable"`` names (base names expand).
     scale : float
-        Factor applied to the signals (rad -> deg: 57.2958); bounds, ``tolerance`` and
-        ``limit`` are in scaled units.
+        A further factor applied to the signals (a weight); it may not convert units as well
+        (give ``unit``).
     unit : str
-        Unit of the scaled value.
+        The unit the signals are converted to from their declared one (``"deg"`` for an angle
+        in rad); bounds, ``tolerance`` and ``limit`` are in it. Default: the declared unit.
     min, max : float, optional
         Pass/fail bounds.
     tolerance : float, optional
@@ -185,8 +193,10 @@ class Scenario:
     profiles : list of dict
         Signals of time fed to inputs: ``{"to": "plant.w_d[1]", "kind": "step", ...}``
         (kinds of :mod:`satfmu.fmus.profiles`).
-    record : list of str
-        Variables to record (``"instance.variable"``, base names expand).
+    record : list of str or dict
+        Variables to record (``"instance.variable"``, base names expand); an entry
+        ``{"signal": "plant.phi", "unit": "deg"}`` asks for a unit, converted from the declared
+        one (it goes to ``units``; ``record`` keeps the name).
     metrics : list of Metric
     start_time : float
         s.
@@ -210,6 +220,14 @@ class Scenario:
         Record every ``record_every``-th communication point, from the first, and the last one
         (:func:`satfmu.sims.scenario.wiring.recorded_times`); the metrics are computed on the recorded
         points. A long run keeps 8 bytes per recorded variable and recorded point.
+    unconnected : {"error", "zero"}
+        What an input meant to be driven (a controller's or a sensor's measurement, an input
+        without a start value; :func:`satfmu.sims.scenario.wiring.undriven`) that nothing drives
+        does: ``"error"`` (default) refuses the scenario naming the inputs, ``"zero"`` runs with
+        their start values (an open-loop check, say).
+    units : dict of str to str
+        Recorded signal -> the unit it is shown in (CSV, plots, envelopes), from the ``record``
+        entries that ask for one (:mod:`satfmu.sims.scenario.conversions`).
     """
 
     name: str
@@ -230,8 +248,15 @@ class Scenario:
     dispersions: Dispersions | None = None
     campaign: dict[str, int] = field(default_factory=dict)
     record_every: int = 1
+    unconnected: str = "error"
+    units: dict[str, str] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
+        if any(isinstance(r, Mapping) for r in self.record):
+            validate({**self.to_dict(), "record": list(self.record)},
+                     str(self.path) if self.path else f"scenario {self.name!r}")
+            self.units = {**self.units, **{r["signal"]: r["unit"] for r in self.record if isinstance(r, Mapping)}}
+            self.record = [r["signal"] if isinstance(r, Mapping) else r for r in self.record]
         if isinstance(self.dispersions, Mapping):
             self.dispersions = _dispersions(self.dispersions, "scenario: dispersions", list(self.fmus),
                                             len(self.profiles))
@@ -259,6 +284,8 @@ class Scenario:
             value = getattr(self, key)
             if value not in (0.0, "", {}, []):
                 out[key] = value
+        if self.units:
+            out["record"] = [{"signal": r, "unit": self.units[r]} if r in self.units else r for r in self.record]
         out["fmus"] = {k: {f: v for f, v in _fields(spec).items() if v not in (None, {})}
                        for k, spec in self.fmus.items()}
         if self.connections:
@@ -274,6 +301,8 @@ class Scenario:
             out["campaign"] = dict(self.campaign)
         if self.record_every != 1:
             out["record_every"] = self.record_every
+        if self.unconnected != "error":
+            out["unconnected"] = self.unconnected
         return out
 
     def with_parameters(self, overrides: Overrides) -> "Scenario":
@@ -391,7 +420,8 @@ class Scenario:
             verify=dict(d.get("verify", {})), base_dir=None if base_dir is None else Path(base_dir).resolve(),
             path=path, dispersions=_dispersions(d["dispersions"], f"{where}: dispersions", list(d["fmus"]),
                                                 len(d.get("profiles", []))) if "dispersions" in d else None,
-            campaign=dict(d.get("campaign", {})), record_every=d.get("record_every", 1))
+            campaign=dict(d.get("campaign", {})), record_every=d.get("record_every", 1),
+            unconnected=d.get("unconnected", "error"))
 
     @classmethod
     def from_toml(cls, path: str | Path) -> "Scenario":

@@ -17,7 +17,8 @@ from satfmu.sims.scenario.dispersions import DispersionError, Dispersions
 from satfmu.sims.scenario.metrics import KINDS
 
 _TOP = ("name", "description", "stop_time", "step_size", "start_time", "fmus", "connections",
-        "profiles", "record", "metrics", "plot", "reference", "verify", "dispersions", "campaign", "record_every")
+        "profiles", "record", "metrics", "plot", "reference", "verify", "dispersions", "campaign", "record_every",
+        "unconnected")
 _FMU = ("model", "path", "backend", "parameters")
 _METRIC = ("name", "kind", "signals", "scale", "unit", "min", "max", "tolerance", "limit",
            "disturbances", "versus", "description")
@@ -25,6 +26,9 @@ _METRIC = ("name", "kind", "signals", "scale", "unit", "min", "max", "tolerance"
 MAX_STEPS = 10_000_000
 """Most recorded communication points of one run (a typo'd stop time fails here, not in a
 MemoryError)."""
+UNCONNECTED = ("error", "zero")
+"""Values of a scenario's ``unconnected`` key: refuse an undriven input meant to be driven, or run
+with its start value (:func:`satfmu.sims.scenario.wiring.undriven`)."""
 CAMPAIGN_KEYS = {"samples": 1, "demo_samples": 1, "seed": 0}
 """Keys of a scenario's ``[campaign]`` table -> the least integer each takes."""
 _NEEDS = {"settling_time": "tolerance", "time_in_saturation": "limit", "time_to_limit": "limit",
@@ -94,6 +98,9 @@ def validate(data: Any, where: str = "scenario") -> None:
     every = data.get("record_every", 1)
     if isinstance(every, bool) or not isinstance(every, int) or every < 1:
         raise ScenarioError(f"{w}record_every: must be an integer >= 1, got {every!r}")
+    if data.get("unconnected", "error") not in UNCONNECTED:
+        raise ScenarioError(f"{w}unconnected: must be one of {', '.join(map(repr, UNCONNECTED))}, got "
+                            f"{data['unconnected']!r}{did_you_mean(str(data['unconnected']), list(UNCONNECTED))}")
     if not n_float / every <= MAX_STEPS:  # an infinite count too (stop_time = 1e308)
         raise ScenarioError(f"{w}stop_time: {n_float:.3g} communication steps, {n_float / every:.3g} recorded, more "
                             f"than {MAX_STEPS:.0e} (the recorded signals alone would need "
@@ -142,6 +149,12 @@ def validate(data: Any, where: str = "scenario") -> None:
             raise ScenarioError(f"{w}profiles[{i}]: needs a 'to' target")
         _signal(p["to"], instances, f"{w}profiles[{i}].to")
     for i, n in enumerate(data.get("record", [])):
+        if isinstance(n, Mapping):
+            check_keys(n, ("signal", "unit"), f"{w}record[{i}]", ScenarioError)
+            if not isinstance(n.get("unit"), str) or not n["unit"] or "signal" not in n:
+                raise ScenarioError(f"{w}record[{i}]: a table entry needs 'signal' and a 'unit' (a string such as "
+                                    f"\"deg\"), got {dict(n)!r}")
+            n = n["signal"]
         _signal(n, instances, f"{w}record[{i}]")
     ver = data.get("verify", {})
     if not isinstance(ver, Mapping) or set(ver) - {"rtol", "atol", "reason"} or ver and not ver.get("reason") or any(

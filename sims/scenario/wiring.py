@@ -5,6 +5,7 @@
 """
 from __future__ import annotations
 
+import re
 import warnings
 from pathlib import Path
 
@@ -15,6 +16,7 @@ from satfmu.fmus.profiles import Profile
 from satfmu.fmus.profiles import make as make_profile
 from satfmu.sims.cosim.master import (CoSimulation, UnknownVariableError, WiringError, communication_times,
                                       recorded_steps, start_value)
+from satfmu.sims.scenario import conversions
 from satfmu.sims.scenario.provisioning import fmu_paths
 from satfmu.sims.scenario.spec import Scenario
 
@@ -149,7 +151,8 @@ def wire(scenario: Scenario, fmu_dir: Path, backend: str = "native", strict: boo
     something other than an output or into something other than an input, an input driven
     twice, an algebraic loop, a parameter of the wrong type or outside its declared range
     (``n_substeps = 0``), a recorded or measured variable that is not Real, ``max_difference``
-    signals and ``versus`` signals of different lengths. A controller paired with a plant
+    signals and ``versus`` signals of different lengths, an input meant to be driven that
+    nothing drives (:func:`undriven`; unless ``unconnected = "zero"``). A controller paired with a plant
     other than its design plant is reported by a :class:`DesignMismatchWarning` (the lines
     are in ``sim.mismatches``), or refused with ``strict``.
 
@@ -184,8 +187,10 @@ def wire(scenario: Scenario, fmu_dir: Path, backend: str = "native", strict: boo
             if strict:
                 raise ScenarioError(f"{where}: design mismatch (strict): {line}")
             warnings.warn(f"{where}: {line}", DesignMismatchWarning, stacklevel=3)
-        _wire(scenario, sim, where)
+        driven = _wire(scenario, sim, where)
         _check_parameters(scenario, sim, where)
+        if scenario.unconnected == "error":
+            _check_driven(scenario, sim, where, driven)
         _check_dispersions(scenario, sim, where)
         _check_signals(scenario, sim, where)
     except BaseException:
@@ -194,8 +199,9 @@ def wire(scenario: Scenario, fmu_dir: Path, backend: str = "native", strict: boo
     return sim
 
 
-def _wire(scenario: Scenario, sim: CoSimulation, where: str) -> None:
-    """Connect and feed profiles, each scalar input driven once; refuse algebraic loops."""
+def _wire(scenario: Scenario, sim: CoSimulation, where: str) -> set[str]:
+    """Connect and feed profiles, each scalar input driven once; refuse algebraic loops. Returns
+    the inputs driven (``instance.variable``)."""
     driven: dict[str, str] = {}
 
     def drive(key: str, targets: list[str]) -> None:
@@ -225,6 +231,72 @@ def _wire(scenario: Scenario, sim: CoSimulation, where: str) -> None:
         sim.check_wiring()  # the master's own analysis: an input driven twice, an algebraic loop
     except WiringError as exc:
         raise ScenarioError(f"{where}: connections: {exc}") from None
+    return set(driven)
+
+
+def undriven(scenario: Scenario, sim: CoSimulation, driven: set[str]) -> dict[str, list[str]]:
+    """The inputs meant to be driven that nothing drives, by instance.
+
+    An input is meant to be driven when its FMU lists it (``VendorAnnotations``,
+    :func:`satfmu.fmus.description.driven_inputs`: a controller's, a sensor's or an estimator's
+    measurements) or declares no start value. A start value the scenario sets for it counts as
+    driving it (held constant).
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario (its start values).
+    sim : CoSimulation
+        Its master, the FMUs loaded.
+    driven : set of str
+        ``instance.variable`` of every input a connection or a profile drives.
+
+    Returns
+    -------
+    dict of str to list of str
+        Instance -> its undriven inputs (variable names, in the description's order); only
+        instances with some.
+    """
+    from satfmu.fmus.description import driven_inputs
+
+    out = {}
+    for inst, comp in sim.components.items():
+        listed = set(driven_inputs((Path(comp.unzip_dir) / "modelDescription.xml").read_bytes()))
+        set_here = set(scenario.fmus[inst].parameters)
+        missing = [v.name for v in comp.model_description.modelVariables
+                   if v.causality == "input" and (v.name in listed or v.start is None)
+                   and f"{inst}.{v.name}" not in driven and v.name not in set_here]
+        if missing:
+            out[inst] = missing
+    return out
+
+
+def _check_driven(scenario: Scenario, sim: CoSimulation, where: str, driven: set[str]) -> None:
+    """Refuse inputs meant to be driven that nothing drives (:func:`undriven`), naming them."""
+    missing = undriven(scenario, sim, driven)
+    if missing:
+        lines = "; ".join(f"{inst} ({sim.components[inst].model_description.modelName}): "
+                          f"{', '.join(_compact(names))}" for inst, names in missing.items())
+        raise ScenarioError(f"{where}: connections: inputs meant to be driven are not connected, fed by a profile "
+                            f"or given a start value: {lines}. Connect them, or set unconnected = \"zero\" at the "
+                            "top of the scenario to run with their start values")
+
+
+def _compact(names: list[str]) -> list[str]:
+    """``omega[1], omega[2], omega[3]`` as ``omega[1..3]`` (consecutive indices of one base name)."""
+    out: list[str] = []
+    runs: list[tuple[str, int, int]] = []
+    for n in names:
+        m = re.fullmatch(r"(.+)\[(\d+)\]", n)
+        if m and runs and runs[-1][0] == m[1] and runs[-1][2] + 1 == int(m[2]):
+            runs[-1] = (m[1], runs[-1][1], int(m[2]))
+        elif m:
+            runs.append((m[1], int(m[2]), int(m[2])))
+        else:
+            runs.append((n, -1, -1))
+    for base, lo, hi in runs:
+        out.append(base if lo < 0 else f"{base}[{lo}]" if lo == hi else f"{base}[{lo}..{hi}]")
+    return out
 
 
 def _checked(sim: CoSimulation, name: str, where: str) -> None:
@@ -287,3 +359,4 @@ def _check_signals(scenario: Scenario, sim: CoSimulation, where: str) -> None:
         if m.kind == "attitude_difference" and not n["signals"] == n["versus"] == 3:
             raise ScenarioError(f"{where}: metrics[{i}]: attitude_difference compares two MRPs, 3 variables "
                                 f"each; got {n['signals']} in 'signals' and {n['versus']} in 'versus'")
+    conversions.check(scenario, sim, lambda names: _columns(sim, names))

@@ -285,7 +285,7 @@ def scenario(artifact: str | Path = "demeter_row1_det", *, start: str = "both", 
              "max": momentum_limit, "description": "below the wheels' momentum limit satW (the seed: momentum "
                                                    "saturation is critical)"},
             {"name": "time at the momentum limit", "kind": "time_in_saturation",
-             "signals": [f"plant.wheel_saturated[{axis}]"], "limit": 0.5, "unit": "s", "max": 0.0}],
+             "signals": [f"plant.wheel_saturated[{axis}]"], "limit": 0.5, "max": 0.0}],
         "dispersions": dispersions, "campaign": dict(CAMPAIGN)})
 
 

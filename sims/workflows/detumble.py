@@ -270,8 +270,8 @@ def rate_scenario(spacecraft: Spacecraft, controller: str, rate: float, *, expec
         connections += [Connection(f"{law}_plant.{measured}", f"{law}.{measured}"),
                         Connection(f"{law}.m", f"{law}_plant.m")]
         metrics += [Metric(f"{law}: |w(end)| / |w(0)|", "final", [f"{law}_plant.rate_norm"], scale=1.0 / rate,
-                           unit="1", max=REDUCTION if law == expected else None),
-                    Metric(f"{law}: peak dipole", "peak", [f"{law}.m"], unit="A m^2")]
+                           max=REDUCTION if law == expected else None),  # a ratio: rad/s over rad/s
+                    Metric(f"{law}: peak dipole", "peak", [f"{law}.m"], unit="A.m2")]
     return Scenario(name=f"{spacecraft.name}_{controller}_from_{rate:g}", stop_time=orbits * cubesat.ORBIT_PERIOD_SEED,
                     step_size=1.0, fmus=fmus, connections=connections, metrics=metrics,
                     description=f"{spacecraft.name}: {controller} and B-dot from |w(0)| = {rate:g} rad/s, "
