@@ -49,8 +49,9 @@ DISPLAY: dict[str, dict[str, float]] = {
 """Units a scenario may ask for beyond :data:`satfmu.fmus.model.UNITS`, as FMI ``BaseUnit`` exponents
 and factor."""
 
-KNOWN: dict[str, dict[str, float] | None] = {**UNITS, **DISPLAY}
-"""Every unit satfmu spells: the declared ones and :data:`DISPLAY`."""
+KNOWN: dict[str, dict[str, float] | None] = {**UNITS, **DISPLAY, "dB": None}
+"""Every unit satfmu spells: the declared ones, :data:`DISPLAY`, and ``dB`` (a gain margin's: a
+logarithm, no base unit)."""
 
 
 def base_unit(unit: str, declared: Mapping[str, Mapping[str, float]] | None = None) -> dict[str, float]:

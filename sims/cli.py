@@ -33,7 +33,7 @@ Usage::
     satfmu analyze sweep [--gammas 1 0.8 ...] [--region 0.45] [--out results/h2hinf_sweep]
     satfmu analyze region [--artifact vscmg_sdre_approx] [--box-q2 LO HI] [--box-w4 LO HI] [--cells 7 6] [--out DIR]
     satfmu analyze l2 CONTROLLER [--rate-max 0.2] [--sigma-max 0.9] [--samples 200000]
-    satfmu analyze margins CONTROLLER [--step 0.05]
+    satfmu analyze margins ARTIFACT|SCENARIO [--step S]
 
 ``--fmu-dir`` defaults to the user's FMU cache (:func:`satfmu.controllers.paths.fmu_cache`, under
 ``$SATFMU_HOME``); ``run``, ``export-ssp``, ``verify``, ``figures`` and ``detumble`` build the
@@ -437,7 +437,7 @@ def _analyze_region(args: argparse.Namespace) -> int:
 def _analyze_margins(args: argparse.Namespace) -> int:
     from satfmu.sims.workflows import analysis
 
-    print(analysis.margins(args.controller, sample_time=args.step).text())
+    print(analysis.margins(args.target, sample_time=args.step).text())
     return 0
 
 
@@ -746,10 +746,12 @@ def parser() -> argparse.ArgumentParser:
     l2.add_argument("--kv", type=float, default=1e4, help="kv of the diagonal check (the seed's: 1e4)")
     l2.add_argument("--samples", type=_positive_int, default=200_000, help="random points of the sampled estimate")
     l2.set_defaults(fn=_analyze_l2)
-    mg = command(analyses, "margins", "linear margins of a controller on its design plant: loop at a time, disk, "
-                 "sensitivity peaks; continuous and sampled")
-    mg.add_argument("controller", metavar="CONTROLLER", help="artifact name or .json path")
-    mg.add_argument("--step", type=float, default=0.05, help="communication step of the sampled loop, s")
+    mg = command(analyses, "margins", "linear margins of a controller on its design plant, or of every loop of a "
+                 "scenario as wired: loop at a time, disk, sensitivity peaks; continuous and sampled")
+    mg.add_argument("target", metavar="ARTIFACT|SCENARIO", help="artifact name or .json path; scenario name or "
+                    ".toml path")
+    mg.add_argument("--step", type=float, default=None, help="communication step of the sampled loop, s (default: "
+                    "the scenario's; 0.05 for an artifact)")
     mg.set_defaults(fn=_analyze_margins)
     return top
 

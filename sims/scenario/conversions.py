@@ -18,6 +18,7 @@ import numpy as np
 from satfmu.fmus.errors import ScenarioError
 from satfmu.fmus.units import UnitError, conversion, ratio, squared_time
 from satfmu.sims.cosim.master import CoSimulation
+from satfmu.sims.scenario.metrics import MARGIN_KINDS
 from satfmu.sims.scenario.spec import Metric, Scenario
 
 TIME_KINDS = ("settling_time", "time_in_saturation", "time_to_limit")
@@ -127,7 +128,8 @@ class MetricConversion:
         of torques, the ratio of units for an ``l2_ratio``; ``""`` when a hand-typed scale left
         it unknown).
     scale : float
-        The factor of an ``attitude_difference``'s angle (rad to the metric's unit, times scale).
+        The factor of an ``attitude_difference``'s angle (rad to the metric's unit, times scale) and
+        of a margin (its own unit to the metric's).
     """
 
     signals: np.ndarray
@@ -167,6 +169,11 @@ def metric_conversion(metric: Metric, sim: CoSimulation, columns: dict[str, list
     ScenarioError
         An unknown unit, one the signals do not convert to, or a scale that converts twice.
     """
+    if metric.kind in MARGIN_KINDS:  # a figure of the loop, in its own unit: dB, deg, s or 1
+        own = MARGIN_KINDS[metric.kind]
+        k = _convert(own, metric.unit, f"{where}.unit", f"a {metric.kind} is in {own!r}") if metric.unit else 1.0
+        return MetricConversion(np.ones(len(columns["signals"])), np.ones(0), np.ones(0), metric.unit or own,
+                                k * metric.scale)
     declared = {c: sim.unit(c) for key in ("signals", "versus") for c in columns[key]}
     if metric.kind in ANGLE_KINDS:
         factor = _angle_factor(metric, where)
@@ -190,14 +197,18 @@ def metric_conversion(metric: Metric, sim: CoSimulation, columns: dict[str, list
     return MetricConversion(sig, ver, dist, value_unit(metric.kind, base, _disturbance_unit(sim, columns)))
 
 
+def _convert(source: str, target: str, where: str, what: str) -> float:
+    try:
+        return conversion(source, target)
+    except UnitError as exc:
+        raise ScenarioError(f"{where}: {what}: {exc}") from None
+
+
 def _angle_factor(metric: Metric, where: str) -> float:
     """rad -> the metric's unit, times its scale (an attitude_difference's signals are MRPs)."""
     if not metric.unit:
         return metric.scale
-    try:
-        f = conversion("rad", metric.unit)
-    except UnitError as exc:
-        raise ScenarioError(f"{where}.unit: {metric.kind} is an angle in rad: {exc}") from None
+    f = _convert("rad", metric.unit, f"{where}.unit", f"{metric.kind} is an angle in rad")
     if metric.scale != 1.0 and f != 1.0:
         raise ScenarioError(f"{where}: scale {metric.scale:g} and unit {metric.unit!r} would both convert the "
                             "angle: drop 'scale'")

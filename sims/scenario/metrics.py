@@ -316,7 +316,14 @@ EVALUATORS: dict[str, Callable[[MetricInput], Evaluation]] = {
     "time_in_saturation": _time_in_saturation, "time_to_limit": _time_to_limit, "integral_square": _integral_square,
     "max_difference": _max_difference, "attitude_difference": _attitude_difference}
 """Metric kind -> the function that evaluates it on a :class:`MetricInput`: (value, curve or None)."""
-KINDS = tuple(EVALUATORS)
+MARGIN_KINDS: dict[str, str] = {"gain_margin": "dB", "phase_margin": "deg", "delay_margin": "s",
+                                "disk_gain_margin": "dB", "disk_phase_margin": "deg", "sensitivity_peak": "1",
+                                "complementary_peak": "1"}
+"""Metric kinds read from a scenario's loop linearized at the origin and sampled at its communication
+step (:func:`satfmu.sims.scenario.loops.margin_metric`), not from the run -> the unit of their value.
+``signals`` names the plant inputs where the loop is broken: the loop-at-a-time kinds (gain, phase,
+delay) give the worst of those channels, the others are of the whole loop that holds them."""
+KINDS = tuple(EVALUATORS) + tuple(MARGIN_KINDS)
 """The metric kinds, in the order error messages list them."""
 
 

@@ -15,7 +15,8 @@ import numpy as np
 from satfmu.fmus.errors import ScenarioError
 from satfmu.sims.cosim.master import CoSimulation
 from satfmu.sims.scenario.conversions import converted, metric_conversion, record_conversions
-from satfmu.sims.scenario.metrics import EVALUATORS, MetricInput, MetricResult
+from satfmu.sims.scenario.loops import margin_metric
+from satfmu.sims.scenario.metrics import EVALUATORS, MARGIN_KINDS, MetricInput, MetricResult
 from satfmu.sims.scenario.provisioning import ensure_fmus
 from satfmu.sims.scenario.result import Result, clear_outputs
 from satfmu.sims.scenario.spec import Scenario, load
@@ -159,6 +160,12 @@ def evaluate(scenario: Scenario, res: np.ndarray, sim: CoSimulation
     out, curves = [], {}
     for i, m in enumerate(scenario.metrics):
         cols, versus, disturbances = (_columns(sim, names) for names in (m.signals, m.versus, m.disturbances))
+        if m.kind in MARGIN_KINDS:  # of the loop linearized from the models, not of the run
+            conv = metric_conversion(m, sim, {"signals": cols, "versus": [], "disturbances": []},
+                                     f"{where}: metrics[{i}]")
+            value = margin_metric(m.kind, scenario, cols) * conv.scale
+            out.append(MetricResult(m.name, m.kind, value, m.min, m.max, conv.unit))
+            continue
         conv = metric_conversion(m, sim, {"signals": cols, "versus": versus, "disturbances": disturbances},
                                  f"{where}: metrics[{i}]")
         data = MetricInput(t, np.stack([res[c] for c in cols], axis=1) * conv.signals,

@@ -17,6 +17,7 @@ from satfmu.fmus.profiles import make as make_profile
 from satfmu.sims.cosim.master import (CoSimulation, UnknownVariableError, WiringError, communication_times,
                                       recorded_steps, start_value)
 from satfmu.sims.scenario import conversions
+from satfmu.sims.scenario.metrics import MARGIN_KINDS
 from satfmu.sims.scenario.provisioning import fmu_paths
 from satfmu.sims.scenario.spec import Scenario
 
@@ -360,3 +361,15 @@ def _check_signals(scenario: Scenario, sim: CoSimulation, where: str) -> None:
             raise ScenarioError(f"{where}: metrics[{i}]: attitude_difference compares two MRPs, 3 variables "
                                 f"each; got {n['signals']} in 'signals' and {n['versus']} in 'versus'")
     conversions.check(scenario, sim, lambda names: _columns(sim, names))
+    margin = [(i, m) for i, m in enumerate(scenario.metrics) if m.kind in MARGIN_KINDS]
+    if margin:
+        from satfmu.sims.scenario.loops import find_loops
+
+        found, notes = find_loops(scenario)
+        broken = {f"{lp.plant}.{i}" for lp in found for _, i in lp.actuation}
+        for i, m in margin:
+            missing = [c for c in _columns(sim, m.signals) if c not in broken]
+            if missing:
+                raise ScenarioError(f"{where}: metrics[{i}].signals: {', '.join(missing)} is no plant input a "
+                                    f"controller of the scenario drives (the loops break at: "
+                                    f"{', '.join(sorted(broken)) or 'none'}{'; ' + '; '.join(notes) if notes else ''})")

@@ -313,19 +313,22 @@ class MarginsResult:
         return "\n".join(lines)
 
 
-def margins(controller: str | Path, sample_time: float = 0.05) -> MarginsResult:
-    """The linear margins of a controller on the plant it was designed for, at the origin.
+def margins(controller: str | Path, sample_time: float | None = None) -> "MarginsResult | ScenarioMarginsResult":
+    """The linear margins of a controller on the plant it was designed for, at the origin; or of
+    every loop of a scenario, as it is wired, at the origin and at its start.
 
     Parameters
     ----------
     controller : str or Path
-        Artifact name or ``.json`` path: a controller whose model has no sampler.
+        Artifact name or ``.json`` path (a controller whose model has no sampler, on its design
+        plant); or a scenario name or ``.toml`` path (:func:`satfmu.sims.scenario.loops.scenario_margins`).
     sample_time : float, optional
-        Communication step of the sampled loop, s (> 0).
+        Communication step of the sampled loop, s (> 0). Default: the scenario's step, 0.05 s for
+        an artifact.
 
     Returns
     -------
-    MarginsResult
+    MarginsResult or ScenarioMarginsResult
 
     Raises
     ------
@@ -338,6 +341,9 @@ def margins(controller: str | Path, sample_time: float = 0.05) -> MarginsResult:
     from satfmu.fmus.linearization import linearize
     from satfmu.synthesis.core import margins as loop_margins
 
+    if _is_scenario(controller):
+        return scenario_margins(controller, sample_time)
+    sample_time = 0.05 if sample_time is None else sample_time
     if not (sample_time > 0 and math.isfinite(sample_time)):
         raise ValueError(f"sample_time must be a positive number of seconds, got {sample_time!r}")
     path = paths.find_artifact(controller)
@@ -356,3 +362,83 @@ def margins(controller: str | Path, sample_time: float = 0.05) -> MarginsResult:
                   inputs=K.outputs, outputs=K.inputs)
     return MarginsResult(art.name, plant_name, loop_margins.margins(P, K), loop_margins.margins(P, K, sample_time),
                          sample_time)
+
+
+def _is_scenario(target: str | Path) -> bool:
+    """A ``.toml`` path, or the name of a shipped scenario (an artifact is a ``.json`` or a name)."""
+    from satfmu.sims.scenario import shipped_scenarios
+
+    return str(target).endswith(".toml") or str(target) in {p.stem for p in shipped_scenarios()}
+
+
+@dataclass(frozen=True)
+class ScenarioMarginsResult:
+    """The margins of every loop of a scenario (:func:`scenario_margins`).
+
+    Parameters
+    ----------
+    scenario : str
+        The scenario's name.
+    loops : list of satfmu.sims.scenario.loops.LoopMargins
+        Loop by loop, operating point by operating point.
+    notes : list of str
+        Connected instance pairs that are no loop, and why.
+    """
+
+    scenario: str
+    loops: list
+    notes: list
+
+    def text(self) -> str:
+        """The margins as a readable table, loop by loop."""
+        lines = [f"{self.scenario}: loops broken at the plant inputs; 'origin': every state 0, 'start': the "
+                 "scenario's initial state (a frozen-point loop where that is no equilibrium)"]
+        for r in self.loops:
+            head = f"  {r.loop.label}, {r.point}"
+            if r.note:
+                lines.append(f"{head}: {r.note}")
+                continue
+            for label, m in (("continuous", r.continuous), (f"sampled {r.sample_time:g} s", r.sampled)):
+                lines.append(f"{head}, {label}: closed loop {'stable' if m.closed_loop_stable else 'UNSTABLE'}; "
+                             f"disk margins {m.disk_gain_margin_db:.2f} dB, {m.disk_phase_margin_deg:.2f} deg; "
+                             f"peaks |S| {m.sensitivity_peak:.3f}, |T| {m.complementary_peak:.3f}")
+                for lm in m.loops:
+                    lines.append(f"    loop {lm.channel}: gain margin {lm.gain_margin_db:.2f} dB, phase margin "
+                                 f"{lm.phase_margin_deg:.2f} deg at {lm.gain_crossover:.4g} rad/s, delay margin "
+                                 f"{lm.delay_margin:.4g} s")
+        lines += [f"  not a loop: {n}" for n in self.notes]
+        return "\n".join(lines)
+
+
+def scenario_margins(scenario: Any, sample_time: float | None = None) -> ScenarioMarginsResult:
+    """The margins of every controller-plant loop of a scenario as it is wired
+    (:func:`satfmu.sims.scenario.loops.scenario_margins`).
+
+    Parameters
+    ----------
+    scenario : Scenario, dict, str or Path
+        A scenario, its plain data, a TOML file or a shipped scenario's name.
+    sample_time : float, optional
+        Communication step of the sampled loop, s (default: the scenario's).
+
+    Returns
+    -------
+    ScenarioMarginsResult
+
+    Raises
+    ------
+    ValueError
+        A sample time that is not a positive number.
+    """
+    from dataclasses import replace
+
+    from satfmu.sims.scenario import loops
+    from satfmu.sims.scenario.spec import load
+
+    sc = load(scenario)
+    if sample_time is not None:
+        if not (sample_time > 0 and math.isfinite(sample_time)):
+            raise ValueError(f"sample_time must be a positive number of seconds, got {sample_time!r}")
+        sc = replace(sc, step_size=float(sample_time), stop_time=sc.start_time + float(sample_time))
+    found, notes = loops.scenario_margins(sc)
+    return ScenarioMarginsResult(sc.name, found, notes)

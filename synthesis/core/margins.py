@@ -25,7 +25,7 @@ hold its figures against :func:`sweep_margins`, a frequency sweep of our own.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import control
 import numpy as np
@@ -88,13 +88,17 @@ class Margins:
     sample_time : float
         0 for the continuous loop, else the communication step of the sampled loop, s.
     closed_loop_stable : bool
-        Every closed-loop pole in the open left half plane (inside the unit circle when sampled).
+        Every pole of the closed loop's minimal realization in the open left half plane (inside the
+        unit circle when sampled): the modes the loop neither moves nor sees are left out.
     loops : list of LoopMargin
         One per plant input, loop at a time.
     disk_gain_margin_db, disk_phase_margin_deg : float
         Balanced MIMO disk margins at the plant input, dB and deg.
     sensitivity_peak, complementary_peak : float
         Peaks of the largest singular value of S and T at the plant input.
+    unused : tuple of str
+        Controller outputs that are 0 at the point whatever the measurement (an axis a single-axis
+        design leaves alone): no part of the loop.
     """
 
     sample_time: float
@@ -104,6 +108,7 @@ class Margins:
     disk_phase_margin_deg: float = math.nan
     sensitivity_peak: float = math.nan
     complementary_peak: float = math.nan
+    unused: tuple[str, ...] = ()
 
 
 def _ss(lin: Linearization) -> control.StateSpace:
@@ -184,19 +189,39 @@ def margins(plant: Linearization, controller: Linearization, sample_time: float 
     -------
     Margins
     """
+    active = [i for i in range(len(controller.outputs))
+              if np.any(controller.C[i]) or np.any(controller.D[i])]
+    unused = tuple(n for i, n in enumerate(controller.outputs) if i not in active)
+    if not active:
+        raise ValueError("the controller's outputs are all 0 at this point: there is no loop")
+    controller = replace(controller, C=controller.C[active], D=controller.D[active],
+                         outputs=tuple(controller.outputs[i] for i in active))
     L_in, _ = loop_transfers(plant, controller, sample_time)
     G = -L_in
     closed = control.feedback(control.ss([], [], [], np.eye(L_in.ninputs), L_in.dt), L_in, sign=-1)
-    poles = closed.poles()
+    # the loop's own modes: a mode the loop neither moves nor sees (an axis this controller leaves
+    # alone, its rigid-body poles at 0) is no part of its stability
+    poles = control.minreal(closed, tol=MINREAL_TOL, verbose=False).poles()
     stable = bool(np.all(np.abs(poles) < 1 - 1e-12) if sample_time > 0 else np.all(poles.real < 0))
     omega = FREQUENCIES[FREQUENCIES < math.pi / sample_time] if sample_time > 0 else FREQUENCIES
     loops = []
     for i, name in enumerate(controller.outputs):
         loops.append(_loop_margin(name, _channel_loop(G, i), _grid(sample_time)))
-    _, dgm, dpm = control.disk_margins(L_in, omega)
-    S_peak, T_peak = _peaks(L_in, omega)
-    return Margins(sample_time, stable, loops, 20 * math.log10(float(dgm)) if np.isfinite(dgm) else math.inf,
-                   float(dpm), S_peak, T_peak)
+    alpha_mu, _, _ = control.disk_margins(L_in, omega)
+    S_peak, T_peak, S_half = _peaks(L_in, omega)
+    # mu <= the largest singular value, so the structured margin is at least 1 / max sigma(S - I/2);
+    # slycot's mu bound is below that on loops with a channel of no gain (the VSCMG's T1 at q2 = 0):
+    # a numerical failure, and the unstructured margin, which holds, is kept
+    alpha = max(float(alpha_mu) if np.isfinite(alpha_mu) else 0.0, 1.0 / S_half if S_half > 0 else math.inf)
+    gm, pm = _disk_gain_phase(alpha)
+    return Margins(sample_time, stable, loops, gm, pm, S_peak, T_peak, unused)
+
+
+def _disk_gain_phase(alpha: float) -> tuple[float, float]:
+    """The balanced (skew 0) disk margin ``alpha`` as a gain margin, dB, and a phase margin, deg."""
+    if alpha >= 2:
+        return math.inf, 90.0
+    return 20 * math.log10((1 + alpha / 2) / (1 - alpha / 2)), math.degrees(2 * math.atan(alpha / 2))
 
 
 def response(L: control.StateSpace, omega: np.ndarray) -> np.ndarray:
@@ -248,17 +273,18 @@ def _loop_margin(channel: str, L: control.StateSpace, omega: np.ndarray) -> Loop
     return LoopMargin(channel, upper, lower, pm, w_upper, w_c, delay)
 
 
-def _peaks(L: control.StateSpace, omega: np.ndarray) -> tuple[float, float]:
-    """Peaks over ``omega`` of the largest singular values of S and T."""
+def _peaks(L: control.StateSpace, omega: np.ndarray) -> tuple[float, float, float]:
+    """Peaks over ``omega`` of the largest singular values of S, T and S - I/2 (the balanced disk's)."""
     resp = response(L, omega)
     eye = np.eye(L.ninputs)
-    s_max = t_max = 0.0
+    s_max = t_max = half = 0.0
     for k in range(len(omega)):
         Lk = resp[:, :, k]
         S = np.linalg.inv(eye + Lk)
         s_max = max(s_max, float(np.linalg.norm(S, 2)))
         t_max = max(t_max, float(np.linalg.norm(Lk @ S, 2)))
-    return s_max, t_max
+        half = max(half, float(np.linalg.norm(S - eye / 2, 2)))
+    return s_max, t_max, half
 
 
 def sweep_margins(response: np.ndarray, omega: np.ndarray) -> tuple[float, float]:
