@@ -3,8 +3,8 @@
 ``dx = A dx + B du``, ``dy = C dx + D du`` around ``(x0, u0)``: the Jacobians of the model's
 right-hand side, outputs and named definitions are taken symbolically, then evaluated at the
 point with the model's parameters and chained through the definitions (:class:`Linearizer`). No
-finite differences: the matrices are exact to rounding. Piecewise branches are those taken at the point (a saturation off, a switch
-on) — the linearization of what the model does there.
+finite differences: the matrices are exact to rounding. Piecewise branches are those taken at the
+point (a saturation off, a switch on) — the linearization of what the model does there.
 """
 from __future__ import annotations
 
