@@ -222,9 +222,14 @@ def test_requirement_and_actuator_lines(run_folder: Path) -> None:
     assert ("requirement", 5.000000001, True) in levels  # peak |u| max
     assert ("actuator", 5.0, True) in levels  # time in saturation's limit and the controller's u_max
     assert ("actuator", 5.0, False) in levels  # the plant's u_max, saturation off
-    phi = limits.signal_lines(sc, "plant.phi", lim)
+    phi = limits.signal_lines(sc, "plant.phi", lim, "rad")
     band = [ln for ln in phi if "band" in ln.label][0]
     assert band.value == pytest.approx(0.1 * math.pi / 180.0, rel=1e-12)  # 0.1 deg in rad: rounding only
+    assert band.label == "settling time to 0.1 deg: band |y| ≤ 0.1 deg"
+    # drawn in deg (a record entry's unit), the band is the metric's own number
+    assert [ln.value for ln in limits.signal_lines(sc, "plant.phi", lim, "deg", "rad") if "band" in ln.label] == [0.1]
+    # a signal drawn in a unit the bound does not convert to gets no line rather than a wrong one
+    assert not [ln for ln in limits.signal_lines(sc, "plant.phi", lim, "N.m") if "band" in ln.label]
     assert [ln.value for ln in phi if ln.axis == "time"] == [120.0]
     assert limits.signal_lines(sc, "plant.omega", lim) == []  # no metric or limit on the rates
 
@@ -260,6 +265,26 @@ def test_provenance(page: Path, fmu_dir: Path, tmp_path: Path) -> None:
     assert provenance.git_commit(tmp_path) is None  # not a git checkout
     assert hashlib.sha256((fmu_dir / "mrp_satellite.fmu").read_bytes()).hexdigest() in text
     assert "numpy" in text and "matplotlib" in text and "CPython" in text
+
+
+def test_the_margins_section_and_the_pass_rates_in_the_contents(page: Path, campaigns: dict[str, Path]) -> None:
+    from satfmu.sims.workflows import analysis
+
+    doc = tree(page)
+    shown = {d.get("data-scenario") for d in doc.xpath('//section[@id="margins"]/div[@class="margins"]')}
+    assert shown == {f"r_{c}" for c in CONTROLLERS} | {"mrp_200deg_sat"}
+    # the campaign's controller on its plant at the origin, sampled at the scenario's 0.05 s: the
+    # artifact's own margins (the same linearization; the dispersions are not drawn here)
+    ref = analysis.margins("mrp_hinf_satfmu").sampled
+    div = doc.xpath('//div[@class="margins"][@data-scenario="r_mrp_hinf_satfmu"]')[0]
+    row = div.xpath('.//tr[@data-point="origin"]')[1]  # continuous, then sampled
+    assert float(cell(row, "disk_gain_margin").get("data-value")) == pytest.approx(ref.disk_gain_margin_db, rel=1e-9)
+    assert float(cell(row, "sensitivity_peak").get("data-value")) == pytest.approx(ref.sensitivity_peak, rel=1e-9)
+    assert div.xpath(".//figure/svg")  # the frequency responses
+    rows = engine.load(campaigns["mrp_hinf_satfmu"])
+    nav = doc.xpath("//nav")[0].text_content()
+    assert f"Campaign: mrp_hinf_satfmu: {percent(rows['passed'].sum() / N)} of {N} samples pass" in nav
+    assert "Margins" in nav
 
 
 def test_the_page_is_self_contained(page: Path) -> None:
@@ -386,6 +411,22 @@ def test_the_page_renders_in_chromium(page: Path, campaigns: dict[str, Path], fm
             assert expected in body, expected
         svgs = driver.find_elements(By.CSS_SELECTOR, "figure svg")
         assert len(svgs) >= 10 and all(s.size["width"] > 100 and s.size["height"] > 50 for s in svgs)
+        margins = driver.find_element(By.ID, "margins")
+        assert margins.is_displayed() and "mrp_hinf_satfmu" in margins.text
+        # every piece of the page's own text at 8 px or more (the figures' text is drawn in the SVGs)
+        smallest = driver.execute_script(
+            "let m = 1e9; for (const e of document.body.querySelectorAll('*')) {"
+            " if (e.closest('svg')) continue;"
+            " for (const n of e.childNodes) { if (n.nodeType === 3 && n.textContent.trim()) {"
+            " m = Math.min(m, parseFloat(getComputedStyle(e).fontSize)); } } } return m;")
+        assert smallest >= 8.0, smallest
+        driver.set_window_size(1280, 900)
+        for name in ("contents", "margins"):
+            if name == "margins":
+                driver.execute_script("document.getElementById('margins').scrollIntoView();")
+            shot = tmp_path / f"{name}.png"
+            assert driver.save_screenshot(str(shot))
+            assert shot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and shot.stat().st_size > 10_000
         errors = [e for e in driver.get_log("browser") if e["level"] in ("SEVERE", "ERROR")]
         assert errors == [], errors
     finally:

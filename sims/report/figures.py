@@ -323,3 +323,61 @@ def compare_strips(series: Mapping[str, np.ndarray], metric: Metric) -> str:
     _legend(ax)
     fig.tight_layout()
     return svg(fig)
+
+
+def frequency_responses(loops: Sequence[Any], title: str = "") -> str:
+    """The loop-at-a-time gains and the singular values of S and T of linearized loops, one row each.
+
+    Parameters
+    ----------
+    loops : sequence of satfmu.sims.scenario.loops.LoopMargins
+        Loops with their linearizations (``plant``, ``controller``), drawn sampled at their
+        ``sample_time`` up to the Nyquist frequency.
+    title : str
+        Figure title.
+    """
+    from satfmu.synthesis.core import margins as loop_margins
+
+    fig, axes = plt.subplots(len(loops), 2, figsize=(9.5, 2.9 * len(loops) + 0.5), squeeze=False)
+    for (ax_l, ax_s), lm in zip(axes, loops):
+        step = lm.sample_time
+        omega = np.logspace(-4, math.log10(0.999 * math.pi / step), 600)
+        for k, (name, L) in enumerate(loop_margins.channel_loops(lm.plant, lm.controller, step)):
+            if name in lm.sampled.unused:
+                continue
+            mag = np.abs(loop_margins.response(L, omega)[0, 0])
+            ax_l.semilogx(omega, 20 * np.log10(np.maximum(mag, 1e-300)), color=f"C{k % 10}", lw=1.1, label=name)
+        ax_l.axhline(0.0, color="#888888", lw=0.8)
+        ax_l.set_ylabel("|L_i| (dB)", fontsize=9)
+        ax_l.set_title(textwrap.fill(f"{lm.loop.label}: loop at a time, others closed", 70), fontsize=9)
+        active = [n for n in lm.controller.outputs if n not in lm.sampled.unused]
+        L_in, _ = loop_margins.loop_transfers(lm.plant, _restricted(lm.controller, active), step)
+        resp = loop_margins.response(L_in, omega)
+        eye = np.eye(L_in.ninputs)
+        s_max, t_max = np.empty(len(omega)), np.empty(len(omega))
+        for i in range(len(omega)):
+            S = np.linalg.inv(eye + resp[:, :, i])
+            s_max[i], t_max[i] = np.linalg.norm(S, 2), np.linalg.norm(resp[:, :, i] @ S, 2)
+        ax_s.semilogx(omega, 20 * np.log10(s_max), color="C0", lw=1.1, label="largest singular value of S")
+        ax_s.semilogx(omega, 20 * np.log10(t_max), color="C3", lw=1.1, label="largest singular value of T")
+        ax_s.axhline(6.0, color=REQUIREMENT, lw=0.9, ls="--", label="6 dB (|S| peak 2)")
+        ax_s.set_ylabel("dB", fontsize=9)
+        ax_s.set_title(f"sensitivity and complementary sensitivity, sampled {step:g} s", fontsize=9)
+        for ax in (ax_l, ax_s):
+            ax.grid(True, which="both", alpha=0.25)
+            ax.tick_params(labelsize=8)
+            ax.legend(fontsize=8, loc="best", framealpha=0.85)
+        ax_l.set_xlabel("frequency (rad/s)", fontsize=9)
+        ax_s.set_xlabel("frequency (rad/s)", fontsize=9)
+    if title:
+        fig.suptitle(textwrap.fill(title, 110), fontsize=10)
+    fig.tight_layout()
+    return svg(fig)
+
+
+def _restricted(controller: Any, outputs: Sequence[str]) -> Any:
+    """A controller linearization kept to some of its outputs."""
+    from dataclasses import replace
+
+    rows = [controller.outputs.index(n) for n in outputs]
+    return replace(controller, C=controller.C[rows], D=controller.D[rows], outputs=tuple(outputs))

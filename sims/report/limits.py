@@ -24,6 +24,7 @@ import re
 from dataclasses import dataclass
 from typing import Mapping, Sequence
 
+from satfmu.sims.scenario.metrics import MARGIN_KINDS
 from satfmu.sims.scenario.spec import Scenario
 from satfmu.sims.report.folders import FmuFile
 
@@ -163,13 +164,26 @@ def _connected(scenario: Scenario, signal: str) -> set[str]:
 
 
 def _scaled(scale: float) -> str:
-    """How a tolerance or limit relates to the signal (they are in scaled units; the metric's
-    unit is that of its value, a time)."""
+    """How a tolerance or limit relates to the signal when a hand-typed ``scale`` weighs it."""
     return "" if scale == 1.0 else f" (signal × {scale:g})"
 
 
-def signal_lines(scenario: Scenario, signal: str, limits: Sequence[ActuatorLimit] = ()) -> list[Line]:
-    """The requirement and actuator-limit lines of a recorded signal.
+def _factor(source: str, target: str) -> float | None:
+    """``k`` with ``v`` in ``source`` = ``k v`` in ``target``; None when the two do not convert."""
+    from satfmu.fmus.errors import UnitError
+    from satfmu.fmus.units import conversion
+
+    if not source or not target or source == target:
+        return 1.0
+    try:
+        return conversion(source, target)
+    except UnitError:
+        return None
+
+
+def signal_lines(scenario: Scenario, signal: str, limits: Sequence[ActuatorLimit] = (), unit: str = "",
+                 declared: str = "") -> list[Line]:
+    """The requirement and actuator-limit lines of a recorded signal, in the unit it is drawn in.
 
     Parameters
     ----------
@@ -179,40 +193,52 @@ def signal_lines(scenario: Scenario, signal: str, limits: Sequence[ActuatorLimit
         ``instance.variable``, a base name (``plant.omega``, every index) or one column.
     limits : list of ActuatorLimit
         :func:`actuator_limits` of the scenario.
+    unit : str, optional
+        The unit the signal is drawn in (a ``record`` entry's, else its declared one); a bound
+        in a metric's unit (``deg``) is converted to it. Default: the declared one.
+    declared : str, optional
+        The signal's declared unit (that of a metric without ``unit``). Default: ``unit``.
 
     Returns
     -------
     list of Line
-        In the signal's unit (levels) or s (times).
+        In the signal's unit (levels) or s (times); a bound whose unit does not convert to the
+        signal's is left out.
     """
     b = base(signal)
+    declared = declared or unit
+    shown = unit or declared
     out = []
     for m in scenario.metrics:
-        if not any(base(s) == b for s in m.signals):
+        if not any(base(s) == b for s in m.signals) or m.kind in MARGIN_KINDS:
             continue
-        scale = abs(m.scale) or 1.0
-        unit = f" {m.unit}" if m.unit else ""
+        factor = _factor(shown, m.unit or declared)
+        if factor is None:
+            continue
+        scale = (abs(m.scale) or 1.0) * factor
+        unit_text = f" {m.unit or declared}" if (m.unit or declared) else ""
         if m.kind in ("final", "peak"):
             span = (0.85, 1.0) if m.kind == "final" else (0.0, 1.0)
             what = "|y(T)|" if m.kind == "final" else "|y|"
             for bound, op in ((m.max, "≤"), (m.min, "≥")):
                 if bound is not None:
-                    label = f"{m.name}: {what} {op} {bound:g}{unit}" if m.kind == "final" or op == "≤" else \
-                        f"{m.name}: peak {op} {bound:g}{unit}"
+                    label = f"{m.name}: {what} {op} {bound:g}{unit_text}" if m.kind == "final" or op == "≤" else \
+                        f"{m.name}: peak {op} {bound:g}{unit_text}"
                     out.append(Line("requirement", "level", bound / scale, True, label, span))
         elif m.kind == "settling_time":
             if m.tolerance is not None:
                 out.append(Line("requirement", "level", float(m.tolerance) / scale, True,
-                                f"{m.name}: band |y| ≤ {m.tolerance:g}{_scaled(m.scale)}"))
+                                f"{m.name}: band |y| ≤ {m.tolerance:g}{unit_text}{_scaled(m.scale)}"))
             if m.max is not None:
                 out.append(Line("requirement", "time", float(m.max), False, f"{m.name}: settled by {m.max:g} s"))
         elif m.kind == "time_in_saturation" and m.limit is not None:
             out.append(Line("actuator", "level", float(m.limit) / scale, True,
-                            f"{m.name}: saturation level {m.limit:g}{_scaled(m.scale)}"))
+                            f"{m.name}: saturation level {m.limit:g}{unit_text}{_scaled(m.scale)}"))
         elif m.kind == "time_to_limit" and m.limit is not None:
             out.append(Line("actuator", "level", float(m.limit) / scale, True,
-                            f"{m.name}: level {m.limit:g}{_scaled(m.scale)}"))
+                            f"{m.name}: level {m.limit:g}{unit_text}{_scaled(m.scale)}"))
     for lim in limits:
-        if b in _connected(scenario, lim.target):
-            out.append(Line("actuator", "level", lim.value, True, lim.label, active=lim.active))
+        factor = _factor(lim.unit, shown)
+        if b in _connected(scenario, lim.target) and factor is not None:
+            out.append(Line("actuator", "level", lim.value * factor, True, lim.label, active=lim.active))
     return out

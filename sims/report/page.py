@@ -177,8 +177,10 @@ def worst_value(rows: Any, metric: Metric) -> tuple[float, int] | None:
 
 def _run_view(run: RunFolder) -> dict[str, Any]:
     lim = limits.actuator_limits(run.scenario, run.fmus)
-    figure = figures.time_histories(run.results, run.units, lambda s: limits.signal_lines(run.scenario, s, lim),
-                                    title=f"{run.scenario.name} ({run.backend})")
+    shown = {limits.base(c): u for c, u in run.units.items()}
+    declared = _units(run, list(shown))
+    figure = figures.time_histories(run.results, run.units, lambda s: limits.signal_lines(
+        run.scenario, s, lim, shown.get(s, ""), declared.get(s, "")), title=f"{run.scenario.name} ({run.backend})")
     return {"kind": "run", "run": run, "figure": Markup(figure), "limits": lim}
 
 
@@ -203,20 +205,20 @@ def _campaign_view(camp: CampaignFolder) -> dict[str, Any]:
     if camp.envelopes is not None:
         signals = envelope_signals(camp.envelopes)
         lim = limits.actuator_limits(sc, camp.fmus)
+        units = _units(camp, list(signals))
         view["envelopes"] = Markup(figures.envelopes(
-            camp.envelopes, signals, _units(camp, list(signals)), lambda s: limits.signal_lines(sc, s, lim),
-            camp.label))
+            camp.envelopes, signals, units, lambda s: limits.signal_lines(sc, s, lim, units.get(s, "")), camp.label))
     return view
 
 
-def _units(camp: CampaignFolder, signals: list[str]) -> dict[str, str]:
-    """Unit of each ``instance.variable`` (from its FMU's model description; ``"1"`` if unknown)."""
+def _units(folder: Folder, signals: list[str]) -> dict[str, str]:
+    """Declared unit of each ``instance.variable`` (from its FMU's model description; ``"1"`` if unknown)."""
     from satfmu.fmus import archive
 
     out, mds = {}, {}
     for s in signals:
         inst, _, name = s.partition(".")
-        f = camp.fmus.get(inst)
+        f = folder.fmus.get(inst)
         if f is not None and inst not in mds and f.path.is_file():
             try:
                 mds[inst] = {v.name: v for v in archive.read_description(f.path).modelVariables}
@@ -254,6 +256,55 @@ def _claims(folders: Sequence[Folder]) -> list[proved.Claims]:
                 found[key] = c
             found[key].used_by.append(f"{f.label}: {inst}")
     return list(found.values())
+
+
+@dataclass
+class MarginsView:
+    """The margins of one scenario's loops as the page shows them.
+
+    Parameters
+    ----------
+    scenario : str
+        The scenario's name.
+    used_by : list of str
+        The runs and campaigns of the page that ran it.
+    loops : list of satfmu.sims.scenario.loops.LoopMargins
+        Loop by loop, point by point.
+    notes : list of str
+        Connected pairs that are no loop, or why no margins could be computed.
+    figure : Markup, optional
+        The frequency responses of the loops at the origin (empty when none has margins).
+    """
+
+    scenario: str
+    used_by: list[str]
+    loops: list = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+    figure: Markup = field(default_factory=lambda: Markup(""))
+
+
+def _margins(folders: Sequence[Folder]) -> list[MarginsView]:
+    """The linear margins of the loops of every scenario the folders ran (each scenario once: a
+    campaign's nominal one), from the symbolic models (:func:`satfmu.sims.scenario.loops.scenario_margins`)."""
+    from satfmu.sims.scenario import loops
+
+    views: dict[str, MarginsView] = {}
+    for f in folders:
+        sc = f.scenario
+        if sc.name in views:
+            views[sc.name].used_by.append(f.label)
+            continue
+        view = views[sc.name] = MarginsView(sc.name, [f.label])
+        try:
+            view.loops, view.notes = loops.scenario_margins(sc)
+        except (ValueError, OSError) as exc:  # a model the catalog no longer has, an unreadable artifact
+            view.notes = [f"no margins: {exc}"]
+            continue
+        drawn = [lm for lm in view.loops if lm.point == "origin" and lm.sampled is not None]
+        if drawn:
+            view.figure = Markup(figures.frequency_responses(drawn, f"{sc.name}: loops at the origin, sampled at "
+                                                                      f"{sc.step_size:g} s"))
+    return list(views.values())
 
 
 def _environment() -> jinja2.Environment:
@@ -308,7 +359,7 @@ def build_report(folders: Sequence[str | Path], fmu_dir: str | Path | None = Non
     return template.render(
         items=items, views=views, run_comparison=runs if len(runs) > 1 else None,
         run_metrics=list(dict.fromkeys(m.name for r in runs for m in r.metrics)),
-        comparison=_comparison(camps) if len(camps) > 1 else None, claims=_claims(items),
+        comparison=_comparison(camps) if len(camps) > 1 else None, claims=_claims(items), margins=_margins(items),
         provenance=provenance or collect(), confidence=confidence)
 
 

@@ -85,6 +85,9 @@ class LoopMargins:
         The scenario's communication step, s.
     note : str
         Why there are no margins (a sampled law, no symbolic model); empty when there are.
+    plant, controller : Linearization or None
+        The linearizations the margins are of (named for
+        :func:`satfmu.synthesis.core.margins.margins`); None with a note.
     """
 
     loop: Loop
@@ -93,6 +96,8 @@ class LoopMargins:
     sampled: Any
     sample_time: float
     note: str = ""
+    plant: Linearization | None = None
+    controller: Linearization | None = None
 
 
 _MODELS: dict[tuple[str, str], Model] = {}
@@ -346,18 +351,18 @@ def scenario_margins(scenario: Scenario, points: tuple[str, ...] = POINTS) -> tu
             except ValueError as exc:  # a law singular there (backstepping at q2 = 0), no loop at the point
                 out.append(LoopMargins(loop, point, None, None, scenario.step_size, f"no linearization here: {exc}"))
                 continue
-            out.append(LoopMargins(loop, point, *found, scenario.step_size))
+            out.append(LoopMargins(loop, point, *found, scenario.step_size, plant=P, controller=K))
     return out, notes
 
 
 def margin_metric(kind: str, scenario: Scenario, signals: list[str]) -> float:
-    """The value of a margin metric (:data:`MARGIN_KINDS`): the loop broken at the plant inputs
+    """The value of a margin metric (:data:`~satfmu.sims.scenario.metrics.MARGIN_KINDS`): the loop broken at the plant inputs
     ``signals``, at the origin, sampled at the scenario's communication step.
 
     Parameters
     ----------
     kind : str
-        One of :data:`MARGIN_KINDS`.
+        One of :data:`~satfmu.sims.scenario.metrics.MARGIN_KINDS`.
     scenario : Scenario
         The scenario (a campaign's sample: its parameters).
     signals : list of str
@@ -366,7 +371,7 @@ def margin_metric(kind: str, scenario: Scenario, signals: list[str]) -> float:
     Returns
     -------
     float
-        dB, deg, s or 1 (:data:`MARGIN_KINDS`); NaN (which fails any bound) when the loop has no
+        dB, deg, s or 1 (:data:`~satfmu.sims.scenario.metrics.MARGIN_KINDS`); NaN (which fails any bound) when the loop has no
         margins (a sampled law) or no loop holds those inputs.
     """
     from satfmu.synthesis.core import margins as loop_margins

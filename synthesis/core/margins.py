@@ -157,6 +157,26 @@ def loop_transfers(plant: Linearization, controller: Linearization, sample_time:
     return -K * P, -P * K
 
 
+def channel_loops(plant: Linearization, controller: Linearization, sample_time: float = 0.0
+                  ) -> list[tuple[str, control.StateSpace]]:
+    """The loop-at-a-time transfers of each channel of the plant input, the others closed.
+
+    Parameters
+    ----------
+    plant, controller : Linearization
+        As :func:`loop_transfers`.
+    sample_time : float, optional
+        0: continuous; else the communication step, s.
+
+    Returns
+    -------
+    list of (str, control.StateSpace)
+        The controller output (channel) and its SISO loop transfer.
+    """
+    L_in, _ = loop_transfers(plant, controller, sample_time)
+    return [(name, _channel_loop(-L_in, i)) for i, name in enumerate(controller.outputs)]
+
+
 def _channel_loop(G: control.StateSpace, i: int) -> control.StateSpace:
     """``-(G_ii + G_io (I - G_oo)^-1 G_oi)``: channel ``i`` broken, the others closed (``G = K P``)."""
     m = G.ninputs
