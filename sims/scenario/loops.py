@@ -356,8 +356,8 @@ def scenario_margins(scenario: Scenario, points: tuple[str, ...] = POINTS) -> tu
 
 
 def margin_metric(kind: str, scenario: Scenario, signals: list[str]) -> float:
-    """The value of a margin metric (:data:`~satfmu.sims.scenario.metrics.MARGIN_KINDS`): the loop broken at the plant inputs
-    ``signals``, at the origin, sampled at the scenario's communication step.
+    """The value of a margin metric (:data:`~satfmu.sims.scenario.metrics.MARGIN_KINDS`): the loop
+    broken at the plant inputs ``signals``, at the origin, sampled at the scenario's communication step.
 
     Parameters
     ----------
@@ -371,8 +371,8 @@ def margin_metric(kind: str, scenario: Scenario, signals: list[str]) -> float:
     Returns
     -------
     float
-        dB, deg, s or 1 (:data:`~satfmu.sims.scenario.metrics.MARGIN_KINDS`); NaN (which fails any bound) when the loop has no
-        margins (a sampled law) or no loop holds those inputs.
+        dB, deg, s or 1 (:data:`~satfmu.sims.scenario.metrics.MARGIN_KINDS`); NaN (which fails any
+        bound) when the loop has no margins (a sampled law) or no loop holds those inputs.
     """
     from satfmu.synthesis.core import margins as loop_margins
 
