@@ -110,3 +110,13 @@ def test_a_record_entry_asks_for_its_unit(fmu_dir: Path, tmp_path: Path) -> None
         satfmu.run({**SLEW, "record": [{"signal": "plant.phi", "unit": "s"}]}, fmu_dir=fmu_dir)
     with pytest.raises(ScenarioError, match=r"record\[0\]: unknown key 'units'.*'unit'"):
         satfmu.Scenario.from_dict({**SLEW, "record": [{"signal": "plant.phi", "units": "deg"}]})
+
+
+def test_a_campaign_labels_each_value_in_its_own_unit() -> None:
+    # a campaign's statistics and report read the declaration only: a settling time asked in deg is
+    # a time, a margin has its own unit, an integral of squared torques its derived one
+    unit = {kind: satfmu.Metric("m", kind, ["plant.phi"], unit=u).value_unit
+            for kind, u in (("settling_time", "deg"), ("final", "deg"), ("phase_margin", ""),
+                            ("integral_square", "N.m"), ("peak", ""))}
+    assert unit == {"settling_time": "s", "final": "deg", "phase_margin": "deg", "integral_square": "N2.m2.s",
+                    "peak": ""}

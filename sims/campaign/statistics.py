@@ -165,8 +165,9 @@ def statistics(scenario: "str | Path | Mapping[str, Any] | Scenario", df: pd.Dat
     per_metric, margin = [], np.full(len(df), np.inf)
     for m in sc.metrics:
         values = df[m.name].to_numpy(dtype=np.float64)
-        passed = np.array([MetricResult(m.name, m.kind, float(v), m.min, m.max, m.unit).passed for v in values])
-        per_metric.append(_metric_statistics(m.name, m.unit, passed, values, confidence))
+        passed = np.array([MetricResult(m.name, m.kind, float(v), m.min, m.max, m.value_unit).passed
+                           for v in values])
+        per_metric.append(_metric_statistics(m.name, m.value_unit, passed, values, confidence))
         for bound, sign in ((m.max, 1.0), (m.min, -1.0)):
             if bound is not None:
                 margin = np.fmin(margin, sign * (bound - values))

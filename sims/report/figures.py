@@ -177,7 +177,7 @@ def histograms(rows: pd.DataFrame, metrics: Sequence[Metric], title: str = "") -
             ax.text(0.5, 0.5, "no finite value", ha="center", va="center", transform=ax.transAxes)
         _bound_lines(ax, m, vertical=True)
         ax.set_title(textwrap.fill(m.name, 45) + (f"\n({note})" if note else ""), fontsize=8)
-        ax.set_xlabel(m.unit or "1", fontsize=8)
+        ax.set_xlabel(m.value_unit or "1", fontsize=8)
         ax.set_ylabel("samples", fontsize=8)
         ax.grid(True, alpha=0.3)
         _legend(ax)
@@ -212,7 +212,7 @@ def scatter(rows: pd.DataFrame, metrics: Sequence[Metric], dispersed: Sequence[s
     for i, m in enumerate(metrics):
         y = rows[m.name].to_numpy(dtype=float)
         ok = np.array([scenario_metrics.MetricResult(m.name, m.kind, float(v), m.min, m.max,
-                                                     m.unit).passed for v in y], bool)
+                                                     m.value_unit).passed for v in y], bool)
         _, note = _finite(y)
         for j, d in enumerate(dispersed):
             ax = axes[i, j]
@@ -227,7 +227,7 @@ def scatter(rows: pd.DataFrame, metrics: Sequence[Metric], dispersed: Sequence[s
             if i == len(metrics) - 1:
                 ax.set_xlabel(d, fontsize=8)
             if j == 0:
-                ax.set_ylabel(textwrap.fill(f"{m.name} ({m.unit or '1'})", 28) + (f"\n{note}" if note else ""),
+                ax.set_ylabel(textwrap.fill(f"{m.name} ({m.value_unit or '1'})", 28) + (f"\n{note}" if note else ""),
                               fontsize=7)
     handles, labels = axes[0, 0].get_legend_handles_labels()  # the markers; each panel's bounds are dashed red
     fig.legend(handles[:2], labels[:2], loc="upper right", fontsize=7, ncol=2)
@@ -318,7 +318,7 @@ def compare_strips(series: Mapping[str, np.ndarray], metric: Metric) -> str:
     _bound_lines(ax, metric, vertical=True)
     ax.set_yticks(range(len(labels)), ticks, fontsize=8)
     ax.set_ylim(len(labels) - 0.5, -0.5)
-    ax.set_xlabel(f"{metric.name} ({metric.unit or '1'})", fontsize=8)
+    ax.set_xlabel(f"{metric.name} ({metric.value_unit or '1'})", fontsize=8)
     ax.grid(True, axis="x", alpha=0.3)
     _legend(ax)
     fig.tight_layout()

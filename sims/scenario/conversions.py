@@ -16,13 +16,11 @@ from typing import Any
 import numpy as np
 
 from satfmu.fmus.errors import ScenarioError
-from satfmu.fmus.units import UnitError, conversion, ratio, squared_time
+from satfmu.fmus.units import UnitError, conversion
 from satfmu.sims.cosim.master import CoSimulation
-from satfmu.sims.scenario.metrics import MARGIN_KINDS
+from satfmu.sims.scenario.metrics import MARGIN_KINDS, value_unit
 from satfmu.sims.scenario.spec import Metric, Scenario
 
-TIME_KINDS = ("settling_time", "time_in_saturation", "time_to_limit")
-"""Metric kinds whose value is a time, s (``unit`` is then the unit of their ``tolerance`` or ``limit``)."""
 ANGLE_KINDS = ("attitude_difference",)
 """Metric kinds whose value is an angle computed from attitude signals, rad before conversion."""
 
@@ -223,29 +221,6 @@ def _unit(metric: Metric, declared: str) -> str:
 def _disturbance_unit(sim: CoSimulation, columns: dict[str, list[str]]) -> str:
     units = {sim.unit(c) for c in columns["disturbances"]}
     return units.pop() if len(units) == 1 else ""
-
-
-def value_unit(kind: str, unit: str, disturbance_unit: str = "") -> str:
-    """The unit of a metric's value from the unit of its signals.
-
-    Parameters
-    ----------
-    kind : str
-        The metric kind.
-    unit : str
-        The unit of its (converted) signals; ``""`` unknown.
-    disturbance_unit : str
-        The unit of an ``l2_ratio``'s disturbances.
-    """
-    if kind in TIME_KINDS:
-        return "s"
-    if not unit:
-        return ""
-    if kind == "integral_square":
-        return squared_time(unit)
-    if kind == "l2_ratio":
-        return ratio(unit, disturbance_unit) if disturbance_unit else ""
-    return unit
 
 
 def check(scenario: Scenario, sim: CoSimulation, expand: Any) -> None:

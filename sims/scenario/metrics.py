@@ -18,6 +18,8 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
+from satfmu.fmus.units import ratio, squared_time
+
 
 def _cumulative(t: np.ndarray, v2: np.ndarray, held: bool) -> np.ndarray:
     dt = np.diff(t)
@@ -324,6 +326,34 @@ step (:func:`satfmu.sims.scenario.loops.margin_metric`), not from the run -> the
 ``signals`` names the plant inputs where the loop is broken: the loop-at-a-time kinds (gain, phase,
 delay) give the worst of those channels, the others are of the whole loop that holds them."""
 KINDS = tuple(EVALUATORS) + tuple(MARGIN_KINDS)
+TIME_KINDS = ("settling_time", "time_in_saturation", "time_to_limit")
+"""Metric kinds whose value is a time, s (``unit`` is then the unit of their ``tolerance`` or ``limit``)."""
+
+
+def value_unit(kind: str, unit: str, disturbance_unit: str = "") -> str:
+    """The unit of a metric's value from the unit of its signals.
+
+    Parameters
+    ----------
+    kind : str
+        The metric kind.
+    unit : str
+        The unit of its (converted) signals; ``""`` unknown.
+    disturbance_unit : str
+        The unit of an ``l2_ratio``'s disturbances.
+    """
+    if kind in TIME_KINDS:
+        return "s"
+    if kind in MARGIN_KINDS:
+        return unit or MARGIN_KINDS[kind]
+    if not unit:
+        return ""
+    if kind == "integral_square":
+        return squared_time(unit)
+    if kind == "l2_ratio":
+        return ratio(unit, disturbance_unit) if disturbance_unit else ""
+    return unit
+
 """The metric kinds, in the order error messages list them."""
 
 
@@ -343,7 +373,7 @@ class MetricResult:
         Pass/fail bounds, in ``unit``; None: no bound.
     unit : str, optional
         Unit of the value and bounds, e.g. ``"deg"``; ``"s"`` for a time, ``"N2.m2.s"`` for an
-        ``integral_square`` of torques (:func:`satfmu.sims.scenario.conversions.value_unit`).
+        ``integral_square`` of torques (:func:`value_unit`).
     """
 
     name: str

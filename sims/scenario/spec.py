@@ -172,6 +172,15 @@ class Metric:
     versus: list[str] = field(default_factory=list)
     description: str = ""
 
+    @property
+    def value_unit(self) -> str:
+        """The unit of the metric's value as its declaration gives it (s for a time, a margin's
+        own, ``N2.m2.s`` for an integral of squared torques); empty when it is the signals'
+        declared unit, which only the FMU tells (a run's result has it)."""
+        from satfmu.sims.scenario.metrics import value_unit
+
+        return value_unit(self.kind, self.unit)
+
 
 @dataclass
 class Scenario:
