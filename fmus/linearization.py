@@ -8,8 +8,9 @@ point (a saturation off, a switch on) — the linearization of what the model do
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
-from typing import Mapping, Sequence
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 import sympy as sp
@@ -51,6 +52,11 @@ COMPILE_NODES = 2000
 thousands of polynomial terms, whose printing alone takes minutes) are evaluated by substitution."""
 
 
+COMPILE_AFTER = 3
+"""Calls of a :class:`Linearizer` after which its small expressions are compiled (printing and
+compiling one costs about as much as 100 evaluations by substitution)."""
+
+
 def _small(exprs: Sequence[sp.Expr]) -> bool:
     """Whether the expressions hold at most :data:`COMPILE_NODES` tree nodes (counting stops there)."""
     count = 0
@@ -68,6 +74,15 @@ def _derivative(expr: sp.Expr, symbol: sp.Symbol) -> sp.Expr:
     return sp.diff(expr, symbol).replace(sp.DiracDelta, lambda *args: sp.S.Zero)
 
 
+def _real(value: sp.Expr) -> float:
+    """A substituted expression as a float; NaN for what has none (``zoo``: a division by 0, the
+    derivative of a norm at 0), which the caller reports as not finite."""
+    try:
+        return float(value)
+    except TypeError:
+        return math.nan
+
+
 class _Node:
     """One expression of a model and its partial derivatives: with respect to the linearization's
     variables (columns) and to the definitions it reads (chained by :class:`Linearizer`)."""
@@ -79,22 +94,29 @@ class _Node:
         self.by_column = [(k, _derivative(expr, c)) for k, c in enumerate(columns) if c in free]
         self.by_definition = [(defined[d], _derivative(expr, d)) for d in free if d in defined]
         self.exprs = [expr] + [d for _, d in self.by_column] + [d for _, d in self.by_definition]
-        self.compiled = None
-        if _small(self.exprs):
-            try:
-                self.compiled = sp.lambdify(args, self.exprs, modules="numpy")
-            except (TypeError, NameError, SyntaxError):  # a function numpy has no name for: substitution
-                self.compiled = None
+        self.args = args
+        self.calls = 0
+        self.compiled: Any = None
 
     def evaluate(self, values: list[float], subs: dict[sp.Symbol, sp.Float]) -> list[float]:
-        """The expression and its partial derivatives at the point."""
+        """The expression and its partial derivatives at the point (compiled to numpy from the
+        :data:`COMPILE_AFTER`-th call on, when small: a campaign's samples, not one analysis)."""
+        self.calls += 1
+        if self.calls == COMPILE_AFTER and _small(self.exprs):
+            try:
+                self.compiled = sp.lambdify(self.args, self.exprs, modules="numpy")
+            except (TypeError, NameError, SyntaxError):  # a function numpy has no name for: substitution
+                self.compiled = None
         if self.compiled is not None:
             with np.errstate(all="ignore"):
                 try:
                     return [float(v) for v in self.compiled(*values)]
                 except (TypeError, ValueError, ZeroDivisionError, NameError):
                     pass
-        return [float(sp.sympify(e).xreplace(subs).evalf()) for e in self.exprs]
+        try:
+            return [_real(sp.sympify(e).xreplace(subs).evalf()) for e in self.exprs]
+        except (TypeError, ValueError):  # a comparison of NaN (a switch reading an undefined value)
+            return [math.nan] * len(self.exprs)
 
 
 class Linearizer:

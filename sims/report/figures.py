@@ -137,11 +137,24 @@ def _finite(values: np.ndarray) -> tuple[np.ndarray, str]:
     return finite, ", ".join(n for n in notes if n)
 
 
-def _bound_lines(ax: plt.Axes, metric: Metric, vertical: bool) -> None:
+def _bound_lines(ax: plt.Axes, metric: Metric, vertical: bool, span: tuple[float, float] | None = None) -> None:
+    """A metric's bounds, dashed. With ``span`` (the data's range along the bound's axis), a bound
+    far outside it is not drawn to scale (the data would shrink to a sliver): the axis keeps the
+    data's range and an arrow at its edge names the bound."""
+    lo, hi = span if span is not None else (-math.inf, math.inf)
+    width = hi - lo if span is not None and hi > lo else 0.0
     for bound, label in ((metric.min, "min"), (metric.max, "max")):
-        if bound is not None:
+        if bound is None:
+            continue
+        if span is None or lo - width <= bound <= hi + width:
             (ax.axvline if vertical else ax.axhline)(bound, color=REQUIREMENT, ls="--", lw=1.1,
                                                      label=f"{label} {bound:g}")
+            continue
+        side = 1.0 if bound > hi else 0.0
+        text = f"{label} {bound:g} {'→' if side else '←'}" if vertical else f"{label} {bound:g} {'↑' if side else '↓'}"
+        xy = (side, 0.9) if vertical else (0.98, side)
+        ax.annotate(text, xy=xy, xycoords="axes fraction", ha="right" if side or not vertical else "left",
+                    va="top" if vertical or side else "bottom", fontsize=8, color=REQUIREMENT)
 
 
 def _grid(n: int, columns: int) -> tuple[int, int]:
@@ -171,11 +184,13 @@ def histograms(rows: pd.DataFrame, metrics: Sequence[Metric], title: str = "") -
         ax.set_visible(False)
     for ax, m in zip(axes.flat, metrics):
         finite, note = _finite(rows[m.name].to_numpy(dtype=float))
+        span = None
         if finite.size:
             ax.hist(finite, bins=min(50, max(5, int(np.sqrt(finite.size)) + 1)), color="C0", alpha=0.8)
+            span = (float(finite.min()), float(finite.max()))
         else:
             ax.text(0.5, 0.5, "no finite value", ha="center", va="center", transform=ax.transAxes)
-        _bound_lines(ax, m, vertical=True)
+        _bound_lines(ax, m, vertical=True, span=span)
         ax.set_title(textwrap.fill(m.name, 45) + (f"\n({note})" if note else ""), fontsize=8)
         ax.set_xlabel(m.value_unit or "1", fontsize=8)
         ax.set_ylabel("samples", fontsize=8)
@@ -237,6 +252,120 @@ def scatter(rows: pd.DataFrame, metrics: Sequence[Metric], dispersed: Sequence[s
     return svg(fig)
 
 
+def influence(rows: pd.DataFrame, metric: str, dispersed: Sequence[str]) -> list[tuple[str, float]]:
+    """The dispersed values ranked by how strongly the metric follows them: Spearman's rank
+    correlation over the samples where both are finite, largest magnitude first.
+
+    Parameters
+    ----------
+    rows : pandas.DataFrame
+        A campaign's rows.
+    metric : str
+        The metric's column.
+    dispersed : list of str
+        The dispersed value columns.
+
+    Returns
+    -------
+    list of (str, float)
+        Column and rank correlation (NaN, ranked last, where it is undefined: a constant column).
+    """
+    from scipy import stats
+
+    y = rows[metric].to_numpy(dtype=float)
+    out = []
+    for d in dispersed:
+        x = rows[d].to_numpy(dtype=float)
+        ok = np.isfinite(x) & np.isfinite(y)
+        rho = math.nan
+        if ok.sum() > 2 and np.ptp(x[ok]) > 0 and np.ptp(y[ok]) > 0:
+            rho = float(stats.spearmanr(x[ok], y[ok]).statistic)
+        out.append((d, rho))
+    return sorted(out, key=lambda item: -abs(item[1]) if math.isfinite(item[1]) else math.inf)
+
+
+def strongest_scatter(rows: pd.DataFrame, metrics: Sequence[Metric], dispersed: Sequence[str],
+                      units: Mapping[str, str] | None = None, title: str = "") -> str:
+    """Each metric against the dispersed value it follows most (:func:`influence`), one readable
+    panel per metric, samples that miss the metric's bounds marked.
+
+    Parameters
+    ----------
+    rows : pandas.DataFrame
+        A campaign's rows.
+    metrics : list of Metric
+    dispersed : list of str
+        The dispersed value columns (varied ones).
+    units : dict of str to str, optional
+        Unit of each dispersed column.
+    title : str
+
+    Returns
+    -------
+    str
+        An ``<svg>`` element, two panels a row.
+    """
+    from satfmu.sims.scenario import metrics as scenario_metrics
+
+    nr, nc = _grid(len(metrics), 2)
+    fig, axes = plt.subplots(nr, nc, figsize=(4.6 * nc, 3.1 * nr + 0.5), squeeze=False)
+    for ax in axes.flat[len(metrics):]:
+        ax.set_visible(False)
+    for ax, m in zip(axes.flat, metrics):
+        d, rho = influence(rows, m.name, dispersed)[0]
+        y = rows[m.name].to_numpy(dtype=float)
+        x = rows[d].to_numpy(dtype=float)
+        ok = np.array([scenario_metrics.MetricResult(m.name, m.kind, float(v), m.min, m.max).passed for v in y], bool)
+        shown = np.isfinite(x) & np.isfinite(y)
+        ax.scatter(x[shown & ok], y[shown & ok], s=12, color="C0", label="within bounds", rasterized=True)
+        ax.scatter(x[shown & ~ok], y[shown & ~ok], s=20, marker="x", color=FAILED, label="misses a bound",
+                   rasterized=True)
+        finite = y[shown]
+        _bound_lines(ax, m, vertical=False, span=(float(finite.min()), float(finite.max())) if finite.size else None)
+        unit = (units or {}).get(d)
+        ax.set_xlabel(f"{d}" + (f" ({unit})" if unit else ""), fontsize=9)
+        ax.set_ylabel(f"{m.value_unit or '1'}", fontsize=9)
+        corr = f"rank correlation {rho:+.2f}" if math.isfinite(rho) else "no rank correlation"
+        ax.set_title(textwrap.fill(f"{m.name}: against {d}, {corr}", 52), fontsize=9)
+        ax.grid(True, alpha=0.3)
+        ax.tick_params(labelsize=8)
+    handles, labels = axes.flat[0].get_legend_handles_labels()
+    fig.legend(handles[:2], labels[:2], loc="upper right", fontsize=8, ncol=2)
+    if title:
+        fig.suptitle(title, fontsize=10, x=0.02, ha="left")
+    fig.tight_layout(rect=(0, 0, 1, 1.0 - 0.45 / fig.get_figheight()))
+    return svg(fig)
+
+
+TRANSIENT = 0.02
+"""A signal's transient ends when its median stays within this fraction of its range of its final
+value; the envelopes add a panel zoomed on the transients when they end before :data:`ZOOM_TIME`
+of the run."""
+ZOOM_TIME = 0.4
+
+
+def transient_end(t: np.ndarray, median: np.ndarray) -> float:
+    """The last time the median leaves a band of :data:`TRANSIENT` times its range around its final
+    value (``t[0]`` for a constant signal), s.
+
+    Parameters
+    ----------
+    t : numpy.ndarray
+        Times, s.
+    median : numpy.ndarray
+        The signal's median over the samples at each time.
+    """
+    finite = np.isfinite(median)
+    if not finite.any():
+        return float(t[-1])
+    m, tt = median[finite], t[finite]
+    span = float(np.ptp(m))
+    if span == 0.0:
+        return float(tt[0])
+    outside = np.nonzero(np.abs(m - m[-1]) > TRANSIENT * span)[0]
+    return float(tt[min(outside[-1] + 1, len(tt) - 1)]) if outside.size else float(tt[0])
+
+
 def envelopes(df: pd.DataFrame, signals: Mapping[str, Mapping[float, str]], units: Mapping[str, str],
               lines: Callable[[str], list[Line]], title: str = "") -> str:
     """Percentile envelopes of recorded signals over a campaign's samples, with reference lines.
@@ -256,27 +385,52 @@ def envelopes(df: pd.DataFrame, signals: Mapping[str, Mapping[float, str]], unit
     Returns
     -------
     str
-        An ``<svg>`` element: a panel per signal, the band between its lowest and highest
-        percentile shaded, each percentile a line.
+        An ``<svg>`` element: a panel per signal, each pair of percentiles (lowest and highest,
+        then inward) a shaded band, the median a line, one legend for the figure; a second column
+        zoomed on the transients when they end early in the run (:func:`transient_end`).
     """
-    fig, axes = plt.subplots(len(signals), 1, sharex=True, figsize=(8.5, 2.3 * len(signals) + 0.5), squeeze=False)
     t = df["time"].to_numpy()
-    for ax, (name, pcts) in zip(axes[:, 0], signals.items()):
-        ps = list(pcts)
-        if len(ps) > 1:
-            ax.fill_between(t, df[pcts[ps[0]]], df[pcts[ps[-1]]], color="C0", alpha=0.15,
-                            label=f"p{ps[0]:g} to p{ps[-1]:g}")
-        for k, p in enumerate(ps):
-            ax.plot(t, df[pcts[p]], color=f"C{k % 10}", lw=1.1, label=f"p{p:g}")
-        _draw_lines(ax, lines(base(name)))
-        ax.set_ylabel(f"{name}\n({units.get(name) or '1'})", fontsize=8)
-        ax.grid(True, alpha=0.3)
-        _legend(ax, outside=True)
-    axes[-1, 0].set_xlabel("time (s)")
+    medians = {}
+    for name, pcts in signals.items():
+        ps = sorted(pcts)
+        mid = min(ps, key=lambda p: abs(p - 50.0))
+        medians[name] = (mid, df[pcts[mid]].to_numpy(dtype=float))
+    end = max(transient_end(t, m) for _, m in medians.values())
+    zoom = t[0] + 1.5 * (end - t[0]) if end - t[0] < ZOOM_TIME * (t[-1] - t[0]) else None
+    cols = 2 if zoom is not None else 1
+    fig, axes = plt.subplots(len(signals), cols, figsize=(5.2 * cols + 1.0, 2.3 * len(signals) + 0.9),
+                             squeeze=False, sharex="col")
+    seen: dict[str, Any] = {}
+    for row, (name, pcts) in enumerate(signals.items()):
+        ps = sorted(pcts)
+        mid, median = medians[name]
+        for c in range(cols):
+            ax = axes[row, c]
+            pairs = [(ps[i], ps[-1 - i]) for i in range(len(ps) // 2) if ps[i] < mid < ps[-1 - i]]
+            for k, (lo, hi) in enumerate(pairs):
+                ax.fill_between(t, df[pcts[lo]], df[pcts[hi]], color="C0", alpha=0.15 + 0.2 * k, lw=0,
+                                label=f"p{lo:g} to p{hi:g}")
+            ax.plot(t, median, color="C0", lw=1.3, label=f"p{mid:g}" + (" (median)" if mid == 50 else ""))
+            _draw_lines(ax, lines(base(name)))
+            ax.grid(True, alpha=0.3)
+            ax.tick_params(labelsize=8)
+            if c == 1:
+                ax.set_xlim(t[0], zoom)
+            for h, label in zip(*ax.get_legend_handles_labels()):
+                seen.setdefault(label, h)
+        axes[row, 0].set_ylabel(f"{name}\n({units.get(name) or '1'})", fontsize=9)
+    axes[-1, 0].set_xlabel("time (s)", fontsize=9)
+    if zoom is not None:
+        axes[0, 1].set_title(f"the first {zoom - t[0]:.3g} s (the transients)", fontsize=9)
+        axes[-1, 1].set_xlabel("time (s)", fontsize=9)
+        axes[0, 0].set_title("the whole run", fontsize=9)
+    fig.legend(list(seen.values()), list(seen), loc="lower center", fontsize=8,
+               ncol=min(3, len(seen)), bbox_to_anchor=(0.5, 0.0), framealpha=0.9)
+    rows_of_legend = math.ceil(len(seen) / 3)
     if title:
-        fig.suptitle(title, fontsize=9)
-    fig.tight_layout()
-    return svg(fig, tight=True)
+        fig.suptitle(title, fontsize=10)
+    fig.tight_layout(rect=(0, (0.25 * rows_of_legend + 0.1) / fig.get_figheight(), 1, 1))
+    return svg(fig)
 
 
 def compare_strips(series: Mapping[str, np.ndarray], metric: Metric) -> str:

@@ -201,7 +201,11 @@ def _campaign_view(camp: CampaignFolder) -> dict[str, Any]:
     plotted = [m for m in sc.metrics if np.isfinite(camp.rows[m.name].to_numpy(dtype=float)).any()]
     view["unplotted"] = [m.name for m in sc.metrics if m not in plotted]
     if varied and plotted:
-        view["scatter"] = Markup(figures.scatter(camp.rows, plotted, varied, camp.label))
+        view["strongest"] = Markup(figures.strongest_scatter(camp.rows, plotted, varied, _units(camp, varied),
+                                                             camp.label))
+        ranked = [d for m in plotted for d, _ in figures.influence(camp.rows, m.name, varied)[:SCATTER_TOP]]
+        view["scatter_columns"] = list(dict.fromkeys(ranked))[:SCATTER_COLUMNS]
+        view["scatter"] = Markup(figures.scatter(camp.rows, plotted, view["scatter_columns"], camp.label))
     if camp.envelopes is not None:
         signals = envelope_signals(camp.envelopes)
         lim = limits.actuator_limits(sc, camp.fmus)
@@ -209,6 +213,13 @@ def _campaign_view(camp: CampaignFolder) -> dict[str, Any]:
         view["envelopes"] = Markup(figures.envelopes(
             camp.envelopes, signals, units, lambda s: limits.signal_lines(sc, s, lim, units.get(s, "")), camp.label))
     return view
+
+
+SCATTER_TOP = 3
+"""The dispersed values each metric's full scatter grid keeps: its most influential ones (rank correlation)."""
+SCATTER_COLUMNS = 8
+"""Most columns of the full scatter grid (a campaign may disperse 40 values: a grid of 40 x 6 panels
+is unreadable and takes a minute to draw)."""
 
 
 def _units(folder: Folder, signals: list[str]) -> dict[str, str]:
