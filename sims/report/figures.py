@@ -342,6 +342,7 @@ TRANSIENT = 0.02
 value; the envelopes add a panel zoomed on the transients when they end before :data:`ZOOM_TIME`
 of the run."""
 ZOOM_TIME = 0.4
+"""Fraction of the run before which the transients must end for the envelopes' zoomed column."""
 
 
 def transient_end(t: np.ndarray, median: np.ndarray) -> float:

@@ -326,6 +326,7 @@ step (:func:`satfmu.sims.scenario.loops.margin_metric`), not from the run -> the
 ``signals`` names the plant inputs where the loop is broken: the loop-at-a-time kinds (gain, phase,
 delay) give the worst of those channels, the others are of the whole loop that holds them."""
 KINDS = tuple(EVALUATORS) + tuple(MARGIN_KINDS)
+"""The metric kinds, in the order error messages list them."""
 TIME_KINDS = ("settling_time", "time_in_saturation", "time_to_limit")
 """Metric kinds whose value is a time, s (``unit`` is then the unit of their ``tolerance`` or ``limit``)."""
 

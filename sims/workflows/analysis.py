@@ -303,13 +303,7 @@ class MarginsResult:
         lines = [f"{self.controller} on {self.plant} at the origin (loop broken at the plant input; sampled: "
                  f"zero-order hold at {self.sample_time:g} s)"]
         for label, m in (("continuous", self.continuous), (f"sampled {self.sample_time:g} s", self.sampled)):
-            lines.append(f"  {label}: closed loop {'stable' if m.closed_loop_stable else 'UNSTABLE'}; disk margins "
-                         f"(all inputs at once) {m.disk_gain_margin_db:.2f} dB, {m.disk_phase_margin_deg:.2f} deg; "
-                         f"peaks |S| {m.sensitivity_peak:.3f}, |T| {m.complementary_peak:.3f}")
-            for lm in m.loops:
-                lines.append(f"    loop {lm.channel}: gain margin {lm.gain_margin_db:.2f} dB, phase margin "
-                             f"{lm.phase_margin_deg:.2f} deg at {lm.gain_crossover:.4g} rad/s, delay margin "
-                             f"{lm.delay_margin:.4g} s")
+            lines += _margin_lines(f"  {label}", m)
         return "\n".join(lines)
 
 
@@ -364,6 +358,18 @@ def margins(controller: str | Path, sample_time: float | None = None) -> "Margin
                          sample_time)
 
 
+def _margin_lines(head: str, m: Any) -> list[str]:
+    """The lines of one :class:`satfmu.synthesis.core.margins.Margins`: the loop's, then a channel's each."""
+    lines = [f"{head}: closed loop {'stable' if m.closed_loop_stable else 'UNSTABLE'}; disk margins (all inputs at "
+             f"once) {m.disk_gain_margin_db:.2f} dB, {m.disk_phase_margin_deg:.2f} deg; peaks |S| "
+             f"{m.sensitivity_peak:.3f}, |T| {m.complementary_peak:.3f}"]
+    lines += [f"    loop {lm.channel}: gain margin {lm.gain_margin_db:.2f} dB, phase margin {lm.phase_margin_deg:.2f} "
+              f"deg at {lm.gain_crossover:.4g} rad/s, delay margin {lm.delay_margin:.4g} s" for lm in m.loops]
+    if m.unused:
+        lines.append(f"    not used by the law here: {', '.join(m.unused)}")
+    return lines
+
+
 def _is_scenario(target: str | Path) -> bool:
     """A ``.toml`` path, or the name of a shipped scenario (an artifact is a ``.json`` or a name)."""
     from satfmu.sims.scenario import shipped_scenarios
@@ -399,13 +405,7 @@ class ScenarioMarginsResult:
                 lines.append(f"{head}: {r.note}")
                 continue
             for label, m in (("continuous", r.continuous), (f"sampled {r.sample_time:g} s", r.sampled)):
-                lines.append(f"{head}, {label}: closed loop {'stable' if m.closed_loop_stable else 'UNSTABLE'}; "
-                             f"disk margins {m.disk_gain_margin_db:.2f} dB, {m.disk_phase_margin_deg:.2f} deg; "
-                             f"peaks |S| {m.sensitivity_peak:.3f}, |T| {m.complementary_peak:.3f}")
-                for lm in m.loops:
-                    lines.append(f"    loop {lm.channel}: gain margin {lm.gain_margin_db:.2f} dB, phase margin "
-                                 f"{lm.phase_margin_deg:.2f} deg at {lm.gain_crossover:.4g} rad/s, delay margin "
-                                 f"{lm.delay_margin:.4g} s")
+                lines += _margin_lines(f"{head}, {label}", m)
         lines += [f"  not a loop: {n}" for n in self.notes]
         return "\n".join(lines)
 
