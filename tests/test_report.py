@@ -321,6 +321,8 @@ def test_envelopes_only_when_the_folder_has_them(campaigns: dict[str, Path],
     with_ = lxml.html.fromstring(build_report([folder]))
     fig = with_.xpath("//h3[. = 'Percentile envelopes']/following-sibling::figure[1]/*[local-name()='svg']")
     assert len(fig) == 1
+    # one legend for the figure (bands, median, bound lines), not one per panel
+    assert len(fig[0].xpath(".//*[local-name()='g'][starts-with(@id, 'legend_')]")) == 1
     pd.DataFrame({"time": t, "plant.phi": t}).to_parquet(folder / "envelopes.parquet")
     with pytest.raises(ReportError, match=r"envelopes.parquet: envelopes need .*'plant.phi'"):
         build_report([folder])
