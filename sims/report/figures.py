@@ -506,13 +506,8 @@ def frequency_responses(loops: Sequence[Any], title: str = "") -> str:
         ax_l.set_ylabel("|L_i| (dB)", fontsize=9)
         ax_l.set_title(textwrap.fill(f"{lm.loop.label}: loop at a time, others closed", 70), fontsize=9)
         active = [n for n in lm.controller.outputs if n not in lm.sampled.unused]
-        L_in, _ = loop_margins.loop_transfers(lm.plant, _restricted(lm.controller, active), step)
-        resp = loop_margins.response(L_in, omega)
-        eye = np.eye(L_in.ninputs)
-        s_max, t_max = np.empty(len(omega)), np.empty(len(omega))
-        for i in range(len(omega)):
-            S = np.linalg.inv(eye + resp[:, :, i])
-            s_max[i], t_max[i] = np.linalg.norm(S, 2), np.linalg.norm(resp[:, :, i] @ S, 2)
+        L_in, _ = loop_margins.loop_transfers(lm.plant, loop_margins.restrict(lm.controller, active), step)
+        s_max, t_max, _ = loop_margins.sensitivities(L_in, omega)
         ax_s.semilogx(omega, 20 * np.log10(s_max), color="C0", lw=1.1, label="largest singular value of S")
         ax_s.semilogx(omega, 20 * np.log10(t_max), color="C3", lw=1.1, label="largest singular value of T")
         ax_s.axhline(6.0, color=REQUIREMENT, lw=0.9, ls="--", label="6 dB (|S| peak 2)")
@@ -529,10 +524,3 @@ def frequency_responses(loops: Sequence[Any], title: str = "") -> str:
     fig.tight_layout()
     return svg(fig)
 
-
-def _restricted(controller: Any, outputs: Sequence[str]) -> Any:
-    """A controller linearization kept to some of its outputs."""
-    from dataclasses import replace
-
-    rows = [controller.outputs.index(n) for n in outputs]
-    return replace(controller, C=controller.C[rows], D=controller.D[rows], outputs=tuple(outputs))

@@ -190,6 +190,12 @@ def _numbers(values: dict[str, Any]) -> dict[str, float]:
     return {k: float(v) for k, v in values.items() if isinstance(v, (int, float))}
 
 
+def _parameters(m: Model, values: dict[str, Any]) -> dict[str, float]:
+    """The start values a scenario sets that are parameters of ``m`` (its inputs' are not)."""
+    names = {p.name for p in m.parameters}
+    return {k: v for k, v in _numbers(values).items() if k in names}
+
+
 def _start_state(m: Model, parameters: dict[str, Any]) -> dict[str, float]:
     """A model's initial state with the scenario's start values."""
     params = {**{v.name: float(v.start) for v in m.parameters}, **_numbers(parameters)}
@@ -234,8 +240,7 @@ def exogenous(scenario: Scenario, instance: str, skip: set[str]) -> dict[str, fl
         if not targets:
             continue
         values = _linearizer(sm, (), tuple(outs))(_start_state(sm, spec.parameters), None,
-                                                  {k: v for k, v in _numbers(spec.parameters).items()
-                                                   if k in {p.name for p in sm.parameters}}, scenario.start_time).y0
+                                                  _parameters(sm, spec.parameters), scenario.start_time).y0
         out.update(zip(targets, map(float, values)))
     return out
 
@@ -306,10 +311,8 @@ def linearize_loop(scenario: Scenario, loop: Loop, point: str = "origin") -> tup
     p_out = tuple(o for o, _ in loop.measurement)
     c_in = tuple(i for _, i in loop.measurement)
     c_out = tuple(o for o, _ in loop.actuation)
-    p_params = {k: v for k, v in _numbers(scenario.fmus[loop.plant].parameters).items()
-                if k in {v.name for v in pm.parameters}}
-    c_params = {k: v for k, v in _numbers(scenario.fmus[loop.controller].parameters).items()
-                if k in {v.name for v in cm.parameters}}
+    p_params = _parameters(pm, scenario.fmus[loop.plant].parameters)
+    c_params = _parameters(cm, scenario.fmus[loop.controller].parameters)
     P = _linearizer(pm, p_in, p_out)(state, plant_in, p_params, scenario.start_time)
     # the controller reads the plant's outputs at the point (the plant's feedthrough is 0 at u = 0)
     y = {o: float(v) for o, v in zip(c_in, P.y0)}

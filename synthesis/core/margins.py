@@ -214,8 +214,7 @@ def margins(plant: Linearization, controller: Linearization, sample_time: float 
     unused = tuple(n for i, n in enumerate(controller.outputs) if i not in active)
     if not active:
         raise ValueError("the controller's outputs are all 0 at this point: there is no loop")
-    controller = replace(controller, C=controller.C[active], D=controller.D[active],
-                         outputs=tuple(controller.outputs[i] for i in active))
+    controller = restrict(controller, [controller.outputs[i] for i in active])
     L_in, _ = loop_transfers(plant, controller, sample_time)
     G = -L_in
     closed = control.feedback(control.ss([], [], [], np.eye(L_in.ninputs), L_in.dt), L_in, sign=-1)
@@ -293,18 +292,49 @@ def _loop_margin(channel: str, L: control.StateSpace, omega: np.ndarray) -> Loop
     return LoopMargin(channel, upper, lower, pm, w_upper, w_c, delay)
 
 
-def _peaks(L: control.StateSpace, omega: np.ndarray) -> tuple[float, float, float]:
-    """Peaks over ``omega`` of the largest singular values of S, T and S - I/2 (the balanced disk's)."""
+def restrict(controller: Linearization, outputs: list[str]) -> Linearization:
+    """A controller's linearization kept to some of its outputs (the channels a law uses).
+
+    Parameters
+    ----------
+    controller : Linearization
+        The controller.
+    outputs : list of str
+        The outputs kept, by name.
+    """
+    rows = [controller.outputs.index(n) for n in outputs]
+    return replace(controller, C=controller.C[rows], D=controller.D[rows], outputs=tuple(outputs))
+
+
+def sensitivities(L: control.StateSpace, omega: np.ndarray) -> np.ndarray:
+    """The largest singular values of S, T and S - I/2 (the balanced disk's) at each frequency.
+
+    Parameters
+    ----------
+    L : control.StateSpace
+        The loop transfer at the plant input (continuous, or discrete with its ``dt``).
+    omega : numpy.ndarray
+        Frequencies, rad/s.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape ``(3, len(omega))``: the rows of S, T and S - I/2.
+    """
     resp = response(L, omega)
     eye = np.eye(L.ninputs)
-    s_max = t_max = half = 0.0
+    out = np.empty((3, len(omega)))
     for k in range(len(omega)):
         Lk = resp[:, :, k]
         S = np.linalg.inv(eye + Lk)
-        s_max = max(s_max, float(np.linalg.norm(S, 2)))
-        t_max = max(t_max, float(np.linalg.norm(Lk @ S, 2)))
-        half = max(half, float(np.linalg.norm(S - eye / 2, 2)))
-    return s_max, t_max, half
+        out[:, k] = np.linalg.norm(S, 2), np.linalg.norm(Lk @ S, 2), np.linalg.norm(S - eye / 2, 2)
+    return out
+
+
+def _peaks(L: control.StateSpace, omega: np.ndarray) -> tuple[float, float, float]:
+    """Peaks over ``omega`` of :func:`sensitivities`."""
+    s_max, t_max, half = sensitivities(L, omega).max(axis=1)
+    return float(s_max), float(t_max), float(half)
 
 
 def sweep_margins(response: np.ndarray, omega: np.ndarray) -> tuple[float, float]:
