@@ -26,7 +26,7 @@ Schema (format_version 1)::
           | {"form": "gain_times_lyapunov", "K": [[[term, ...] per state] per output], "P": [[...]]},
      "lyapunov": {"Q": [[...]]}            (optional),
      "certificate": {"status": "certified" | "sampled" | "not_verified", "proved": str, "region": str,
-                     "numbers": {str: float}},
+                     "numbers": {str: float}, "domain": [...] (optional, :mod:`satfmu.controllers.domain`)},
      "provenance": {"source": str, "design_plant": {...} (see below), ...}}
 
 Every kind records in ``provenance.design_plant`` the plant it was designed for
@@ -47,7 +47,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from satfmu.controllers import claims
+from satfmu.controllers import claims, domain
 from satfmu.fmus.model import INDEX_TOL
 from satfmu.fmus.xml_text import xml_problem
 from satfmu.fmus.errors import ArtifactError
@@ -876,6 +876,8 @@ def _certificate(data: dict, where: str) -> dict[str, Any]:
         _get(cert, key, str, where + ".certificate")
     for k, v in cert.get("numbers", {}).items():
         _finite(v, f"{where}.certificate.numbers.{k}")
+    if "domain" in cert:
+        domain.parse(cert["domain"], where + ".certificate.domain")
     return cert
 
 

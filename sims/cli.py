@@ -29,6 +29,7 @@ Usage::
                              [--out results/campaigns]
     satfmu replay CAMPAIGN_DIR --sample K [--out results/replay] [--fmu-dir DIR]
     satfmu report DIR [DIR ...] [--out results/report.html] [--fmu-dir DIR] [--confidence 0.95] [--worst 5]
+                  [--no-histories]
     satfmu detumble [--samples 2000] [--seed 0] [--rates R ...] [--fmu-dir DIR] [--out results/cubesat]
     satfmu analyze sweep [--gammas 1 0.8 ...] [--region 0.45] [--out results/h2hinf_sweep]
     satfmu analyze region [--artifact vscmg_sdre_approx] [--box-q2 LO HI] [--box-w4 LO HI] [--cells 7 6] [--out DIR]
@@ -402,7 +403,7 @@ def _report(args: argparse.Namespace) -> int:
     from satfmu.sims import report
 
     out = report.write_report(args.folders, args.out, fmu_dir=args.fmu_dir, confidence=args.confidence,
-                              worst=args.worst)
+                              worst=args.worst, histories=not args.no_histories)
     print(f"wrote {out}")
     return 0
 
@@ -698,6 +699,8 @@ def parser() -> argparse.ArgumentParser:
                     help="where the FMU files are now (default: the folder each run or campaign used)")
     rp.add_argument("--confidence", type=float, default=0.95, help="two-sided confidence of the pass-rate intervals")
     rp.add_argument("--worst", type=_nonnegative_int, default=5, help="worst samples listed per campaign")
+    rp.add_argument("--no-histories", action="store_true",
+                    help="do not replay the worst samples to draw their time histories (about 0.5 s a sample)")
     rp.set_defaults(fn=_report)
     ry = command(sub, "replay", "run one sample of a scenario campaign again, bit for bit, and write its time "
                                 "histories (CSV) and plots")

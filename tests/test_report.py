@@ -24,10 +24,13 @@ import pytest
 from distributed import Client
 from scipy import stats
 
+from satfmu.fmus.errors import DesignMismatchWarning
 from satfmu.sims.campaign import engine
+from satfmu.sims.campaign.replay import replay
+from satfmu.sims.campaign.results import write_envelopes
 from satfmu.sims.scenario.run import run as run_scenario
 from satfmu.sims.scenario.spec import Scenario
-from satfmu.sims.campaign.scenario_task import campaign
+from satfmu.sims.campaign.scenario_task import campaign, reopen
 from satfmu.sims.campaign.statistics import PERCENTILES
 from satfmu.sims.cli import main
 from satfmu.controllers.paths import SHIPPED_ARTIFACTS
@@ -82,6 +85,31 @@ def page(campaigns: dict[str, Path], run_folder: Path, tmp_path_factory: pytest.
     """The report of the three campaigns and the run, written by `satfmu report`."""
     out = tmp_path_factory.mktemp("page") / "report.html"
     assert main(["report", *map(str, campaigns.values()), str(run_folder), "--out", str(out)]) == 0
+    return out
+
+
+SLEW_N = 8
+
+
+@pytest.fixture(scope="module")
+def slew(tmp_path_factory: pytest.TempPathFactory, client: Client, fmu_dir: Path) -> Path:
+    """mrp_slew_mc_synth (uniform attitudes, inertia +-20 %) cut to 4 s, SLEW_N samples, its
+    angle recorded in deg and its percentile envelopes kept."""
+    data = tomllib.loads((SHIPPED_SCENARIOS / "mrp_slew_mc_synth.toml").read_text())
+    data = {**data, "stop_time": 4.0, "name": "slew",
+            "record": ["plant.omega", "plant.sigma", {"signal": "plant.phi", "unit": "deg"}, "controller.u"]}
+    out = tmp_path_factory.mktemp("slew")
+    camp = campaign(Scenario.from_dict(data), SLEW_N, seed=SEED, chunk=4, fmu_dir=fmu_dir, name="slew",
+                    envelopes=["plant.phi"])
+    write_envelopes(camp, engine.run(camp, out, client=client), out / "slew")
+    return out / "slew"
+
+
+@pytest.fixture(scope="module")
+def slew_page(slew: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The report of the slew campaign (its worst samples replayed)."""
+    out = tmp_path_factory.mktemp("slew_page") / "report.html"
+    assert main(["report", str(slew), "--out", str(out)]) == 0
     return out
 
 
@@ -171,6 +199,65 @@ def test_worst_samples_show_their_rows(page: Path, campaigns: dict[str, Path]) -
                 value = float(td.get("data-value"))
                 assert value == expected or (math.isnan(value) and math.isnan(expected)), (ctrl, k, col)
                 assert td.text_content() == (str(int(expected)) if col in ("passed", "failed") else number(expected))
+
+
+def test_worst_samples_link_to_their_replayed_histories(slew_page: Path, slew: Path) -> None:
+    """Each worst sample's number links to its time histories, replayed on the page; the
+    dispersed attitude has its rotation angle beside its MRP components (4 atan |sigma|, in deg);
+    every column says its unit."""
+    doc = tree(slew_page)
+    rows = engine.load(slew).set_index("sample")
+    table = section(doc, "slew").xpath('.//table[@class="worst"]')[0]
+    header = {th.get("data-column"): th.text_content() for th in table.xpath("./tr/th")}
+    assert header["plant.I_x"] == "plant.I_xkg.m2" and header["plant attitude angle"] == "plant attitude angledeg"
+    assert header["peak rate"] == "peak ratedeg/s" and header["settling time to 0.1 deg"].endswith("s")
+    assert list(header).index("plant attitude angle") == list(header).index("plant.sigma_0[3]") + 1
+    shown = table.xpath("./tr[@data-sample]")
+    assert len(shown) == 5
+    for tr in shown:
+        k = int(tr.get("data-sample"))
+        link = cell(tr, "sample").xpath("./a")[0].get("href")
+        target = doc.xpath(f'//*[@id="{link[1:]}"]')
+        assert link == f"#item-1-sample-{k}" and len(target) == 1 and target[0].tag == "details"
+        texts = " ".join(target[0].xpath(".//*[local-name()='svg']//*[local-name()='text']/text()"))
+        assert f"slew, sample {k}:" in texts and "plant.phi" in texts
+        sigma = np.array([rows.loc[k, f"plant.sigma_0[{i}]"] for i in (1, 2, 3)])
+        angle = math.degrees(4.0 * math.atan(float(np.linalg.norm(sigma))))  # the MRP's rotation angle
+        assert float(cell(tr, "plant attitude angle").get("data-value")) == pytest.approx(angle, rel=1e-12)
+
+
+def test_the_page_says_which_samples_start_outside_the_certified_region(slew_page: Path, slew: Path) -> None:
+    """mrp_hinf_satfmu is certified on |sigma| <= 0.9 for the design inertia: the inertia dispersed
+    by +-20 % puts every sample outside; the attitudes beyond the ball are counted on their own."""
+    rows = engine.load(slew)
+    sigma = rows[[f"plant.sigma_0[{i}]" for i in (1, 2, 3)]].to_numpy(dtype=float)
+    beyond = int((np.linalg.norm(sigma, axis=1) > 0.9).sum())
+    off = {a: int((np.abs(rows[f"plant.I_{a}"] - d) > 1e-3 * d).sum()) for a, d in zip("xyz", (15.0, 16.0, 12.5))}
+    p, = section(tree(slew_page), "slew").xpath('.//p[contains(@class, "coverage")]')
+    assert (int(p.get("data-samples")), int(p.get("data-outside"))) == (SLEW_N, SLEW_N)
+    text = " ".join(p.text_content().split())
+    assert f"{SLEW_N} of {SLEW_N} samples (100.00 %) start outside what it covers" in text
+    for a, d in zip("xyz", ("15", "16", "12.5")):
+        assert f"I_{a} is not its design value {d} ({off[a]}, {percent(off[a] / SLEW_N)})" in text
+    assert (f"starts outside |sigma[1..3]| <= 0.9 ({beyond}, {percent(beyond / SLEW_N)})" in text) == (beyond > 0)
+
+
+def test_envelopes_are_kept_in_the_unit_the_record_asks_for(slew: Path, slew_page: Path) -> None:
+    """The kept histories of plant.phi are in deg (the record's unit), as a replay of the sample
+    records them, bit for bit; the envelope figure labels them deg."""
+    rows = engine.load(slew).set_index("sample")
+    task = reopen(slew).task
+    assert task.envelopes == ("plant.phi",) and len(task.trace_steps) > 10
+    for k in (0, SLEW_N - 1):
+        with pytest.warns(DesignMismatchWarning, match="designed for 15"):  # the inertia dispersed
+            res = replay(slew, k)
+        assert res.units["plant.phi"] == "deg"
+        kept = rows.loc[k, [f"plant.phi@{j}" for j in range(len(task.trace_steps))]].to_numpy(dtype=float)
+        assert np.array_equal(kept, res.results["plant.phi"][list(task.trace_steps)])
+    assert rows[[c for c in rows.columns if c.startswith("plant.phi@")]].to_numpy().max() > 3.2  # deg, not rad
+    fig = tree(slew_page).xpath("//h3[. = 'Percentile envelopes']/following-sibling::figure[1]/*[local-name()='svg']")
+    labels = " ".join(fig[0].xpath(".//*[local-name()='text']/text()"))
+    assert "(deg)" in labels and "(rad)" not in labels
 
 
 def test_campaigns_side_by_side(page: Path, campaigns: dict[str, Path]) -> None:
@@ -392,9 +479,21 @@ def browser(profile: Path):
     return webdriver.Chrome(service=Service(executable_path=found["chromedriver"]), options=options)
 
 
-def test_the_page_renders_in_chromium(page: Path, campaigns: dict[str, Path], fmu_dir: Path, tmp_path: Path) -> None:
+SVG_TEXT_SIZES = (
+    "document.querySelectorAll('details').forEach(d => d.open = true);"
+    "const out = []; for (const t of document.querySelectorAll('figure svg text')) {"
+    " if (!t.textContent.trim()) continue; const m = t.getScreenCTM();"
+    " out.push([parseFloat(getComputedStyle(t).fontSize) * Math.hypot(m.a, m.b), t.textContent]); }"
+    " return out;")
+"""Browser script: open every <details>, and give each figure text's rendered size (px: its font
+size times the scale the SVG is drawn at) and its text."""
+
+
+def test_the_page_renders_in_chromium(page: Path, slew_page: Path, campaigns: dict[str, Path], fmu_dir: Path,
+                                      tmp_path: Path) -> None:
     """The page opens from a file:// URL; its text shows a pass rate, a percentile, a metric
-    value of the rows and an FMU digest; the browser console has no error."""
+    value of the rows and an FMU digest; no text, in the page or in its figures, is drawn below
+    8 px at a 1280 px wide window; the envelopes have one legend; the browser console has no error."""
     from selenium.webdriver.common.by import By
 
     rows = engine.load(campaigns["mrp_hinf_satfmu"])
@@ -431,5 +530,19 @@ def test_the_page_renders_in_chromium(page: Path, campaigns: dict[str, Path], fm
             assert shot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and shot.stat().st_size > 10_000
         errors = [e for e in driver.get_log("browser") if e["level"] in ("SEVERE", "ERROR")]
         assert errors == [], errors
+        sizes = driver.execute_script(SVG_TEXT_SIZES)
+        driver.get(slew_page.resolve().as_uri())
+        sizes += driver.execute_script(SVG_TEXT_SIZES)
+        assert len(sizes) > 500  # the figures' text is text (svg.fonttype none), measurable
+        small = sorted(sizes)[:3]
+        assert small[0][0] >= 8.0, small
+        envelopes = driver.find_element(By.XPATH, "//h3[. = 'Percentile envelopes']/following-sibling::figure[1]")
+        assert len(envelopes.find_elements(By.CSS_SELECTOR, "svg g[id^='legend_']")) == 1
+        for name, element in (("envelopes", envelopes),
+                              ("worst", driver.find_element(By.CSS_SELECTOR, "table.worst"))):
+            driver.execute_script("arguments[0].scrollIntoView();", element)
+            shot = tmp_path / f"{name}.png"
+            assert driver.save_screenshot(str(shot))
+            assert shot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and shot.stat().st_size > 10_000
     finally:
         driver.quit()

@@ -102,13 +102,37 @@ def run_campaign(scenario: "str | Path | Mapping[str, Any] | Scenario", n: int, 
                     points=points)
     folder = Path(out_dir) / camp.name
     rows = engine.run(camp, Path(out_dir), scheduler=scheduler, n_workers=workers, progress=progress)
-    task: ScenarioTask = camp.task
-    env = None
-    if task.envelopes:
-        env = percentile_envelopes(rows, list(task.envelopes), recorded_times(task.scenario)[list(task.trace_steps)])
-        write_atomically(folder / ENVELOPES, lambda tmp: env.to_parquet(tmp, index=False))
-        rows = rows.drop(columns=task.trace_columns)
+    rows, env = write_envelopes(camp, rows, folder)
     return CampaignResult(camp, folder, rows, statistics(sc, rows, confidence, worst), env)
+
+
+def write_envelopes(camp: Campaign[ScenarioTask], rows: pd.DataFrame, folder: Path
+                    ) -> tuple[pd.DataFrame, pd.DataFrame | None]:
+    """The percentile envelopes of a finished campaign's kept time histories, written to the
+    folder's ``envelopes.parquet``, and its rows without those histories.
+
+    Parameters
+    ----------
+    camp : Campaign
+        A scenario campaign (its task says which histories it keeps).
+    rows : pandas.DataFrame
+        Its rows as :func:`satfmu.sims.campaign.engine.run` returns them.
+    folder : Path
+        The campaign's folder.
+
+    Returns
+    -------
+    rows : pandas.DataFrame
+        Without the kept histories' columns.
+    envelopes : pandas.DataFrame or None
+        None (nothing written) if the campaign keeps none.
+    """
+    task: ScenarioTask = camp.task
+    if not task.envelopes:
+        return rows, None
+    env = percentile_envelopes(rows, list(task.envelopes), recorded_times(task.scenario)[list(task.trace_steps)])
+    write_atomically(folder / ENVELOPES, lambda tmp: env.to_parquet(tmp, index=False))
+    return rows.drop(columns=task.trace_columns), env
 
 
 ENVELOPES = "envelopes.parquet"

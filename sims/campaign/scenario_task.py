@@ -46,6 +46,7 @@ from satfmu.sims.campaign.engine import Campaign, CampaignError, sample_indices
 from satfmu.sims.campaign.envelopes import POINTS, trace_columns, trace_steps
 from satfmu.sims.cosim import preflight
 from satfmu.sims.cosim.master import CoSimulation, MasterError, UnknownVariableError
+from satfmu.sims.scenario.conversions import record_conversions
 from satfmu.sims.scenario.provisioning import fmu_paths, nominal_values
 from satfmu.sims.scenario.run import check, evaluate, resimulate
 from satfmu.sims.scenario.spec import Scenario, load
@@ -78,7 +79,8 @@ class ScenarioTask:
     dispersed : tuple of (str, str)
         (instance or ``"profiles[i]"``, parameter or field) of each dispersed value column.
     envelopes : tuple of str
-        Recorded scalar signals whose time history each row keeps (:mod:`satfmu.sims.campaign.envelopes`).
+        Recorded scalar signals whose time history each row keeps (:mod:`satfmu.sims.campaign.envelopes`),
+        in the unit the scenario's ``record`` asks for (else the declared one).
     trace_steps : tuple of int
         The recorded rows (communication points) of those histories.
     """
@@ -146,8 +148,10 @@ class ScenarioTask:
         for m in results:
             row[m.name] = m.value
         steps = np.asarray(self.trace_steps, dtype=np.int64)
+        # each kept history in the unit the scenario's record asks for (the declared one if none)
+        shown = record_conversions(sampled, sim, list(self.envelopes)) if self.envelopes else {}
         for signal in self.envelopes:
-            row.update(zip(trace_columns(signal, len(steps)), res[signal][steps].tolist()))
+            row.update(zip(trace_columns(signal, len(steps)), (res[signal][steps] * shown[signal][0]).tolist()))
         assert res.dtype.names is not None  # the master records a structured array
         bad = [c for c in res.dtype.names if not np.all(np.isfinite(res[c]))]
         row["passed"] = 0.0 if bad else float(all(m.passed for m in results))

@@ -1,7 +1,9 @@
 """The report's figures, drawn with matplotlib and returned as inline SVG (``<svg>...</svg>``).
 
 Scatter points are rasterized inside the SVG (an embedded PNG image), so a campaign of many
-samples stays a page of reasonable size; axes, lines and text stay vector.
+samples stays a page of reasonable size; axes and lines stay vector, and text stays text
+(``<text>`` elements, not glyph outlines: it can be searched and copied, and its size on screen
+can be measured; the page's browser test holds it at 8 px or more).
 """
 from __future__ import annotations
 
@@ -41,7 +43,8 @@ def svg(fig: plt.Figure, tight: bool = False) -> str:
     """
     buf = io.StringIO()
     try:
-        fig.savefig(buf, format="svg", bbox_inches="tight" if tight else None)
+        with matplotlib.rc_context({"svg.fonttype": "none"}):
+            fig.savefig(buf, format="svg", bbox_inches="tight" if tight else None)
     finally:
         plt.close(fig)
     text = buf.getvalue()

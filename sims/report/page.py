@@ -9,20 +9,26 @@ for scripts and tests that read the page.
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Sequence
 
 import jinja2
 import numpy as np
+import pandas as pd
 from markupsafe import Markup
+from scipy.spatial.transform import Rotation
 
 from satfmu.fmus.atomic import write_atomically
+from satfmu.fmus.errors import (CampaignError, CampaignWarning, DesignMismatchWarning, MasterError, ProfileError,
+                                ScenarioError)
 from satfmu.sims.scenario import metrics as scenario_metrics
-from satfmu.sims.scenario.spec import Metric
+from satfmu.sims.scenario.spec import Metric, Scenario
 from satfmu.sims.report import figures, limits, proved
 from satfmu.sims.report.folders import (CampaignFolder, Folder, ReportError, RunFolder, envelope_signals, read_folder)
 from satfmu.sims.report.provenance import Provenance, collect
+from satfmu.sims.campaign import replay
 from satfmu.sims.campaign.scenario_task import FAILURES
 from satfmu.sims.campaign.statistics import PERCENTILES, MetricStatistics
 
@@ -181,15 +187,105 @@ def _run_view(run: RunFolder) -> dict[str, Any]:
     declared = _units(run, list(shown))
     figure = figures.time_histories(run.results, run.units, lambda s: limits.signal_lines(
         run.scenario, s, lim, shown.get(s, ""), declared.get(s, "")), title=f"{run.scenario.name} ({run.backend})")
-    return {"kind": "run", "run": run, "figure": Markup(figure), "limits": lim}
+    return {"kind": "run", "run": run, "figure": Markup(figure), "limits": lim, "coverage": _coverage(run.scenario)}
 
 
-def _campaign_view(camp: CampaignFolder) -> dict[str, Any]:
+def _coverage(scenario: Scenario, rows: pd.DataFrame | None = None,
+              dispersed: Sequence[tuple[str, str]] | None = None) -> list[Any]:
+    """What each loop's certificate covers of a run or a campaign's samples
+    (:func:`satfmu.sims.scenario.coverage.coverage`); a model the catalog no longer has covers nothing to say."""
+    from satfmu.sims.scenario import coverage
+
+    try:
+        return coverage.coverage(scenario, rows, list(dispersed) if dispersed is not None else None)
+    except (ValueError, OSError) as exc:  # a model the catalog no longer has, an unreadable artifact
+        return [f"not checked: {exc}"]
+
+
+@dataclass
+class WorstSamples:
+    """A campaign's worst samples as the page lists them.
+
+    Parameters
+    ----------
+    rows : pandas.DataFrame
+        The statistics' worst rows, with the rotation angle of each dispersed attitude (deg)
+        beside its components.
+    columns : list of (str, str)
+        Each column shown and its unit (empty: none to show).
+    anchor : str
+        The id prefix of the samples' time histories (``<anchor>-sample-<k>``).
+    histories : dict of int to Markup
+        Sample -> its replayed time histories (an ``<svg>``).
+    notes : dict of int to str
+        Sample -> why it has no time histories, or how its replay differed from its row.
+    """
+
+    rows: Any
+    columns: list[tuple[str, str]]
+    anchor: str
+    histories: dict[int, Markup] = field(default_factory=dict)
+    notes: dict[int, str] = field(default_factory=dict)
+
+
+ANGLE = " attitude angle"
+"""Suffix of the column of a dispersed attitude's rotation angle from the identity (deg), after its instance."""
+
+
+def _worst(camp: CampaignFolder, anchor: str, replay: bool) -> WorstSamples:
+    """The worst samples with their attitudes' angles, units, and (``replay``) their time histories."""
+    rows = camp.statistics.worst.copy()
+    dispersed = list(camp.dispersed)
+    for inst, cols, kind in (camp.scenario.dispersions.attitudes(dispersed) if camp.scenario.dispersions else []):
+        values = rows[cols].to_numpy(dtype=float)
+        ok = np.isfinite(values).all(axis=1)
+        angle = np.full(len(rows), np.nan)
+        if ok.any():
+            rot = Rotation.from_mrp(values[ok]) if kind == "mrp" else Rotation.from_quat(values[ok])
+            angle[ok] = np.degrees(rot.magnitude())
+        rows[inst + ANGLE] = angle
+        dispersed.insert(dispersed.index(cols[-1]) + 1, inst + ANGLE)
+    declared = _units(camp, [d for d in dispersed if not d.endswith(ANGLE)])
+    units = {m.name: m.value_unit for m in camp.scenario.metrics}
+    units.update({d: "deg" if d.endswith(ANGLE) else declared[d] if not d.startswith("profiles[") else ""
+                  for d in dispersed})
+    columns = [(c, units.get(c, "")) for c in ["sample", "passed", "failed", *[m.name for m in camp.scenario.metrics],
+                                                *dispersed]]
+    out = WorstSamples(rows, [(c, "" if u == "1" else u) for c, u in columns], anchor)
+    if replay:
+        for k in rows["sample"].astype(int):
+            _history(camp, int(k), out)
+    return out
+
+
+def _history(camp: CampaignFolder, sample: int, out: WorstSamples) -> None:
+    """Replay one sample (:func:`satfmu.sims.campaign.replay.replay`, the campaign's own FMU
+    files) and draw its time histories into ``out``; a sample that cannot be replayed gets a note."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        warnings.simplefilter("ignore", DesignMismatchWarning)  # the page says so once, in its coverage
+        try:
+            res = replay.replay(camp.folder, sample, fmu_dir=camp.campaign.task.fmu_dir)
+        except (CampaignError, ScenarioError, ProfileError, MasterError, OSError) as exc:
+            out.notes[sample] = f"not replayed: {exc}"
+            return
+    differed = [str(w.message) for w in caught if issubclass(w.category, CampaignWarning)]
+    if differed:
+        out.notes[sample] = differed[0]
+    df = pd.DataFrame(res.results)
+    shown = {limits.base(c): u for c, u in res.units.items()}
+    declared = _units(camp, list(shown))
+    lim = limits.actuator_limits(camp.scenario, camp.fmus)
+    out.histories[sample] = Markup(figures.time_histories(df, res.units, lambda s: limits.signal_lines(
+        camp.scenario, s, lim, shown.get(s, ""), declared.get(s, "")), title=res.title))
+
+
+def _campaign_view(camp: CampaignFolder, anchor: str, replay: bool) -> dict[str, Any]:
     st, sc = camp.statistics, camp.scenario
     rows = [StatisticsRow(st.overall, "")] + [StatisticsRow(s, bounds(m)) for s, m in zip(st.metrics, sc.metrics)]
     view: dict[str, Any] = {"kind": "campaign", "campaign": camp, "rows": rows, "metrics": sc.metrics,
-                            "worst_columns": ["sample", "passed", "failed", *[m.name for m in sc.metrics],
-                                              *camp.dispersed],
+                            "worst": _worst(camp, anchor, replay),
+                            "coverage": _coverage(camp.scenario, camp.rows, camp.campaign.task.dispersed),
                             "failures": {int(c): FAILURES[int(c)] for c in sorted(set(camp.rows["failed"]))
                                          if int(c) in FAILURES and c > 0},
                             "histograms": Markup(figures.histograms(camp.rows, sc.metrics, camp.label))}
@@ -209,9 +305,11 @@ def _campaign_view(camp: CampaignFolder) -> dict[str, Any]:
     if camp.envelopes is not None:
         signals = envelope_signals(camp.envelopes)
         lim = limits.actuator_limits(sc, camp.fmus)
-        units = _units(camp, list(signals))
+        declared = _units(camp, list(signals))
+        units = _shown_units(sc, declared)
         view["envelopes"] = Markup(figures.envelopes(
-            camp.envelopes, signals, units, lambda s: limits.signal_lines(sc, s, lim, units.get(s, "")), camp.label))
+            camp.envelopes, signals, units,
+            lambda s: limits.signal_lines(sc, s, lim, units.get(s, ""), declared.get(s, "")), camp.label))
     return view
 
 
@@ -240,6 +338,13 @@ def _units(folder: Folder, signals: list[str]) -> dict[str, str]:
         unit = getattr(v, "unit", None) or getattr(getattr(v, "declaredType", None), "unit", None)
         out[s] = unit or "1"
     return out
+
+
+def _shown_units(scenario: Scenario, declared: dict[str, str]) -> dict[str, str]:
+    """Each signal's unit as recorded: the one the scenario's ``record`` asks for (an entry for
+    its base name applies to its elements), else its declared one."""
+    asked = scenario.units
+    return {s: asked.get(s) or asked.get(limits.base(s)) or u for s, u in declared.items()}
 
 
 def _comparison(camps: list[CampaignFolder]) -> Comparison:
@@ -327,7 +432,7 @@ def _environment() -> jinja2.Environment:
 
 
 def build_report(folders: Sequence[str | Path], fmu_dir: str | Path | None = None, confidence: float = 0.95,
-                 worst: int = 5, provenance: Provenance | None = None) -> str:
+                 worst: int = 5, provenance: Provenance | None = None, histories: bool = True) -> str:
     """The report page of run and campaign folders, as HTML text.
 
     Parameters
@@ -344,6 +449,10 @@ def build_report(folders: Sequence[str | Path], fmu_dir: str | Path | None = Non
         How many worst samples of each campaign to list, >= 0.
     provenance : Provenance, optional
         Default :func:`satfmu.sims.report.provenance.collect` (now, this process).
+    histories : bool
+        Replay each campaign's worst samples (:func:`satfmu.sims.campaign.replay.replay`: the
+        campaign's FMU files, bit for bit; about half a second each) and draw their time histories,
+        linked from the worst-samples table.
 
     Returns
     -------
@@ -366,7 +475,8 @@ def build_report(folders: Sequence[str | Path], fmu_dir: str | Path | None = Non
     runs = [f for f in items if isinstance(f, RunFolder)]
     camps = [f for f in items if isinstance(f, CampaignFolder)]
     template = _environment().get_template("page.html.j2")
-    views = [_run_view(f) if isinstance(f, RunFolder) else _campaign_view(f) for f in items]
+    views = [_run_view(f) if isinstance(f, RunFolder) else _campaign_view(f, f"item-{k}", histories)
+             for k, f in enumerate(items, 1)]
     return template.render(
         items=items, views=views, run_comparison=runs if len(runs) > 1 else None,
         run_metrics=list(dict.fromkeys(m.name for r in runs for m in r.metrics)),
@@ -375,7 +485,7 @@ def build_report(folders: Sequence[str | Path], fmu_dir: str | Path | None = Non
 
 
 def write_report(folders: Sequence[str | Path], out: str | Path, fmu_dir: str | Path | None = None,
-                 confidence: float = 0.95, worst: int = 5) -> Path:
+                 confidence: float = 0.95, worst: int = 5, histories: bool = True) -> Path:
     """Write the report page of run and campaign folders (:func:`build_report`) to one HTML file.
 
     The page is self-contained: inline CSS and SVG figures, no script and no external URL,
@@ -393,6 +503,8 @@ def write_report(folders: Sequence[str | Path], out: str | Path, fmu_dir: str | 
         Two-sided confidence of the campaigns' pass-rate intervals, in (0, 1).
     worst : int
         How many worst samples of each campaign to list, >= 0.
+    histories : bool
+        Replay the worst samples and draw their time histories (:func:`build_report`).
 
     Returns
     -------
@@ -404,7 +516,7 @@ def write_report(folders: Sequence[str | Path], out: str | Path, fmu_dir: str | 
     ReportError
         What :func:`build_report` refuses.
     """
-    html = build_report(folders, fmu_dir, confidence, worst)
+    html = build_report(folders, fmu_dir, confidence, worst, histories=histories)
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
     write_atomically(out, lambda tmp: tmp.write_text(html, encoding="utf-8"))

@@ -60,7 +60,7 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import dataclass, field
-from typing import Any, Callable, Mapping
+from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -437,6 +437,33 @@ class Dispersions:
                 out.setdefault(e.owner, {})[e.name] = e.draw(rng, nominal, wk)
             else:
                 out.setdefault(e.instance, {}).update(e.draw(rng, nominal, wk))
+        return out
+
+    def attitudes(self, columns: Sequence[str]) -> list[tuple[str, list[str], str]]:
+        """The dispersed attitudes among a campaign's value columns.
+
+        Parameters
+        ----------
+        columns : sequence of str
+            ``instance.parameter`` columns (a campaign's dispersed values).
+
+        Returns
+        -------
+        list of (str, list of str, str)
+            Per :class:`Attitude` entry: its instance, its component columns in order, and
+            ``"mrp"`` or ``"quaternion"`` (scalar last).
+        """
+        out = []
+        for e in self.entries:
+            if not isinstance(e, Attitude):
+                continue
+            bases = [(e.mrp, 3, "mrp")] if e.mrp else [(e.quaternion, 4, "quaternion")] if e.quaternion else \
+                [("sigma_0", 3, "mrp"), ("q_0", 4, "quaternion")]
+            for base, n, kind in bases:
+                cols = [f"{e.instance}.{base}[{i}]" for i in range(1, n + 1)]
+                if all(c in columns for c in cols):
+                    out.append((e.instance, cols, kind))
+                    break
         return out
 
     def parameter_targets(self) -> list[tuple[str, str, str]]:

@@ -186,20 +186,57 @@ def find_loops(scenario: Scenario) -> tuple[list[Loop], list[str]]:
     return loops, notes
 
 
-def _numbers(values: dict[str, Any]) -> dict[str, float]:
+def numbers(values: dict[str, Any]) -> dict[str, float]:
+    """The numeric start values of a scenario's ``parameters`` table (switches and strings left out).
+
+    Parameters
+    ----------
+    values : dict
+        Name -> start value.
+    """
     return {k: float(v) for k, v in values.items() if isinstance(v, (int, float))}
 
 
 def _parameters(m: Model, values: dict[str, Any]) -> dict[str, float]:
     """The start values a scenario sets that are parameters of ``m`` (its inputs' are not)."""
     names = {p.name for p in m.parameters}
-    return {k: v for k, v in _numbers(values).items() if k in names}
+    return {k: v for k, v in numbers(values).items() if k in names}
 
 
-def _start_state(m: Model, parameters: dict[str, Any]) -> dict[str, float]:
-    """A model's initial state with the scenario's start values."""
-    params = {**{v.name: float(v.start) for v in m.parameters}, **_numbers(parameters)}
+def start_state(m: Model, parameters: dict[str, Any]) -> dict[str, float]:
+    """A model's initial state with the scenario's start values.
+
+    Parameters
+    ----------
+    m : Model
+        The symbolic model.
+    parameters : dict
+        Start values by parameter name (a scenario's ``parameters`` table); the rest at their defaults.
+    """
+    params = {**{v.name: float(v.start) for v in m.parameters}, **numbers(parameters)}
     return {s.variable.name: params[s.initial.name] for s in m.states}
+
+
+def outputs_at(m: Model, outputs: tuple[str, ...], state: dict[str, float], inputs: dict[str, float] | None,
+               parameters: dict[str, Any], time: float) -> np.ndarray:
+    """A model's outputs at a state, its inputs and parameters (inputs not given at 0).
+
+    Parameters
+    ----------
+    m : Model
+        The symbolic model.
+    outputs : tuple of str
+        Output names.
+    state : dict of str to float
+        State values by name.
+    inputs : dict of str to float, optional
+        Input values by name (None: all at 0).
+    parameters : dict
+        Start values by parameter name (those that are no parameters of ``m`` are ignored).
+    time : float
+        Time, s.
+    """
+    return _linearizer(m, (), outputs)(state, inputs, _parameters(m, parameters), time).y0
 
 
 def exogenous(scenario: Scenario, instance: str, skip: set[str]) -> dict[str, float]:
@@ -220,7 +257,7 @@ def exogenous(scenario: Scenario, instance: str, skip: set[str]) -> dict[str, fl
 
     m = model(scenario.fmus[instance].model or "")
     names = [v.name for v in m.inputs]
-    out = {k: v for k, v in _numbers(scenario.fmus[instance].parameters).items() if k in names and k not in skip}
+    out = {k: v for k, v in numbers(scenario.fmus[instance].parameters).items() if k in names and k not in skip}
     for target, prof in profiles(scenario):
         inst, var = target.split(".", 1)
         if inst == instance:
@@ -239,8 +276,8 @@ def exogenous(scenario: Scenario, instance: str, skip: set[str]) -> dict[str, fl
         targets = [n for n in _expand(names, in_var) if n not in skip]
         if not targets:
             continue
-        values = _linearizer(sm, (), tuple(outs))(_start_state(sm, spec.parameters), None,
-                                                  _parameters(sm, spec.parameters), scenario.start_time).y0
+        values = outputs_at(sm, tuple(outs), start_state(sm, spec.parameters), None, spec.parameters,
+                            scenario.start_time)
         out.update(zip(targets, map(float, values)))
     return out
 
@@ -278,7 +315,7 @@ def operating_point(scenario: Scenario, loop: Loop, point: str
     plant_in = exogenous(scenario, loop.plant, {i for _, i in loop.actuation})
     if point == "origin":
         return {}, plant_in, {}
-    state = _start_state(model(loop.plant_model), scenario.fmus[loop.plant].parameters)
+    state = start_state(model(loop.plant_model), scenario.fmus[loop.plant].parameters)
     return state, plant_in, exogenous(scenario, loop.controller, {i for _, i in loop.measurement})
 
 

@@ -39,10 +39,10 @@ LOWEST_CROSSOVER = 1e-6
 """Phase crossovers below this frequency are not read as gain margins, rad/s: a loop with a double
 integrator reaches -180 deg only as the frequency goes to 0 (its gain unbounded there)."""
 MINREAL_TOL = 1e-8
-MARGIN_FREQUENCIES = np.logspace(-5, 3, 8000)
-"""Frequency grid of the loop-at-a-time margins, rad/s (python-control interpolates the crossovers
-between its points)."""
 """Tolerance of the pole-zero cancellation of a loop's realization (python-control's ``minreal``)."""
+MARGIN_FREQUENCIES = np.logspace(-5, 3, 2001)
+"""Frequency grid of the loop-at-a-time margins, rad/s: 250 points a decade (python-control
+interpolates the crossovers between its points with a spline; its cost grows with the points)."""
 
 
 @dataclass(frozen=True)

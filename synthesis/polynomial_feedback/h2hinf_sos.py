@@ -59,7 +59,7 @@ import numpy as np
 import sympy as sp
 from scipy.integrate import solve_ivp
 
-from satfmu.controllers import artifact as artifacts
+from satfmu.controllers import artifact as artifacts, domain
 from satfmu.fmus import codegen
 from satfmu.fmus.plants import mrp_satellite
 from satfmu.fmus.model import Model
@@ -113,6 +113,8 @@ class Theorem8Result:
         ``"build"``, ``"solve"`` and ``"verify"`` times, s.
     coordinates : Coordinates, optional
         The units the program was solved in (:mod:`satfmu.synthesis.polynomial_feedback.coordinates`).
+    frozen : bool
+        The conditions were posed on the linearization (A frozen at the origin): no region.
     """
 
     variant: str
@@ -138,6 +140,13 @@ class Theorem8Result:
     solution: SOSSolution
     timings: dict[str, float] = field(default_factory=dict)
     coordinates: Coordinates = field(default_factory=Coordinates.identity)
+    frozen: bool = False
+
+    @property
+    def domain(self) -> list[dict[str, Any]] | None:
+        """The region in numbers (:mod:`satfmu.controllers.domain`): the ball ``|x~| <= radius``;
+        None for a frozen design (its claim holds at the origin only)."""
+        return None if self.frozen else [domain.ball([str(x) for x in self.plant.tilde_symbols], self.radius)]
     """The units the program was solved in (the certificate is checked in the user's)."""
 
     @property
@@ -419,7 +428,7 @@ def theorem8(gamma: float, alpha: float, beta: float, variant: str = "slack", re
 
     return Theorem8Result(variant, float(gamma), float(alpha), float(beta), float(user_sol.y[user.lam_idx[0]]),
                           num(user.X2), num(user.Xinf), num(user.F), polys(user.Y), plant, checks, user.label,
-                          float(region), x0, Qh, Rh, user_sol, timings, coords)
+                          float(region), x0, Qh, Rh, user_sol, timings, coords, frozen)
 
 
 @dataclass(frozen=True)
@@ -542,6 +551,7 @@ def artifact_data(result: Theorem8Result, name: str, check: ClosedLoopCheck,
         certificate={
             "status": "certified" if ok else "not_verified",
             "proved": result.proved, "region": result.region,
+            **({} if result.domain is None else {"domain": result.domain}),
             "numbers": {**check_numbers(result.checks), "lambda": result.lam, "gamma": result.gamma,
                         "alpha": result.alpha, "beta": result.beta, "psd_margin": _psd_margin(result),
                         "h2 level x0^T X2^-1 x0": result.h2_level(),

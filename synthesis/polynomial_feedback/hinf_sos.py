@@ -33,7 +33,7 @@ import numpy as np
 import scipy.sparse as sps
 import sympy as sp
 
-from satfmu.controllers import artifact as artifacts
+from satfmu.controllers import artifact as artifacts, domain
 from satfmu.fmus.plants import mrp_satellite
 from satfmu.fmus.model import Model
 from satfmu.synthesis.core.polynomial import Poly, PolyMatrix, monomials
@@ -57,6 +57,8 @@ class Theorem1Result:
         What the certificate proves, e.g. ``"strict on |sigma| <= 0.9: dV/dt <= ..."``.
     region : str
         Where it is proved: ``"global"`` or ``"|sigma| <= r"``.
+    domain : list of dict
+        The same in numbers (:mod:`satfmu.controllers.domain`): ``[]`` globally, the ball on sigma.
     solution : satfmu.synthesis.core.sos.SOSSolution
         The solver's output.
     timings : dict, optional
@@ -69,6 +71,7 @@ class Theorem1Result:
     checks: list[Check]
     proved: str
     region: str
+    domain: list[dict[str, Any]]
     solution: SOSSolution
     timings: dict[str, float] = field(default_factory=dict)
 
@@ -186,7 +189,9 @@ def theorem1(model: Model | None = None, k_degree: int = 2, rate_margin: float =
     Kv = [[K.entries[i][j].value(sol.y) for j in range(n)] for i in range(m)]
     Kt = [[functools.reduce(operator.add, [Kv[l][j].scale(float(G_inv[i, l])) for l in range(m) if G_inv[i, l]])
            for j in range(n)] for i in range(m)]
-    return Theorem1Result(Qv, Kt, checks, proved, label, sol, timings)
+    sigma = [f"sigma[{i}]" for i in (1, 2, 3)]
+    return Theorem1Result(Qv, Kt, checks, proved, label, [] if region is None else [domain.ball(sigma, region)],
+                          sol, timings)
 
 
 def _input_gain_inverse(model: Model, subs: dict, m: int) -> np.ndarray:
@@ -260,6 +265,7 @@ def artifact_data(result: Theorem1Result, name: str, model: Model | None = None)
         law={"form": "gain_times_lyapunov", "K": result.law_terms(), "P": np.linalg.inv(result.Q).tolist()},
         lyapunov={"Q": result.Q.tolist(), "note": "V = x^T Q^-1 x"},
         certificate={"status": "certified" if result.certified else "not_verified",
-                     "proved": result.proved, "region": result.region, "numbers": check_numbers(result.checks)},
+                     "proved": result.proved, "region": result.region, "domain": result.domain,
+                     "numbers": check_numbers(result.checks)},
         provenance={"source": "satfmu satfmu.synthesis.polynomial_feedback.hinf_sos.theorem1 (seed 000 eq. 23)",
                     "solver": result.solution.solver, "timings_s": result.timings})

@@ -669,7 +669,8 @@ def gain_artifact(variant: Variant, K: np.ndarray, name: str, *, status: str, pr
             "outputs": [{"name": f"u_c[{i + 1}]", "unit": "N.m", "description": f"Commanded wheel torque, axis {i + 1}"}
                         for i in range(3)],
             "gains": dm.fmu_gains(K),
-            "certificate": {"status": status, "proved": proved, "region": box, "numbers": numbers},
+            # a linear loop: the claims hold for every state; the box bounds the plant (design_plant.ranges)
+            "certificate": {"status": status, "proved": proved, "region": box, "domain": [], "numbers": numbers},
             "provenance": {"source": source, "seed": f"004, Table 1 {method}" if seed
                            else f"004's method ({method}) for a user's spacecraft",
                            "coupling_L": "substitute (docs/models.md)" if seed

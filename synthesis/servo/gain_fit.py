@@ -22,6 +22,7 @@ from typing import cast
 
 import numpy as np
 
+from satfmu.controllers import domain
 from satfmu.controllers.artifact import SERVO_KIND, FORMAT, FORMAT_VERSION, design_plant_record
 from satfmu.controllers.servo_sdc import OUTPUTS, RATES, TRACKED
 from satfmu.fmus.plants import vscmg
@@ -259,6 +260,7 @@ def approximated_sdre_data(result: GainFit, servo: Servo, checks: dict[str, floa
                       "right of the conserved-p4 mode at 0 on the fit grid and its midpoints; off-grid fit error; "
                       "the seed's manoeuvre tracked in closed-loop simulation (frictionless)",
             "region": f"q2 in {list(Q2_RANGE)} rad, w4 in {list(W4_RANGE)} rad/s, w2 = 0",
+            "domain": [domain.interval("q2", *Q2_RANGE), domain.interval("w4", *W4_RANGE)],
             "numbers": {"fit_max_rel_error": result.max_rel_error, "fit_rms_rel_error": result.rms_rel_error,
                         **checks}}
     prov = {"source": "satfmu satfmu.synthesis.servo.gain_fit (seed 002 section 3.2)",
@@ -291,6 +293,8 @@ def lq_data(servo: Servo, x0: np.ndarray, name: str = "vscmg_lq_servo") -> dict:
     cert = {"status": "certified", "proved": "Riccati solution at the design state checked (residual, "
             "closed-loop eigenvalues of the linearization's SDC pair)",
             "region": f"design state q2 = {x0[1]:.6g} rad, rest",
+            "domain": [domain.interval("q2", x0[1], x0[1]),
+                       *(domain.interval(w, 0.0, 0.0) for w in ("w1", "w2", "w4"))],
             "numbers": {"riccati_residual": check.residual, "max_re_closed_loop": check.max_re,
                         "max_re_shifted": check.max_re_shifted}}
     prov = {"source": "satfmu satfmu.synthesis.servo.gain_fit.lq_data (substitute baseline, seed 002 section 5.1)",

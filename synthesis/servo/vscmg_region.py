@@ -45,6 +45,7 @@ import numpy as np
 import scipy.linalg as sla
 import sympy as sp
 
+from satfmu.controllers import domain
 from satfmu.controllers.artifact import ServoArtifact
 from satfmu.controllers.polynomial import sympy_polynomial
 from satfmu.controllers.servo_sdc import servo_matrices
@@ -509,7 +510,8 @@ def artifact_certificate(fit_certificate: dict[str, Any], cert: BoxCertificate, 
                   f"{cert.decay:.3g} 1/s, with one common Lyapunov matrix; exact in sin/cos (enclosure), "
                   f"re-verified (Gram eigenvalues, residuals, margin {cert.margin:.3g}, "
                   f"{trig['samples']} samples of the trigonometric model). Also: {fit_certificate['proved']}")
-        return {"status": "certified", "proved": proved, "region": region, "numbers": numbers}
+        return {"status": "certified", "proved": proved, "region": region,
+                "domain": [domain.interval("q2", *cert.q2), domain.interval("w4", *cert.w4)], "numbers": numbers}
     why = cert.message if not cert.certified else f"trigonometric samples disagree: {trig}"
     return {**fit_certificate, "proved": f"{fit_certificate['proved']}; SOS region NOT certified ({why})",
             "numbers": numbers}
