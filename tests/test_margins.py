@@ -13,6 +13,8 @@ from satfmu.controllers import polynomial
 from satfmu.fmus.linearization import linearize
 from satfmu.fmus.plants import mrp_satellite
 from satfmu.synthesis.core import margins as loop_margins
+from satfmu.sims.scenario import loops
+from satfmu.sims.scenario.spec import load
 
 CONTROLLERS = ("mrp_hinf_published", "mrp_hinf_satfmu", "mrp_h2hinf_satfmu")
 
@@ -51,11 +53,9 @@ def test_python_control_margins_agree_with_our_own_sweep(name: str) -> None:
     for step in (0.0, 0.05):
         m = loop_margins.margins(P, K, step)
         assert m.closed_loop_stable
-        L_in, _ = loop_margins.loop_transfers(P, K, step)
         omega = np.logspace(-4, math.log10(0.999 * math.pi / step) if step else 3, 40_000)
-        for i, loop in enumerate(m.loops):
-            L_i = loop_margins._channel_loop(-L_in, i)
-            gm, pm = loop_margins.sweep_margins(loop_margins.response(L_i, omega)[0, 0], omega)
+        for (_, L_i), loop in zip(loop_margins.channel_responses(P, K, omega, step), m.loops):
+            gm, pm = loop_margins.sweep_margins(L_i, omega)
             # the same response, crossovers found by two codes on two grids: within 0.05 deg (the
             # interpolation of a 40,000-point and an 8,000-point log grid; measured < 1e-6 deg)
             assert loop.phase_margin_deg == pytest.approx(pm, abs=0.05)
@@ -90,5 +90,44 @@ def test_margins_of_a_shipped_controller_and_what_has_none() -> None:
 def test_the_loop_of_a_channel_closes_the_others() -> None:
     # two decoupled channels: channel 1's loop is its own, whatever channel 2 does
     G = control.ss(np.diag([-1.0, -2.0]), np.eye(2), np.eye(2), np.zeros((2, 2)))  # G = K P
-    L1 = loop_margins._channel_loop(G, 0)
-    assert complex(np.asarray(L1(1j * 0.3)).ravel()[0]) == pytest.approx(-1 / (1j * 0.3 + 1), rel=1e-12)
+    L1 = loop_margins.channel_response(loop_margins.response(G, np.array([0.3])), 0)
+    assert complex(L1[0]) == pytest.approx(-1 / (1j * 0.3 + 1), rel=1e-12)
+    # three coupled channels at one frequency: channel 2 broken, 1 and 3 closed, by hand (2 x 2 inverse)
+    rng = np.random.default_rng(4)
+    g = rng.normal(size=(3, 3)) + 1j * rng.normal(size=(3, 3))
+    a, b, c, d = 1 - g[0, 0], -g[0, 2], -g[2, 0], 1 - g[2, 2]
+    inv = np.array([[d, -b], [-c, a]]) / (a * d - b * c)  # (I - G_oo)^-1, G_oo the channels 1 and 3
+    by_hand = -(g[1, 1] + np.array([g[1, 0], g[1, 2]]) @ inv @ np.array([g[0, 1], g[2, 1]]))
+    assert complex(loop_margins.channel_response(g[:, :, None], 1)[0]) == pytest.approx(by_hand, rel=1e-12)
+
+
+def test_the_four_wheel_loop_crosses_twice_and_its_margins_say_so() -> None:
+    """The published law on the four-wheel plant at rest, axis 3 broken: the wheels' bias momentum
+    leaves a zero at the origin, so |L| rises through 0 dB near 1.2e-4 rad/s with the phase at
+    +90 deg, peaks at the gyroscopic mode (5.8e-4 rad/s) and falls through 0 dB at 2.6e-3 rad/s at
+    -90 deg. Each crossover tolerates 90 deg of phase either way; a delay only lags, and the lag
+    that reaches -1 is 90 deg at 2.6e-3 rad/s (a 600 s delay margin) but 270 deg at the first.
+    Continuous and sampled agree (the sampled loop's minimal realization once dropped the first
+    crossover; the continuous one's was read as a -90 deg phase margin)."""
+    sc = load("rw4_slew_published")
+    loop, = loops.find_loops(sc)[0]
+    P, K = loops.linearize_loop(sc, loop, "origin")
+    omega = np.logspace(-6, math.log10(0.999 * math.pi / sc.step_size), 40_000)
+    for step in (0.0, sc.step_size):
+        m = loop_margins.margins(P, K, step)
+        assert m.closed_loop_stable
+        (_, L3), = [c for c in loop_margins.channel_responses(P, K, omega, step) if c[0] == "u[3]"]
+        mag, phase = np.abs(L3), np.degrees(np.angle(L3))
+        ups = np.flatnonzero((mag[:-1] < 1) & (mag[1:] >= 1))
+        downs = np.flatnonzero((mag[:-1] >= 1) & (mag[1:] < 1))
+        assert len(ups) == len(downs) == 1
+        # measured: up at 1.238e-4 rad/s, +89.5 deg; down at 2.634e-3 rad/s, -89.5 deg (1 % and 1 deg:
+        # the grid's spacing, 0.03 %, and a hold's phase, w T / 2 < 0.004 deg, are far below)
+        assert omega[ups[0]] == pytest.approx(1.238e-4, rel=0.01) and phase[ups[0]] == pytest.approx(90.0, abs=1.0)
+        assert omega[downs[0]] == pytest.approx(2.634e-3, rel=0.01) and phase[downs[0]] == pytest.approx(-90.0, abs=1.0)
+        lm = m.loops[2]
+        assert lm.phase_margin_deg == pytest.approx(loop_margins.sweep_margins(L3, omega)[1], abs=0.05)
+        assert 89.0 < lm.phase_margin_deg < 91.0
+        # the delay margin is the 90 deg of lag at 2.5e-3 rad/s, not the 270 deg at 1.4e-4 rad/s
+        lag = (phase[downs[0]] + 180.0) % 360.0
+        assert lm.delay_margin == pytest.approx(math.radians(lag) / omega[downs[0]], rel=0.02)

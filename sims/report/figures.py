@@ -500,10 +500,10 @@ def frequency_responses(loops: Sequence[Any], title: str = "") -> str:
     for (ax_l, ax_s), lm in zip(axes, loops):
         step = lm.sample_time
         omega = np.logspace(-4, math.log10(0.999 * math.pi / step), 600)
-        for k, (name, L) in enumerate(loop_margins.channel_loops(lm.plant, lm.controller, step)):
+        for k, (name, resp) in enumerate(loop_margins.channel_responses(lm.plant, lm.controller, omega, step)):
             if name in lm.sampled.unused:
                 continue
-            mag = np.abs(loop_margins.response(L, omega)[0, 0])
+            mag = np.abs(resp)
             ax_l.semilogx(omega, 20 * np.log10(np.maximum(mag, 1e-300)), color=f"C{k % 10}", lw=1.1, label=name)
         ax_l.axhline(0.0, color="#888888", lw=0.8)
         ax_l.set_ylabel("|L_i| (dB)", fontsize=9)

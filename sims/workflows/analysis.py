@@ -363,8 +363,13 @@ def _margin_lines(head: str, m: Any) -> list[str]:
     lines = [f"{head}: closed loop {'stable' if m.closed_loop_stable else 'UNSTABLE'}; disk margins (all inputs at "
              f"once) {m.disk_gain_margin_db:.2f} dB, {m.disk_phase_margin_deg:.2f} deg; peaks |S| "
              f"{m.sensitivity_peak:.3f}, |T| {m.complementary_peak:.3f}"]
-    lines += [f"    loop {lm.channel}: gain margin {lm.gain_margin_db:.2f} dB, phase margin {lm.phase_margin_deg:.2f} "
-              f"deg at {lm.gain_crossover:.4g} rad/s, delay margin {lm.delay_margin:.4g} s" for lm in m.loops]
+    for lm in m.loops:
+        lower = f" (a reduction of {-lm.lower_gain_margin_db:.2f} dB destabilizes)" \
+            if math.isfinite(lm.lower_gain_margin_db) else ""
+        phase = (f"phase margin {lm.phase_margin_deg:.2f} deg at {lm.gain_crossover:.4g} rad/s, delay margin "
+                 f"{lm.delay_margin:.4g} s" if math.isfinite(lm.phase_margin_deg)
+                 else "no gain crossover: no phase or delay margin to read")
+        lines.append(f"    loop {lm.channel}: gain margin {lm.gain_margin_db:.2f} dB{lower}, {phase}")
     if m.unused:
         lines.append(f"    not used by the law here: {', '.join(m.unused)}")
     return lines

@@ -61,13 +61,20 @@ class LoopMargin:
         The smallest gain reduction that destabilizes, dB (negative; -inf when none does, read at
         phase crossovers above :data:`LOWEST_CROSSOVER`).
     phase_margin_deg : float
-        Phase margin, deg (inf when the gain never crosses 1).
+        Phase margin, deg: the smallest rotation, lead or lag, that brings the loop to -1 at one
+        of its gain crossovers (>= 0; inf when the gain never crosses 1). A loop may cross 0 dB
+        with its phase above 0 (the four-wheel loop rises through 0 dB at 1.2e-4 rad/s with the
+        phase of a zero at the origin, +90 deg): the phase it tolerates there is 90 deg either
+        way, not the -90 deg that ``180 + phase`` wraps to. With the closed loop unstable
+        (``Margins.closed_loop_stable`` false) no margin means anything.
     phase_crossover : float
         Frequency of the gain margin, rad/s (nan when none).
     gain_crossover : float
         Frequency of the phase margin, rad/s (nan when none).
     delay_margin : float
-        The extra delay the loop tolerates, ``phase margin / gain crossover``, s.
+        The extra delay the loop tolerates, s: a delay only lags, so at each gain crossover
+        ``w`` it takes the lag ``(180 + phase) mod 360`` deg, over ``w``; the smallest of them
+        (``phase margin / gain crossover`` when the loop crosses once).
     """
 
     channel: str
@@ -157,42 +164,60 @@ def loop_transfers(plant: Linearization, controller: Linearization, sample_time:
     return -K * P, -P * K
 
 
-def channel_loops(plant: Linearization, controller: Linearization, sample_time: float = 0.0
-                  ) -> list[tuple[str, control.StateSpace]]:
-    """The loop-at-a-time transfers of each channel of the plant input, the others closed.
+def channel_responses(plant: Linearization, controller: Linearization, omega: np.ndarray,
+                      sample_time: float = 0.0) -> list[tuple[str, np.ndarray]]:
+    """The frequency responses of the loop-at-a-time transfers of each plant input channel, the
+    others closed.
 
     Parameters
     ----------
     plant, controller : Linearization
         As :func:`loop_transfers`.
+    omega : numpy.ndarray
+        Frequencies, rad/s.
     sample_time : float, optional
         0: continuous; else the communication step, s.
 
     Returns
     -------
-    list of (str, control.StateSpace)
-        The controller output (channel) and its SISO loop transfer.
+    list of (str, numpy.ndarray)
+        The controller output (channel) and its loop's complex response at ``omega``.
     """
     L_in, _ = loop_transfers(plant, controller, sample_time)
-    return [(name, _channel_loop(-L_in, i)) for i, name in enumerate(controller.outputs)]
+    G = -response(L_in, omega)
+    return [(name, channel_response(G, i)) for i, name in enumerate(controller.outputs)]
 
 
-def _channel_loop(G: control.StateSpace, i: int) -> control.StateSpace:
-    """``-(G_ii + G_io (I - G_oo)^-1 G_oi)``: channel ``i`` broken, the others closed (``G = K P``)."""
-    m = G.ninputs
-    others = [j for j in range(m) if j != i]
+def channel_response(G: np.ndarray, i: int) -> np.ndarray:
+    """``L_i = -(G_ii + G_io (I - G_oo)^-1 G_oi)``, channel ``i`` broken and the others closed,
+    frequency by frequency from the response of ``G = K P``.
+
+    Computed from the response, not from a realization: forming the interconnection repeats the
+    plant's states, and cancelling them again (a minimal realization) mistook the rigid-body and
+    wheel poles at 0 for zeros of the four-wheel loop (a spurious crossover at 1e-4 rad/s, read
+    as a -90 deg phase margin).
+
+    Parameters
+    ----------
+    G : numpy.ndarray
+        Complex, shape ``(m, m, N)``: ``G = K P`` at N frequencies.
+    i : int
+        The channel.
+
+    Returns
+    -------
+    numpy.ndarray
+        Complex, shape ``(N,)``.
+    """
+    others = [j for j in range(G.shape[0]) if j != i]
     if not others:
-        return -G
-    g_ii = G[i, i]
-    if len(others) == 1:
-        g_io, g_oi, g_oo = G[i, others[0]], G[others[0], i], G[others[0], others[0]]
-    else:
-        g_io, g_oi, g_oo = G[[i], others], G[others, [i]], G[others, others]
-    eye = control.ss([], [], [], np.eye(len(others)), G.dt)
-    closed = control.feedback(eye, g_oo, sign=1)  # (I - G_oo)^-1
-    # the interconnection repeats the plant's states: cancel the pairs, or the margin search meets
-    # spurious crossings where the gain is 1e-16 (read as -320 dB gain margins)
-    return control.minreal(-(g_ii + g_io * closed * g_oi), tol=MINREAL_TOL, verbose=False)
+        return -G[i, i]
+    Gk = np.moveaxis(G, -1, 0)  # (N, m, m)
+    g_oo = Gk[:, others][:, :, others]
+    g_oi = Gk[:, others, i][:, :, None]
+    g_io = Gk[:, i, others][:, None, :]
+    eye = np.eye(len(others))
+    return -(Gk[:, i, i] + (g_io @ np.linalg.solve(eye - g_oo, g_oi))[:, 0, 0])
 
 
 def margins(plant: Linearization, controller: Linearization, sample_time: float = 0.0) -> Margins:
@@ -223,9 +248,9 @@ def margins(plant: Linearization, controller: Linearization, sample_time: float 
     poles = control.minreal(closed, tol=MINREAL_TOL, verbose=False).poles()
     stable = bool(np.all(np.abs(poles) < 1 - 1e-12) if sample_time > 0 else np.all(poles.real < 0))
     omega = FREQUENCIES[FREQUENCIES < math.pi / sample_time] if sample_time > 0 else FREQUENCIES
-    loops = []
-    for i, name in enumerate(controller.outputs):
-        loops.append(_loop_margin(name, _channel_loop(G, i), _grid(sample_time)))
+    grid = _grid(sample_time)
+    G_resp = response(G, grid)
+    loops = [_loop_margin(name, channel_response(G_resp, i), grid) for i, name in enumerate(controller.outputs)]
     alpha_mu, _, _ = control.disk_margins(L_in, omega)
     S_peak, T_peak, S_half = _peaks(L_in, omega)
     # mu <= the largest singular value, so the structured margin is at least 1 / max sigma(S - I/2);
@@ -269,11 +294,11 @@ def _grid(sample_time: float) -> np.ndarray:
     return MARGIN_FREQUENCIES
 
 
-def _loop_margin(channel: str, L: control.StateSpace, omega: np.ndarray) -> LoopMargin:
+def _loop_margin(channel: str, L: np.ndarray, omega: np.ndarray) -> LoopMargin:
     """The margins of one SISO loop from every crossover python-control finds on its frequency
-    response (``frd``: its polynomial search on a sampled loop's realization met spurious
-    crossovers, a 0.6 dB gain margin where the response gives none)."""
-    data = control.frd(response(L, omega)[0, 0], omega)
+    response ``L`` at ``omega`` (``frd``: its polynomial search on a sampled loop's realization met
+    spurious crossovers, a 0.6 dB gain margin where the response gives none)."""
+    data = control.frd(L, omega)
     gms, pms, _, wpcs, wgcs, _ = control.stability_margins(data, returnall=True)
     upper, lower, w_upper = math.inf, -math.inf, math.nan
     for gm, w in zip(np.atleast_1d(gms), np.atleast_1d(wpcs)):
@@ -284,11 +309,13 @@ def _loop_margin(channel: str, L: control.StateSpace, omega: np.ndarray) -> Loop
             upper, w_upper = db, float(w)
         elif db < 0:
             lower = max(lower, db)
-    pm, w_c = math.inf, math.nan
+    pm, w_c, delay = math.inf, math.nan, math.inf
     for p, w in zip(np.atleast_1d(pms), np.atleast_1d(wgcs)):
-        if np.isfinite(p) and abs(float(p)) < abs(pm):
-            pm, w_c = float(p), float(w)
-    delay = math.radians(pm) / w_c if np.isfinite(pm) and np.isfinite(w_c) and w_c > 0 else math.inf
+        if not (np.isfinite(p) and np.isfinite(w) and w > 0):
+            continue
+        if abs(float(p)) < pm:
+            pm, w_c = abs(float(p)), float(w)
+        delay = min(delay, math.radians(float(p) % 360.0) / float(w))  # python-control: p = 180 + phase
     return LoopMargin(channel, upper, lower, pm, w_upper, w_c, delay)
 
 
@@ -353,7 +380,8 @@ def sweep_margins(response: np.ndarray, omega: np.ndarray) -> tuple[float, float
     -------
     tuple of float
         The smallest gain margin over the phase crossovers (inf if none) and the smallest phase
-        margin over the gain crossovers (inf if none).
+        margin over the gain crossovers (inf if none; as
+        :class:`LoopMargin`'s ``phase_margin_deg``, >= 0).
     """
     mag = np.abs(response)
     phase = np.unwrap(np.angle(response))
@@ -363,8 +391,8 @@ def sweep_margins(response: np.ndarray, omega: np.ndarray) -> tuple[float, float
         if (mag[k] - 1) * (mag[k + 1] - 1) < 0:
             f = (0 - math.log(mag[k])) / (math.log(mag[k + 1]) - math.log(mag[k]))
             ph = phase[k] + f * (phase[k + 1] - phase[k])
-            margin = math.degrees(ph) % 360.0 - 180.0  # distance of the phase from -180 deg, in (-180, 180]
-            pm = min(pm, margin)
+            margin = math.degrees(ph) % 360.0 - 180.0  # the phase's offset from -180 deg, in [-180, 180)
+            pm = min(pm, abs(margin))  # the rotation either way that reaches -1
         # phase crossover: the phase through -180 deg (modulo 360)
         a, b = phase[k] + math.pi, phase[k + 1] + math.pi  # 0 (mod 2 pi) at -180 deg
         turns_a, turns_b = math.floor(a / (2 * math.pi)), math.floor(b / (2 * math.pi))
