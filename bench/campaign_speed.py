@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from satfmu.sims.campaign import engine
+from satfmu.sims.campaign import cluster, engine
 from satfmu.controllers import catalog, paths
 from satfmu.sims.scenario import SHIPPED_SCENARIOS
 from satfmu.sims.scenario.spec import Scenario
@@ -90,7 +90,7 @@ def main() -> None:
         for workers in (1, 2):
             with tempfile.TemporaryDirectory(prefix="satfmu_campaign_speed_") as tmp:
                 t0 = time.perf_counter()
-                with engine.cluster_client(None, None, workers) as client:
+                with cluster.cluster_client(None, None, workers) as client:
                     client.run(lambda: None)  # every worker up
                     t1 = time.perf_counter()
                     rows[workers] = engine.run(camp, Path(tmp), client=client)

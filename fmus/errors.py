@@ -192,6 +192,11 @@ class CampaignWarning(SatfmuWarning):
     folder is in use by another driver and this one waits."""
 
 
+class InsecureConnectionWarning(SatfmuWarning):
+    """A campaign connects to a Dask scheduler off this host over plain TCP: unauthenticated and
+    unencrypted (use ``tls://``)."""
+
+
 class DesignError(SatfmuError, RuntimeError):
     """A design could not be made or failed its independent check; nothing is saved."""
 

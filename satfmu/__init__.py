@@ -73,7 +73,8 @@ _EXPORTS = {
         "DeltaError", "TooManyVerticesError", "ProgramTooLargeError", "NotHurwitzError", "OptionError",
         "VariantError", "MasterError", "UnknownVariableError", "WiringError", "FmuCallError", "UnreadableFmuError",
         "EngineError", "ScenarioError", "DesignMismatchWarning", "StaleFmuWarning", "SspError", "DispersionError",
-        "CampaignError", "CampaignWarning", "DesignError", "ShadowedArtifactWarning", "ReportError")},
+        "CampaignError", "CampaignWarning", "InsecureConnectionWarning", "DesignError", "ShadowedArtifactWarning",
+        "ReportError")},
     "Spacecraft": "satfmu.fmus.plants.spacecraft", "SEED_000": "satfmu.fmus.plants.spacecraft",
     "ReactionWheel": "satfmu.fmus.plants.wheels",
     **{name: "satfmu.fmus.plants.flexible_spacecraft" for name in (

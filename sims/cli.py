@@ -23,10 +23,11 @@ Usage::
     satfmu table1 [--rows 1 2 ...] [--scenarios N] [--convention satfmu|romuloc|both] [--compare] [--out results/table1]
     satfmu figures demeter [--artifact demeter_row1_det] [--samples 100] [--stop 60] [--step 0.001] [--fmu-dir DIR]
                            [--out results/demeter]
-    satfmu campaign demeter [--artifact demeter_row1_det] [--samples 100000] [--workers 2] [--scheduler tcp://...]
-    satfmu campaign scenario SCENARIO [--samples N | --demo] [--workers 2 | --scheduler tcp://...] [--seed S]
+    satfmu campaign demeter [--artifact demeter_row1_det] [--samples 100000] [--workers 2 | --scheduler tls://...]
+    satfmu campaign scenario SCENARIO [--samples N | --demo] [--workers 2 | --scheduler tls://...] [--seed S]
                              [--chunk C] [--envelope SIGNAL ...] [--points 500] [--fmu-dir DIR]
                              [--out results/campaigns]
+        (with --scheduler: [--tls-ca-file PEM] [--tls-cert PEM] [--tls-key PEM], default Dask's config)
     satfmu replay CAMPAIGN_DIR --sample K [--out results/replay] [--fmu-dir DIR]
     satfmu report DIR [DIR ...] [--out results/report.html] [--fmu-dir DIR] [--confidence 0.95] [--worst 5]
                   [--no-histories]
@@ -375,9 +376,33 @@ def _campaign_demeter(args: argparse.Namespace) -> int:
     report = demeter_studies.campaign(Path(args.out), args.artifact, samples=args.samples, seed=args.seed,
                                       chunk=args.chunk, workers=args.workers, scheduler=args.scheduler,
                                       epsilon=args.epsilon, delta=args.delta, name=args.name,
-                                      progress=_progress_eta("chunks"))
+                                      progress=_progress_eta("chunks"), tls=_tls(args))
     print(report.text())
     return 0
+
+
+def _tls(args: argparse.Namespace) -> Any:
+    """The TLS security of ``--tls-*`` (None without them: Dask's configuration then applies)."""
+    from satfmu.sims.campaign import cluster
+
+    files = (args.tls_ca_file, args.tls_cert, args.tls_key)
+    return cluster.security(*files) if any(files) else None
+
+
+def _cluster_options(parser: argparse.ArgumentParser) -> None:
+    """The options of the cluster a campaign runs on."""
+    parser.add_argument("--workers", type=_positive_int, default=2,
+                        help="local Dask workers, on 127.0.0.1 (ignored with --scheduler)")
+    parser.add_argument("--scheduler", default=None,
+                        help="address of a running Dask scheduler: tls://host:port, or tcp://host:port on a trusted "
+                             "network (warned off this host: unauthenticated); default: a local cluster")
+    parser.add_argument("--tls-ca-file", default=None, metavar="PEM",
+                        help="certificate authority of a tls:// scheduler (default: Dask's config, "
+                             "distributed.comm.tls.ca-file)")
+    parser.add_argument("--tls-cert", default=None, metavar="PEM",
+                        help="this client's certificate (default: distributed.comm.tls.client.cert)")
+    parser.add_argument("--tls-key", default=None, metavar="PEM",
+                        help="this client's private key (default: distributed.comm.tls.client.key)")
 
 
 def _campaign_scenario(args: argparse.Namespace) -> int:
@@ -391,7 +416,7 @@ def _campaign_scenario(args: argparse.Namespace) -> int:
         sc, samples, args.out, seed=seed, chunk=args.chunk, name=args.name,
         fmu_dir=args.fmu_dir, backend=args.backend, workers=args.workers, scheduler=args.scheduler,
         confidence=args.confidence, worst=args.worst, progress=_progress_eta("chunks"), envelopes=args.envelope or (),
-        points=args.points)
+        points=args.points, tls=_tls(args))
     print(result.statistics.text())
     for index, message in result.failures():
         print(f"sample {index}: {message}")
@@ -651,9 +676,7 @@ def parser() -> argparse.ArgumentParser:
     cd.add_argument("--chunk", type=_positive_int, default=5000, help="samples per task and per Parquet file")
     cd.add_argument("--seed", type=_nonnegative_int, default=0,
                     help="root seed (results depend only on seed, chunk, samples)")
-    cd.add_argument("--workers", type=_positive_int, default=2, help="local Dask workers (ignored with --scheduler)")
-    cd.add_argument("--scheduler", default=None,
-                    help="address of a running Dask scheduler, tcp://host:port (default: a local cluster)")
+    _cluster_options(cd)
     cd.add_argument("--epsilon", type=float, default=0.1, help="accuracy of the statements")
     cd.add_argument("--delta", type=float, default=1e-6, help="1 - confidence of the statements")
     cd.add_argument("--name", default=None,
@@ -673,9 +696,7 @@ def parser() -> argparse.ArgumentParser:
                          "else 0)")
     cs.add_argument("--chunk", type=_positive_int, default=None,
                     help="samples per task and per Parquet file (default: about 100 chunks, 10 to 1000 samples each)")
-    cs.add_argument("--workers", type=_positive_int, default=2, help="local Dask workers (ignored with --scheduler)")
-    cs.add_argument("--scheduler", default=None,
-                    help="address of a running Dask scheduler, tcp://host:port (default: a local cluster)")
+    _cluster_options(cs)
     cs.add_argument("--backend", choices=backends, default="native", help="default FMU backend")
     cs.add_argument("--confidence", type=float, default=0.95, help="two-sided confidence of the pass-rate intervals")
     cs.add_argument("--worst", type=_nonnegative_int, default=5, help="worst samples listed")

@@ -30,7 +30,6 @@ driver writes, and each chunk has one file name, no sample is lost or duplicated
 """
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 import functools
 import hashlib
@@ -40,17 +39,18 @@ import os
 import pickle
 import uuid
 import warnings
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Generic, TypeVar
 
-import dask
 import numpy as np
 import pandas as pd
-from distributed import Client, LocalCluster, as_completed
+from distributed import Client, as_completed
+from distributed.security import Security
 
 from satfmu.fmus.atomic import write_atomically
+from satfmu.sims.campaign.cluster import cluster_client
 from satfmu.fmus.declared import check_safe_name
 from satfmu.sims.campaign import chunk_files
 from satfmu.fmus.errors import CampaignError, CampaignWarning
@@ -324,7 +324,7 @@ def chunk_path(folder: Path, k: int) -> Path:
 
 def run(campaign: Campaign, out_dir: Path, *, scheduler: str | None = None, n_workers: int = 2,
         threads_per_worker: int = 1, progress: Progress | None = None,
-        client: Client | None = None) -> pd.DataFrame:
+        client: Client | None = None, tls: Security | None = None) -> pd.DataFrame:
     """Run (or resume) a campaign on Dask and return all its results.
 
     Resuming uses a chunk as it is only if ``campaign.json`` records its checksum and its file
@@ -338,15 +338,19 @@ def run(campaign: Campaign, out_dir: Path, *, scheduler: str | None = None, n_wo
     out_dir : Path
         Results go to ``out_dir / campaign.name``: ``campaign.json`` and one Parquet file per chunk.
     scheduler : str, optional
-        Address of a running scheduler (``"tcp://host:port"``).  Default: an in-process
-        ``LocalCluster`` of ``n_workers`` processes with ``threads_per_worker`` threads,
-        closed at the end (also on an error or Ctrl-C).
+        Address of a running scheduler (``"tls://host:port"``, or ``"tcp://host:port"`` on a
+        trusted network: :func:`satfmu.sims.campaign.cluster.check_address`).  Default: a
+        ``LocalCluster`` of ``n_workers`` processes with ``threads_per_worker`` threads on the
+        loopback, closed at the end (also on an error or Ctrl-C).
     n_workers, threads_per_worker : int
         Size of the local cluster (ignored with ``scheduler`` or ``client``).
     progress : callable, optional
         Called as ``progress(done_chunks, total_chunks)`` after each chunk file is written.
     client : distributed.Client, optional
         Client to use as is (not closed).
+    tls : distributed.security.Security, optional
+        The security of a ``tls://`` scheduler (default: Dask's configuration,
+        :func:`satfmu.sims.campaign.cluster.security`).
 
     Returns
     -------
@@ -365,7 +369,7 @@ def run(campaign: Campaign, out_dir: Path, *, scheduler: str | None = None, n_wo
         record = _claim_folder(folder, campaign)
         todo = _todo(folder, campaign, record)
         if todo:
-            with cluster_client(scheduler, client, n_workers, threads_per_worker) as active:
+            with cluster_client(scheduler, client, n_workers, threads_per_worker, tls) as active:
                 _compute(active, campaign, folder, record, todo, progress)
         return load(folder)
 
@@ -480,65 +484,6 @@ def _todo(folder: Path, campaign: Campaign, record: dict[str, Any]) -> list[int]
             record["chunks"].pop(str(k), None)
             todo.append(k)
     return todo
-
-
-WORKER_ENV = {"MALLOC_ARENA_MAX": "1", "MALLOC_TRIM_THRESHOLD_": str(64 * 2**20),
-              "MALLOC_MMAP_THRESHOLD_": str(32 * 2**20)}
-"""glibc malloc settings of a local cluster's workers. A worker runs its tasks in a thread of its
-own, whose allocations go to a thread arena that glibc trims eagerly, and Dask sets
-``MALLOC_TRIM_THRESHOLD_=65536`` (memory back to the system sooner), which also freezes malloc's
-adaptive mmap threshold: a campaign worker, which allocates and frees the same arrays of 10-400
-KiB every sample, then maps, unmaps and trims them every sample. One arena and high thresholds
-keep its heap at its working size. Measured on mrp_200deg samples (CPU per sample, one process,
-500 samples): 2.08 ms in the main thread, 2.54 ms in another thread, 2.03 ms in another thread
-with these settings."""
-
-
-@contextlib.contextmanager
-def cluster_client(scheduler: str | None, client: Client | None, n_workers: int = 2,
-                   threads_per_worker: int = 1) -> Iterator[Client]:
-    """The given client, a client of ``scheduler``, or that of a local cluster of ``n_workers``
-    processes (its dashboard on a free port; its workers started with :data:`WORKER_ENV`); the
-    latter two closed at exit.
-
-    Parameters
-    ----------
-    scheduler : str or None
-        Address of a running Dask scheduler (``"tcp://host:port"``), used when ``client`` is None.
-    client : distributed.Client or None
-        A client to use as is (not closed); it takes precedence.
-    n_workers : int
-        Worker processes of the local cluster (neither ``client`` nor ``scheduler`` given).
-    threads_per_worker : int
-        Threads of each local worker.
-
-    Yields
-    ------
-    distributed.Client
-    """
-    if client is not None:
-        yield client
-    elif scheduler is not None:
-        with Client(scheduler) as remote:
-            yield remote
-    else:
-        # malloc reads its settings when a process starts: they go into the environment the nanny
-        # spawns the workers with (Dask's pre-spawn-environ, which it copies into this process's
-        # os.environ); this process's own environment is restored once they run
-        pre = {**dask.config.get("distributed.nanny.pre-spawn-environ", default={}), **WORKER_ENV}
-        saved = {k: os.environ.get(k) for k in pre}
-        # and no statistical profiler in the workers (it samples the task thread's stack every 10 ms,
-        # for the dashboard: measured 4-9 % of a campaign worker's CPU)
-        config = {"distributed.nanny.pre-spawn-environ": pre, "distributed.worker.profile.enabled": False}
-        with dask.config.set(config), \
-                LocalCluster(n_workers=n_workers, threads_per_worker=threads_per_worker, processes=True,
-                             dashboard_address=":0") as cluster, Client(cluster) as local:
-            for k, v in saved.items():
-                if v is None:
-                    os.environ.pop(k, None)
-                else:
-                    os.environ[k] = v
-            yield local
 
 
 def _compute(client: Client, campaign: Campaign, folder: Path, record: dict[str, Any], todo: list[int],

@@ -67,7 +67,7 @@ def run_campaign(scenario: "str | Path | Mapping[str, Any] | Scenario", n: int, 
                  seed: int = 0, chunk: int | None = None, name: str | None = None, fmu_dir: str | Path | None = None,
                  backend: str = "native", workers: int = 2, scheduler: str | None = None,
                  confidence: float = 0.95, worst: int = 5, progress: Any = None, envelopes: Sequence[str] = (),
-                 points: int = POINTS) -> CampaignResult:
+                 points: int = POINTS, tls: Any = None) -> CampaignResult:
     """Run (or resume) the Monte Carlo campaign of a scenario's ``[dispersions]`` on Dask.
 
     Parameters
@@ -83,13 +83,16 @@ def run_campaign(scenario: "str | Path | Mapping[str, Any] | Scenario", n: int, 
     workers : int
         Processes of the local Dask cluster (ignored with ``scheduler``).
     scheduler : str, optional
-        Address of a running Dask scheduler (``tcp://host:8786``) instead of a local cluster.
+        Address of a running Dask scheduler (``tls://host:8786``, or ``tcp://`` on a trusted network)
+        instead of a local cluster.
     confidence : float
         Two-sided confidence of the pass-rate intervals, in (0, 1).
     worst : int
         How many worst samples the statistics list.
     progress : callable, optional
         ``progress(done, total)`` after each chunk.
+    tls : distributed.security.Security, optional
+        The security of a ``tls://`` scheduler (:func:`satfmu.sims.campaign.cluster.security`).
 
     Returns
     -------
@@ -101,7 +104,7 @@ def run_campaign(scenario: "str | Path | Mapping[str, Any] | Scenario", n: int, 
     camp = campaign(sc, n, seed=seed, chunk=chunk, name=name, fmu_dir=fmu_dir, backend=backend, envelopes=envelopes,
                     points=points)
     folder = Path(out_dir) / camp.name
-    rows = engine.run(camp, Path(out_dir), scheduler=scheduler, n_workers=workers, progress=progress)
+    rows = engine.run(camp, Path(out_dir), scheduler=scheduler, n_workers=workers, progress=progress, tls=tls)
     rows, env = write_envelopes(camp, rows, folder)
     return CampaignResult(camp, folder, rows, statistics(sc, rows, confidence, worst), env)
 

@@ -464,7 +464,7 @@ def run(fmu_dir: Path, artifact: str | Path, *, n: int = 100, seed: int = 0, sto
     """
     import tempfile
 
-    from satfmu.sims.campaign import engine
+    from satfmu.sims.campaign import cluster, engine
     from satfmu.sims.campaign.scenario_task import campaign
 
     art, variant = load_design(artifact)
@@ -475,7 +475,7 @@ def run(fmu_dir: Path, artifact: str | Path, *, n: int = 100, seed: int = 0, sto
     keep = {"theta": [f"ctrl.xw[{axis}]"], "rate": [f"ctrl.xw[{axis}]"],
             "both": [f"plant.theta[{axis}]", f"plant.theta_dot[{axis}]", f"plant.wheel_saturated[{axis}]"]}
     with tempfile.TemporaryDirectory(prefix="satfmu_demeter_") as tmp, \
-            engine.cluster_client(None, client, workers) as active:
+            cluster.cluster_client(None, client, workers) as active:
         rows, tasks = {}, {}
         for start, sc in scenarios.items():
             camp = campaign(sc, n, seed=seed, chunk=max(1, -(-n // (4 * workers))), fmu_dir=fmu_dir,

@@ -260,7 +260,7 @@ class ProbabilisticCampaign:
 def campaign(out_dir: Path, artifact: str | Path = "demeter_row1_det", *, samples: int = 100_000, seed: int = 0,
              chunk: int = 5000, workers: int = 2, scheduler: str | None = None, epsilon: float = 0.1,
              delta: float = 1e-6, name: str | None = None,
-             progress: Callable[[int, int], None] | None = None) -> ProbabilisticCampaign:
+             progress: Callable[[int, int], None] | None = None, tls: Any = None) -> ProbabilisticCampaign:
     """Seed 004 Monte Carlo: poles, exact H-infinity and i2p of sampled plants under a design.
 
     Resumable: running it again skips the chunks already written (:func:`satfmu.sims.campaign.engine.run`).
@@ -280,13 +280,15 @@ def campaign(out_dir: Path, artifact: str | Path = "demeter_row1_det", *, sample
     workers : int
         Local Dask workers (ignored with ``scheduler``).
     scheduler : str, optional
-        Address of a running Dask scheduler, ``tcp://host:port``.
+        Address of a running Dask scheduler, ``tls://host:port`` (or ``tcp://`` on a trusted network).
     epsilon, delta : float
         Accuracy and 1 - confidence of the statements.
     name : str, optional
         Campaign (folder) name (default: ``<artifact>-n<samples>-s<seed>``).
     progress : callable, optional
         ``progress(done, total)`` in chunks.
+    tls : distributed.security.Security, optional
+        The security of a ``tls://`` scheduler (:func:`satfmu.sims.campaign.cluster.security`).
     """
     from satfmu.sims.campaign import engine as campaigns
     from satfmu.synthesis.robust import demeter_design
@@ -296,7 +298,7 @@ def campaign(out_dir: Path, artifact: str | Path = "demeter_row1_det", *, sample
     task = demeter_random.ClosedLoopSamples(variant, np.array(art.design["K"]))
     camp = campaigns.Campaign(name=name or f"{art.name}-n{samples}-s{seed}", task=task, n=samples, seed=seed,
                               chunk=chunk, sampler=demeter_random.BoxSampler(len(task.design_model().parameters)))
-    df = campaigns.run(camp, Path(out_dir), scheduler=scheduler, n_workers=workers, progress=progress)
+    df = campaigns.run(camp, Path(out_dir), scheduler=scheduler, n_workers=workers, progress=progress, tls=tls)
     numbers = art.certificate.get("numbers", {})
     levels = {"hinf": numbers.get("analysis_hinf_pdlf"), "i2p": numbers.get("analysis_i2p"),
               "max_real_pole": -demeter_design.ALPHA}
