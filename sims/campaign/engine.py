@@ -247,7 +247,7 @@ def sample_indices(rng: np.random.Generator | None, count: int, *, start: int) -
     return np.arange(start, start + count, dtype=np.int64)
 
 
-def run_chunk(campaign: Campaign, k: int) -> pd.DataFrame:
+def run_chunk(campaign: Campaign, k: int, refs: Any = None, files: dict[str, bytes] | None = None) -> pd.DataFrame:
     """Draw the samples of chunk ``k`` and evaluate the task on them (with the
     :func:`sample_indices` sampler: the chunk's global indices).
 
@@ -258,6 +258,10 @@ def run_chunk(campaign: Campaign, k: int) -> pd.DataFrame:
     k : int
         Chunk index, ``0 <= k < campaign.n_chunks``; its generator is
         ``default_rng(SeedSequence(seed, spawn_key=(k,)))``.
+    refs, files : optional
+        What the task's ``shipment()`` gave on the driver (the files it reads, by content): the
+        task then runs as its ``localized(refs, files)`` (a scenario task reads its FMUs from this
+        worker's cache, :mod:`satfmu.sims.campaign.shipment`).
 
     Returns
     -------
@@ -271,6 +275,8 @@ def run_chunk(campaign: Campaign, k: int) -> pd.DataFrame:
         output is not a dict of 1-D real arrays of the chunk's length. Infinite values are
         results (the H-infinity norm of an unstable closed loop), NaN marks a failed sample.
     """
+    if refs is not None:
+        campaign = dataclasses.replace(campaign, task=campaign.task.localized(refs, files or {}))
     indices = chunk_range(campaign, k)
     if campaign.sampler is sample_indices:
         samples = sample_indices(None, len(indices), start=indices.start)
@@ -282,7 +288,11 @@ def run_chunk(campaign: Campaign, k: int) -> pd.DataFrame:
                             f"{len(indices)} samples (first axis must be the samples)")
     output = campaign.task(samples)
     columns = _checked_columns(campaign.name, output, len(indices))
-    return pd.DataFrame({"sample": np.arange(indices.start, indices.stop, dtype=np.int64), **columns})
+    df = pd.DataFrame({"sample": np.arange(indices.start, indices.stop, dtype=np.int64), **columns})
+    info = getattr(campaign.task, "worker_info", None)
+    if callable(info):
+        df.attrs["worker"] = info()  # for the record, not the chunk file
+    return df
 
 
 def _checked_columns(name: str, output: Any, count: int) -> dict[str, np.ndarray]:
@@ -407,7 +417,8 @@ def _claim_folder(folder: Path, campaign: Campaign) -> dict[str, Any]:
             parts.append(f"context differs in {', '.join(keys) or 'its type'}")
         raise CampaignError(f"{folder} holds another campaign (differs in {', '.join(differ)}: {'; '.join(parts)}); "
                             "use another name or out_dir, or delete the folder")
-    return {**record, "chunks": stored["chunks"]}
+    kept = {"workers": stored["workers"]} if isinstance(stored.get("workers"), dict) else {}
+    return {**record, "chunks": stored["chunks"], **kept}
 
 
 def read_record(folder: Path) -> dict[str, Any]:
@@ -422,7 +433,9 @@ def read_record(folder: Path) -> dict[str, Any]:
     -------
     dict
         The record: the campaign's name and identity (``n``, ``seed``, ``chunk``, ``task``,
-        ``sampler``, ``context``) and ``chunks``, chunk index (str) -> SHA-256 of its file.
+        ``sampler``, ``context``), ``chunks``, chunk index (str) -> SHA-256 of its file, and for a
+        task that says so (a scenario campaign's) ``workers``, chunk index -> where it ran
+        (``host``, ``loop``: the compiled or the Python co-simulation loop).
 
     Raises
     ------
@@ -486,19 +499,34 @@ def _todo(folder: Path, campaign: Campaign, record: dict[str, Any]) -> list[int]
     return todo
 
 
+def _content(data: bytes) -> bytes:
+    """A shipped file's bytes, as the task holding them gives them (on a worker)."""
+    return data
+
+
 def _compute(client: Client, campaign: Campaign, folder: Path, record: dict[str, Any], todo: list[int],
              progress: Progress | None) -> None:
     """Submit the chunks ``todo``; write each result as it completes, then its checksum into the record."""
     # One key per chunk and per call: a chunk is never computed twice at once, and the keys of an
     # interrupted call (cancelled below, asynchronously) are never those of its resumption.
     run_id = uuid.uuid4().hex[:12]
-    futures = {client.submit(run_chunk, campaign, k, key=f"{campaign.name}-chunk-{k}-{run_id}", retries=2): k
-               for k in todo}
+    # the files the task reads go by content (a worker need not see the driver's folders): one task
+    # per file under its SHA-256, whose result each worker fetches once however many chunks it runs;
+    # the bytes are in the task itself, so a worker lost with them costs a recomputation, not the data
+    shipment = getattr(campaign.task, "shipment", None)
+    refs, files = shipment() if callable(shipment) else (None, {})
+    shipped = {sha: client.submit(_content, data, key=f"satfmu-file-{sha}", pure=False) for sha, data in files.items()}
+    futures = {client.submit(run_chunk, campaign, k, refs, shipped or None, key=f"{campaign.name}-chunk-{k}-{run_id}",
+                             retries=2): k for k in todo}
     done, digest = campaign.n_chunks - len(todo), record_digest(record)
     try:
         for future in as_completed(list(futures)):
             k = futures.pop(future)
-            data = chunk_files.chunk_bytes(future.result(), digest, k)
+            result = future.result()
+            worker = result.attrs.pop("worker", None)
+            if worker is not None:
+                record.setdefault("workers", {})[str(k)] = worker
+            data = chunk_files.chunk_bytes(result, digest, k)
             write_atomically(chunk_path(folder, k), lambda tmp: tmp.write_bytes(data))
             record["chunks"][str(k)] = chunk_files.sha256(data)
             _write_record(folder, record)

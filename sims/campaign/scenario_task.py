@@ -33,6 +33,7 @@ import hashlib
 import json
 import math
 import pickle
+import socket
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
@@ -44,6 +45,7 @@ from satfmu.fmus.errors import DesignMismatchWarning, ScenarioError
 from satfmu.fmus.profiles import ProfileError
 from satfmu.sims.campaign.engine import Campaign, CampaignError, sample_indices
 from satfmu.sims.campaign.envelopes import POINTS, trace_columns, trace_steps
+from satfmu.sims.campaign.shipment import Reference, bundle, localize
 from satfmu.sims.cosim import preflight
 from satfmu.sims.cosim.master import CoSimulation, MasterError, UnknownVariableError
 from satfmu.sims.scenario.conversions import record_conversions
@@ -103,6 +105,28 @@ class ScenarioTask:
     def trace_columns(self) -> list[str]:
         """The columns of the kept time histories (:func:`satfmu.sims.campaign.envelopes.trace_columns`)."""
         return [c for s in self.envelopes for c in trace_columns(s, len(self.trace_steps))]
+
+    def shipment(self) -> tuple[tuple[Reference, ...], dict[str, bytes]]:
+        """The files a worker needs, by content (:func:`satfmu.sims.campaign.shipment.bundle`)."""
+        return bundle(self)
+
+    def localized(self, refs: tuple[Reference, ...], files: dict[str, bytes]) -> "ScenarioTask":
+        """This task on a worker, reading the shipped files from its cache
+        (:func:`satfmu.sims.campaign.shipment.localize`).
+
+        Parameters
+        ----------
+        refs : tuple of Reference
+            What :meth:`shipment` names.
+        files : dict of str to bytes
+            SHA-256 -> content.
+        """
+        return localize(self, refs, files)
+
+    def worker_info(self) -> dict[str, str]:
+        """Where this process ran the task's samples: its host name and the master's loop
+        (``compiled``, or ``python`` on a worker without a C compiler: the same rows)."""
+        return {"host": socket.gethostname(), "loop": self.simulation().loop or "python"}
 
     def __call__(self, samples: np.ndarray) -> dict[str, np.ndarray]:
         """One value per column and sample index of ``samples``."""

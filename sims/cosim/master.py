@@ -301,6 +301,12 @@ class CoSimulation:
         if comp is not None:
             comp.log.append(message.line())
 
+    @property
+    def loop(self) -> str | None:
+        """The loop its runs step in: ``"compiled"`` (:mod:`satfmu.sims.cosim.compiled_loop`) or
+        ``"python"`` (no C compiler), None before its first run."""
+        return None if self._loop is None else "compiled" if self._loop else "python"
+
     def resolve(self, qualified: str) -> tuple[Component, list[str]]:
         """Split ``"instance.variable"`` and expand base names.
 
