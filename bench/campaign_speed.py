@@ -15,18 +15,33 @@ figures:
   the statistics: what :func:`satfmu.sims.campaign.results.run_campaign` does) and the samples alone
   (:func:`satfmu.sims.campaign.engine.run` on the running cluster), wall s, samples/s, the speed-ups (target
   >= 1.8) and whether the two give the same rows (they must: samples depend on (seed, index)
-  only). The two alternate over ``--repeat-campaign`` rounds (min and median).
+  only). The two alternate over ``--repeat-campaign`` rounds (min and median);
+- the campaign on an external cluster (``--external``, the default): a scheduler and 2 worker
+  processes started by Dask's own CLI (``dask scheduler``, ``dask worker``) on the loopback, the
+  workers with a satfmu home of their own, so the FMUs reach them by content
+  (:mod:`satfmu.sims.campaign.shipment`), as on machines that share no folder with the driver;
+  the samples alone, interleaved with the local 2-worker cluster's in each round, the per-sample
+  wall time of each and their ratio, and whether the rows are identical.
 
     python bench/campaign_speed.py [--samples 10000] [--chunk 250] [--repeat 20] [--repeat-campaign 1]
+                                   [--no-external]
 """
 from __future__ import annotations
 
 import argparse
+import contextlib
+import os
+import socket
 import statistics
+import subprocess
+import sys
 import tempfile
 import time
 import tomllib
+from collections.abc import Iterator
 from pathlib import Path
+
+from distributed import Client
 
 import numpy as np
 import pandas as pd
@@ -49,6 +64,29 @@ def scenario() -> Scenario:
     return Scenario.from_dict({**data, "dispersions": DISPERSIONS})
 
 
+@contextlib.contextmanager
+def external_cluster(workers: int, home: Path) -> Iterator[str]:
+    """A scheduler and ``workers`` single-threaded worker processes started with Dask's CLI on
+    the loopback (the workers' satfmu home ``home``, not the driver's); yields the address."""
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    address = f"tcp://127.0.0.1:{port}"
+    dask = str(Path(sys.executable).parent / "dask")
+    quiet = {"stdout": subprocess.DEVNULL, "stderr": subprocess.DEVNULL}
+    procs = [subprocess.Popen([dask, "scheduler", "--host", "127.0.0.1", "--port", str(port), "--no-dashboard"],
+                              **quiet)]
+    env = {**os.environ, **cluster.WORKER_ENV, "SATFMU_HOME": str(home)}
+    procs += [subprocess.Popen([dask, "worker", address, "--nthreads", "1", "--no-nanny", "--no-dashboard",
+                                "--host", "127.0.0.1"], env=env, **quiet) for _ in range(workers)]
+    try:
+        yield address
+    finally:
+        for p in reversed(procs):
+            p.terminate()
+            p.wait(timeout=30)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--samples", type=int, default=10_000, help="campaign size (default: 10000)")
@@ -56,6 +94,7 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=20, help="bare runs timed (default: 20)")
     ap.add_argument("--repeat-campaign", type=int, default=1,
                     help="rounds of the 1- and 2-worker campaigns (default: 1)")
+    ap.add_argument("--no-external", action="store_true", help="skip the external cluster")
     ap.add_argument("--fmu-dir", type=Path, default=paths.fmu_cache(),
                     help="FMU folder, brought up to date first (default: the user's FMU cache)")
     args = ap.parse_args()
@@ -86,7 +125,19 @@ def main() -> None:
     walls: dict[int, list[float]] = {1: [], 2: []}
     runs: dict[int, list[float]] = {1: [], 2: []}
     rows: dict[int, pd.DataFrame] = {}
+    external: list[float] = []
+    stack = contextlib.ExitStack()
+    remote = None
+    if not args.no_external:
+        home = Path(stack.enter_context(tempfile.TemporaryDirectory(prefix="satfmu_worker_home_")))
+        remote = stack.enter_context(Client(stack.enter_context(external_cluster(2, home)), timeout=60))
+        remote.wait_for_workers(2, timeout=60)
     for _ in range(args.repeat_campaign):
+        if remote is not None:
+            with tempfile.TemporaryDirectory(prefix="satfmu_campaign_speed_") as tmp:
+                t0 = time.perf_counter()
+                rows[0] = engine.run(camp, Path(tmp), client=remote)
+                external.append(time.perf_counter() - t0)
         for workers in (1, 2):
             with tempfile.TemporaryDirectory(prefix="satfmu_campaign_speed_") as tmp:
                 t0 = time.perf_counter()
@@ -109,6 +160,14 @@ def main() -> None:
           f"{statistics.median(runs[1]) / statistics.median(runs[2]):.2f}x); {args.samples} samples on 2 workers in "
           f"{min(walls[2]):.1f} s end to end (target < 120 s); rows of 1 and 2 workers identical: "
           f"{rows[1].equals(rows[2])}")
+    if external:
+        local, far = min(runs[2]), min(external)
+        print(f"external cluster (dask scheduler + 2 dask worker processes, FMUs sent by content), the samples "
+              f"alone: {far:.2f} s min ({statistics.median(external):.2f} median) = {far / args.samples * 1e3:.3f} ms "
+              f"a sample, against {local / args.samples * 1e3:.3f} ms on the local 2-worker cluster: "
+              f"{far / local:.2f}x (medians {statistics.median(external) / statistics.median(runs[2]):.2f}x); "
+              f"rows identical: {rows[0].equals(rows[2])}")
+    stack.close()
     print(f"pass rate of the campaign: {stats.overall.pass_rate:.2%}, failed to run: {stats.n_failed}")
 
 
