@@ -83,3 +83,13 @@ def test_a_file_the_driver_cannot_read_is_named(task, tmp_path: Path) -> None:
     (tmp_path / "driver" / "wind.csv").unlink()
     with pytest.raises(CampaignError, match=r"profiles\[\d\]: cannot read .*wind.csv to send it to the workers"):
         shipment.bundle(task)
+
+
+def test_a_reference_cannot_name_a_file_outside_the_set(task, tmp_path: Path, monkeypatch) -> None:
+    refs, files = shipment.bundle(task)
+    monkeypatch.setenv("SATFMU_HOME", str(tmp_path / "worker-home"))
+    for bad in ("..", "../escape.fmu", "a/b.fmu", ""):
+        forged = tuple(shipment.Reference(r.kind, r.owner, bad, r.sha256) if r.kind == "model" else r for r in refs)
+        with pytest.raises(CampaignError, match="is no file name"):
+            shipment.localize(task, forged, files)
+    assert not any((tmp_path / "worker-home").rglob("escape.fmu"))

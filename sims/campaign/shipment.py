@@ -157,6 +157,8 @@ def localize(task: ScenarioTask, refs: tuple[Reference, ...], files: dict[str, b
     profiles = [dict(p) for p in sc.profiles]
     for ref in refs:
         name = ref.name if ref.kind == "model" else f"{ref.owner}-{ref.name}"
+        if ref.name in ("", ".", "..") or Path(name).name != name or len(ref.sha256) != 64:
+            raise CampaignError(f"{ref.owner}: {ref.name!r} is no file name to keep a shipped file under")
         target = folder / name
         if not target.is_file() or os.stat(target).st_ino != os.stat(_stored(ref.sha256, files)).st_ino:
             _link(_stored(ref.sha256, files), target)
