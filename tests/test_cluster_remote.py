@@ -1,9 +1,9 @@
 """A scenario campaign on a Dask cluster that shares no folder with the driver.
 
 A scheduler and two worker processes on the loopback, each worker in its own mount namespace
-(``unshare -m``, root) with tmpfs mounted over ``/tmp`` (the driver's campaign folder, its
-satfmu home, pytest's folders) and over the repository's ``build/`` (the FMUs): as on another
-machine, a worker sees none of the driver's files. The campaign must complete with rows
+(``unshare -m``, root) with empty tmpfs mounted over the driver's folders (pytest's, where the
+campaign folder is; the driver's satfmu home; the repository's ``build/``, where the FMUs are):
+as on another machine, a worker sees none of the driver's files. The campaign must complete with rows
 identical to those of the same campaign on an in-process cluster: the FMUs travel by content
 (:mod:`satfmu.sims.campaign.shipment`). Also with one worker killed half-way (Dask runs its
 chunks again on the other), and over ``tls://`` with certificates made here by openssl.
@@ -85,25 +85,35 @@ def _scheduler(log: Path, tls: dict[str, Path] | None) -> Iterator[str]:
         proc.wait(timeout=30)
 
 
-def _hidden_worker(address: str, name: str, log: Path, tls: dict[str, Path] | None,
+def _hidden_worker(address: str, name: str, log: Path, tls: dict[str, Path] | None, hide: list[Path],
                    python_loop: bool = False) -> subprocess.Popen:
-    """A worker in a mount namespace of its own, /tmp and the repository's build/ hidden under
-    tmpfs; its TLS files (if any) handed over in its environment and written into its /tmp.
-    With ``python_loop`` it steps in Python, as a worker without a C compiler does."""
-    env = {**os.environ, "SATFMU_HOME": "/tmp/worker-home"}
+    """A worker in a mount namespace of its own, the folders ``hide`` under empty tmpfs (its own
+    scratch folder, TMPDIR and satfmu home, in the first); its TLS files (if any) handed over in
+    its environment and written there. With ``python_loop`` it steps in Python, as a worker
+    without a C compiler does."""
+    scratch = hide[0] / f"worker-{name}"
+    env = {**os.environ, "SATFMU_HOME": str(scratch / "home"), "TMPDIR": str(scratch)}
     if python_loop:
         env["SATFMU_PYTHON_LOOP"] = "1"
+    mounts = " && ".join(f"mount -t tmpfs tmpfs '{p}'" for p in hide)
     write_tls = ""
     if tls:
         env.update({f"SATFMU_TEST_{k.upper()}": p.read_text() for k, p in tls.items()})
-        write_tls = ('printf "%s" "$SATFMU_TEST_CA" > /tmp/ca.pem && printf "%s" "$SATFMU_TEST_CERT" > /tmp/node.pem '
-                     '&& printf "%s" "$SATFMU_TEST_KEY" > /tmp/node.key && ')
-    script = (f"mount -t tmpfs tmpfs /tmp && mount -t tmpfs tmpfs '{ROOT / 'build'}' && {write_tls}"
+        write_tls = (f'printf "%s" "$SATFMU_TEST_CA" > {scratch}/ca.pem && printf "%s" "$SATFMU_TEST_CERT" > '
+                     f'{scratch}/node.pem && printf "%s" "$SATFMU_TEST_KEY" > {scratch}/node.key && ')
+    script = (f"{mounts} && mkdir -p '{scratch}' && {write_tls}"
               f"exec '{DASK}' worker {address} --nthreads 1 --no-nanny --no-dashboard --host 127.0.0.1 "
-              f"--name {name} {' '.join(_tls_args(tls, '/tmp'))}")
+              f"--name {name} {' '.join(_tls_args(tls, scratch))}")
     with log.open("w") as out:
         return subprocess.Popen(["unshare", "-m", "--propagation", "private", "sh", "-c", script], env=env,
                                 stdout=out, stderr=subprocess.STDOUT, start_new_session=True)
+
+
+def _hidden(tmp_path_factory: pytest.TempPathFactory, fmu_dir: Path) -> list[Path]:
+    """The driver's folders a worker must not see: pytest's folders (the campaign's, the TLS
+    files'), this process's satfmu home and the FMU folder's parent (the repository's build/)."""
+    found = [tmp_path_factory.getbasetemp(), Path(os.environ["SATFMU_HOME"]), fmu_dir.parent]
+    return [p for p in found if not any(p != q and p.is_relative_to(q) for q in found)]
 
 
 def _connect(address: str, tls: dict[str, Path] | None, workers: int) -> Client:
@@ -123,16 +133,20 @@ def reference(tmp_path_factory: pytest.TempPathFactory, client: Client, fmu_dir:
 
 @pytest.mark.parametrize("tls", [False, True], ids=["tcp", "tls"])
 def test_workers_that_see_no_driver_file_give_the_same_rows(tls: bool, reference: pd.DataFrame, fmu_dir: Path,
-                                                            tmp_path: Path) -> None:
+                                                            tmp_path: Path,
+                                                            tmp_path_factory: pytest.TempPathFactory) -> None:
     files = _tls_files(tmp_path) if tls else None
+    hide = _hidden(tmp_path_factory, fmu_dir)
+    sentinel = Path(os.environ["SATFMU_HOME"]) / "driver-only"  # a file of the driver's satfmu home
+    sentinel.write_text("the driver's")
     with _scheduler(tmp_path / "scheduler.log", files) as address:
         # worker 0 steps in the compiled loop and is killed half-way; worker 1 steps in Python
-        procs = [_hidden_worker(address, f"w{i}", tmp_path / f"worker{i}.log", files, python_loop=i == 1)
+        procs = [_hidden_worker(address, f"w{i}", tmp_path / f"worker{i}.log", files, hide, python_loop=i == 1)
                  for i in range(2)]
         try:
             with _connect(address, files, 2) as client:
                 # the workers cannot read the FMUs, the campaign folder nor this process's satfmu home
-                for path in (fmu_dir / "mrp_satellite.fmu", tmp_path, Path(os.environ["SATFMU_HOME"])):
+                for path in (fmu_dir / "mrp_satellite.fmu", tmp_path, sentinel):
                     assert set(client.run(os.path.exists, str(path)).values()) == {False}, path
             killed: list[int] = []
 
