@@ -60,6 +60,10 @@ C_FLAGS = ("-std=c99", "-O2", "-fPIC", "-fvisibility=hidden", "-Wall", "-Wextra"
 WIN64_CC = "x86_64-w64-mingw32-gcc"
 """The MinGW-w64 cross compiler of the win64 binary (Debian's gcc-mingw-w64-x86-64-posix or
 -win32)."""
+DEFINES = {"linux64": ("-DSATFMU_GLIBC_FLOOR",), "win64": ()}
+"""Preprocessor definitions of satfmu's own build of a native FMU, per platform: the glibc floor
+of the Linux binary (``fmus/c/fmi2_cosim.c``), which an importer's rebuild from ``sources/`` leaves
+out."""
 LINK_FLAGS = {
     # NODELETE: the pythonfmu FMU's C layer registers an exit handler (fmus/c/pythonfmu_shim.c); the
     # native FMU's library has nothing that unloading would need
@@ -320,8 +324,8 @@ def _compile(name: str, root: Path, compilers: dict[str, str], source: Path = WR
     for platform, cc in compilers.items():
         binary = root / "binaries" / platform / f"{name}{SUFFIX[platform]}"
         binary.parent.mkdir(parents=True, exist_ok=True)
-        cmd = [cc, *C_FLAGS, *LINK_FLAGS[platform], f"-I{fmi_headers()}", f"-I{include}", "-o", str(binary),
-               str(src / source.name if source == WRAPPER else source), "-lm"]
+        cmd = [cc, *C_FLAGS, *DEFINES[platform], *LINK_FLAGS[platform], f"-I{fmi_headers()}", f"-I{include}",
+               "-o", str(binary), str(src / source.name if source == WRAPPER else source), "-lm"]
         running[platform] = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     messages = {platform: proc.communicate()[1] for platform, proc in running.items()}
     failed = [f"{platform} ({compilers[platform]}):\n{messages[platform]}" for platform, proc in running.items()

@@ -307,9 +307,15 @@ def affine_flow(A: list[list[float]], tau: float) -> tuple[list[list[float]], li
     return phi, gamma
 
 
+FLOW_TAU_RTOL = 1e-9
+"""A duration within this fraction of the cached one reuses its flow, as in the C wrapper: an
+importer whose steps differ in the last bits (``t + h`` rounded) would recompute it every step."""
+
+
 class ExactFlow:
     """The exact integrator of an affine model (``INTEGRATOR == "exact"``), with the C wrapper's
-    cache of ``(Phi, Gamma)`` for the last ``(A, tau)``.
+    cache of ``(Phi, Gamma)`` for the last ``(A, tau)`` (a ``tau`` within :data:`FLOW_TAU_RTOL`
+    of it reusing them).
 
     Parameters
     ----------
@@ -321,6 +327,7 @@ class ExactFlow:
     def __init__(self, gen: ModuleType) -> None:
         self.gen = gen
         self.key: tuple | None = None
+        self.tau = 0.0
         self.flow: tuple[list[list[float]], list[list[float]]] | None = None
 
     def segment(self, t: float, x: list[float], u: Sequence[float], p: Sequence[float], tau: float) -> list[float]:
@@ -347,10 +354,10 @@ class ExactFlow:
         n = len(x)
         flat = self.gen.jacobian(t, x, x, u, p)
         b = self.gen.derivatives(t, [0.0] * n, x, u, p)
-        key = (tau, tuple(flat))
-        if key != self.key:
+        key = tuple(flat)
+        if key != self.key or abs(self.tau - tau) > FLOW_TAU_RTOL * self.tau:
             self.flow = affine_flow([list(flat[i * n:(i + 1) * n]) for i in range(n)], tau)
-            self.key = key
+            self.key, self.tau = key, tau
         phi, gamma = self.flow  # type: ignore[misc]
         # one sum per row over both products, in the C wrapper's order (the same rounding)
         xt = []

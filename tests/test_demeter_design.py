@@ -186,11 +186,12 @@ def test_shipped_row1_artifact_is_this_design(row1) -> None:
 
 
 def test_vertex_program_too_large_for_memory_falls_back_to_dg_scalings(monkeypatch) -> None:
-    """One axis on intervals: its vertex design program is estimated at 13.4 MB, its D-G one at
-    4.7 MB (satfmu.synthesis.core.lmi.LMIProgram.solver_bytes). Under a 10 MB limit the design is the D-G
-    one, named so, and still verified; the two bounds agree within 0.1 % (D-G scalings satisfy
-    the vertex inequality with equality: the vertex design can only be as good or better, and on
-    this box they differ by 8e-4 relative)."""
+    """One axis on intervals: its vertex design program is estimated at 10.1 MB
+    (satfmu.synthesis.core.lmi.LMIProgram.solver_bytes). Under a 10 MB limit the design is the D-G
+    one, named so, and still verified. The vertex design can only be as good or better (D-G
+    scalings are a sufficient condition for the vertex inequality), within the solver's accuracy
+    (1e-3 relative); the two bounds differ by 6.4e-3 relative on this box (nu 2.580 against 2.563
+    with Clarabel 0.11.1, cvxpy 1.9.3), so they are held within 1 %."""
     from satfmu.synthesis.core import lmi
 
     v = demeter_variants.Variant((1,), (1,), 1, 2)
@@ -200,4 +201,4 @@ def test_vertex_program_too_large_for_memory_falls_back_to_dg_scalings(monkeypat
     dg = demeter_design.deterministic(v, n_samples=0, analysis=False)
     assert dg.uncertainty == "norm" and dg.design.status == "optimal" and dg.design.check.ok
     assert "design: D-G scalings, the vertex program is too large" in dg.note and "> max_bytes = 0.01 GB" in dg.note
-    assert vertex.design.nu <= dg.design.nu * (1 + 1e-3) and dg.design.nu == pytest.approx(vertex.design.nu, rel=1e-3)
+    assert vertex.design.nu <= dg.design.nu * (1 + 1e-3) and dg.design.nu == pytest.approx(vertex.design.nu, rel=1e-2)

@@ -66,6 +66,24 @@ def test_c_host_gives_fmpys_outputs(setup: tuple[Path, Path, dict[str, str]]) ->
     assert read_rows(proc.stdout) == run_fmpy(setup[1])
 
 
+def test_without_libpython_preloaded_the_load_fails_as_the_readme_says(
+        setup: tuple[Path, Path, dict[str, str]]) -> None:
+    """The README's FMU section names the requirement, the error a user sees without it and the
+    command that preloads libpython; the command's Python part gives this Python's library."""
+    host, folder, env = setup
+    bare = {k: v for k, v in env.items() if k != "LD_PRELOAD"}
+    proc = subprocess.run([str(host), str(folder / "binaries" / "linux64" / f"{MODEL}.so"), str(folder / "plan.txt")],
+                          capture_output=True, text=True, env=bare, timeout=300)
+    assert proc.returncode != 0 and "_Py_NoneStruct" in proc.stdout + proc.stderr
+    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+    section = readme[readme.index("## Using the FMUs in your tool"):readme.index("## Repository layout")]
+    assert "_Py_NoneStruct" in section and 'needsExecutionTool="true"' in section
+    code = re.search(r'LD_PRELOAD=\$\(python3 -c "([^"]+)"\) fmusim NAME_py\.fmu', section)
+    assert code, "the README's preload command"
+    out = subprocess.run([sys.executable, "-c", code[1]], capture_output=True, text=True, check=True).stdout.strip()
+    assert Path(out) == _libpython()
+
+
 @pytest.mark.slow
 @pytest.mark.skipif(shutil.which("valgrind") is None, reason="valgrind is not installed")
 def test_c_host_exits_cleanly_through_satfmus_layer_only(setup: tuple[Path, Path, dict[str, str]]) -> None:

@@ -14,7 +14,8 @@
  * e^{A s} ds, A = model_jacobian, b = the derivatives at x = 0. Phi and Gamma come from a
  * Taylor series of Gamma at tau / 2^s (|A| tau / 2^s <= 1/2, 18 terms, truncation below
  * 1e-22) and s doublings Gamma <- (I + Phi) Gamma, Phi <- Phi^2; they are cached for the
- * last (A, tau). A substep ends early at model_switch_time (the frozen law's validity),
+ * last (A, tau), a tau within FLOW_TAU_RTOL of it reusing them. A substep ends early at
+ * model_switch_time (the frozen law's validity),
  * measured as a duration from the substep start, so the result does not depend on the
  * absolute time.
  *
@@ -88,8 +89,11 @@
  * non-finite result is refused here anyway), so results are unchanged bit for bit. Only for glibc
  * on x86-64 Linux, where GLIBC_2.2.5 is the base version (not the win64 DLL, MinGW-w64's, whose
  * C library is msvcrt, nor GNU/Hurd); a directive for a function the model does not call adds
- * nothing. tests/test_glibc_floor.py checks every native FMU's binary. */
-#if defined(__linux__) && defined(__GLIBC__) && defined(__x86_64__)
+ * nothing. tests/test_glibc_floor.py checks every native FMU's binary. Only in satfmu's own build
+ * (SATFMU_GLIBC_FLOOR, with libm on the link line): a binary rebuilt from sources/ by an importer
+ * (fmpy compile, whose CMake links no libm) is for the glibc it is built on, and a versioned
+ * reference without libm fails to link ("no symbol version section for versioned symbol"). */
+#if defined(SATFMU_GLIBC_FLOOR) && defined(__linux__) && defined(__GLIBC__) && defined(__x86_64__)
 __asm__(".symver pow,pow@GLIBC_2.2.5");
 __asm__(".symver exp,exp@GLIBC_2.2.5");
 __asm__(".symver log,log@GLIBC_2.2.5");
@@ -405,6 +409,8 @@ static void affine_flow(const double *A, double tau, double *Phi, double *Gamma)
     }
 }
 
+#define FLOW_TAU_RTOL 1e-9
+
 /* Exact flow over tau seconds with the law frozen at the current state, then post_step. */
 static void exact_segment(Instance *inst, double tau) {
     Data *d = &inst->d;
@@ -414,7 +420,11 @@ static void exact_segment(Instance *inst, double tau) {
     memset(zero, 0, sizeof zero);
     model_jacobian(d->time, d->x, d->x, d->u, d->p, A);
     model_derivatives(d->time, zero, d->x, d->u, d->p, b);
-    if (!fc->valid || fc->tau != tau || memcmp(fc->A, A, sizeof A) != 0) {
+    /* a duration within FLOW_TAU_RTOL of the cached one reuses its flow: importers whose time
+     * arithmetic makes each step differ in the last bits (t + h rounded, fmpy, fmusim) would
+     * otherwise recompute it at every step (the state moves by its rate times the difference,
+     * below 1e-12 s per step at 1 ms: the importer's own time error) */
+    if (!fc->valid || fabs(fc->tau - tau) > FLOW_TAU_RTOL * fc->tau || memcmp(fc->A, A, sizeof A) != 0) {
         affine_flow(A, tau, fc->Phi, fc->Gamma);
         memcpy(fc->A, A, sizeof A);
         fc->tau = tau;
