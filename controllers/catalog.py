@@ -39,14 +39,15 @@ class FmuSource:
         File name -> content of the files its FMUs carry under ``resources/`` (a controller's
         ``artifact.json``); empty for a plant.
     backends : tuple of str, optional
-        FMU backends the model supports, among ``"native"`` and ``"python"``. Default both.
+        FMU backends the model supports, among ``"native"`` (FMI 2.0), ``"python"`` (pythonfmu,
+        FMI 2.0) and ``"fmi3"`` (native FMI 3.0). Default all three.
     """
 
     model: Model
     resources: dict[str, bytes]
-    backends: tuple[str, ...] = ("native", "python")
-    """FMU backends the model supports (every model has both but the generic signal generators,
-    native only)."""
+    backends: tuple[str, ...] = ("native", "python", "fmi3")
+    """FMU backends the model supports (every model has all three but the generic signal generators,
+    native only: FMI 2.0 and FMI 3.0)."""
 
 
 def _plant(module: str) -> Callable[[], FmuSource]:
@@ -87,7 +88,7 @@ def _estimator() -> FmuSource:
 def _signal(kind: str) -> FmuSource:
     from satfmu.fmus import signals
 
-    return FmuSource(signals.GENERIC[kind](), {}, ("native",))
+    return FmuSource(signals.GENERIC[kind](), {}, ("native", "fmi3"))
 
 
 PLANTS: dict[str, Callable[[], FmuSource]] = {
@@ -216,7 +217,7 @@ def ensure(fmu_dir: Path, names: Iterable[str], backend: str = "native", rebuild
         Folder of the FMUs (created when needed).
     names : iterable of str
         Model names (see :func:`source`).
-    backend : {"native", "python"}
+    backend : {"native", "python", "fmi3"}
         FMU kind.
     rebuild_stale : bool
         Compare the build digest of FMUs present (costs building each model).
@@ -305,11 +306,11 @@ def controller_source(art: Artifact, data: bytes | None = None) -> FmuSource:
 
 
 def builder(backend: str) -> Callable[..., Path]:
-    """``satfmu.fmus.export.build_native`` or ``build_python``.
+    """``satfmu.fmus.export.build_native``, ``build_python`` or ``build_fmi3``.
 
     Parameters
     ----------
-    backend : {"native", "python"}
+    backend : {"native", "python", "fmi3"}
         The FMU backend.
 
     Returns
@@ -319,7 +320,7 @@ def builder(backend: str) -> Callable[..., Path]:
     """
     from satfmu.fmus import export
 
-    return {"native": export.build_native, "python": export.build_python}[backend]
+    return {"native": export.build_native, "python": export.build_python, "fmi3": export.build_fmi3}[backend]
 
 
 _PENDING: list[tuple[FmuSource, str]] = []
@@ -359,7 +360,7 @@ def _fork_map(fn: Callable[[T], R], items: list[T], jobs: int | None) -> list[R]
         return list(pool.map(fn, items))
 
 
-def build_all(dest: Path | None = None, backends: tuple[str, ...] = ("native", "python"),
+def build_all(dest: Path | None = None, backends: tuple[str, ...] = ("native", "python", "fmi3"),
               jobs: int | None = None) -> BuildResult:
     """Build every FMU into ``dest``, in parallel processes.
 
@@ -370,8 +371,8 @@ def build_all(dest: Path | None = None, backends: tuple[str, ...] = ("native", "
     ----------
     dest : Path, optional
         Folder of the FMUs (default: :func:`satfmu.controllers.paths.fmu_cache`).
-    backends : tuple of {"native", "python"}, optional
-        The FMU backends to build (default both; a model without one is skipped for it).
+    backends : tuple of {"native", "python", "fmi3"}, optional
+        The FMU backends to build (default all; a model without one is skipped for it).
     jobs : int, optional
         Worker processes (default: the number of CPUs); 1, or a platform without ``fork``,
         builds in this process.
@@ -379,7 +380,7 @@ def build_all(dest: Path | None = None, backends: tuple[str, ...] = ("native", "
     from satfmu.fmus import export
 
     dest = paths.fmu_cache() if dest is None else Path(dest)
-    plan = [(src, b) for src in sources() for b in ("native", "python") if b in backends and b in src.backends]
+    plan = [(src, b) for src in sources() for b in ("native", "python", "fmi3") if b in backends and b in src.backends]
     files = [export.fmu_path(src.model, dest, b) for src, b in plan]
     todo = [i for i, ((src, b), path) in enumerate(zip(plan, files))
             if export.built_digest(path) != export.digest_of(src.model, b, src.resources)]

@@ -131,8 +131,8 @@ def model_version(model: Model) -> str:
     return f"{__version__}+{model_digest(model)[:VERSION_DIGEST_DIGITS]}"
 
 
-def description_guid(model: Model, root: Element) -> str:
-    """The GUID of the model description ``root`` of ``model`` (its ``guid`` attribute ignored).
+def description_guid(model: Model, root: Element, attribute: str = "guid") -> str:
+    """The GUID of the model description ``root`` of ``model`` (its ``attribute`` ignored).
 
     A name-based UUID (version 5, in :data:`GUID_NAMESPACE`) of the model digest and the SHA-256
     of the description's XML with an empty ``guid``: it identifies the description (the two
@@ -144,13 +144,16 @@ def description_guid(model: Model, root: Element) -> str:
     model : Model
     root : Element
         An ``fmiModelDescription`` element of ``model`` (not changed).
+    attribute : str, optional
+        The attribute that holds it: ``"guid"`` (FMI 2.0, the default) or ``"instantiationToken"``
+        (FMI 3.0).
 
     Returns
     -------
     str
         ``{xxxxxxxx-xxxx-5xxx-yxxx-xxxxxxxxxxxx}``.
     """
-    blank = Element(root.tag, {**root.attrib, "guid": ""})
+    blank = Element(root.tag, {**root.attrib, attribute: ""})
     blank.extend(list(root))
     name = f"satfmu model {model_digest(model)} description {sha256(tostring(blank, 'UTF-8'))}"
     return "{" + str(uuid.uuid5(GUID_NAMESPACE, name)) + "}"
@@ -294,7 +297,8 @@ def model_description(model: Model, caps: Capabilities) -> Element:
 
 def driven_inputs(description: bytes) -> list[str]:
     """The inputs an FMU says a co-simulation must drive: the ``DrivenInputs/Input`` names of its
-    ``VendorAnnotations`` tool :data:`ANNOTATION_TOOL` (empty for an FMU without them).
+    ``VendorAnnotations`` tool :data:`ANNOTATION_TOOL` (FMI 2.0) or its ``Annotations`` annotation
+    of that type (FMI 3.0, where they name arrays); empty for an FMU without them.
 
     Parameters
     ----------
@@ -307,8 +311,9 @@ def driven_inputs(description: bytes) -> list[str]:
         Variable names, in the description's order.
     """
     root = fromstring(description)
-    return [str(e.get("name")) for tool in root.findall("VendorAnnotations/Tool")
-            if tool.get("name") == ANNOTATION_TOOL for e in tool.findall("DrivenInputs/Input") if e.get("name")]
+    tools = [t for t in root.findall("VendorAnnotations/Tool") if t.get("name") == ANNOTATION_TOOL]
+    tools += [a for a in root.findall("Annotations/Annotation") if a.get("type") == ANNOTATION_TOOL]
+    return [str(e.get("name")) for tool in tools for e in tool.findall("DrivenInputs/Input") if e.get("name")]
 
 
 def _unknown(parent: Element, index: int, deps: list[int]) -> None:

@@ -1,11 +1,15 @@
-"""Turn a :class:`satfmu.fmus.model.Model` into FMI 2.0 co-simulation FMUs (native C and pythonfmu).
+"""Turn a :class:`satfmu.fmus.model.Model` into co-simulation FMUs: native C (FMI 2.0 and FMI 3.0)
+and pythonfmu (FMI 2.0).
 
-The native FMU carries ``sources/`` (the generic wrapper ``fmi2_cosim.c``, its one ``.c`` file
-and the only file ``<SourceFiles>`` lists, and the generated model header it includes,
-:data:`satfmu.fmus.codegen.C_HEADER`) so other platforms can rebuild it (``fmpy compile``, or a tool
-compiling every ``.c`` file under ``sources/``), and two binaries compiled here against the FMI
-headers that fmpy ships, concurrently: ``binaries/linux64/<model>.so`` (gcc) and
-``binaries/win64/<model>.dll`` (the MinGW-w64 cross compiler, :data:`WIN64_CC`). The
+The native FMU carries ``sources/`` (the interface's wrapper, ``fmi2_cosim.c``, its one ``.c`` file
+and the only file ``<SourceFiles>`` lists, the model-independent ``satfmu_core.h`` and the
+generated model header, :data:`satfmu.fmus.codegen.C_HEADER`) so other platforms can rebuild it
+(``fmpy compile``, or a tool compiling every ``.c`` file under ``sources/``), and two binaries
+compiled here against the FMI headers that fmpy ships, concurrently:
+``binaries/linux64/<model>.so`` (gcc) and ``binaries/win64/<model>.dll`` (the MinGW-w64 cross
+compiler, :data:`WIN64_CC`). The FMI 3.0 FMU (:func:`build_fmi3`, ``<model>_fmi3.fmu``) is the
+same model through ``fmi3.c``, its sources listed in ``sources/buildDescription.xml`` and its
+binaries under ``binaries/x86_64-linux`` and ``binaries/x86_64-windows``. The
 pythonfmu FMU embeds the generated Python module and :mod:`satfmu.fmus.pyslave`; its binaries are
 satfmu's C layer (``c/pythonfmu_shim.c``, compiled here for both platforms) in front of
 pythonfmu's library, which lies beside them as ``<model>_py_pythonfmu.so`` (``.dll``).
@@ -34,12 +38,21 @@ from satfmu.fmus import archive, codegen
 from satfmu.fmus.atomic import write_atomically
 from satfmu.fmus.description import (NATIVE, PYTHON, PYTHON_SUFFIX, WRAPPER_SOURCE, capabilities, model_description,
                               to_xml_bytes)
+from satfmu.fmus.description3 import FMI3_SUFFIX, WRAPPER3_SOURCE, build_description, model_description3
 from satfmu.fmus.digest import build_digest, sha256
 from satfmu.fmus.model import Model
 from satfmu.fmus.errors import FmuBuildError
 
 HERE = Path(__file__).resolve().parent
 WRAPPER = HERE / "c" / WRAPPER_SOURCE
+WRAPPER3 = HERE / "c" / WRAPPER3_SOURCE
+CORE = HERE / "c" / "satfmu_core.h"
+"""The model-independent part of a native FMU that both interfaces' wrappers include."""
+FMI3 = "fmi3"
+"""The backend of the native FMI 3.0 FMU (beside :data:`satfmu.fmus.description.NATIVE` and
+:data:`satfmu.fmus.description.PYTHON`)."""
+FMI3_PLATFORMS = {"linux64": "x86_64-linux", "win64": "x86_64-windows"}
+"""The FMI 3.0 platform tuple (folder under ``binaries/``) of each FMI 2.0 platform."""
 PYSLAVE = HERE / "pyslave.py"
 SHIM = HERE / "c" / "pythonfmu_shim.c"
 """satfmu's C layer in front of pythonfmu's library: the pythonfmu FMU's binaries."""
@@ -210,15 +223,18 @@ def fmu_path(model: Model, dest_dir: Path, backend: str) -> Path:
         The model of the FMU.
     dest_dir : Path
         The folder of the FMUs.
-    backend : {"native", "python"}
-        The backend; a pythonfmu FMU's name ends in ``_py``.
+    backend : {"native", "python", "fmi3"}
+        The backend; a pythonfmu FMU's name ends in ``_py``, an FMI 3.0 FMU's in ``_fmi3``.
 
     Returns
     -------
     Path
-        ``<dest_dir>/<model.name>.fmu`` or ``<dest_dir>/<model.name>_py.fmu``.
+        ``<dest_dir>/<model.name>.fmu``, ``<model.name>_py.fmu`` or ``<model.name>_fmi3.fmu``.
     """
-    return Path(dest_dir) / f"{model.name}{PYTHON_SUFFIX if backend == 'python' else ''}.fmu"
+    return Path(dest_dir) / f"{model.name}{_SUFFIXES.get(backend, '')}.fmu"
+
+
+_SUFFIXES = {PYTHON: PYTHON_SUFFIX, FMI3: FMI3_SUFFIX}
 
 
 def digest_of(model: Model, backend: str, resources: dict[str, bytes] | None = None, cc: str = "gcc",
@@ -281,36 +297,87 @@ def build_native(model: Model, dest_dir: Path, resources: dict[str, bytes] | Non
         If the model has no C form (a Python sampler), or a compiler is missing or reports an
         error or a warning.
     """
+    return _build_c(model, dest_dir, resources, cc, win64_cc, NATIVE)
+
+
+def build_fmi3(model: Model, dest_dir: Path, resources: dict[str, bytes] | None = None,
+               cc: str = "gcc", win64_cc: str = WIN64_CC) -> Path:
+    """Generate, compile and package the native FMI 3.0 FMU ``<dest_dir>/<model.name>_fmi3.fmu``.
+
+    The same model and C code as :func:`build_native`'s FMI 2.0 FMU through the FMI 3.0 wrapper
+    ``fmus/c/fmi3.c`` (arrays for vectors, a sampled model's clock:
+    :mod:`satfmu.fmus.description3`).
+
+    Parameters
+    ----------
+    model : Model
+        The model; it must have a C form (no Python sampler).
+    dest_dir : Path
+        The folder the FMU is written to.
+    resources : dict of str to bytes, optional
+        Extra files for ``resources/`` (e.g. the controller artifact JSON).
+    cc : str, optional
+        C compiler of the x86_64-linux binary. Default ``"gcc"``.
+    win64_cc : str, optional
+        C cross compiler of the x86_64-windows binary (MinGW-w64). Default :data:`WIN64_CC`.
+
+    Returns
+    -------
+    Path
+        The FMU. Nothing is built when it already records this build's digest.
+
+    Raises
+    ------
+    FmuBuildError
+        As :func:`build_native`, and for a model with a variable named ``time`` or
+        ``sample_clock`` (the FMI 3.0 description's own).
+    """
+    return _build_c(model, dest_dir, resources, cc, win64_cc, FMI3)
+
+
+def _build_c(model: Model, dest_dir: Path, resources: dict[str, bytes] | None, cc: str, win64_cc: str,
+             backend: str) -> Path:
+    """The native FMU of ``model`` on ``backend`` (:data:`NATIVE`, FMI 2.0, or :data:`FMI3`)."""
     try:
         codegen.require_c_form(model)
     except ValueError as exc:  # a model the C code cannot express (a Python sampler)
         raise FmuBuildError(str(exc)) from None
-    dest = fmu_path(model, dest_dir, "native")
-    digest = digest_of(model, "native", resources, cc, win64_cc)
+    dest = fmu_path(model, dest_dir, backend)
+    digest = digest_of(model, backend, resources, cc, win64_cc)
     if built_digest(dest) == digest:
         return dest
-    desc = model_description(model, capabilities(model, NATIVE))
-    model_h = codegen.c_source(model, desc.attrib["guid"])  # the binary requires this description's GUID
+    identifier = dest.stem
+    if backend == FMI3:
+        try:
+            desc = model_description3(model, identifier)
+        except ValueError as exc:
+            raise FmuBuildError(str(exc)) from None
+        token, wrapper, folders = desc.attrib["instantiationToken"], WRAPPER3, FMI3_PLATFORMS
+    else:
+        desc = model_description(model, capabilities(model, NATIVE))
+        token, wrapper, folders = desc.attrib["guid"], WRAPPER, {p: p for p in FMI3_PLATFORMS}
+    model_h = codegen.c_source(model, token)  # the binary requires this description's GUID (token)
     with tempfile.TemporaryDirectory(prefix="satfmu_") as tmp:
         root = Path(tmp)
         src = root / "sources"
         src.mkdir()
         (src / codegen.C_HEADER).write_text(model_h)
-        shutil.copy(WRAPPER, src / WRAPPER.name)
-        for header in codegen.c_headers(model):  # a sampler's C routine (model.h includes it)
-            shutil.copy(header, src / header.name)
+        for file in (wrapper, CORE, *codegen.c_headers(model)):  # a sampler's C routine (model.h includes it)
+            shutil.copy(file, src / file.name)
+        if backend == FMI3:
+            (src / "buildDescription.xml").write_bytes(to_xml_bytes(build_description(identifier)))
         (root / "modelDescription.xml").write_bytes(to_xml_bytes(desc))
-        _compile(model.name, root, {"linux64": cc, "win64": win64_cc})
+        _compile(identifier, root, {"linux64": cc, "win64": win64_cc}, src / wrapper.name, folders=folders)
         _write_resources(root / "resources", resources)
         _zip_dir(root, dest, _comment(digest, resources))
     return dest
 
 
-def _compile(name: str, root: Path, compilers: dict[str, str], source: Path = WRAPPER,
-             include: Path | None = None) -> None:
-    """Compile ``source`` (the wrapper in the FMU's ``root/sources``, by default) into
-    ``root/binaries/<platform>/<name><suffix>`` for each platform (``compilers``: platform -> C
-    compiler), the compilers running concurrently; ``include`` holds its generated header
+def _compile(name: str, root: Path, compilers: dict[str, str], source: Path, include: Path | None = None,
+             folders: dict[str, str] | None = None) -> None:
+    """Compile ``source`` into ``root/binaries/<folder>/<name><suffix>`` for each platform
+    (``compilers``: platform -> C compiler; ``folders``: platform -> its folder, the platform's
+    name by default), the compilers running concurrently; ``include`` holds its generated header
     (``root/sources`` by default).
 
     Raises
@@ -322,10 +389,10 @@ def _compile(name: str, root: Path, compilers: dict[str, str], source: Path = WR
     include = include or src
     running = {}
     for platform, cc in compilers.items():
-        binary = root / "binaries" / platform / f"{name}{SUFFIX[platform]}"
+        binary = root / "binaries" / (folders or {}).get(platform, platform) / f"{name}{SUFFIX[platform]}"
         binary.parent.mkdir(parents=True, exist_ok=True)
         cmd = [cc, *C_FLAGS, *DEFINES[platform], *LINK_FLAGS[platform], f"-I{fmi_headers()}", f"-I{include}",
-               "-o", str(binary), str(src / source.name if source == WRAPPER else source), "-lm"]
+               "-o", str(binary), str(source), "-lm"]
         running[platform] = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     messages = {platform: proc.communicate()[1] for platform, proc in running.items()}
     failed = [f"{platform} ({compilers[platform]}):\n{messages[platform]}" for platform, proc in running.items()

@@ -3,7 +3,7 @@
 This file is copied verbatim into every pythonfmu FMU (as ``resources/satfmu_pyslave.py``)
 next to the generated model module (:func:`satfmu.fmus.codegen.python_source`), so at run
 time it may import only the standard library and pythonfmu. It implements the same
-behaviour as the generic C wrapper ``fmus/c/fmi2_cosim.c``, in the same arithmetic order (both
+behaviour as the native FMU's C code (``fmus/c/satfmu_core.h``), in the same arithmetic order (both
 give the same outputs bit for bit, ``tests/test_pythonfmu_parity.py``): RK4 with held inputs,
 ``max(n_substeps, ceil(h / h_max))`` substeps (or the exact flow of an affine model,
 :class:`ExactFlow`), the post-step map, value checks
@@ -18,7 +18,7 @@ the next step, so its values are computed from the inputs set there, when first 
 set (an output read) or else by the next step, and again if an input changes there. Until an input
 is set at that point (``inputs_stale``) an output read shows the values held from the previous
 instant: a Jacobi-order importer sees the feedthrough-order outputs one step later, never a sample
-of the previous step's inputs (``fmus/c/fmi2_cosim.c`` states the rule in full).
+of the previous step's inputs (``fmus/c/satfmu_core.h`` states the rule in full).
 
 Time and work, as the C wrapper: a step ends at ``currentCommunicationPoint + h``; a
 communication point more than 8 ulp (of the larger of 1 s, ``|t|`` and the start time) off the
@@ -68,10 +68,10 @@ from pythonfmu.enums import Fmi2Status
 KIND_PARAMETER, KIND_INPUT, KIND_OUTPUT = 0, 1, 2
 DESCRIPTION_FILE = "satfmu_description.xml"
 MAX_STEP_INSTANTS = 1_000_000
-"""Most sample instants one fmi2DoStep may span (as ``fmus/c/fmi2_cosim.c``); a longer step is
+"""Most sample instants one fmi2DoStep may span (as ``fmus/c/satfmu_core.h``); a longer step is
 refused before anything changes."""
 MAX_STEP_SUBSTEPS = 1_000_000
-"""Most integration substeps one fmi2DoStep may take (as ``fmus/c/fmi2_cosim.c``)."""
+"""Most integration substeps one fmi2DoStep may take (as ``fmus/c/satfmu_core.h``)."""
 MAX_STEP_PYTHON_SAMPLES = 10_000
 """Most sample instants one fmi2DoStep may span when the sampler is a Python function: the online
 SDRE solves a Riccati equation per instant (~0.5 to 5 ms, so at most ~5 to 50 s per step); the far
@@ -496,7 +496,7 @@ def point_tolerance(ulps: int, t: float, start: float) -> float:
     """The largest difference of a currentCommunicationPoint from the FMU time ``t``, s:
     ``ulps`` (the generated ``TIME_ULPS``) units in the last place of the larger of 1 s, ``|t|``
     and ``|start|`` (the start time, s), what double precision forces when a master computes
-    ``t0 + k h`` and the FMU ``t_{k-1} + h`` (as ``point_tol`` of ``fmus/c/fmi2_cosim.c``).
+    ``t0 + k h`` and the FMU ``t_{k-1} + h`` (as ``point_tol`` of ``fmus/c/satfmu_core.h``).
 
     Parameters
     ----------

@@ -35,7 +35,7 @@ Kinds:
 
 An output that is not finite all the same (an overflow: a ramp so short that its second
 derivative exceeds 1.8e308) is refused by the native FMU with fmi2Error, never returned with
-fmi2OK (``fmus/c/fmi2_cosim.c``).
+fmi2OK (``fmus/c/satfmu_core.h``).
 """
 from __future__ import annotations
 

@@ -3,7 +3,7 @@
 Usage::
 
     satfmu --version
-    satfmu build [--fmu-dir DIR] [--backend native|python|all] [--jobs N]
+    satfmu build [--fmu-dir DIR] [--backend native|python|all] [--fmi 2|3|both] [--jobs N]
     satfmu validate [--fmu-dir DIR]
     satfmu list
     satfmu run SCENARIO [SCENARIO ...] [--backend native|python] [--fmu-dir DIR] [--strict] [--allow-stale]
@@ -115,7 +115,9 @@ def _build(args: argparse.Namespace) -> int:
     from satfmu.controllers import catalog
     from satfmu.sims.cosim import compiled_loop
 
-    backends = ("native", "python") if args.backend == "all" else (args.backend,)
+    backends = tuple(b for b in ("native", "python") if args.fmi in ("2", "both") and args.backend in (b, "all"))
+    if args.fmi in ("3", "both") and args.backend in ("native", "all"):
+        backends += ("fmi3",)  # native only: pythonfmu has no FMI 3.0
     start = time.perf_counter()
     try:
         print(f"co-simulation loop: {compiled_loop.compile_library()}")
@@ -503,6 +505,8 @@ def parser() -> argparse.ArgumentParser:
     b = command(sub, "build", "build every FMU (only those whose model changed) and the compiled co-simulation loop")
     _fmu_dir(b, "folder the FMUs are built into")
     b.add_argument("--backend", choices=["native", "python", "all"], default="all", help="FMU kind")
+    b.add_argument("--fmi", choices=["2", "3", "both"], default="both",
+                   help="FMI version: 2 (<name>.fmu, <name>_py.fmu), 3 (native, <name>_fmi3.fmu) or both (default)")
     b.add_argument("--jobs", type=_positive_int, default=None, help="parallel build processes (default: one per CPU)")
     b.set_defaults(fn=_build)
     v = command(sub, "validate", "fmpy validate + fmutool -check on every FMU of a folder")

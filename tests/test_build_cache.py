@@ -116,7 +116,7 @@ def test_build_all_builds_in_parallel_then_does_nothing(tmp_path: Path, monkeypa
              catalog.FmuSource(_gain_model(), {"note.txt": b"resource"})]
     monkeypatch.setattr(catalog, "sources", lambda: small)
     report = catalog.build_all(tmp_path, jobs=2)  # worker processes (fork)
-    names = ["signal_constant.fmu", "signal_step.fmu", "cache_gain.fmu", "cache_gain_py.fmu"]
+    names = ["signal_constant.fmu", "signal_step.fmu", "cache_gain.fmu", "cache_gain_py.fmu", "cache_gain_fmi3.fmu"]
     assert [p.name for p in report.paths] == names and report.built == report.paths
     assert all(export.built_digest(p) for p in report.paths)
     # the same bytes as a build in this process (the zip is deterministic)
@@ -172,4 +172,5 @@ def test_build_all_defaults_to_the_fmu_cache(tmp_path: Path, monkeypatch: pytest
     monkeypatch.setenv(paths.HOME_ENV, str(tmp_path))
     monkeypatch.setattr(catalog, "sources", lambda: [catalog.source("signal_constant")])
     report = catalog.build_all(jobs=1)
-    assert report.paths == report.built == [tmp_path / "fmus" / "signal_constant.fmu"]
+    assert report.paths == report.built == [tmp_path / "fmus" / "signal_constant.fmu",
+                                            tmp_path / "fmus" / "signal_constant_fmi3.fmu"]

@@ -1,4 +1,4 @@
-"""The exact integrator's flow cache (fmus/c/fmi2_cosim.c, fmus/pyslave.py): a step that differs from
+"""The exact integrator's flow cache (fmus/c/satfmu_core.h, fmus/pyslave.py): a step that differs from
 the cached one in the last bits reuses its flow.
 
 Importers step with ``t + h`` rounded (fmpy, fmusim): the step sizes they pass differ in the last

@@ -41,8 +41,8 @@ NATIVE = (PLANT, CTRL)
 PYTHON = (PLANT_PY, CTRL_PY)
 # (input to abuse, output to watch) per model
 IO = {"mrp_satellite": ("u[1]", "omega[1]"), "mrp_hinf_published": ("omega[1]", "u[1]")}
-STATE_MAGIC, STATE_FORMAT = 0x73746655, 3  # fmi2_cosim.c: the head of every native FMU state
-HEADER = struct.Struct("<4I16s")  # fmi2_cosim.c Saved: magic, format, size, CRC-32, model identity
+STATE_MAGIC, STATE_FORMAT = 0x73746655, 4  # satfmu_core.h: the head of every native FMU state
+HEADER = struct.Struct("<4I16s")  # satfmu_core.h Saved: magic, format, size, CRC-32, model identity
 TIME_AT = HEADER.size  # Saved.d.time, the first field of the instance data
 BLOW_UP = {"h_max": 1e6, "omega_0[1]": 1e3, "omega_0[2]": 1e3, "omega_0[3]": 1e3}
 
@@ -482,7 +482,7 @@ def test_fmu_state_round_trip_is_exact(make, file: str) -> None:
 
 
 def _resealed(record: bytes) -> bytes:
-    """``record`` with its CRC-32 recomputed (as fmi2_cosim.c computes it: the record with the CRC
+    """``record`` with its CRC-32 recomputed (as satfmu_core.h computes it: the record with the CRC
     field 0): a damage the checksum cannot see, so the range checks behind it must."""
     magic, fmt, size, _, ident = HEADER.unpack_from(record)
     body = record[HEADER.size:]
@@ -536,7 +536,7 @@ def test_native_corrupted_serialized_state_is_rejected(make, file: str, kind: st
     inst.ok("doStep", 0.0, 0.1)
     state = inst.ok("getFMUstate")
     good = inst.ok("serializeFMUstate", state)
-    # layout check of fmi2_cosim.c's Saved header before damaging fields: the size is the buffer's
+    # layout check of satfmu_core.h's Saved header before damaging fields: the size is the buffer's
     # and the CRC is zlib's CRC-32 of the record with the CRC field 0
     magic, fmt, size, crc, ident = HEADER.unpack_from(good)
     assert (magic, fmt, size) == (STATE_MAGIC, STATE_FORMAT, len(good))

@@ -44,14 +44,16 @@ def glibc_needs(library: Path) -> dict[str, tuple[int, ...]]:
 
 
 def test_native_fmus_need_at_most_the_glibc_floor(fmu_dir: Path, tmp_path: Path) -> None:
-    """No symbol of any native FMU's linux64 binary needs a glibc newer than :data:`FLOOR`."""
+    """No symbol of any native FMU's Linux binary (FMI 2.0 ``linux64``, FMI 3.0 ``x86_64-linux``) needs
+    a glibc newer than :data:`FLOOR`."""
     assert shutil.which("objdump"), "objdump (binutils, installed with gcc) is needed to read the binaries"
     native = sorted(p for p in fmu_dir.glob("*.fmu") if not p.stem.endswith(export.PYTHON_SUFFIX))
     assert len(native) >= 10, f"only {len(native)} native FMUs in {fmu_dir}: the catalog was not built"
     too_new = {}
     for fmu in native:
         with zipfile.ZipFile(fmu) as z:
-            (member,) = [n for n in z.namelist() if n.startswith("binaries/linux64/") and n.endswith(".so")]
+            (member,) = [n for n in z.namelist() if n.startswith(("binaries/linux64/", "binaries/x86_64-linux/"))
+                         and n.endswith(".so")]
             library = Path(z.extract(member, tmp_path / fmu.stem))
         needs = glibc_needs(library)
         assert needs, f"{fmu.name}: no GLIBC_ symbol version read from objdump -T (the parser, not the FMU, is wrong)"

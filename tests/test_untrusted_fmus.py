@@ -35,7 +35,7 @@ REASONS = {
     "bomb in a resource": (r"has an entry 'resources/table\.txt' that expands \d+ bytes to 2146\d+ "
                            r"\(more than 200 times"),
     "size that lies": r"is damaged: its entry 'resources/small\.txt' fails its check \(Bad CRC-32",
-    "1e5 entries": r"holds 100005 entries, more than 10000",
+    "1e5 entries": r"holds 1000\d\d entries, more than 10000",  # the FMU's own entries and 1e5
     "3e5 variables": r"has a modelDescription\.xml of 300030 variables, more than 100000",
     "entity expansion": r"has a modelDescription\.xml that declares a document type or entities",
 }

@@ -28,7 +28,7 @@ MIN_PERIOD_STEPS = (100.0,) + HUGE_STEPS
 STEP_TIME_LIMIT_S = 1.0
 """Longest accepted CPU time of one huge step, s (CPU time of the worker, so other processes on the
 machine do not count): the native work bounds (MAX_STEP_INSTANTS, MAX_STEP_SUBSTEPS of
-fmus/c/fmi2_cosim.c) allow ~0.7 s at most on the machine that measured them."""
+fmus/c/satfmu_core.h) allow ~0.7 s at most on the machine that measured them."""
 LARGE_STARTS = (1e9, 1.4e9)
 """Large start times, s (Unix and GPS seconds are 1.4e9 to 1.7e9)."""
 OFFSETS = (1e-3, 1e-2, 0.1, 1.0)

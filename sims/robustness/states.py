@@ -8,7 +8,7 @@ still restores and the instance steps on), a pythonfmu FMU as a native one (its 
 ``fmus/c/pythonfmu_shim.c``, reports the slave's refusal). An instance that answered fmi2Fatal
 would be abandoned and a new one made for the next damaged state.
 
-The native layout the forgery of "another model's state" needs (``fmus/c/fmi2_cosim.c``, ``Saved``):
+The native layout the forgery of "another model's state" needs (``fmus/c/satfmu_core.h``, ``Saved``):
 four little-endian uint32 (magic, format, size, CRC-32 of the record with the CRC field 0), then the
 16 bytes of the GUID (:func:`satfmu.fmus.codegen.guid_bytes`). The pythonfmu one
 (``fmus/pyslave.py``): canonical JSON (sorted keys, no spaces) of ``model``, ``guid``, ``format``,

@@ -216,7 +216,7 @@ def _cases() -> tuple[Case, ...]:
 
 
 # ============================================================================= issue 26 items 2, 3, 9, 10
-# The native FMUs' limits (fmus/c/fmi2_cosim.c): bounded work per step, checked FMU states, exact
+# The native FMUs' limits (fmus/c/satfmu_core.h): bounded work per step, checked FMU states, exact
 # time, FMI 2.0 statuses, no non-finite output with fmi2OK. The pythonfmu FMUs meet the same
 # expectations: their C layer (fmus/c/pythonfmu_shim.c) guards pythonfmu 0.7.0's C++ layer.
 STATE_FRAGMENTS = ("corrupted state", "not a state of this FMU")
