@@ -47,6 +47,23 @@ def test_export_holds_the_scenario(fmu_dir: Path, tmp_path: Path) -> None:
     assert desc.name == "mrp_200deg" and len(desc.system.connections) == 9
 
 
+def test_omsimulator_finds_the_system_kind_where_it_looks(fmu_dir: Path, tmp_path: Path) -> None:
+    """OMSimulator 3.0 takes a system's kind only from its own annotation (Model::getSystemType in
+    its sources: ``ssd:System/ssd:Annotations/ssc:Annotation[type=org.openmodelica]/
+    oms:Annotations/oms:SimulationInformation``, a child with a ``description``; without one it
+    stops with ``[NewSystem] internal error``). The export carries it, prefixed as OMSimulator
+    reads it (by prefixed name), with the scenario's step, and stays valid against the SSP 1.0
+    schema (validated on export, and by fmpy here)."""
+    path = ssp.export("mrp_200deg", fmu_dir, tmp_path)
+    _, root = _ssd(path)
+    notes = root.findall("ssd:System/ssd:Annotations/ssc:Annotation", ssp.NS)
+    assert [n.get("type") for n in notes] == ["org.openmodelica"]
+    master = notes[0].find("oms:Annotations/oms:SimulationInformation/oms:FixedStepMaster", ssp.NS)
+    assert master is not None and master.prefix == "oms"
+    assert (master.get("description"), master.get("stepSize")) == ("oms-ma", "0.05")
+    assert read_ssd(str(path), validate=True).name == "mrp_200deg"
+
+
 def test_python_backend_and_cli(fmu_dir: Path, tmp_path: Path, capsys) -> None:
     out = tmp_path / "x.ssp"
     assert main(["export-ssp", "mrp_200deg", "--backend", "python", "--fmu-dir", str(fmu_dir),

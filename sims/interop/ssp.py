@@ -6,7 +6,9 @@ instance with the connectors it uses, the instance's parameter values inline as 
 and the FMUs under ``resources/``. Any SSP tool loads it; for libcosim (Open Simulation
 Platform) the default experiment carries the fixed communication step as an
 ``com.opensimulationplatform`` annotation (``osp:FixedStepAlgorithm baseStepSize``, s), which
-libcosim needs and other tools ignore.
+libcosim needs and other tools ignore; for OMSimulator the system carries it as an
+``org.openmodelica`` annotation (``oms:SimulationInformation``, a fixed-step master ``oms-ma``:
+OMSimulator 3 takes the kind of a system from it alone and refuses a file without one).
 
 Everything is resolved as the master resolves it (:class:`satfmu.sims.cosim.master.CoSimulation`: base
 names expanded index by index, causality and type checked, parameter values checked and
@@ -50,9 +52,17 @@ from satfmu.fmus.errors import SspError
 NS = {"ssd": "http://ssp-standard.org/SSP1/SystemStructureDescription",
       "ssc": "http://ssp-standard.org/SSP1/SystemStructureCommon",
       "ssv": "http://ssp-standard.org/SSP1/SystemStructureParameterValues",
-      "osp": "http://opensimulationplatform.com/SSP/OSPAnnotations"}
-"""Namespaces with the prefixes libcosim requires literally (it reads the XML without namespaces)."""
+      "osp": "http://opensimulationplatform.com/SSP/OSPAnnotations",
+      "oms": "https://raw.githubusercontent.com/OpenModelica/OMSimulator/master/schema/oms.xsd"}
+"""Namespaces with the prefixes libcosim and OMSimulator require literally (they read the XML by
+prefixed names)."""
 OSP_ANNOTATION = "com.opensimulationplatform"
+OMS_ANNOTATION = "org.openmodelica"
+OMS_MASTER = "oms-ma"
+"""OMSimulator's fixed-step co-simulation master (a weakly coupled system of co-simulation FMUs)."""
+OMS_RELATIVE_TOLERANCE = 1e-4
+"""The relative tolerance the OMSimulator annotation states (its default; a fixed-step master of
+co-simulation FMUs does not use it)."""
 SCHEMA_DIR = Path(fmpy_ssd.__file__).parent / "schema"
 PARAMETER_SET = "scenario"
 """Name of every component's parameter set: ecos applies the sets of one name
@@ -244,6 +254,9 @@ def system_structure(scenario: Scenario, fmu_dir: Path, backend: str = "native",
         for src, dst in sim.connections:
             (si, sv), (di, dv) = src.split(".", 1), dst.split(".", 1)
             _el(connections, "ssd:Connection", startElement=si, startConnector=sv, endElement=di, endConnector=dv)
+    oms = _el(_el(system, "ssd:Annotations"), "ssc:Annotation", type=OMS_ANNOTATION)
+    _el(_el(_el(oms, "oms:Annotations"), "oms:SimulationInformation"), "oms:FixedStepMaster", description=OMS_MASTER,
+        stepSize=xml_value(d["step_size"], "Real"), relativeTolerance=xml_value(OMS_RELATIVE_TOLERANCE, "Real"))
     experiment = _el(root, "ssd:DefaultExperiment", startTime=xml_value(d.get("start_time", 0.0), "Real"),
                      stopTime=xml_value(d["stop_time"], "Real"))
     annotation = _el(_el(experiment, "ssd:Annotations"), "ssc:Annotation", type=OSP_ANNOTATION)
