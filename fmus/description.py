@@ -27,7 +27,7 @@ from xml.etree.ElementTree import Element, SubElement, fromstring, indent, tostr
 from satfmu.fmus import __version__
 from satfmu.fmus.codegen import KIND_INPUT, KIND_PARAMETER, variable_table
 from satfmu.fmus.digest import model_digest, sha256
-from satfmu.fmus.model import UNITS, Model
+from satfmu.fmus.model import UNITS, Model, Variable
 
 NATIVE, PYTHON = "native", "python"
 """The two backends: the native C FMU and the pythonfmu FMU."""
@@ -239,13 +239,7 @@ def model_description(model: Model, caps: Capabilities) -> Element:
         files = SubElement(cosim, "SourceFiles")
         for name in caps.source_files:
             SubElement(files, "File", {"name": name})
-    units = SubElement(root, "UnitDefinitions")
-    used = sorted({v.unit for v in model.variables if v.type == "Real"})
-    for name in used:
-        unit = SubElement(units, "Unit", {"name": name})
-        base = UNITS[name]
-        if base is not None:
-            SubElement(unit, "BaseUnit", {k: repr(e) if isinstance(e, float) else str(e) for k, e in base.items()})
+    unit_definitions(root, {v.unit for v in model.variables if v.type == "Real"})
     cats = SubElement(root, "LogCategories")
     for name, desc in LOG_CATEGORIES.items():
         SubElement(cats, "Category", {"name": name, "description": desc})
@@ -262,24 +256,8 @@ def model_description(model: Model, caps: Capabilities) -> Element:
     variables = model.variables
     for row, v in zip(variable_table(model), variables):
         attrs = {"name": v.name, "valueReference": str(row["vr"]), "description": v.description}
-        typed: dict[str, str] = {}
-        if row["kind"] == KIND_PARAMETER:
-            attrs.update(causality="parameter", variability="fixed", initial="exact")
-            typed["start"] = xml_value(v.start, v.type)
-        elif row["kind"] == KIND_INPUT:
-            attrs.update(causality="input", variability="continuous" if v.type == "Real" else "discrete")
-            typed["start"] = xml_value(v.start, v.type)
-        else:
-            attrs.update(causality="output", variability="continuous" if v.type == "Real" else "discrete",
-                         initial="calculated")
-        if v.type == "Real":
-            typed["unit"] = v.unit
-        if v.type in ("Real", "Integer"):
-            if v.min is not None:
-                typed["min"] = xml_value(v.min, v.type)
-            if v.max is not None:
-                typed["max"] = xml_value(v.max, v.type)
-        sv = SubElement(mvars, "ScalarVariable", attrs)
+        roles, typed = variable_attributes(v, row["kind"])
+        sv = SubElement(mvars, "ScalarVariable", {**attrs, **roles})
         SubElement(sv, v.type, typed)
 
     index = {v.name: i + 1 for i, v in enumerate(variables)}
@@ -293,6 +271,64 @@ def model_description(model: Model, caps: Capabilities) -> Element:
             _unknown(init, index[name], [index[d] for d in deps])
     root.set("guid", description_guid(model, root))
     return root
+
+
+def unit_definitions(root: Element, units: set[str]) -> None:
+    """Append ``<UnitDefinitions>`` of ``units`` (sorted; each with its SI base unit exponents,
+    :data:`satfmu.fmus.model.UNITS`) to ``root``: the same element in FMI 2.0 and FMI 3.0.
+
+    Parameters
+    ----------
+    root : Element
+        The ``fmiModelDescription`` element.
+    units : set of str
+        The unit names the description uses.
+    """
+    element = SubElement(root, "UnitDefinitions")
+    for name in sorted(units):
+        unit = SubElement(element, "Unit", {"name": name})
+        base = UNITS[name]
+        if base is not None:
+            SubElement(unit, "BaseUnit", {k: repr(e) if isinstance(e, float) else str(e) for k, e in base.items()})
+
+
+def variable_attributes(v: Variable, kind: int) -> tuple[dict[str, str], dict[str, str]]:
+    """The attributes of an FMU variable of ``kind`` (a parameter, input or output) that FMI 2.0
+    and FMI 3.0 share.
+
+    Parameters
+    ----------
+    v : Variable
+        The model variable.
+    kind : int
+        :data:`satfmu.fmus.codegen.KIND_PARAMETER`, ``KIND_INPUT`` or ``KIND_OUTPUT``.
+
+    Returns
+    -------
+    roles : dict of str to str
+        ``causality``, ``variability`` and (parameters, outputs) ``initial``.
+    typed : dict of str to str
+        ``start`` (parameters and inputs), ``unit`` (Real), ``min`` and ``max`` (Real and
+        Integer, when set): the type element's attributes in FMI 2.0, the variable's own in FMI 3.0.
+    """
+    typed: dict[str, str] = {}
+    if kind == KIND_PARAMETER:
+        roles = {"causality": "parameter", "variability": "fixed", "initial": "exact"}
+        typed["start"] = xml_value(v.start, v.type)
+    elif kind == KIND_INPUT:
+        roles = {"causality": "input", "variability": "continuous" if v.type == "Real" else "discrete"}
+        typed["start"] = xml_value(v.start, v.type)
+    else:
+        roles = {"causality": "output", "variability": "continuous" if v.type == "Real" else "discrete",
+                 "initial": "calculated"}
+    if v.type == "Real":
+        typed["unit"] = v.unit
+    if v.type in ("Real", "Integer"):
+        if v.min is not None:
+            typed["min"] = xml_value(v.min, v.type)
+        if v.max is not None:
+            typed["max"] = xml_value(v.max, v.type)
+    return roles, typed
 
 
 def driven_inputs(description: bytes) -> list[str]:

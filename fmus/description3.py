@@ -21,9 +21,10 @@ from __future__ import annotations
 from xml.etree.ElementTree import Element, SubElement
 
 from satfmu.fmus.arrays import ArrayVariable, array_variables
-from satfmu.fmus.codegen import KIND_INPUT, KIND_PARAMETER, variable_table
-from satfmu.fmus.description import (ANNOTATION_TOOL, LOG_CATEGORIES, description_guid, model_version, xml_value)
-from satfmu.fmus.model import UNITS, Model
+from satfmu.fmus.codegen import variable_table
+from satfmu.fmus.description import (ANNOTATION_TOOL, LOG_CATEGORIES, description_guid, model_version,
+                                     unit_definitions, variable_attributes, xml_value)
+from satfmu.fmus.model import Model
 from satfmu.fmus import __version__
 
 FMI3_SUFFIX = "_fmi3"
@@ -55,30 +56,13 @@ def clock_reference(model: Model) -> int | None:
     return 1 + len(array_variables(model)) if model.sampler is not None else None
 
 
-def _start(values: list[float], vtype: str) -> str:
-    return " ".join(xml_value(v, vtype) for v in values)
-
-
 def _variable(parent: Element, model: Model, a: ArrayVariable, vr: int, rows: list[dict]) -> None:
+    """The FMI 3.0 variable ``a`` (its elements' shared attributes, their start values as a list)."""
     v = model.variables[a.first]
-    row = rows[a.first]
-    attrs = {"name": a.name, "valueReference": str(vr), "description": a.description}
-    if row["kind"] == KIND_PARAMETER:
-        attrs.update(causality="parameter", variability="fixed", initial="exact")
-    elif row["kind"] == KIND_INPUT:
-        attrs.update(causality="input", variability="continuous" if v.type == "Real" else "discrete")
-    else:
-        attrs.update(causality="output", variability="continuous" if v.type == "Real" else "discrete",
-                     initial="calculated")
-    if row["kind"] in (KIND_PARAMETER, KIND_INPUT):
-        attrs["start"] = _start([model.variables[a.first + j].start for j in range(a.size)], v.type)
-    if v.type == "Real":
-        attrs["unit"] = v.unit
-    if v.type in ("Real", "Integer"):
-        if v.min is not None:
-            attrs["min"] = xml_value(v.min, v.type)
-        if v.max is not None:
-            attrs["max"] = xml_value(v.max, v.type)
+    roles, typed = variable_attributes(v, rows[a.first]["kind"])
+    if "start" in typed:
+        typed["start"] = " ".join(xml_value(model.variables[a.first + j].start, v.type) for j in range(a.size))
+    attrs = {"name": a.name, "valueReference": str(vr), "description": a.description, **roles, **typed}
     element = SubElement(parent, TYPE_NAMES[v.type], attrs)
     if a.is_array:
         SubElement(element, "Dimension", {"start": str(a.size)})
@@ -131,12 +115,7 @@ def model_description3(model: Model, model_identifier: str, generation_tool: str
         "hasEventMode": "true",
         "mightReturnEarlyFromDoStep": str(sampled).lower(),
     })
-    units = SubElement(root, "UnitDefinitions")
-    for name in sorted({v.unit for v in model.variables if v.type == "Real"} | {"s"}):
-        unit = SubElement(units, "Unit", {"name": name})
-        base = UNITS[name]
-        if base is not None:
-            SubElement(unit, "BaseUnit", {k: repr(e) if isinstance(e, float) else str(e) for k, e in base.items()})
+    unit_definitions(root, {v.unit for v in model.variables if v.type == "Real"} | {"s"})  # s: time
     cats = SubElement(root, "LogCategories")
     for name, desc in LOG_CATEGORIES.items():
         SubElement(cats, "Category", {"name": name, "description": desc.replace("fmi2", "fmi3")})

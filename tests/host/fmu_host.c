@@ -38,6 +38,9 @@
 
 #include "fmi2FunctionTypes.h"
 
+#define HOST_NAME "fmu_host"
+#include "host_plan.h"
+
 #ifdef _WIN32
 #include <windows.h>
 typedef HMODULE Library;
@@ -49,8 +52,6 @@ typedef void *Library;
 static Library open_library(const char *path) { return dlopen(path, RTLD_NOW | RTLD_LOCAL); }
 static void *find_symbol(Library lib, const char *name) { return dlsym(lib, name); }
 #endif
-
-#define TOKEN_SIZE 4096
 
 typedef struct {
     fmi2InstantiateTYPE *instantiate;
@@ -65,16 +66,6 @@ typedef struct {
     fmi2GetRealTYPE *get_real;
     fmi2DoStepTYPE *do_step;
 } Api;
-
-static void fail(const char *format, ...) {
-    va_list args;
-    va_start(args, format);
-    fputs("fmu_host: ", stderr);
-    vfprintf(stderr, format, args);
-    fputc('\n', stderr);
-    va_end(args);
-    exit(1);
-}
 
 static void logger(fmi2ComponentEnvironment env, fmi2String instance, fmi2Status status,
                    fmi2String category, fmi2String message, ...) {
@@ -97,45 +88,9 @@ static void check(fmi2Status status, const char *call) {
     if (status != fmi2OK) fail("%s returned status %d", call, (int)status);
 }
 
-/* The next token of the plan into buf (TOKEN_SIZE bytes); a missing one ends the host. */
-static void token(FILE *plan, char *buf, const char *what) {
-    if (fscanf(plan, "%4095s", buf) != 1) fail("plan: %s missing", what);
-}
-
-static void keyword(FILE *plan, const char *expected) {
-    char buf[TOKEN_SIZE];
-    token(plan, buf, expected);
-    if (strcmp(buf, expected) != 0) fail("plan: '%s' expected, '%s' found", expected, buf);
-}
-
-static double number(FILE *plan, const char *what) {
-    char buf[TOKEN_SIZE], *end;
-    double value;
-    token(plan, buf, what);
-    value = strtod(buf, &end);
-    if (end == buf || *end != '\0') fail("plan: %s: '%s' is not a number", what, buf);
-    return value;
-}
-
 static size_t count(FILE *plan, const char *name) {
-    double n;
     keyword(plan, name);
-    n = number(plan, name);
-    if (!(n >= 0.0 && n <= 1e6) || n != (double)(size_t)n) fail("plan: bad count of %s", name);
-    return (size_t)n;
-}
-
-static fmi2ValueReference reference(FILE *plan) {
-    double vr = number(plan, "value reference");
-    if (!(vr >= 0.0 && vr <= 4294967295.0) || vr != (double)(fmi2ValueReference)vr)
-        fail("plan: bad value reference");
-    return (fmi2ValueReference)vr;
-}
-
-static void *allocate(size_t n, size_t size) {
-    void *p = calloc(n > 0 ? n : 1, size);
-    if (p == NULL) fail("out of memory");
-    return p;
+    return count_of(plan, name);
 }
 
 static void set_parameters(FILE *plan, const Api *api, fmi2Component c) {
@@ -159,13 +114,6 @@ static void set_parameters(FILE *plan, const Api *api, fmi2Component c) {
             fail("plan: parameter type '%s' (real, integer or boolean)", kind);
         }
     }
-}
-
-static void print_row(double t, const double *y, size_t q) {
-    size_t j;
-    printf("%.17g", t);
-    for (j = 0; j < q; j++) printf(" %.17g", y[j]);
-    putchar('\n');
 }
 
 int main(int argc, char **argv) {

@@ -40,7 +40,8 @@
 
 #include "fmi3FunctionTypes.h"
 
-#define TOKEN_SIZE 4096
+#define HOST_NAME "fmu_host3"
+#include "host_plan.h"
 
 typedef struct {
     fmi3InstantiateCoSimulationTYPE *instantiate;
@@ -67,16 +68,6 @@ typedef struct {
     size_t values;          /* their values, every element */
 } Variables;
 
-static void fail(const char *format, ...) {
-    va_list args;
-    va_start(args, format);
-    fputs("fmu_host3: ", stderr);
-    vfprintf(stderr, format, args);
-    fputc('\n', stderr);
-    va_end(args);
-    exit(1);
-}
-
 static void logger(fmi3InstanceEnvironment env, fmi3Status status, fmi3String category, fmi3String message) {
     (void)env;
     fprintf(stderr, "[%d %s] %s\n", (int)status, category ? category : "", message ? message : "");
@@ -92,55 +83,18 @@ static void check(fmi3Status status, const char *call) {
     if (status != fmi3OK) fail("%s returned status %d", call, (int)status);
 }
 
-static void token(FILE *plan, char *buf, const char *what) {
-    if (fscanf(plan, "%4095s", buf) != 1) fail("plan: %s missing", what);
-}
-
-static void keyword(FILE *plan, const char *expected) {
-    char buf[TOKEN_SIZE];
-    token(plan, buf, expected);
-    if (strcmp(buf, expected) != 0) fail("plan: '%s' expected, '%s' found", expected, buf);
-}
-
-static double number(FILE *plan, const char *what) {
-    char buf[TOKEN_SIZE], *end;
-    double value;
-    token(plan, buf, what);
-    value = strtod(buf, &end);
-    if (end == buf || *end != '\0') fail("plan: %s: '%s' is not a number", what, buf);
-    return value;
-}
-
-static size_t count(FILE *plan, const char *what) {
-    double n = number(plan, what);
-    if (!(n >= 0.0 && n <= 1e6) || n != (double)(size_t)n) fail("plan: bad count of %s", what);
-    return (size_t)n;
-}
-
-static fmi3ValueReference reference(FILE *plan) {
-    double vr = number(plan, "value reference");
-    if (!(vr >= 0.0 && vr <= 4294967295.0) || vr != (double)(fmi3ValueReference)vr) fail("plan: bad value reference");
-    return (fmi3ValueReference)vr;
-}
-
-static void *allocate(size_t n, size_t size) {
-    void *p = calloc(n > 0 ? n : 1, size);
-    if (p == NULL) fail("out of memory");
-    return p;
-}
-
 static void set_parameters(FILE *plan, const Api *api, fmi3Instance c) {
     size_t i, j, m;
     char kind[TOKEN_SIZE];
     keyword(plan, "parameters");
-    m = count(plan, "parameters");
+    m = count_of(plan, "parameters");
     for (i = 0; i < m; i++) {
         fmi3ValueReference vr;
         size_t n;
         double *value;
         token(plan, kind, "parameter type");
         vr = reference(plan);
-        n = count(plan, "parameter values");
+        n = count_of(plan, "parameter values");
         value = allocate(n, sizeof *value);
         for (j = 0; j < n; j++) value[j] = number(plan, "parameter value");
         if (strcmp(kind, "real") == 0) {
@@ -166,21 +120,14 @@ static Variables variables(FILE *plan, const char *name) {
     Variables v;
     size_t i;
     keyword(plan, name);
-    v.n = count(plan, name);
+    v.n = count_of(plan, name);
     v.vr = allocate(v.n, sizeof *v.vr);
     v.values = 0;
     for (i = 0; i < v.n; i++) {
         v.vr[i] = reference(plan);
-        v.values += count(plan, "values");
+        v.values += count_of(plan, "values");
     }
     return v;
-}
-
-static void print_row(double t, const double *y, size_t q) {
-    size_t j;
-    printf("%.17g", t);
-    for (j = 0; j < q; j++) printf(" %.17g", y[j]);
-    putchar('\n');
 }
 
 /* Event Mode at the FMU time: the inputs u, the clock activated (activate), the discrete update. */
@@ -257,7 +204,7 @@ int main(int argc, char **argv) {
     in = variables(plan, "inputs");
     out = variables(plan, "outputs");
     keyword(plan, "steps");
-    steps = count(plan, "steps");
+    steps = count_of(plan, "steps");
     u = allocate(in.values, sizeof *u);
     y = allocate(out.values, sizeof *y);
 
