@@ -301,7 +301,7 @@ def variable_attributes(v: Variable, kind: int) -> tuple[dict[str, str], dict[st
     v : Variable
         The model variable.
     kind : int
-        :data:`satfmu.fmus.codegen.KIND_PARAMETER`, ``KIND_INPUT`` or ``KIND_OUTPUT``.
+        ``KIND_PARAMETER``, ``KIND_INPUT`` or ``KIND_OUTPUT`` of :mod:`satfmu.fmus.codegen`.
 
     Returns
     -------
