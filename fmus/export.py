@@ -355,7 +355,7 @@ def _build_c(model: Model, dest_dir: Path, resources: dict[str, bytes] | None, c
         token, wrapper, folders = desc.attrib["instantiationToken"], WRAPPER3, FMI3_PLATFORMS
     else:
         desc = model_description(model, capabilities(model, NATIVE))
-        token, wrapper, folders = desc.attrib["guid"], WRAPPER, {p: p for p in FMI3_PLATFORMS}
+        token, wrapper, folders = desc.attrib["guid"], WRAPPER, None  # FMI 2.0: the platforms' own names
     model_h = codegen.c_source(model, token)  # the binary requires this description's GUID (token)
     with tempfile.TemporaryDirectory(prefix="satfmu_") as tmp:
         root = Path(tmp)

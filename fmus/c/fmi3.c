@@ -194,6 +194,16 @@ fmi3Status fmi3SetDebugLogging(fmi3Instance c, fmi3Boolean loggingOn, size_t nCa
     return (fmi3Status)set_logging(inst, loggingOn, nCategories, categories, "fmi3SetDebugLogging");
 }
 
+/* An instance that only carries the host's logger: the messages of a refused instantiation. */
+static Instance logging_only(fmi3String name, fmi3LogMessageCallback logger, fmi3InstanceEnvironment env) {
+    Instance tmp;
+    memset(&tmp, 0, sizeof tmp);
+    tmp.instance_name = (char *)(name ? name : "?");
+    tmp.logger = logger;
+    tmp.env = env;
+    return tmp;
+}
+
 fmi3Instance fmi3InstantiateCoSimulation(fmi3String instanceName, fmi3String instantiationToken,
                                          fmi3String resourcePath, fmi3Boolean visible, fmi3Boolean loggingOn,
                                          fmi3Boolean eventModeUsed, fmi3Boolean earlyReturnAllowed,
@@ -202,15 +212,11 @@ fmi3Instance fmi3InstantiateCoSimulation(fmi3String instanceName, fmi3String ins
                                          fmi3InstanceEnvironment instanceEnvironment,
                                          fmi3LogMessageCallback logMessage,
                                          fmi3IntermediateUpdateCallback intermediateUpdate) {
-    Instance tmp, *inst;
+    Instance tmp = logging_only(instanceName, logMessage, instanceEnvironment), *inst;
     (void)resourcePath;
     (void)visible;
     (void)requiredIntermediateVariables;
     (void)intermediateUpdate;
-    memset(&tmp, 0, sizeof tmp);
-    tmp.instance_name = (char *)(instanceName ? instanceName : "?");
-    tmp.logger = logMessage;
-    tmp.env = instanceEnvironment;
     if (!instanceName || !*instanceName) {
         log_msg(&tmp, STATUS_ERROR, "logStatusError", "fmi3InstantiateCoSimulation: missing instance name");
         return NULL;
@@ -239,12 +245,8 @@ fmi3Instance fmi3InstantiateModelExchange(fmi3String instanceName, fmi3String in
                                           fmi3String resourcePath, fmi3Boolean visible, fmi3Boolean loggingOn,
                                           fmi3InstanceEnvironment instanceEnvironment,
                                           fmi3LogMessageCallback logMessage) {
-    Instance tmp;
+    Instance tmp = logging_only(instanceName, logMessage, instanceEnvironment);
     (void)instantiationToken; (void)resourcePath; (void)visible; (void)loggingOn;
-    memset(&tmp, 0, sizeof tmp);
-    tmp.instance_name = (char *)(instanceName ? instanceName : "?");
-    tmp.logger = logMessage;
-    tmp.env = instanceEnvironment;
     log_msg(&tmp, STATUS_ERROR, "logStatusError", "fmi3InstantiateModelExchange: this FMU supports co-simulation "
             "only");
     return NULL;
@@ -256,13 +258,9 @@ fmi3Instance fmi3InstantiateScheduledExecution(fmi3String instanceName, fmi3Stri
                                                fmi3LogMessageCallback logMessage, fmi3ClockUpdateCallback clockUpdate,
                                                fmi3LockPreemptionCallback lockPreemption,
                                                fmi3UnlockPreemptionCallback unlockPreemption) {
-    Instance tmp;
+    Instance tmp = logging_only(instanceName, logMessage, instanceEnvironment);
     (void)instantiationToken; (void)resourcePath; (void)visible; (void)loggingOn;
     (void)clockUpdate; (void)lockPreemption; (void)unlockPreemption;
-    memset(&tmp, 0, sizeof tmp);
-    tmp.instance_name = (char *)(instanceName ? instanceName : "?");
-    tmp.logger = logMessage;
-    tmp.env = instanceEnvironment;
     log_msg(&tmp, STATUS_ERROR, "logStatusError", "fmi3InstantiateScheduledExecution: this FMU supports "
             "co-simulation only");
     return NULL;
