@@ -16,8 +16,12 @@ from satfmu.fmus.errors import ShadowedArtifactWarning
 
 SHIPPED_ARTIFACTS = Path(__file__).resolve().parent / "artifacts"
 """Folder of the controller artifacts shipped with satfmu (``*.json``); never written by synthesis."""
-BACKENDS = {"native": "", "python": "_py"}
-"""FMU backend -> file-name suffix (``mrp_satellite.fmu``, ``mrp_satellite_py.fmu``)."""
+BACKENDS = {"native": "", "python": "_py", "fmi3": "_fmi3"}
+"""FMU backend -> file-name suffix (``mrp_satellite.fmu``, ``mrp_satellite_py.fmu``, and the native
+FMU as FMI 3.0 ``mrp_satellite_fmi3.fmu``)."""
+FMI2_BACKENDS = ("native", "python")
+"""The backends whose FMUs are FMI 2.0: the ones an SSP 1.0 file (``satfmu export-ssp``) and the
+engines ``satfmu verify`` compares with (libcosim, ecos) take."""
 HOME_ENV = "SATFMU_HOME"
 
 

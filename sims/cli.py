@@ -6,7 +6,7 @@ Usage::
     satfmu build [--fmu-dir DIR] [--backend native|python|all] [--fmi 2|3|both] [--jobs N]
     satfmu validate [--fmu-dir DIR]
     satfmu list
-    satfmu run SCENARIO [SCENARIO ...] [--backend native|python] [--fmu-dir DIR] [--strict] [--allow-stale]
+    satfmu run SCENARIO [SCENARIO ...] [--backend native|python|fmi3] [--fmu-dir DIR] [--strict] [--allow-stale]
                                        [--out results] [--summary FILE]
     satfmu export-ssp SCENARIO [SCENARIO ...] [--backend native|python] [--fmu-dir DIR] [--allow-stale]
                                               [--out results/ssp]
@@ -516,10 +516,11 @@ def parser() -> argparse.ArgumentParser:
     ls.set_defaults(fn=_list)
     scenarios = argparse.ArgumentParser(add_help=False)  # the options of run and export-ssp
     scenarios.add_argument("scenarios", nargs="+", metavar="SCENARIO", help="shipped scenario name or .toml path")
-    scenarios.add_argument("--backend", choices=backends, default="native", help="FMU kind of the instances")
     _fmu_dir(scenarios)
     scenarios.add_argument("--allow-stale", action="store_true", help=ALLOW_STALE)
     r = command(sub, "run", "run scenarios (name of a shipped scenario or a .toml path)", parents=[scenarios])
+    r.add_argument("--backend", choices=backends, default="native",
+                   help="FMU kind of the instances (fmi3: the native FMUs as FMI 3.0)")
     r.add_argument("--out", default="results", help="folder of the CSV and PNG files (relative: to the working folder)")
     r.add_argument("--strict", action="store_true",
                    help="a controller paired with a plant other than its design plant is an error, not a warning")
@@ -528,11 +529,12 @@ def parser() -> argparse.ArgumentParser:
     r.set_defaults(fn=_run)
     ex = command(sub, "export-ssp", "write scenarios as SSP 1.0 files (FMUs, connections, parameters)",
                  parents=[scenarios])
+    ex.add_argument("--backend", choices=paths.FMI2_BACKENDS, default="native", help="FMU kind of the instances")
     ex.add_argument("--out", default="results/ssp", help="folder (or .ssp path for one scenario)")
     ex.set_defaults(fn=_export_ssp)
     ve = command(sub, "verify", "run scenarios in our master, libcosim and ecos and compare them")
     ve.add_argument("scenarios", nargs="*", metavar="SCENARIO", help="scenarios (default: every shipped scenario)")
-    ve.add_argument("--backend", choices=backends, default="native", help="FMU kind of the instances")
+    ve.add_argument("--backend", choices=paths.FMI2_BACKENDS, default="native", help="FMU kind of the instances")
     ve.add_argument("--engines", nargs="+", choices=["libcosim", "ecos"], default=["libcosim", "ecos"],
                     help="engines compared with our master")
     _fmu_dir(ve, "folder of the FMUs (the missing ones are built)")

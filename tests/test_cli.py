@@ -37,10 +37,10 @@ def test_run_fails_with_exit_1_when_a_bound_is_missed(fmu_dir: Path, tmp_path: P
     assert "FAIL" in capsys.readouterr().out
 
 
-@pytest.mark.parametrize("backend", ["native", "python"])
-def test_design_mismatch_is_found_in_both_backends(backend: str, fmu_dir: Path, tmp_path: Path,
+@pytest.mark.parametrize("backend", ["native", "python", "fmi3"])
+def test_design_mismatch_is_found_in_every_backend(backend: str, fmu_dir: Path, tmp_path: Path,
                                                    capsys: pytest.CaptureFixture) -> None:
-    """The controller FMU of either backend carries its artifact (resources/artifact.json): a
+    """The controller FMU of every backend carries its artifact (resources/artifact.json): a
     plant other than its design plant is refused with --strict."""
     f = tmp_path / "own.toml"
     f.write_text('name = "own"\nstop_time = 0.1\nstep_size = 0.1\n'

@@ -109,9 +109,9 @@ BAD_FMUS: dict[str, tuple[Callable[[Path], bytes], str]] = {
     "no modelDescription": (lambda d: _rezip((d / "mrp_satellite.fmu").read_bytes(),
                                              keep=lambda n: n != "modelDescription.xml"),
                             r"has no modelDescription.xml"),
-    "FMI 3.0": (lambda d: _rezip((d / "mrp_satellite.fmu").read_bytes(), edit=lambda n, b: b.replace(
-        b'fmiVersion="2.0"', b'fmiVersion="3.0"') if n == "modelDescription.xml" else b),
-                r"is an FMI 3.0 FMU; satfmu runs FMI 2.0 co-simulation FMUs"),
+    "FMI 1.0": (lambda d: _rezip((d / "mrp_satellite.fmu").read_bytes(), edit=lambda n, b: b.replace(
+        b'fmiVersion="2.0"', b'fmiVersion="1.0"') if n == "modelDescription.xml" else b),
+                r"is an FMI 1.0 FMU; satfmu runs FMI 2.0 and 3.0 co-simulation FMUs"),
     "no binary": (lambda d: _rezip((d / "mrp_satellite.fmu").read_bytes(),
                                    keep=lambda n: not n.startswith("binaries/")),
                   r"has no binary for this platform \(binaries/linux64/mrp_satellite.so; its binaries: none\)"),

@@ -1,4 +1,4 @@
-"""The FMI 2.0 host harness over fmpy: status names, log capture, calls that return a status.
+"""The FMI host harness over fmpy: status names, log capture, calls that return a status.
 
 One harness for every host in the project (the co-simulation master :mod:`satfmu.sims.cosim.master`, the
 robustness suite :mod:`satfmu.sims.robustness` and the FMU tests): the logger callback records each
@@ -95,10 +95,26 @@ class Callbacks:
             receive(Message(_decode(instance), int(status), _decode(category), _decode(message)))
 
         self._logger = logger
+        self._receive = receive
         self.functions = fmi2CallbackFunctions()
         self.functions.logger = fmi2CallbackLoggerTYPE(logger)
         self.functions.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
         self.functions.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+
+    def fmi3_logger(self, instance: str) -> Callable[[Any, int, bytes, bytes], None]:
+        """An FMI 3.0 ``logMessage`` callback (a Python function for fmpy's ``FMU3Slave.instantiate``)
+        that records each message as this object's FMI 2.0 logger does, under ``instance``: FMI 3.0
+        passes no instance name, only the instance environment.
+
+        Parameters
+        ----------
+        instance : str
+            The instance name the messages are recorded under.
+        """
+        def log_message(env: Any, status: int, category: bytes, message: bytes) -> None:
+            self._receive(Message(instance, int(status), _decode(category), _decode(message)))
+
+        return log_message
 
     def text(self, since: int = 0) -> str:
         """The texts of the messages from index ``since`` on, one per line.

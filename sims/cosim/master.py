@@ -1,4 +1,4 @@
-"""Fixed-step co-simulation master for FMI 2.0 co-simulation FMUs, built on fmpy.
+"""Fixed-step co-simulation master for FMI 2.0 and FMI 3.0 co-simulation FMUs, built on fmpy.
 
 The master loads N FMUs, connects outputs to inputs by name (``"plant.omega[1]"``,
 or a base name such as ``"plant.omega"`` that expands to every index), feeds
@@ -23,6 +23,15 @@ another engine's run (:mod:`satfmu.sims.interop.verify`). The recorded value of 
 computed from the new inputs, in either order.
 Value references and ctypes buffers are prepared once; each step makes one
 ``fmi2GetReal``/``fmi2SetReal`` call per FMU and direction.
+
+An FMI 3.0 FMU takes part as its FMI 2.0 scalars (:mod:`satfmu.sims.cosim.instances`: the
+array ``sigma`` is ``sigma[1]`` .. ``sigma[3]``, set whole); its periodic input clocks (a
+sampled controller's) are driven in Event Mode. At a communication point that is one of its
+clock instants the master enters its Event Mode before it sets any input there, activates the
+clocks just before it first reads one of its outputs (after the inputs in feedthrough order,
+after every read in Jacobi order) and leaves Event Mode before it records the point; a step
+containing an instant is split there. The samples are then those of its FMI 2.0 twin in the
+same wiring, bit for bit. A co-simulation with an FMI 3.0 FMU steps in the Python loop.
 """
 from __future__ import annotations
 
@@ -36,12 +45,12 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 from fmpy.fmi1 import FMICallException
-from fmpy.fmi2 import FMU2Slave
 from threadpoolctl import ThreadpoolController
 
 from satfmu.fmus.declared import did_you_mean
 from satfmu.fmus.profiles import Profile
 from satfmu.sims.cosim import fmi_host
+from satfmu.sims.cosim.instances import Fmi3Instance, Instance, open_instance
 from satfmu.fmus.errors import FmuCallError, MasterError, UnknownVariableError, WiringError
 
 
@@ -156,11 +165,12 @@ class Component:
     path : Path
         The FMU file.
     model_description : fmpy.model_description.ModelDescription
-        Its model description, as fmpy reads it.
+        Its model description, as fmpy reads it (an FMI 3.0 one as FMI 2.0 scalars:
+        :func:`satfmu.sims.cosim.instances.scalar_description`).
     unzip_dir : str
         Folder the FMU is extracted into (removed by :meth:`CoSimulation.close`).
-    slave : fmpy.fmi2.FMU2Slave
-        fmpy's handle of the FMU's library and instance.
+    instance : satfmu.sims.cosim.instances.Instance
+        The FMU's library and instance.
     variables : dict of str to fmpy.model_description.ScalarVariable
         Every model variable, by name.
     log : list of str, optional
@@ -175,13 +185,18 @@ class Component:
     path: Path
     model_description: Any
     unzip_dir: str
-    slave: FMU2Slave
+    instance: Instance
     variables: dict[str, Any]
     log: list[str] = field(default_factory=list)
     fatal: bool = False
     """Set when the FMU returned fmi2Fatal: FMI then allows no further call, not even a free."""
     instantiated: bool = False
     """An instance exists (between a run and the next with ``reuse_instances``)."""
+
+    @property
+    def slave(self) -> Any:
+        """fmpy's handle of the FMU (``FMU2Slave`` or ``FMU3Slave``)."""
+        return self.instance.slave
 
     def variable(self, name: str) -> Any:
         """The model variable ``name`` (fmpy's ``ScalarVariable``).
@@ -273,6 +288,7 @@ class CoSimulation:
         self.reuse_instances = reuse_instances
         self._pools: ThreadpoolController | None = None
         self._loop: Any = None  # the compiled loop's library, False if unavailable, None until asked
+        self._ran: str | None = None  # the loop of the last run
         self._resolved: dict[str, tuple[Component, list[str]]] = {}  # resolve()'s answers
         self._plan: tuple[tuple[tuple[str, str], ...], list[_Transfer]] | None = None  # connections, transfers
         self.components: dict[str, Component] = {}
@@ -289,10 +305,14 @@ class CoSimulation:
                 md, unzip = fmi_host.open_fmu(path)
             except fmi_host.UnreadableFmuError as exc:
                 raise MasterError(f"FMU for instance {name!r}: {exc}") from None
-            slave = FMU2Slave(guid=md.guid, unzipDirectory=unzip,
-                              modelIdentifier=md.coSimulation.modelIdentifier, instanceName=name)
-            self.components[name] = Component(name, path, md, unzip, slave,
-                                              {v.name: v for v in md.modelVariables})
+            try:
+                instance = open_instance(md, unzip, name)
+            except MasterError:
+                shutil.rmtree(unzip, ignore_errors=True)
+                raise
+            view = instance.description
+            self.components[name] = Component(name, path, view, unzip, instance,
+                                              {v.name: v for v in view.modelVariables})
 
     # ------------------------------------------------------------------ setup
     def _receive(self, message: fmi_host.Message) -> None:
@@ -304,8 +324,13 @@ class CoSimulation:
     @property
     def loop(self) -> str | None:
         """The loop its runs step in: ``"compiled"`` (:mod:`satfmu.sims.cosim.compiled_loop`) or
-        ``"python"`` (no C compiler), None before its first run."""
-        return None if self._loop is None else "compiled" if self._loop else "python"
+        ``"python"`` (no C compiler, or an FMI 3.0 FMU), None before its first run."""
+        return self._ran
+
+    @property
+    def fmi3(self) -> bool:
+        """Whether one of its FMUs is an FMI 3.0 one (it then steps in the Python loop)."""
+        return any(isinstance(c.instance, Fmi3Instance) for c in self.components.values())
 
     def resolve(self, qualified: str) -> tuple[Component, list[str]]:
         """Split ``"instance.variable"`` and expand base names.
@@ -461,7 +486,7 @@ class CoSimulation:
     # ------------------------------------------------------------------ calls
     def _call(self, comp: Component, fn: str, *args: Any) -> Any:
         try:
-            return getattr(comp.slave, fn)(*args)
+            return getattr(comp.instance, fn)(*args)
         except FMICallException as exc:
             self._raise(comp, exc)
 
@@ -474,7 +499,7 @@ class CoSimulation:
     def _set_parameters(self, comp: Component, values: dict[str, Any]) -> None:
         for name, value in values.items():
             var, value = start_value(comp, name, value)
-            self._call(comp, f"set{var.type}", [var.valueReference], [value])
+            self._call(comp, "set_values", var.type, [var.valueReference], [value])
 
     def _transfers(self) -> list[_Transfer]:
         """Connections batched per (level, source FMU, target FMU), in level order (made once per
@@ -521,8 +546,9 @@ class CoSimulation:
             propagates in feedthrough order either way (as libcosim's does).
         engine : {"auto", "compiled", "python"}
             Who runs the step loop: the compiled loop (:mod:`satfmu.sims.cosim.compiled_loop`), the
-            Python loop, or the compiled one when a C compiler is there (default). Both
-            make the same calls with the same values: the results are identical.
+            Python loop, or the compiled one when a C compiler is there and every FMU is an
+            FMI 2.0 one (default). Both make the same calls with the same values: the results
+            are identical.
         record_every : int
             Record every ``record_every``-th communication point, from the first, and the last
             one (>= 1; the default records every point). Memory: 8 bytes per recorded
@@ -559,7 +585,10 @@ class CoSimulation:
             raise MasterError(f"FMU instance(s) {dead} returned fmi2Fatal in an earlier run and cannot be "
                               "used again; create a new CoSimulation")
         lib = None
-        if engine != "python":
+        if engine == "compiled" and self.fmi3:
+            raise MasterError("the compiled loop runs FMI 2.0 FMUs only; with an FMI 3.0 FMU use engine='python' "
+                              "or 'auto'")
+        if engine != "python" and not self.fmi3:
             if self._loop is None:
                 from satfmu.sims.cosim import compiled_loop
 
@@ -600,12 +629,15 @@ class CoSimulation:
         data = np.zeros((len(rows), len(rec_names)))
         comps = list(self.components.values())
         limits = None
+        clocked = [(c, c.instance) for c in comps if isinstance(c.instance, Fmi3Instance) and c.instance.clocked]
+        first_read: dict[str, int] = {}  # instance -> index of the first transfer reading its outputs
+        for i, tr in enumerate(transfers):
+            first_read.setdefault(tr.src.name, i)
         try:
             for comp in comps:
                 self._start(comp)
                 self._set_parameters(comp, parameters.get(comp.name, {}))
-                self._call(comp, "setupExperiment", None, start_time, stop_time)
-                self._call(comp, "enterInitializationMode")
+                self._call(comp, "initialize", start_time, stop_time)
             # one BLAS/OpenMP thread while the FMUs run: their work (and the master's) is many small
             # solves, for which a thread pool costs CPU and gives nothing (ONE_THREAD); set after
             # instantiation, which loads the libraries of pythonfmu FMUs (scipy's own OpenBLAS)
@@ -614,34 +646,47 @@ class CoSimulation:
             def set_profiles(k: int) -> None:
                 for c, (vr, buf, values) in prof_bufs.items():
                     buf[:] = values[k]
-                    self._call(self.components[c], "fmi2SetReal", self.components[c].slave.component,
-                               vr, len(buf), buf)
+                    self._call(self.components[c], "set_reals", vr, buf)
 
             def exchange(k: int, jacobi: bool) -> None:
                 """Profiles and connections at t_k; in Jacobi order a profile counts as an output
-                (a signal generator's), so it is set with the inputs, after every read."""
+                (a signal generator's), so it is set with the inputs, after every read. The clocks
+                of FMI 3.0 FMUs that tick at t_k are driven around it (the module docstring)."""
+                due = [c for c, inst in clocked if inst.instant_at(float(times[k]))] if k > 0 else []
+                waiting = {c.name for c in due}
+                for comp in due if not jacobi else ():
+                    self._call(comp, "enter_event")
                 if not jacobi:
                     set_profiles(k)
-                for tr in transfers:
-                    self._call(tr.src, "fmi2GetReal", tr.src.slave.component, tr.src_vr, tr.n, tr.buf)
+                for i, tr in enumerate(transfers):
+                    if not jacobi and tr.src.name in waiting and first_read[tr.src.name] == i:
+                        self._call(tr.src, "activate")
+                        waiting.discard(tr.src.name)
+                    self._call(tr.src, "get_reals", tr.src_vr, tr.buf)
                     if not jacobi:
-                        self._call(tr.dst, "fmi2SetReal", tr.dst.slave.component, tr.dst_vr, tr.n, tr.buf)
+                        self._call(tr.dst, "set_reals", tr.dst_vr, tr.buf)
+                for comp in due if jacobi else ():
+                    self._call(comp, "enter_event")
                 if jacobi:
                     set_profiles(k)
                 for tr in transfers if jacobi else ():
-                    self._call(tr.dst, "fmi2SetReal", tr.dst.slave.component, tr.dst_vr, tr.n, tr.buf)
+                    self._call(tr.dst, "set_reals", tr.dst_vr, tr.buf)
+                for comp in due:
+                    if comp.name in waiting:
+                        self._call(comp, "activate")
+                    self._call(comp, "leave_event")
 
             def sample(row: int) -> None:
                 for c, (vr, buf, cols) in rec_bufs.items():
-                    self._call(self.components[c], "fmi2GetReal", self.components[c].slave.component,
-                               vr, len(buf), buf)
+                    self._call(self.components[c], "get_reals", vr, buf)
                     data[row, cols] = buf[:]
 
             exchange(0, False)
             for comp in comps:
-                self._call(comp, "exitInitializationMode")
+                self._call(comp, "exit_initialization")
             sample(0)
             jacobi = exchange_order == "jacobi"
+            self._ran = "compiled" if lib is not None else "python"
             if lib is not None:
                 self._compiled_steps(lib, comps, transfers, prof_bufs, rec_bufs, times, step_size, jacobi,
                                      int(record_every), data)
@@ -649,7 +694,7 @@ class CoSimulation:
                 row = 1
                 for k in range(n_steps):
                     for comp in comps:
-                        self._call(comp, "doStep", float(times[k]), step_size)
+                        self._call(comp, "step", float(times[k]), step_size)
                     exchange(k + 1, jacobi)
                     if row < len(rows) and rows[row] == k + 1:
                         sample(row)
@@ -681,10 +726,10 @@ class CoSimulation:
             except FmuCallError:
                 if comp.fatal:
                     raise
-                comp.slave.fmi2FreeInstance(comp.slave.component)
+                comp.instance.free()
                 comp.instantiated = False
                 comp.log.clear()
-        comp.slave.instantiate(callbacks=self._callbacks.functions, loggingOn=True)
+        comp.instance.instantiate(self._callbacks)
         comp.instantiated = True
 
     def _thread_pools(self) -> ThreadpoolController:
@@ -698,7 +743,7 @@ class CoSimulation:
         """Free every instance (the libraries stay loaded so the same set can run again)."""
         for comp in self.components.values():
             if comp.instantiated and not comp.fatal:  # after fmi2Fatal the instance is abandoned, as FMI 2.0 requires
-                comp.slave.fmi2FreeInstance(comp.slave.component)
+                comp.instance.free()
             comp.instantiated = False
 
     def _compiled_steps(self, lib: Any, comps: list[Component], transfers: list[_Transfer],
@@ -734,7 +779,7 @@ class CoSimulation:
         self._free_instances()
         for comp in self.components.values():
             if not comp.fatal:  # an abandoned instance may still reference its library
-                comp.slave.freeLibrary()
+                comp.instance.unload()
             shutil.rmtree(comp.unzip_dir, ignore_errors=True)
 
     def __enter__(self) -> "CoSimulation":

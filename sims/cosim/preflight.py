@@ -3,7 +3,7 @@
 :func:`fmu_problem` says what makes a file unusable here: empty, not a zip archive (another
 kind of file, or truncated), an archive :func:`satfmu.fmus.archive.check` refuses (unsafe entries,
 beyond its size limits), a damaged member, no ``modelDescription.xml``, another FMI
-version than 2.0, no co-simulation interface, no binary for this platform, or another model
+version than 2.0 and 3.0, no co-simulation interface, no binary for this platform, or another model
 than the one the scenario names. :func:`stale_artifact` says when a controller FMU embeds
 another artifact than the file of its name (:func:`satfmu.controllers.paths.find_artifact`) holds now: the
 FMU records the SHA-256 of the artifact it was built from (:func:`satfmu.fmus.export.artifact_digest`),
@@ -19,11 +19,12 @@ from xml.etree import ElementTree
 from satfmu.fmus import archive
 from satfmu.controllers import catalog, paths
 
-FMI_VERSION = "2.0"
+FMI_VERSIONS = ("2.0", "3.0")
+"""The FMI versions the master runs (co-simulation)."""
 
 
 def fmu_problem(path: Path, model: str | None = None) -> str | None:
-    """What makes ``path`` unusable as an FMI 2.0 co-simulation FMU (of ``model``) here.
+    """What makes ``path`` unusable as an FMI 2.0 or 3.0 co-simulation FMU (of ``model``) here.
 
     Parameters
     ----------
@@ -37,7 +38,7 @@ def fmu_problem(path: Path, model: str | None = None) -> str | None:
     str or None
         The problem as a phrase to follow the file name (``"is empty (0 bytes)"``), or None.
     """
-    from fmpy import platform, sharedLibraryExtension
+    from fmpy import platform, platform_tuple, sharedLibraryExtension
 
     try:
         listing = archive.check(path, crc=True)
@@ -47,8 +48,8 @@ def fmu_problem(path: Path, model: str | None = None) -> str | None:
         version = ElementTree.fromstring(listing.description).get("fmiVersion")
     except ElementTree.ParseError as exc:
         return f"has a modelDescription.xml that is not XML ({exc})"
-    if version != FMI_VERSION:
-        return f"is an FMI {version} FMU; satfmu runs FMI {FMI_VERSION} co-simulation FMUs"
+    if version not in FMI_VERSIONS:
+        return f"is an FMI {version} FMU; satfmu runs FMI {' and '.join(FMI_VERSIONS)} co-simulation FMUs"
     try:
         md = archive.parse_description(path, listing.description)
     except archive.UnsafeFmuError as exc:
@@ -56,7 +57,8 @@ def fmu_problem(path: Path, model: str | None = None) -> str | None:
     names = set(listing.names)
     if md.coSimulation is None:
         return "has no co-simulation interface (model exchange only)"
-    binary = f"binaries/{platform}/{md.coSimulation.modelIdentifier}{sharedLibraryExtension}"
+    folder = platform if version == "2.0" else platform_tuple
+    binary = f"binaries/{folder}/{md.coSimulation.modelIdentifier}{sharedLibraryExtension}"
     if binary not in names:
         found = sorted({n.split("/")[1] for n in names if n.startswith("binaries/") and n.count("/") > 1})
         return f"has no binary for this platform ({binary}; its binaries: {', '.join(found) or 'none'})"

@@ -199,12 +199,17 @@ def system_structure(scenario: Scenario, fmu_dir: Path, backend: str = "native",
     Raises
     ------
     SspError
-        Two different FMU files with one name, an instance name taken twice, or a schema failure.
+        Two different FMU files with one name, an instance name taken twice, an FMI 3.0 FMU, or a
+        schema failure.
     FileNotFoundError, satfmu.sims.cosim.master.MasterError, satfmu.fmus.profiles.ProfileError
         A missing FMU, an unknown variable, a wrong connection, parameter or profile (as the master).
     """
     d = scenario.data
     paths = fmu_paths(scenario, fmu_dir, backend)
+    fmi3 = sorted(inst for inst, path in paths.items() if archive.read_description(path).fmiVersion != "2.0")
+    if fmi3:
+        raise SspError(f"{scenario.name}: instance(s) {fmi3} are FMI 3.0 FMUs; an SSP 1.0 file connects FMI 2.0 "
+                       "scalars (use the native or python backend)")
     table_dir = Path(table_dir) if table_dir is not None else Path(fmu_dir) / "signal_tables"
     table_dir.mkdir(parents=True, exist_ok=True)
     sig_paths, sig_params, sig_conns = signal_components(scenario, fmu_dir, table_dir, backend)
