@@ -27,6 +27,19 @@ T = TypeVar("T")
 R = TypeVar("R")
 
 
+COSIMULATION_BACKENDS = ("native", "python", "fmi3")
+"""The co-simulation FMU backends: FMI 2.0 native and pythonfmu, FMI 3.0 native."""
+ALL_BACKENDS = (*COSIMULATION_BACKENDS, "me")
+"""Every FMU backend, in build order."""
+PLANT_BACKENDS = ALL_BACKENDS
+"""A plant's FMUs: co-simulation in every backend and model exchange."""
+SLIDING_PLANTS = ("vscmg", "mrp_satellite_rw3", "mrp_satellite_rw4")
+"""Plants without a model-exchange FMU: their switching laws slide (the VSCMG's stick-slip friction,
+a wheel held at its speed limit against friction), which the co-simulation FMU realizes substep by
+substep and a variable-step solver meets as an endless train of events (fmpy's CVODE: 1.2e5 events
+in 0.25 s of the VSCMG, no progress past the first wheel reaching its limit)."""
+
+
 @dataclass(frozen=True)
 class FmuSource:
     """A model to export and the resources its FMUs carry.
@@ -40,25 +53,27 @@ class FmuSource:
         ``artifact.json``); empty for a plant.
     backends : tuple of str, optional
         FMU backends the model supports, among ``"native"`` (FMI 2.0), ``"python"`` (pythonfmu,
-        FMI 2.0) and ``"fmi3"`` (native FMI 3.0). Default all three.
+        FMI 2.0), ``"fmi3"`` (native FMI 3.0) and ``"me"`` (native FMI 2.0 model exchange, the
+        plants'). Default the first three.
     """
 
     model: Model
     resources: dict[str, bytes]
-    backends: tuple[str, ...] = ("native", "python", "fmi3")
-    """FMU backends the model supports (every model has all three but the generic signal generators,
-    native only: FMI 2.0 and FMI 3.0)."""
+    backends: tuple[str, ...] = COSIMULATION_BACKENDS
+    """FMU backends the model supports (every model has the first three but the generic signal
+    generators, native only: FMI 2.0 and FMI 3.0; the plants also model exchange)."""
 
 
-def _plant(module: str) -> Callable[[], FmuSource]:
-    """The source of the plant ``module.MODEL`` (the module builds it when first imported)."""
-    return lambda: FmuSource(importlib.import_module(module).MODEL, {})
+def _plant(module: str, backends: tuple[str, ...] = PLANT_BACKENDS) -> Callable[[], FmuSource]:
+    """The source of the model ``module.MODEL`` (the module builds it when first imported): a plant's
+    backends by default."""
+    return lambda: FmuSource(importlib.import_module(module).MODEL, {}, backends)
 
 
 def _wheel_plant(n: int) -> FmuSource:
     from satfmu.fmus.plants import wheel_spacecraft
 
-    return FmuSource(wheel_spacecraft.MODELS[n], {})
+    return FmuSource(wheel_spacecraft.MODELS[n], {}, COSIMULATION_BACKENDS)  # SLIDING_PLANTS
 
 
 def _online_sdre(name: str) -> FmuSource:
@@ -92,14 +107,15 @@ def _signal(kind: str) -> FmuSource:
 
 
 PLANTS: dict[str, Callable[[], FmuSource]] = {
-    "mrp_satellite": _plant("satfmu.fmus.plants.mrp_satellite"), "vscmg": _plant("satfmu.fmus.plants.vscmg"),
+    "mrp_satellite": _plant("satfmu.fmus.plants.mrp_satellite"),
+    "vscmg": _plant("satfmu.fmus.plants.vscmg", COSIMULATION_BACKENDS),
     "magnetorquer_cubesat": _plant("satfmu.fmus.plants.cubesat"),
     "demeter_flexible": _plant("satfmu.fmus.plants.demeter"),
     "mrp_satellite_rw3": functools.partial(_wheel_plant, 3), "mrp_satellite_rw4": functools.partial(_wheel_plant, 4),
     "orbit_environment": _plant("satfmu.fmus.environment.orbit")}
 """Plant model name -> its source (built on call); the orbit and environment model among them."""
 SENSORS: dict[str, Callable[[], FmuSource]] = {
-    name: _plant(f"satfmu.fmus.sensors.{name}")
+    name: _plant(f"satfmu.fmus.sensors.{name}", COSIMULATION_BACKENDS)
     for name in ("star_tracker", "rate_gyro", "magnetometer", "knowledge_error")}
 """Sensor model name -> its source (:mod:`satfmu.fmus.sensors`; ``knowledge_error`` the diagnostic of an
 estimate against the truth)."""
@@ -306,11 +322,11 @@ def controller_source(art: Artifact, data: bytes | None = None) -> FmuSource:
 
 
 def builder(backend: str) -> Callable[..., Path]:
-    """``satfmu.fmus.export.build_native``, ``build_python`` or ``build_fmi3``.
+    """``satfmu.fmus.export.build_native``, ``build_python``, ``build_fmi3`` or ``build_me``.
 
     Parameters
     ----------
-    backend : {"native", "python", "fmi3"}
+    backend : {"native", "python", "fmi3", "me"}
         The FMU backend.
 
     Returns
@@ -320,7 +336,8 @@ def builder(backend: str) -> Callable[..., Path]:
     """
     from satfmu.fmus import export
 
-    return {"native": export.build_native, "python": export.build_python, "fmi3": export.build_fmi3}[backend]
+    return {"native": export.build_native, "python": export.build_python, "fmi3": export.build_fmi3,
+            "me": export.build_me}[backend]
 
 
 _PENDING: list[tuple[FmuSource, str]] = []
@@ -360,7 +377,7 @@ def _fork_map(fn: Callable[[T], R], items: list[T], jobs: int | None) -> list[R]
         return list(pool.map(fn, items))
 
 
-def build_all(dest: Path | None = None, backends: tuple[str, ...] = ("native", "python", "fmi3"),
+def build_all(dest: Path | None = None, backends: tuple[str, ...] = ALL_BACKENDS,
               jobs: int | None = None) -> BuildResult:
     """Build every FMU into ``dest``, in parallel processes.
 
@@ -371,7 +388,7 @@ def build_all(dest: Path | None = None, backends: tuple[str, ...] = ("native", "
     ----------
     dest : Path, optional
         Folder of the FMUs (default: :func:`satfmu.controllers.paths.fmu_cache`).
-    backends : tuple of {"native", "python", "fmi3"}, optional
+    backends : tuple of {"native", "python", "fmi3", "me"}, optional
         The FMU backends to build (default all; a model without one is skipped for it).
     jobs : int, optional
         Worker processes (default: the number of CPUs); 1, or a platform without ``fork``,
@@ -380,7 +397,7 @@ def build_all(dest: Path | None = None, backends: tuple[str, ...] = ("native", "
     from satfmu.fmus import export
 
     dest = paths.fmu_cache() if dest is None else Path(dest)
-    plan = [(src, b) for src in sources() for b in ("native", "python", "fmi3") if b in backends and b in src.backends]
+    plan = [(src, b) for src in sources() for b in ALL_BACKENDS if b in backends and b in src.backends]
     files = [export.fmu_path(src.model, dest, b) for src, b in plan]
     todo = [i for i, ((src, b), path) in enumerate(zip(plan, files))
             if export.built_digest(path) != export.digest_of(src.model, b, src.resources)]

@@ -24,6 +24,7 @@ from sympy.printing.pycode import PythonCodePrinter
 from satfmu.fmus import noise
 from satfmu.fmus.arrays import array_variables
 from satfmu.fmus.digest import model_digest
+from satfmu.fmus.events import event_indicators
 from satfmu.fmus.model import TIME_TOL, TIME_TOL_MAX, TIME_ULPS, Model, TableLookup
 
 KIND_PARAMETER, KIND_INPUT, KIND_OUTPUT = 0, 1, 2
@@ -158,6 +159,30 @@ def functions(model: Model) -> list[LoweredFunction]:
     if key not in _LOWERED:
         _LOWERED[key] = tuple(_lower_all(model))
     return list(_LOWERED[key])
+
+
+_EVENTS: dict[str, LoweredFunction] = {}
+"""Lowered event indicators by model digest."""
+
+
+def event_function(model: Model) -> LoweredFunction:
+    """The event indicators of a model-exchange FMU (:func:`satfmu.fmus.events.event_indicators`),
+    lowered, the substep-start state read as the current one (lowered once per process).
+
+    Parameters
+    ----------
+    model : Model
+        The model.
+
+    Returns
+    -------
+    LoweredFunction
+        ``event_indicators``: one result per indicator.
+    """
+    key = model_digest(model)
+    if key not in _EVENTS:
+        _EVENTS[key] = lower(model, "event_indicators", event_indicators(model), previous_is_current=True)
+    return _EVENTS[key]
 
 
 def draws_noise(model: Model) -> bool:
@@ -546,9 +571,10 @@ A header, not a ``.c`` file: it is no translation unit of its own (it uses the w
 this header."""
 
 
-def c_source(model: Model, guid: str) -> str:
+def c_source(model: Model, guid: str, events: bool = False) -> str:
     """The model-specific C header (:data:`C_HEADER`) included by ``satfmu_core.h``, which the
-    interface's wrapper (``fmi2_cosim.c`` or ``fmi3.c``, the FMU's one translation unit) includes.
+    interface's wrapper (``fmi2_cosim.c``, ``fmi3.c`` or ``fmi2_me.c``, the FMU's one translation
+    unit) includes.
 
     Parameters
     ----------
@@ -557,6 +583,9 @@ def c_source(model: Model, guid: str) -> str:
         The native FMU's GUID (:func:`satfmu.fmus.description.fmu_guid`) or the FMI 3.0 FMU's
         instantiation token: ``MODEL_GUID``, which instantiation requires, and ``MODEL_ID``, its 16
         bytes (:func:`guid_bytes`), the identity of the FMU states.
+    events : bool, optional
+        Also ``NZ`` and ``model_event_indicators`` (:func:`event_function`), for model exchange.
+        Default False.
 
     Returns
     -------
@@ -634,6 +663,11 @@ def c_source(model: Model, guid: str) -> str:
            "switch_time": "double t, const double *x, const double *u, const double *p, double *out"}
     sig["jacobian"] = sig["derivatives"]
     generated = functions(model)
+    if events:
+        indicators = event_function(model)
+        sig["event_indicators"] = sig["derivatives"]
+        lines.append(f"#define NZ {len(indicators.results)}")
+        generated = generated + ([indicators] if indicators.results else [])
     if model.sampler is None:  # the wrapper calls it only when NH > 0
         generated = generated + [LoweredFunction("sample_arguments", [], [])]
     if model.sampler is not None and model.sampler.c_header is not None:

@@ -39,6 +39,7 @@ from satfmu.fmus.atomic import write_atomically
 from satfmu.fmus.description import (NATIVE, PYTHON, PYTHON_SUFFIX, WRAPPER_SOURCE, capabilities, model_description,
                               to_xml_bytes)
 from satfmu.fmus.description3 import FMI3_SUFFIX, WRAPPER3_SOURCE, build_description, model_description3
+from satfmu.fmus.description_me import ME_SUFFIX, WRAPPER_ME_SOURCE, model_description_me
 from satfmu.fmus.digest import build_digest, sha256
 from satfmu.fmus.model import Model
 from satfmu.fmus.errors import FmuBuildError
@@ -46,11 +47,14 @@ from satfmu.fmus.errors import FmuBuildError
 HERE = Path(__file__).resolve().parent
 WRAPPER = HERE / "c" / WRAPPER_SOURCE
 WRAPPER3 = HERE / "c" / WRAPPER3_SOURCE
+WRAPPER_ME = HERE / "c" / WRAPPER_ME_SOURCE
 CORE = HERE / "c" / "satfmu_core.h"
 """The model-independent part of a native FMU that both interfaces' wrappers include."""
 FMI3 = "fmi3"
 """The backend of the native FMI 3.0 FMU (beside :data:`satfmu.fmus.description.NATIVE` and
 :data:`satfmu.fmus.description.PYTHON`)."""
+ME = "me"
+"""The backend of the native FMI 2.0 model-exchange FMU of a plant (:func:`build_me`)."""
 FMI3_PLATFORMS = {"linux64": "x86_64-linux", "win64": "x86_64-windows"}
 """The FMI 3.0 platform tuple (folder under ``binaries/``) of each FMI 2.0 platform."""
 PYSLAVE = HERE / "pyslave.py"
@@ -223,18 +227,20 @@ def fmu_path(model: Model, dest_dir: Path, backend: str) -> Path:
         The model of the FMU.
     dest_dir : Path
         The folder of the FMUs.
-    backend : {"native", "python", "fmi3"}
-        The backend; a pythonfmu FMU's name ends in ``_py``, an FMI 3.0 FMU's in ``_fmi3``.
+    backend : {"native", "python", "fmi3", "me"}
+        The backend; a pythonfmu FMU's name ends in ``_py``, an FMI 3.0 FMU's in ``_fmi3``, a
+        model-exchange FMU's in ``_me``.
 
     Returns
     -------
     Path
-        ``<dest_dir>/<model.name>.fmu``, ``<model.name>_py.fmu`` or ``<model.name>_fmi3.fmu``.
+        ``<dest_dir>/<model.name>.fmu``, ``<model.name>_py.fmu``, ``<model.name>_fmi3.fmu`` or
+        ``<model.name>_me.fmu``.
     """
     return Path(dest_dir) / f"{model.name}{_SUFFIXES.get(backend, '')}.fmu"
 
 
-_SUFFIXES = {PYTHON: PYTHON_SUFFIX, FMI3: FMI3_SUFFIX}
+_SUFFIXES = {PYTHON: PYTHON_SUFFIX, FMI3: FMI3_SUFFIX, ME: ME_SUFFIX}
 
 
 def digest_of(model: Model, backend: str, resources: dict[str, bytes] | None = None, cc: str = "gcc",
@@ -335,9 +341,46 @@ def build_fmi3(model: Model, dest_dir: Path, resources: dict[str, bytes] | None 
     return _build_c(model, dest_dir, resources, cc, win64_cc, FMI3)
 
 
+def build_me(model: Model, dest_dir: Path, resources: dict[str, bytes] | None = None,
+             cc: str = "gcc", win64_cc: str = WIN64_CC) -> Path:
+    """Generate, compile and package the FMI 2.0 model-exchange FMU ``<dest_dir>/<model.name>_me.fmu``.
+
+    The model's states, derivatives and event indicators (:mod:`satfmu.fmus.events`) through the
+    wrapper ``fmus/c/fmi2_me.c``, for an importer that integrates the plant with its own solver
+    (:mod:`satfmu.fmus.description_me`).
+
+    Parameters
+    ----------
+    model : Model
+        The model; it must have a C form and no sampler (a plant).
+    dest_dir : Path
+        The folder the FMU is written to.
+    resources : dict of str to bytes, optional
+        Extra files for ``resources/``.
+    cc : str, optional
+        C compiler of the linux64 binary. Default ``"gcc"``.
+    win64_cc : str, optional
+        C cross compiler of the win64 binary (MinGW-w64). Default :data:`WIN64_CC`.
+
+    Returns
+    -------
+    Path
+        The FMU. Nothing is built when it already records this build's digest.
+
+    Raises
+    ------
+    FmuBuildError
+        As :func:`build_native`, and for a model with a sampler (sampled laws are co-simulation's).
+    """
+    if model.sampler is not None:
+        raise FmuBuildError(f"{model.name}: a model with a sampler has no model-exchange FMU (its samples are "
+                            "taken at instants a co-simulation step or an FMI 3.0 clock gives)")
+    return _build_c(model, dest_dir, resources, cc, win64_cc, ME)
+
+
 def _build_c(model: Model, dest_dir: Path, resources: dict[str, bytes] | None, cc: str, win64_cc: str,
              backend: str) -> Path:
-    """The native FMU of ``model`` on ``backend`` (:data:`NATIVE`, FMI 2.0, or :data:`FMI3`)."""
+    """The native FMU of ``model`` on ``backend`` (:data:`NATIVE`, FMI 2.0, :data:`FMI3` or :data:`ME`)."""
     try:
         codegen.require_c_form(model)
     except ValueError as exc:  # a model the C code cannot express (a Python sampler)
@@ -353,10 +396,14 @@ def _build_c(model: Model, dest_dir: Path, resources: dict[str, bytes] | None, c
         except ValueError as exc:
             raise FmuBuildError(str(exc)) from None
         token, wrapper, folders = desc.attrib["instantiationToken"], WRAPPER3, FMI3_PLATFORMS
+    elif backend == ME:
+        desc = model_description_me(model)
+        token, wrapper, folders = desc.attrib["guid"], WRAPPER_ME, None
     else:
         desc = model_description(model, capabilities(model, NATIVE))
         token, wrapper, folders = desc.attrib["guid"], WRAPPER, None  # FMI 2.0: the platforms' own names
-    model_h = codegen.c_source(model, token)  # the binary requires this description's GUID (token)
+    # the binary requires this description's GUID (token)
+    model_h = codegen.c_source(model, token, events=backend == ME)
     with tempfile.TemporaryDirectory(prefix="satfmu_") as tmp:
         root = Path(tmp)
         src = root / "sources"

@@ -116,6 +116,8 @@ def _build(args: argparse.Namespace) -> int:
     from satfmu.sims.cosim import compiled_loop
 
     backends = tuple(b for b in ("native", "python") if args.fmi in ("2", "both") and args.backend in (b, "all"))
+    if args.fmi in ("2", "both") and args.backend in ("native", "all"):
+        backends += ("me",)  # the plants' model-exchange FMUs (FMI 2.0, native)
     if args.fmi in ("3", "both") and args.backend in ("native", "all"):
         backends += ("fmi3",)  # native only: pythonfmu has no FMI 3.0
     start = time.perf_counter()
@@ -506,7 +508,8 @@ def parser() -> argparse.ArgumentParser:
     _fmu_dir(b, "folder the FMUs are built into")
     b.add_argument("--backend", choices=["native", "python", "all"], default="all", help="FMU kind")
     b.add_argument("--fmi", choices=["2", "3", "both"], default="both",
-                   help="FMI version: 2 (<name>.fmu, <name>_py.fmu), 3 (native, <name>_fmi3.fmu) or both (default)")
+                   help="FMI version: 2 (<name>.fmu, <name>_py.fmu, a plant's model exchange <name>_me.fmu), "
+                        "3 (native, <name>_fmi3.fmu) or both (default)")
     b.add_argument("--jobs", type=_positive_int, default=None, help="parallel build processes (default: one per CPU)")
     b.set_defaults(fn=_build)
     v = command(sub, "validate", "fmpy validate + fmutool -check on every FMU of a folder")
