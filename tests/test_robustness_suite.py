@@ -15,6 +15,7 @@ import pytest
 
 from satfmu.sims import robustness
 from satfmu.sims.robustness import CASES, CYCLES_CASE, NATIVE, PYTHONFMU, SuiteResult, rss_bound_kib
+from satfmu.sims.robustness.target import discover
 
 FAST_CYCLES = 100
 """Instantiate/free cycles of the fast run (1000 take ~2 min more, mostly demeter_flexible_py at
@@ -72,14 +73,14 @@ def test_suite_over_every_fmu(fmu_dir: Path, tmp_path: Path) -> None:
     """All cases on all FMUs of the session's build, 100 cycles, every bit of each FMU state flipped:
     no failure, no crash (~7 min on 2 loaded CPUs, most of it the refused bit flips)."""
     report = robustness.run(fmu_dir, cycles=FAST_CYCLES, out=tmp_path / "robustness")
-    _check_clean(report, [p.stem for p in fmu_dir.glob("*.fmu")], FAST_CYCLES)
+    _check_clean(report, [p.stem for p in discover(fmu_dir)], FAST_CYCLES)
 
 
 @pytest.mark.slow
 def test_suite_over_every_fmu_full(fmu_dir: Path, tmp_path: Path) -> None:
     """The issue's run: 1,000 instantiate/free cycles per FMU (489 s for docs/robustness.md)."""
     report = robustness.run(fmu_dir, cycles=1000, out=tmp_path / "robustness")
-    _check_clean(report, [p.stem for p in fmu_dir.glob("*.fmu")], 1000)
+    _check_clean(report, [p.stem for p in discover(fmu_dir)], 1000)
 
 
 def _copy_fmu(src: Path, dest: Path, edit: dict[str, bytes]) -> Path:
@@ -146,3 +147,16 @@ def test_worker_crash_is_reported_and_the_rest_runs(fmu_dir: Path, tmp_path: Pat
     assert "| doStep h < 0 | CRASH |" in (tmp_path / "rob.md").read_text()
     assert not list(tmp_path.glob("*.tmp"))  # written atomically: no temporary file left
     assert robustness.main(["--fmu-dir", str(fmus), "--cycles", "5", "--far-factor", "1"]) == 1
+
+
+def test_the_suite_drives_fmi2_cosimulation_fmus_only(fmu_dir: Path, capsys: pytest.CaptureFixture) -> None:
+    """Its cases are FMI 2.0 co-simulation calls: the FMI 3.0 and model-exchange FMUs of a folder are
+    left out, and naming one is refused with the reason (exit 2)."""
+    from satfmu.sims.robustness.command import main
+
+    found = {p.name for p in discover(fmu_dir)}
+    assert "mrp_satellite.fmu" in found and "mrp_satellite_py.fmu" in found
+    assert not {n for n in found if n.endswith(("_fmi3.fmu", "_me.fmu"))}
+    assert main(["--fmu-dir", str(fmu_dir), "--fmu", "mrp_satellite_me", "--fmu", "cubesat_bdot_fmi3"]) == 2
+    err = capsys.readouterr().err
+    assert "mrp_satellite_me.fmu is a model-exchange FMU; cubesat_bdot_fmi3.fmu is an FMI 3.0 FMU" in err

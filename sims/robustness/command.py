@@ -52,9 +52,9 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     try:
         if not discover(args.fmu_dir, args.fmu):
-            raise FileNotFoundError(f"no *.fmu in {args.fmu_dir}; run `satfmu build` first")
+            raise FileNotFoundError(f"no FMI 2.0 co-simulation *.fmu in {args.fmu_dir}; run `satfmu build` first")
         report = run(args.fmu_dir, args.fmu, args.cycles, args.out, far_factor=args.far_factor, flips=args.flips)
-    except FileNotFoundError as exc:
+    except (FileNotFoundError, ValueError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     print(markdown(report))

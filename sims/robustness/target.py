@@ -174,26 +174,52 @@ def describe(path: Path) -> Target:
         parameters=tuple(params), period=_first(real_params, lambda v: v.name in SAMPLE_PERIODS))
 
 
+def other_interface(path: Path) -> str | None:
+    """Why the cases cannot drive the FMU file ``path`` (they are FMI 2.0 co-simulation calls), or
+    None: ``"an FMI 3.0 FMU"``, ``"a model-exchange FMU"``. An unreadable file gives None (its cases
+    then fail, saying why).
+
+    Parameters
+    ----------
+    path : Path
+        The FMU file.
+    """
+    try:
+        md = archive.read_description(path)
+    except (OSError, archive.UnsafeFmuError):
+        return None
+    if md.fmiVersion != "2.0":
+        return f"an FMI {md.fmiVersion} FMU"
+    return None if md.coSimulation is not None else "a model-exchange FMU"
+
+
 def discover(fmu_dir: Path, names: Sequence[str] | None = None) -> list[Path]:
-    """The FMUs to test: every ``*.fmu`` in ``fmu_dir``, or those named (with or without ``.fmu``).
+    """The FMUs to test: every FMI 2.0 co-simulation ``*.fmu`` in ``fmu_dir`` (not the FMI 3.0 and
+    model-exchange ones: the cases are FMI 2.0 co-simulation calls), or those named (with or without
+    ``.fmu``).
 
     Parameters
     ----------
     fmu_dir : Path
         Folder of the FMUs.
     names : sequence of str, optional
-        FMU names in ``fmu_dir`` (default: every ``*.fmu`` there, sorted).
+        FMU names in ``fmu_dir`` (default: every FMI 2.0 co-simulation ``*.fmu`` there, sorted).
 
     Raises
     ------
     FileNotFoundError
         A named FMU is not in ``fmu_dir``.
+    ValueError
+        A named FMU is an FMI 3.0 or a model-exchange FMU.
     """
     if names is None:
-        return sorted(fmu_dir.glob("*.fmu"))
+        return sorted(p for p in fmu_dir.glob("*.fmu") if other_interface(p) is None)
     paths = [fmu_dir / (n if n.endswith(".fmu") else n + ".fmu") for n in names]
     missing = [str(p) for p in paths if not p.is_file()]
     if missing:
         raise FileNotFoundError(f"no such FMU: {', '.join(missing)}")
+    others = [f"{p.name} is {other_interface(p)}" for p in paths if other_interface(p) is not None]
+    if others:
+        raise ValueError(f"the robustness cases drive FMI 2.0 co-simulation FMUs; {'; '.join(others)}")
     return paths
 
