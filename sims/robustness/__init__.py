@@ -9,7 +9,8 @@ arguments) (what each case does), :mod:`.table` (the cases and their expectation
 process), :mod:`.runner` (the parent: workers, crashes, time-outs, :class:`SuiteResult`),
 :mod:`.results` (Markdown and CSV), :mod:`.command` (the command line).
 
-Every ``*.fmu`` of a folder is driven through fmpy's low-level FMI 2.0 API
+Every FMI 2.0 co-simulation ``*.fmu`` of a folder (:func:`.target.discover`: not the FMI 3.0 and
+model-exchange ones) is driven through fmpy's low-level FMI 2.0 API
 (``fmpy.fmi2.FMU2Slave``, raw ``fmi2*`` calls so the exact status is seen) with
 non-finite and huge values, bad step sizes, calls outside the co-simulation state
 machine, out-of-range and wrong-type sets, unknown value references, an FMU state
