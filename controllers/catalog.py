@@ -29,15 +29,10 @@ R = TypeVar("R")
 
 COSIMULATION_BACKENDS = ("native", "python", "fmi3")
 """The co-simulation FMU backends: FMI 2.0 native and pythonfmu, FMI 3.0 native."""
-ALL_BACKENDS = (*COSIMULATION_BACKENDS, "me")
+ALL_BACKENDS = (*COSIMULATION_BACKENDS, "me", "me3")
 """Every FMU backend, in build order."""
 PLANT_BACKENDS = ALL_BACKENDS
-"""A plant's FMUs: co-simulation in every backend and model exchange."""
-SLIDING_PLANTS = ("vscmg", "mrp_satellite_rw3", "mrp_satellite_rw4")
-"""Plants without a model-exchange FMU: their switching laws slide (the VSCMG's stick-slip friction,
-a wheel held at its speed limit against friction), which the co-simulation FMU realizes substep by
-substep and a variable-step solver meets as an endless train of events (fmpy's CVODE: 1.2e5 events
-in 0.25 s of the VSCMG, no progress past the first wheel reaching its limit)."""
+"""A plant's FMUs: co-simulation in every backend and model exchange (FMI 2.0 and FMI 3.0)."""
 
 
 @dataclass(frozen=True)
@@ -53,8 +48,8 @@ class FmuSource:
         ``artifact.json``); empty for a plant.
     backends : tuple of str, optional
         FMU backends the model supports, among ``"native"`` (FMI 2.0), ``"python"`` (pythonfmu,
-        FMI 2.0), ``"fmi3"`` (native FMI 3.0) and ``"me"`` (native FMI 2.0 model exchange, the
-        plants'). Default the first three.
+        FMI 2.0), ``"fmi3"`` (native FMI 3.0), ``"me"`` and ``"me3"`` (native FMI 2.0 and FMI 3.0
+        model exchange, the plants'). Default the first three.
     """
 
     model: Model
@@ -73,7 +68,7 @@ def _plant(module: str, backends: tuple[str, ...] = PLANT_BACKENDS) -> Callable[
 def _wheel_plant(n: int) -> FmuSource:
     from satfmu.fmus.plants import wheel_spacecraft
 
-    return FmuSource(wheel_spacecraft.MODELS[n], {}, COSIMULATION_BACKENDS)  # SLIDING_PLANTS
+    return FmuSource(wheel_spacecraft.MODELS[n], {}, PLANT_BACKENDS)
 
 
 def _online_sdre(name: str) -> FmuSource:
@@ -108,7 +103,7 @@ def _signal(kind: str) -> FmuSource:
 
 PLANTS: dict[str, Callable[[], FmuSource]] = {
     "mrp_satellite": _plant("satfmu.fmus.plants.mrp_satellite"),
-    "vscmg": _plant("satfmu.fmus.plants.vscmg", COSIMULATION_BACKENDS),
+    "vscmg": _plant("satfmu.fmus.plants.vscmg"),
     "magnetorquer_cubesat": _plant("satfmu.fmus.plants.cubesat"),
     "demeter_flexible": _plant("satfmu.fmus.plants.demeter"),
     "mrp_satellite_rw3": functools.partial(_wheel_plant, 3), "mrp_satellite_rw4": functools.partial(_wheel_plant, 4),
@@ -322,11 +317,11 @@ def controller_source(art: Artifact, data: bytes | None = None) -> FmuSource:
 
 
 def builder(backend: str) -> Callable[..., Path]:
-    """``satfmu.fmus.export.build_native``, ``build_python``, ``build_fmi3`` or ``build_me``.
+    """``satfmu.fmus.export.build_native``, ``build_python``, ``build_fmi3``, ``build_me`` or ``build_me3``.
 
     Parameters
     ----------
-    backend : {"native", "python", "fmi3", "me"}
+    backend : {"native", "python", "fmi3", "me", "me3"}
         The FMU backend.
 
     Returns
@@ -337,7 +332,7 @@ def builder(backend: str) -> Callable[..., Path]:
     from satfmu.fmus import export
 
     return {"native": export.build_native, "python": export.build_python, "fmi3": export.build_fmi3,
-            "me": export.build_me}[backend]
+            "me": export.build_me, "me3": export.build_me3}[backend]
 
 
 _PENDING: list[tuple[FmuSource, str]] = []
@@ -388,7 +383,7 @@ def build_all(dest: Path | None = None, backends: tuple[str, ...] = ALL_BACKENDS
     ----------
     dest : Path, optional
         Folder of the FMUs (default: :func:`satfmu.controllers.paths.fmu_cache`).
-    backends : tuple of {"native", "python", "fmi3", "me"}, optional
+    backends : tuple of {"native", "python", "fmi3", "me", "me3"}, optional
         The FMU backends to build (default all; a model without one is skipped for it).
     jobs : int, optional
         Worker processes (default: the number of CPUs); 1, or a platform without ``fork``,

@@ -129,3 +129,79 @@ def array_variables(model: Model) -> list[ArrayVariable]:
         out.append(ArrayVariable(variables[i].name, i, 1, False, variables[i].description))
         i = j
     return out
+
+
+@dataclass(frozen=True)
+class StateArray:
+    """A group of a model's continuous states that is one FMI 3.0 variable (an array or a scalar).
+
+    Attributes
+    ----------
+    name : str
+        The FMI 3.0 name of the states' variable (``"sigma"`` for ``sigma[1..3]``).
+    first : int
+        The index of its first state in ``model.states``.
+    size : int
+        The number of states.
+    is_array : bool
+        Whether the variable is an array.
+    carrier : int or None
+        The FMI 3.0 value reference of the model variable that carries these states (an output of
+        the same name and size), or None when no variable does (the model-exchange description then
+        lists them as a local variable).
+    """
+
+    name: str
+    first: int
+    size: int
+    is_array: bool
+    carrier: int | None
+
+
+def state_arrays(model: Model) -> list[StateArray]:
+    """The model's continuous states as FMI 3.0 variables, in state order (the continuous-state
+    vector of its model-exchange FMU).
+
+    A run of states named ``<base>[1]`` .. ``<base>[n]`` is one array, any other state a scalar;
+    each is the FMI 3.0 variable of that name (:func:`array_variables`) when the model has one,
+    which must then hold exactly those states.
+
+    Parameters
+    ----------
+    model : Model
+        The model.
+
+    Returns
+    -------
+    list of StateArray
+        The groups, covering ``model.states`` once, in order.
+
+    Raises
+    ------
+    ValueError
+        If a group's name is an FMI 3.0 variable of other elements (``omega`` of 3 elements, the
+        states ``omega[1]`` and ``omega[2]`` only): its derivative could not be that variable's.
+    """
+    arrays = {a.name: (k + 1, a) for k, a in enumerate(array_variables(model))}
+    names = [s.variable.name for s in model.states]
+    out: list[StateArray] = []
+    i = 0
+    while i < len(names):
+        head = _element(model.states[i].variable)
+        j = i + 1
+        if head is not None and head[1] == 1:
+            while j < len(names) and _element(model.states[j].variable) == (head[0], j - i + 1):
+                j += 1
+        name = head[0] if head is not None and head[1] == 1 else names[i]
+        is_array = head is not None and head[1] == 1
+        carrier = arrays.get(name)
+        if carrier is not None:
+            vr, a = carrier
+            elements = [model.variables[a.first + k].name for k in range(a.size)]
+            if elements != names[i:j] or a.is_array != is_array:
+                raise ValueError(f"model {model.name!r}: the states {', '.join(names[i:j])} do not form its FMI 3.0 "
+                                 f"variable {name!r} ({', '.join(elements)}); name the states after whole vectors "
+                                 "to give it a model-exchange FMI 3.0 FMU")
+        out.append(StateArray(name, i, j - i, is_array, carrier[0] if carrier is not None else None))
+        i = j
+    return out

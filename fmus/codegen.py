@@ -22,9 +22,9 @@ from sympy.printing.c import C99CodePrinter
 from sympy.printing.pycode import PythonCodePrinter
 
 from satfmu.fmus import noise
-from satfmu.fmus.arrays import array_variables
+from satfmu.fmus.arrays import StateArray, array_variables, state_arrays
 from satfmu.fmus.digest import model_digest
-from satfmu.fmus.events import event_indicators
+from satfmu.fmus.events import event_indicators, sided
 from satfmu.fmus.model import TIME_TOL, TIME_TOL_MAX, TIME_ULPS, Model, TableLookup
 
 KIND_PARAMETER, KIND_INPUT, KIND_OUTPUT = 0, 1, 2
@@ -70,8 +70,8 @@ def _array_substitution(model: Model) -> dict[sp.Symbol, sp.Symbol]:
     return subs
 
 
-def lower(model: Model, name: str, exprs: Sequence[sp.Expr], previous_is_current: bool = False
-          ) -> LoweredFunction:
+def lower(model: Model, name: str, exprs: Sequence[sp.Expr], previous_is_current: bool = False,
+          definitions: Sequence[tuple[sp.Symbol, sp.Expr]] | None = None) -> LoweredFunction:
     """Substitute array elements for symbols and eliminate common subexpressions.
 
     ``previous_is_current`` reads the substep-start state as the current state (outputs).
@@ -90,24 +90,22 @@ def lower(model: Model, name: str, exprs: Sequence[sp.Expr], previous_is_current
     previous_is_current : bool, optional
         Replace the substep-start state symbols (:attr:`satfmu.fmus.model.Model.previous_symbols`) by the
         current state ``x[i]`` as well (for outputs and sampler arguments). Default False.
+    definitions : sequence of (sympy.Symbol, sympy.Expr), optional
+        Another form of the model's definitions (:meth:`satfmu.fmus.model.Model.used_definitions`).
 
     Returns
     -------
     LoweredFunction
         The temporaries and results in array elements.
     """
+    exprs = list(exprs)
+    if not exprs:
+        return LoweredFunction(name, [], [])
     subs = _array_substitution(model)
     if previous_is_current:
         subs.update({p: subs[x] for p, x in zip(model.previous_symbols, model.state_symbols)})
+    defs = [(subs[sym], sp.sympify(e).xreplace(subs)) for sym, e in model.used_definitions(exprs, definitions)]
     exprs = [sp.sympify(e).xreplace(subs) for e in exprs]
-    if not exprs:
-        return LoweredFunction(name, [], [])
-    defs = [(subs[sym], sp.sympify(e).xreplace(subs)) for sym, e in model.definitions]
-    needed = set().union(*(e.free_symbols for e in exprs))
-    for sym, e in reversed(defs):
-        if sym in needed:
-            needed |= e.free_symbols
-    defs = [(sym, e) for sym, e in defs if sym in needed]
     temps, reduced = sp.cse([e for _, e in defs] + exprs, symbols=sp.numbered_symbols("c_"),
                             optimizations="basic")
     assignments = list(temps) + [(sym, e) for (sym, _), e in zip(defs, reduced)]
@@ -183,6 +181,37 @@ def event_function(model: Model) -> LoweredFunction:
     if key not in _EVENTS:
         _EVENTS[key] = lower(model, "event_indicators", event_indicators(model), previous_is_current=True)
     return _EVENTS[key]
+
+
+_SIDED: dict[str, tuple[LoweredFunction, LoweredFunction]] = {}
+"""Lowered sided derivatives and outputs by model digest."""
+
+
+def sided_functions(model: Model) -> tuple[LoweredFunction, LoweredFunction]:
+    """The right-hand side and the outputs of a model-exchange FMU with each indicator's relations
+    read from its side ``s[k]`` (:func:`satfmu.fmus.events.sided`): ``derivatives_sided`` and
+    ``outputs_sided`` (lowered once per process).
+
+    Parameters
+    ----------
+    model : Model
+        The model.
+
+    Returns
+    -------
+    tuple of LoweredFunction
+        ``derivatives_sided`` (the substep-start state as ``xp``) and ``outputs_sided``.
+    """
+    key = model_digest(model)
+    if key not in _SIDED:
+        sides = [sp.Symbol(f"s[{k}]", real=True) for k in range(len(event_indicators(model)))]
+        definitions = list(zip([sym for sym, _ in model.definitions],
+                               sided(model, [e for _, e in model.definitions], sides)))
+        _SIDED[key] = (
+            lower(model, "derivatives_sided", sided(model, list(model.rhs), sides), definitions=definitions),
+            lower(model, "outputs_sided", sided(model, [o.expression for o in model.outputs], sides),
+                  previous_is_current=True, definitions=definitions))
+    return _SIDED[key]
 
 
 def draws_noise(model: Model) -> bool:
@@ -571,10 +600,19 @@ A header, not a ``.c`` file: it is no translation unit of its own (it uses the w
 this header."""
 
 
+def _state_groups(model: Model) -> list[StateArray] | None:
+    """:func:`satfmu.fmus.arrays.state_arrays` of ``model``, or None when its states do not form
+    FMI 3.0 variables (it then has no FMI 3.0 model-exchange FMU)."""
+    try:
+        return state_arrays(model)
+    except ValueError:
+        return None
+
+
 def c_source(model: Model, guid: str, events: bool = False) -> str:
     """The model-specific C header (:data:`C_HEADER`) included by ``satfmu_core.h``, which the
-    interface's wrapper (``fmi2_cosim.c``, ``fmi3.c`` or ``fmi2_me.c``, the FMU's one translation
-    unit) includes.
+    interface's wrapper (``fmi2_cosim.c``, ``fmi2_me.c``, ``fmi3.c`` or ``fmi3_me.c``, the FMU's one
+    translation unit) includes.
 
     Parameters
     ----------
@@ -584,8 +622,9 @@ def c_source(model: Model, guid: str, events: bool = False) -> str:
         instantiation token: ``MODEL_GUID``, which instantiation requires, and ``MODEL_ID``, its 16
         bytes (:func:`guid_bytes`), the identity of the FMU states.
     events : bool, optional
-        Also ``NZ`` and ``model_event_indicators`` (:func:`event_function`), for model exchange.
-        Default False.
+        Also ``NZ`` and ``model_event_indicators`` (:func:`event_function`), for model exchange,
+        and for FMI 3.0 the continuous states' variables (``NG``, ``STATE_GROUPS``:
+        :func:`satfmu.fmus.arrays.state_arrays`). Default False.
 
     Returns
     -------
@@ -639,6 +678,13 @@ def c_source(model: Model, guid: str, events: bool = False) -> str:
     lines.append("static const ArrayInfo ARRAYS[NA] = {")
     lines += [f'    {{"{a.name}", {a.first}, {a.size}}},' for a in arrays]
     lines.append("};")
+    groups = _state_groups(model) if events else None
+    if groups is not None:  # the FMI 3.0 model-exchange FMU's continuous states (fmi3_common.h)
+        lines.append(f"#define NG {len(groups)} /* state groups: satfmu.fmus.arrays.state_arrays */")
+        if groups:
+            lines.append("static const ArrayInfo STATE_GROUPS[NG] = { /* name, first state, size */")
+            lines += [f'    {{"{g.name}", {g.first}, {g.size}}},' for g in groups]
+            lines.append("};")
     lines.append("#endif")
     if model.tables:
         lines.append("typedef struct { size_t n; const double *times, *values; int previous; } TableData;")
@@ -667,7 +713,11 @@ def c_source(model: Model, guid: str, events: bool = False) -> str:
         indicators = event_function(model)
         sig["event_indicators"] = sig["derivatives"]
         lines.append(f"#define NZ {len(indicators.results)}")
-        generated = generated + ([indicators] if indicators.results else [])
+        generated = generated + ([indicators] if indicators.results else []) + list(sided_functions(model))
+        sig["derivatives_sided"] = ("double t, const double *x, const double *xp, const double *u, const double *p, "
+                                    "const double *s, double *out")
+        sig["outputs_sided"] = ("double t, const double *x, const double *u, const double *p, const double *s, "
+                                "double *out")
     if model.sampler is None:  # the wrapper calls it only when NH > 0
         generated = generated + [LoweredFunction("sample_arguments", [], [])]
     if model.sampler is not None and model.sampler.c_header is not None:
@@ -677,7 +727,9 @@ def c_source(model: Model, guid: str, events: bool = False) -> str:
         lines.append(f'#include "{model.sampler.c_header}"')
     for f in generated:
         lines.append(f"static void model_{f.name}({sig[f.name]}) {{")
-        unused = "t x u p out" if f.name in ("outputs", "sample_arguments", "switch_time") else "t x xp u p out"
+        unused = {"outputs": "t x u p out", "sample_arguments": "t x u p out", "switch_time": "t x u p out",
+                  "derivatives_sided": "t x xp u p s out", "outputs_sided": "t x u p s out"}.get(f.name,
+                                                                                               "t x xp u p out")
         lines.append("    " + " ".join(f"(void){a};" for a in unused.split()))
         for sym, e in f.temporaries:
             lines.append(f"    const double {sym} = {pr.doprint(e)};")

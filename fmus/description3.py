@@ -161,13 +161,16 @@ def model_description3(model: Model, model_identifier: str, generation_tool: str
     return root
 
 
-def build_description(model_identifier: str) -> Element:
-    """``sources/buildDescription.xml`` of the FMI 3.0 FMU: its one source file, C99.
+def build_description(model_identifier: str, source: str = WRAPPER3_SOURCE) -> Element:
+    """``sources/buildDescription.xml`` of an FMI 3.0 FMU: its one source file, C99.
 
     Parameters
     ----------
     model_identifier : str
         The FMU's ``modelIdentifier``.
+    source : str, optional
+        The source file: the co-simulation wrapper (default :data:`WRAPPER3_SOURCE`) or the
+        model-exchange one (:data:`satfmu.fmus.description_me.WRAPPER3_ME_SOURCE`).
 
     Returns
     -------
@@ -177,5 +180,5 @@ def build_description(model_identifier: str) -> Element:
     root = Element("fmiBuildDescription", {"fmiVersion": "3.0"})
     config = SubElement(root, "BuildConfiguration", {"modelIdentifier": model_identifier})
     files = SubElement(config, "SourceFileSet", {"language": "C99"})
-    SubElement(files, "SourceFile", {"name": WRAPPER3_SOURCE})
+    SubElement(files, "SourceFile", {"name": source})
     return root

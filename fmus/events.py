@@ -17,8 +17,15 @@ nor the time (a parameter switch such as ``shadow_switching > 1/2``, an input sa
 change between events and gives none; nor does a relation on a definition that is itself a 0/1
 switch (its own relations give the indicators). Each indicator appears once (``a - b`` and
 ``b - a`` are one); one that cannot be negative (``w**2``, from ``previous(w) * w < 0``) is none.
+
+Between events a model-exchange FMU holds each indicator's side (:func:`sided`): the relations and
+signs that give indicator ``k`` read its side ``s[k]`` (the sign of ``g_k`` at the last event) instead
+of the state, so the right-hand side is smooth between events, and the FMU can evaluate it with a
+side forced, the two fields of a sliding mode (``fmus/c/satfmu_me.h``).
 """
 from __future__ import annotations
+
+from collections.abc import Sequence
 
 import sympy as sp
 
@@ -34,15 +41,6 @@ def _never_negative(expr: sp.Expr) -> bool:
     """An even power (``w**2`` from ``previous(w) * w < 0`` read at one time): it touches 0, never
     changes sign."""
     return isinstance(expr, sp.Pow) and expr.exp.is_even is True
-
-
-def _used_definitions(model: Model, exprs: list[sp.Expr]) -> list[tuple[sp.Symbol, sp.Expr]]:
-    """The model's definitions that ``exprs`` use, directly or through other definitions, in order."""
-    needed = set().union(*(e.free_symbols for e in exprs)) if exprs else set()
-    for sym, e in reversed(model.definitions):
-        if sym in needed:
-            needed |= e.free_symbols
-    return [(sym, e) for sym, e in model.definitions if sym in needed]
 
 
 def event_indicators(model: Model) -> list[sp.Expr]:
@@ -61,7 +59,7 @@ def event_indicators(model: Model) -> list[sp.Expr]:
     """
     post = list(model.post_step) if model.post_step is not None else []
     roots = list(model.rhs) + post
-    definitions = _used_definitions(model, roots)
+    definitions = model.used_definitions(roots)
     current = dict(zip(model.previous_symbols, model.state_symbols))
     switches = {sym for sym, e in definitions if _is_switch(e)}
     depends: dict[sp.Symbol, bool] = {}  # definition -> it depends on the state or the time
@@ -86,3 +84,52 @@ def event_indicators(model: Model) -> list[sp.Expr]:
             seen.add(g)
             found.append(g)
     return found
+
+
+def sided(model: Model, exprs: Sequence[sp.Expr], sides: Sequence[sp.Symbol]) -> list[sp.Expr]:
+    """``exprs`` with each relation and sign that gives an event indicator read from its side.
+
+    A relation ``a > b`` whose ``a - b`` is indicator ``k`` (:func:`event_indicators`; the
+    substep-start state read as the current one) becomes ``s_k > 0`` (``-s_k > 0`` when ``b - a`` is
+    the indicator; likewise ``>=``, ``<``, ``<=``), ``sign(a)`` becomes ``sign(s_k)`` and
+    ``Heaviside(a)`` ``Heaviside(s_k)``, with ``s_k = sides[k]`` in ``{-1, 0, 1}``. Relations that
+    give no indicator (on parameters, on 0/1 switches, never negative) are kept.
+
+    Parameters
+    ----------
+    model : Model
+        The model.
+    exprs : sequence of sympy.Expr
+        Expressions in the model's symbols (right-hand sides, outputs, definitions).
+    sides : sequence of sympy.Symbol
+        One symbol per indicator of :func:`event_indicators`, in its order.
+
+    Returns
+    -------
+    list of sympy.Expr
+        The expressions with those relations and signs replaced.
+    """
+    indicators = {g: k for k, g in enumerate(event_indicators(model))}
+    current = dict(zip(model.previous_symbols, model.state_symbols))
+
+    def side_of(g: sp.Expr) -> sp.Expr | None:
+        g = sp.sympify(g).xreplace(current)
+        if g in indicators:
+            return sides[indicators[g]]
+        if -g in indicators:
+            return -sides[indicators[-g]]
+        return None
+
+    out = []
+    for expr in map(sp.sympify, exprs):
+        replace: dict[sp.Basic, sp.Basic] = {}
+        for r in expr.atoms(sp.core.relational.Relational):
+            side = side_of(r.lhs - r.rhs)
+            if side is not None:
+                replace[r] = r.func(side, 0)
+        for f in expr.atoms(sp.sign, sp.Heaviside):
+            side = side_of(f.args[0])
+            if side is not None:
+                replace[f] = f.func(side, *f.args[1:])
+        out.append(expr.xreplace(replace))
+    return out

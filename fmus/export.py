@@ -39,7 +39,8 @@ from satfmu.fmus.atomic import write_atomically
 from satfmu.fmus.description import (NATIVE, PYTHON, PYTHON_SUFFIX, WRAPPER_SOURCE, capabilities, model_description,
                               to_xml_bytes)
 from satfmu.fmus.description3 import FMI3_SUFFIX, WRAPPER3_SOURCE, build_description, model_description3
-from satfmu.fmus.description_me import ME_SUFFIX, WRAPPER_ME_SOURCE, model_description_me
+from satfmu.fmus.description_me import (ME_SUFFIX, WRAPPER3_ME_SOURCE, WRAPPER_ME_SOURCE, model_description3_me,
+                                       model_description_me)
 from satfmu.fmus.digest import build_digest, sha256
 from satfmu.fmus.model import Model
 from satfmu.fmus.errors import FmuBuildError
@@ -48,13 +49,20 @@ HERE = Path(__file__).resolve().parent
 WRAPPER = HERE / "c" / WRAPPER_SOURCE
 WRAPPER3 = HERE / "c" / WRAPPER3_SOURCE
 WRAPPER_ME = HERE / "c" / WRAPPER_ME_SOURCE
+WRAPPER3_ME = HERE / "c" / WRAPPER3_ME_SOURCE
 CORE = HERE / "c" / "satfmu_core.h"
-"""The model-independent part of a native FMU that both interfaces' wrappers include."""
+"""The model-independent part of a native FMU that every interface's wrapper includes."""
 FMI3 = "fmi3"
 """The backend of the native FMI 3.0 FMU (beside :data:`satfmu.fmus.description.NATIVE` and
 :data:`satfmu.fmus.description.PYTHON`)."""
 ME = "me"
 """The backend of the native FMI 2.0 model-exchange FMU of a plant (:func:`build_me`)."""
+ME3 = "me3"
+"""The backend of the native FMI 3.0 model-exchange FMU of a plant (:func:`build_me3`)."""
+HEADERS = {NATIVE: ("fmi2_common.h",), ME: ("fmi2_common.h", "satfmu_me.h"), FMI3: ("fmi3_common.h",),
+           ME3: ("fmi3_common.h", "satfmu_me.h")}
+"""The headers under ``fmus/c/`` a native backend's wrapper includes beside :data:`CORE`: what the
+FMI version's interfaces share, and the model-exchange part."""
 FMI3_PLATFORMS = {"linux64": "x86_64-linux", "win64": "x86_64-windows"}
 """The FMI 3.0 platform tuple (folder under ``binaries/``) of each FMI 2.0 platform."""
 PYSLAVE = HERE / "pyslave.py"
@@ -227,20 +235,20 @@ def fmu_path(model: Model, dest_dir: Path, backend: str) -> Path:
         The model of the FMU.
     dest_dir : Path
         The folder of the FMUs.
-    backend : {"native", "python", "fmi3", "me"}
+    backend : {"native", "python", "fmi3", "me", "me3"}
         The backend; a pythonfmu FMU's name ends in ``_py``, an FMI 3.0 FMU's in ``_fmi3``, a
-        model-exchange FMU's in ``_me``.
+        model-exchange FMU's in ``_me`` (FMI 3.0: ``_me_fmi3``).
 
     Returns
     -------
     Path
-        ``<dest_dir>/<model.name>.fmu``, ``<model.name>_py.fmu``, ``<model.name>_fmi3.fmu`` or
-        ``<model.name>_me.fmu``.
+        ``<dest_dir>/<model.name>.fmu``, ``<model.name>_py.fmu``, ``<model.name>_fmi3.fmu``,
+        ``<model.name>_me.fmu`` or ``<model.name>_me_fmi3.fmu``.
     """
     return Path(dest_dir) / f"{model.name}{_SUFFIXES.get(backend, '')}.fmu"
 
 
-_SUFFIXES = {PYTHON: PYTHON_SUFFIX, FMI3: FMI3_SUFFIX, ME: ME_SUFFIX}
+_SUFFIXES = {PYTHON: PYTHON_SUFFIX, FMI3: FMI3_SUFFIX, ME: ME_SUFFIX, ME3: ME_SUFFIX + FMI3_SUFFIX}
 
 
 def digest_of(model: Model, backend: str, resources: dict[str, bytes] | None = None, cc: str = "gcc",
@@ -372,19 +380,56 @@ def build_me(model: Model, dest_dir: Path, resources: dict[str, bytes] | None = 
     FmuBuildError
         As :func:`build_native`, and for a model with a sampler (sampled laws are co-simulation's).
     """
-    if model.sampler is not None:
-        raise FmuBuildError(f"{model.name}: a model with a sampler has no model-exchange FMU (its samples are "
-                            "taken at instants a co-simulation step or an FMI 3.0 clock gives)")
     return _build_c(model, dest_dir, resources, cc, win64_cc, ME)
+
+
+def build_me3(model: Model, dest_dir: Path, resources: dict[str, bytes] | None = None,
+              cc: str = "gcc", win64_cc: str = WIN64_CC) -> Path:
+    """Generate, compile and package the FMI 3.0 model-exchange FMU ``<dest_dir>/<model.name>_me_fmi3.fmu``.
+
+    :func:`build_me`'s states, derivatives and event indicators through the FMI 3.0 wrapper
+    ``fmus/c/fmi3_me.c``: the variables as arrays, each state vector's derivative an array
+    (:func:`satfmu.fmus.description_me.model_description3_me`).
+
+    Parameters
+    ----------
+    model : Model
+        The model; it must have a C form, no sampler, and states that form FMI 3.0 variables
+        (:func:`satfmu.fmus.arrays.state_arrays`).
+    dest_dir : Path
+        The folder the FMU is written to.
+    resources : dict of str to bytes, optional
+        Extra files for ``resources/``.
+    cc : str, optional
+        C compiler of the x86_64-linux binary. Default ``"gcc"``.
+    win64_cc : str, optional
+        C cross compiler of the x86_64-windows binary (MinGW-w64). Default :data:`WIN64_CC`.
+
+    Returns
+    -------
+    Path
+        The FMU. Nothing is built when it already records this build's digest.
+
+    Raises
+    ------
+    FmuBuildError
+        As :func:`build_me`, and for states that do not form FMI 3.0 variables or a variable
+        named as one of the description's own.
+    """
+    return _build_c(model, dest_dir, resources, cc, win64_cc, ME3)
 
 
 def _build_c(model: Model, dest_dir: Path, resources: dict[str, bytes] | None, cc: str, win64_cc: str,
              backend: str) -> Path:
-    """The native FMU of ``model`` on ``backend`` (:data:`NATIVE`, FMI 2.0, :data:`FMI3` or :data:`ME`)."""
+    """The native FMU of ``model`` on ``backend`` (:data:`NATIVE`, FMI 2.0, :data:`FMI3`, :data:`ME` or
+    :data:`ME3`)."""
     try:
         codegen.require_c_form(model)
     except ValueError as exc:  # a model the C code cannot express (a Python sampler)
         raise FmuBuildError(str(exc)) from None
+    if backend in (ME, ME3) and model.sampler is not None:
+        raise FmuBuildError(f"{model.name}: a model with a sampler has no model-exchange FMU (its samples are "
+                            "taken at instants a co-simulation step or an FMI 3.0 clock gives)")
     dest = fmu_path(model, dest_dir, backend)
     digest = digest_of(model, backend, resources, cc, win64_cc)
     if built_digest(dest) == digest:
@@ -396,6 +441,12 @@ def _build_c(model: Model, dest_dir: Path, resources: dict[str, bytes] | None, c
         except ValueError as exc:
             raise FmuBuildError(str(exc)) from None
         token, wrapper, folders = desc.attrib["instantiationToken"], WRAPPER3, FMI3_PLATFORMS
+    elif backend == ME3:
+        try:
+            desc = model_description3_me(model, identifier)
+        except ValueError as exc:
+            raise FmuBuildError(str(exc)) from None
+        token, wrapper, folders = desc.attrib["instantiationToken"], WRAPPER3_ME, FMI3_PLATFORMS
     elif backend == ME:
         desc = model_description_me(model)
         token, wrapper, folders = desc.attrib["guid"], WRAPPER_ME, None
@@ -403,16 +454,17 @@ def _build_c(model: Model, dest_dir: Path, resources: dict[str, bytes] | None, c
         desc = model_description(model, capabilities(model, NATIVE))
         token, wrapper, folders = desc.attrib["guid"], WRAPPER, None  # FMI 2.0: the platforms' own names
     # the binary requires this description's GUID (token)
-    model_h = codegen.c_source(model, token, events=backend == ME)
+    model_h = codegen.c_source(model, token, events=backend in (ME, ME3))
     with tempfile.TemporaryDirectory(prefix="satfmu_") as tmp:
         root = Path(tmp)
         src = root / "sources"
         src.mkdir()
         (src / codegen.C_HEADER).write_text(model_h)
-        for file in (wrapper, CORE, *codegen.c_headers(model)):  # a sampler's C routine (model.h includes it)
+        headers = [HERE / "c" / name for name in HEADERS[backend]]
+        for file in (wrapper, CORE, *headers, *codegen.c_headers(model)):  # a sampler's routine: model.h's
             shutil.copy(file, src / file.name)
-        if backend == FMI3:
-            (src / "buildDescription.xml").write_bytes(to_xml_bytes(build_description(identifier)))
+        if backend in (FMI3, ME3):
+            (src / "buildDescription.xml").write_bytes(to_xml_bytes(build_description(identifier, wrapper.name)))
         (root / "modelDescription.xml").write_bytes(to_xml_bytes(desc))
         _compile(identifier, root, {"linux64": cc, "win64": win64_cc}, src / wrapper.name, folders=folders)
         _write_resources(root / "resources", resources)

@@ -703,6 +703,32 @@ class Model:
         index = {v.name: i for i, v in enumerate(self.parameters)}
         return np.array([p[index[s.initial.name]] for s in self.states])
 
+    def used_definitions(self, exprs: Sequence[sp.Expr],
+                         definitions: Sequence[tuple[sp.Symbol, sp.Expr]] | None = None
+                         ) -> list[tuple[sp.Symbol, sp.Expr]]:
+        """The ``definitions`` that ``exprs`` use, directly or through other definitions.
+
+        Parameters
+        ----------
+        exprs : sequence of sympy.Expr
+            Expressions in the model's symbols.
+        definitions : sequence of (sympy.Symbol, sympy.Expr), optional
+            The definitions to follow: default the model's own; another form of them (the same
+            symbols in the same order, other expressions, as
+            :func:`satfmu.fmus.events.sided` gives).
+
+        Returns
+        -------
+        list of (sympy.Symbol, sympy.Expr)
+            Those definitions, in definition order (each after the ones it uses).
+        """
+        definitions = self.definitions if definitions is None else definitions
+        needed: set[sp.Basic] = set().union(*(sp.sympify(e).free_symbols for e in exprs))
+        for sym, e in reversed(definitions):
+            if sym in needed:
+                needed |= sp.sympify(e).free_symbols
+        return [(sym, e) for sym, e in definitions if sym in needed]
+
     def free_symbols(self, expr: sp.Expr) -> set[sp.Symbol]:
         """Free symbols of ``expr`` with ``definitions`` and held values followed to the
         variables they use (a held value is sampled from the inputs of its instant).

@@ -119,7 +119,7 @@ def _build(args: argparse.Namespace) -> int:
     if args.fmi in ("2", "both") and args.backend in ("native", "all"):
         backends += ("me",)  # the plants' model-exchange FMUs (FMI 2.0, native)
     if args.fmi in ("3", "both") and args.backend in ("native", "all"):
-        backends += ("fmi3",)  # native only: pythonfmu has no FMI 3.0
+        backends += ("fmi3", "me3")  # native only: pythonfmu has no FMI 3.0; me3: the plants' model exchange
     start = time.perf_counter()
     try:
         print(f"co-simulation loop: {compiled_loop.compile_library()}")
@@ -509,7 +509,8 @@ def parser() -> argparse.ArgumentParser:
     b.add_argument("--backend", choices=["native", "python", "all"], default="all", help="FMU kind")
     b.add_argument("--fmi", choices=["2", "3", "both"], default="both",
                    help="FMI version: 2 (<name>.fmu, <name>_py.fmu, a plant's model exchange <name>_me.fmu), "
-                        "3 (native, <name>_fmi3.fmu) or both (default)")
+                        "3 (native, <name>_fmi3.fmu, a plant's model exchange <name>_me_fmi3.fmu) or both "
+                        "(default)")
     b.add_argument("--jobs", type=_positive_int, default=None, help="parallel build processes (default: one per CPU)")
     b.set_defaults(fn=_build)
     v = command(sub, "validate", "fmpy validate + fmutool -check on every FMU of a folder")

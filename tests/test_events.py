@@ -5,7 +5,7 @@ from __future__ import annotations
 import sympy as sp
 
 from satfmu.controllers import catalog
-from satfmu.fmus.events import event_indicators
+from satfmu.fmus.events import event_indicators, sided
 from satfmu.fmus.model import Model, Output, State, Variable
 
 
@@ -48,3 +48,33 @@ def test_what_gives_an_indicator_and_what_does_not() -> None:
     assert event_indicators(_model(rhs=[v, mirrored])) == [x - 1]  # x - 1 < 0 and 1 - x > 0: one indicator
     assert event_indicators(_model(rhs=[v, sp.Piecewise((1, t > 5), (0, True))])) == [t - 5]
     assert event_indicators(_model(rhs=[v, sp.Piecewise((1, u > k), (0, True))])) == []
+
+
+def test_sided_relations_read_their_indicators_side() -> None:
+    """A relation or sign that gives indicator k reads its side s[k] (mirrored relations the negated
+    side); the substep-start state's relations too; relations that give no indicator are kept."""
+    x, v, u, k = sp.symbols("x v u k", real=True)
+    pv = Model.previous("v")
+    expr = (sp.Piecewise((1, x > 1), (0, True)) + sp.Piecewise((2, 1 - x >= 0), (0, True)) - k * sp.sign(pv)
+            + sp.Piecewise((3, u > k), (0, True)))
+    m = _model(rhs=[v, expr])
+    assert event_indicators(m) == [x - 1, v]
+    s = [sp.Symbol("s[0]", real=True), sp.Symbol("s[1]", real=True)]
+    (out,) = sided(m, [expr], s)
+    assert out == (sp.Piecewise((1, s[0] > 0), (0, True)) + sp.Piecewise((2, -s[0] >= 0), (0, True))
+                   - k * sp.sign(s[1]) + sp.Piecewise((3, u > k), (0, True)))
+    for side, value in ((-1, 2), (1, 1)):  # each side gives one branch of the two relations on x
+        assert out.subs({s[0]: side, s[1]: 0, u: 0, k: 1}) == value
+
+
+def test_the_wheel_speed_limit_reads_its_side() -> None:
+    """The wheel plant's speed-limit cut reads the side of Omega_max - |Omega|: the torque is cut
+    on its - side (at or past the limit) and passes on its + side."""
+    model = catalog.source("mrp_satellite_rw3").model
+    found = event_indicators(model)
+    limit = [str(g) for g in found].index("Omega_max[1] - Abs(Omega[1])")
+    s = [sp.Symbol(f"s[{i}]", real=True) for i in range(len(found))]
+    definitions = dict(zip([sym for sym, _ in model.definitions], sided(model, [e for _, e in model.definitions], s)))
+    (tau,) = [e for sym, e in definitions.items() if str(sym) == "d_tau_0"]
+    omega_1 = model.state_symbols[[s.variable.name for s in model.states].index("Omega[1]")]
+    assert s[limit] in tau.free_symbols and omega_1 not in tau.free_symbols

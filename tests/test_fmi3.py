@@ -30,6 +30,7 @@ from satfmu.fmus import archive, export
 from satfmu.fmus.arrays import array_description, array_variables
 from satfmu.fmus.description3 import clock_reference
 from satfmu.sims.cosim import fmi_host
+from tests.fmi3_results import flat
 from tests.test_win64 import ALLOWED_IMPORTS, pe_tables
 
 NATIVE_MODELS = [src.model.name for src in catalog.sources() if "fmi3" in src.backends]
@@ -47,26 +48,14 @@ def test_every_native_fmu_has_an_fmi3_twin_that_fmpy_validates(fmi3_files: dict[
     assert {name: p for name, p in problems.items() if p} == {}
 
 
-def _flat(result: np.ndarray) -> dict[str, np.ndarray]:
-    """fmpy's result columns by FMI 2.0 name (an array column as its elements ``name[i]``)."""
-    out = {}
-    for name in result.dtype.names:
-        column = np.asarray(result[name])
-        if column.ndim == 1:
-            out[name] = column
-        else:
-            out.update({f"{name}[{j + 1}]": column[:, j] for j in range(column.shape[1])})
-    return out
-
-
 @pytest.mark.parametrize("name", NATIVE_MODELS)
 def test_without_event_mode_fmpy_gives_the_fmi2_numbers_bit_for_bit(name: str, fmu_dir: Path) -> None:
     """fmpy simulate (co-simulation, no event mode) of both FMUs over 40 default steps: every output
     equal bit for bit (the same C code: only the interface differs)."""
     model = catalog.source(name).model
     stop = 40 * model.default_step_size
-    fmi2 = _flat(simulate_fmu(str(fmu_dir / f"{name}.fmu"), stop_time=stop))
-    fmi3 = _flat(simulate_fmu(str(fmu_dir / f"{name}_fmi3.fmu"), stop_time=stop))
+    fmi2 = flat(simulate_fmu(str(fmu_dir / f"{name}.fmu"), stop_time=stop))
+    fmi3 = flat(simulate_fmu(str(fmu_dir / f"{name}_fmi3.fmu"), stop_time=stop))
     assert set(fmi2) == set(fmi3) and len(fmi2["time"]) >= 41
     for column, values in fmi2.items():
         np.testing.assert_array_equal(fmi3[column], values, err_msg=column)
@@ -324,15 +313,19 @@ def _fmi3_functions() -> set[str]:
 
 
 def test_every_fmi3_fmu_carries_both_binaries_exporting_every_fmi3_function(fmi3_files: dict[str, Path],
-                                                                           tmp_path: Path) -> None:
+                                                                           fmu_dir: Path, tmp_path: Path) -> None:
     """``binaries/`` holds exactly ``x86_64-linux/<id>.so`` and ``x86_64-windows/<id>.dll`` (the FMI
     3.0 platform tuples); each exports the 75 functions of fmi3Functions.h and nothing else of
-    FMI's; the DLL imports only KERNEL32.dll and msvcrt.dll (as the FMI 2.0 DLLs)."""
+    FMI's; the DLL imports only KERNEL32.dll and msvcrt.dll (as the FMI 2.0 DLLs). The plants'
+    model-exchange FMUs (``_me_fmi3``) too."""
     names = _fmi3_functions()
     assert len(names) == 75
     wrong = {}
-    for name, fmu in fmi3_files.items():
-        identifier = f"{name}_fmi3"
+    model_exchange = {f"{src.model.name}_me": fmu_dir / f"{src.model.name}_me_fmi3.fmu"
+                      for src in catalog.sources() if "me3" in src.backends}
+    assert len(model_exchange) == len(catalog.PLANTS) == 7
+    for name, fmu in {**fmi3_files, **model_exchange}.items():
+        identifier = fmu.stem
         with zipfile.ZipFile(fmu) as z:
             binaries = sorted(n for n in z.namelist() if n.startswith("binaries/"))
             expected = [f"binaries/x86_64-linux/{identifier}.so", f"binaries/x86_64-windows/{identifier}.dll"]

@@ -5,7 +5,8 @@ The glibc floor of satfmu's own Linux build binds pow, exp and log to their GLIB
 (fmus/c/satfmu_core.h); without libm on the link line those versioned references did not link
 (``no symbol version section for versioned symbol 'exp@GLIBC_2.2.5'``, vscmg_sdre_online and
 vscmg_sdre_online_w1free). The floor is now satfmu's build's alone (``SATFMU_GLIBC_FLOOR``). The
-FMI 3.0 FMUs rebuild from their ``sources/buildDescription.xml``.
+FMI 3.0 FMUs rebuild from their ``sources/buildDescription.xml`` (the model-exchange ones with the
+headers they include beside it).
 """
 from __future__ import annotations
 
@@ -50,7 +51,7 @@ def _check(fmu: Path, tmp_path: Path) -> None:
 
 
 @pytest.mark.parametrize("name", ["vscmg_sdre_online", "vscmg_sdre_online_w1free", "mrp_satellite",
-                                  "vscmg_sdre_online_fmi3"])
+                                  "vscmg_sdre_online_fmi3", "mrp_satellite_rw3_me_fmi3"])
 def test_fmpy_compile_rebuilds_the_fmus_that_call_exp_and_pow(name: str, fmu_dir: Path, tmp_path: Path) -> None:
     _check(fmu_dir / f"{name}.fmu", tmp_path)
 

@@ -2,9 +2,10 @@
  * satfmu: the FMI 2.0 co-simulation interface of a model generated from a symbolic definition
  * (fmus/model.py). Everything that does not depend on the interface (time, sampling, integration,
  * variable checks, FMU state records; described in satfmu_core.h) is in satfmu_core.h, which
- * includes the generated model.h; this file is the FMU's only translation unit, so a tool may
- * compile every .c file under sources/ or the one <SourceFiles> lists. fmi3.c is the FMI 3.0
- * interface of the same model. Written for this project.
+ * includes the generated model.h, and what FMI 2.0's interfaces share (variable access,
+ * instantiation, initialization) in fmi2_common.h; this file is the FMU's only translation unit, so
+ * a tool may compile every .c file under sources/ or the one <SourceFiles> lists. fmi3.c is the
+ * FMI 3.0 interface of the same model. Written for this project.
  *
  * Robustness: every call checks the instance pointer, the call order against the
  * FMI 2.0 co-simulation state machine, value references, types, finiteness and
@@ -14,135 +15,14 @@
  * the error state (fmi2SetFMUstate or fmi2Reset recover it): no output is ever non-finite
  * with fmi2OK.
  */
-#include "fmi2Functions.h"
+#define FMU_TYPE fmi2CoSimulation
+#define FMU_TYPE_ONLY "this FMU supports co-simulation only"
+#define GET_MASK (ST_INITIALIZATION | ST_STEP_COMPLETE | ST_TERMINATED | ST_ERROR)
+#define SET_MASK (ST_INSTANTIATED | ST_INITIALIZATION | ST_STEP_COMPLETE | ST_TERMINATED | ST_ERROR)
 
-#define HOST_FIELDS          \
-    fmi2CallbackLogger logger; \
-    fmi2ComponentEnvironment env;
-
-#include "satfmu_core.h"
-
-/* The message is passed as the logger's format string with '%' doubled, so hosts that cannot
- * expand variadic arguments (ctypes-based ones such as fmpy) show it intact. */
-static void host_log(const Instance *inst, int status, const char *category, const char *message) {
-    char esc[2048];
-    size_t i, j = 0;
-    if (!inst->logger) return;
-    for (i = 0; message[i] && j + 2 < sizeof esc; i++) {
-        if (message[i] == '%') esc[j++] = '%';
-        esc[j++] = message[i];
-    }
-    esc[j] = '\0';
-    inst->logger(inst->env, inst->instance_name, (fmi2Status)status, category, esc);
-}
-
-/* ------------------------------------------------------------------ variable access */
-static const VariableInfo *lookup(Instance *inst, fmi2ValueReference vr, int type, const char *fn) {
-    if (vr >= (fmi2ValueReference)NV) {
-        log_msg(inst, STATUS_ERROR, "logStatusError", "%s: unknown value reference %u", fn, (unsigned)vr);
-        return NULL;
-    }
-    if (VARIABLES[vr].type != type) {
-        log_msg(inst, STATUS_ERROR, "logStatusError", "%s: variable '%s' (value reference %u) has another type",
-                fn, VARIABLES[vr].name, (unsigned)vr);
-        return NULL;
-    }
-    return &VARIABLES[vr];
-}
-
-static fmi2Status get_values(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, int type,
-                             const char *fn, fmi2Real *r, fmi2Integer *n, fmi2Boolean *b) {
-    size_t i;
-    int ok;
-    CHECK(c, fn, ST_INITIALIZATION | ST_STEP_COMPLETE | ST_TERMINATED | ST_ERROR);
-    if (nvr > 0 && (!vr || (!r && !n && !b))) return ERROR(inst, "%s: NULL array argument", fn);
-    for (i = 0; i < nvr; i++)
-        if (!lookup(inst, vr[i], type, fn)) return fmi2Error;
-    ok = update_outputs(inst, fn);
-    for (i = 0; i < nvr; i++) { /* written even on an error: values for diagnosis */
-        double v = *slot(&inst->d, &VARIABLES[vr[i]]);
-        if (r) r[i] = v;
-        else if (n) n[i] = isfinite(v) ? (fmi2Integer)v : 0;
-        else b[i] = v != 0.0 ? fmi2True : fmi2False;
-    }
-    return ok ? fmi2OK : fmi2Error;
-}
-
-static fmi2Status set_values(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, int type,
-                             const char *fn, const fmi2Real *r, const fmi2Integer *n, const fmi2Boolean *b) {
-    size_t i;
-    CHECK(c, fn, ST_INSTANTIATED | ST_INITIALIZATION | ST_STEP_COMPLETE | ST_TERMINATED | ST_ERROR);
-    if (nvr > 0 && (!vr || (!r && !n && !b))) return ERROR(inst, "%s: NULL array argument", fn);
-    /* validate all first: a rejected call leaves every value unchanged */
-    for (i = 0; i < nvr; i++) {
-        const VariableInfo *v = lookup(inst, vr[i], type, fn);
-        double value = r ? r[i] : (n ? (double)n[i] : (b[i] ? 1.0 : 0.0));
-        if (!v || check_value(inst, v, value, fn) != STATUS_OK) return fmi2Error;
-    }
-    for (i = 0; i < nvr; i++)
-        *slot(&inst->d, &VARIABLES[vr[i]]) = r ? r[i] : (n ? (double)n[i] : (b[i] ? 1.0 : 0.0));
-    values_set(inst);
-    return fmi2OK;
-}
+#include "fmi2_common.h"
 
 /* ------------------------------------------------------------------ FMI API */
-const char *fmi2GetTypesPlatform(void) { return fmi2TypesPlatform; }
-const char *fmi2GetVersion(void) { return fmi2Version; }
-
-fmi2Status fmi2SetDebugLogging(fmi2Component c, fmi2Boolean loggingOn, size_t nCategories,
-                               const fmi2String categories[]) {
-    CHECK(c, "fmi2SetDebugLogging", ~0);
-    return (fmi2Status)set_logging(inst, loggingOn, nCategories, categories, "fmi2SetDebugLogging");
-}
-
-fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2String fmuGUID,
-                              fmi2String fmuResourceLocation, const fmi2CallbackFunctions *functions,
-                              fmi2Boolean visible, fmi2Boolean loggingOn) {
-    Instance tmp, *inst;
-    (void)fmuResourceLocation;
-    (void)visible;
-    memset(&tmp, 0, sizeof tmp);
-    tmp.instance_name = (char *)(instanceName ? instanceName : "?");
-    tmp.logger = functions ? functions->logger : NULL;
-    tmp.env = functions ? functions->componentEnvironment : NULL;
-    if (!instanceName || !*instanceName) {
-        log_msg(&tmp, fmi2Error, "logStatusError", "fmi2Instantiate: missing instance name");
-        return NULL;
-    }
-    if (fmuType != fmi2CoSimulation) {
-        log_msg(&tmp, fmi2Error, "logStatusError", "fmi2Instantiate: this FMU supports co-simulation only");
-        return NULL;
-    }
-    if (!fmuGUID || strcmp(fmuGUID, MODEL_GUID) != 0) {
-        log_msg(&tmp, fmi2Error, "logStatusError", "fmi2Instantiate: GUID '%s' does not match '%s'",
-                fmuGUID ? fmuGUID : "(null)", MODEL_GUID);
-        return NULL;
-    }
-    inst = new_instance(instanceName, 0);
-    if (!inst) return NULL;
-    inst->logger = tmp.logger;
-    inst->env = tmp.env;
-    inst->log_on = loggingOn ? 1 : 0;
-    return inst;
-}
-
-void fmi2FreeInstance(fmi2Component c) { free_instance((Instance *)c); }
-
-fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean toleranceDefined, fmi2Real tolerance,
-                               fmi2Real startTime, fmi2Boolean stopTimeDefined, fmi2Real stopTime) {
-    CHECK(c, "fmi2SetupExperiment", ST_INSTANTIATED);
-    (void)toleranceDefined;
-    (void)tolerance;
-    return (fmi2Status)setup_experiment(inst, startTime, stopTimeDefined, stopTime, "fmi2SetupExperiment");
-}
-
-fmi2Status fmi2EnterInitializationMode(fmi2Component c) {
-    CHECK(c, "fmi2EnterInitializationMode", ST_INSTANTIATED);
-    inst->d.state = ST_INITIALIZATION;
-    inst->d.outputs_valid = 0;
-    return fmi2OK;
-}
-
 fmi2Status fmi2ExitInitializationMode(fmi2Component c) {
     CHECK(c, "fmi2ExitInitializationMode", ST_INITIALIZATION);
     if (exit_initialization(inst, "fmi2ExitInitializationMode") != STATUS_OK) return fmi2Error;
@@ -155,45 +35,6 @@ fmi2Status fmi2ExitInitializationMode(fmi2Component c) {
 fmi2Status fmi2Terminate(fmi2Component c) {
     CHECK(c, "fmi2Terminate", ST_STEP_COMPLETE);
     inst->d.state = ST_TERMINATED;
-    return fmi2OK;
-}
-
-fmi2Status fmi2Reset(fmi2Component c) {
-    CHECK(c, "fmi2Reset", ~0);
-    set_defaults(&inst->d);
-    return fmi2OK;
-}
-
-fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, fmi2Real value[]) {
-    return get_values(c, vr, nvr, TYPE_REAL, "fmi2GetReal", value, NULL, NULL);
-}
-fmi2Status fmi2GetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, fmi2Integer value[]) {
-    return get_values(c, vr, nvr, TYPE_INTEGER, "fmi2GetInteger", NULL, value, NULL);
-}
-fmi2Status fmi2GetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, fmi2Boolean value[]) {
-    return get_values(c, vr, nvr, TYPE_BOOLEAN, "fmi2GetBoolean", NULL, NULL, value);
-}
-fmi2Status fmi2GetString(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, fmi2String value[]) {
-    CHECK(c, "fmi2GetString", ST_INITIALIZATION | ST_STEP_COMPLETE | ST_TERMINATED | ST_ERROR);
-    (void)vr;
-    (void)value;
-    if (nvr > 0) return ERROR(inst, "fmi2GetString: this FMU has no String variables");
-    return fmi2OK;
-}
-fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, const fmi2Real value[]) {
-    return set_values(c, vr, nvr, TYPE_REAL, "fmi2SetReal", value, NULL, NULL);
-}
-fmi2Status fmi2SetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, const fmi2Integer value[]) {
-    return set_values(c, vr, nvr, TYPE_INTEGER, "fmi2SetInteger", NULL, value, NULL);
-}
-fmi2Status fmi2SetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, const fmi2Boolean value[]) {
-    return set_values(c, vr, nvr, TYPE_BOOLEAN, "fmi2SetBoolean", NULL, NULL, value);
-}
-fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t nvr, const fmi2String value[]) {
-    CHECK(c, "fmi2SetString", ST_INSTANTIATED | ST_INITIALIZATION | ST_STEP_COMPLETE);
-    (void)vr;
-    (void)value;
-    if (nvr > 0) return ERROR(inst, "fmi2SetString: this FMU has no String variables");
     return fmi2OK;
 }
 
