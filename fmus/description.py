@@ -27,7 +27,8 @@ from xml.etree.ElementTree import Element, SubElement, fromstring, indent, tostr
 from satfmu.fmus import __version__
 from satfmu.fmus.codegen import KIND_INPUT, KIND_PARAMETER, variable_table
 from satfmu.fmus.digest import model_digest, sha256
-from satfmu.fmus.model import UNITS, Model, Variable
+from satfmu.fmus.model import Model, Variable
+from satfmu.fmus.units import UNITS
 
 NATIVE, PYTHON = "native", "python"
 """The two backends: the native C FMU and the pythonfmu FMU."""
@@ -275,7 +276,7 @@ def model_description(model: Model, caps: Capabilities) -> Element:
 
 def unit_definitions(root: Element, units: set[str]) -> None:
     """Append ``<UnitDefinitions>`` of ``units`` (sorted; each with its SI base unit exponents,
-    :data:`satfmu.fmus.model.UNITS`) to ``root``: the same element in FMI 2.0 and FMI 3.0.
+    :data:`satfmu.fmus.units.UNITS`) to ``root``: the same element in FMI 2.0 and FMI 3.0.
 
     Parameters
     ----------

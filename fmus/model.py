@@ -24,38 +24,9 @@ import sympy as sp
 
 from satfmu.fmus.xml_text import xml_problem
 from satfmu.fmus.errors import ModelDefinitionError
+from satfmu.fmus.units import UNITS
 
 VariableType = Literal["Real", "Integer", "Boolean"]
-
-#: SI units the project declares, as FMI 2.0 BaseUnit exponents (and ``factor``: the unit is that many
-#: of the base unit's); None for a unit with no base unit of integer exponents (a noise density).
-UNITS: dict[str, dict[str, float] | None] = {
-    "1": {},
-    "s": {"s": 1},
-    "rad": {"rad": 1},
-    "rad/s": {"rad": 1, "s": -1},
-    "N.m": {"kg": 1, "m": 2, "s": -2},
-    "kg.m2": {"kg": 1, "m": 2},
-    "N.m.s": {"kg": 1, "m": 2, "s": -1},
-    "N.m/s": {"kg": 1, "m": 2, "s": -3},
-    "N.m/rad": {"kg": 1, "m": 2, "s": -2, "rad": -1},
-    "N.m/(rad.s)": {"kg": 1, "m": 2, "s": -3, "rad": -1},
-    "N.m.s/rad": {"kg": 1, "m": 2, "s": -1, "rad": -1},
-    "J": {"kg": 1, "m": 2, "s": -2},
-    "rad.s": {"rad": 1, "s": 1},
-    "1/s": {"s": -1},
-    "m": {"m": 1},
-    "m/s": {"m": 1, "s": -1},
-    "kg/m3": {"kg": 1, "m": -3},
-    "m2": {"m": 2},
-    "N/m2": {"kg": 1, "m": -1, "s": -2},
-    "T": {"kg": 1, "s": -2, "A": -1},
-    "A.m2": {"A": 1, "m": 2},
-    "T.m3": {"kg": 1, "m": 3, "s": -2, "A": -1},
-    "arcsec": {"rad": 1, "factor": 4.84813681109536e-06},
-    "rad/s0.5": None,
-    "rad/s1.5": None,
-}
 
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*(\[[0-9]+(,[0-9]+)*\])?$")
 _IDENTIFIER = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
@@ -70,7 +41,7 @@ class Variable:
     name : str
         FMI structured name, e.g. ``"omega[1]"``.
     unit : str
-        Unit, one of :data:`UNITS`.
+        Unit, one of :data:`satfmu.fmus.units.UNITS`.
     description : str
         Human-readable description (goes into the FMU).
     start : float
@@ -990,7 +961,7 @@ def vector(base: str, n: int, unit: str, description: str, start: Sequence[float
     n : int
         Number of variables.
     unit : str
-        Their unit, one of :data:`UNITS`.
+        Their unit, one of :data:`satfmu.fmus.units.UNITS`.
     description : str
         Their description, a format string that may use ``{i}``.
     start : float or sequence of float, optional
@@ -1020,7 +991,7 @@ def states(base: str, n: int, unit: str, description: str,
     n : int
         Number of states.
     unit : str
-        Their unit, one of :data:`UNITS` (also the initial values').
+        Their unit, one of :data:`satfmu.fmus.units.UNITS` (also the initial values').
     description : str
         Their description (may use ``{i}``); the initial values' is "Initial value of " + it.
     start : float or sequence of float, optional

@@ -106,7 +106,7 @@ class Profile:
         times : numpy.ndarray, shape (n,)
             The communication grid, s.
         unit : str, optional
-            Unit of the generator's output (one of :data:`satfmu.fmus.model.UNITS`). Default
+            Unit of the generator's output (one of :data:`satfmu.fmus.units.UNITS`). Default
             dimensionless (``"1"``).
 
         Returns

@@ -47,7 +47,8 @@ from typing import Callable
 import numpy as np
 import sympy as sp
 
-from satfmu.fmus.model import UNITS, Model, Output, Table, TableLookup, Variable, time_tolerance
+from satfmu.fmus.model import Model, Output, Table, TableLookup, Variable, time_tolerance
+from satfmu.fmus.units import UNITS
 
 OUTPUT = "y"
 """Name of every generator's output."""
@@ -102,7 +103,7 @@ def model_name(kind: str, unit: str = DIMENSIONLESS) -> str:
 
 def _check_unit(unit: str) -> None:
     if unit not in UNITS:
-        raise ValueError(f"a signal's unit must be one of satfmu.fmus.model.UNITS, got {unit!r}")
+        raise ValueError(f"a signal's unit must be one of satfmu.fmus.units.UNITS, got {unit!r}")
 
 
 def _model(kind: str, unit: str, description: str, parameters: list[Variable], y: sp.Expr,
@@ -120,7 +121,7 @@ def constant(unit: str = DIMENSIONLESS) -> Model:
     Parameters
     ----------
     unit : str, optional
-        Unit of the output ``y`` (one of :data:`satfmu.fmus.model.UNITS`). Default ``"1"``.
+        Unit of the output ``y`` (one of :data:`satfmu.fmus.units.UNITS`). Default ``"1"``.
     """
     _check_unit(unit)
     value = Variable("value", unit, "Signal value")
@@ -134,7 +135,7 @@ def step(unit: str = DIMENSIONLESS) -> Model:
     Parameters
     ----------
     unit : str, optional
-        Unit of the output ``y`` (one of :data:`satfmu.fmus.model.UNITS`). Default ``"1"``.
+        Unit of the output ``y`` (one of :data:`satfmu.fmus.units.UNITS`). Default ``"1"``.
     """
     _check_unit(unit)
     step_time = Variable("step_time", "s", "Time of the step", 1.0)
@@ -151,7 +152,7 @@ def sinusoid(unit: str = DIMENSIONLESS) -> Model:
     Parameters
     ----------
     unit : str, optional
-        Unit of the output ``y`` (one of :data:`satfmu.fmus.model.UNITS`). Default ``"1"``.
+        Unit of the output ``y`` (one of :data:`satfmu.fmus.units.UNITS`). Default ``"1"``.
     """
     _check_unit(unit)
     amp = Variable("amplitude", unit, "Amplitude", 1.0)
@@ -181,7 +182,7 @@ def cosine_ramp(unit: str = DIMENSIONLESS) -> Model:
     Parameters
     ----------
     unit : str, optional
-        Unit of the output ``y`` (one of :data:`satfmu.fmus.model.UNITS`). Default ``"1"``.
+        Unit of the output ``y`` (one of :data:`satfmu.fmus.units.UNITS`). Default ``"1"``.
     """
     _check_unit(unit)
     start = Variable("start", "s", "Start of the ramp", 0.0)
@@ -214,7 +215,7 @@ def table(tb: Table, unit: str = DIMENSIONLESS) -> Model:
     tb : Table
         The breakpoints (times in s), values and interpolation of the signal.
     unit : str, optional
-        Unit of the values (one of :data:`satfmu.fmus.model.UNITS`). Default ``"1"``.
+        Unit of the values (one of :data:`satfmu.fmus.units.UNITS`). Default ``"1"``.
 
     Returns
     -------

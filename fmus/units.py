@@ -5,7 +5,7 @@ A unit is what FMI 2.0 calls a ``BaseUnit``: exponents of the SI base units (``k
 ``factor * v`` in the base units). Two units convert into each other when their exponents agree,
 by the ratio of their factors (no offsets: no unit here has one).
 
-- :data:`satfmu.fmus.model.UNITS`: the units satfmu's models declare, each spelt one way (FMI's
+- :data:`UNITS`: the units satfmu's models declare, each spelt one way (FMI's
   Modelica syntax: ``N.m``, ``kg.m2``, ``rad/s``).
 - :data:`DISPLAY`: further units a scenario may ask a metric or a recorded signal to be
   converted to (``deg``, ``deg/s``, ``mrad``, ``mN.m``, ``min``, ``nT``, ...).
@@ -22,7 +22,38 @@ from typing import Mapping
 
 from satfmu.fmus.declared import did_you_mean
 from satfmu.fmus.errors import UnitError
-from satfmu.fmus.model import UNITS
+
+UNITS: dict[str, dict[str, float] | None] = {
+    "1": {},
+    "s": {"s": 1},
+    "rad": {"rad": 1},
+    "rad/s": {"rad": 1, "s": -1},
+    "N.m": {"kg": 1, "m": 2, "s": -2},
+    "kg.m2": {"kg": 1, "m": 2},
+    "N.m.s": {"kg": 1, "m": 2, "s": -1},
+    "N.m/s": {"kg": 1, "m": 2, "s": -3},
+    "N.m/rad": {"kg": 1, "m": 2, "s": -2, "rad": -1},
+    "N.m/(rad.s)": {"kg": 1, "m": 2, "s": -3, "rad": -1},
+    "N.m.s/rad": {"kg": 1, "m": 2, "s": -1, "rad": -1},
+    "J": {"kg": 1, "m": 2, "s": -2},
+    "rad.s": {"rad": 1, "s": 1},
+    "1/s": {"s": -1},
+    "m": {"m": 1},
+    "m/s": {"m": 1, "s": -1},
+    "kg/m3": {"kg": 1, "m": -3},
+    "m2": {"m": 2},
+    "N/m2": {"kg": 1, "m": -1, "s": -2},
+    "T": {"kg": 1, "s": -2, "A": -1},
+    "A.m2": {"A": 1, "m": 2},
+    "T.m3": {"kg": 1, "m": 3, "s": -2, "A": -1},
+    "arcsec": {"rad": 1, "factor": 4.84813681109536e-06},
+    "rad/s0.5": None,
+    "rad/s1.5": None,
+}
+"""SI units the project declares, as FMI 2.0 BaseUnit exponents (and ``factor``: the unit is that many
+of the base unit's); None for a unit with no base unit of integer exponents (a noise density). Each
+is spelt one way (FMI's Modelica syntax).
+"""
 
 BASE = ("kg", "m", "s", "A", "K", "mol", "cd", "rad")
 """FMI 2.0's ``BaseUnit`` exponents, in its order."""
@@ -46,7 +77,7 @@ DISPLAY: dict[str, dict[str, float]] = {
     "nT": {"kg": 1, "s": -2, "A": -1, "factor": 1e-9},
     "uT": {"kg": 1, "s": -2, "A": -1, "factor": 1e-6},
 }
-"""Units a scenario may ask for beyond :data:`satfmu.fmus.model.UNITS`, as FMI ``BaseUnit`` exponents
+"""Units a scenario may ask for beyond :data:`satfmu.fmus.units.UNITS`, as FMI ``BaseUnit`` exponents
 and factor."""
 
 KNOWN: dict[str, dict[str, float] | None] = {**UNITS, **DISPLAY, "dB": None}
@@ -141,7 +172,7 @@ def _factors(unit: str) -> list[tuple[str, int]]:
 
 
 def _spelt(factors: Mapping[str, int]) -> str:
-    """Factors -> a unit spelt as :data:`satfmu.fmus.model.UNITS` are (``kg.m2/s``)."""
+    """Factors -> a unit spelt as :data:`satfmu.fmus.units.UNITS` are (``kg.m2/s``)."""
     pos = [f"{s}{'' if e == 1 else e}" for s, e in factors.items() if e > 0]
     neg = [f"{s}{'' if e == -1 else -e}" for s, e in factors.items() if e < 0]
     text = ".".join(pos) or "1"

@@ -10,7 +10,7 @@ import pytest
 import satfmu
 from satfmu.fmus import units
 from satfmu.fmus.errors import ScenarioError, UnitError
-from satfmu.fmus.model import UNITS
+from satfmu.fmus.units import UNITS
 
 SLEW = {"name": "slew", "stop_time": 20.0, "step_size": 0.05,
         "fmus": {"plant": {"model": "mrp_satellite", "parameters": {"sigma_0[1]": 0.3}},

@@ -46,10 +46,9 @@ from satfmu.fmus.profiles import ProfileError
 from satfmu.sims.campaign.engine import Campaign, CampaignError, sample_indices
 from satfmu.sims.campaign.envelopes import POINTS, trace_columns, trace_steps
 from satfmu.sims.campaign.shipment import Reference, bundle, localize
-from satfmu.sims.cosim import preflight
 from satfmu.sims.cosim.master import CoSimulation, MasterError, UnknownVariableError
 from satfmu.sims.scenario.conversions import record_conversions
-from satfmu.sims.scenario.provisioning import fmu_paths, nominal_values
+from satfmu.sims.scenario.provisioning import context, nominal_values
 from satfmu.sims.scenario.run import check, evaluate, resimulate
 from satfmu.sims.scenario.spec import Scenario, load
 from satfmu.sims.scenario.wiring import recorded, recorded_times, wire
@@ -355,33 +354,6 @@ def _canonical(scenario: Scenario) -> Scenario:
     where = str(scenario.path) if scenario.path else f"scenario {scenario.name!r}"
     data = {k: v for k, v in scenario.to_dict().items() if k != "campaign"}
     return Scenario.from_dict(json.loads(json.dumps(data)), scenario.folder, where, scenario.path)
-
-
-def context(scenario: Scenario, fmu_dir: Path, backend: str) -> dict[str, Any]:
-    """What ``campaign.json`` keeps of a scenario campaign (part of its identity): the scenario's
-    declaration, the folder its relative paths resolve against, the backend, the FMU folder, and
-    each FMU file's name and SHA-256 (another binary is another campaign).
-
-    Parameters
-    ----------
-    scenario : Scenario
-        The campaign's (or run's) scenario.
-    fmu_dir : Path
-        The FMU folder the FMUs are read from.
-    backend : {"native", "python"}
-        Default backend of the instances.
-
-    Returns
-    -------
-    dict
-        Plain JSON data: ``scenario``, ``base_dir``, ``path``, ``backend``, ``fmu_dir`` and
-        ``fmus`` (instance -> ``{"file": ..., "sha256": ...}``).
-    """
-    fmus = {inst: {"file": p.name, "sha256": preflight.sha256_file(p)}
-            for inst, p in fmu_paths(scenario, Path(fmu_dir), backend).items()}
-    return {"scenario": scenario.to_dict(), "base_dir": str(scenario.folder),
-            "path": None if scenario.path is None else str(scenario.path), "backend": backend,
-            "fmu_dir": str(fmu_dir), "fmus": fmus}
 
 
 def reopen(folder: str | Path, fmu_dir: str | Path | None = None) -> Campaign[ScenarioTask]:

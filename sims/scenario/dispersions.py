@@ -60,15 +60,17 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import dataclass, field
-from typing import Any, Callable, Mapping, Sequence
+from typing import TYPE_CHECKING, Any, Callable, Mapping, Sequence
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from satfmu.fmus.declared import check_keys, did_you_mean
 from satfmu.fmus.plants.spacecraft import PARAMETERS as INERTIA_PARAMETERS
 from satfmu.fmus.plants.spacecraft import Spacecraft, SpacecraftError
 from satfmu.fmus.errors import DispersionError
+
+if TYPE_CHECKING:  # scipy.spatial costs ~0.4 s to import: loaded by the draws that use it
+    from scipy.spatial.transform import Rotation
 
 Nominal = Callable[[str, str], "float | None"]
 """(instance or ``"profiles[i]"``, parameter or field) -> its nominal value, or None if it has none."""
@@ -240,6 +242,8 @@ class Attitude:
                                       "its attitude parameters with 'mrp' or 'quaternion'")
         base, n = (mrp, 3) if mrp is not None else (quat, 4)
         names = [f"{base}[{i}]" for i in range(1, n + 1)]
+        from scipy.spatial.transform import Rotation
+
         if self.kind == "uniform":
             r = Rotation.random(random_state=rng)
         else:
@@ -338,6 +342,8 @@ def cone_rotation(rng: np.random.Generator, half_angle_deg: float) -> Rotation:
     -------
     scipy.spatial.transform.Rotation
     """
+    from scipy.spatial.transform import Rotation
+
     axis = rng.normal(size=3)
     theta = math.acos(rng.uniform(math.cos(math.radians(half_angle_deg)), 1.0))
     return Rotation.from_rotvec(theta * axis / np.linalg.norm(axis))

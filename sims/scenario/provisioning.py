@@ -8,7 +8,7 @@ from __future__ import annotations
 import re
 import warnings
 from pathlib import Path
-from typing import Callable
+from typing import Any, Callable
 
 from satfmu.controllers.paths import BACKENDS
 from satfmu.fmus.declared import did_you_mean
@@ -46,6 +46,33 @@ def fmu_paths(scenario: Scenario, fmu_dir: Path, backend: str) -> dict[str, Path
         else:
             out[inst] = Path(fmu_dir) / f"{spec.model}{BACKENDS[spec.backend or backend]}.fmu"
     return out
+
+
+def context(scenario: Scenario, fmu_dir: Path, backend: str) -> dict[str, Any]:
+    """What ``campaign.json`` keeps of a scenario campaign (part of its identity): the scenario's
+    declaration, the folder its relative paths resolve against, the backend, the FMU folder, and
+    each FMU file's name and SHA-256 (another binary is another campaign).
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The campaign's (or run's) scenario.
+    fmu_dir : Path
+        The FMU folder the FMUs are read from.
+    backend : {"native", "python"}
+        Default backend of the instances.
+
+    Returns
+    -------
+    dict
+        Plain JSON data: ``scenario``, ``base_dir``, ``path``, ``backend``, ``fmu_dir`` and
+        ``fmus`` (instance -> ``{"file": ..., "sha256": ...}``).
+    """
+    fmus = {inst: {"file": p.name, "sha256": preflight.sha256_file(p)}
+            for inst, p in fmu_paths(scenario, Path(fmu_dir), backend).items()}
+    return {"scenario": scenario.to_dict(), "base_dir": str(scenario.folder),
+            "path": None if scenario.path is None else str(scenario.path), "backend": backend,
+            "fmu_dir": str(fmu_dir), "fmus": fmus}
 
 
 def ensure_fmus(scenario: Scenario, fmu_dir: str | Path | None, backend: str, allow_stale: bool = False) -> Path:

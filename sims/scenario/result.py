@@ -158,7 +158,7 @@ class Result:
         of the run needs beside the summary: the scenario's declaration
         (:meth:`Scenario.to_dict`), the folder its relative paths resolve against, the backend,
         the FMU folder and each FMU file's name and SHA-256
-        (:func:`satfmu.sims.campaign.scenario_task.context`), and the unit of every recorded column.
+        (:func:`satfmu.sims.scenario.provisioning.context`), and the unit of every recorded column.
 
         The files of an earlier run of the same scenario and backend are removed first, every
         file is written whole (temporary name, then rename) and the summary comes last: a
@@ -191,7 +191,7 @@ class Result:
                 self.results["time"], {n: (c, bounds[n]) for n, c in self.l2_curves.items()}, tmp,
                 title=f"{self.name}: truncated L2 ratio over T"))
         if self.scenario is not None and self.fmu_dir is not None:
-            from satfmu.sims.campaign.scenario_task import context
+            from satfmu.sims.scenario.provisioning import context
 
             files["scenario"] = folder / f"scenario_{self.backend}.json"
             record = {**context(self.scenario, self.fmu_dir, self.backend), "units": self.units}
@@ -246,6 +246,9 @@ def write_csv(res: np.ndarray, path: Path) -> None:
         raise ValueError(f"write_csv needs a structured array (named fields), got dtype {res.dtype}")
     with open(path, "w", newline="") as fh:
         csv.writer(fh, lineterminator="\n").writerow(names)
-    table = pa.table({f"c{i}": np.ascontiguousarray(res[n], dtype=np.float64) for i, n in enumerate(names)})
+    # from the columns' buffers: pa.array(numpy) imports pandas (~0.5 s), for a type check
+    columns = [np.ascontiguousarray(res[n], dtype=np.float64) for n in names]
+    table = pa.Table.from_arrays([pa.Array.from_buffers(pa.float64(), len(c), [None, pa.py_buffer(c)])
+                                  for c in columns], names=[f"c{i}" for i in range(len(names))])
     with open(path, "ab") as fh:
         pa_csv.write_csv(table, fh, pa_csv.WriteOptions(include_header=False))
