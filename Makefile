@@ -83,8 +83,8 @@ validate: build
 
 demo: build
 	@$(STAGE) validate $(SATFMU) validate --fmu-dir $(FMU_DIR)
-	@$(STAGE) scenarios $(SATFMU) run $(SCENARIOS) --fmu-dir $(FMU_DIR) --out results --summary results/summary.json
-	@$(STAGE) "pythonfmu run" $(SATFMU) run mrp_200deg --backend python --fmu-dir $(FMU_DIR) --out results
+	@$(STAGE) scenarios $(SATFMU) run $(SCENARIOS) --fmu-dir $(FMU_DIR) --out results --summary results/summary.json --plot
+	@$(STAGE) "pythonfmu run" $(SATFMU) run mrp_200deg --backend python --fmu-dir $(FMU_DIR) --out results --plot
 	@$(STAGE) detumble $(SATFMU) detumble --fmu-dir $(FMU_DIR) --out results/cubesat
 	@$(STAGE) "verify (short)" $(SATFMU) verify $(VERIFY_SHORT) --fmu-dir $(FMU_DIR) --out results/verify
 	@mkdir -p results/campaigns

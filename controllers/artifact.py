@@ -48,7 +48,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from satfmu.controllers import claims, domain
-from satfmu.fmus.model import INDEX_TOL
+from satfmu.fmus.instants import INDEX_TOL
 from satfmu.fmus.xml_text import xml_problem
 from satfmu.fmus.errors import ArtifactError
 
@@ -759,8 +759,8 @@ class PeriodicArtifact:
         Returns
         -------
         numpy.ndarray of int
-            ``floor(tau / Ts) mod N`` (:data:`satfmu.fmus.model.INDEX_TOL` of a sample added before the floor), of the
-            shape of ``tau``.
+            ``floor(tau / Ts) mod N`` (:data:`satfmu.fmus.instants.INDEX_TOL` of a sample added before
+            the floor), of the shape of ``tau``.
         """
         return np.floor(np.asarray(tau, float) / self.sample_period + INDEX_TOL).astype(int) % self.n_samples
 

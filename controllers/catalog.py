@@ -259,7 +259,7 @@ def ensure(fmu_dir: Path, names: Iterable[str], backend: str = "native", rebuild
 
 def artifact_source(path: Path) -> FmuSource:
     """The controller of the artifact file ``path``: its FMUs embed the file's own bytes as
-    ``resources/artifact.json`` and record their SHA-256 (:func:`satfmu.fmus.export.artifact_digest`),
+    ``resources/artifact.json`` and record their SHA-256 (:func:`satfmu.fmus.build_record.artifact_digest`),
     which a run compares with the file (:mod:`satfmu.sims.cosim.preflight`).
 
     Parameters
@@ -377,7 +377,7 @@ def build_all(dest: Path | None = None, backends: tuple[str, ...] = ALL_BACKENDS
     """Build every FMU into ``dest``, in parallel processes.
 
     An FMU whose file already records its build's digest is not rebuilt
-    (:func:`satfmu.fmus.export.built_digest`), so a second call on unchanged models only reads digests.
+    (:func:`satfmu.fmus.build_record.built_digest`), so a second call on unchanged models only reads digests.
 
     Parameters
     ----------
@@ -389,13 +389,13 @@ def build_all(dest: Path | None = None, backends: tuple[str, ...] = ALL_BACKENDS
         Worker processes (default: the number of CPUs); 1, or a platform without ``fork``,
         builds in this process.
     """
-    from satfmu.fmus import export
+    from satfmu.fmus import build_record, export
 
     dest = paths.fmu_cache() if dest is None else Path(dest)
     plan = [(src, b) for src in sources() for b in ALL_BACKENDS if b in backends and b in src.backends]
     files = [export.fmu_path(src.model, dest, b) for src, b in plan]
     todo = [i for i, ((src, b), path) in enumerate(zip(plan, files))
-            if export.built_digest(path) != export.digest_of(src.model, b, src.resources)]
+            if build_record.built_digest(path) != export.digest_of(src.model, b, src.resources)]
     _PENDING[:] = plan  # the workers, forked from here, read it by index
     try:
         _fork_map(functools.partial(_build_one, dest=dest), todo, jobs)

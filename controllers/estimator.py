@@ -18,7 +18,8 @@ from pathlib import Path
 import sympy as sp
 
 from satfmu.controllers import mekf
-from satfmu.fmus.model import MIN_SAMPLE_PERIOD, Model, Output, Sampler, Variable, symbols, vector
+from satfmu.fmus.instants import MIN_SAMPLE_PERIOD
+from satfmu.fmus.model import Model, Output, Sampler, Variable, symbols, vector
 from satfmu.fmus.sensors import common
 
 NAME = "attitude_mekf"

@@ -25,7 +25,7 @@ import sympy as sp
 
 from satfmu.controllers.artifact import PeriodicArtifact
 from satfmu.fmus.plants import cubesat
-from satfmu.fmus.model import INDEX_TOL, MIN_SAMPLE_PERIOD as MIN_PERIOD
+from satfmu.fmus.instants import INDEX_TOL, MIN_SAMPLE_PERIOD as MIN_PERIOD
 from satfmu.fmus.model import Model, Output, Sampler, Variable, symbols, vector
 
 

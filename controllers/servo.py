@@ -33,7 +33,8 @@ from satfmu.controllers.artifact import ServoArtifact, scheduling_signal
 from satfmu.controllers.polynomial import sympy_polynomial
 from satfmu.fmus.plants import mrp_satellite, vscmg
 from satfmu.fmus.plants.spacecraft import SEED_000, Spacecraft
-from satfmu.fmus.model import MIN_SAMPLE_PERIOD, Model, Output, Sampler, State, Variable, vector
+from satfmu.fmus.instants import MIN_SAMPLE_PERIOD
+from satfmu.fmus.model import Model, Output, Sampler, State, Variable, vector
 
 
 def _initial(name: str) -> str:

@@ -25,7 +25,7 @@ def main(out: Path) -> int:
         profiles=[{"to": "plant.w_d[2]", "kind": "sinusoid", "amplitude": 0.01, "frequency_Hz": 0.05}])
     failed = 0
     for sc in (base, bigger):
-        result = satfmu.run(sc, out_dir=out)
+        result = satfmu.run(sc, out_dir=out, plots=True)
         print(f"{'PASS' if result.passed else 'FAIL'} {sc.name}: " + "; ".join(
             f"{m.name} {m.value:.4g} {m.unit}" for m in result.metrics))
         print("  wrote", ", ".join(str(p) for p in result.files.values()))

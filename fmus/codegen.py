@@ -25,7 +25,8 @@ from satfmu.fmus import noise
 from satfmu.fmus.arrays import StateArray, array_variables, state_arrays
 from satfmu.fmus.digest import model_digest
 from satfmu.fmus.events import event_indicators, sided
-from satfmu.fmus.model import TIME_TOL, TIME_TOL_MAX, TIME_ULPS, Model, TableLookup
+from satfmu.fmus.model import Model, TableLookup
+from satfmu.fmus.instants import TIME_TOL, TIME_TOL_MAX, TIME_ULPS
 
 KIND_PARAMETER, KIND_INPUT, KIND_OUTPUT = 0, 1, 2
 TYPE_CODES = {"Real": 0, "Integer": 1, "Boolean": 2}
@@ -375,7 +376,7 @@ class _Py(PythonCodePrinter):
         return f"gaussian_noise({', '.join(self._print(a) for a in expr.args)})"
 
 
-# The lookup of satfmu.fmus.model.Table.evaluate, one time at a time (generated Python and C).
+# The lookup of satfmu.fmus.table.Table.evaluate, one time at a time (generated Python and C).
 _PY_TABLE_LOOKUP = """
 def time_tolerance(t):
     a = abs(t)

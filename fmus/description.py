@@ -22,9 +22,10 @@ from __future__ import annotations
 import copy
 import uuid
 from dataclasses import dataclass
-from xml.etree.ElementTree import Element, SubElement, fromstring, indent, tostring
+from xml.etree.ElementTree import Element, SubElement, indent, tostring
 
 from satfmu.fmus import __version__
+from satfmu.fmus.annotations import ANNOTATION_TOOL
 from satfmu.fmus.codegen import KIND_INPUT, KIND_PARAMETER, variable_table
 from satfmu.fmus.digest import model_digest, sha256
 from satfmu.fmus.model import Model, Variable
@@ -38,10 +39,6 @@ WRAPPER_SOURCE = "fmi2_cosim.c"
 """The native FMU's one source file (``<SourceFiles>``), the generic wrapper ``fmus/c/fmi2_cosim.c``."""
 GUID_NAMESPACE = uuid.uuid5(uuid.NAMESPACE_URL, "https://satfmu/modelDescription/guid")
 """Namespace of the name-based GUIDs (:func:`description_guid`); fixed, so GUIDs are reproducible."""
-ANNOTATION_TOOL = "satfmu"
-"""``name`` of the description's ``VendorAnnotations/Tool`` that lists the model's driven inputs
-(``driven_inputs`` of :class:`satfmu.fmus.model.Model`): ``<DrivenInputs>`` holding one ``<Input name="..."/>``
-each."""
 VERSION_DIGEST_DIGITS = 16
 """Hex digits of the model digest in the ``version`` attribute (:func:`model_version`)."""
 
@@ -330,27 +327,6 @@ def variable_attributes(v: Variable, kind: int) -> tuple[dict[str, str], dict[st
         if v.max is not None:
             typed["max"] = xml_value(v.max, v.type)
     return roles, typed
-
-
-def driven_inputs(description: bytes) -> list[str]:
-    """The inputs an FMU says a co-simulation must drive: the ``DrivenInputs/Input`` names of its
-    ``VendorAnnotations`` tool :data:`ANNOTATION_TOOL` (FMI 2.0) or its ``Annotations`` annotation
-    of that type (FMI 3.0, where they name arrays); empty for an FMU without them.
-
-    Parameters
-    ----------
-    description : bytes
-        The FMU's ``modelDescription.xml``, already checked (:func:`satfmu.fmus.archive.check`).
-
-    Returns
-    -------
-    list of str
-        Variable names, in the description's order.
-    """
-    root = fromstring(description)
-    tools = [t for t in root.findall("VendorAnnotations/Tool") if t.get("name") == ANNOTATION_TOOL]
-    tools += [a for a in root.findall("Annotations/Annotation") if a.get("type") == ANNOTATION_TOOL]
-    return [str(e.get("name")) for tool in tools for e in tool.findall("DrivenInputs/Input") if e.get("name")]
 
 
 def _unknown(parent: Element, index: int, deps: list[int]) -> None:

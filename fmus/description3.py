@@ -22,7 +22,8 @@ from xml.etree.ElementTree import Element, SubElement
 
 from satfmu.fmus.arrays import ArrayVariable, array_variables
 from satfmu.fmus.codegen import variable_table
-from satfmu.fmus.description import (ANNOTATION_TOOL, LOG_CATEGORIES, description_guid, model_version,
+from satfmu.fmus.annotations import ANNOTATION_TOOL
+from satfmu.fmus.description import (LOG_CATEGORIES, description_guid, model_version,
                                      unit_definitions, variable_attributes, xml_value)
 from satfmu.fmus.model import Model
 from satfmu.fmus import __version__

@@ -22,10 +22,11 @@ from satfmu.fmus.model import Model, Sampler
 
 HERE = Path(__file__).resolve().parent
 
-GENERATOR_FILES = ("arrays.py", "codegen.py", "description.py", "description3.py", "description_me.py", "digest.py",
-                   "events.py", "export.py", "model.py", "pyslave.py", "c/satfmu_core.h", "c/satfmu_me.h",
-                   "c/fmi2_common.h", "c/fmi2_cosim.c", "c/fmi2_me.c", "c/fmi3_common.h", "c/fmi3.c", "c/fmi3_me.c",
-                   "c/pythonfmu_shim.c")
+GENERATOR_FILES = ("annotations.py", "arrays.py", "build_record.py", "codegen.py", "description.py", "description3.py",
+                   "description_me.py", "digest.py", "events.py", "export.py", "instants.py", "model.py", "pyslave.py",
+                   "table.py",
+                   "c/satfmu_core.h", "c/satfmu_me.h", "c/fmi2_common.h", "c/fmi2_cosim.c", "c/fmi2_me.c",
+                   "c/fmi3_common.h", "c/fmi3.c", "c/fmi3_me.c", "c/pythonfmu_shim.c")
 """The files (relative to :mod:`satfmu.fmus`) whose text shapes a generated FMU."""
 
 

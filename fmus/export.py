@@ -18,7 +18,7 @@ Builds are incremental: every FMU records, as its zip archive's comment, the dig
 its build read (:func:`satfmu.fmus.digest.build_digest`: the model, the resources, the generators,
 the compilers), and a build whose destination already carries that digest does nothing. A
 controller FMU also records there the SHA-256 of the artifact it embeds
-(``resources/artifact.json``, :func:`artifact_digest`), which a run compares with the
+(``resources/artifact.json``; :mod:`satfmu.fmus.build_record` reads both), which a run compares with the
 artifact file of its name (:mod:`satfmu.sims.cosim.preflight`). The comment reads
 ``satfmu-build sha256:<build digest>[ artifact sha256:<artifact digest>]``. An FMU is written
 under a temporary name and renamed into place, so an interrupted build never leaves a partial
@@ -31,17 +31,17 @@ import subprocess
 import sys
 import tempfile
 import zipfile
-import zlib
 from functools import lru_cache
 from pathlib import Path
-from satfmu.fmus import archive, codegen
+from satfmu.fmus import codegen
 from satfmu.fmus.atomic import write_atomically
+from satfmu.fmus.build_record import built_digest, comment
 from satfmu.fmus.description import (NATIVE, PYTHON, PYTHON_SUFFIX, WRAPPER_SOURCE, capabilities, model_description,
                               to_xml_bytes)
 from satfmu.fmus.description3 import FMI3_SUFFIX, WRAPPER3_SOURCE, build_description, model_description3
 from satfmu.fmus.description_me import (ME_SUFFIX, WRAPPER3_ME_SOURCE, WRAPPER_ME_SOURCE, model_description3_me,
                                        model_description_me)
-from satfmu.fmus.digest import build_digest, sha256
+from satfmu.fmus.digest import build_digest
 from satfmu.fmus.model import Model
 from satfmu.fmus.errors import FmuBuildError
 
@@ -72,10 +72,6 @@ SHIM_HEADER = "shim_model.h"
 PYTHONFMU_LIBRARY_SUFFIX = "_pythonfmu"
 """What pythonfmu's library is renamed to in a pythonfmu FMU: ``<model>_py`` + this + ``.so``."""
 _ZIP_DATE = (2020, 1, 1, 0, 0, 0)
-_COMMENT_PREFIX = b"satfmu-build sha256:"
-_ARTIFACT_FIELD = b" artifact sha256:"
-ARTIFACT = "artifact.json"
-"""Name, in ``resources/``, of the controller artifact a controller FMU embeds."""
 
 
 C_FLAGS = ("-std=c99", "-O2", "-fPIC", "-fvisibility=hidden", "-Wall", "-Wextra", "-Werror")
@@ -118,17 +114,9 @@ def fmi_headers() -> Path:
     return path
 
 
-def _comment(digest: str, resources: dict[str, bytes] | None) -> bytes:
-    """The archive comment of a build: its digest and, for a controller, its artifact's."""
-    comment = _COMMENT_PREFIX + digest.encode()
-    if resources and ARTIFACT in resources:
-        comment += _ARTIFACT_FIELD + sha256(resources[ARTIFACT]).encode()
-    return comment
-
-
 def _zip_dir(src: Path, dest: Path, comment: bytes) -> None:
     """Deterministic zip of a directory tree (sorted entries, fixed timestamps), with ``comment``
-    (:func:`_comment`) as the archive comment, written to a temporary name and renamed onto
+    (:func:`satfmu.fmus.build_record.comment`) as the archive comment, written to a temporary name and renamed onto
     ``dest``."""
     def write(partial: Path) -> None:
         with zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as z:
@@ -140,59 +128,6 @@ def _zip_dir(src: Path, dest: Path, comment: bytes) -> None:
             z.comment = comment
 
     write_atomically(dest, write)
-
-
-def _recorded(fmu: Path) -> tuple[str, str | None] | None:
-    """The build digest and the artifact digest (or None) an FMU built here records; None for
-    no file, an archive :func:`satfmu.fmus.archive.check` refuses (not a zip archive, a member failing
-    its CRC, unsafe entries, beyond its limits), or an FMU built elsewhere."""
-    try:
-        archive.check(fmu, crc=True)
-        with zipfile.ZipFile(fmu) as z:
-            comment = z.comment
-    except (OSError, EOFError, zipfile.BadZipFile, zlib.error, archive.UnsafeFmuError):  # unreadable or corrupt
-        return None
-    if not comment.startswith(_COMMENT_PREFIX):
-        return None
-    build, _, artifact = comment[len(_COMMENT_PREFIX):].partition(_ARTIFACT_FIELD)
-    return build.decode(), artifact.decode() or None
-
-
-def built_digest(fmu: Path) -> str | None:
-    """The build digest an FMU built here records, or None (no file, not a zip archive, built
-    elsewhere).
-
-    Parameters
-    ----------
-    fmu : Path
-        The FMU file (it need not exist).
-
-    Returns
-    -------
-    str or None
-        The hex digest (:func:`satfmu.fmus.digest.build_digest`) in the archive's comment.
-    """
-    recorded = _recorded(fmu)
-    return None if recorded is None else recorded[0]
-
-
-def artifact_digest(fmu: Path) -> str | None:
-    """The SHA-256 (hex) of the artifact a controller FMU built here embeds (the bytes of
-    ``resources/artifact.json``, those of the artifact file it was built from), or None (not a
-    controller, not built here, unreadable).
-
-    Parameters
-    ----------
-    fmu : Path
-        The controller FMU file (it need not exist).
-
-    Returns
-    -------
-    str or None
-        The hex digest in the archive's comment.
-    """
-    recorded = _recorded(fmu)
-    return None if recorded is None else recorded[1]
 
 
 @lru_cache(maxsize=None)
@@ -468,7 +403,7 @@ def _build_c(model: Model, dest_dir: Path, resources: dict[str, bytes] | None, c
         (root / "modelDescription.xml").write_bytes(to_xml_bytes(desc))
         _compile(identifier, root, {"linux64": cc, "win64": win64_cc}, src / wrapper.name, folders=folders)
         _write_resources(root / "resources", resources)
-        _zip_dir(root, dest, _comment(digest, resources))
+        _zip_dir(root, dest, comment(digest, resources))
     return dest
 
 
@@ -590,7 +525,7 @@ def build_python(model: Model, dest_dir: Path, resources: dict[str, bytes] | Non
             sampler = [codegen.sampler_module_name(model)] if python_sampler else []
             for mod in [cls, generated, "satfmu_pyslave"] + sampler:
                 sys.modules.pop(mod, None)
-        _repack(Path(fmu), dest, _comment(digest, resources), description,
+        _repack(Path(fmu), dest, comment(digest, resources), description,
                 {"linux64": cc, "win64": win64_cc}, desc.attrib["guid"])
     return dest
 

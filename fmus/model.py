@@ -24,6 +24,8 @@ import sympy as sp
 
 from satfmu.fmus.xml_text import xml_problem
 from satfmu.fmus.errors import ModelDefinitionError
+from satfmu.fmus.instants import TIME_TOL, TIME_TOL_MAX, TIME_ULPS
+from satfmu.fmus.table import Table
 from satfmu.fmus.units import UNITS
 
 VariableType = Literal["Real", "Integer", "Boolean"]
@@ -136,16 +138,6 @@ class SDCForm:
     assumptions: dict[str, float] = field(default_factory=dict)
 
 
-MIN_SAMPLE_PERIOD = 1e-3
-"""The smallest sample period the project's sampled laws declare, s: 1 kHz, ten times faster than
-the fastest period they use (the online SDRE's 0.01 s), and far above the time resolution (the
-instants of one FMU stay 1000 time tolerances apart at any time below 5.6e9 s, see
-:data:`TIME_TOL_MAX`); a 100 s step spans 1e5 instants (a native B-dot FMU takes ~1 ms for them)."""
-INDEX_TOL = 1e-6
-"""Fraction of a sample period added before the floor of a sample index: an instant computed
-as 899.9999999999 s counts as the one of 900 s (a periodic gain schedule's index)."""
-
-
 @dataclass(frozen=True)
 class Sampler:
     """Values held between sample instants and computed at them (a zero-order hold).
@@ -239,20 +231,6 @@ class Sampler:
         return functools.partial(getattr(mod, self.function), **self.options)
 
 
-TIME_TOL = 1e-9
-"""Relative time tolerance (times ``max(1, |t|)``, within the bounds of :func:`time_tolerance`): two
-times closer than this are one instant. Generated C and Python use it for sample instants, table
-breakpoints and switching times, so an FMU driven at ``t0 + k h`` and a master sampling
-``t0 + h k`` (or adding ``h`` step by step: ~1e5 steps drift by ``1e-9 |t|``) agree at every jump."""
-TIME_TOL_MAX = 1e-6
-"""The largest time tolerance, s: at Unix times (1.4e9 s) a relative 1e-9 would merge instants 1.4 s
-apart; 1 us keeps every instant of a sampled FMU (control periods from 1 ms on) distinct and is
-still 4 units in the last place there (double precision resolves 2.4e-7 s at 1.4e9 s)."""
-TIME_ULPS = 8
-"""The smallest time tolerance in units in the last place of ``|t|``: what double precision forces
-(``t_{k-1} + h`` and ``t0 + k h`` differ by ~2 ulp), beyond 5.6e9 s where it exceeds 1 us."""
-
-
 def time_tolerance(t: sp.Expr) -> sp.Expr:
     """The time tolerance at time ``t`` (a sympy expression), s:
     ``max(min(TIME_TOL max(1, |t|), TIME_TOL_MAX), TIME_ULPS eps |t|)`` with eps = 2^-52.
@@ -270,95 +248,10 @@ def time_tolerance(t: sp.Expr) -> sp.Expr:
     return sp.Max(sp.Min(TIME_TOL * sp.Max(1, sp.Abs(t)), TIME_TOL_MAX), TIME_ULPS * 2.0**-52 * sp.Abs(t))
 
 
-def time_tolerance_of(t: np.ndarray | float) -> np.ndarray:
-    """:func:`time_tolerance` of numbers (numpy), s.
-
-    Parameters
-    ----------
-    t : float or numpy.ndarray
-        Times, s (any shape).
-
-    Returns
-    -------
-    numpy.ndarray
-        The tolerance at each time, s, same shape as ``t``.
-    """
-    a = np.abs(np.asarray(t, float))
-    return np.maximum(np.minimum(TIME_TOL * np.maximum(1.0, a), TIME_TOL_MAX), TIME_ULPS * 2.0**-52 * a)
-
-
 class TableLookup(sp.Function):
     """``TableLookup(k, t)``: the model's table ``k`` (``Model.tables``) at ``t``."""
 
     nargs = 2
-
-
-@dataclass(frozen=True)
-class Table:
-    """Breakpoints and values of a function of one variable (a time table), s and any unit.
-
-    Before the first breakpoint the first value holds, after the last the last value.
-    ``"previous"`` holds each value from its breakpoint on (a breakpoint within
-    :func:`time_tolerance` ahead counts as reached); ``"linear"`` interpolates between breakpoints.
-    The numpy :meth:`evaluate`, the generated Python and the generated C use one formula.
-
-    Attributes
-    ----------
-    times : tuple of float
-        Breakpoints, strictly increasing (s for a time table).
-    values : tuple of float
-        The value at each breakpoint, in the unit of the quantity tabulated.
-    interpolation : {"linear", "previous"}, optional
-        Linear between breakpoints (default) or each value held from its breakpoint on.
-
-    Raises
-    ------
-    ModelDefinitionError
-        Unequal or empty arrays, non-finite entries, breakpoints not strictly increasing,
-        unknown interpolation.
-    """
-
-    times: tuple[float, ...]
-    values: tuple[float, ...]
-    interpolation: Literal["previous", "linear"] = "linear"
-
-    def __post_init__(self) -> None:
-        t, v = np.asarray(self.times, float), np.asarray(self.values, float)
-        if t.ndim != 1 or t.shape != v.shape or t.size == 0:
-            raise ModelDefinitionError("times and values must be 1-D of equal non-zero length")
-        if not (np.all(np.isfinite(t)) and np.all(np.isfinite(v))):
-            raise ModelDefinitionError("times and values must be finite")
-        if np.any(np.diff(t) <= 0):
-            raise ModelDefinitionError("times must be strictly increasing")
-        if self.interpolation not in ("previous", "linear"):
-            raise ModelDefinitionError(f"interpolation must be 'linear' or 'previous', got {self.interpolation!r}")
-        object.__setattr__(self, "times", tuple(map(float, t)))
-        object.__setattr__(self, "values", tuple(map(float, v)))
-
-    def evaluate(self, t: np.ndarray | float) -> np.ndarray:
-        """Values at ``t`` (any shape).
-
-        Parameters
-        ----------
-        t : float or numpy.ndarray
-            Where to evaluate (s for a time table), any shape.
-
-        Returns
-        -------
-        numpy.ndarray
-            The interpolated values, same shape as ``t``.
-        """
-        tt, v = np.asarray(self.times), np.asarray(self.values)
-        t = np.asarray(t, float)
-        if self.interpolation == "previous":
-            i = np.searchsorted(tt, t + time_tolerance_of(t), side="right") - 1
-            return v[np.clip(i, 0, None)]
-        i = np.clip(np.searchsorted(tt, t, side="right") - 1, 0, max(tt.size - 2, 0))
-        if tt.size == 1:
-            return np.full_like(t, v[0])
-        j = i + 1
-        inner = v[i] + (v[j] - v[i]) * ((t - tt[i]) / (tt[j] - tt[i]))
-        return np.where(t <= tt[0], v[0], np.where(t >= tt[-1], v[-1], inner))
 
 
 #: Parameters every model with states gets, read by the integrators of both FMU backends.
@@ -429,7 +322,7 @@ class Model:
         Names of the inputs a co-simulation must drive (connect or feed from a profile): a
         controller's, a sensor's or an estimator's measurements, whose start value is no
         meaningful default. The FMU lists them in its ``VendorAnnotations``
-        (:func:`satfmu.fmus.description.driven_inputs`); a scenario leaving one undriven is refused.
+        (:func:`satfmu.fmus.annotations.driven_inputs`); a scenario leaving one undriven is refused.
         Default none (a plant's torques and disturbances may stay at their start values).
     """
 

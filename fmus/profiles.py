@@ -38,18 +38,23 @@ import warnings
 from dataclasses import dataclass, field
 from functools import lru_cache
 from pathlib import Path
-from typing import Any, Callable
+from types import ModuleType
+from typing import TYPE_CHECKING, Any, Callable
 
 import numpy as np
 
-from satfmu.fmus import signals
+from satfmu.fmus import signal_functions
 from satfmu.fmus.declared import check_keys
-from satfmu.fmus.model import Model, ModelDefinitionError, Table
-from satfmu.fmus.errors import ProfileError
+from satfmu.fmus.errors import ModelDefinitionError, ProfileError
+from satfmu.fmus.table import Table
+from satfmu.fmus.units import DIMENSIONLESS
 
-Generator = Callable[[np.ndarray, str], tuple[Model, dict[str, float]]]
-"""(communication grid (s), unit of the target input) -> the signal-generator model and its
-parameter values."""
+if TYPE_CHECKING:  # the generators are sympy models, built only when one is asked for
+    from satfmu.fmus.model import Model
+
+Generator = Callable[[np.ndarray, str], tuple[Any, dict[str, float]]]
+"""(communication grid (s), unit of the target input) -> the signal-generator model (a
+:class:`satfmu.fmus.model.Model`) and its parameter values."""
 
 
 @dataclass(frozen=True)
@@ -92,7 +97,7 @@ class Profile:
         v = np.asarray(self._fn(np.asarray(t, float)), float)
         return np.broadcast_to(v, np.shape(t)).copy()
 
-    def generator(self, times: np.ndarray, unit: str = signals.DIMENSIONLESS) -> tuple[Model, dict[str, float]]:
+    def generator(self, times: np.ndarray, unit: str = DIMENSIONLESS) -> tuple[Model, dict[str, float]]:
         """The signal-generator model (:mod:`satfmu.fmus.signals`) and its parameter values that give
         this profile's values at ``times``, the communication grid (s), declaring ``unit`` (the
         target input's: FMI 2.0 gives each variable one fixed unit) for its output.
@@ -135,13 +140,32 @@ def _table(times: Any, values: Any, mode: Any, where: str) -> tuple[Callable[[np
         tb = Table(times, values, mode)
     except (ModelDefinitionError, TypeError, ValueError) as exc:
         raise ProfileError(f"{where}: {exc}") from None
-    return tb.evaluate, lambda grid, unit: (signals.table(tb, unit), {})
+    return tb.evaluate, lambda grid, unit: (_signals().table(tb, unit), {})
 
 
 def _generic(kind: str, params: dict[str, float]) -> tuple[Callable[[np.ndarray], np.ndarray], Generator]:
-    model = signals.GENERIC[kind]()
-    return ((lambda t: signals.evaluate(model, params, t)),
-            (lambda grid, unit: (signals.GENERIC[kind](unit), dict(params))))
+    """The analytic kind's values (:mod:`satfmu.fmus.signal_functions`, printed from its generator's
+    expression: no sympy) and its generic generator."""
+    function: Callable[..., np.ndarray] = signal_functions.FUNCTIONS[kind]
+    declared = signal_functions.PARAMETERS[kind]
+    unknown = set(params) - {name for name, _ in declared}
+    if unknown:
+        raise KeyError(f"signal {kind!r} has no parameter(s) {sorted(unknown)}")
+    args = tuple(np.float64(params.get(name, start)) for name, start in declared)  # numpy division: inf, not an error
+
+    def values(t: np.ndarray) -> np.ndarray:
+        times = np.asarray(t, float)
+        y: np.ndarray = np.asarray(function(times, *args), float)
+        return np.broadcast_to(y, times.shape).copy()
+    return values, (lambda grid, unit: (_signals().GENERIC[kind](unit), dict(params)))
+
+
+def _signals() -> ModuleType:
+    """:mod:`satfmu.fmus.signals`, imported on first use (it builds sympy models: a run that only
+    samples its profiles never needs it)."""
+    from satfmu.fmus import signals
+
+    return signals
 
 
 FIELDS: dict[str, tuple[str, ...]] = {

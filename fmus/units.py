@@ -23,6 +23,9 @@ from typing import Mapping
 from satfmu.fmus.declared import did_you_mean
 from satfmu.fmus.errors import UnitError
 
+DIMENSIONLESS = "1"
+"""The unit of a dimensionless quantity (and of the catalog's generic signal generators, ``signal_<kind>``)."""
+
 UNITS: dict[str, dict[str, float] | None] = {
     "1": {},
     "s": {"s": 1},

@@ -102,7 +102,7 @@ __all__ = sorted([*_EXPORTS, *_FUNCTIONS, "__version__"])
 
 def run(scenario: "Scenario | Mapping[str, Any] | str | Path", fmu_dir: str | Path | None = None,
         backend: str = "native", out_dir: str | Path | None = None, strict: bool = False,
-        design_rtol: float | None = None, allow_stale: bool = False) -> "Result":
+        design_rtol: float | None = None, allow_stale: bool = False, plots: bool = False) -> "Result":
     """Run a scenario and evaluate its metrics (:func:`satfmu.sims.scenario.run.run`).
 
     Parameters
@@ -114,7 +114,7 @@ def run(scenario: "Scenario | Mapping[str, Any] | str | Path", fmu_dir: str | Pa
     backend : {"native", "python"}
         Default FMU backend of the instances.
     out_dir : path, optional
-        Also write CSV, plots and summary into ``out_dir/<name>/``.
+        Also write the CSV, the run record and the summary into ``out_dir/<name>/``.
     strict : bool
         A controller paired with a plant other than its design plant is an error
         (default: a :class:`DesignMismatchWarning`).
@@ -124,6 +124,8 @@ def run(scenario: "Scenario | Mapping[str, Any] | str | Path", fmu_dir: str | Pa
         Run a controller FMU outside the FMU cache that embeds another artifact than the file
         of its name holds now, with a :class:`StaleFmuWarning` (default: refused; in the cache
         it is rebuilt).
+    plots : bool
+        With ``out_dir``, draw the PNG plots as well (about 1 s of CPU: matplotlib).
 
     Returns
     -------
@@ -133,7 +135,7 @@ def run(scenario: "Scenario | Mapping[str, Any] | str | Path", fmu_dir: str | Pa
     """
     from satfmu.sims.scenario.run import run as run_scenario
 
-    return run_scenario(scenario, fmu_dir, backend, out_dir, strict, design_rtol, allow_stale)
+    return run_scenario(scenario, fmu_dir, backend, out_dir, strict, design_rtol, allow_stale, plots)
 
 
 def build(names: Iterable[str] | None = None, fmu_dir: str | Path | None = None,

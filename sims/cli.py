@@ -7,7 +7,7 @@ Usage::
     satfmu validate [--fmu-dir DIR]
     satfmu list
     satfmu run SCENARIO [SCENARIO ...] [--backend native|python|fmi3] [--fmu-dir DIR] [--strict] [--allow-stale]
-                                       [--out results] [--summary FILE]
+                                       [--out results] [--summary FILE] [--plot]
     satfmu export-ssp SCENARIO [SCENARIO ...] [--backend native|python] [--fmu-dir DIR] [--allow-stale]
                                               [--out results/ssp]
     satfmu verify [SCENARIO ...] [--engines libcosim ecos] [--fmu-dir DIR] [--allow-stale] [--out results/verify]
@@ -78,7 +78,6 @@ import argparse
 import sys
 import time
 import tomllib
-from importlib import metadata
 from pathlib import Path
 from typing import Any
 
@@ -153,7 +152,13 @@ def _validate(args: argparse.Namespace) -> int:
 
 
 def _run(args: argparse.Namespace) -> int:
+    import os
     import warnings
+
+    # the co-simulation runs on one thread (the master limits BLAS to one around its loop): BLAS
+    # threads started by numpy's import would only spin, 0.1 s of CPU per run
+    for name in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+        os.environ.setdefault(name, "1")
 
     from satfmu.sims.scenario import metrics
     from satfmu.fmus.errors import DesignMismatchWarning
@@ -165,7 +170,7 @@ def _run(args: argparse.Namespace) -> int:
     warnings.simplefilter("ignore", DesignMismatchWarning)  # printed below, with the run
     for sc in [load(name) for name in args.scenarios]:  # every file read before any run
         res = run_scenario(sc, Path(args.fmu_dir), args.backend, Path(args.out), strict=args.strict,
-                           allow_stale=args.allow_stale)
+                           allow_stale=args.allow_stale, plots=args.plot)
         summaries.append(res.summary())
         print(f"{'PASS' if res.passed else 'FAIL'} {res.name} ({args.backend})")
         _print_result(res)
@@ -488,11 +493,23 @@ def _fmu_dir(parser: argparse.ArgumentParser, help: str = "folder of the FMUs") 
     parser.add_argument("--fmu-dir", default=str(paths.fmu_cache()), help=help)
 
 
+class _Version(argparse.Action):
+    """``--version``: the installed distribution's version, read when asked (importlib.metadata
+    costs 40 ms of every command's start otherwise)."""
+
+    def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace, values: Any,
+                 option_string: str | None = None) -> None:
+        from importlib import metadata
+
+        print(f"satfmu {metadata.version('satfmu')}")
+        parser.exit()
+
+
 def parser() -> argparse.ArgumentParser:
     """The ``satfmu`` argument parser: every command, every option with its help and default."""
     top = argparse.ArgumentParser(prog="satfmu", description="Spacecraft attitude control FMUs",
                                   formatter_class=_Formatter, allow_abbrev=False)
-    top.add_argument("--version", action="version", version=f"satfmu {metadata.version('satfmu')}")
+    top.add_argument("--version", action=_Version, nargs=0, help="show the installed satfmu's version and exit")
     top.add_argument("--debug", action="store_true", default=False, help="show the traceback of an error")
     sub = top.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
@@ -525,7 +542,9 @@ def parser() -> argparse.ArgumentParser:
     r = command(sub, "run", "run scenarios (name of a shipped scenario or a .toml path)", parents=[scenarios])
     r.add_argument("--backend", choices=backends, default="native",
                    help="FMU kind of the instances (fmi3: the native FMUs as FMI 3.0)")
-    r.add_argument("--out", default="results", help="folder of the CSV and PNG files (relative: to the working folder)")
+    r.add_argument("--out", default="results", help="folder of the result files (relative: to the working folder)")
+    r.add_argument("--plot", action="store_true",
+                   help="draw the recorded signals as PNG too (about 1 s of CPU per scenario)")
     r.add_argument("--strict", action="store_true",
                    help="a controller paired with a plant other than its design plant is an error, not a warning")
     r.add_argument("--summary", default=None,

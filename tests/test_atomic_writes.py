@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from satfmu.fmus import export
+from satfmu.fmus import build_record
 from satfmu.fmus.atomic import KILL_ENV, PHASES
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -112,7 +112,7 @@ def test_a_killed_synth_leaves_whole_files_and_the_next_run_finds_a_stale_pair(
     for name, data in now.items():  # the previous file or the new complete one, never a part
         assert data in (old[name], new[name]) and data, name
     stale = [name for name in now if name.endswith(".fmu") and "satfmu" in name
-             and export.artifact_digest(home / name) != _sha(now["artifacts/cubesat_periodic_satfmu.json"])]
+             and build_record.artifact_digest(home / name) != _sha(now["artifacts/cubesat_periodic_satfmu.json"])]
     # an artifact written without its FMUs: outside the cache a run refuses the pair ...
     copy = tmp_path / "copy"
     shutil.copytree(home / "fmus", copy)
@@ -126,7 +126,7 @@ def test_a_killed_synth_leaves_whole_files_and_the_next_run_finds_a_stale_pair(
     # ... and in the cache it rebuilds the FMUs from the artifact
     run = _satfmu(home, "run", str(f), "--out", str(tmp_path / "out"))
     assert run.returncode == 0 and run.stderr.count("rebuilding the FMU in the cache") == len(stale), run.stderr
-    assert all(export.artifact_digest(home / name) == _sha((home / "artifacts" / "cubesat_periodic_satfmu.json")
+    assert all(build_record.artifact_digest(home / name) == _sha((home / "artifacts" / "cubesat_periodic_satfmu.json")
                                                            .read_bytes()) for name in stale)
 
 

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from satfmu.fmus import codegen, description, digest, export, signals
+from satfmu.fmus import build_record, codegen, description, digest, export, signals
 from satfmu.fmus.model import Model, Output, Variable
 from satfmu.controllers import catalog, paths
 
@@ -63,7 +63,7 @@ def test_unchanged_model_is_not_rebuilt_and_a_changed_one_is(tmp_path: Path) -> 
     for build in (export.build_native, export.build_python):
         fmu = build(_gain_model(), tmp_path)
         stamp = fmu.stat().st_mtime_ns
-        assert export.built_digest(fmu) is not None
+        assert build_record.built_digest(fmu) is not None
         assert build(_gain_model(), tmp_path) == fmu and fmu.stat().st_mtime_ns == stamp  # no-op
         build(_gain_model(gain=5.0), tmp_path)
         assert fmu.stat().st_mtime_ns != stamp
@@ -75,17 +75,17 @@ def test_a_corrupt_or_foreign_fmu_is_rebuilt(tmp_path: Path) -> None:
     fmu = export.build_native(_gain_model(), tmp_path)
     good = fmu.read_bytes()
     fmu.write_bytes(good[: len(good) // 2])  # truncated: no zip directory
-    assert export.built_digest(fmu) is None
+    assert build_record.built_digest(fmu) is None
     export.build_native(_gain_model(), tmp_path)
     assert fmu.read_bytes() == good  # deterministic: the same bytes again
     data = bytearray(good)
     data[100] ^= 0xFF  # a flipped byte inside a member: its CRC fails
     fmu.write_bytes(bytes(data))
-    assert export.built_digest(fmu) is None
+    assert build_record.built_digest(fmu) is None
     with zipfile.ZipFile(fmu, "a") as z:  # an FMU some other tool wrote: no digest comment
         z.comment = b""
-    assert export.built_digest(fmu) is None
-    assert export.built_digest(tmp_path / "missing.fmu") is None
+    assert build_record.built_digest(fmu) is None
+    assert build_record.built_digest(tmp_path / "missing.fmu") is None
 
 
 def test_a_failed_build_leaves_no_file(tmp_path: Path) -> None:
@@ -118,7 +118,7 @@ def test_build_all_builds_in_parallel_then_does_nothing(tmp_path: Path, monkeypa
     report = catalog.build_all(tmp_path, jobs=2)  # worker processes (fork)
     names = ["signal_constant.fmu", "signal_step.fmu", "cache_gain.fmu", "cache_gain_py.fmu", "cache_gain_fmi3.fmu"]
     assert [p.name for p in report.paths] == names and report.built == report.paths
-    assert all(export.built_digest(p) for p in report.paths)
+    assert all(build_record.built_digest(p) for p in report.paths)
     # the same bytes as a build in this process (the zip is deterministic)
     one = export.build_native(signals.step(), tmp_path / "serial")
     assert one.read_bytes() == (tmp_path / "signal_step.fmu").read_bytes()

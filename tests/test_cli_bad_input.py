@@ -20,7 +20,7 @@ from typing import Callable
 
 import pytest
 
-from satfmu.fmus import export
+from satfmu.fmus import build_record
 from satfmu.controllers import paths
 from satfmu.sims.cosim import preflight
 from satfmu.sims.cli import main
@@ -265,11 +265,11 @@ def test_fmus_record_the_artifact_they_embed(fmu_dir: Path) -> None:
     for fmu in (fmu_dir / "mrp_hinf_published.fmu", fmu_dir / "mrp_hinf_published_py.fmu"):
         with zipfile.ZipFile(fmu) as z:
             assert z.read("resources/artifact.json") == shipped.read_bytes()
-            assert z.comment == (f"satfmu-build sha256:{export.built_digest(fmu)} "
+            assert z.comment == (f"satfmu-build sha256:{build_record.built_digest(fmu)} "
                                  f"artifact sha256:{_sha(shipped)}").encode()
-        assert (export.artifact_digest(fmu) == _sha(shipped)
+        assert (build_record.artifact_digest(fmu) == _sha(shipped)
                 and preflight.stale_artifact(fmu, "mrp_hinf_published") is None)
-    assert export.artifact_digest(fmu_dir / "mrp_satellite.fmu") is None  # a plant embeds no artifact
+    assert build_record.artifact_digest(fmu_dir / "mrp_satellite.fmu") is None  # a plant embeds no artifact
 
 
 @pytest.mark.parametrize("command", SCENARIO_COMMANDS)
@@ -307,5 +307,5 @@ def test_a_stale_controller_fmu_in_the_cache_is_rebuilt(tmp_path: Path, home: Pa
                         rf"{re.escape(str(art))} is sha256:{_sha(art)[:12]}\.\.\.\n", err), err
     with zipfile.ZipFile(fmu) as z:  # now built from the user's artifact
         assert z.read("resources/artifact.json") == art.read_bytes()
-    assert export.artifact_digest(fmu) == _sha(art)
+    assert build_record.artifact_digest(fmu) == _sha(art)
     assert main(["run", str(f), "--out", str(tmp_path / "out")]) == 0 and capsys.readouterr().err == ""

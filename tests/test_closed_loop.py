@@ -81,7 +81,7 @@ def test_eq44_truncated_l2_ratio_stays_below_c(fmu_dir: Path) -> None:
 
 
 def test_scenario_writes_csv_plot_and_summary(fmu_dir: Path, tmp_path: Path) -> None:
-    r = run("mrp_eq44", fmu_dir, out_dir=tmp_path)
+    r = run("mrp_eq44", fmu_dir, out_dir=tmp_path, plots=True)
     for key in ("csv", "plot", "l2_ratio_plot", "summary"):
         assert r.files[key].is_file() and r.files[key].stat().st_size > 0
     with open(r.files["csv"]) as fh:

@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 
 import satfmu
-from satfmu.fmus.description import driven_inputs
+from satfmu.fmus.annotations import driven_inputs
 from satfmu.fmus.errors import ScenarioError
 from satfmu.fmus.model import Model, ModelDefinitionError, Output, Variable
 from satfmu.sims.scenario import wiring

@@ -167,7 +167,7 @@ def test_a_failed_rerun_leaves_nothing_that_looks_complete(tmp_path: Path, fmu_d
     open_loop = 'unconnected = "zero"\nrecord = ["plant.phi"]\n'  # the controller's inputs at their start values
     ok = _write(tmp_path, BASE + open_loop)
     out = tmp_path / "out"
-    files = run(ok, fmu_dir, out_dir=out).files
+    files = run(ok, fmu_dir, out_dir=out, plots=True).files
     assert all(files[k].is_file() for k in ("csv", "plot", "summary"))
     folder = files["csv"].parent
     blow_up = '{ h_max = 1e6, "omega_0[1]" = 1e3, "omega_0[2]" = 1e3, "omega_0[3]" = 1e3 }'  # in range
@@ -176,14 +176,14 @@ def test_a_failed_rerun_leaves_nothing_that_looks_complete(tmp_path: Path, fmu_d
                    + open_loop), fmu_dir, out_dir=out)
     ok = _write(tmp_path, BASE + open_loop)
     assert sorted(p.name for p in folder.iterdir()) == []
-    run(ok, fmu_dir, out_dir=out)
+    run(ok, fmu_dir, out_dir=out, plots=True)
 
     def broken(*args, **kwargs):
         raise RuntimeError("no display")
 
     monkeypatch.setattr(plots, "time_series", broken)
     with pytest.raises(RuntimeError, match="no display"):
-        run(ok, fmu_dir, out_dir=out)
+        run(ok, fmu_dir, out_dir=out, plots=True)
     left = sorted(p.name for p in folder.iterdir())
     assert left == [files["csv"].name], left  # the new data only: no plot, no summary, no temporary file
 

@@ -108,3 +108,54 @@ def test_no_fmu_of_the_catalog_has_a_variable_named_time(fmu_dir: Path) -> None:
     clashes = [f"{f.name}: {v.name}" for f in fmus for v in read_model_description(str(f)).modelVariables
                if v.name.lower() == "time" and v.causality != "independent"]
     assert not clashes, f"variables named time: {clashes}"
+
+
+# Times at and around each kind's switching instants (exactly, within and beyond the time
+# tolerance), far out (1e9 s, where the tolerance is 1 us; 1e302 s, where the sinusoid reduces
+# its argument) and negative; the parameters put every Piecewise branch in reach.
+_TIMES = np.array([-1e302, -5.0, 0.0, 1e-12, 0.3 - 1e-15, 0.3, 0.3 + 1e-10, 1.0 - 1e-9, 1.0, 2.0 + 5e-10, 4.0, 5.0,
+                   7.999999999, 8.0, 8.0 + 2e-9, 10.0, 1e9, 1e9 + 5e-7, 1e302, math.inf, -math.inf, math.nan])
+_PARAMETERS = {
+    "constant": [{"value": -1.5}, {"value": 0.0}],
+    "step": [{"step_time": 0.3, "before": 2.0, "after": -1.0}, {"step_time": 1e9, "before": 0.0, "after": 1.0}],
+    "sinusoid": [{"amplitude": 0.3, "frequency_Hz": 0.7, "phase_rad": 0.2, "offset": 0.1},
+                 {"amplitude": 1.0, "frequency_Hz": 1e-300, "phase_rad": 0.0, "offset": 0.0}],
+    "cosine_ramp": [{"start": 4.0, "stop": 8.0, "before": 0.1, "after": 1.1, "derivative": d} for d in (0, 1, 2)]
+    + [{"start": 2.0, "stop": 2.0, "before": 0.1, "after": 1.1, "derivative": d} for d in (0, 1, 2)],
+}
+
+
+@pytest.mark.parametrize("kind", list(signals.GENERIC))
+def test_signal_functions_give_the_generators_values_bit_for_bit(kind: str) -> None:
+    """The profiles evaluate the analytic kinds with satfmu.fmus.signal_functions (no sympy import);
+    it must give exactly what the generator's expression gives (sympy.lambdify of it), NaN where
+    it gives NaN. A change to a generator in fmus/signals.py without regenerating the module fails
+    here: run scripts/generate_signal_functions.py."""
+    from satfmu.fmus import signal_functions
+
+    model = signals.GENERIC[kind]()
+    assert signal_functions.PARAMETERS[kind] == tuple((v.name, float(v.start)) for v in model.parameters)
+    for params in _PARAMETERS[kind]:
+        args = [np.float64(params[name]) for name, _ in signal_functions.PARAMETERS[kind]]  # as lambdify passes them
+        with np.errstate(all="ignore"):  # inf and NaN times: both sides give what numpy gives
+            want = signals.evaluate(model, params, _TIMES)
+            got = np.broadcast_to(signal_functions.FUNCTIONS[kind](_TIMES, *args), _TIMES.shape)
+        assert np.array_equal(got, want, equal_nan=True), (kind, params, got - want)
+        if not (kind == "cosine_ramp" and params["stop"] <= params["start"]):  # a profile refuses that ramp
+            spec = {"kind": kind, **params} if kind != "step" else {
+                "kind": "step", "time": params["step_time"], "before": params["before"], "after": params["after"]}
+            with np.errstate(all="ignore"):
+                assert np.array_equal(make(spec, kind).sample(_TIMES), want, equal_nan=True)
+
+
+def test_signal_functions_module_is_the_printed_text() -> None:
+    """Under the sympy that printed it, the module is exactly numpy_source()'s text (another
+    sympy may print the same expressions otherwise: the values test above holds either way)."""
+    import sympy
+
+    from satfmu.fmus import signal_functions
+
+    text = Path(signal_functions.__file__).read_text()
+    if sympy.__version__ != signal_functions.SYMPY_VERSION:
+        pytest.skip(f"printed by sympy {signal_functions.SYMPY_VERSION}, this is {sympy.__version__}")
+    assert text == signals.numpy_source(), "fmus/signal_functions.py is stale: run scripts/generate_signal_functions.py"

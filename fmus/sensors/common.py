@@ -26,7 +26,7 @@ SEED_MAX = 2**31 - 1
 """Largest seed (an FMU Integer)."""
 MIN_PERIOD = 5e-3
 """Shortest sample period of a sensor, s (200 Hz: an attitude loop's sensors sample at 1-100 Hz).
-Five times :data:`satfmu.fmus.model.MIN_SAMPLE_PERIOD`: a pythonfmu sensor draws its noise in Python
+Five times :data:`satfmu.fmus.instants.MIN_SAMPLE_PERIOD`: a pythonfmu sensor draws its noise in Python
 (~20 us an instant for the gyro's six draws), so that a 100 s step at the shortest period stays
 within the robustness suite's 1 s (2e4 instants)."""
 

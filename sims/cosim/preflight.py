@@ -6,7 +6,7 @@ beyond its size limits), a damaged member, no ``modelDescription.xml``, another 
 version than 2.0 and 3.0, no co-simulation interface, no binary for this platform, or another model
 than the one the scenario names. :func:`stale_artifact` says when a controller FMU embeds
 another artifact than the file of its name (:func:`satfmu.controllers.paths.find_artifact`) holds now: the
-FMU records the SHA-256 of the artifact it was built from (:func:`satfmu.fmus.export.artifact_digest`),
+FMU records the SHA-256 of the artifact it was built from (:func:`satfmu.fmus.build_record.artifact_digest`),
 and a synthesis or an edit that replaced the artifact afterwards leaves a stale pair.
 :func:`satfmu.sims.scenario.provisioning.ensure_fmus` acts on both (rebuild in the FMU cache, error elsewhere).
 """
@@ -16,7 +16,7 @@ import hashlib
 from pathlib import Path
 from xml.etree import ElementTree
 
-from satfmu.fmus import archive
+from satfmu.fmus import archive, build_record
 from satfmu.controllers import catalog, paths
 
 FMI_VERSIONS = ("2.0", "3.0")
@@ -97,8 +97,6 @@ def stale_artifact(fmu: Path, model: str) -> str | None:
         E.g. ``"FMU .../x.fmu embeds the artifact sha256:1a2b3c4d5e6f..., but
         .../artifacts/x.json is sha256:9f8e7d6c5b4a..."``.
     """
-    from satfmu.fmus.export import artifact_digest
-
     if any(model in group for group in (catalog.PLANTS, catalog.SENSORS, catalog.GENERIC)):  # no artifact: own models
         return None
     try:
@@ -106,7 +104,7 @@ def stale_artifact(fmu: Path, model: str) -> str | None:
     except FileNotFoundError:  # built from a file elsewhere: nothing to compare with
         return None
     now = sha256_file(artifact)
-    recorded = artifact_digest(fmu)
+    recorded = build_record.artifact_digest(fmu)
     if recorded == now:
         return None
     embeds = "records no artifact digest" if recorded is None else f"embeds the artifact sha256:{recorded[:12]}..."

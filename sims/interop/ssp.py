@@ -36,7 +36,7 @@ from pathlib import Path
 from fmpy.ssp import ssd as fmpy_ssd
 from lxml import etree
 
-from satfmu.fmus import archive
+from satfmu.fmus import archive, build_record
 from satfmu.fmus import export as fmu_export
 from satfmu.fmus import signals
 from satfmu.fmus.atomic import write_atomically
@@ -164,7 +164,7 @@ def signal_components(scenario: Scenario, fmu_dir: Path, table_dir: Path, backen
         inst = "signal_" + re.sub(r"[^A-Za-z0-9]+", "_", target).strip("_")
         if model.tables or model.name not in catalog.SIGNALS:
             path = fmu_export.fmu_path(model, table_dir, "native")
-            if fmu_export.built_digest(path) != fmu_export.digest_of(model, "native"):
+            if build_record.built_digest(path) != fmu_export.digest_of(model, "native"):
                 path = fmu_export.build_native(model, table_dir)
         else:
             path = catalog.ensure(Path(fmu_dir), [model.name])[model.name]

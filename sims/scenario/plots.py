@@ -1,4 +1,9 @@
-"""Matplotlib figures of co-simulation results (written as PNG, no display needed)."""
+"""Matplotlib figures of co-simulation results (written as PNG, no display needed).
+
+Every figure is a bare :class:`matplotlib.figure.Figure`, drawn by the Agg canvas its
+``savefig`` picks for PNG: pyplot (its figure manager, its backend selection, half a second of
+imports) is never imported, and a figure is freed with its last reference.
+"""
 from __future__ import annotations
 
 import textwrap
@@ -6,11 +11,9 @@ from pathlib import Path
 from typing import Mapping, Sequence
 
 import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-from matplotlib.figure import Figure  # noqa: E402
-import numpy as np  # noqa: E402
+import numpy as np
+from matplotlib.axes import Axes
+from matplotlib.figure import Figure
 
 
 def time_series(res: np.ndarray, panels: Sequence[Sequence[str]], path: Path | None = None, title: str = "",
@@ -85,7 +88,8 @@ def l2_ratio(t: np.ndarray, curves: Mapping[str, tuple[np.ndarray, float | None]
     title : str, optional
         Figure title.
     """
-    fig, ax = plt.subplots(figsize=(7, 3.2))
+    fig = Figure(figsize=(7, 3.2))
+    ax = fig.subplots()
     for k, (name, (ratio, bound)) in enumerate(curves.items()):
         ax.plot(t, ratio, color=f"C{k}", label=name)
         if bound is not None:
@@ -106,7 +110,8 @@ def tradeoff(rows: Sequence, path: Path, title: str = "") -> None:
     title : str, optional
         Figure title.
     """
-    fig, ax = plt.subplots(figsize=(6, 3.6))
+    fig = Figure(figsize=(6, 3.6))
+    ax = fig.subplots()
     for k, variant in enumerate(dict.fromkeys(r.variant for r in rows)):
         pts = sorted((r.gamma, r.lam) for r in rows if r.variant == variant and np.isfinite(r.lam))
         if pts:
@@ -116,9 +121,9 @@ def tradeoff(rows: Sequence, path: Path, title: str = "") -> None:
             textwrap.fill(title, 70), legend_size=8)
 
 
-def _finish(fig: plt.Figure, ax: plt.Axes, path: Path, xlabel: str, ylabel: str, title: str,
+def _finish(fig: Figure, ax: Axes, path: Path, xlabel: str, ylabel: str, title: str,
             legend_size: int) -> None:
-    """Labels, grid, legend and title of a one-axes figure; write it as PNG and close it."""
+    """Labels, grid, legend and title of a one-axes figure; write it as PNG."""
     ax.set_xlabel(xlabel)
     ax.set_ylabel(ylabel)
     ax.grid(True, alpha=0.3)
@@ -126,7 +131,6 @@ def _finish(fig: plt.Figure, ax: plt.Axes, path: Path, xlabel: str, ylabel: str,
     ax.set_title(title, fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
-    plt.close(fig)
 
 
 def region_map(cells: Sequence, path: Path, boxes: Sequence = (),
@@ -152,10 +156,11 @@ def region_map(cells: Sequence, path: Path, boxes: Sequence = (),
     """
     from matplotlib.patches import Rectangle
 
-    fig, ax = plt.subplots(figsize=(6.4, 4.4))
+    fig = Figure(figsize=(6.4, 4.4))
+    ax = fig.subplots()
     decays = [c.decay for c in cells if c.certified]
     top = max(decays, default=1.0)
-    cmap = plt.get_cmap("Greens")
+    cmap = matplotlib.colormaps["Greens"]
     for c in cells:
         (q0, q1), (w0, w1) = c.q2, c.w4
         if c.certified:
@@ -196,7 +201,8 @@ def detumble_linear(runs: Sequence, path: Path, title: str = "") -> None:
     title : str, optional
         Figure title.
     """
-    fig, (ax_w, ax_m) = plt.subplots(2, 1, sharex=True, figsize=(8, 6))
+    fig = Figure(figsize=(8, 6))
+    ax_w, ax_m = fig.subplots(2, 1, sharex=True)
     for i, r in enumerate(runs):
         color = f"C{i}"
         t = r.k * 15.0
@@ -215,7 +221,6 @@ def detumble_linear(runs: Sequence, path: Path, title: str = "") -> None:
     fig.suptitle("\n".join(textwrap.wrap(title, 90)), fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
-    plt.close(fig)
 
 
 def detumble_sweep(rows: Sequence, path: Path, title: str = "") -> None:
@@ -231,7 +236,8 @@ def detumble_sweep(rows: Sequence, path: Path, title: str = "") -> None:
     title : str, optional
         Figure title.
     """
-    fig, (ax_r, ax_e) = plt.subplots(2, 1, sharex=True, figsize=(8, 6))
+    fig = Figure(figsize=(8, 6))
+    ax_r, ax_e = fig.subplots(2, 1, sharex=True)
     for label in dict.fromkeys(r.controller for r in rows):
         mine = sorted((r for r in rows if r.controller == label), key=lambda r: r.w0)
         w0 = [r.w0 for r in mine]
@@ -247,4 +253,3 @@ def detumble_sweep(rows: Sequence, path: Path, title: str = "") -> None:
     fig.suptitle("\n".join(textwrap.wrap(title, 90)), fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
-    plt.close(fig)

@@ -149,7 +149,7 @@ class Result:
         return plots.time_series(self.results, self.panels, None if path is None else Path(path), title=self.title,
                                  units=self.units)
 
-    def write(self, folder: str | Path) -> dict[str, Path]:
+    def write(self, folder: str | Path, plots: bool = True) -> dict[str, Path]:
         """Write ``<name>_<backend>.csv``, the plot(s), ``scenario_<backend>.json`` and
         ``summary_<backend>.json`` into ``folder``; returns (and records in ``files``) what
         was written.
@@ -168,6 +168,11 @@ class Result:
         ----------
         folder : path
             The output folder (created if missing).
+        plots : bool, optional
+            Draw the PNG plots (default): ``<name>_<backend>.png`` (:meth:`plot`) and, with an L2
+            ratio metric, ``<name>_<backend>_l2_ratio.png``. Drawing them costs about 1 s of CPU
+            (matplotlib's imports and rendering), most of a short run: without them the files
+            hold every recorded value all the same.
 
         Returns
         -------
@@ -180,14 +185,14 @@ class Result:
         stem = f"{self.name}_{self.backend}"
         files = {"csv": folder / f"{stem}.csv"}
         write_atomically(files["csv"], lambda tmp: write_csv(self.results, tmp))
-        if self.panels:  # a run that records nothing has nothing to plot
+        if plots and self.panels:  # a run that records nothing has nothing to plot
             files["plot"] = write_atomically(folder / f"{stem}.png", self.plot)
-        if self.l2_curves:
-            from satfmu.sims.scenario import plots
+        if plots and self.l2_curves:
+            from satfmu.sims.scenario import plots as figures
 
             files["l2_ratio_plot"] = folder / f"{stem}_l2_ratio.png"
             bounds = {m.name: m.max for m in self.metrics}
-            write_atomically(files["l2_ratio_plot"], lambda tmp: plots.l2_ratio(
+            write_atomically(files["l2_ratio_plot"], lambda tmp: figures.l2_ratio(
                 self.results["time"], {n: (c, bounds[n]) for n, c in self.l2_curves.items()}, tmp,
                 title=f"{self.name}: truncated L2 ratio over T"))
         if self.scenario is not None and self.fmu_dir is not None:

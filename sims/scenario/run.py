@@ -15,7 +15,6 @@ import numpy as np
 from satfmu.fmus.errors import ScenarioError
 from satfmu.sims.cosim.master import CoSimulation
 from satfmu.sims.scenario.conversions import converted, metric_conversion, record_conversions
-from satfmu.sims.scenario.loops import margin_metric
 from satfmu.sims.scenario.metrics import EVALUATORS, MARGIN_KINDS, MetricInput, MetricResult
 from satfmu.sims.scenario.provisioning import ensure_fmus
 from satfmu.sims.scenario.result import Result, clear_outputs
@@ -163,6 +162,8 @@ def evaluate(scenario: Scenario, res: np.ndarray, sim: CoSimulation
         if m.kind in MARGIN_KINDS:  # of the loop linearized from the models, not of the run
             conv = metric_conversion(m, sim, {"signals": cols, "versus": [], "disturbances": []},
                                      f"{where}: metrics[{i}]")
+            from satfmu.sims.scenario.loops import margin_metric  # sympy: only for a margin metric
+
             value = margin_metric(m.kind, scenario, cols) * conv.scale
             out.append(MetricResult(m.name, m.kind, value, m.min, m.max, conv.unit))
             continue
@@ -183,7 +184,7 @@ def evaluate(scenario: Scenario, res: np.ndarray, sim: CoSimulation
 
 def run(scenario: "str | Path | Mapping[str, Any] | Scenario", fmu_dir: str | Path | None = None,
         backend: str = "native", out_dir: str | Path | None = None, strict: bool = False,
-        design_rtol: float | None = None, allow_stale: bool = False) -> Result:
+        design_rtol: float | None = None, allow_stale: bool = False, plots: bool = False) -> Result:
     """Run a scenario and evaluate its metrics.
 
     Parameters
@@ -196,7 +197,8 @@ def run(scenario: "str | Path | Mapping[str, Any] | Scenario", fmu_dir: str | Pa
     backend : {"native", "python"}
         Default backend of the instances.
     out_dir : path, optional
-        Write the CSV, plots and summary into ``out_dir/<name>/`` (:meth:`Result.write`).
+        Write the CSV, the run record and the summary (the plots with ``plots``) into
+        ``out_dir/<name>/`` (:meth:`Result.write`).
     strict : bool
         Refuse (``ScenarioError``) a controller paired with a plant other than its design
         plant, instead of a :class:`satfmu.fmus.errors.DesignMismatchWarning`.
@@ -205,6 +207,9 @@ def run(scenario: "str | Path | Mapping[str, Any] | Scenario", fmu_dir: str | Pa
     allow_stale : bool
         Run a stale controller FMU outside the FMU cache as it is, with a
         :class:`satfmu.fmus.errors.StaleFmuWarning`, instead of refusing it (:func:`ensure_fmus`).
+    plots : bool
+        With ``out_dir``, draw the PNG plots as well (about 1 s of CPU; :meth:`Result.write`);
+        :meth:`Result.plot` draws them later from the returned result.
 
     Returns
     -------
@@ -232,5 +237,5 @@ def run(scenario: "str | Path | Mapping[str, Any] | Scenario", fmu_dir: str | Pa
                     units={c: unit for c, (_, unit) in shown.items()}, panels=cols,
                     title=f"{sc.name}: {sc.description}", warnings=list(sim.mismatches), scenario=sc, fmu_dir=folder)
     if out_dir is not None:
-        result.write(Path(out_dir) / sc.name)
+        result.write(Path(out_dir) / sc.name, plots)
     return result

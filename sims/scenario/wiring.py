@@ -239,7 +239,7 @@ def undriven(scenario: Scenario, sim: CoSimulation, driven: set[str]) -> dict[st
     """The inputs meant to be driven that nothing drives, by instance.
 
     An input is meant to be driven when its FMU lists it (``VendorAnnotations``,
-    :func:`satfmu.fmus.description.driven_inputs`: a controller's, a sensor's or an estimator's
+    :func:`satfmu.fmus.annotations.driven_inputs`: a controller's, a sensor's or an estimator's
     measurements) or declares no start value. A start value the scenario sets for it counts as
     driving it (held constant).
 
@@ -258,7 +258,7 @@ def undriven(scenario: Scenario, sim: CoSimulation, driven: set[str]) -> dict[st
         Instance -> its undriven inputs (variable names, in the description's order); only
         instances with some.
     """
-    from satfmu.fmus.description import driven_inputs
+    from satfmu.fmus.annotations import driven_inputs
 
     out = {}
     for inst, comp in sim.components.items():
