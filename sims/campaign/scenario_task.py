@@ -49,7 +49,7 @@ from satfmu.sims.campaign.shipment import Reference, bundle, localize
 from satfmu.sims.cosim.master import CoSimulation, MasterError, UnknownVariableError
 from satfmu.sims.scenario.conversions import record_conversions
 from satfmu.sims.scenario.provisioning import context, nominal_values
-from satfmu.sims.scenario.run import check, evaluate, resimulate
+from satfmu.sims.scenario.run import check, evaluate, plan_metrics, resimulate
 from satfmu.sims.scenario.spec import Scenario, load
 from satfmu.sims.scenario.wiring import recorded, recorded_times, wire
 
@@ -162,7 +162,7 @@ class ScenarioTask:
             row[f"{owner}.{name}"] = float(_value(sampled, owner, name))
         try:
             res = resimulate(sampled, sim)
-            results, _ = evaluate(sampled, res, sim)
+            results, _ = evaluate(sampled, res, sim, _PLANS[id(sim)])
         except (MasterError, ScenarioError, ProfileError) as exc:
             if any(c.fatal for c in sim.components.values()):  # no further call allowed: wire anew
                 _discard(sim)
@@ -192,6 +192,7 @@ class ScenarioTask:
                 sim = wire(self.scenario, Path(self.fmu_dir), self.backend)
             sim.reuse_instances = True
             _NOMINAL[id(sim)] = nominal_values(self.scenario, self.fmu_dir, self.backend)
+            _PLANS[id(sim)] = plan_metrics(self.scenario, sim)
             while len(_WIRED) >= _KEEP:
                 _close(_WIRED.pop(next(iter(_WIRED))))
         _WIRED[key] = sim  # most recently used last
@@ -205,10 +206,14 @@ _WIRED: dict[str, CoSimulation] = {}
 _NOMINAL: dict[int, Any] = {}
 """The nominal values (:func:`satfmu.sims.scenario.provisioning.nominal_values`) of each kept master's scenario, read
 once, by ``id`` of the master."""
+_PLANS: dict[int, Any] = {}
+"""The metrics of each kept master's scenario planned on it (:func:`satfmu.sims.scenario.run.plan_metrics`), by
+``id`` of the master: a sample has its scenario's metrics."""
 
 
 def _close(sim: CoSimulation) -> None:
     _NOMINAL.pop(id(sim), None)
+    _PLANS.pop(id(sim), None)
     sim.close()
 
 

@@ -7,6 +7,7 @@
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Mapping
 
@@ -14,11 +15,11 @@ import numpy as np
 
 from satfmu.fmus.errors import ScenarioError
 from satfmu.sims.cosim.master import CoSimulation
-from satfmu.sims.scenario.conversions import converted, metric_conversion, record_conversions
+from satfmu.sims.scenario.conversions import MetricConversion, converted, metric_conversion, record_conversions
 from satfmu.sims.scenario.metrics import EVALUATORS, MARGIN_KINDS, MetricInput, MetricResult
 from satfmu.sims.scenario.provisioning import ensure_fmus
 from satfmu.sims.scenario.result import Result, clear_outputs
-from satfmu.sims.scenario.spec import Scenario, load
+from satfmu.sims.scenario.spec import Metric, Scenario, load
 from satfmu.sims.scenario.wiring import _check_parameters, _columns, profiles, recorded, wire
 
 
@@ -133,7 +134,76 @@ def check(scenario: Scenario, fmu_dir: str | Path | None = None, backend: str = 
     return folder
 
 
-def evaluate(scenario: Scenario, res: np.ndarray, sim: CoSimulation
+@dataclass(frozen=True)
+class MetricPlan:
+    """What evaluating one metric on a run of a wired master reads, fixed by the scenario's
+    declaration and the FMUs (a campaign's samples share it; :func:`plan_metrics`).
+
+    Attributes
+    ----------
+    metric : satfmu.sims.scenario.spec.Metric
+        The metric's declaration.
+    where : str
+        Its key path (``scenario.toml: metrics[2]``), the start of every error.
+    columns, versus, disturbances : list of str
+        Its ``signals``, ``versus`` and ``disturbances``, expanded to recorded columns.
+    conversion : satfmu.sims.scenario.conversions.MetricConversion
+        How its signals convert, and the unit of its value.
+    held : bool
+        Every signal is held over each step (an input or a connected output).
+    inputs : list of bool
+        Which signals are FMU inputs the master sets.
+    disturbances_held : bool
+        Every disturbance is held over each step.
+    """
+
+    metric: Metric
+    where: str
+    columns: list[str]
+    versus: list[str]
+    disturbances: list[str]
+    conversion: MetricConversion
+    held: bool
+    inputs: list[bool]
+    disturbances_held: bool
+
+
+def plan_metrics(scenario: Scenario, sim: CoSimulation) -> list[MetricPlan]:
+    """The scenario's metrics planned on the master ``sim`` wired for it: columns, unit
+    conversions and flags, computed once (a campaign plans once per worker, not per sample).
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario (a sample of it has the same metrics).
+    sim : CoSimulation
+        The master wired for it (:func:`satfmu.sims.scenario.wiring.wire`).
+
+    Returns
+    -------
+    list of MetricPlan
+        One per metric, in the scenario's order.
+
+    Raises
+    ------
+    ScenarioError
+        A metric whose unit its signals do not convert to (key path named).
+    """
+    held, inputs = sim.held_signals(), sim.input_signals()
+    where = str(scenario.path) if scenario.path else f"scenario {scenario.name!r}"
+    plans = []
+    for i, m in enumerate(scenario.metrics):
+        cols, versus, disturbances = (_columns(sim, names) for names in (m.signals, m.versus, m.disturbances))
+        if m.kind in MARGIN_KINDS:  # of the loop linearized from the models, not of the run
+            versus, disturbances = [], []
+        key = f"{where}: metrics[{i}]"
+        conv = metric_conversion(m, sim, {"signals": cols, "versus": versus, "disturbances": disturbances}, key)
+        plans.append(MetricPlan(m, key, cols, versus, disturbances, conv, all(c in held for c in cols),
+                                [c in inputs for c in cols], all(c in held for c in disturbances)))
+    return plans
+
+
+def evaluate(scenario: Scenario, res: np.ndarray, sim: CoSimulation, plans: list[MetricPlan] | None = None
              ) -> tuple[list[MetricResult], dict[str, np.ndarray]]:
     """Evaluate the scenario's metrics on a recorded run.
 
@@ -145,6 +215,9 @@ def evaluate(scenario: Scenario, res: np.ndarray, sim: CoSimulation
         The recorded run (:func:`simulate`): ``time`` (s) and the recorded signals.
     sim : CoSimulation
         The master that ran it (which signals are held FMU inputs, how base names expand).
+    plans : list of MetricPlan, optional
+        :func:`plan_metrics` of the scenario and ``sim``, made once for many runs (default: made
+        here).
 
     Returns
     -------
@@ -154,32 +227,30 @@ def evaluate(scenario: Scenario, res: np.ndarray, sim: CoSimulation
         The truncated L2 ratio over T of each ``l2_ratio`` metric, by name.
     """
     t = res["time"]
-    held, inputs = sim.held_signals(), sim.input_signals()
-    where = str(scenario.path) if scenario.path else f"scenario {scenario.name!r}"
     out, curves = [], {}
-    for i, m in enumerate(scenario.metrics):
-        cols, versus, disturbances = (_columns(sim, names) for names in (m.signals, m.versus, m.disturbances))
-        if m.kind in MARGIN_KINDS:  # of the loop linearized from the models, not of the run
-            conv = metric_conversion(m, sim, {"signals": cols, "versus": [], "disturbances": []},
-                                     f"{where}: metrics[{i}]")
+    for plan in plan_metrics(scenario, sim) if plans is None else plans:
+        m, conv = plan.metric, plan.conversion
+        if m.kind in MARGIN_KINDS:
             from satfmu.sims.scenario.loops import margin_metric  # sympy: only for a margin metric
 
-            value = margin_metric(m.kind, scenario, cols) * conv.scale
+            value = margin_metric(m.kind, scenario, plan.columns) * conv.scale
             out.append(MetricResult(m.name, m.kind, value, m.min, m.max, conv.unit))
             continue
-        conv = metric_conversion(m, sim, {"signals": cols, "versus": versus, "disturbances": disturbances},
-                                 f"{where}: metrics[{i}]")
-        data = MetricInput(t, np.stack([res[c] for c in cols], axis=1) * conv.signals,
-                           held=all(c in held for c in cols),
-                           inputs=[c in inputs for c in cols], tolerance=m.tolerance, limit=m.limit,
-                           versus=np.stack([res[c] for c in versus], axis=1) * conv.versus if versus else None,
-                           disturbances=np.stack([res[c] for c in disturbances], axis=1) if disturbances else None,
-                           disturbances_held=all(c in held for c in disturbances), scale=conv.scale)
+        data = MetricInput(t, _stacked(res, plan.columns) * conv.signals, held=plan.held, inputs=plan.inputs,
+                           tolerance=m.tolerance, limit=m.limit,
+                           versus=_stacked(res, plan.versus) * conv.versus if plan.versus else None,
+                           disturbances=_stacked(res, plan.disturbances) if plan.disturbances else None,
+                           disturbances_held=plan.disturbances_held, scale=conv.scale)
         value, curve = EVALUATORS[m.kind](data)  # validate(): a kind of the table, with the fields it needs
         if curve is not None:
             curves[m.name] = curve
         out.append(MetricResult(m.name, m.kind, value, m.min, m.max, conv.unit))
     return out, curves
+
+
+def _stacked(res: np.ndarray, columns: list[str]) -> np.ndarray:
+    """The recorded ``columns`` side by side, rows x columns."""
+    return np.stack([res[c] for c in columns], axis=1)
 
 
 def run(scenario: "str | Path | Mapping[str, Any] | Scenario", fmu_dir: str | Path | None = None,
