@@ -164,7 +164,7 @@ def test_campaign_statistics_in_the_page_are_those_of_the_rows(page: Path, campa
             assert float(rate.get("data-value")) == passes / N  # a ratio of counts: exact
             assert rate.text_content() == f"{100 * passes / N:.2f} %"
             interval = cell(row, "interval")
-            # Clopper-Pearson bounds are Beta quantiles; rel 1e-9: root finding in scipy's binomtest
+            # Clopper-Pearson bounds are Beta quantiles; rel 1e-9: scipy.stats' route against scipy.special's
             low = stats.beta.ppf(0.025, passes, N - passes + 1) if passes > 0 else 0.0
             high = stats.beta.ppf(0.975, passes + 1, N - passes) if passes < N else 1.0
             assert float(interval.get("data-low")) == pytest.approx(low, rel=1e-9, abs=1e-12)

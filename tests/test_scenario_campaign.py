@@ -105,8 +105,9 @@ def test_a_refused_sample_is_a_recorded_failure_and_the_others_run(tmp_path: Pat
 
 
 def test_clopper_pearson_equals_the_beta_quantiles() -> None:
-    # Independent reference: the exact interval's bounds are Beta quantiles; rtol 1e-9 is
-    # root-finding noise of scipy's binomtest, far below any reported digit.
+    # Independent references: the exact interval's bounds are Beta quantiles (scipy.stats' beta.ppf,
+    # another route than scipy.special.betaincinv; rtol 1e-9, far below any reported digit) and
+    # scipy's binomtest, which finds them by root finding (rtol 1e-9: its bracketing tolerance).
     low, high = clopper_pearson(100, 100, 0.95)
     assert high == 1.0
     assert low == pytest.approx(stats.beta.ppf(0.025, 100, 1), rel=1e-9)
@@ -114,6 +115,9 @@ def test_clopper_pearson_equals_the_beta_quantiles() -> None:
     low, high = clopper_pearson(37, 100, 0.99)
     assert low == pytest.approx(stats.beta.ppf(0.005, 37, 64), rel=1e-9)
     assert high == pytest.approx(stats.beta.ppf(0.995, 38, 63), rel=1e-9)
+    for k, n, confidence in ((0, 10, 0.95), (1, 1, 0.9), (37, 100, 0.99), (9999, 10000, 0.95)):
+        ci = stats.binomtest(k, n).proportion_ci(confidence_level=confidence, method="exact")
+        assert clopper_pearson(k, n, confidence) == pytest.approx((ci.low, ci.high), rel=1e-9, abs=1e-15)
 
 
 def test_statistics_percentiles_and_worst_samples() -> None:

@@ -117,12 +117,19 @@ def clopper_pearson(successes: int, n: int, confidence: float = 0.95) -> tuple[f
     Returns
     -------
     (float, float)
-        Lower and upper bound.
+        Lower and upper bound: the Beta quantiles that define the interval,
+        ``B^-1(alpha/2; k, n - k + 1)`` and ``B^-1(1 - alpha/2; k + 1, n - k)`` with ``alpha = 1 -
+        confidence`` (0 for no success, 1 for no failure), from ``scipy.special.betaincinv``
+        (scipy.stats, whose ``binomtest`` finds the same bounds by root finding, costs 1 s more
+        of imports).
     """
-    from scipy import stats  # 0.6 s and about 70 MB of imports: only when a campaign is summarized
+    from scipy.special import betaincinv
 
-    ci = stats.binomtest(int(successes), int(n)).proportion_ci(confidence_level=confidence, method="exact")
-    return float(ci.low), float(ci.high)
+    k, n = int(successes), int(n)
+    alpha = (1.0 - confidence) / 2
+    low = 0.0 if k == 0 else float(betaincinv(k, n - k + 1, alpha))
+    high = 1.0 if k == n else float(betaincinv(k + 1, n - k, 1.0 - alpha))
+    return low, high
 
 
 def _metric_statistics(name: str, unit: str, passed: np.ndarray, values: np.ndarray | None,
