@@ -415,6 +415,10 @@ def _cluster_options(parser: argparse.ArgumentParser) -> None:
 
 
 def _campaign_scenario(args: argparse.Namespace) -> int:
+    if args.scheduler is None:  # a local cluster: its workers' fork server imports while this one does
+        from satfmu.sims.campaign import worker_server
+
+        worker_server.start()
     from satfmu.sims.scenario.spec import load
     from satfmu.sims.campaign.results import run_campaign
     from satfmu.sims.campaign.scenario_task import campaign_size

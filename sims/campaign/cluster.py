@@ -24,23 +24,13 @@ from distributed import Client, LocalCluster
 from distributed.security import Security
 
 from satfmu.fmus.errors import CampaignError, InsecureConnectionWarning
+from satfmu.sims.campaign import worker_server
+from satfmu.sims.campaign.worker_server import WORKER_ENV
 
 LOOPBACK = "127.0.0.1"
 """The address a local cluster's scheduler, workers, nannies and dashboard listen on."""
 SCHEMES = ("tls", "tcp", "inproc")
 """The schemes of a scheduler address satfmu connects to (``inproc``: a cluster in this process)."""
-
-WORKER_ENV = {"MALLOC_ARENA_MAX": "1", "MALLOC_TRIM_THRESHOLD_": str(64 * 2**20),
-              "MALLOC_MMAP_THRESHOLD_": str(32 * 2**20)}
-"""glibc malloc settings of a local cluster's workers. A worker runs its tasks in a thread of its
-own, whose allocations go to a thread arena that glibc trims eagerly, and Dask sets
-``MALLOC_TRIM_THRESHOLD_=65536`` (memory back to the system sooner), which also freezes malloc's
-adaptive mmap threshold: a campaign worker, which allocates and frees the same arrays of 10-400
-KiB every sample, then maps, unmaps and trims them every sample. One arena and high thresholds
-keep its heap at its working size. Measured on mrp_200deg samples (CPU per sample, one process,
-500 samples): 2.08 ms in the main thread, 2.54 ms in another thread, 2.03 ms in another thread
-with these settings."""
-
 
 def is_loopback(host: str) -> bool:
     """Whether every address ``host`` names is a loopback one (``127.0.0.0/8``, ``::1``).
@@ -129,8 +119,9 @@ def security(ca_file: str | None = None, cert: str | None = None, key: str | Non
 def cluster_client(scheduler: str | None, client: Client | None, n_workers: int = 2,
                    threads_per_worker: int = 1, tls: Security | None = None) -> Iterator[Client]:
     """The given client, a client of ``scheduler``, or that of a local cluster of ``n_workers``
-    processes on the loopback (its dashboard on a free port; its workers started with
-    :data:`WORKER_ENV`); the latter two closed at exit.
+    processes on the loopback (its dashboard on a free port; its workers forked from the fork
+    server of :func:`satfmu.sims.campaign.worker_server.start`, with :data:`WORKER_ENV`); the
+    latter two closed at exit.
 
     Parameters
     ----------
@@ -157,17 +148,16 @@ def cluster_client(scheduler: str | None, client: Client | None, n_workers: int 
         with Client(scheduler, security=(tls or security()) if scheme == "tls" else None) as remote:
             yield remote
     else:
-        # malloc reads its settings when a process starts: they go into the environment the nanny
-        # spawns the workers with (Dask's pre-spawn-environ, which it copies into this process's
-        # os.environ); this process's own environment is restored once they run
+        # the workers are forked from the fork server (started here unless it runs), whose
+        # environment has WORKER_ENV: malloc reads its settings when a process starts; Dask copies
+        # its pre-spawn-environ into this process's os.environ, restored once the workers run
         pre = {**dask.config.get("distributed.nanny.pre-spawn-environ", default={}), **WORKER_ENV}
         saved = {k: os.environ.get(k) for k in pre}
         # and no statistical profiler in the workers (it samples the task thread's stack every 10 ms,
         # for the dashboard: measured 4-9 % of a campaign worker's CPU)
         config = {"distributed.nanny.pre-spawn-environ": pre, "distributed.worker.profile.enabled": False,
                   "distributed.worker.multiprocessing-method": "forkserver"}
-        with dask.config.set(config):
-            _preload_workers()
+        worker_server.start()
         with dask.config.set(config), \
                 LocalCluster(n_workers=n_workers, threads_per_worker=threads_per_worker, processes=True,
                              host=LOOPBACK, dashboard_address=f"{LOOPBACK}:0") as cluster, \
@@ -179,17 +169,3 @@ def cluster_client(scheduler: str | None, client: Client | None, n_workers: int 
                     os.environ[k] = v
             yield local
 
-
-WORKER_PRELOAD = ("distributed", "numpy", "pandas", "pyarrow", "satfmu.sims.campaign.engine",
-                  "satfmu.sims.campaign.scenario_task")
-"""What a local cluster's fork server imports before it forks the worker processes: every worker
-starts with them imported (a spawned worker imported them on its own, 1-2 s of CPU each)."""
-
-
-def _preload_workers() -> None:
-    """Have the local workers forked from one server process that imports :data:`WORKER_PRELOAD`
-    once (multiprocessing's fork server is single-threaded: forking it is safe, unlike forking
-    this process, whose Dask client runs an event loop thread)."""
-    from distributed.utils import get_mp_context
-
-    get_mp_context().set_forkserver_preload(list(WORKER_PRELOAD))

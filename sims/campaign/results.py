@@ -98,8 +98,10 @@ def run_campaign(scenario: "str | Path | Mapping[str, Any] | Scenario", n: int, 
     -------
     CampaignResult
     """
-    from satfmu.sims.campaign import engine
+    from satfmu.sims.campaign import engine, worker_server
 
+    if scheduler is None:  # a local cluster: its workers' fork server imports while this checks
+        worker_server.start()
     sc = load(scenario)
     camp = campaign(sc, n, seed=seed, chunk=chunk, name=name, fmu_dir=fmu_dir, backend=backend, envelopes=envelopes,
                     points=points)
