@@ -30,7 +30,7 @@ import sys
 from dataclasses import dataclass, field
 from functools import lru_cache
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 
@@ -79,7 +79,8 @@ class _Plan(ctypes.Structure):
                 ("n_records", ctypes.c_int), ("records", ctypes.POINTER(_RecordSet)),
                 ("times", _double_p), ("step_size", ctypes.c_double), ("n_steps", ctypes.c_long),
                 ("jacobi", ctypes.c_int), ("record_every", ctypes.c_long), ("data", _double_p),
-                ("n_cols", ctypes.c_long), ("failed_step", ctypes.c_long), ("failed_fmu", ctypes.c_int),
+                ("n_cols", ctypes.c_long), ("row0", ctypes.c_long), ("failed_step", ctypes.c_long),
+                ("failed_fmu", ctypes.c_int),
                 ("failed_call", ctypes.c_int), ("status", ctypes.c_int)]
 
 
@@ -227,7 +228,8 @@ class StepPlan:
     record_every : int
         Record every ``record_every``-th communication point (>= 1) and the last one.
     data : ndarray
-        Recorded rows x columns, C-contiguous float64, written in place.
+        Recorded rows x columns, C-contiguous float64, written in place: every row of the run,
+        or (streamed, :meth:`run` with ``on_block``) those of one block of steps at a time.
     _keep : list, optional
         Internal, not to be given: the arrays :meth:`plan` made, kept alive while the C
         structure points to them.
@@ -268,15 +270,23 @@ class StepPlan:
         return _Plan(len(self.slaves), fmus, len(self.transfers), transfers, len(self.profiles), profiles,
                      len(self.records), records, _pointer(times, ctypes.c_double), float(self.step_size),
                      len(times) - 1, int(self.jacobi), int(self.record_every), _pointer(self.data, ctypes.c_double),
-                     self.data.shape[1] if self.data.ndim == 2 else 0, -1, -1, 0, 0)
+                     self.data.shape[1] if self.data.ndim == 2 else 0, 0, -1, -1, 0, 0)
 
-    def run(self, lib: ctypes.CDLL) -> Failure | None:
+    def run(self, lib: ctypes.CDLL, on_block: Callable[[int, int], None] | None = None,
+            row_steps: np.ndarray | None = None) -> Failure | None:
         """Steps 0 .. n_steps - 1 in blocks of :data:`BLOCK`; the failure that stopped them, if any.
 
         Parameters
         ----------
         lib : ctypes.CDLL
             The compiled loop (:func:`library`).
+        on_block : callable, optional
+            Streamed recording: ``on_block(r0, r1)`` after each block, whose recorded rows
+            ``r0 .. r1 - 1`` are then ``data[:r1 - r0]`` (``data`` holds a block's rows, each block
+            writes over the last). Default: ``data`` holds every row.
+        row_steps : numpy.ndarray, optional
+            With ``on_block``: the communication point of each recorded row
+            (:func:`satfmu.sims.cosim.master.recorded_steps`).
 
         Returns
         -------
@@ -285,7 +295,13 @@ class StepPlan:
         """
         plan = self.plan()
         n_steps = len(self.times) - 1
+        steps = np.zeros(0) if row_steps is None else row_steps
         for begin in range(0, n_steps, BLOCK):
-            if lib.satfmu_cosim_steps(ctypes.byref(plan), begin, min(begin + BLOCK, n_steps)) != 0:
+            end = min(begin + BLOCK, n_steps)
+            if on_block is not None:
+                plan.row0 = r0 = int(np.searchsorted(steps, begin, side="right"))
+            if lib.satfmu_cosim_steps(ctypes.byref(plan), begin, end) != 0:
                 return Failure(plan.failed_step, plan.failed_fmu, CALLS[plan.failed_call], plan.status)
+            if on_block is not None:
+                on_block(r0, int(np.searchsorted(steps, end, side="right")))
         return None

@@ -41,7 +41,7 @@ import shutil
 from collections import defaultdict
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Mapping, Sequence
+from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 from fmpy.fmi1 import FMICallException
@@ -126,6 +126,15 @@ def recorded_steps(n_steps: int, record_every: int) -> np.ndarray:
     """
     steps = np.arange(0, n_steps + 1, record_every)
     return steps if steps[-1] == n_steps else np.append(steps, n_steps)
+
+
+def _structured(dtype: list[tuple[str, str]], times: np.ndarray, data: np.ndarray) -> np.ndarray:
+    """Recorded rows as the master returns them: ``time`` then one field per column of ``data``."""
+    out = np.zeros(len(times), dtype=dtype)
+    out["time"] = times
+    for i, (name, _) in enumerate(dtype[1:]):
+        out[name] = data[:len(times), i]
+    return out
 
 
 def communication_times(start_time: float, step_size: float, n_steps: int) -> np.ndarray:
@@ -529,7 +538,8 @@ class CoSimulation:
     def run(self, stop_time: float, step_size: float, start_time: float = 0.0,
             parameters: dict[str, dict[str, Any]] | None = None,
             record: Sequence[str] = (), exchange_order: str = "feedthrough", *,
-            engine: str = "auto", record_every: int = 1) -> np.ndarray:
+            engine: str = "auto", record_every: int = 1,
+            sink: Callable[[np.ndarray], None] | None = None) -> np.ndarray:
         """Run the co-simulation and return the recorded variables.
 
         Parameters
@@ -553,11 +563,19 @@ class CoSimulation:
             Record every ``record_every``-th communication point, from the first, and the last
             one (>= 1; the default records every point). Memory: 8 bytes per recorded
             variable and row.
+        sink : callable, optional
+            Stream the recording: ``sink(rows)`` receives the recorded rows in order, a block at
+            a time (a structured array like the one returned, at most
+            ``compiled_loop.BLOCK // record_every + 1`` rows; the first holds the initial point
+            alone), as the run goes; it may keep them. The run then holds one block of rows
+            (the communication times and the profiles' values stay whole: 8 bytes per point
+            each). Default: every row kept and returned.
 
         Returns
         -------
         numpy.ndarray
-            Structured array with field ``time`` and one float field per recorded variable.
+            Structured array with field ``time`` and one float field per recorded variable (no
+            rows with ``sink``: what it received).
 
         Raises
         ------
@@ -626,7 +644,17 @@ class CoSimulation:
                          np.stack([p[1] for p in g], axis=1)) for c, g in prof_groups.items()}
 
         rows = recorded_steps(n_steps, int(record_every))
-        data = np.zeros((len(rows), len(rec_names)))
+        from satfmu.sims.cosim.compiled_loop import BLOCK
+
+        dtype = [("time", "f8")] + [(n, "f8") for n in rec_names]
+        # streamed: the rows of one block of steps (row0: the first of them), handed to the sink
+        data = np.zeros((len(rows) if sink is None else min(len(rows), BLOCK // int(record_every) + 2),
+                         len(rec_names)))
+        row0 = 0
+
+        def flush(r0: int, r1: int) -> None:
+            assert sink is not None
+            sink(_structured(dtype, times[rows[r0:r1]], data[:r1 - r0]))
         comps = list(self.components.values())
         limits = None
         clocked = [(c, c.instance) for c in comps if isinstance(c.instance, Fmi3Instance) and c.instance.clocked]
@@ -679,26 +707,33 @@ class CoSimulation:
             def sample(row: int) -> None:
                 for c, (vr, buf, cols) in rec_bufs.items():
                     self._call(self.components[c], "get_reals", vr, buf)
-                    data[row, cols] = buf[:]
+                    data[row - row0, cols] = buf[:]
 
             exchange(0, False)
             for comp in comps:
                 self._call(comp, "exit_initialization")
             sample(0)
+            if sink is not None:
+                flush(0, 1)
             jacobi = exchange_order == "jacobi"
             self._ran = "compiled" if lib is not None else "python"
             if lib is not None:
                 self._compiled_steps(lib, comps, transfers, prof_bufs, rec_bufs, times, step_size, jacobi,
-                                     int(record_every), data)
+                                     int(record_every), data, None if sink is None else (flush, rows))
             else:
                 row = 1
-                for k in range(n_steps):
-                    for comp in comps:
-                        self._call(comp, "step", float(times[k]), step_size)
-                    exchange(k + 1, jacobi)
-                    if row < len(rows) and rows[row] == k + 1:
-                        sample(row)
-                        row += 1
+                for begin in range(0, n_steps, BLOCK):  # the compiled loop's blocks
+                    if sink is not None:
+                        row0 = row
+                    for k in range(begin, min(begin + BLOCK, n_steps)):
+                        for comp in comps:
+                            self._call(comp, "step", float(times[k]), step_size)
+                        exchange(k + 1, jacobi)
+                        if row < len(rows) and rows[row] == k + 1:
+                            sample(row)
+                            row += 1
+                    if sink is not None:
+                        flush(row0, row)
             for comp in comps:
                 self._call(comp, "terminate")
         finally:
@@ -706,12 +741,7 @@ class CoSimulation:
                 limits.restore_original_limits()
             if not self.reuse_instances:
                 self._free_instances()
-        dtype = [("time", "f8")] + [(n, "f8") for n in rec_names]
-        out = np.zeros(len(rows), dtype=dtype)
-        out["time"] = times[rows]
-        for i, n in enumerate(rec_names):
-            out[n] = data[:, i]
-        return out
+        return _structured(dtype, times[rows], data) if sink is None else np.zeros(0, dtype=dtype)
 
     def _start(self, comp: Component) -> None:
         """Bring an FMU instance to the instantiated state: ``fmi2Instantiate`` the first time;
@@ -748,8 +778,10 @@ class CoSimulation:
 
     def _compiled_steps(self, lib: Any, comps: list[Component], transfers: list[_Transfer],
                         prof_bufs: dict[str, Any], rec_bufs: dict[str, Any], times: np.ndarray, step_size: float,
-                        jacobi: bool, record_every: int, data: np.ndarray) -> None:
-        """The step loop in C (:mod:`satfmu.sims.cosim.compiled_loop`); a failed call raises as :meth:`_call` does."""
+                        jacobi: bool, record_every: int, data: np.ndarray,
+                        streamed: tuple[Callable[[int, int], None], np.ndarray] | None = None) -> None:
+        """The step loop in C (:mod:`satfmu.sims.cosim.compiled_loop`); a failed call raises as :meth:`_call` does.
+        ``streamed``: the block callback and the recorded rows' points (:meth:`StepPlan.run`)."""
         from satfmu.sims.cosim.compiled_loop import StepPlan
 
         index = {c.name: i for i, c in enumerate(comps)}
@@ -759,7 +791,7 @@ class CoSimulation:
             profiles=[(index[c], vr, buf, values) for c, (vr, buf, values) in prof_bufs.items()],
             records=[(index[c], vr, buf, cols) for c, (vr, buf, cols) in rec_bufs.items()],
             times=times, step_size=step_size, jacobi=jacobi, record_every=record_every, data=data)
-        failure = plan.run(lib)
+        failure = plan.run(lib, *(streamed or ()))
         if failure is not None:
             self._raise(comps[failure.fmu], FMICallException(function=failure.function, status=failure.status))
 

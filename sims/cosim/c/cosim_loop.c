@@ -70,8 +70,9 @@ typedef struct {
     long n_steps;
     int jacobi;           /* 1: Jacobi exchange order, 0: feedthrough order */
     long record_every;    /* record t_k when k % record_every == 0, and t_{n_steps} */
-    double *data;         /* recorded rows x n_cols, row-major */
+    double *data;         /* recorded rows row0, row0 + 1, ... x n_cols, row-major */
     long n_cols;
+    long row0;            /* the recorded row data's first row holds (0, or a streamed block's first) */
     /* set when a call fails */
     long failed_step;
     int failed_fmu;
@@ -130,7 +131,7 @@ static int exchange(Plan *p, long k) {
 
 /* The recorded variables at t_k into their row (the master's sample()). */
 static int record(Plan *p, long k, long row) {
-    double *out = p->data + (size_t)row * (size_t)p->n_cols;
+    double *out = p->data + (size_t)(row - p->row0) * (size_t)p->n_cols;
     for (int i = 0; i < p->n_records; i++) {
         const RecordSet *r = &p->records[i];
         const Fmu *f = &p->fmus[r->fmu];
