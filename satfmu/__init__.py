@@ -102,7 +102,8 @@ __all__ = sorted([*_EXPORTS, *_FUNCTIONS, "__version__"])
 
 def run(scenario: "Scenario | Mapping[str, Any] | str | Path", fmu_dir: str | Path | None = None,
         backend: str = "native", out_dir: str | Path | None = None, strict: bool = False,
-        design_rtol: float | None = None, allow_stale: bool = False, plots: bool = False) -> "Result":
+        design_rtol: float | None = None, allow_stale: bool = False, plots: bool = False,
+        stream: bool = False) -> "Result":
     """Run a scenario and evaluate its metrics (:func:`satfmu.sims.scenario.run.run`).
 
     Parameters
@@ -126,6 +127,10 @@ def run(scenario: "Scenario | Mapping[str, Any] | str | Path", fmu_dir: str | Pa
         it is rebuilt).
     plots : bool
         With ``out_dir``, draw the PNG plots as well (about 1 s of CPU: matplotlib).
+    stream : bool
+        With ``out_dir``, write the CSV block by block as the run goes and keep only the columns
+        the metrics (and plots) read: ``results`` then holds those, ``Result.csv`` is the file
+        with every recorded column (a long run's memory does not grow with what it records).
 
     Returns
     -------
@@ -135,7 +140,7 @@ def run(scenario: "Scenario | Mapping[str, Any] | str | Path", fmu_dir: str | Pa
     """
     from satfmu.sims.scenario.run import run as run_scenario
 
-    return run_scenario(scenario, fmu_dir, backend, out_dir, strict, design_rtol, allow_stale, plots)
+    return run_scenario(scenario, fmu_dir, backend, out_dir, strict, design_rtol, allow_stale, plots, stream)
 
 
 def build(names: Iterable[str] | None = None, fmu_dir: str | Path | None = None,

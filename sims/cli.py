@@ -170,7 +170,7 @@ def _run(args: argparse.Namespace) -> int:
     warnings.simplefilter("ignore", DesignMismatchWarning)  # printed below, with the run
     for sc in [load(name) for name in args.scenarios]:  # every file read before any run
         res = run_scenario(sc, Path(args.fmu_dir), args.backend, Path(args.out), strict=args.strict,
-                           allow_stale=args.allow_stale, plots=args.plot)
+                           allow_stale=args.allow_stale, plots=args.plot, stream=True)
         summaries.append(res.summary())
         print(f"{'PASS' if res.passed else 'FAIL'} {res.name} ({args.backend})")
         _print_result(res)

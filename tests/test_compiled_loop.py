@@ -225,3 +225,33 @@ def test_a_streamed_recording_holds_one_block(fmu_dir: Path) -> None:
             tracemalloc.stop()
     assert peaks["whole"] > n_steps * 11 * 8 * 2, peaks  # the check can fail: it sees the rows
     assert peaks["streamed"] < peaks["whole"] / 4, peaks
+
+
+@pytest.mark.parametrize("name,changes", [
+    ("mrp_eq44", {}),  # an l2_ratio metric (disturbances, versus curves)
+    ("mrp_200deg", {"record_every": 7, "record": [{"signal": "plant.phi", "unit": "deg"}, "plant.omega",
+                                                   "plant.sigma", "controller.u"]}),  # units, a thinned record
+])
+def test_a_streamed_scenario_run_writes_the_same_files(name: str, changes: dict, fmu_dir: Path,
+                                                       tmp_path: Path) -> None:
+    """run(..., stream=True): the CSV written block by block is the kept run's byte for byte, the
+    metrics are equal, the result keeps the columns its metrics read (plus, with plots, the
+    plot's), and writing the result elsewhere copies the streamed CSV."""
+    import tomllib
+
+    data = {**tomllib.loads((shipped_scenarios()[0].parent / f"{name}.toml").read_text()), **changes}
+    sc = Scenario.from_dict(data)
+    kept = run(sc, fmu_dir, out_dir=tmp_path / "kept")
+    streamed = run(sc, fmu_dir, out_dir=tmp_path / "streamed", stream=True)
+    assert streamed.csv == streamed.files["csv"] and kept.csv is None
+    assert streamed.files["csv"].read_bytes() == kept.files["csv"].read_bytes()
+    assert [(m.name, m.value, m.unit) for m in streamed.metrics] == [(m.name, m.value, m.unit) for m in kept.metrics]
+    read = {c for m in sc.metrics for c in m.signals + m.versus + m.disturbances}
+    assert set(streamed.results.dtype.names) < set(kept.results.dtype.names) or len(kept.results.dtype.names) <= 3
+    assert all(any(c == r or c.startswith(r + "[") for r in read) for c in streamed.results.dtype.names[1:])
+    for c in streamed.results.dtype.names:
+        assert streamed.results[c].tobytes() == kept.results[c].tobytes(), c
+    plotted = run(sc, fmu_dir, out_dir=tmp_path / "plotted", stream=True, plots=True)
+    assert plotted.files["plot"].is_file() and plotted.panels == kept.panels
+    again = streamed.write(tmp_path / "elsewhere", plots=False)
+    assert again["csv"].read_bytes() == kept.files["csv"].read_bytes()

@@ -2,7 +2,9 @@
 from __future__ import annotations
 
 import csv
+import io
 import json
+import shutil
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -75,6 +77,10 @@ class Result:
         The scenario that ran (:meth:`write` records its declaration and FMU files).
     fmu_dir : Path, optional
         The FMU folder of the run.
+    csv : Path, optional
+        The CSV a streamed run wrote as it went (:func:`satfmu.sims.scenario.run.run` with
+        ``stream``): every recorded column is there, and ``results`` holds only those its
+        metrics and plot read.
     """
 
     name: str
@@ -89,6 +95,7 @@ class Result:
     warnings: list[str] = field(default_factory=list)
     scenario: Scenario | None = None
     fmu_dir: Path | None = None
+    csv: Path | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.metrics, Metrics):
@@ -181,10 +188,15 @@ class Result:
             any file recorded before (``sample`` of a replay).
         """
         folder = Path(folder)
-        clear_outputs(folder, self.name, self.backend)
         stem = f"{self.name}_{self.backend}"
         files = {"csv": folder / f"{stem}.csv"}
-        write_atomically(files["csv"], lambda tmp: write_csv(self.results, tmp))
+        streamed_here = self.csv is not None and self.csv.resolve() == files["csv"].resolve()
+        clear_outputs(folder, self.name, self.backend, keep_csv=streamed_here)
+        if self.csv is None:
+            write_atomically(files["csv"], lambda tmp: write_csv(self.results, tmp))
+        elif not streamed_here:  # a streamed run's CSV holds the columns results lacks
+            csv_file = self.csv
+            write_atomically(files["csv"], lambda tmp: shutil.copyfile(csv_file, tmp))
         if plots and self.panels:  # a run that records nothing has nothing to plot
             files["plot"] = write_atomically(folder / f"{stem}.png", self.plot)
         if plots and self.l2_curves:
@@ -207,7 +219,7 @@ class Result:
         return dict(self.files)
 
 
-def clear_outputs(folder: Path, name: str, backend: str) -> None:
+def clear_outputs(folder: Path, name: str, backend: str, keep_csv: bool = False) -> None:
     """Remove the result files of an earlier run of ``name`` with ``backend`` from ``folder``.
 
     Parameters
@@ -218,18 +230,18 @@ def clear_outputs(folder: Path, name: str, backend: str) -> None:
         The scenario's name.
     backend : str
         The run's backend (``"native"`` or ``"python"``).
+    keep_csv : bool, optional
+        Leave the CSV (a streamed run's, just written). Default False.
     """
-    for f in (f"{name}_{backend}.csv", f"{name}_{backend}.png", f"{name}_{backend}_l2_ratio.png",
-              f"scenario_{backend}.json", f"summary_{backend}.json"):
+    for f in ((f"{name}_{backend}.csv",) if not keep_csv else ()) + (
+            f"{name}_{backend}.png", f"{name}_{backend}_l2_ratio.png", f"scenario_{backend}.json",
+            f"summary_{backend}.json"):
         (Path(folder) / f).unlink(missing_ok=True)
 
 
 def write_csv(res: np.ndarray, path: Path) -> None:
-    """Write a structured result array as CSV: a header of the field names, then one line per row.
-
-    Each number is the shortest text that reads back as the same float64 (``0.05``, ``1e-310``,
-    ``-0``, ``nan``, ``inf``), written by Arrow's CSV writer in C++ (about 5x faster than a Python
-    loop of ``repr``); the header is quoted where a name needs it (``a[1,2]``).
+    """Write a structured result array as CSV: a header of the field names, then one line per row
+    (:class:`CsvWriter` given every row at once).
 
     Parameters
     ----------
@@ -243,17 +255,60 @@ def write_csv(res: np.ndarray, path: Path) -> None:
     ValueError
         ``res`` has no named fields.
     """
-    import pyarrow as pa
-    from pyarrow import csv as pa_csv
+    with CsvWriter(path) as write:
+        write(res)
 
-    names = res.dtype.names
-    if names is None:
-        raise ValueError(f"write_csv needs a structured array (named fields), got dtype {res.dtype}")
-    with open(path, "w", newline="") as fh:
-        csv.writer(fh, lineterminator="\n").writerow(names)
-    # from the columns' buffers: pa.array(numpy) imports pandas (~0.5 s), for a type check
-    columns = [np.ascontiguousarray(res[n], dtype=np.float64) for n in names]
-    table = pa.Table.from_arrays([pa.Array.from_buffers(pa.float64(), len(c), [None, pa.py_buffer(c)])
-                                  for c in columns], names=[f"c{i}" for i in range(len(names))])
-    with open(path, "ab") as fh:
-        pa_csv.write_csv(table, fh, pa_csv.WriteOptions(include_header=False))
+
+class CsvWriter:
+    """A CSV file of recorded rows written as they come: the header of the first block's field
+    names, then one line per row of each block (``writer(rows)``), the same text for any split.
+
+    Each number is the shortest text that reads back as the same float64 (``0.05``, ``1e-310``,
+    ``-0``, ``nan``, ``inf``), written by Arrow's CSV writer in C++ (about 5x faster than a Python
+    loop of ``repr``); the header is quoted where a name needs it (``a[1,2]``). A context
+    manager: the file is closed at exit.
+
+    Parameters
+    ----------
+    path : Path
+        The CSV file (overwritten).
+    """
+
+    def __init__(self, path: Path) -> None:
+        self._file = open(path, "wb")
+        self._names: tuple[str, ...] | None = None
+
+    def __call__(self, rows: np.ndarray) -> None:
+        """Append ``rows`` (a structured array, the first block's fields in the same order).
+
+        Raises
+        ------
+        ValueError
+            ``rows`` has no named fields, or not those of the first block.
+        """
+        import pyarrow as pa
+        from pyarrow import csv as pa_csv
+
+        names = rows.dtype.names
+        if names is None:
+            raise ValueError(f"a CSV of recorded rows needs a structured array (named fields), got dtype {rows.dtype}")
+        if self._names is None:
+            self._names = names
+            header = io.StringIO()
+            csv.writer(header, lineterminator="\n").writerow(names)
+            self._file.write(header.getvalue().encode())
+        elif names != self._names:
+            raise ValueError(f"a block's fields {list(names)} are not the file's {list(self._names)}")
+        if len(rows) == 0:
+            return
+        # from the columns' buffers: pa.array(numpy) imports pandas (~0.5 s), for a type check
+        columns = [np.ascontiguousarray(rows[n], dtype=np.float64) for n in names]
+        table = pa.Table.from_arrays([pa.Array.from_buffers(pa.float64(), len(c), [None, pa.py_buffer(c)])
+                                      for c in columns], names=[f"c{i}" for i in range(len(names))])
+        pa_csv.write_csv(table, self._file, pa_csv.WriteOptions(include_header=False))
+
+    def __enter__(self) -> "CsvWriter":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self._file.close()

@@ -9,18 +9,19 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, Callable, Mapping
 
 import numpy as np
 
+from satfmu.fmus.atomic import write_atomically
 from satfmu.fmus.errors import ScenarioError
 from satfmu.sims.cosim.master import CoSimulation
 from satfmu.sims.scenario.conversions import MetricConversion, converted, metric_conversion, record_conversions
 from satfmu.sims.scenario.metrics import EVALUATORS, MARGIN_KINDS, MetricInput, MetricResult
 from satfmu.sims.scenario.provisioning import ensure_fmus
-from satfmu.sims.scenario.result import Result, clear_outputs
+from satfmu.sims.scenario.result import CsvWriter, Result, clear_outputs
 from satfmu.sims.scenario.spec import Metric, Scenario, load
-from satfmu.sims.scenario.wiring import _check_parameters, _columns, profiles, recorded, wire
+from satfmu.sims.scenario.wiring import _check_parameters, _columns, profiles, recorded, recorded_times, wire
 
 
 def simulate(scenario: Scenario, fmu_dir: Path, backend: str = "native", strict: bool = False,
@@ -56,11 +57,47 @@ def simulate(scenario: Scenario, fmu_dir: Path, backend: str = "native", strict:
     return res, sim
 
 
-def _execute(scenario: Scenario, sim: CoSimulation) -> np.ndarray:
-    """Run ``scenario`` through its wired master; the recorded array."""
+def _execute(scenario: Scenario, sim: CoSimulation, sink: Callable[[np.ndarray], None] | None = None
+             ) -> np.ndarray:
+    """Run ``scenario`` through its wired master; the recorded array (none with ``sink``, which
+    receives the rows as the run goes: :meth:`CoSimulation.run`)."""
     params = {inst: spec.parameters for inst, spec in scenario.fmus.items()}
     return sim.run(scenario.stop_time, scenario.step_size, scenario.start_time, params, recorded(scenario, sim),
-                   record_every=scenario.record_every)
+                   record_every=scenario.record_every, sink=sink)
+
+
+def _streamed(scenario: Scenario, fmu_dir: Path, backend: str, strict: bool, design_rtol: float | None,
+              path: Path, keep: Callable[[CoSimulation], set[str]]
+              ) -> tuple[np.ndarray, CoSimulation, dict[str, tuple[float, str]]]:
+    """:func:`simulate` with the recording streamed: every recorded column, converted to the unit
+    the scenario's ``record`` asks for, written to the CSV ``path`` block by block (whole or not
+    at all: :func:`satfmu.fmus.atomic.write_atomically`); returned, the columns ``keep(sim)``
+    names (and ``time``), in their declared units, and every column's conversion."""
+    sim = wire(scenario, fmu_dir, backend, strict, design_rtol)
+    n_rows = len(recorded_times(scenario))
+    state: dict[str, Any] = {"out": None, "done": 0}  # the kept columns of every row, filled block by block
+    shown: dict[str, tuple[float, str]] = {}
+    try:
+        kept = {"time"} | keep(sim)
+
+        def run_into(tmp: Path) -> None:
+            with CsvWriter(tmp) as write:
+                def sink(rows: np.ndarray) -> None:
+                    names = rows.dtype.names or ()
+                    if state["out"] is None:
+                        shown.update(record_conversions(scenario, sim, [c for c in names if c != "time"]))
+                        state["out"] = np.zeros(n_rows, dtype=[(c, "f8") for c in names if c in kept])
+                    write(converted(rows, shown))
+                    done, out = state["done"], state["out"]
+                    for c in out.dtype.names:
+                        out[c][done:done + len(rows)] = rows[c]
+                    state["done"] = done + len(rows)
+                _execute(scenario, sim, sink)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        write_atomically(path, run_into)
+    finally:
+        sim.close()
+    return state["out"], sim, shown
 
 
 def resimulate(scenario: Scenario, sim: CoSimulation) -> np.ndarray:
@@ -255,7 +292,8 @@ def _stacked(res: np.ndarray, columns: list[str]) -> np.ndarray:
 
 def run(scenario: "str | Path | Mapping[str, Any] | Scenario", fmu_dir: str | Path | None = None,
         backend: str = "native", out_dir: str | Path | None = None, strict: bool = False,
-        design_rtol: float | None = None, allow_stale: bool = False, plots: bool = False) -> Result:
+        design_rtol: float | None = None, allow_stale: bool = False, plots: bool = False,
+        stream: bool = False) -> Result:
     """Run a scenario and evaluate its metrics.
 
     Parameters
@@ -281,6 +319,11 @@ def run(scenario: "str | Path | Mapping[str, Any] | Scenario", fmu_dir: str | Pa
     plots : bool
         With ``out_dir``, draw the PNG plots as well (about 1 s of CPU; :meth:`Result.write`);
         :meth:`Result.plot` draws them later from the returned result.
+    stream : bool
+        With ``out_dir``, write the CSV as the run goes, a block of rows at a time (the same
+        text), and keep in memory only the columns the metrics read (and, with ``plots``, those
+        the plot shows): a long run's memory does not grow with what it records. The result's
+        ``results`` then holds those columns; ``Result.csv`` is the CSV with all of them.
 
     Returns
     -------
@@ -298,15 +341,24 @@ def run(scenario: "str | Path | Mapping[str, Any] | Scenario", fmu_dir: str | Pa
     if out_dir is not None:  # a failed run must not leave the last run's files looking current
         clear_outputs(Path(out_dir) / sc.name, sc.name, backend)
     folder = ensure_fmus(sc, fmu_dir, backend, allow_stale)
-    res, sim = simulate(sc, folder, backend, strict, design_rtol)
+    panels = sc.plot.get("panels") or [[r] for r in sc.record] or [m.signals for m in sc.metrics]
+    csv_path = None
+    if stream and out_dir is not None:
+        def keep(sim: CoSimulation) -> set[str]:
+            read = {c for p in plan_metrics(sc, sim) for c in p.columns + p.versus + p.disturbances}
+            return read | ({c for p in panels for c in _columns(sim, p)} if plots else set())
+        csv_path = Path(out_dir) / sc.name / f"{sc.name}_{backend}.csv"
+        res, sim, shown = _streamed(sc, folder, backend, strict, design_rtol, csv_path, keep)
+    else:
+        res, sim = simulate(sc, folder, backend, strict, design_rtol)
+        shown = record_conversions(sc, sim, [c for c in res.dtype.names or () if c != "time"])
     assert res.dtype.names is not None  # the master records a structured array (time, then the signals)
     mres, curves = evaluate(sc, res, sim)
-    panels = sc.plot.get("panels") or [[r] for r in sc.record] or [m.signals for m in sc.metrics]
-    cols = [_columns(sim, p) for p in panels]
-    shown = record_conversions(sc, sim, [c for c in res.dtype.names if c != "time"])
-    result = Result(sc.name, backend, converted(res, shown), mres, l2_curves=curves,
-                    units={c: unit for c, (_, unit) in shown.items()}, panels=cols,
-                    title=f"{sc.name}: {sc.description}", warnings=list(sim.mismatches), scenario=sc, fmu_dir=folder)
+    cols = [c for c in (_columns(sim, p) for p in panels) if all(n in res.dtype.names for n in c)]
+    result = Result(sc.name, backend, converted(res, {c: shown[c] for c in res.dtype.names if c != "time"}), mres,
+                    l2_curves=curves, units={c: unit for c, (_, unit) in shown.items()}, panels=cols,
+                    title=f"{sc.name}: {sc.description}", warnings=list(sim.mismatches), scenario=sc, fmu_dir=folder,
+                    csv=csv_path)
     if out_dir is not None:
         result.write(Path(out_dir) / sc.name, plots)
     return result
