@@ -51,7 +51,7 @@ from distributed import Client
 import numpy as np
 import pandas as pd
 
-from satfmu.sims.campaign import cluster, engine
+from satfmu.sims.campaign import cluster, engine, worker_server
 from satfmu.controllers import catalog, paths
 from satfmu.sims.scenario import SHIPPED_SCENARIOS
 from satfmu.sims.scenario.spec import Scenario
@@ -81,7 +81,7 @@ def external_cluster(workers: int, home: Path) -> Iterator[str]:
     quiet = {"stdout": subprocess.DEVNULL, "stderr": subprocess.DEVNULL}
     procs = [subprocess.Popen([dask, "scheduler", "--host", "127.0.0.1", "--port", str(port), "--no-dashboard"],
                               **quiet)]
-    env = {**os.environ, **cluster.WORKER_ENV, "SATFMU_HOME": str(home)}
+    env = {**os.environ, **worker_server.WORKER_ENV, "SATFMU_HOME": str(home)}
     procs += [subprocess.Popen([dask, "worker", address, "--nthreads", "1", "--no-nanny", "--no-dashboard",
                                 "--host", "127.0.0.1"], env=env, **quiet) for _ in range(workers)]
     try:

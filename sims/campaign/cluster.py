@@ -25,7 +25,6 @@ from distributed.security import Security
 
 from satfmu.fmus.errors import CampaignError, InsecureConnectionWarning
 from satfmu.sims.campaign import worker_server
-from satfmu.sims.campaign.worker_server import WORKER_ENV
 
 LOOPBACK = "127.0.0.1"
 """The address a local cluster's scheduler, workers, nannies and dashboard listen on."""
@@ -120,7 +119,8 @@ def cluster_client(scheduler: str | None, client: Client | None, n_workers: int 
                    threads_per_worker: int = 1, tls: Security | None = None) -> Iterator[Client]:
     """The given client, a client of ``scheduler``, or that of a local cluster of ``n_workers``
     processes on the loopback (its dashboard on a free port; its workers forked from the fork
-    server of :func:`satfmu.sims.campaign.worker_server.start`, with :data:`WORKER_ENV`); the
+    server of :func:`satfmu.sims.campaign.worker_server.start`, with
+    :data:`satfmu.sims.campaign.worker_server.WORKER_ENV`); the
     latter two closed at exit.
 
     Parameters
@@ -151,7 +151,7 @@ def cluster_client(scheduler: str | None, client: Client | None, n_workers: int 
         # the workers are forked from the fork server (started here unless it runs), whose
         # environment has WORKER_ENV: malloc reads its settings when a process starts; Dask copies
         # its pre-spawn-environ into this process's os.environ, restored once the workers run
-        pre = {**dask.config.get("distributed.nanny.pre-spawn-environ", default={}), **WORKER_ENV}
+        pre = {**dask.config.get("distributed.nanny.pre-spawn-environ", default={}), **worker_server.WORKER_ENV}
         saved = {k: os.environ.get(k) for k in pre}
         # and no statistical profiler in the workers (it samples the task thread's stack every 10 ms,
         # for the dashboard: measured 4-9 % of a campaign worker's CPU)
