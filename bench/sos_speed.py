@@ -81,9 +81,10 @@ import sympy as sp
 from satfmu.controllers import artifact
 from satfmu.controllers.polynomial import ARTIFACTS
 from satfmu.fmus.plants import mrp_satellite
-from satfmu.synthesis.polynomial_feedback import h2hinf_sos, hinf_sos
+from satfmu.synthesis.polynomial_feedback import h2hinf_sos, hinf_sos, split_plant
+from satfmu.synthesis.polynomial_feedback.coordinates import Coordinates
 from satfmu.synthesis.servo import vscmg_region
-from satfmu.synthesis.core.polynomial import monomials
+from satfmu.synthesis.core.polynomial import Poly, monomials
 from satfmu.synthesis.core.sos import SOSProgram
 from timing import interleaved, min_median
 
@@ -439,68 +440,85 @@ def drake_theorem1(bases: list[np.ndarray], region: float | None) -> DrakeProgra
     return DrakeProgram(prog, sos, layout, [lmi], [], objective, {}, 1.0)
 
 
+@dataclass(frozen=True)
+class Theorem8Data:
+    """Theorem 8's plant data in the balanced units :func:`satfmu.synthesis.polynomial_feedback.h2hinf_sos.theorem8`
+    solves in (:mod:`satfmu.synthesis.polynomial_feedback.coordinates`), from our split and scaling (plant data, as
+    Theorem 1 takes the model's sympy matrices): every tool builds the program's products itself."""
+
+    plant: split_plant.SplitPlant
+    """The split plant in the scaled units."""
+    Qs: np.ndarray
+    Rs: np.ndarray
+    gamma: float
+    alpha: float
+    beta: float
+    x0: np.ndarray
+
+    @classmethod
+    def of(cls, gamma: float, alpha: float, beta: float) -> "Theorem8Data":
+        user = split_plant.split(mrp_satellite.MODEL)
+        Qh, Rh = np.eye(user.n), np.eye(user.m)
+        coords = Coordinates.balanced(user, Qh, Rh, alpha, beta)
+        Qs, Rs = coords.weights(user, Qh, Rh)
+        return cls(coords.plant(user), Qs, Rs, coords.gamma(gamma), coords.scalar(alpha), coords.scalar(beta),
+                   coords.state(user, h2hinf_sos.X0_90))
+
+
+def _poly_to_drake(p: Poly, variables: np.ndarray) -> Any:
+    """A numeric polynomial of ours (no decision variables) as a Drake polynomial in ``variables``."""
+    sym, _ = _drake()
+    if p.C.nnz:
+        raise ValueError("the polynomial has decision-variable coefficients")
+    return sym.Polynomial({sym.Monomial(variables, e.astype(np.int32)): sym.Expression(float(c))
+                           for e, c in zip(p.exps, p.c0) if c != 0})
+
+
 @_drake_arithmetic
-def _theorem8_plant() -> tuple[list, Any, np.ndarray, int, int, np.ndarray, np.ndarray, list[int]]:
-    """Seed 001's plant as Theorem 8 splits it: the state symbols, the SDC matrix A(x) (sympy), B,
-    n, m, the control and disturbance columns Bu, Bw, and the unactuated state indices."""
-    model = mrp_satellite.MODEL
-    xs = [s.symbol for s in model.states]
-    subs = {p.symbol: p.start for p in model.parameters}
-    A = model.sdc.A.subs(subs)  # type: ignore[union-attr]
-    B = np.array(model.sdc.B.subs(subs), float)  # type: ignore[union-attr]
-    n, m = len(xs), B.shape[1] // 2
-    tilde = [i for i in range(n) if not B[i].any()]
-    return xs, A, B, n, m, B[:, :m], B[:, m:], tilde
-
-
 def drake_theorem8(bases: list[np.ndarray], gamma: float, alpha: float, beta: float) -> DrakeProgram:
-    """Seed 001 Theorem 8, slack variant, as :func:`satfmu.synthesis.polynomial_feedback.h2hinf_sos.theorem8` poses it
-    (its defaults: ``|x~| <= 0.45``, Y of degree 1, multipliers of degree 0 on the first
-    two block rows, margin 1e-6, ``Qh = I6``, ``Rh = I3``, x0 the 90 deg start, minimize
-    lambda, Clarabel tolerances 1e-10). The plant split is done here with Drake's
-    polynomials: ``Kg = -(Bu^T Bu)^-1 Bu^T A(x)`` cancels the actuated rows of A, round-off
-    of the cancellation (relative 1e-12) dropped."""
+    """Seed 001 Theorem 8, slack variant, as :func:`satfmu.synthesis.polynomial_feedback.h2hinf_sos.theorem8` poses
+    and solves it (its defaults: ``|x~| <= 0.45``, Y of degree 1, multipliers of degree 0 on the
+    first two block rows, margin 1e-6, ``Qh = I6``, ``Rh = I3``, x0 the 90 deg start, minimize
+    lambda, Clarabel tolerances 1e-10), in the balanced units it solves in
+    (:mod:`satfmu.synthesis.polynomial_feedback.coordinates`): the plant split and scaled by our
+    code (plant data, as Theorem 1 takes the model's sympy matrices), every product of the
+    program done with Drake's polynomials (:class:`Theorem8Data`)."""
     sym, solvers = _drake()
-    xs, A, B, n, m, Bu, Bw, tilde = _theorem8_plant()
-    nt, radius, margin, x0 = len(tilde), 0.45, 1e-6, h2hinf_sos.X0_90
+    d = Theorem8Data.of(gamma, alpha, beta)
+    plant, g, a, b, x0 = d.plant, d.gamma, d.alpha, d.beta, d.x0
+    n, m = plant.n, plant.m
+    nt, radius, margin = len(plant.tilde), 0.45, 1e-6
     prog = solvers.MathematicalProgram()
     xt = prog.NewIndeterminates(nt, "x")
-    state = np.array([xt[tilde.index(i)] if i in tilde else sym.Variable(str(xs[i])) for i in range(n)])
-    cancel = np.eye(n) - Bu @ np.linalg.solve(Bu.T @ Bu, Bu.T)  # A + Bu Kg = cancel @ A
-    A_full = cancel @ np.array([[_to_drake(A[i, j], xs, state) for j in range(n)] for i in range(n)])
-    scale = max([1.0] + [abs(float(f)) for f in A.atoms(sp.Float)])
-    # a fresh polynomial from the remaining terms: its indeterminates are those of its monomials
-    A_t = np.array([[sym.Polynomial(p.RemoveTermsWithSmallCoefficients(1e-12 * scale).monomial_to_coefficient_map())
-                     for p in row] for row in A_full])
-    if not all(p.indeterminates().IsSubsetOf(sym.Variables(xt)) for p in A_t.ravel()):
-        raise ValueError("A + Bu Kg depends on more than x~")
+    A_t = np.array([[_poly_to_drake(p, xt) for p in row] for row in plant.A_tilde.entries])
     F = prog.NewContinuousVariables(n, n, "F")
     X2 = prog.NewSymmetricContinuousVariables(n, "X2")
     Xinf = prog.NewSymmetricContinuousVariables(n, "Xinf")
     Y = np.array([[prog.NewFreePolynomial(sym.Variables(xt), 1, f"Y{i}{j}") for j in range(n)] for i in range(m)])
     lam = prog.NewContinuousVariables(1, "lambda")[0]
     Fp, X2p, Xinfp = _var_matrix(F), _var_matrix(X2), _var_matrix(Xinf)
-    AFBY = A_t @ Fp + Bu @ Y
+    AFBY = A_t @ Fp + plant.Bu @ Y
     G11 = AFBY + AFBY.T
     FFt = Fp + Fp.T
     Z = np.full((n, n), _constant(0.0))
-    Cz = np.zeros((n - m, n))
-    Cz[np.arange(n - m), tilde] = 1.0
-    CF = Cz @ Fp
+    nz = plant.C.shape[0]
+    CF = plant.C @ Fp
     M2 = np.block([[G11, Z, Z, Z[:, :m]],
-                   [X2p - Fp + alpha * AFBY.T, -alpha * FFt, Z, Z[:, :m]],
-                   [Fp, alpha * Fp, _var_matrix(-np.eye(n)), Z[:, :m]],
-                   [Y, alpha * Y, Z[:m], _var_matrix(-np.eye(m))]])
-    Minf = np.block([[G11, Z, Z[:, :m], Z[:, :n - m]],
-                     [Xinfp - Fp + beta * AFBY.T, -beta * FFt, Z[:, :m], Z[:, :n - m]],
-                     [_var_matrix(Bw.T), Z[:m], _var_matrix(-gamma**2 * np.eye(m)), Z[:m, :n - m]],
-                     [CF, beta * CF, Z[:n - m, :m], _var_matrix(-np.eye(n - m))]])
-    ball = _to_drake(radius**2 - sum(xs[i] ** 2 for i in tilde), [xs[i] for i in tilde], xt)
+                   [X2p - Fp + a * AFBY.T, -a * FFt, Z, Z[:, :m]],
+                   [Fp, a * Fp, _var_matrix(-np.linalg.inv(d.Qs)), Z[:, :m]],
+                   [Y, a * Y, Z[:m], _var_matrix(-np.linalg.inv(d.Rs))]])
+    Minf = np.block([[G11, Z, Z[:, :m], Z[:, :nz]],
+                     [Xinfp - Fp + b * AFBY.T, -b * FFt, Z[:, :m], Z[:, :nz]],
+                     [_var_matrix(plant.Bw.T), Z[:m], _var_matrix(-g**2 * np.eye(m)), Z[:m, :nz]],
+                     [CF, b * CF, Z[:nz, :m], _var_matrix(-np.eye(nz))]])
+    ball = sym.Polynomial({sym.Monomial(): sym.Expression(radius**2)})
+    for x in xt:
+        ball -= sym.Polynomial({sym.Monomial(x, 2): sym.Expression(1.0)})
     v = prog.NewIndeterminates(M2.shape[0], "v")
     bases_it = iter(bases)
     sos = []
-    for M, a in ((M2, alpha), (Minf, beta)):
-        M = M + margin * np.diag(np.concatenate([np.ones(n), np.full(n, a), np.ones(M.shape[0] - 2 * n)]))
+    for M, scalar in ((M2, a), (Minf, b)):
+        M = M + margin * np.diag(np.concatenate([np.ones(n), np.full(n, scalar), np.ones(M.shape[0] - 2 * n)]))
         S = -np.array([[M[max(i, j), min(i, j)] for j in range(len(M))]
                        for i in range(len(M))])  # from the lower triangle
         sos += _add_sos_matrix(prog, S, xt, v, bases_it, [ball], 0, range(2 * n))
@@ -822,44 +840,44 @@ def sospy_theorem1(region: float | None) -> tuple[Any, list, Any, float]:
 
 
 def sospy_theorem8(gamma: float, alpha: float, beta: float) -> tuple[Any, list, Any, float]:
-    """Theorem 8 in SumOfSquares.py, as :func:`drake_theorem8` poses it (the plant split in sympy)."""
+    """Theorem 8 in SumOfSquares.py, as :func:`drake_theorem8` poses it (:class:`Theorem8Data`)."""
     from SumOfSquares import SOSProblem, poly_variable
 
-    xs, A, B, n, m, Bu, Bw, tilde = _theorem8_plant()
-    xt = [xs[i] for i in tilde]
-    radius, margin, x0 = 0.45, 1e-6, h2hinf_sos.X0_90
-    scale = max([1.0] + [abs(float(f)) for f in A.atoms(sp.Float)])
-    cancel = sp.Matrix(np.eye(n) - Bu @ np.linalg.solve(Bu.T @ Bu, Bu.T))
-    A_t = (cancel * A).applyfunc(lambda e: sp.expand(e).xreplace(
-        {f: 0 for f in sp.expand(e).atoms(sp.Float) if abs(f) < 1e-12 * scale}))
+    d = Theorem8Data.of(gamma, alpha, beta)
+    plant, a, b, x0 = d.plant, d.alpha, d.beta, d.x0
+    n, m = plant.n, plant.m
+    xt = plant.tilde_symbols
+    radius, margin = 0.45, 1e-6
+    A_t = sp.Matrix([[p.to_sympy(xt) for p in row] for row in plant.A_tilde.entries])
     prob = SOSProblem()
     F = sp.Matrix(n, n, lambda i, j: sp.Symbol(f"f_{i}_{j}"))
     X2 = sp.Matrix(n, n, lambda i, j: sp.Symbol(f"x2_{min(i, j)}_{max(i, j)}"))
     Xinf = sp.Matrix(n, n, lambda i, j: sp.Symbol(f"xi_{min(i, j)}_{max(i, j)}"))
     Y = sp.Matrix(m, n, lambda i, j: poly_variable(f"y_{i}_{j}", xt, 1))
     lam = sp.Symbol("lam")
-    AFBY = A_t * F + sp.Matrix(Bu) * Y
+    AFBY = A_t * F + sp.Matrix(plant.Bu) * Y
     G11 = AFBY + AFBY.T
     FFt = F + F.T
     Z = sp.zeros(n, n)
-    CF = sp.Matrix(np.eye(n)[tilde]) * F
+    nz = plant.C.shape[0]
+    CF = sp.Matrix(plant.C) * F
     M2 = sp.Matrix(sp.BlockMatrix([[G11, Z, Z, Z[:, :m]],
-                                   [X2 - F + alpha * AFBY.T, -alpha * FFt, Z, Z[:, :m]],
-                                   [F, alpha * F, -sp.eye(n), Z[:, :m]],
-                                   [Y, alpha * Y, Z[:m, :], -sp.eye(m)]]))
-    Minf = sp.Matrix(sp.BlockMatrix([[G11, Z, Z[:, :m], Z[:, :n - m]],
-                                     [Xinf - F + beta * AFBY.T, -beta * FFt, Z[:, :m], Z[:, :n - m]],
-                                     [sp.Matrix(Bw.T), Z[:m, :], -gamma**2 * sp.eye(m), Z[:m, :n - m]],
-                                     [CF, beta * CF, Z[:n - m, :m], -sp.eye(n - m)]]))
+                                   [X2 - F + a * AFBY.T, -a * FFt, Z, Z[:, :m]],
+                                   [F, a * F, sp.Matrix(-np.linalg.inv(d.Qs)), Z[:, :m]],
+                                   [Y, a * Y, Z[:m, :], sp.Matrix(-np.linalg.inv(d.Rs))]]))
+    Minf = sp.Matrix(sp.BlockMatrix([[G11, Z, Z[:, :m], Z[:, :nz]],
+                                     [Xinf - F + b * AFBY.T, -b * FFt, Z[:, :m], Z[:, :nz]],
+                                     [sp.Matrix(plant.Bw.T), Z[:m, :], -d.gamma**2 * sp.eye(m), Z[:m, :nz]],
+                                     [CF, b * CF, Z[:nz, :m], -sp.eye(nz)]]))
     ball = radius**2 - sum(x**2 for x in xt)
     consts = []
-    for k, (M, a) in enumerate(((M2, alpha), (Minf, beta))):
-        d = M.shape[0]
-        M = M + margin * sp.diag(*([1] * n + [a] * n + [1] * (d - 2 * n)))
-        S = -sp.Matrix(d, d, lambda i, j: M[max(i, j), min(i, j)])
+    for k, (M, scalar) in enumerate(((M2, a), (Minf, b))):
+        dim = M.shape[0]
+        M = M + margin * sp.diag(*([1] * n + [scalar] * n + [1] * (dim - 2 * n)))
+        S = -sp.Matrix(dim, dim, lambda i, j: M[max(i, j), min(i, j)])
         s = sp.Symbol(f"s{k}")
         consts.append((prob.add_sos_constraint(s, xt, sparse=True), s, xt, []))
-        S = S - s * ball * sp.diag(*([1] * (2 * n) + [0] * (d - 2 * n)))
+        S = S - s * ball * sp.diag(*([1] * (2 * n) + [0] * (dim - 2 * n)))
         consts.append(_sospy_matrix(prob, S.applyfunc(sp.expand), xt, f"v{k}"))
     X2p, Xinfp = prob.sp_mat_to_picos(X2), prob.sp_mat_to_picos(Xinf)
     prob.add_constraint(X2p - margin * np.eye(n) >> 0)

@@ -142,3 +142,38 @@ def test_partial_derivative_matches_sympy_with_decision_coefficients() -> None:
     assert const.n_vars == 2 and const.n_decision == 3 and not const.evaluate(np.ones((1, 2))).any()
     with pytest.raises(IndexError, match="variable 2 of a polynomial in 2"):
         p.diff(2)
+
+
+_X, _Y, _Z = sp.symbols("x y z", real=True)
+
+
+@pytest.mark.parametrize("expr", [
+    3 * _X, -_X, sp.Integer(0), _X - _X, sp.Float(2.5) * _X**2 * sp.pi, sp.sqrt(2) * _X, _X**2 * sp.Rational(1, 3),
+    -_X * _Y**3 * _Z + 0.1, (_X + 1) ** 3 * (_Y - 2), sp.exp(2) * _X, 2 ** sp.Rational(1, 3) * _X * _Y,
+    (0.3 * _X + 1e-20 * _Y) ** 2, 1e300 * _X, -sp.Float("1e-300") * _Z**7, sp.Float("0.1", 40) * _Y,
+])
+def test_from_sympy_reads_the_terms_sympy_poly_finds(expr: sp.Expr) -> None:
+    """The term reader against ``sympy.Poly`` (floats to 1 ulp: both round each coefficient once)."""
+    variables = [_X, _Y, _Z]
+    p = Poly.from_sympy(expr, variables)
+    ref = {t: float(c) for t, c in sp.Poly(expr, *variables).terms() if c != 0}
+    got = {tuple(int(v) for v in e): c for e, c in zip(p.exps, p.c0) if c != 0.0}
+    assert set(got) == set(ref)
+    for t, c in ref.items():
+        assert got[t] == pytest.approx(c, rel=2.3e-16, abs=0.0)
+    M = PolyMatrix.from_sympy(sp.Matrix([[expr, _X], [1, expr * _Y]]), variables)
+    assert M.entries[0][0].exps.tolist() == p.exps.tolist() and M.entries[0][0].c0.tolist() == p.c0.tolist()
+    assert M.entries[1][1].evaluate(np.array([[0.3, -0.7, 1.1]]))[0] == pytest.approx(
+        float((expr * _Y).subs({_X: 0.3, _Y: -0.7, _Z: 1.1})), rel=1e-12, abs=1e-300)
+
+
+@pytest.mark.parametrize("expr, message", [
+    (sp.sin(_X), "non-numeric"), (1 / _X, "not a polynomial"), (sp.sqrt(_X), "not a polynomial"),
+    (_X**_Y, "not a polynomial"), (_X * sp.Symbol("a"), "non-numeric"), (sp.nan * _X, "not finite"),
+    (sp.oo * _X, "not finite"), (sp.I * _X, "not real"), (2**_X, "non-numeric"),
+])
+def test_from_sympy_refuses_what_is_not_a_real_polynomial(expr: sp.Expr, message: str) -> None:
+    with pytest.raises(ValueError, match=message):
+        Poly.from_sympy(expr, [_X, _Y])
+    with pytest.raises(ValueError, match=message):
+        PolyMatrix.from_sympy(sp.Matrix([[1, expr]]), [_X, _Y])

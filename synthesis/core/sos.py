@@ -295,8 +295,8 @@ class SOSProgram:
         scipy.sparse.csr_matrix, shape (k, n_decision)
             Row ``i`` picks ``y[indices[i]]``.
         """
-        k = len(indices)
-        return sps.csr_matrix((np.ones(k), (np.arange(k), indices)), shape=(k, self.n_decision))
+        k = len(indices)  # one entry a row: the CSR arrays directly
+        return sps.csr_matrix((np.ones(k), np.asarray(indices, np.int64), np.arange(k + 1)), shape=(k, self.n_decision))
 
     def new_poly(self, exps: np.ndarray) -> Poly:
         """A polynomial with one fresh coefficient per exponent row.
