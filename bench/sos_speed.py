@@ -53,10 +53,13 @@ program: Gram basis sizes, objectives, min and median of each tool's end-to-end 
 medians of its build / solver / verify split ("solver": the time Clarabel reports for ours
 and Drake's, the picos solve call for SumOfSquares.py; "build": everything before it,
 our or Drake's translation to the solver's form included), and the ratios of medians
-ours/Drake and ours/SumOfSquares.py.
+ours/Drake (end to end and of the build) and ours/SumOfSquares.py. Drake's warm-up run is a
+forked child given ``--drake-limit`` seconds: past them (Drake's one-thread QDLDL takes more
+than 10 minutes on the vscmg box) Drake's timed rounds stop Clarabel after one iteration
+(``max_iter`` 1), which times its whole build, and the end-to-end ratio is printed as a bound.
 
     python bench/sos_speed.py [--repeat 5] [--programs thm1-global ...] [--sospy-rounds 1]
-                              [--sospy-limit 600] [--sospy-memory 12]
+                              [--sospy-limit 600] [--sospy-memory 12] [--drake-limit 300]
 
 What the bench reads from our side: the public functions above, the :class:`SOSProgram`
 each one solves (caught in :meth:`SOSProgram.solve`: its ``sos`` constraints' ``basis``
@@ -171,6 +174,8 @@ class Caught:
     program: SOSProgram
     objective: Any
     solution: Any
+    settings: dict[str, Any]
+    """The Clarabel settings the program was solved with (those of the call, the ladder's first rung)."""
 
 
 class _Probe:
@@ -199,7 +204,8 @@ class _Probe:
 
         def solve(prog: SOSProgram, *args: Any, **kwargs: Any) -> Any:
             sol = sos_solve(prog, *args, **kwargs)
-            probe.caught = Caught(prog, kwargs.get("objective", args[0] if args else None), sol)
+            probe.caught = Caught(prog, kwargs.get("objective", args[0] if args else None), sol,
+                                  {k: v for k, v in kwargs.items() if k != "objective"})
             probe.solved_at = time.perf_counter()
             return sol
 
@@ -585,22 +591,28 @@ def drake_vscmg_box(bases: list[np.ndarray], loop: vscmg_region.ClosedLoop) -> D
     return DrakeProgram(prog, sos, layout, [lmi], [trace_room], -eps, {}, 1.0)
 
 
-def run_drake(pose: Callable[[], DrakeProgram]) -> Run:
-    """One end-to-end run of Drake: pose, solve with Clarabel, check the Gram matrices."""
+def run_drake(pose: Callable[[], DrakeProgram], build_only: bool = False) -> Run:
+    """One end-to-end run of Drake: pose, solve with Clarabel, check the Gram matrices.
+
+    ``build_only``: Clarabel stopped after one iteration (``max_iter`` 1, which Drake passes on),
+    nothing checked: the run's ``build`` (posing and Drake's translation to Clarabel's form) is
+    Drake's whole build, for programs whose solve takes longer than the bench waits."""
     _, solvers = _drake()
     t0 = time.perf_counter()
     dp = pose()
     options = solvers.SolverOptions()
-    for k, val in dp.options.items():
+    for k, val in {**dp.options, **({"max_iter": 1} if build_only else {})}.items():
         options.SetOption(solvers.ClarabelSolver.id(), k, val)
     result = solvers.ClarabelSolver().Solve(dp.prog, None, options)
     t1 = time.perf_counter()
+    solver = result.get_solver_details().solve_time
+    if build_only:
+        return Run(t1 - t0, solver, 0.0, float("nan"), (), float("nan"), float("nan"), False)
     if not result.is_success():
         raise RuntimeError(f"Drake: {result.get_solution_result()}")
     grams = drake_verify(dp, result)
     total = time.perf_counter() - t0
-    return _summarize(grams, total, result.get_solver_details().solve_time, total - (t1 - t0),
-                      float(result.get_optimal_cost()))
+    return _summarize(grams, total, solver, total - (t1 - t0), float(result.get_optimal_cost()))
 
 
 def drake_verify(dp: DrakeProgram, result: Any) -> list[Gram]:
@@ -984,20 +996,32 @@ def _fmt(t: float) -> str:
     return f"{t:9.3f}" if np.isfinite(t) else f"{'-':>9}"
 
 
-def bench(program: Program, repeat: int, sospy_rounds: int, qdldl: bool, limits: Limits) -> dict[str, Any]:
+DRAKE_BUILD = "Drake build only"
+"""The runs timing Drake's build alone (one Clarabel iteration), when its whole run exceeds ``--drake-limit``."""
+
+
+def bench(program: Program, repeat: int, sospy_rounds: int, qdldl: bool, limits: Limits,
+          drake_limit: float) -> dict[str, Any]:
     """Warm up, compare the programs, then time the tools interleaved; print and return the figures."""
     print(f"\n== {program.key}: {program.title}")
     ref, caught = run_ours(program.ours)
     bases = [c.basis for c in caught.program.sos]
-    drake_ref = run_drake(lambda: program.drake(bases))
     diff, scale = same_program(caught, program.drake(bases))
     print(f"same program in Drake: largest coefficient difference {diff:.1e} (coefficients up to {scale:.3g}; "
           f"{caught.program.n_decision} decision variables, {len(bases)} SOS constraints, Gram bases identical)")
     runs: dict[str, Callable[[], Run]] = {"satfmu": lambda: run_ours(program.ours)[0]}
     if qdldl:
         runs["satfmu qdldl"] = lambda: run_ours(program.ours, qdldl=True)[0]
-    runs["Drake"] = lambda: run_drake(lambda: program.drake(bases))
-    refs = {"satfmu": ref, "Drake": drake_ref}
+    refs = {"satfmu": ref}
+    drake_first = bounded(lambda: run_drake(lambda: program.drake(bases)), Limits(drake_limit, limits.memory_gib))
+    drake_missing: NoResult | None = None
+    if isinstance(drake_first, NoResult):
+        drake_missing = drake_first
+        print(f"Drake: {drake_first.reason}; its build timed on runs stopped after one Clarabel iteration")
+        runs[DRAKE_BUILD] = lambda: run_drake(lambda: program.drake(bases), build_only=True)
+    else:
+        refs["Drake"] = drake_first
+        runs["Drake"] = lambda: run_drake(lambda: program.drake(bases))
     sospy_missing: NoResult | None = None
     if isinstance(program.sospy, str):
         print(f"SumOfSquares.py: skipped ({program.sospy})")
@@ -1025,9 +1049,16 @@ def bench(program: Program, repeat: int, sospy_rounds: int, qdldl: bool, limits:
         med_nv[name] = min_median([r.without_verify for r in rs])[1]
         split = [min_median([getattr(r, k) for r in rs])[1] for k in ("build", "solver", "verify")]
         print(f"{name:16}{len(rs):5d}{lo:9.3f}{med[name]:9.3f}  {''.join(map(_fmt, split))}  {med_nv[name]:10.3f}")
-    ratios = {"ours/Drake": med["satfmu"] / med["Drake"], "ours/Drake w/o verify": med_nv["satfmu"] / med_nv["Drake"]}
-    if qdldl:
-        ratios["ours qdldl/Drake"] = med["satfmu qdldl"] / med["Drake"]
+    build = {name: min_median([r.build for r in rs])[1] for name, rs in timed.items()}
+    drake = "Drake" if "Drake" in timed else DRAKE_BUILD
+    ratios = {"ours/Drake build": build["satfmu"] / build[drake]}
+    if drake_missing is None:
+        ratios.update({"ours/Drake": med["satfmu"] / med["Drake"],
+                       "ours/Drake w/o verify": med_nv["satfmu"] / med_nv["Drake"]})
+        if qdldl:
+            ratios["ours qdldl/Drake"] = med["satfmu qdldl"] / med["Drake"]
+    else:  # Drake's run takes longer than it was given
+        print(f"ours/Drake < {med['satfmu'] / drake_missing.seconds:.3g} (Drake {drake_missing.reason})")
     if "SumOfSquares.py" in med:
         ratios["ours/SumOfSquares.py"] = med["satfmu"] / med["SumOfSquares.py"]
     elif sospy_missing is not None and sospy_missing.stopped:  # its run takes longer than it was given
@@ -1035,7 +1066,8 @@ def bench(program: Program, repeat: int, sospy_rounds: int, qdldl: bool, limits:
               f"(SumOfSquares.py {sospy_missing.reason})")
     print("ratios of medians: " + ", ".join(f"{k} {v:.3g}" for k, v in ratios.items()))
     return {"key": program.key, "grams": {k: r.gram_sizes for k, r in refs.items()},
-            "objectives": {k: r.objective for k, r in refs.items()}, "median": med, "ratios": ratios}
+            "objectives": {k: r.objective for k, r in refs.items()}, "median": med, "ratios": ratios,
+            "build": (build["satfmu"], build[drake])}
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -1050,6 +1082,8 @@ def main(argv: list[str] | None = None) -> None:
                     help="wall seconds a SumOfSquares.py run is given (default: 600)")
     ap.add_argument("--sospy-memory", type=float, default=12.0,
                     help="resident GiB a SumOfSquares.py run is given (default: 12)")
+    ap.add_argument("--drake-limit", type=float, default=300.0,
+                    help="wall seconds Drake's warm-up run is given; past it only its build is timed (default: 300)")
     ap.add_argument("--qdldl", action="store_true",
                     help="also time satfmu with Clarabel on QDLDL, one thread (Drake's linear algebra)")
     args = ap.parse_args(argv)
@@ -1068,15 +1102,19 @@ def main(argv: list[str] | None = None) -> None:
           f"{metadata.version('picos')}")
     t0 = time.perf_counter()
     limits = Limits(args.sospy_limit, args.sospy_memory)
-    rows = [bench(p, args.repeat, args.sospy_rounds, args.qdldl, limits) for p in all_programs
+    rows = [bench(p, args.repeat, args.sospy_rounds, args.qdldl, limits, args.drake_limit) for p in all_programs
             if p.key in args.programs]
     names = ["satfmu"] + (["satfmu qdldl"] if args.qdldl else []) + ["Drake", "SumOfSquares.py"]
-    print(f"\n{'program':15}{'Gram sizes':>24}" + "".join(f"{n:>16}" for n in names)
-          + f"{'ours/Drake':>11}{'ours/sos.py':>12}\n{'':39}{'(median s, end to end, verification included)':>48}")
+    nan = float("nan")
+    print(f"\n{'program':15}{'Gram sizes':>18}" + "".join(f"{n:>16}" for n in names)
+          + f"{'ours/Drake':>11}{'ours/sos.py':>12}{'build ours':>11}{'Drake':>8}{'ratio':>7}\n"
+          f"{'':33}{'(median s, end to end, verification included)':>48}")
     for r in rows:
         sizes = ",".join(map(str, r["grams"]["satfmu"]))
-        print(f"{r['key']:15}{sizes:>24}" + "".join(f"{r['median'].get(n, float('nan')):16.3f}" for n in names)
-              + f"{r['ratios']['ours/Drake']:11.3g}{r['ratios'].get('ours/SumOfSquares.py', float('nan')):12.3g}")
+        ours_build, drake_build = r["build"]
+        print(f"{r['key']:15}{sizes:>18}" + "".join(f"{r['median'].get(n, nan):16.3f}" for n in names)
+              + f"{r['ratios'].get('ours/Drake', nan):11.3g}{r['ratios'].get('ours/SumOfSquares.py', nan):12.3g}"
+              + f"{ours_build:11.3f}{drake_build:8.3f}{r['ratios']['ours/Drake build']:7.2f}")
     print(f"bench wall time {time.perf_counter() - t0:.0f} s")
 
 

@@ -5,7 +5,8 @@ import numpy as np
 import pytest
 import scipy.sparse as sps
 
-from satfmu.synthesis.core.conic import ConicProblem, solve_clarabel, svec_indices, svec_scale
+from satfmu.synthesis.core.conic import (THREADED_FROM, ConicProblem, solve_clarabel, svec_indices, svec_scale,
+                                        threads_for)
 
 
 def _largest_offdiagonal(diagonal: tuple[float, float, float]) -> ConicProblem:
@@ -44,3 +45,27 @@ def test_infeasible_and_bad_settings() -> None:
     assert res.status == "infeasible" and res.x is None
     with pytest.raises(TypeError, match="no_such_setting"):
         solve_clarabel(_largest_offdiagonal((1.0, 1.0, 1.0)), no_such_setting=1)
+
+
+def test_one_thread_below_the_threaded_cone_side_every_core_from_it(monkeypatch: pytest.MonkeyPatch) -> None:
+    import clarabel
+
+    def with_cones(*psd: int) -> ConicProblem:
+        return ConicProblem(np.zeros(1), sps.csc_matrix((0, 1)), np.zeros(0), zero=0, nonneg=0, psd=list(psd))
+
+    assert threads_for(with_cones()) == 1  # no PSD cone: an LP
+    assert threads_for(with_cones(6, THREADED_FROM - 1)) == 1
+    assert threads_for(with_cones(6, THREADED_FROM)) == 0  # Clarabel's "every core"
+    seen: list[int] = []
+    solver = clarabel.DefaultSolver
+
+    def spy(P, q, A, b, cones, settings):  # type: ignore[no-untyped-def]
+        seen.append(settings.max_threads)
+        return solver(P, q, A, b, cones, settings)
+
+    monkeypatch.setattr(clarabel, "DefaultSolver", spy)
+    res = solve_clarabel(_largest_offdiagonal((1.0, 4.0, 9.0)))  # a cone of side 3: the rule's one thread
+    assert res.status == "optimal" and res.iterations > 0
+    res = solve_clarabel(_largest_offdiagonal((1.0, 4.0, 9.0)), max_threads=2)  # the caller's word wins
+    assert res.status == "optimal" and res.iterations > 0
+    assert seen == [1, 2]

@@ -13,7 +13,7 @@ from types import ModuleType
 
 import pytest
 
-from satfmu.synthesis.polynomial_feedback import hinf_sos
+from satfmu.synthesis.polynomial_feedback import h2hinf_sos, hinf_sos
 
 BENCH = Path(__file__).resolve().parents[1] / "bench"
 
@@ -93,3 +93,24 @@ def test_a_different_program_is_told_apart(sos_speed: ModuleType, drake: None) -
     diff, _ = sos_speed.same_program(caught, sos_speed.drake_theorem1(bases, 0.8))
     # the multiplier's term s (r^2 - |sigma|^2) |v|^2: r^2 = 0.81 against 0.64
     assert diff == pytest.approx(0.81 - 0.64)
+
+
+def test_drake_build_only_runs_stop_after_one_iteration(sos_speed: ModuleType, drake: None) -> None:
+    _, caught = sos_speed.run_ours(lambda: hinf_sos.theorem1(rate_margin=1e-2))
+    bases = [c.basis for c in caught.program.sos]
+    full = sos_speed.run_drake(lambda: sos_speed.drake_theorem1(bases, None))
+    one = sos_speed.run_drake(lambda: sos_speed.drake_theorem1(bases, None), build_only=True)
+    assert not one.certified and one.gram_sizes == ()
+    # one iteration of the five Clarabel takes here (measured: 0.06 s against 0.3 s)
+    assert 0.0 < one.solver < full.solver and one.build > 0.0
+
+
+@pytest.mark.slow
+def test_drake_poses_our_theorem8_in_the_units_ours_solves_in(sos_speed: ModuleType, drake: None) -> None:
+    """Seed 001 solves in balanced units (satfmu.synthesis.polynomial_feedback.coordinates): Drake's program
+    is posed from the same scaled plant, every product its own, and must be ours exactly."""
+    gamma, alpha, beta = sos_speed._h2hinf_design()
+    _, caught = sos_speed.run_ours(lambda: h2hinf_sos.theorem8(gamma, alpha, beta))
+    bases = [c.basis for c in caught.program.sos]
+    diff, scale = sos_speed.same_program(caught, sos_speed.drake_theorem8(bases, gamma, alpha, beta))
+    assert diff <= 1e-12 * scale

@@ -66,6 +66,28 @@ def _execute(scenario: Scenario, sim: CoSimulation, sink: Callable[[np.ndarray],
                    record_every=scenario.record_every, sink=sink)
 
 
+class _Recorder:
+    """The sink of a streamed run: each block of rows converted and written to the CSV, and the
+    ``kept`` columns copied into one array of ``n_rows`` rows, filled block by block."""
+
+    def __init__(self, scenario: Scenario, sim: CoSimulation, write: CsvWriter, kept: set[str], n_rows: int) -> None:
+        self.scenario, self.sim, self.write, self.kept, self.n_rows = scenario, sim, write, kept, n_rows
+        self.out: np.ndarray | None = None
+        self.done = 0
+        self.shown: dict[str, tuple[float, str]] = {}
+        """Every recorded column's conversion to the unit the scenario's ``record`` asks for."""
+
+    def __call__(self, rows: np.ndarray) -> None:
+        names = rows.dtype.names or ()
+        if self.out is None:
+            self.shown.update(record_conversions(self.scenario, self.sim, [c for c in names if c != "time"]))
+            self.out = np.zeros(self.n_rows, dtype=[(c, "f8") for c in names if c in self.kept])
+        self.write(converted(rows, self.shown))
+        for c in self.out.dtype.names or ():
+            self.out[c][self.done:self.done + len(rows)] = rows[c]
+        self.done += len(rows)
+
+
 def _streamed(scenario: Scenario, fmu_dir: Path, backend: str, strict: bool, design_rtol: float | None,
               path: Path, keep: Callable[[CoSimulation], set[str]]
               ) -> tuple[np.ndarray, CoSimulation, dict[str, tuple[float, str]]]:
@@ -74,30 +96,21 @@ def _streamed(scenario: Scenario, fmu_dir: Path, backend: str, strict: bool, des
     at all: :func:`satfmu.fmus.atomic.write_atomically`); returned, the columns ``keep(sim)``
     names (and ``time``), in their declared units, and every column's conversion."""
     sim = wire(scenario, fmu_dir, backend, strict, design_rtol)
-    n_rows = len(recorded_times(scenario))
-    state: dict[str, Any] = {"out": None, "done": 0}  # the kept columns of every row, filled block by block
-    shown: dict[str, tuple[float, str]] = {}
+    recorders: list[_Recorder] = []
     try:
         kept = {"time"} | keep(sim)
 
         def run_into(tmp: Path) -> None:
             with CsvWriter(tmp) as write:
-                def sink(rows: np.ndarray) -> None:
-                    names = rows.dtype.names or ()
-                    if state["out"] is None:
-                        shown.update(record_conversions(scenario, sim, [c for c in names if c != "time"]))
-                        state["out"] = np.zeros(n_rows, dtype=[(c, "f8") for c in names if c in kept])
-                    write(converted(rows, shown))
-                    done, out = state["done"], state["out"]
-                    for c in out.dtype.names:
-                        out[c][done:done + len(rows)] = rows[c]
-                    state["done"] = done + len(rows)
-                _execute(scenario, sim, sink)
+                recorders.append(_Recorder(scenario, sim, write, kept, len(recorded_times(scenario))))
+                _execute(scenario, sim, recorders[-1])
         path.parent.mkdir(parents=True, exist_ok=True)
         write_atomically(path, run_into)
     finally:
         sim.close()
-    return state["out"], sim, shown
+    (rec,) = recorders
+    assert rec.out is not None  # the master hands over at least the start row
+    return rec.out, sim, rec.shown
 
 
 def resimulate(scenario: Scenario, sim: CoSimulation) -> np.ndarray:
@@ -343,17 +356,20 @@ def run(scenario: "str | Path | Mapping[str, Any] | Scenario", fmu_dir: str | Pa
     folder = ensure_fmus(sc, fmu_dir, backend, allow_stale)
     panels = sc.plot.get("panels") or [[r] for r in sc.record] or [m.signals for m in sc.metrics]
     csv_path = None
+    plans: list[MetricPlan] = []  # planned once the master is wired (a streamed run keeps what they read)
     if stream and out_dir is not None:
         def keep(sim: CoSimulation) -> set[str]:
-            read = {c for p in plan_metrics(sc, sim) for c in p.columns + p.versus + p.disturbances}
+            plans.extend(plan_metrics(sc, sim))
+            read = {c for p in plans for c in p.columns + p.versus + p.disturbances}
             return read | ({c for p in panels for c in _columns(sim, p)} if plots else set())
         csv_path = Path(out_dir) / sc.name / f"{sc.name}_{backend}.csv"
         res, sim, shown = _streamed(sc, folder, backend, strict, design_rtol, csv_path, keep)
     else:
         res, sim = simulate(sc, folder, backend, strict, design_rtol)
         shown = record_conversions(sc, sim, [c for c in res.dtype.names or () if c != "time"])
+        plans = plan_metrics(sc, sim)
     assert res.dtype.names is not None  # the master records a structured array (time, then the signals)
-    mres, curves = evaluate(sc, res, sim)
+    mres, curves = evaluate(sc, res, sim, plans)
     cols = [c for c in (_columns(sim, p) for p in panels) if all(n in res.dtype.names for n in c)]
     result = Result(sc.name, backend, converted(res, {c: shown[c] for c in res.dtype.names if c != "time"}), mres,
                     l2_curves=curves, units={c: unit for c, (_, unit) in shown.items()}, panels=cols,

@@ -90,6 +90,8 @@ class ConicResult:
         Clarabel's wall time, setting up and solving (s).
     z : numpy.ndarray or None, optional
         The dual, shape (m,); None without a solution.
+    iterations : int, optional
+        Clarabel's interior-point iterations.
     """
 
     status: str
@@ -97,6 +99,8 @@ class ConicResult:
     objective: float
     seconds: float
     z: np.ndarray | None = None
+    iterations: int = 0
+    """Clarabel's interior-point iterations."""
 
 
 def svec_indices(N: int) -> tuple[np.ndarray, np.ndarray]:
@@ -192,11 +196,32 @@ def _isolated(problem: ConicProblem, settings: dict[str, Any], memory_limit: int
     return out
 
 
+THREADED_FROM = 48
+"""Side of the largest PSD cone from which Clarabel factors on every core (``max_threads`` 0);
+below it, one thread. Measured (``python bench/sos_threads.py --repeat 3``, 2 cores, ratios of
+median wall and CPU time, every core against one thread): sides 21 to 45 (seed 000's Theorem 1,
+side 33, and lower bounds of random sums of squares) 0.94-1.29x the wall time for 1.07-1.29x the
+CPU; sides 55 to 78 (seed 001's Theorem 8, sides 57 and 54: 14.5 s against 16.1 s) 0.88-1.03x
+the wall time for 1.07-1.21x the CPU."""
+
+
+def threads_for(problem: ConicProblem) -> int:
+    """Clarabel's ``max_threads`` for ``problem``: 1 below :data:`THREADED_FROM`, else 0 (every core).
+
+    Parameters
+    ----------
+    problem : ConicProblem
+        The program.
+    """
+    return 0 if max(problem.psd, default=0) >= THREADED_FROM else 1
+
+
 def solve_clarabel(problem: ConicProblem, *, memory_limit: int | None = None, **settings: Any) -> ConicResult:
     """Solve with ``clarabel.DefaultSolver`` on the problem's arrays (no re-formulation).
 
     ``settings`` are attributes of ``clarabel.DefaultSettings`` (e.g. ``tol_feas``);
-    ``verbose`` is off unless given. ``memory_limit`` (bytes): solve in a child process allowed
+    ``verbose`` is off and ``max_threads`` is :func:`threads_for` the problem unless given.
+    ``memory_limit`` (bytes): solve in a child process allowed
     that much memory (module docstring); None: in this process.
 
     Parameters
@@ -230,6 +255,7 @@ def _solve(problem: ConicProblem, settings: dict[str, Any]) -> ConicResult:
 
     opts = clarabel.DefaultSettings()
     opts.verbose = False
+    opts.max_threads = threads_for(problem)
     for name, value in settings.items():
         if not hasattr(opts, name):
             raise TypeError(f"Clarabel: unrecognized solver setting {name!r}")
@@ -244,6 +270,7 @@ def _solve(problem: ConicProblem, settings: dict[str, Any]) -> ConicResult:
     status = str(sol.status)
     if status in SOLVED:
         x = np.asarray(sol.x, float)
-        return ConicResult(SOLVED[status], x, float(problem.q @ x), seconds, np.asarray(sol.z, float))
-    return ConicResult(REFUTED.get(status, status), None, float("nan"), seconds)
+        return ConicResult(SOLVED[status], x, float(problem.q @ x), seconds, np.asarray(sol.z, float),
+                           int(sol.iterations))
+    return ConicResult(REFUTED.get(status, status), None, float("nan"), seconds, None, int(sol.iterations))
 
