@@ -88,6 +88,7 @@ from satfmu.synthesis.polynomial_feedback import h2hinf_sos, hinf_sos, split_pla
 from satfmu.synthesis.polynomial_feedback.coordinates import Coordinates
 from satfmu.synthesis.servo import vscmg_region
 from satfmu.synthesis.core.polynomial import Poly, monomials
+from satfmu.synthesis.core.conic import THREADED_FROM
 from satfmu.synthesis.core.sos import SOSProgram
 from timing import interleaved, min_median
 
@@ -186,8 +187,8 @@ class _Probe:
     last program solved (with its objective row and solution), the time its solve returned,
     and the solver's own time
     (Clarabel's ``solve_time``, summed over calls, s). With ``qdldl`` Clarabel factors its
-    KKT systems with QDLDL (one thread, Drake's only choice) instead of the wheel's
-    default (faer, multithreaded).
+    KKT systems with QDLDL on one thread (Drake's only choice) instead of faer (on the
+    threads :func:`satfmu.synthesis.core.conic.threads_for` gives it).
     """
 
     def __init__(self, qdldl: bool = False) -> None:
@@ -213,8 +214,8 @@ class _Probe:
             """Clarabel's solver, adding each solve's reported time to the probe."""
 
             def __init__(self, P: Any, q: Any, A: Any, b: Any, cones: Any, settings: Any) -> None:
-                if probe.qdldl:
-                    settings.direct_solve_method = "qdldl"
+                if probe.qdldl:  # as Drake's Clarabel runs
+                    settings.direct_solve_method, settings.max_threads = "qdldl", 1
                 self._solver = make_solver(P, q, A, b, cones, settings)
 
             def solve(self) -> Any:
@@ -1094,8 +1095,8 @@ def main(argv: list[str] | None = None) -> None:
     import clarabel
 
     print(f"satfmu: Clarabel {clarabel.__version__} (Python wheel, our arrays handed to it directly), "
-          f"linear algebra: faer, "
-          f"multithreaded (the wheel's default){'; satfmu qdldl: QDLDL' if args.qdldl else ''}\n"
+          f"linear algebra: faer, one thread below a PSD cone of side {THREADED_FROM}, every core from it"
+          f"{'; satfmu qdldl: QDLDL, one thread' if args.qdldl else ''}\n"
           f"Drake {metadata.version('drake')}: Clarabel through ClarabelSolver, linear algebra: QDLDL, one thread "
           f"(Drake builds Clarabel without faer and does not pass direct_solve_method)\n"
           f"SumOfSquares.py {metadata.version('SumOfSquares')}: CVXOPT {metadata.version('cvxopt')} through picos "
