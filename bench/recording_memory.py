@@ -3,7 +3,8 @@
 mrp_200deg (seed 000's published controller, 10 recorded signals) run for ``--steps``
 communication steps of 0.05 s, in its own process, three ways: ``satfmu.run(..., out_dir=...)``
 (every row kept in memory, then written), ``satfmu.run(..., out_dir=..., stream=True)`` (the CSV
-written a block of rows at a time, the metrics' columns kept) and ``satfmu run`` (which streams).
+written and the metrics evaluated a block of rows at a time, only ``time`` kept) and ``satfmu run``
+(which streams).
 Printed: each child's peak resident memory (``ru_maxrss``), its CPU time, the CSV's size and
 whether the three CSV files are identical.
 

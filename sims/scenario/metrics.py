@@ -1,7 +1,8 @@
 """Closed-loop metrics on recorded trajectories, and their pass/fail evaluation.
 
-:data:`EVALUATORS` is the table from a metric kind (:data:`KINDS`) to the function that
-evaluates it on what the metric reads of a run (a :class:`MetricInput`).
+:data:`STREAMS` is the table from a metric kind (:data:`KINDS`) to its :class:`MetricStream`, which
+evaluates it on what the metric reads of a run (a :class:`MetricInput`) fed in blocks of rows as
+the run records them; :data:`EVALUATORS` feeds a whole run as one block (one implementation).
 
 The metric functions take the time vector ``t`` (s, increasing) and a signal matrix of
 shape (len(t), n_signals). Signals of FMU *inputs* fed by the master are held
@@ -10,179 +11,21 @@ FMU outputs of continuous states use the trapezoidal rule.
 """
 from __future__ import annotations
 
+import functools
 import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable, Sequence
+from typing import Any, Callable, Protocol, Sequence
 
 import numpy as np
 
 from satfmu.fmus.units import ratio, squared_time
 
 
-def _cumulative(t: np.ndarray, v2: np.ndarray, held: bool) -> np.ndarray:
-    dt = np.diff(t)
-    inc = v2[:-1] * dt if held else 0.5 * (v2[:-1] + v2[1:]) * dt
-    return np.concatenate([[0.0], np.cumsum(inc)])
-
-
-def l2_ratio_curve(t: np.ndarray, z: np.ndarray, w: np.ndarray, w_held: bool = True) -> np.ndarray:
-    """Truncated L2 ratio ||z||_{2,T} / ||w||_{2,T} for every recorded T (seed 000, eq. 45).
-
-    NaN where ||w||_{2,T} = 0.
-
-    Parameters
-    ----------
-    t : numpy.ndarray, shape (n,)
-        Sample times (s), increasing.
-    z : numpy.ndarray, shape (n,) or (n, k)
-        Performance output, one column per signal; its energy is integrated by the trapezoidal
-        rule.
-    w : numpy.ndarray, shape (n,) or (n, m)
-        Disturbance input, one column per signal.
-    w_held : bool, optional
-        Whether ``w`` is held over each communication step (an FMU input fed by the master:
-        left rectangle rule); else the trapezoidal rule. Default True.
-
-    Returns
-    -------
-    numpy.ndarray, shape (n,)
-        The ratio at every sample time (dimensionless when ``z`` and ``w`` share a unit).
-    """
-    nz = _cumulative(t, np.sum(np.atleast_2d(z.T).T ** 2, axis=1), held=False)
-    nw = _cumulative(t, np.sum(np.atleast_2d(w.T).T ** 2, axis=1), held=w_held)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return np.where(nw > 0, np.sqrt(nz) / np.sqrt(np.where(nw > 0, nw, 1.0)), np.nan)
-
-
-def settling_time(t: np.ndarray, y: np.ndarray, tolerance: float) -> float:
-    """First time from which every ``|y_i| <= tolerance`` until the end; inf if never.
-
-    Parameters
-    ----------
-    t : numpy.ndarray, shape (n,)
-        Sample times (s), increasing.
-    y : numpy.ndarray, shape (n,) or (n, k)
-        Signals, one column each.
-    tolerance : float
-        Half-width of the band around zero, in the unit of ``y``.
-
-    Returns
-    -------
-    float
-        The settling time (s): ``t[0]`` if ``y`` is inside the band throughout, ``inf`` if it is
-        outside at the last sample.
-    """
-    inside = np.all(np.abs(np.atleast_2d(y.T).T) <= tolerance, axis=1)
-    if not inside[-1]:
-        return math.inf
-    outside = np.nonzero(~inside)[0]
-    return float(t[0] if outside.size == 0 else t[outside[-1] + 1])
-
-
-def peak(y: np.ndarray) -> float:
-    """Largest absolute value over time and signals.
-
-    Parameters
-    ----------
-    y : numpy.ndarray, shape (n,) or (n, k)
-        Signals, one column each.
-    """
-    return float(np.max(np.abs(y)))
-
-
-def rms(t: np.ndarray, y: np.ndarray, held: bool = True) -> float:
-    """Largest per-signal RMS over the run.
-
-    Parameters
-    ----------
-    t : numpy.ndarray, shape (n,)
-        Sample times (s), increasing; the mean is taken over ``t[-1] - t[0]``.
-    y : numpy.ndarray, shape (n,) or (n, k)
-        Signals, one column each.
-    held : bool, optional
-        Whether the signals are held over each communication step (left rectangle rule); else
-        the trapezoidal rule. Default True.
-
-    Returns
-    -------
-    float
-        The RMS, in the unit of ``y``.
-    """
-    y = np.atleast_2d(y.T).T
-    span = t[-1] - t[0]
-    return float(max(math.sqrt(_cumulative(t, y[:, i] ** 2, held)[-1] / span) for i in range(y.shape[1])))
-
-
-def time_in_saturation(t: np.ndarray, y: np.ndarray, limit: float, held: bool = True,
-                       rel_tol: float = 1e-9) -> float:
-    """Total time (s) during which any ``|y_i|`` is at or beyond ``limit`` (within ``rel_tol``).
-
-    Parameters
-    ----------
-    t : numpy.ndarray, shape (n,)
-        Sample times (s), increasing.
-    y : numpy.ndarray, shape (n,) or (n, k)
-        Signals, one column each (e.g. actuator commands).
-    limit : float
-        Saturation level, in the unit of ``y``.
-    held : bool, optional
-        Whether the signals are held over each communication step: a step counts whole when
-        saturated at its start; else a step counts half for each saturated end. Default True.
-    rel_tol : float, optional
-        Relative tolerance: ``|y_i| >= limit * (1 - rel_tol)`` counts as saturated.
-    """
-    sat = np.any(np.abs(np.atleast_2d(y.T).T) >= limit * (1 - rel_tol), axis=1)
-    dt = np.diff(t)
-    flags = sat[:-1] if held else 0.5 * (sat[:-1].astype(float) + sat[1:])
-    return float(np.sum(flags * dt))
-
-
-def time_to_limit(t: np.ndarray, y: np.ndarray, limit: float, rel_tol: float = 1e-9) -> float:
-    """The first sample time (s) at which any ``|y_i|`` reaches ``limit`` (within ``rel_tol``), ``inf``
-    when none does: when a wheel saturates under a momentum buildup, say.
-
-    Parameters
-    ----------
-    t : numpy.ndarray, shape (n,)
-        Sample times (s), increasing.
-    y : numpy.ndarray, shape (n,) or (n, k)
-        Signals, one column each.
-    limit : float
-        The level, in the unit of ``y``.
-    rel_tol : float, optional
-        Relative tolerance: ``|y_i| >= limit * (1 - rel_tol)`` counts as reached.
-
-    Returns
-    -------
-    float
-        The time, s, or ``inf``.
-    """
-    reached = np.any(np.abs(np.atleast_2d(y.T).T) >= limit * (1 - rel_tol), axis=1)
-    return float(t[np.argmax(reached)]) if reached.any() else math.inf
-
-
-def integral_square(t: np.ndarray, y: np.ndarray, held: Sequence[bool]) -> float:
-    """``integral of sum_i y_i^2 dt`` over the run (e.g. an H2 cost with unit weights), each
-    signal by its own rule (``held[i]``: left rectangle, else trapezoidal).
-
-    Parameters
-    ----------
-    t : numpy.ndarray, shape (n,)
-        Sample times (s), increasing.
-    y : numpy.ndarray, shape (n,) or (n, k)
-        Signals, one column each.
-    held : sequence of bool
-        One per column of ``y``: whether that signal is held over each communication step.
-
-    Returns
-    -------
-    float
-        The integral, in the unit of ``y`` squared times s.
-    """
-    y = np.atleast_2d(y.T).T
-    return float(sum(_cumulative(t, y[:, i] ** 2, held[i])[-1] for i in range(y.shape[1])))
+def _signals(y: np.ndarray) -> np.ndarray:
+    """``y`` as rows x signals (a vector is one signal)."""
+    return np.atleast_2d(np.asarray(y, float).T).T
 
 
 def attitude_angle(s1: np.ndarray, s2: np.ndarray) -> np.ndarray:
@@ -213,7 +56,8 @@ def attitude_angle(s1: np.ndarray, s2: np.ndarray) -> np.ndarray:
 
 @dataclass(frozen=True)
 class MetricInput:
-    """What a metric reads of a recorded run, as the functions of :data:`EVALUATORS` take it.
+    """What a metric reads of a recorded run, or of a block of its rows, as a :class:`MetricStream`
+    takes it.
 
     Attributes
     ----------
@@ -256,68 +100,410 @@ class MetricInput:
 
 
 Evaluation = tuple[float, np.ndarray | None]
-"""What a metric function gives: the value, and its curve over time (``l2_ratio``) or None."""
+"""What a metric gives: the value, and its curve over time (``l2_ratio``) or None."""
+REL_TOL = 1e-9
+"""Relative tolerance of a level: ``|y| >= limit (1 - REL_TOL)`` counts as reaching it."""
 
 
-def _final(d: MetricInput) -> Evaluation:
+class MetricStream(Protocol):
+    """One metric evaluated on a run fed in blocks of consecutive rows, in order (the whole run is
+    one block): what it keeps between blocks does not grow with the run (an ``l2_ratio``'s
+    curve aside, when kept), and the value is the same, bit for bit, however the run is cut."""
+
+    def feed(self, d: MetricInput) -> None:
+        """Take the next block of rows."""
+
+    def result(self) -> Evaluation:
+        """The value (and curve) over every row fed."""
+
+
+class _Integral:
+    """The integral over time of each column, fed block by block: the left rectangle rule on the
+    columns ``held`` marks, the trapezoidal rule on the others. The steps' areas are added one
+    by one, in order, so the integral at each row does not depend on how the run is cut."""
+
+    def __init__(self) -> None:
+        self.total: np.ndarray | None = None
+        """The integral at the last row fed, per column."""
+        self._t = 0.0
+        self._v = np.zeros(0)
+
+    def feed(self, t: np.ndarray, v: np.ndarray, held: bool | np.ndarray) -> np.ndarray:
+        """The integral at each row of the block, shape ``v.shape`` (zero at the run's first row)."""
+        if self.total is None:
+            tt, vv, start = t, v, np.zeros(v.shape[1])
+        else:  # the step from the last row of the block before
+            tt, vv, start = np.concatenate([[self._t], t]), np.vstack([self._v, v]), self.total
+        dt = np.diff(tt)[:, None]
+        left = vv[:-1] * dt
+        inc = left if np.all(held) else np.where(held, left, 0.5 * (vv[:-1] + vv[1:]) * dt)
+        cum = np.cumsum(np.vstack([start[None, :], inc]), axis=0)
+        out = cum if self.total is None else cum[1:]
+        self.total, self._t, self._v = cum[-1], float(t[-1]), v[-1]
+        return out
+
+
+class _Final:
     """Largest absolute value at the last sample."""
-    return float(np.max(np.abs(d.y[-1]))), None
+
+    def __init__(self) -> None:
+        self.last = np.full(1, math.nan)
+
+    def feed(self, d: MetricInput) -> None:
+        self.last = d.y[-1]
+
+    def result(self) -> Evaluation:
+        return float(np.max(np.abs(self.last))), None
 
 
-def _peak(d: MetricInput) -> Evaluation:
-    return peak(d.y), None
+class _Peak:
+    """Largest absolute value over time and signals (NaN if any is)."""
+
+    def __init__(self) -> None:
+        self.value = -math.inf
+
+    def values(self, d: MetricInput) -> np.ndarray:
+        return d.y
+
+    def feed(self, d: MetricInput) -> None:
+        self.value = float(np.max([self.value, np.max(np.abs(self.values(d)))]))
+
+    def result(self) -> Evaluation:
+        return self.value, None
 
 
-def _rms(d: MetricInput) -> Evaluation:
-    return rms(d.t, d.y, held=d.held), None
-
-
-def _settling_time(d: MetricInput) -> Evaluation:
-    assert d.tolerance is not None  # validate(): settling_time needs a tolerance (_NEEDS)
-    return settling_time(d.t, d.y, float(d.tolerance)), None
-
-
-def _l2_ratio(d: MetricInput) -> Evaluation:
-    """The largest truncated L2 ratio over T (NaN if none is finite), and the ratio over T."""
-    assert d.disturbances is not None  # validate(): l2_ratio needs disturbances (_NEEDS)
-    curve = l2_ratio_curve(d.t, d.y, d.disturbances, w_held=d.disturbances_held)
-    return (float(np.nanmax(curve)) if np.any(np.isfinite(curve)) else math.nan), curve
-
-
-def _time_in_saturation(d: MetricInput) -> Evaluation:
-    assert d.limit is not None  # validate(): time_in_saturation needs a limit (_NEEDS)
-    return time_in_saturation(d.t, d.y, float(d.limit), held=d.held), None
-
-
-def _time_to_limit(d: MetricInput) -> Evaluation:
-    assert d.limit is not None  # validate(): time_to_limit needs a limit (_NEEDS)
-    return time_to_limit(d.t, d.y, float(d.limit)), None
-
-
-def _integral_square(d: MetricInput) -> Evaluation:
-    return integral_square(d.t, d.y, d.inputs), None
-
-
-def _max_difference(d: MetricInput) -> Evaluation:
+class _MaxDifference(_Peak):
     """The largest ``|signal - versus|`` (as many versus signals as signals: checked by wire())."""
-    assert d.versus is not None  # validate(): max_difference needs versus (_NEEDS)
-    return peak(d.y - d.versus), None
+
+    def values(self, d: MetricInput) -> np.ndarray:
+        assert d.versus is not None  # validate(): max_difference needs versus (_NEEDS)
+        return d.y - d.versus
 
 
-def _attitude_difference(d: MetricInput) -> Evaluation:
-    """The largest rotation angle between the MRP ``signals`` and the MRP ``versus`` (3 each: checked
-    by wire()), rad times the scale."""
-    assert d.versus is not None  # validate(): attitude_difference needs versus (_NEEDS)
-    if d.scale == 0:
-        return 0.0, None
-    return float(np.max(attitude_angle(d.y / d.scale, d.versus / d.scale))) * d.scale, None
+class _Rms:
+    """Largest per-signal RMS over the run (the mean over its span)."""
+
+    def __init__(self) -> None:
+        self.integral = _Integral()
+        self.span = (math.nan, math.nan)
+
+    def feed(self, d: MetricInput) -> None:
+        self.span = (float(d.t[0]) if self.integral.total is None else self.span[0], float(d.t[-1]))
+        self.integral.feed(d.t, d.y ** 2, d.held)
+
+    def result(self) -> Evaluation:
+        assert self.integral.total is not None  # a run has at least its start row
+        span = self.span[1] - self.span[0]
+        return float(max(math.sqrt(v / span) for v in self.integral.total)), None
+
+
+class _IntegralSquare:
+    """``integral of sum_i y_i^2 dt``, each signal by its own rule (an FMU input: left rectangle)."""
+
+    def __init__(self) -> None:
+        self.integral = _Integral()
+
+    def feed(self, d: MetricInput) -> None:
+        self.integral.feed(d.t, d.y ** 2, np.asarray(d.inputs, bool))
+
+    def result(self) -> Evaluation:
+        assert self.integral.total is not None  # a run has at least its start row
+        return float(sum(self.integral.total)), None
+
+
+class _SettlingTime:
+    """First time from which every ``|y_i| <= tolerance`` until the end; inf if outside at the end."""
+
+    def __init__(self) -> None:
+        self.settled: float | None = None
+        """The time of the row after the last one outside the band (the first row's time if none
+        is); None while the last row fed is outside."""
+        self.started = False
+
+    def feed(self, d: MetricInput) -> None:
+        assert d.tolerance is not None  # validate(): settling_time needs a tolerance (_NEEDS)
+        inside = np.all(np.abs(d.y) <= d.tolerance, axis=1)
+        outside = np.nonzero(~inside)[0]
+        if not self.started:
+            self.settled, self.started = float(d.t[0]), True
+        if outside.size:
+            last = int(outside[-1])
+            self.settled = float(d.t[last + 1]) if last + 1 < len(d.t) else None
+        elif self.settled is None:  # the block before ended outside
+            self.settled = float(d.t[0])
+
+    def result(self) -> Evaluation:
+        return (math.inf if self.settled is None else self.settled), None
+
+
+class _L2Ratio:
+    """The largest truncated L2 ratio ``||z||_{2,T} / ||w||_{2,T}`` over T (NaN if none is finite),
+    and with ``curve`` the ratio at every row (seed 000, eq. 45; NaN where ``||w||_{2,T} = 0``)."""
+
+    def __init__(self, curve: bool = True) -> None:
+        self.z, self.w = _Integral(), _Integral()
+        self.keep = curve
+        self.curve: list[np.ndarray] = []
+        self.best = -math.inf
+        self.finite = False
+
+    def feed(self, d: MetricInput) -> None:
+        assert d.disturbances is not None  # validate(): l2_ratio needs disturbances (_NEEDS)
+        nz = self.z.feed(d.t, np.sum(d.y ** 2, axis=1)[:, None], False)[:, 0]
+        nw = self.w.feed(d.t, np.sum(d.disturbances ** 2, axis=1)[:, None], d.disturbances_held)[:, 0]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            ratio_t = np.where(nw > 0, np.sqrt(nz) / np.sqrt(np.where(nw > 0, nw, 1.0)), np.nan)
+        self.finite |= bool(np.any(np.isfinite(ratio_t)))
+        if not np.all(np.isnan(ratio_t)):
+            self.best = max(self.best, float(np.nanmax(ratio_t)))
+        if self.keep:
+            self.curve.append(ratio_t)
+
+    def result(self) -> Evaluation:
+        return (self.best if self.finite else math.nan), (np.concatenate(self.curve) if self.keep else None)
+
+
+class _TimeInSaturation:
+    """Total time during which any ``|y_i|`` is at or beyond ``limit``: with held signals a step
+    counts whole when saturated at its start, else half for each saturated end."""
+
+    def __init__(self, rel_tol: float = REL_TOL) -> None:
+        self.rel_tol = rel_tol
+        self.total = 0.0
+        self._last: tuple[float, bool] | None = None
+
+    def feed(self, d: MetricInput) -> None:
+        assert d.limit is not None  # validate(): time_in_saturation needs a limit (_NEEDS)
+        sat = np.any(np.abs(d.y) >= d.limit * (1 - self.rel_tol), axis=1)
+        t = d.t
+        if self._last is not None:  # the step from the last row of the block before
+            t, sat = np.concatenate([[self._last[0]], t]), np.concatenate([[self._last[1]], sat])
+        dt = np.diff(t)
+        flags = sat[:-1] if d.held else 0.5 * (sat[:-1].astype(float) + sat[1:])
+        self.total = float(np.cumsum(np.concatenate([[self.total], flags * dt]))[-1])  # in order, as _Integral
+        self._last = (float(t[-1]), bool(sat[-1]))
+
+    def result(self) -> Evaluation:
+        return self.total, None
+
+
+class _TimeToLimit:
+    """The first sample time at which any ``|y_i|`` reaches ``limit``; inf if none does."""
+
+    def __init__(self, rel_tol: float = REL_TOL) -> None:
+        self.rel_tol = rel_tol
+        self.reached_at = math.inf
+
+    def feed(self, d: MetricInput) -> None:
+        assert d.limit is not None  # validate(): time_to_limit needs a limit (_NEEDS)
+        if self.reached_at == math.inf:
+            reached = np.any(np.abs(d.y) >= d.limit * (1 - self.rel_tol), axis=1)
+            if reached.any():
+                self.reached_at = float(d.t[np.argmax(reached)])
+
+    def result(self) -> Evaluation:
+        return self.reached_at, None
+
+
+class _AttitudeDifference:
+    """The largest rotation angle between the MRP ``signals`` and the MRP ``versus`` (3 each:
+    checked by wire()), rad times the scale."""
+
+    def __init__(self) -> None:
+        self.angle = -math.inf
+        self.scale = 1.0
+
+    def feed(self, d: MetricInput) -> None:
+        assert d.versus is not None  # validate(): attitude_difference needs versus (_NEEDS)
+        self.scale = d.scale
+        if d.scale != 0:
+            self.angle = float(np.max([self.angle, np.max(attitude_angle(d.y / d.scale, d.versus / d.scale))]))
+
+    def result(self) -> Evaluation:
+        return (0.0 if self.scale == 0 else self.angle * self.scale), None
+
+
+STREAMS: dict[str, Callable[[], MetricStream]] = {
+    "final": _Final, "peak": _Peak, "rms": _Rms, "settling_time": _SettlingTime, "l2_ratio": _L2Ratio,
+    "time_in_saturation": _TimeInSaturation, "time_to_limit": _TimeToLimit, "integral_square": _IntegralSquare,
+    "max_difference": _MaxDifference, "attitude_difference": _AttitudeDifference}
+"""Metric kind -> a new :class:`MetricStream` of it."""
+
+
+def metric_stream(kind: str, curve: bool = True) -> MetricStream:
+    """A new stream of the metric ``kind`` (one of :data:`STREAMS`).
+
+    Parameters
+    ----------
+    kind : str
+        The metric kind.
+    curve : bool, optional
+        Keep an ``l2_ratio``'s curve over time (8 bytes a row). Default True.
+    """
+    return _L2Ratio(curve) if kind == "l2_ratio" else STREAMS[kind]()
+
+
+def _whole(stream: MetricStream, d: MetricInput) -> Evaluation:
+    """``stream`` fed the whole run ``d`` as one block."""
+    stream.feed(d)
+    return stream.result()
+
+
+def _evaluate(make: Callable[[], MetricStream], d: MetricInput) -> Evaluation:
+    return _whole(make(), d)
 
 
 EVALUATORS: dict[str, Callable[[MetricInput], Evaluation]] = {
-    "final": _final, "peak": _peak, "rms": _rms, "settling_time": _settling_time, "l2_ratio": _l2_ratio,
-    "time_in_saturation": _time_in_saturation, "time_to_limit": _time_to_limit, "integral_square": _integral_square,
-    "max_difference": _max_difference, "attitude_difference": _attitude_difference}
-"""Metric kind -> the function that evaluates it on a :class:`MetricInput`: (value, curve or None)."""
+    kind: functools.partial(_evaluate, make) for kind, make in STREAMS.items()}
+"""Metric kind -> the function that evaluates it on a whole run (its stream fed one block)."""
+
+
+def l2_ratio_curve(t: np.ndarray, z: np.ndarray, w: np.ndarray, w_held: bool = True) -> np.ndarray:
+    """Truncated L2 ratio ||z||_{2,T} / ||w||_{2,T} for every recorded T (seed 000, eq. 45).
+
+    NaN where ||w||_{2,T} = 0.
+
+    Parameters
+    ----------
+    t : numpy.ndarray, shape (n,)
+        Sample times (s), increasing.
+    z : numpy.ndarray, shape (n,) or (n, k)
+        Performance output, one column per signal; its energy is integrated by the trapezoidal
+        rule.
+    w : numpy.ndarray, shape (n,) or (n, m)
+        Disturbance input, one column per signal.
+    w_held : bool, optional
+        Whether ``w`` is held over each communication step (an FMU input fed by the master:
+        left rectangle rule); else the trapezoidal rule. Default True.
+
+    Returns
+    -------
+    numpy.ndarray, shape (n,)
+        The ratio at every sample time (dimensionless when ``z`` and ``w`` share a unit).
+    """
+    curve = _whole(_L2Ratio(), MetricInput(t, _signals(z), disturbances=_signals(w), disturbances_held=w_held))[1]
+    assert curve is not None  # kept
+    return curve
+
+
+def settling_time(t: np.ndarray, y: np.ndarray, tolerance: float) -> float:
+    """First time from which every ``|y_i| <= tolerance`` until the end; inf if never.
+
+    Parameters
+    ----------
+    t : numpy.ndarray, shape (n,)
+        Sample times (s), increasing.
+    y : numpy.ndarray, shape (n,) or (n, k)
+        Signals, one column each.
+    tolerance : float
+        Half-width of the band around zero, in the unit of ``y``.
+
+    Returns
+    -------
+    float
+        The settling time (s): ``t[0]`` if ``y`` is inside the band throughout, ``inf`` if it is
+        outside at the last sample.
+    """
+    return _whole(_SettlingTime(), MetricInput(t, _signals(y), tolerance=tolerance))[0]
+
+
+def peak(y: np.ndarray) -> float:
+    """Largest absolute value over time and signals.
+
+    Parameters
+    ----------
+    y : numpy.ndarray, shape (n,) or (n, k)
+        Signals, one column each.
+    """
+    return float(np.max(np.abs(y)))
+
+
+def rms(t: np.ndarray, y: np.ndarray, held: bool = True) -> float:
+    """Largest per-signal RMS over the run.
+
+    Parameters
+    ----------
+    t : numpy.ndarray, shape (n,)
+        Sample times (s), increasing; the mean is taken over ``t[-1] - t[0]``.
+    y : numpy.ndarray, shape (n,) or (n, k)
+        Signals, one column each.
+    held : bool, optional
+        Whether the signals are held over each communication step (left rectangle rule); else
+        the trapezoidal rule. Default True.
+
+    Returns
+    -------
+    float
+        The RMS, in the unit of ``y``.
+    """
+    return _whole(_Rms(), MetricInput(t, _signals(y), held=held))[0]
+
+
+def time_in_saturation(t: np.ndarray, y: np.ndarray, limit: float, held: bool = True,
+                       rel_tol: float = REL_TOL) -> float:
+    """Total time (s) during which any ``|y_i|`` is at or beyond ``limit`` (within ``rel_tol``).
+
+    Parameters
+    ----------
+    t : numpy.ndarray, shape (n,)
+        Sample times (s), increasing.
+    y : numpy.ndarray, shape (n,) or (n, k)
+        Signals, one column each (e.g. actuator commands).
+    limit : float
+        Saturation level, in the unit of ``y``.
+    held : bool, optional
+        Whether the signals are held over each communication step: a step counts whole when
+        saturated at its start; else a step counts half for each saturated end. Default True.
+    rel_tol : float, optional
+        Relative tolerance: ``|y_i| >= limit * (1 - rel_tol)`` counts as saturated.
+    """
+    return _whole(_TimeInSaturation(rel_tol), MetricInput(t, _signals(y), held=held, limit=limit))[0]
+
+
+def time_to_limit(t: np.ndarray, y: np.ndarray, limit: float, rel_tol: float = REL_TOL) -> float:
+    """The first sample time (s) at which any ``|y_i|`` reaches ``limit`` (within ``rel_tol``), ``inf``
+    when none does: when a wheel saturates under a momentum buildup, say.
+
+    Parameters
+    ----------
+    t : numpy.ndarray, shape (n,)
+        Sample times (s), increasing.
+    y : numpy.ndarray, shape (n,) or (n, k)
+        Signals, one column each.
+    limit : float
+        The level, in the unit of ``y``.
+    rel_tol : float, optional
+        Relative tolerance: ``|y_i| >= limit * (1 - rel_tol)`` counts as reached.
+
+    Returns
+    -------
+    float
+        The time, s, or ``inf``.
+    """
+    return _whole(_TimeToLimit(rel_tol), MetricInput(t, _signals(y), limit=limit))[0]
+
+
+def integral_square(t: np.ndarray, y: np.ndarray, held: Sequence[bool]) -> float:
+    """``integral of sum_i y_i^2 dt`` over the run (e.g. an H2 cost with unit weights), each
+    signal by its own rule (``held[i]``: left rectangle, else trapezoidal).
+
+    Parameters
+    ----------
+    t : numpy.ndarray, shape (n,)
+        Sample times (s), increasing.
+    y : numpy.ndarray, shape (n,) or (n, k)
+        Signals, one column each.
+    held : sequence of bool
+        One per column of ``y``: whether that signal is held over each communication step.
+
+    Returns
+    -------
+    float
+        The integral, in the unit of ``y`` squared times s.
+    """
+    return _whole(_IntegralSquare(), MetricInput(t, _signals(y), inputs=list(held)))[0]
+
+
 MARGIN_KINDS: dict[str, str] = {"gain_margin": "dB", "phase_margin": "deg", "delay_margin": "s",
                                 "disk_gain_margin": "dB", "disk_phase_margin": "deg", "sensitivity_peak": "1",
                                 "complementary_peak": "1"}

@@ -2,7 +2,7 @@
 
 :func:`run` checks the FMUs (:mod:`satfmu.sims.scenario.provisioning`), runs the master
 :mod:`satfmu.sims.scenario.wiring` wires (:func:`simulate`), evaluates the metrics
-(:func:`evaluate`, by :data:`satfmu.sims.scenario.metrics.EVALUATORS`) and returns a
+(:func:`evaluate`, a :class:`MetricFeed` of :data:`satfmu.sims.scenario.metrics.STREAMS`) and returns a
 :class:`~satfmu.sims.scenario.result.Result`.
 """
 from __future__ import annotations
@@ -17,7 +17,7 @@ from satfmu.fmus.atomic import write_atomically
 from satfmu.fmus.errors import ScenarioError
 from satfmu.sims.cosim.master import CoSimulation
 from satfmu.sims.scenario.conversions import MetricConversion, converted, metric_conversion, record_conversions
-from satfmu.sims.scenario.metrics import EVALUATORS, MARGIN_KINDS, MetricInput, MetricResult
+from satfmu.sims.scenario.metrics import MARGIN_KINDS, MetricInput, MetricResult, metric_stream
 from satfmu.sims.scenario.provisioning import ensure_fmus
 from satfmu.sims.scenario.result import CsvWriter, Result, clear_outputs
 from satfmu.sims.scenario.spec import Metric, Scenario, load
@@ -67,11 +67,13 @@ def _execute(scenario: Scenario, sim: CoSimulation, sink: Callable[[np.ndarray],
 
 
 class _Recorder:
-    """The sink of a streamed run: each block of rows converted and written to the CSV, and the
-    ``kept`` columns copied into one array of ``n_rows`` rows, filled block by block."""
+    """The sink of a streamed run: each block of rows handed to ``consume`` (the metrics), converted
+    and written to the CSV, and its ``kept`` columns copied into one array of ``n_rows`` rows."""
 
-    def __init__(self, scenario: Scenario, sim: CoSimulation, write: CsvWriter, kept: set[str], n_rows: int) -> None:
+    def __init__(self, scenario: Scenario, sim: CoSimulation, write: CsvWriter, kept: set[str], n_rows: int,
+                 consume: Callable[[np.ndarray], None]) -> None:
         self.scenario, self.sim, self.write, self.kept, self.n_rows = scenario, sim, write, kept, n_rows
+        self.consume = consume
         self.out: np.ndarray | None = None
         self.done = 0
         self.shown: dict[str, tuple[float, str]] = {}
@@ -82,6 +84,7 @@ class _Recorder:
         if self.out is None:
             self.shown.update(record_conversions(self.scenario, self.sim, [c for c in names if c != "time"]))
             self.out = np.zeros(self.n_rows, dtype=[(c, "f8") for c in names if c in self.kept])
+        self.consume(rows)
         self.write(converted(rows, self.shown))
         for c in self.out.dtype.names or ():
             self.out[c][self.done:self.done + len(rows)] = rows[c]
@@ -89,20 +92,22 @@ class _Recorder:
 
 
 def _streamed(scenario: Scenario, fmu_dir: Path, backend: str, strict: bool, design_rtol: float | None,
-              path: Path, keep: Callable[[CoSimulation], set[str]]
+              path: Path, prepare: Callable[[CoSimulation], tuple[set[str], Callable[[np.ndarray], None]]]
               ) -> tuple[np.ndarray, CoSimulation, dict[str, tuple[float, str]]]:
     """:func:`simulate` with the recording streamed: every recorded column, converted to the unit
     the scenario's ``record`` asks for, written to the CSV ``path`` block by block (whole or not
-    at all: :func:`satfmu.fmus.atomic.write_atomically`); returned, the columns ``keep(sim)``
-    names (and ``time``), in their declared units, and every column's conversion."""
+    at all: :func:`satfmu.fmus.atomic.write_atomically`), each block handed (in declared units)
+    to the consumer ``prepare(sim)`` gives with the columns to keep; returned, those columns (and
+    ``time``), in their declared units, and every column's conversion."""
     sim = wire(scenario, fmu_dir, backend, strict, design_rtol)
     recorders: list[_Recorder] = []
     try:
-        kept = {"time"} | keep(sim)
+        kept, consume = prepare(sim)
 
         def run_into(tmp: Path) -> None:
             with CsvWriter(tmp) as write:
-                recorders.append(_Recorder(scenario, sim, write, kept, len(recorded_times(scenario))))
+                recorders.append(_Recorder(scenario, sim, write, {"time"} | kept, len(recorded_times(scenario)),
+                                           consume))
                 _execute(scenario, sim, recorders[-1])
         path.parent.mkdir(parents=True, exist_ok=True)
         write_atomically(path, run_into)
@@ -253,9 +258,65 @@ def plan_metrics(scenario: Scenario, sim: CoSimulation) -> list[MetricPlan]:
     return plans
 
 
+class MetricFeed:
+    """The scenario's metrics evaluated on a run fed in blocks of recorded rows, in order
+    (:class:`satfmu.sims.scenario.metrics.MetricStream`: what each keeps does not grow with the
+    run, and the values are those of the whole run however it is cut; :func:`evaluate` feeds
+    one block).
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario.
+    plans : list of MetricPlan
+        :func:`plan_metrics` of the scenario on the master that runs it.
+    curves : bool, optional
+        Keep each ``l2_ratio``'s curve over time (8 bytes a row). Default True.
+    """
+
+    def __init__(self, scenario: Scenario, plans: list[MetricPlan], curves: bool = True) -> None:
+        self.scenario, self.plans = scenario, plans
+        self.streams = [None if p.metric.kind in MARGIN_KINDS else metric_stream(p.metric.kind, curves) for p in plans]
+
+    def feed(self, rows: np.ndarray) -> None:
+        """Take the next block of recorded rows (``time`` and the recorded columns, declared units).
+
+        Parameters
+        ----------
+        rows : numpy.ndarray
+            Structured array, as the master records it.
+        """
+        t = rows["time"]
+        for plan, stream in zip(self.plans, self.streams):
+            if stream is not None:
+                conv = plan.conversion
+                stream.feed(MetricInput(
+                    t, _stacked(rows, plan.columns) * conv.signals, held=plan.held, inputs=plan.inputs,
+                    tolerance=plan.metric.tolerance, limit=plan.metric.limit,
+                    versus=_stacked(rows, plan.versus) * conv.versus if plan.versus else None,
+                    disturbances=_stacked(rows, plan.disturbances) if plan.disturbances else None,
+                    disturbances_held=plan.disturbances_held, scale=conv.scale))
+
+    def results(self) -> tuple[list[MetricResult], dict[str, np.ndarray]]:
+        """The metrics over every row fed, and the ``l2_ratio`` curves kept (as :func:`evaluate`)."""
+        out, curves = [], {}
+        for plan, stream in zip(self.plans, self.streams):
+            m, conv = plan.metric, plan.conversion
+            if stream is None:  # a margin: of the loop linearized from the models, not of the run
+                from satfmu.sims.scenario.loops import margin_metric  # sympy: only for a margin metric
+
+                value = margin_metric(m.kind, self.scenario, plan.columns) * conv.scale
+            else:
+                value, curve = stream.result()
+                if curve is not None:
+                    curves[m.name] = curve
+            out.append(MetricResult(m.name, m.kind, value, m.min, m.max, conv.unit))
+        return out, curves
+
+
 def evaluate(scenario: Scenario, res: np.ndarray, sim: CoSimulation, plans: list[MetricPlan] | None = None
              ) -> tuple[list[MetricResult], dict[str, np.ndarray]]:
-    """Evaluate the scenario's metrics on a recorded run.
+    """Evaluate the scenario's metrics on a recorded run (a :class:`MetricFeed` fed it whole).
 
     Parameters
     ----------
@@ -276,26 +337,9 @@ def evaluate(scenario: Scenario, res: np.ndarray, sim: CoSimulation, plans: list
     curves : dict of str to numpy.ndarray
         The truncated L2 ratio over T of each ``l2_ratio`` metric, by name.
     """
-    t = res["time"]
-    out, curves = [], {}
-    for plan in plan_metrics(scenario, sim) if plans is None else plans:
-        m, conv = plan.metric, plan.conversion
-        if m.kind in MARGIN_KINDS:
-            from satfmu.sims.scenario.loops import margin_metric  # sympy: only for a margin metric
-
-            value = margin_metric(m.kind, scenario, plan.columns) * conv.scale
-            out.append(MetricResult(m.name, m.kind, value, m.min, m.max, conv.unit))
-            continue
-        data = MetricInput(t, _stacked(res, plan.columns) * conv.signals, held=plan.held, inputs=plan.inputs,
-                           tolerance=m.tolerance, limit=m.limit,
-                           versus=_stacked(res, plan.versus) * conv.versus if plan.versus else None,
-                           disturbances=_stacked(res, plan.disturbances) if plan.disturbances else None,
-                           disturbances_held=plan.disturbances_held, scale=conv.scale)
-        value, curve = EVALUATORS[m.kind](data)  # validate(): a kind of the table, with the fields it needs
-        if curve is not None:
-            curves[m.name] = curve
-        out.append(MetricResult(m.name, m.kind, value, m.min, m.max, conv.unit))
-    return out, curves
+    feed = MetricFeed(scenario, plan_metrics(scenario, sim) if plans is None else plans)
+    feed.feed(res)
+    return feed.results()
 
 
 def _stacked(res: np.ndarray, columns: list[str]) -> np.ndarray:
@@ -334,9 +378,11 @@ def run(scenario: "str | Path | Mapping[str, Any] | Scenario", fmu_dir: str | Pa
         :meth:`Result.plot` draws them later from the returned result.
     stream : bool
         With ``out_dir``, write the CSV as the run goes, a block of rows at a time (the same
-        text), and keep in memory only the columns the metrics read (and, with ``plots``, those
-        the plot shows): a long run's memory does not grow with what it records. The result's
-        ``results`` then holds those columns; ``Result.csv`` is the CSV with all of them.
+        text), evaluate the metrics on each block as it comes (:class:`MetricFeed`: the same
+        values), and keep in memory only ``time`` (and, with ``plots``, the columns the plot
+        shows and the ``l2_ratio`` curves): a long run's memory does not grow with what it
+        records. The result's ``results`` then holds those columns; ``Result.csv`` is the CSV
+        with all of them.
 
     Returns
     -------
@@ -356,20 +402,20 @@ def run(scenario: "str | Path | Mapping[str, Any] | Scenario", fmu_dir: str | Pa
     folder = ensure_fmus(sc, fmu_dir, backend, allow_stale)
     panels = sc.plot.get("panels") or [[r] for r in sc.record] or [m.signals for m in sc.metrics]
     csv_path = None
-    plans: list[MetricPlan] = []  # planned once the master is wired (a streamed run keeps what they read)
     if stream and out_dir is not None:
-        def keep(sim: CoSimulation) -> set[str]:
-            plans.extend(plan_metrics(sc, sim))
-            read = {c for p in plans for c in p.columns + p.versus + p.disturbances}
-            return read | ({c for p in panels for c in _columns(sim, p)} if plots else set())
+        feeds: list[MetricFeed] = []  # the metrics, fed as the run records (planned once the master is wired)
+
+        def prepare(sim: CoSimulation) -> tuple[set[str], Callable[[np.ndarray], None]]:
+            feeds.append(MetricFeed(sc, plan_metrics(sc, sim), curves=plots))
+            return ({c for p in panels for c in _columns(sim, p)} if plots else set()), feeds[-1].feed
         csv_path = Path(out_dir) / sc.name / f"{sc.name}_{backend}.csv"
-        res, sim, shown = _streamed(sc, folder, backend, strict, design_rtol, csv_path, keep)
+        res, sim, shown = _streamed(sc, folder, backend, strict, design_rtol, csv_path, prepare)
+        mres, curves = feeds[0].results()
     else:
         res, sim = simulate(sc, folder, backend, strict, design_rtol)
         shown = record_conversions(sc, sim, [c for c in res.dtype.names or () if c != "time"])
-        plans = plan_metrics(sc, sim)
+        mres, curves = evaluate(sc, res, sim)
     assert res.dtype.names is not None  # the master records a structured array (time, then the signals)
-    mres, curves = evaluate(sc, res, sim, plans)
     cols = [c for c in (_columns(sim, p) for p in panels) if all(n in res.dtype.names for n in c)]
     result = Result(sc.name, backend, converted(res, {c: shown[c] for c in res.dtype.names if c != "time"}), mres,
                     l2_curves=curves, units={c: unit for c, (_, unit) in shown.items()}, panels=cols,
