@@ -79,8 +79,8 @@ class _Plan(ctypes.Structure):
                 ("n_records", ctypes.c_int), ("records", ctypes.POINTER(_RecordSet)),
                 ("times", _double_p), ("step_size", ctypes.c_double), ("n_steps", ctypes.c_long),
                 ("jacobi", ctypes.c_int), ("record_every", ctypes.c_long), ("data", _double_p),
-                ("n_cols", ctypes.c_long), ("row0", ctypes.c_long), ("failed_step", ctypes.c_long),
-                ("failed_fmu", ctypes.c_int),
+                ("n_cols", ctypes.c_long), ("row0", ctypes.c_long), ("k0", ctypes.c_long),
+                ("failed_step", ctypes.c_long), ("failed_fmu", ctypes.c_int),
                 ("failed_call", ctypes.c_int), ("status", ctypes.c_int)]
 
 
@@ -214,12 +214,12 @@ class StepPlan:
     transfers : list of (int, int, ctypes uint array, ctypes uint array, ctypes double array)
         (source FMU, target FMU, source value references, target value references, buffer),
         in propagation order.
-    profiles : list of (int, ctypes uint array, ctypes double array, ndarray)
-        (FMU, value references, buffer, values: (n_steps + 1) x n).
+    profiles : list of (int, ctypes uint array, ctypes double array)
+        (FMU, value references, buffer); their values come with each block (:meth:`run`).
     records : list of (int, ctypes uint array, ctypes double array, ndarray)
         (FMU, value references, buffer, columns).
-    times : ndarray
-        Communication times t_0 .. t_n, s.
+    n_steps : int
+        Number of communication steps of the run.
     step_size : float
         s.
     jacobi : bool
@@ -237,9 +237,9 @@ class StepPlan:
 
     slaves: list[Any]
     transfers: list[tuple[int, int, Any, Any, Any]]
-    profiles: list[tuple[int, Any, Any, np.ndarray]]
+    profiles: list[tuple[int, Any, Any]]
     records: list[tuple[int, Any, Any, np.ndarray]]
-    times: np.ndarray
+    n_steps: int
     step_size: float
     jacobi: bool
     record_every: int
@@ -254,39 +254,54 @@ class StepPlan:
         transfers = (_Transfer * len(self.transfers))(*[
             _Transfer(src, dst, len(buf), ctypes.cast(svr, _uint_p), ctypes.cast(dvr, _uint_p),
                       ctypes.cast(buf, _double_p)) for src, dst, svr, dvr, buf in self.transfers])
-        values = [np.ascontiguousarray(v, dtype=np.float64) for *_, v in self.profiles]
         profiles = (_ProfileSet * len(self.profiles))(*[
-            _ProfileSet(fmu, len(buf), ctypes.cast(vr, _uint_p), _pointer(val, ctypes.c_double),
-                        ctypes.cast(buf, _double_p)) for (fmu, vr, buf, _), val in zip(self.profiles, values)])
+            _ProfileSet(fmu, len(buf), ctypes.cast(vr, _uint_p), None, ctypes.cast(buf, _double_p))
+            for fmu, vr, buf in self.profiles])
         cols = [np.ascontiguousarray(c, dtype=np.int64 if ctypes.sizeof(ctypes.c_long) == 8 else np.int32)
                 for *_, c in self.records]
         records = (_RecordSet * len(self.records))(*[
             _RecordSet(fmu, len(buf), ctypes.cast(vr, _uint_p), _pointer(c, ctypes.c_long),
                        ctypes.cast(buf, _double_p)) for (fmu, vr, buf, _), c in zip(self.records, cols)])
-        times = np.ascontiguousarray(self.times, dtype=np.float64)
         if not (self.data.flags.c_contiguous and self.data.dtype == np.float64):
             raise ValueError("the recording array must be C-contiguous float64")
-        self._keep = [fmus, transfers, values, profiles, cols, records, times]
+        self._keep = [fmus, transfers, profiles, cols, records]
         return _Plan(len(self.slaves), fmus, len(self.transfers), transfers, len(self.profiles), profiles,
-                     len(self.records), records, _pointer(times, ctypes.c_double), float(self.step_size),
-                     len(times) - 1, int(self.jacobi), int(self.record_every), _pointer(self.data, ctypes.c_double),
-                     self.data.shape[1] if self.data.ndim == 2 else 0, 0, -1, -1, 0, 0)
+                     len(self.records), records, None, float(self.step_size),
+                     int(self.n_steps), int(self.jacobi), int(self.record_every), _pointer(self.data, ctypes.c_double),
+                     self.data.shape[1] if self.data.ndim == 2 else 0, 0, 0, -1, -1, 0, 0)
 
-    def run(self, lib: ctypes.CDLL, on_block: Callable[[int, int], None] | None = None,
-            row_steps: np.ndarray | None = None) -> Failure | None:
+    def _hold(self, plan: _Plan, first: int, times: np.ndarray, values: list[np.ndarray]) -> list[np.ndarray]:
+        """Point the plan at the times and profile values of the points ``first ..``; returns the
+        arrays, to be kept alive while the plan points to them."""
+        times = np.ascontiguousarray(times, dtype=np.float64)
+        values = [np.ascontiguousarray(v, dtype=np.float64) for v in values]
+        for i, (v, (_, _, buf)) in enumerate(zip(values, self.profiles)):
+            if v.shape != (len(times), len(buf)):
+                raise ValueError(f"profile set {i}: values of shape {v.shape}, not {(len(times), len(buf))}")
+            plan.profiles[i].values = _pointer(v, ctypes.c_double)
+        plan.times, plan.k0 = _pointer(times, ctypes.c_double), int(first)
+        return [times, *values]
+
+    def run(self, lib: ctypes.CDLL, points: Callable[[int, int], tuple[int, np.ndarray, list[np.ndarray]]],
+            on_block: Callable[[int, int], None] | None = None,
+            rows_through: Callable[[int], int] | None = None) -> Failure | None:
         """Steps 0 .. n_steps - 1 in blocks of :data:`BLOCK`; the failure that stopped them, if any.
 
         Parameters
         ----------
         lib : ctypes.CDLL
             The compiled loop (:func:`library`).
+        points : callable
+            ``points(first, last)``: ``(k0, times, values)``, the communication times of the points
+            ``k0 .. `` (covering ``first .. last``) and each profile set's values there, one row a
+            point. Called once for every block with ``on_block``; else once, for every point.
         on_block : callable, optional
             Streamed recording: ``on_block(r0, r1)`` after each block, whose recorded rows
             ``r0 .. r1 - 1`` are then ``data[:r1 - r0]`` (``data`` holds a block's rows, each block
             writes over the last). Default: ``data`` holds every row.
-        row_steps : numpy.ndarray, optional
-            With ``on_block``: the communication point of each recorded row
-            (:func:`satfmu.sims.cosim.master.recorded_steps`).
+        rows_through : callable, optional
+            With ``on_block``: ``rows_through(point)``, how many recorded rows are at points up to
+            ``point`` (the rule of :func:`satfmu.sims.cosim.master.recorded_steps`).
 
         Returns
         -------
@@ -294,14 +309,17 @@ class StepPlan:
             The call that stopped the run, None if every step ran.
         """
         plan = self.plan()
-        n_steps = len(self.times) - 1
-        steps = np.zeros(0) if row_steps is None else row_steps
-        for begin in range(0, n_steps, BLOCK):
-            end = min(begin + BLOCK, n_steps)
+        held: list[np.ndarray] = []
+        for begin in range(0, self.n_steps, BLOCK):
+            end = min(begin + BLOCK, self.n_steps)
+            if on_block is not None or not held:
+                held = self._hold(plan, *points(begin, end))
             if on_block is not None:
-                plan.row0 = r0 = int(np.searchsorted(steps, begin, side="right"))
+                assert rows_through is not None  # given with on_block
+                plan.row0 = r0 = rows_through(begin)
             if lib.satfmu_cosim_steps(ctypes.byref(plan), begin, end) != 0:
                 return Failure(plan.failed_step, plan.failed_fmu, CALLS[plan.failed_call], plan.status)
             if on_block is not None:
-                on_block(r0, int(np.searchsorted(steps, end, side="right")))
+                assert rows_through is not None
+                on_block(r0, rows_through(end))
         return None

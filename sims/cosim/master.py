@@ -128,6 +128,45 @@ def recorded_steps(n_steps: int, record_every: int) -> np.ndarray:
     return steps if steps[-1] == n_steps else np.append(steps, n_steps)
 
 
+def _rows_through(point: int, n_steps: int, record_every: int) -> int:
+    """How many of the recorded points (:func:`recorded_steps`) are at or before ``point``."""
+    return point // record_every + 1 + int(point == n_steps and n_steps % record_every != 0)
+
+
+class _Points:
+    """Times and profile values at the communication points ``first .. last`` of a run: all of
+    them, or (streamed) those of one block of steps at a time, so that a run holds no array as
+    long as itself.
+
+    Parameters
+    ----------
+    start_time, step_size : float
+        s.
+    profiles : dict of str to list of Profile
+        Per FMU instance, the profiles driving its inputs (in the order of its value references).
+    """
+
+    def __init__(self, start_time: float, step_size: float, profiles: dict[str, list[Any]]) -> None:
+        self.start_time, self.step_size, self.profiles = start_time, step_size, profiles
+        self.first = -1
+        self.times = np.zeros(0)
+        self.values: dict[str, np.ndarray] = {}
+        """Per instance, (points, its profiles), C-contiguous."""
+
+    def hold(self, first: int, last: int) -> "_Points":
+        """Compute the points ``first .. last`` (each profile sampled elementwise in time: the same
+        values whatever the block)."""
+        self.first = first
+        self.times = communication_times(self.start_time, self.step_size, last, first)
+        self.values = {c: np.ascontiguousarray(np.stack([p.sample(self.times) for p in profs], axis=1))
+                       for c, profs in self.profiles.items()}
+        return self
+
+    def time(self, k: int) -> float:
+        """``t_k``, s (``k`` among the points held)."""
+        return float(self.times[k - self.first])
+
+
 def _structured(dtype: list[tuple[str, str]], times: np.ndarray, data: np.ndarray) -> np.ndarray:
     """Recorded rows as the master returns them: ``time`` then one field per column of ``data``."""
     out = np.zeros(len(times), dtype=dtype)
@@ -137,7 +176,7 @@ def _structured(dtype: list[tuple[str, str]], times: np.ndarray, data: np.ndarra
     return out
 
 
-def communication_times(start_time: float, step_size: float, n_steps: int) -> np.ndarray:
+def communication_times(start_time: float, step_size: float, n_steps: int, first: int = 0) -> np.ndarray:
     """``t_k = t0 + k h``, k = 0..n_steps, s: when t0 and h are whole nanoseconds, the correctly
     rounded ``(t0_ns + k h_ns) / 1e9``, the times libcosim passes to the FMUs (it counts integer
     nanoseconds), so a time-dependent FMU sees the same times in both engines; otherwise
@@ -151,16 +190,38 @@ def communication_times(start_time: float, step_size: float, n_steps: int) -> np
         Communication step ``h``, s.
     n_steps : int
         Number of steps.
+    first : int, optional
+        The first point returned (default 0: every point).
 
     Returns
     -------
     numpy.ndarray
-        The times, s, shape (n_steps + 1,).
+        The times ``t_first .. t_n_steps``, s, shape (n_steps + 1 - first,).
+    """
+    return times_at(start_time, step_size, np.arange(first, n_steps + 1, dtype=np.int64))
+
+
+def times_at(start_time: float, step_size: float, k: np.ndarray) -> np.ndarray:
+    """``t_k`` at the points ``k`` as :func:`communication_times` gives them (the same numbers).
+
+    Parameters
+    ----------
+    start_time : float
+        ``t0``, s.
+    step_size : float
+        Communication step ``h``, s.
+    k : numpy.ndarray of int
+        The points.
+
+    Returns
+    -------
+    numpy.ndarray
+        The times, s, shape of ``k``.
     """
     ns = [start_time * 1e9, step_size * 1e9]
     if all(abs(v - round(v)) <= 1e-6 * max(1.0, abs(v)) for v in ns):
-        return (round(ns[0]) + round(ns[1]) * np.arange(n_steps + 1, dtype=np.int64)) / 1e9
-    return start_time + step_size * np.arange(n_steps + 1)
+        return (round(ns[0]) + round(ns[1]) * k) / 1e9
+    return start_time + step_size * k
 
 
 @dataclass
@@ -567,9 +628,9 @@ class CoSimulation:
             Stream the recording: ``sink(rows)`` receives the recorded rows in order, a block at
             a time (a structured array like the one returned, at most
             ``compiled_loop.BLOCK // record_every + 1`` rows; the first holds the initial point
-            alone), as the run goes; it may keep them. The run then holds one block of rows
-            (the communication times and the profiles' values stay whole: 8 bytes per point
-            each). Default: every row kept and returned.
+            alone), as the run goes; it may keep them. The run then holds one block of rows,
+            and the communication times and the profiles' values of one block of steps: its
+            memory does not grow with its length. Default: every row kept and returned.
 
         Returns
         -------
@@ -635,26 +696,28 @@ class CoSimulation:
         rec_bufs = {c: ((ctypes.c_uint * len(g))(*[p[0] for p in g]), (ctypes.c_double * len(g))(),
                         np.array([p[1] for p in g])) for c, g in rec_groups.items()}
 
-        times = communication_times(start_time, step_size, n_steps)
-        prof_groups: dict[str, list[tuple[int, np.ndarray]]] = defaultdict(list)
+        prof_groups: dict[str, list[tuple[int, Any]]] = defaultdict(list)
         for target, prof in self.profiles:
             c, v = target.split(".", 1)
-            prof_groups[c].append((self.components[c].variable(v).valueReference, prof.sample(times)))
-        prof_bufs = {c: ((ctypes.c_uint * len(g))(*[p[0] for p in g]), (ctypes.c_double * len(g))(),
-                         np.stack([p[1] for p in g], axis=1)) for c, g in prof_groups.items()}
-
-        rows = recorded_steps(n_steps, int(record_every))
+            prof_groups[c].append((self.components[c].variable(v).valueReference, prof))
+        prof_bufs = {c: ((ctypes.c_uint * len(g))(*[p[0] for p in g]), (ctypes.c_double * len(g))())
+                     for c, g in prof_groups.items()}
+        m = int(record_every)
+        n_rows = _rows_through(n_steps, n_steps, m)
         from satfmu.sims.cosim.compiled_loop import BLOCK
 
+        # kept: every point held at once; streamed: those of one block of steps at a time
+        points = _Points(start_time, step_size, {c: [p for _, p in g] for c, g in prof_groups.items()})
+        points.hold(0, n_steps if sink is None else min(BLOCK, n_steps))
         dtype = [("time", "f8")] + [(n, "f8") for n in rec_names]
         # streamed: the rows of one block of steps (row0: the first of them), handed to the sink
-        data = np.zeros((len(rows) if sink is None else min(len(rows), BLOCK // int(record_every) + 2),
-                         len(rec_names)))
+        data = np.zeros((n_rows if sink is None else min(n_rows, BLOCK // m + 2), len(rec_names)))
         row0 = 0
 
         def flush(r0: int, r1: int) -> None:
             assert sink is not None
-            sink(_structured(dtype, times[rows[r0:r1]], data[:r1 - r0]))
+            steps = np.minimum(np.arange(r0, r1, dtype=np.int64) * m, n_steps)
+            sink(_structured(dtype, times_at(start_time, step_size, steps), data[:r1 - r0]))
         comps = list(self.components.values())
         limits = None
         clocked = [(c, c.instance) for c in comps if isinstance(c.instance, Fmi3Instance) and c.instance.clocked]
@@ -672,15 +735,15 @@ class CoSimulation:
             limits = self._thread_pools().limit(limits=ONE_THREAD)
 
             def set_profiles(k: int) -> None:
-                for c, (vr, buf, values) in prof_bufs.items():
-                    buf[:] = values[k]
+                for c, (vr, buf) in prof_bufs.items():
+                    buf[:] = points.values[c][k - points.first]
                     self._call(self.components[c], "set_reals", vr, buf)
 
             def exchange(k: int, jacobi: bool) -> None:
                 """Profiles and connections at t_k; in Jacobi order a profile counts as an output
                 (a signal generator's), so it is set with the inputs, after every read. The clocks
                 of FMI 3.0 FMUs that tick at t_k are driven around it (the module docstring)."""
-                due = [c for c, inst in clocked if inst.instant_at(float(times[k]))] if k > 0 else []
+                due = [c for c, inst in clocked if inst.instant_at(points.time(k))] if k > 0 else []
                 waiting = {c.name for c in due}
                 for comp in due if not jacobi else ():
                     self._call(comp, "enter_event")
@@ -718,18 +781,20 @@ class CoSimulation:
             jacobi = exchange_order == "jacobi"
             self._ran = "compiled" if lib is not None else "python"
             if lib is not None:
-                self._compiled_steps(lib, comps, transfers, prof_bufs, rec_bufs, times, step_size, jacobi,
-                                     int(record_every), data, None if sink is None else (flush, rows))
+                self._compiled_steps(lib, comps, transfers, prof_bufs, rec_bufs, points, n_steps, step_size, jacobi,
+                                     m, data, None if sink is None else flush)
             else:
                 row = 1
                 for begin in range(0, n_steps, BLOCK):  # the compiled loop's blocks
+                    end = min(begin + BLOCK, n_steps)
                     if sink is not None:
                         row0 = row
-                    for k in range(begin, min(begin + BLOCK, n_steps)):
+                        points.hold(begin, end)
+                    for k in range(begin, end):
                         for comp in comps:
-                            self._call(comp, "step", float(times[k]), step_size)
+                            self._call(comp, "step", points.time(k), step_size)
                         exchange(k + 1, jacobi)
-                        if row < len(rows) and rows[row] == k + 1:
+                        if (k + 1) % m == 0 or k + 1 == n_steps:  # the recorded points (recorded_steps)
                             sample(row)
                             row += 1
                     if sink is not None:
@@ -741,7 +806,9 @@ class CoSimulation:
                 limits.restore_original_limits()
             if not self.reuse_instances:
                 self._free_instances()
-        return _structured(dtype, times[rows], data) if sink is None else np.zeros(0, dtype=dtype)
+        if sink is not None:
+            return np.zeros(0, dtype=dtype)
+        return _structured(dtype, times_at(start_time, step_size, recorded_steps(n_steps, m)), data)
 
     def _start(self, comp: Component) -> None:
         """Bring an FMU instance to the instantiated state: ``fmi2Instantiate`` the first time;
@@ -777,21 +844,29 @@ class CoSimulation:
             comp.instantiated = False
 
     def _compiled_steps(self, lib: Any, comps: list[Component], transfers: list[_Transfer],
-                        prof_bufs: dict[str, Any], rec_bufs: dict[str, Any], times: np.ndarray, step_size: float,
-                        jacobi: bool, record_every: int, data: np.ndarray,
-                        streamed: tuple[Callable[[int, int], None], np.ndarray] | None = None) -> None:
+                        prof_bufs: dict[str, Any], rec_bufs: dict[str, Any], points: _Points, n_steps: int,
+                        step_size: float, jacobi: bool, record_every: int, data: np.ndarray,
+                        flush: Callable[[int, int], None] | None = None) -> None:
         """The step loop in C (:mod:`satfmu.sims.cosim.compiled_loop`); a failed call raises as :meth:`_call` does.
-        ``streamed``: the block callback and the recorded rows' points (:meth:`StepPlan.run`)."""
+        ``flush``: streamed, the block callback (:meth:`StepPlan.run`), the points held a block at a time."""
         from satfmu.sims.cosim.compiled_loop import StepPlan
 
         index = {c.name: i for i, c in enumerate(comps)}
+        order = list(prof_bufs)
+
+        def block(first: int, last: int) -> tuple[int, np.ndarray, list[np.ndarray]]:
+            if flush is not None:  # kept: every point is held already
+                points.hold(first, last)
+            return points.first, points.times, [points.values[c] for c in order]
+
         plan = StepPlan(
             slaves=[c.slave for c in comps],
             transfers=[(index[t.src.name], index[t.dst.name], t.src_vr, t.dst_vr, t.buf) for t in transfers],
-            profiles=[(index[c], vr, buf, values) for c, (vr, buf, values) in prof_bufs.items()],
+            profiles=[(index[c], *prof_bufs[c]) for c in order],
             records=[(index[c], vr, buf, cols) for c, (vr, buf, cols) in rec_bufs.items()],
-            times=times, step_size=step_size, jacobi=jacobi, record_every=record_every, data=data)
-        failure = plan.run(lib, *(streamed or ()))
+            n_steps=n_steps, step_size=step_size, jacobi=jacobi, record_every=record_every, data=data)
+        rows = None if flush is None else (lambda point: _rows_through(point, n_steps, record_every))
+        failure = plan.run(lib, block, flush, rows)
         if failure is not None:
             self._raise(comps[failure.fmu], FMICallException(function=failure.function, status=failure.status))
 

@@ -68,7 +68,8 @@ def _execute(scenario: Scenario, sim: CoSimulation, sink: Callable[[np.ndarray],
 
 class _Recorder:
     """The sink of a streamed run: each block of rows handed to ``consume`` (the metrics), converted
-    and written to the CSV, and its ``kept`` columns copied into one array of ``n_rows`` rows."""
+    and written to the CSV, and its ``kept`` columns copied into one array of ``n_rows`` rows (none
+    when nothing is kept)."""
 
     def __init__(self, scenario: Scenario, sim: CoSimulation, write: CsvWriter, kept: set[str], n_rows: int,
                  consume: Callable[[np.ndarray], None]) -> None:
@@ -83,10 +84,11 @@ class _Recorder:
         names = rows.dtype.names or ()
         if self.out is None:
             self.shown.update(record_conversions(self.scenario, self.sim, [c for c in names if c != "time"]))
-            self.out = np.zeros(self.n_rows, dtype=[(c, "f8") for c in names if c in self.kept])
+            self.out = np.zeros(self.n_rows if self.kept else 0,
+                                dtype=[(c, "f8") for c in names if c in self.kept or c == "time"])
         self.consume(rows)
         self.write(converted(rows, self.shown))
-        for c in self.out.dtype.names or ():
+        for c in (self.out.dtype.names or ()) if self.kept else ():
             self.out[c][self.done:self.done + len(rows)] = rows[c]
         self.done += len(rows)
 
@@ -97,8 +99,8 @@ def _streamed(scenario: Scenario, fmu_dir: Path, backend: str, strict: bool, des
     """:func:`simulate` with the recording streamed: every recorded column, converted to the unit
     the scenario's ``record`` asks for, written to the CSV ``path`` block by block (whole or not
     at all: :func:`satfmu.fmus.atomic.write_atomically`), each block handed (in declared units)
-    to the consumer ``prepare(sim)`` gives with the columns to keep; returned, those columns (and
-    ``time``), in their declared units, and every column's conversion."""
+    to the consumer ``prepare(sim)`` gives with the columns to keep; returned, those columns and
+    ``time`` (no rows if none is kept), in their declared units, and every column's conversion."""
     sim = wire(scenario, fmu_dir, backend, strict, design_rtol)
     recorders: list[_Recorder] = []
     try:
@@ -106,7 +108,8 @@ def _streamed(scenario: Scenario, fmu_dir: Path, backend: str, strict: bool, des
 
         def run_into(tmp: Path) -> None:
             with CsvWriter(tmp) as write:
-                recorders.append(_Recorder(scenario, sim, write, {"time"} | kept, len(recorded_times(scenario)),
+                n_rows = len(recorded_times(scenario)) if kept else 0
+                recorders.append(_Recorder(scenario, sim, write, {"time"} | kept if kept else set(), n_rows,
                                            consume))
                 _execute(scenario, sim, recorders[-1])
         path.parent.mkdir(parents=True, exist_ok=True)
@@ -379,10 +382,10 @@ def run(scenario: "str | Path | Mapping[str, Any] | Scenario", fmu_dir: str | Pa
     stream : bool
         With ``out_dir``, write the CSV as the run goes, a block of rows at a time (the same
         text), evaluate the metrics on each block as it comes (:class:`MetricFeed`: the same
-        values), and keep in memory only ``time`` (and, with ``plots``, the columns the plot
-        shows and the ``l2_ratio`` curves): a long run's memory does not grow with what it
-        records. The result's ``results`` then holds those columns; ``Result.csv`` is the CSV
-        with all of them.
+        values), and keep in memory nothing of the rows (with ``plots``, the columns the plot
+        shows and the ``l2_ratio`` curves): a long run's memory does not grow with its length.
+        The result's ``results`` then holds those columns (no rows without ``plots``);
+        ``Result.csv`` is the CSV with all of them.
 
     Returns
     -------

@@ -2,8 +2,9 @@
  *
  * The master loads the FMUs through fmpy, instantiates and initializes them, and prepares
  * the step plan: the FMUs' fmi2DoStep/fmi2GetReal/fmi2SetReal function pointers and
- * instances, the connection transfers in propagation order, the profile values on the
- * communication grid and the recorded variables. satfmu_cosim_steps then runs the steps
+ * instances, the connection transfers in propagation order, the communication times and
+ * profile values of the points the steps reach (the whole grid, or one block's: k0 is the
+ * first point they hold) and the recorded variables. satfmu_cosim_steps then runs the steps
  * k_begin..k_end-1 exactly as the master's Python loop does, call for call and value for
  * value, so both give the same results bit for bit:
  *
@@ -44,7 +45,7 @@ typedef struct {          /* the profile inputs of one FMU */
     int fmu;
     size_t n;
     const unsigned int *vr;
-    const double *values; /* (n_steps + 1) x n, row k = the values at t_k */
+    const double *values; /* the block's points x n, row k - k0 = the values at t_k */
     double *buf;          /* n values */
 } ProfileSet;
 
@@ -65,7 +66,7 @@ typedef struct {
     const ProfileSet *profiles;
     int n_records;
     const RecordSet *records;
-    const double *times;  /* t_0 .. t_{n_steps}, s */
+    const double *times;  /* t_k0 .. t_k1 of the block of steps run (k0 .. k1 - 1), s */
     double step_size;     /* s */
     long n_steps;
     int jacobi;           /* 1: Jacobi exchange order, 0: feedthrough order */
@@ -73,6 +74,7 @@ typedef struct {
     double *data;         /* recorded rows row0, row0 + 1, ... x n_cols, row-major */
     long n_cols;
     long row0;            /* the recorded row data's first row holds (0, or a streamed block's first) */
+    long k0;              /* the point times[0] and each profile's values' first row are at */
     /* set when a call fails */
     long failed_step;
     int failed_fmu;
@@ -92,7 +94,7 @@ static int set_profiles(Plan *p, long k) {
     for (int i = 0; i < p->n_profiles; i++) {
         const ProfileSet *s = &p->profiles[i];
         const Fmu *f = &p->fmus[s->fmu];
-        const double *row = s->values + (size_t)k * s->n;
+        const double *row = s->values + (size_t)(k - p->k0) * s->n;
         for (size_t j = 0; j < s->n; j++) s->buf[j] = row[j];
         int st = f->set_real(f->instance, s->vr, s->n, s->buf);
         if (st > STATUS_WARNING) return fail(p, k, s->fmu, CALL_SET_REAL, st);
@@ -148,7 +150,7 @@ int satfmu_cosim_steps(Plan *p, long k_begin, long k_end) {
     for (long k = k_begin; k < k_end; k++) {
         for (int i = 0; i < p->n_fmus; i++) {
             const Fmu *f = &p->fmus[i];
-            int st = f->do_step(f->instance, p->times[k], p->step_size, 1);
+            int st = f->do_step(f->instance, p->times[k - p->k0], p->step_size, 1);
             if (st > STATUS_WARNING) return fail(p, k, i, CALL_DO_STEP, st);
         }
         if (exchange(p, k + 1)) return p->status;
