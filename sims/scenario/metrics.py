@@ -111,7 +111,13 @@ class MetricStream(Protocol):
     curve aside, when kept), and the value is the same, bit for bit, however the run is cut."""
 
     def feed(self, d: MetricInput) -> None:
-        """Take the next block of rows."""
+        """Take the next block of rows.
+
+        Parameters
+        ----------
+        d : MetricInput
+            The block: its rows follow those fed before, its other fields are the metric's.
+        """
 
     def result(self) -> Evaluation:
         """The value (and curve) over every row fed."""
