@@ -68,8 +68,8 @@ def _execute(scenario: Scenario, sim: CoSimulation, sink: Callable[[np.ndarray],
 
 class _Recorder:
     """The sink of a streamed run: each block of rows handed to ``consume`` (the metrics), converted
-    and written to the CSV, and its ``kept`` columns copied into one array of ``n_rows`` rows (none
-    when nothing is kept)."""
+    and written to the CSV, and ``time`` with its ``kept`` columns copied into one array of ``n_rows``
+    rows (no rows when nothing is kept)."""
 
     def __init__(self, scenario: Scenario, sim: CoSimulation, write: CsvWriter, kept: set[str], n_rows: int,
                  consume: Callable[[np.ndarray], None]) -> None:
@@ -85,7 +85,7 @@ class _Recorder:
         if self.out is None:
             self.shown.update(record_conversions(self.scenario, self.sim, [c for c in names if c != "time"]))
             self.out = np.zeros(self.n_rows if self.kept else 0,
-                                dtype=[(c, "f8") for c in names if c in self.kept or c == "time"])
+                                dtype=[(c, "f8") for c in names if c == "time" or c in self.kept])
         self.consume(rows)
         self.write(converted(rows, self.shown))
         for c in (self.out.dtype.names or ()) if self.kept else ():
@@ -109,8 +109,7 @@ def _streamed(scenario: Scenario, fmu_dir: Path, backend: str, strict: bool, des
         def run_into(tmp: Path) -> None:
             with CsvWriter(tmp) as write:
                 n_rows = len(recorded_times(scenario)) if kept else 0
-                recorders.append(_Recorder(scenario, sim, write, {"time"} | kept if kept else set(), n_rows,
-                                           consume))
+                recorders.append(_Recorder(scenario, sim, write, kept, n_rows, consume))
                 _execute(scenario, sim, recorders[-1])
         path.parent.mkdir(parents=True, exist_ok=True)
         write_atomically(path, run_into)
